@@ -1,0 +1,58 @@
+#include "cli_common.h"
+
+#include <iostream>
+
+namespace socketsmith::cli {
+
+void add_model_flags(CLI::App& app, ModelFlags& f) {
+  app.add_option("--model", f.model, "tissue model: mss-cs (thesis), mss-cf (Golec hybrid), mss (springs only)")
+      ->check(CLI::IsMember({"mss", "mss-cs", "mss-cf"}));
+  app.add_option("--constants", f.constants, "MSS-CS constants preset: recommended (calibrated) or thesis")
+      ->check(CLI::IsMember({"thesis", "recommended"}));
+  app.add_option("--golec-a", f.golec_a, "override Golec's A (eq. 2), > 0");
+  app.add_option("--alpha", f.alpha, "override the corrective rest-length ratio alpha (eq. 4), > 1");
+  app.add_option("--c", f.c, "override the corrective stiffness constant C (eq. 8), >= 0");
+  app.add_option("--beta", f.beta, "override the corrective exponent beta (eq. 8), > 0");
+  app.add_option("--spring-ratio", f.spring_ratio, "override the MSS-CS spring modulus ratio E_s/E, > 0");
+  app.add_option("--law", f.law, "override the corrective law: symmetric | compression-only");
+  app.add_option("--youngs-kpa", f.youngs_modulus_kpa, "tissue Young's modulus E [kPa]");
+  app.add_option("--density", f.density, "tissue density rho [kg/m^3]");
+  app.add_option("--cf-poisson", f.cf_poisson, "MSS-CF target Poisson ratio, in [0.25, 0.5)");
+}
+
+tissue::MassSpringOptions make_model_options(const ModelFlags& f) {
+  tissue::MassSpringOptions o;
+  o.kind = tissue::parse_tissue_model(f.model);
+  o.corrective = tissue::CorrectiveSpringConstants::preset(f.constants);
+  // MSS and MSS-CF use Golec's springs with the thesis's A unless told otherwise.
+  if (o.kind != tissue::TissueModelKind::MssCs) o.corrective = tissue::CorrectiveSpringConstants::thesis();
+  if (f.golec_a >= 0) o.corrective.golec_a = f.golec_a;
+  if (f.alpha >= 0) o.corrective.alpha = f.alpha;
+  if (f.c >= 0) o.corrective.c = f.c;
+  if (f.beta >= 0) o.corrective.beta = f.beta;
+  if (f.spring_ratio >= 0) o.corrective.spring_modulus_ratio = f.spring_ratio;
+  if (!f.law.empty()) o.corrective.law = tissue::parse_corrective_law(f.law);
+  o.cf_poisson_ratio = f.cf_poisson;
+  return o;
+}
+
+tissue::TissueMaterial make_material(const ModelFlags& f) { return {f.youngs_modulus_kpa * 1e3, f.density}; }
+
+nlohmann::json to_json(const tissue::MassSpringOptions& o, const tissue::TissueMaterial& m) {
+  nlohmann::json j;
+  j["model"] = tissue::to_string(o.kind);
+  j["youngs_modulus_pa"] = m.youngs_modulus_pa;
+  j["density_kg_m3"] = m.density_kg_m3;
+  if (o.kind == tissue::TissueModelKind::MssCs)
+    j["corrective"] = {{"golec_a", o.corrective.golec_a}, {"alpha", o.corrective.alpha}, {"c", o.corrective.c},
+                       {"beta", o.corrective.beta}, {"law", tissue::to_string(o.corrective.law)},
+                       {"spring_modulus_ratio", o.corrective.spring_modulus_ratio}};
+  else
+    j["golec_a"] = o.corrective.golec_a;
+  if (o.kind == tissue::TissueModelKind::MssCf) j["cf_poisson_ratio"] = o.cf_poisson_ratio;
+  return j;
+}
+
+void print_json(const nlohmann::json& j) { std::cout << j.dump(2) << std::endl; }
+
+}  // namespace socketsmith::cli

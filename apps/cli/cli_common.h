@@ -1,0 +1,36 @@
+#pragma once
+/// Shared pieces of the socketsmith command-line tool.
+
+#include <string>
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include "socketsmith/tissue/mass_spring_model.h"
+
+namespace socketsmith::cli {
+
+/// Model flags shared by every command that builds a tissue model.
+struct ModelFlags {
+  std::string model = "mss-cs";
+  std::string constants = "recommended";  // thesis | recommended
+  double golec_a = -1, alpha = -1, c = -1, beta = -1, spring_ratio = -1;  // < 0: from the preset
+  std::string law;                                     // empty: from the preset
+  double youngs_modulus_kpa = 50.0;
+  double density = 1060.0;
+  double cf_poisson = 0.49;
+};
+
+void add_model_flags(CLI::App& app, ModelFlags& flags);
+tissue::MassSpringOptions make_model_options(const ModelFlags& flags);
+tissue::TissueMaterial make_material(const ModelFlags& flags);
+nlohmann::json to_json(const tissue::MassSpringOptions& options, const tissue::TissueMaterial& material);
+
+/// Prints JSON to stdout (for --json).
+void print_json(const nlohmann::json& j);
+
+void register_simulate(CLI::App& app);
+void register_calibrate(CLI::App& app);
+void register_check(CLI::App& app);
+
+}  // namespace socketsmith::cli

@@ -1,0 +1,90 @@
+// `socketsmith calibrate cube`: repeatable calibration of the MSS-CS constants.
+#include <cmath>
+#include <filesystem>
+
+#include "cli_common.h"
+#include "socketsmith/core/atomic_file.h"
+#include "socketsmith/core/log.h"
+#include "socketsmith/tissue/calibration.h"
+
+namespace socketsmith::cli {
+namespace {
+
+struct CalibrateFlags {
+  std::string out;
+  bool json = false;
+  std::string law = "both";
+  int evaluations = 600;
+  int starts = 6;
+  unsigned seed = 1;
+  bool fixed_springs = false;
+  int divisions = 2;
+};
+
+nlohmann::json candidate_json(const tissue::CalibrationCandidate& c) {
+  return {{"golec_a", c.constants.golec_a},
+          {"alpha", c.constants.alpha},
+          {"c", c.constants.c},
+          {"beta", c.constants.beta},
+          {"law", tissue::to_string(c.constants.law)},
+          {"spring_modulus_ratio", c.constants.spring_modulus_ratio},
+          {"max_displacement_error_to_60pct", c.errors.max_displacement_error},
+          {"max_volume_error_to_40pct", c.errors.max_volume_error},
+          {"unstable_before_60pct", c.errors.unstable},
+          {"first_unstable_strain", std::isinf(c.errors.first_unstable_strain) ? nlohmann::json() : nlohmann::json(c.errors.first_unstable_strain)},
+          {"objective", c.objective}};
+}
+
+void run(const CalibrateFlags& f) {
+  tissue::CalibrationOptions o;
+  o.cube.divisions = f.divisions;
+  o.max_evaluations = f.evaluations;
+  o.starts = f.starts;
+  o.seed = f.seed;
+  o.fit_spring_modulus_ratio = !f.fixed_springs;
+  if (f.law == "symmetric") o.laws = {tissue::CorrectiveLaw::Symmetric};
+  if (f.law == "compression-only") o.laws = {tissue::CorrectiveLaw::CompressionOnly};
+  log::info("calibrating MSS-CS constants on the cube ({}^3 elements, {} start(s) x {} evaluations per law)",
+            f.divisions, f.starts, f.evaluations);
+  const auto r = tissue::calibrate_corrective_springs(o, console_progress(1.0));
+  nlohmann::json j;
+  j["command"] = "socketsmith calibrate cube";
+  j["seed"] = f.seed;
+  j["evaluations"] = r.evaluations;
+  j["targets"] = {{"displacement_error", o.target_displacement_error}, {"volume_error", o.target_volume_error}};
+  j["thesis"] = candidate_json(r.thesis);
+  j["best"] = candidate_json(r.best);
+  for (const auto& c : r.per_law) j["per_law"].push_back(candidate_json(c));
+  j["targets_met"] = r.targets_met;
+  j["message"] = r.message;
+  if (!f.out.empty()) {
+    const std::filesystem::path out(f.out);
+    ensure_directory(out);
+    write_text_atomically(out / "calibration.json", j.dump(2) + "\n");
+    log::info("wrote {}", (out / "calibration.json").string());
+  }
+  log::info("{}", r.message);
+  if (f.json) print_json(j);
+}
+
+}  // namespace
+
+void register_calibrate(CLI::App& app) {
+  auto* cal = app.add_subcommand("calibrate", "calibrate model constants against an analytic experiment");
+  cal->require_subcommand(1);
+  auto flags = std::make_shared<CalibrateFlags>();
+  auto* cube = cal->add_subcommand("cube", "fit the MSS-CS constants (A, alpha, C, beta) to the cube experiment");
+  cube->add_option("--out", flags->out, "output folder for calibration.json");
+  cube->add_flag("--json", flags->json, "print the result as JSON on stdout");
+  cube->add_option("--law", flags->law, "corrective law to fit: symmetric | compression-only | both")
+      ->check(CLI::IsMember({"symmetric", "compression-only", "both"}));
+  cube->add_option("--evaluations", flags->evaluations, "objective evaluations per start")->check(CLI::Range(10, 100000));
+  cube->add_option("--starts", flags->starts, "starting points per law (the thesis's constants first)")
+      ->check(CLI::Range(1, 1000));
+  cube->add_option("--seed", flags->seed, "random seed of the extra starting points");
+  cube->add_flag("--thesis-springs", flags->fixed_springs, "keep the Golec springs at E (fit A, alpha, C, beta only)");
+  cube->add_option("--divisions", flags->divisions, "elements per cube edge")->check(CLI::Range(1, 20));
+  cube->callback([flags] { run(*flags); });
+}
+
+}  // namespace socketsmith::cli

@@ -1,0 +1,69 @@
+// `socketsmith check mesh FILE`: reads a surface mesh and reports what a user must know before
+// using it (units, size, closed, manifold, orientation, components).
+#include "cli_common.h"
+#include "socketsmith/core/errors.h"
+#include "socketsmith/core/log.h"
+#include "socketsmith/geometry/mesh_checks.h"
+#include "socketsmith/geometry/mesh_io.h"
+
+namespace socketsmith::cli {
+namespace {
+
+struct CheckFlags {
+  std::string file;
+  std::string units;
+  bool json = false;
+  bool require_closed = false;
+};
+
+void run(const CheckFlags& f) {
+  geometry::MeshReadOptions ro;
+  if (!f.units.empty()) ro.unit = units::parse_length_unit(f.units);
+  geometry::MeshReadInfo info;
+  const geometry::TriMesh mesh = geometry::read_mesh(f.file, ro, &info);
+  const auto rep = geometry::check_mesh(mesh);
+  const auto box = geometry::bounding_box(mesh);
+  nlohmann::json j{{"file", f.file},
+                   {"format", info.format},
+                   {"unit", units::to_string(info.unit)},
+                   {"unit_guessed", info.unit_was_guessed},
+                   {"vertices", rep.num_vertices},
+                   {"triangles", rep.num_triangles},
+                   {"bounding_box_m", {box.extent().x(), box.extent().y(), box.extent().z()}},
+                   {"components", rep.connected_components},
+                   {"boundary_loops", rep.boundary_loops},
+                   {"boundary_edges", rep.boundary_edges},
+                   {"non_manifold_edges", rep.non_manifold_edges},
+                   {"inconsistently_oriented_edges", rep.inconsistently_oriented_edges},
+                   {"degenerate_triangles", rep.degenerate_triangles},
+                   {"closed", rep.is_closed()},
+                   {"signed_volume_m3", rep.signed_volume_m3},
+                   {"problems", rep.problems()}};
+  if (!info.warning.empty()) j["warning"] = info.warning;
+  if (f.json) {
+    print_json(j);
+  } else {
+    log::info("{}: {} vertices, {} triangles, {:.1f} x {:.1f} x {:.1f} mm, {} component(s), {}", f.file,
+              rep.num_vertices, rep.num_triangles, box.extent().x() * 1e3, box.extent().y() * 1e3,
+              box.extent().z() * 1e3, rep.connected_components, rep.is_closed() ? "closed" : "open");
+    for (const auto& p : rep.problems()) log::info("  {}", p);
+  }
+  if (f.require_closed) geometry::require_closed_surface(mesh, "'" + f.file + "'");
+}
+
+}  // namespace
+
+void register_check(CLI::App& app) {
+  auto* chk = app.add_subcommand("check", "inspect an input file");
+  chk->require_subcommand(1);
+  auto flags = std::make_shared<CheckFlags>();
+  auto* mesh = chk->add_subcommand("mesh", "read a surface mesh (STL/OBJ/PLY) and report units, size and topology");
+  mesh->add_option("file", flags->file, "mesh file")->required();
+  mesh->add_option("--units", flags->units, "length unit of the file: mm | m (default: guessed from its size)")
+      ->check(CLI::IsMember({"mm", "m"}));
+  mesh->add_flag("--json", flags->json, "print the report as JSON");
+  mesh->add_flag("--require-closed", flags->require_closed, "fail (exit 4) unless the surface is closed and manifold");
+  mesh->callback([flags] { run(*flags); });
+}
+
+}  // namespace socketsmith::cli

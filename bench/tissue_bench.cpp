@@ -1,0 +1,109 @@
+// Benchmarks of the tissue engine on cube lattices of ~1k, ~8k and ~20k nodes (MSS-CS,
+// recommended constants, E = 50 kPa): one implicit Euler step, one static solve from rest,
+// and one warm-started re-solve after a 5 % load change (the design loop's case).
+// Run: build/socketsmith_bench --benchmark_min_time=2
+#include <benchmark/benchmark.h>
+
+#include "socketsmith/tissue/implicit_euler.h"
+#include "socketsmith/tissue/static_solver.h"
+#include "socketsmith/volume/box_mesher.h"
+
+namespace {
+using namespace socketsmith;
+using namespace socketsmith::tissue;
+
+struct Setup {
+  explicit Setup(int n) : mesh(make_mesh(n)), model(mesh, {50e3, 1060}, {}), dofs(model.num_dofs(), constraints(n)) {
+    f = VectorXd::Zero(model.num_dofs());
+    // 5 kPa on the top face, pushing down and sideways.
+    const double h = 0.05 / n;
+    for (int j = 0; j <= n; ++j)
+      for (int i = 0; i <= n; ++i) {
+        const int node = volume::box_node_index({n, n, n}, i, j, n);
+        f[dof(node, 2)] = -5e3 * h * h;
+        f[dof(node, 0)] = 1e3 * h * h;
+      }
+  }
+  static volume::HexMesh make_mesh(int n) {
+    volume::BoxMeshOptions o;
+    o.size = volume::Vec3::Constant(0.05);
+    o.divisions = {n, n, n};
+    return volume::mesh_box(o);
+  }
+  static DofConstraints constraints(int n) {
+    DofConstraints c;
+    for (int j = 0; j <= n; ++j)
+      for (int i = 0; i <= n; ++i) c.fix_nodes({volume::box_node_index({n, n, n}, i, j, 0)});
+    return c;
+  }
+  volume::HexMesh mesh;
+  MassSpringModel model;
+  DofMap dofs;
+  VectorXd f;
+};
+
+int divisions_for(int64_t target_nodes) { return volume::cube_divisions_for_nodes(static_cast<int>(target_nodes)); }
+
+void BM_ImplicitEulerStep(benchmark::State& state) {
+  Setup s(divisions_for(state.range(0)));
+  ImplicitEuler euler(s.model, s.dofs, {1e-3, 1e-6, 500});
+  DynamicState st = rest_state(s.model);
+  int cg = 0, steps = 0;
+  for (auto _ : state) {
+    const auto r = euler.step(st, s.f);
+    cg += r.cg_iterations;
+    ++steps;
+    if (!r.ok) state.SkipWithError(r.message.c_str());
+  }
+  state.counters["nodes"] = s.model.num_nodes();
+  state.counters["cg_iter"] = static_cast<double>(cg) / steps;
+}
+
+void BM_StaticSolveFromRest(benchmark::State& state) {
+  Setup s(divisions_for(state.range(0)));
+  StaticResult last;
+  for (auto _ : state) {
+    StaticSolver solver(s.model, s.dofs);  // includes the symbolic analysis and factorisation
+    VectorXd x = s.model.rest_positions();
+    last = solver.solve(s.f, x);
+    if (!last.converged) state.SkipWithError(last.message.c_str());
+  }
+  state.counters["nodes"] = s.model.num_nodes();
+  state.counters["newton"] = last.iterations;
+  state.counters["factorizations"] = last.factorizations;
+}
+
+void BM_StaticResolveWarm(benchmark::State& state) {
+  Setup s(divisions_for(state.range(0)));
+  StaticSolver solver(s.model, s.dofs);
+  VectorXd x = s.model.rest_positions();
+  solver.solve(s.f, x);
+  double scale = 1.0;
+  StaticResult last;
+  for (auto _ : state) {
+    scale = scale == 1.0 ? 1.05 : 1.0;  // alternate loads: a slider moving
+    last = solver.solve(scale * s.f, x);
+    if (!last.converged) state.SkipWithError(last.message.c_str());
+  }
+  state.counters["nodes"] = s.model.num_nodes();
+  state.counters["newton"] = last.iterations;
+}
+
+void BM_ForcesAndJacobian(benchmark::State& state) {
+  Setup s(divisions_for(state.range(0)));
+  SparseMatrix J;
+  const VectorXd x = s.model.rest_positions() * 1.01;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(s.model.elastic_forces(x));
+    s.model.jacobian(x, JacobianKind::Exact, J);
+  }
+  state.counters["nodes"] = s.model.num_nodes();
+}
+
+}  // namespace
+
+BENCHMARK(BM_ImplicitEulerStep)->Arg(1000)->Arg(8000)->Arg(20000)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_StaticSolveFromRest)->Arg(1000)->Arg(8000)->Arg(20000)->Unit(benchmark::kMillisecond)->Iterations(2);
+BENCHMARK(BM_StaticResolveWarm)->Arg(1000)->Arg(8000)->Arg(20000)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_ForcesAndJacobian)->Arg(1000)->Arg(8000)->Arg(20000)->Unit(benchmark::kMillisecond);
+BENCHMARK_MAIN();

@@ -1,0 +1,37 @@
+#!/usr/bin/env bash
+# Installs the Debian 12 packages socketsmith needs to build and test, when they are missing.
+# Idempotent: does nothing when everything is present. Runs apt-get as root (or via sudo).
+set -euo pipefail
+
+packages=(
+  build-essential cmake pkg-config
+  libeigen3-dev           # dense/sparse linear algebra, CG
+  libsuitesparse-dev      # CHOLMOD sparse Cholesky (static solver)
+  libopenblas-dev         # optimised BLAS for CHOLMOD (the reference BLAS is ~5x slower)
+  libnlopt-cxx-dev        # derivative-free optimisation (constant calibration)
+  libcli11-dev            # command line
+  nlohmann-json3-dev      # JSON (case files, --json output)
+  libspdlog-dev libfmt-dev  # logging sink, formatting
+  libstb-dev              # PNG writing
+  libgtest-dev libgmock-dev  # tests
+  libbenchmark-dev        # benchmarks
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "setup: all ${#packages[@]} build packages present"
+  exit 0
+fi
+
+echo "setup: installing ${missing[*]}"
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -qq
+$SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"

@@ -1,0 +1,123 @@
+#include "socketsmith/tissue/calibration.h"
+
+#include <cmath>
+#include <random>
+
+#include <nlopt.hpp>
+
+#include "socketsmith/core/errors.h"
+#include "socketsmith/core/log.h"
+
+namespace socketsmith::tissue {
+
+CalibrationCandidate evaluate_constants(const CalibrationOptions& o, const CorrectiveSpringConstants& k) {
+  CalibrationCandidate cand;
+  cand.constants = k;
+  CubeExperimentOptions cube = o.cube;
+  cube.model.kind = TissueModelKind::MssCs;
+  cube.model.corrective = k;
+  CubeExperimentResult r;
+  try {
+    r = run_cube_experiment(cube);
+  } catch (const Error&) {
+    cand.objective = 1e3;
+    return cand;
+  }
+  if (!r.converged) {
+    cand.objective = 1e3 - static_cast<double>(r.rows.size());  // further is better
+    return cand;
+  }
+  cand.errors = cube_errors(r);
+  const double d = cand.errors.max_displacement_error / o.target_displacement_error;
+  const double v = cand.errors.max_volume_error / o.target_volume_error;
+  // Penalise a lattice that buckles before 60 % strain, in proportion to how early.
+  const double early = std::max(0.0, cand.errors.displacement_strain_limit - cand.errors.first_unstable_strain);
+  cand.objective = std::max(d, v) + 0.05 * (d + v) + 50.0 * early;
+  return cand;
+}
+
+CalibrationResult calibrate_corrective_springs(const CalibrationOptions& o, const ProgressCallback& progress) {
+  require(o.max_evaluations >= 10 && o.starts >= 1, "calibrate: max_evaluations {} (≥ 10), starts {} (≥ 1)",
+          o.max_evaluations, o.starts);
+  require(!o.laws.empty(), "calibrate: no corrective law to calibrate");
+  CalibrationResult res;
+  res.thesis = evaluate_constants(o, CorrectiveSpringConstants::thesis());
+  res.best = res.thesis;
+  std::mt19937 rng(o.seed);
+  // Search in (log A, α, log(1 + C), β) for a better-conditioned simplex.
+  const std::vector<double> lb = {std::log(o.min_golec_a), o.min_alpha, std::log1p(o.min_c), o.min_beta,
+                                  o.min_spring_modulus_ratio};
+  const std::vector<double> ub = {std::log(o.max_golec_a), o.max_alpha, std::log1p(o.max_c), o.max_beta,
+                                  o.max_spring_modulus_ratio};
+  const int dim = o.fit_spring_modulus_ratio ? 5 : 4;
+  const int total = static_cast<int>(o.laws.size()) * o.starts;
+  int done = 0;
+  for (CorrectiveLaw law : o.laws) {
+    CalibrationCandidate best_law;
+    best_law.objective = std::numeric_limits<double>::infinity();
+    for (int s = 0; s < o.starts; ++s) {
+      std::vector<double> z(dim);
+      if (s == 0) {
+        const auto t = CorrectiveSpringConstants::thesis();
+        const std::vector<double> z0 = {std::log(t.golec_a), t.alpha, std::log1p(t.c), t.beta, t.spring_modulus_ratio};
+        std::copy_n(z0.begin(), dim, z.begin());
+      } else {
+        for (int i = 0; i < dim; ++i) z[i] = std::uniform_real_distribution<double>(lb[i], ub[i])(rng);
+      }
+      auto decode = [&](const std::vector<double>& zz) {
+        return CorrectiveSpringConstants{std::exp(zz[0]), zz[1], std::expm1(zz[2]), zz[3], law,
+                                         zz.size() > 4 ? zz[4] : 1.0};
+      };
+      nlopt::opt opt(nlopt::LN_SBPLX, dim);
+      opt.set_lower_bounds(std::vector<double>(lb.begin(), lb.begin() + dim));
+      opt.set_upper_bounds(std::vector<double>(ub.begin(), ub.begin() + dim));
+      opt.set_maxeval(o.max_evaluations);
+      opt.set_xtol_rel(1e-4);
+      const std::vector<double> step = {0.5, 0.1, 0.5, 0.3, 0.05};
+      opt.set_initial_step(std::vector<double>(step.begin(), step.begin() + dim));
+      struct Ctx {
+        const CalibrationOptions* o;
+        decltype(decode)* dec;
+        int* evals;
+        CalibrationCandidate* best;
+      } ctx{&o, &decode, &res.evaluations, &best_law};
+      opt.set_min_objective(
+          [](const std::vector<double>& zz, std::vector<double>&, void* data) {
+            auto* c = static_cast<Ctx*>(data);
+            ++*c->evals;
+            const CalibrationCandidate cand = evaluate_constants(*c->o, (*c->dec)(zz));
+            if (cand.objective < c->best->objective) *c->best = cand;
+            return cand.objective;
+          },
+          &ctx);
+      double f = 0;
+      try {
+        opt.optimize(z, f);
+      } catch (const std::exception& e) {
+        log::debug("calibrate: NLopt stopped: {}", e.what());  // roundoff-limited: keep the best seen
+      }
+      ++done;
+      if (!report_progress(progress, static_cast<double>(done) / total, "calibrating " + to_string(law))) {
+        res.message = "cancelled";
+        return res;
+      }
+    }
+    res.per_law.push_back(best_law);
+    if (best_law.objective < res.best.objective) res.best = best_law;
+  }
+  res.targets_met = res.best.errors.max_displacement_error <= o.target_displacement_error &&
+                    res.best.errors.max_volume_error <= o.target_volume_error && res.best.objective < 1e2;
+  res.message = fmt::format(
+      "best: A={:.4g} alpha={:.4g} C={:.4g} beta={:.4g} ({}): displacement error {:.2f}% (target {:.1f}%), volume "
+      "error {:.2f}% (target {:.1f}%){}",
+      res.best.constants.golec_a, res.best.constants.alpha, res.best.constants.c, res.best.constants.beta,
+      to_string(res.best.constants.law), 100 * res.best.errors.max_displacement_error,
+      100 * o.target_displacement_error, 100 * res.best.errors.max_volume_error, 100 * o.target_volume_error,
+      res.targets_met ? "" : " — targets NOT met");
+  if (res.best.errors.unstable)
+    res.message += fmt::format("; the homogeneous state buckles from {:.0f}% strain",
+                               100 * res.best.errors.first_unstable_strain);
+  return res;
+}
+
+}  // namespace socketsmith::tissue

@@ -1,0 +1,134 @@
+#include "socketsmith/tissue/cube_experiment.h"
+
+#include <chrono>
+#include <cmath>
+
+#include <Eigen/Eigenvalues>
+
+#include "socketsmith/core/errors.h"
+#include "socketsmith/volume/box_mesher.h"
+
+namespace socketsmith::tissue {
+
+CubeExperimentResult run_cube_experiment(const CubeExperimentOptions& o, const ProgressCallback& progress) {
+  require(std::isfinite(o.edge_m) && o.edge_m > 0, "cube experiment: edge {} m (expected > 0)", o.edge_m);
+  require(o.divisions >= 1, "cube experiment: divisions {} (expected ≥ 1)", o.divisions);
+  require(std::isfinite(o.max_weight_n) && o.max_weight_n > 0, "cube experiment: max weight {} N (expected > 0)",
+          o.max_weight_n);
+  require(o.num_weights >= 2, "cube experiment: {} weights (expected ≥ 2)", o.num_weights);
+  require(o.load_substeps >= 1, "cube experiment: {} load substeps (expected ≥ 1)", o.load_substeps);
+
+  volume::BoxMeshOptions box;
+  box.size = volume::Vec3::Constant(o.edge_m);
+  box.divisions = {o.divisions, o.divisions, o.divisions};
+  const volume::HexMesh mesh = volume::mesh_box(box);
+  const MassSpringModel model(mesh, o.material, o.model);
+  const int n = o.divisions;
+  const auto id = [&](int i, int j, int k) { return volume::box_node_index(box.divisions, i, j, k); };
+
+  DofConstraints c;
+  std::vector<int> top;
+  std::vector<double> top_area;  // reference tributary area of each top node
+  std::vector<int> top_group;
+  const double h = o.edge_m / n;
+  for (int j = 0; j <= n; ++j)
+    for (int i = 0; i <= n; ++i) {
+      c.fixed.push_back(dof(id(i, j, 0), 2));
+      top.push_back(id(i, j, n));
+      top_group.push_back(dof(id(i, j, n), 2));
+      top_area.push_back(h * h * ((i == 0 || i == n) ? 0.5 : 1.0) * ((j == 0 || j == n) ? 0.5 : 1.0));
+    }
+  c.fixed.push_back(dof(id(0, 0, 0), 0));
+  c.fixed.push_back(dof(id(0, 0, 0), 1));
+  c.fixed.push_back(dof(id(n, 0, 0), 1));
+  c.tied_groups.push_back(top_group);
+  const DofMap dofs(model.num_dofs(), c);
+  StaticSolver solver(model, dofs, o.solver);
+
+  CubeExperimentResult result;
+  result.num_nodes = model.num_nodes();
+  result.num_elements = model.num_elements();
+  const double area = o.edge_m * o.edge_m;
+  const double v0 = model.total_volume(model.rest_positions());
+  VectorXd x = model.rest_positions();
+  VectorXd f_ext = VectorXd::Zero(model.num_dofs());
+  const auto t0 = std::chrono::steady_clock::now();
+  double previous_weight = 0.0;
+  result.converged = true;
+  for (int w = 0; w < o.num_weights; ++w) {
+    const double weight = o.max_weight_n * w / (o.num_weights - 1);
+    CubeRow row;
+    row.weight_n = weight;
+    row.top_pressure_analytic_pa = weight / area;
+    row.displacement_ratio_analytic = weight / (area * o.material.youngs_modulus_pa);
+    for (int sub = 1; sub <= (w == 0 ? 1 : o.load_substeps); ++sub) {
+      const double wi = previous_weight + (weight - previous_weight) * sub / (w == 0 ? 1 : o.load_substeps);
+      for (int t : top) f_ext[dof(t, 2)] = -wi / static_cast<double>(top.size());
+      const StaticResult r = solver.solve(f_ext, x);
+      row.newton_iterations += r.iterations;
+      if (!r.converged) {
+        result.converged = false;
+        result.message = fmt::format("{} diverged at W = {:.2f} N: {}", to_string(o.model.kind), wi, r.message);
+        break;
+      }
+    }
+    if (!result.converged) break;
+    previous_weight = weight;
+    row.converged = true;
+    // Reactions at the top nodes: the box pushes with R_i = f_int,z(i) (upward internal force).
+    const VectorXd f_int = model.elastic_forces(x);
+    double total = 0.0, mean_p = 0.0;
+    std::vector<double> p(top.size());
+    for (size_t t = 0; t < top.size(); ++t) {
+      total += f_int[dof(top[t], 2)];
+      p[t] = f_int[dof(top[t], 2)] / top_area[t];
+      mean_p += p[t] / static_cast<double>(top.size());
+    }
+    row.top_pressure_pa = total / area;
+    for (double pi : p)
+      row.nodal_pressure_spread = std::max(row.nodal_pressure_spread, mean_p > 0 ? std::abs(pi - mean_p) / mean_p : 0.0);
+    // Deformed top area from the top corner nodes' positions (the top face stays flat).
+    const auto pos = [&](int node) { return volume::Vec3(x.segment<3>(3 * node)); };
+    const volume::Vec3 a = pos(id(n, 0, n)) - pos(id(0, 0, n)), b = pos(id(0, n, n)) - pos(id(0, 0, n));
+    const double top_area_now = a.cross(b).norm();
+    row.top_pressure_true_pa = top_area_now > 0 ? total / top_area_now : 0.0;
+    row.displacement_ratio = -(x[dof(id(0, 0, n), 2)] - o.edge_m) / o.edge_m;
+    row.volume_ratio = model.total_volume(x) / v0;
+    const int mid = n / 2;
+    row.lateral_stretch = (pos(id(n, 0, mid)) - pos(id(0, 0, mid))).norm() / o.edge_m;
+    if (o.check_stability && dofs.num_reduced() <= 1000) {
+      SparseMatrix J, J_red;
+      model.jacobian(x, JacobianKind::Exact, J);
+      dofs.reduce_matrix(J, J_red);
+      const Eigen::MatrixXd K = -Eigen::MatrixXd(J_red);
+      row.min_stiffness_eigenvalue = Eigen::EigenSolver<Eigen::MatrixXd>(K, false).eigenvalues().real().minCoeff();
+    }
+    result.rows.push_back(row);
+    if (!report_progress(progress, static_cast<double>(w + 1) / o.num_weights, "cube " + to_string(o.model.kind))) {
+      result.converged = false;
+      result.message = "cancelled";
+      break;
+    }
+  }
+  result.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  if (result.converged) result.message = fmt::format("{}: {} weights solved", to_string(o.model.kind), result.rows.size());
+  return result;
+}
+
+CubeErrors cube_errors(const CubeExperimentResult& result, double disp_limit, double vol_limit) {
+  CubeErrors e;
+  e.displacement_strain_limit = disp_limit;
+  e.volume_strain_limit = vol_limit;
+  for (const auto& r : result.rows) {
+    if (r.weight_n <= 0) continue;
+    const double strain = r.displacement_ratio_analytic;
+    if (r.min_stiffness_eigenvalue <= 0) e.first_unstable_strain = std::min(e.first_unstable_strain, strain);
+    if (strain <= disp_limit + 1e-12 && r.min_stiffness_eigenvalue <= 0) e.unstable = true;
+    if (strain <= disp_limit + 1e-12)
+      e.max_displacement_error = std::max(e.max_displacement_error, std::abs(r.displacement_ratio - strain) / strain);
+    if (strain <= vol_limit + 1e-12) e.max_volume_error = std::max(e.max_volume_error, std::abs(r.volume_ratio - 1.0));
+  }
+  return e;
+}
+
+}  // namespace socketsmith::tissue

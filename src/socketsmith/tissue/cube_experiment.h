@@ -1,0 +1,82 @@
+#pragma once
+/// @file cube_experiment.h
+/// The thesis's cube experiment (ch. 3.5–3.6, Figs. 26a, 28–30): an elastic cube of edge L
+/// compressed by a rigid box of weight W resting frictionlessly on its top face; the bottom
+/// rests on a frictionless support. Analytic reference (linear elasticity, uniaxial stress):
+/// nominal top pressure W/A and displacement ratio δ/L = W/(A E), with A = L².
+///
+/// Boundary conditions: every bottom node has z fixed; bottom corner (0,0,0) also x and y, and
+/// bottom corner (L,0,0) also y (no rigid motion, free lateral expansion); the z DOFs of all
+/// top nodes are tied (the rigid box moves down as one, nodes slide freely sideways) and carry
+/// the weight. The cube's own weight is not applied (the analytic solution ignores it).
+
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "socketsmith/core/progress.h"
+#include "socketsmith/tissue/mass_spring_model.h"
+#include "socketsmith/tissue/static_solver.h"
+
+namespace socketsmith::tissue {
+
+struct CubeExperimentOptions {
+  double edge_m = 0.05;                  ///< cube edge L [m], > 0
+  TissueMaterial material{50e3, 1060.0};  ///< thesis: E = 50 kPa, ρ = 1060 kg/m^3
+  int divisions = 8;                     ///< elements per edge, ≥ 1
+  double max_weight_n = 80.0;            ///< heaviest box [N], > 0
+  int num_weights = 17;                  ///< weights 0..max, evenly spaced, ≥ 2
+  int load_substeps = 4;                 ///< continuation steps between two weights, ≥ 1
+  MassSpringOptions model;               ///< model variant and constants
+  StaticSolverOptions solver;
+  /// Compute the smallest real part of the eigenvalues of the reduced stiffness −J at every
+  /// weight (dense; only when the reduced system has ≤ 1000 DOFs). A value ≤ 0 means the
+  /// homogeneous equilibrium is unstable: the lattice buckles (shears sideways).
+  bool check_stability = false;
+};
+
+struct CubeRow {
+  double weight_n = 0;
+  double top_pressure_analytic_pa = 0;    ///< W / A
+  double top_pressure_pa = 0;             ///< Σ top-node reactions / A (nominal)
+  double top_pressure_true_pa = 0;        ///< Σ top-node reactions / deformed top area
+  double nodal_pressure_spread = 0;       ///< max |p_i − p̄| / p̄ over top nodes (p_i = R_i / a_i)
+  double displacement_ratio_analytic = 0; ///< W / (A E)
+  double displacement_ratio = 0;          ///< top displacement / L
+  double volume_ratio = 1;                ///< V / V0
+  double lateral_stretch = 1;             ///< width of the mid-height section / L
+  int newton_iterations = 0;
+  bool converged = false;
+  double min_stiffness_eigenvalue = std::numeric_limits<double>::quiet_NaN();  ///< [N/m], NaN if not checked
+};
+
+struct CubeExperimentResult {
+  std::vector<CubeRow> rows;
+  bool converged = false;      ///< every weight converged
+  std::string message;
+  int num_nodes = 0;
+  int num_elements = 0;
+  double wall_s = 0;           ///< total wall time of the solves [s]
+};
+
+/// Runs the experiment for one model. Stops at the first weight that does not converge
+/// (converged = false, message says which and why).
+CubeExperimentResult run_cube_experiment(const CubeExperimentOptions& options,
+                                         const ProgressCallback& progress = {});
+
+/// Accuracy summary against the thesis's criteria.
+struct CubeErrors {
+  double max_displacement_error = 0;  ///< max relative error of the displacement ratio up to the strain limit
+  double max_volume_error = 0;        ///< max |V/V0 − 1| up to the volume strain limit
+  bool unstable = false;              ///< some checked row up to the displacement limit had eigenvalue ≤ 0
+  /// Analytic strain W/(AE) of the first row whose stiffness had an eigenvalue ≤ 0 (+inf: none).
+  double first_unstable_strain = std::numeric_limits<double>::infinity();
+  double displacement_strain_limit = 0.6;
+  double volume_strain_limit = 0.4;
+};
+
+/// Errors over the rows whose analytic strain ≤ the limits (rows with W = 0 are skipped).
+CubeErrors cube_errors(const CubeExperimentResult& result, double displacement_strain_limit = 0.6,
+                       double volume_strain_limit = 0.4);
+
+}  // namespace socketsmith::tissue

@@ -1,0 +1,83 @@
+#include "socketsmith/tissue/implicit_euler.h"
+
+#include <cmath>
+
+#include <Eigen/IterativeLinearSolvers>
+
+#include "socketsmith/core/errors.h"
+
+namespace socketsmith::tissue {
+
+ImplicitEuler::ImplicitEuler(const MassSpringModel& model, const DofMap& dofs, const ImplicitEulerOptions& options)
+    : model_(model), dofs_(dofs), options_(options) {
+  require(dofs.num_full() == model.num_dofs(), "ImplicitEuler: DofMap has {} DOFs, model has {}", dofs.num_full(),
+          model.num_dofs());
+  require(std::isfinite(options.time_step_s) && options.time_step_s > 0,
+          "ImplicitEuler: time step {} s (expected > 0)", options.time_step_s);
+  require(options.cg_rel_tol > 0 && options.cg_max_iterations >= 1,
+          "ImplicitEuler: CG tolerance {} (> 0) and iterations {} (≥ 1)", options.cg_rel_tol, options.cg_max_iterations);
+  require(options.max_step_in_edges > 0, "ImplicitEuler: max_step_in_edges {} (expected > 0)", options.max_step_in_edges);
+  mass_red_ = dofs.restrict_vector(model.dof_masses());
+  const double mean_edge = std::cbrt(model.total_volume(model.rest_positions()) / model.num_elements());
+  max_step_m_ = options.max_step_in_edges * mean_edge;
+  dv_prev_ = VectorXd::Zero(dofs.num_reduced());
+}
+
+DynamicState rest_state(const MassSpringModel& model) {
+  return {model.rest_positions(), VectorXd::Zero(model.num_dofs()), 0.0};
+}
+
+double ImplicitEuler::kinetic_energy(const VectorXd& v) const {
+  return 0.5 * v.cwiseProduct(v).dot(model_.dof_masses());
+}
+
+StepResult ImplicitEuler::step(DynamicState& s, const VectorXd& f_ext) {
+  require(s.x.size() == model_.num_dofs() && s.v.size() == model_.num_dofs() && f_ext.size() == model_.num_dofs(),
+          "ImplicitEuler::step: state/force sizes do not match the model (3N = {})", model_.num_dofs());
+  const double h = options_.time_step_s;
+  StepResult res;
+  VectorXd f = model_.elastic_forces(s.x) + f_ext;
+  model_.add_damping_forces(s.x, s.v, f);
+  model_.jacobian(s.x, JacobianKind::SymmetricPsd, K_);  // = −K
+  model_.damping_matrix(s.x, D_);
+  dofs_.reduce_matrix(K_, K_red_);
+  dofs_.reduce_matrix(D_, D_red_);
+  const VectorXd v_red = dofs_.restrict_vector(s.v.cwiseProduct(model_.dof_masses())).cwiseQuotient(mass_red_);
+  // K_red_ holds −K: rhs = h (f + h (−K) v).
+  const VectorXd rhs = h * (dofs_.restrict_vector(f) + h * (K_red_ * v_red));
+  A_ = (h * h) * (-K_red_) + h * D_red_;
+  A_.diagonal() += mass_red_;  // the pattern holds every diagonal entry
+  Eigen::ConjugateGradient<SparseMatrix, Eigen::Lower | Eigen::Upper> cg;
+  cg.setTolerance(options_.cg_rel_tol);
+  cg.setMaxIterations(options_.cg_max_iterations);
+  cg.compute(A_);
+  const VectorXd dv = cg.solveWithGuess(rhs, dv_prev_);
+  res.cg_iterations = static_cast<int>(cg.iterations());
+  res.cg_error = cg.error();
+  if (!dv.allFinite()) {
+    res.message = fmt::format("diverged at t = {:.4g} s: the velocity update is not finite (reduce the time step)", s.time_s);
+    return res;
+  }
+  VectorXd v_new = VectorXd::Zero(model_.num_dofs());
+  dofs_.add_expanded(v_red + dv, v_new);
+  VectorXd x_new = s.x + h * v_new;
+  const double moved = (h * v_new).cwiseAbs().maxCoeff();
+  if (moved > max_step_m_) {
+    res.message = fmt::format("diverged at t = {:.4g} s: a node moved {:.3g} m in one step (more than {:.3g} m; reduce the "
+                              "time step {:.3g} s or the load)", s.time_s, moved, max_step_m_, h);
+    return res;
+  }
+  if (model_.min_corner_jacobian(x_new) <= 0) {
+    res.message = fmt::format("diverged at t = {:.4g} s: an element inverted (reduce the time step {:.3g} s)", s.time_s, h);
+    return res;
+  }
+  dv_prev_ = dv;
+  s.x = std::move(x_new);
+  s.v = std::move(v_new);
+  s.time_s += h;
+  res.ok = true;
+  res.message = cg.info() == Eigen::Success ? "ok" : "CG reached its iteration cap (step taken with the inexact update)";
+  return res;
+}
+
+}  // namespace socketsmith::tissue

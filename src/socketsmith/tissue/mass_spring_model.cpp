@@ -1,0 +1,390 @@
+#include "socketsmith/tissue/mass_spring_model.h"
+
+#include <algorithm>
+#include <cmath>
+#include <unordered_map>
+
+#include "socketsmith/core/errors.h"
+#include "socketsmith/tissue/spring.h"
+#include "socketsmith/volume/hex_element.h"
+
+namespace socketsmith::tissue {
+namespace {
+
+using Eigen::Matrix3d;
+using volume::Vec3;
+
+Vec3 node(const VectorXd& x, int i) { return x.segment<3>(3 * i); }
+
+volume::HexNodes gather_nodes(const VectorXd& x, const volume::Hex& hex) {
+  volume::HexNodes out;
+  for (int k = 0; k < 8; ++k) out[k] = x.segment<3>(3 * hex[k]);
+  return out;
+}
+
+
+}  // namespace
+
+std::string to_string(TissueModelKind kind) {
+  switch (kind) {
+    case TissueModelKind::Mss: return "mss";
+    case TissueModelKind::MssCs: return "mss-cs";
+    case TissueModelKind::MssCf: return "mss-cf";
+  }
+  return "?";
+}
+
+TissueModelKind parse_tissue_model(const std::string& name) {
+  if (name == "mss") return TissueModelKind::Mss;
+  if (name == "mss-cs") return TissueModelKind::MssCs;
+  if (name == "mss-cf") return TissueModelKind::MssCf;
+  fail("unknown tissue model '{}' (expected mss, mss-cs or mss-cf)", name);
+}
+
+std::string to_string(CorrectiveLaw law) {
+  return law == CorrectiveLaw::Symmetric ? "symmetric" : "compression-only";
+}
+
+CorrectiveLaw parse_corrective_law(const std::string& name) {
+  if (name == "symmetric") return CorrectiveLaw::Symmetric;
+  if (name == "compression-only") return CorrectiveLaw::CompressionOnly;
+  fail("unknown corrective-spring law '{}' (expected symmetric or compression-only)", name);
+}
+
+std::string to_string(DampingLaw law) { return law == DampingLaw::ThesisEq3 ? "thesis-eq3" : "critical"; }
+
+DampingLaw parse_damping_law(const std::string& name) {
+  if (name == "thesis-eq3") return DampingLaw::ThesisEq3;
+  if (name == "critical") return DampingLaw::Critical;
+  fail("unknown damping law '{}' (expected critical or thesis-eq3)", name);
+}
+
+CorrectiveSpringConstants CorrectiveSpringConstants::thesis() { return {0.5, 1.4, 25.0, 2.0, CorrectiveLaw::Symmetric}; }
+
+CorrectiveSpringConstants CorrectiveSpringConstants::recommended() {
+  // From `socketsmith calibrate cube --evaluations 500 --starts 6 --seed 1` (docs/VALIDATION.md).
+  return {0.1000, 1.6090, 28.245, 1.1984, CorrectiveLaw::CompressionOnly, 0.8484};
+}
+
+CorrectiveSpringConstants CorrectiveSpringConstants::preset(const std::string& name) {
+  if (name == "thesis") return thesis();
+  if (name == "recommended") return recommended();
+  fail("unknown MSS-CS constants preset '{}' (expected thesis or recommended)", name);
+}
+
+MassSpringModel::MassSpringModel(const volume::HexMesh& mesh, const TissueMaterial& material,
+                                 const MassSpringOptions& options)
+    : mesh_(mesh), material_(material), options_(options) {
+  const double E = material.youngs_modulus_pa, rho = material.density_kg_m3;
+  require(std::isfinite(E) && E > 0, "MassSpringModel: Young's modulus {} Pa (expected > 0, e.g. 50e3)", E);
+  require(std::isfinite(rho) && rho > 0, "MassSpringModel: density {} kg/m^3 (expected > 0, e.g. 1060)", rho);
+  const auto& cs = options.corrective;
+  require(std::isfinite(cs.golec_a) && cs.golec_a > 0, "MassSpringModel: Golec A = {} (expected > 0)", cs.golec_a);
+  require(std::isfinite(cs.alpha) && cs.alpha > 1, "MassSpringModel: alpha = {} (expected > 1, eq. 4)", cs.alpha);
+  require(std::isfinite(cs.c) && cs.c >= 0, "MassSpringModel: C = {} (expected ≥ 0)", cs.c);
+  require(std::isfinite(cs.beta) && cs.beta > 0, "MassSpringModel: beta = {} (expected > 0)", cs.beta);
+  require(std::isfinite(cs.spring_modulus_ratio) && cs.spring_modulus_ratio > 0,
+          "MassSpringModel: spring modulus ratio {} (expected > 0)", cs.spring_modulus_ratio);
+  require(options.cf_poisson_ratio >= 0.25 && options.cf_poisson_ratio < 0.5,
+          "MassSpringModel: MSS-CF Poisson ratio {} (expected in [0.25, 0.5))", options.cf_poisson_ratio);
+  require(options.damping_ratio >= 0, "MassSpringModel: damping ratio {} (expected ≥ 0)", options.damping_ratio);
+  if (mesh_.node_tags.size() != mesh_.nodes.size()) mesh_.node_tags.resize(mesh_.nodes.size(), volume::kNodeNone);
+  volume::validate(mesh_);
+
+  const int n = mesh_.num_nodes();
+  rest_.resize(3 * n);
+  for (int i = 0; i < n; ++i) rest_.segment<3>(3 * i) = mesh_.nodes[i];
+
+  // Springs: Golec's hybrid model matches the spring lattice (ν = 1/4) to the shear modulus
+  // μ = E / (2(1+ν)) and adds ΔK = K − 5μ/3 through the volume energy.
+  double spring_modulus = options.kind == TissueModelKind::MssCs ? cs.spring_modulus_ratio * E : E;
+  if (options.kind == TissueModelKind::MssCf) {
+    const double nu = options.cf_poisson_ratio;
+    const double mu = E / (2 * (1 + nu));
+    spring_modulus = 2.5 * mu;
+    cf_bulk_increment_pa_ = E / (3 * (1 - 2 * nu)) - 5.0 * mu / 3.0;
+  }
+
+  masses_ = VectorXd::Zero(n);
+  std::unordered_map<std::uint64_t, int> spring_index;
+  spring_index.reserve(static_cast<size_t>(mesh_.num_hexahedra()) * 14);
+  const double A = cs.golec_a;
+  const double denom = 10.0 + 7.5 * A;
+  auto add_spring = [&](int i, int j, double k) {
+    if (i > j) std::swap(i, j);
+    const std::uint64_t key = (static_cast<std::uint64_t>(i) << 32) | static_cast<std::uint32_t>(j);
+    auto [it, inserted] = spring_index.try_emplace(key, static_cast<int>(springs_.size()));
+    if (inserted) {
+      const double rest = (mesh_.nodes[j] - mesh_.nodes[i]).norm();
+      require(rest > 0, "MassSpringModel: nodes {} and {} coincide (zero-length spring)", i, j);
+      springs_.push_back({i, j, 0.0, rest, 0.0, {0, 0, 0, 0}});
+    }
+    springs_[it->second].k += k;
+  };
+  elements_.reserve(mesh_.num_hexahedra());
+  for (const auto& hex : mesh_.hexahedra) {
+    const double v0 = volume::hex_volume(volume::gather(mesh_.nodes, hex));
+    const double le = std::cbrt(v0);  // eq. 7
+    elements_.push_back({hex, v0, le});
+    for (int k = 0; k < 8; ++k) masses_[hex[k]] += rho * v0 / 8.0;  // eq. 1
+    const double ke = (0.75 * A + 2.0) * spring_modulus * le / denom;
+    const double kf = 1.5 * A * spring_modulus * le / denom;
+    const double kc = 3.0 * spring_modulus * le / denom;
+    for (const auto& e : volume::kHexEdges) add_spring(hex[e[0]], hex[e[1]], ke);
+    for (const auto& e : volume::kHexFaceDiagonals) add_spring(hex[e[0]], hex[e[1]], kf);
+    for (const auto& e : volume::kHexBodyDiagonals) add_spring(hex[e[0]], hex[e[1]], kc);
+    if (options.kind == TissueModelKind::MssCs) {
+      for (const auto& e : volume::kHexFaceDiagonals)
+        corrective_.push_back({e[0], e[1], cs.alpha * (mesh_.nodes[hex[e[0]]] - mesh_.nodes[hex[e[1]]]).norm()});
+      for (const auto& e : volume::kHexBodyDiagonals)
+        corrective_.push_back({e[0], e[1], cs.alpha * (mesh_.nodes[hex[e[0]]] - mesh_.nodes[hex[e[1]]]).norm()});
+    }
+  }
+  for (auto& s : springs_) {
+    const double m1 = masses_[s.i], m2 = masses_[s.j];
+    const double c = options.damping_law == DampingLaw::ThesisEq3 ? 2.0 * std::sqrt(s.k * (m1 + m2)) / s.rest
+                                                                   : 2.0 * std::sqrt(s.k * m1 * m2 / (m1 + m2));
+    s.damping = options.damping_ratio * c;
+  }
+  build_pattern();
+}
+
+void MassSpringModel::build_pattern() {
+  const int n = num_nodes();
+  std::vector<std::vector<int>> nbrs(n);
+  for (const auto& e : elements_)
+    for (int a : e.nodes)
+      for (int b : e.nodes) nbrs[a].push_back(b);
+  std::vector<int> outer(3 * n + 1, 0);
+  col_nnz_.assign(n, 0);
+  size_t nnz = 0;
+  for (int i = 0; i < n; ++i) {
+    auto& v = nbrs[i];
+    std::sort(v.begin(), v.end());
+    v.erase(std::unique(v.begin(), v.end()), v.end());
+    if (v.empty()) v.push_back(i);  // isolated node: keep its diagonal block
+    col_nnz_[i] = 3 * static_cast<int>(v.size());
+    for (int d = 0; d < 3; ++d) {
+      outer[3 * i + d] = static_cast<int>(nnz);
+      nnz += col_nnz_[i];
+    }
+  }
+  outer[3 * n] = static_cast<int>(nnz);
+  pattern_.resize(3 * n, 3 * n);
+  pattern_.resizeNonZeros(static_cast<Eigen::Index>(nnz));
+  std::copy(outer.begin(), outer.end(), pattern_.outerIndexPtr());
+  int* inner = pattern_.innerIndexPtr();
+  for (int i = 0; i < n; ++i)
+    for (int d = 0; d < 3; ++d) {
+      int p = outer[3 * i + d];
+      for (int m : nbrs[i])
+        for (int r = 0; r < 3; ++r) inner[p++] = 3 * m + r;
+    }
+  std::fill(pattern_.valuePtr(), pattern_.valuePtr() + nnz, 0.0);
+  // Block offsets.
+  auto offset = [&](int row_node, int col_node) {
+    const auto& v = nbrs[col_node];
+    const auto it = std::lower_bound(v.begin(), v.end(), row_node);
+    SOCKETSMITH_ASSERT(it != v.end() && *it == row_node);
+    return outer[3 * col_node] + 3 * static_cast<int>(it - v.begin());
+  };
+  element_blocks_.resize(elements_.size() * 64);
+  for (size_t e = 0; e < elements_.size(); ++e)
+    for (int a = 0; a < 8; ++a)
+      for (int b = 0; b < 8; ++b) element_blocks_[e * 64 + a * 8 + b] = offset(elements_[e].nodes[a], elements_[e].nodes[b]);
+  for (auto& s : springs_) {
+    s.blocks[0] = offset(s.i, s.i);
+    s.blocks[1] = offset(s.i, s.j);
+    s.blocks[2] = offset(s.j, s.i);
+    s.blocks[3] = offset(s.j, s.j);
+  }
+}
+
+void MassSpringModel::add_block(double* values, int offset, int col_node, const Matrix3d& b) const {
+  const int stride = col_nnz_[col_node];
+  for (int c = 0; c < 3; ++c)
+    for (int r = 0; r < 3; ++r) values[offset + r + c * stride] += b(r, c);
+}
+
+VectorXd MassSpringModel::dof_masses() const {
+  VectorXd m(num_dofs());
+  for (int i = 0; i < num_nodes(); ++i) m.segment<3>(3 * i).setConstant(masses_[i]);
+  return m;
+}
+
+double MassSpringModel::corrective_stiffness(double dv, double edge_length, double* dk_ddv) const {
+  const auto& cs = options_.corrective;
+  const double scale = cs.c * material_.youngs_modulus_pa * edge_length;
+  double g = 0.0, dg = 0.0;
+  if (cs.law == CorrectiveLaw::Symmetric) {
+    const double a = std::abs(dv);
+    g = std::pow(a, cs.beta);
+    dg = a > 0 ? cs.beta * std::pow(a, cs.beta - 1.0) * (dv > 0 ? 1.0 : -1.0) : 0.0;
+  } else if (dv < 0) {
+    g = std::pow(-dv, cs.beta);
+    dg = -cs.beta * std::pow(-dv, cs.beta - 1.0);
+  }
+  if (dk_ddv) *dk_ddv = scale * dg;
+  return scale * g;
+}
+
+VectorXd MassSpringModel::elastic_forces(const VectorXd& x) const {
+  require(x.size() == num_dofs(), "elastic_forces: x has {} entries (expected 3N = {})", x.size(), num_dofs());
+  VectorXd f = VectorXd::Zero(num_dofs());
+  for (const auto& s : springs_) {
+    const Vec3 fi = spring_force(node(x, s.i), node(x, s.j), s.k, s.rest);
+    f.segment<3>(3 * s.i) += fi;
+    f.segment<3>(3 * s.j) -= fi;
+  }
+  const bool cs = options_.kind == TissueModelKind::MssCs;
+  const bool cf = options_.kind == TissueModelKind::MssCf;
+  if (!cs && !cf) return f;
+  volume::HexGradient grad;
+  for (size_t e = 0; e < elements_.size(); ++e) {
+    const auto& el = elements_[e];
+    const volume::HexNodes xe = gather_nodes(x, el.nodes);
+    if (cf) {
+      const double v = volume::hex_volume_gradient(xe, grad);
+      const double dv = (v - el.rest_volume) / el.rest_volume;
+      for (int k = 0; k < 8; ++k) f.segment<3>(3 * el.nodes[k]) -= cf_bulk_increment_pa_ * dv * grad[k];
+    } else {
+      const double v = volume::hex_volume(xe);
+      const double kp = corrective_stiffness((v - el.rest_volume) / el.rest_volume, el.edge_length, nullptr);
+      if (kp == 0.0) continue;
+      for (int s = 0; s < 16; ++s) {
+        const auto& c = corrective_[e * 16 + s];
+        const Vec3 fa = spring_force(xe[c.a], xe[c.b], kp, c.rest);
+        f.segment<3>(3 * el.nodes[c.a]) += fa;
+        f.segment<3>(3 * el.nodes[c.b]) -= fa;
+      }
+    }
+  }
+  return f;
+}
+
+void MassSpringModel::add_damping_forces(const VectorXd& x, const VectorXd& v, VectorXd& f) const {
+  for (const auto& s : springs_) {
+    const Vec3 d = node(x, s.j) - node(x, s.i);
+    const Vec3 u = d.normalized();
+    const Vec3 fi = s.damping * u.dot(node(v, s.j) - node(v, s.i)) * u;
+    f.segment<3>(3 * s.i) += fi;
+    f.segment<3>(3 * s.j) -= fi;
+  }
+}
+
+double MassSpringModel::energy(const VectorXd& x) const {
+  require<Error>(has_energy(), "energy: the MSS-CS corrective springs are not conservative (no energy exists)");
+  double w = 0.0;
+  for (const auto& s : springs_) {
+    const double l = (node(x, s.j) - node(x, s.i)).norm();
+    w += 0.5 * s.k * (l - s.rest) * (l - s.rest);
+  }
+  if (options_.kind == TissueModelKind::MssCf) {
+    for (const auto& el : elements_) {
+      const double v = volume::hex_volume(gather_nodes(x, el.nodes));
+      const double dv = (v - el.rest_volume) / el.rest_volume;
+      w += 0.5 * cf_bulk_increment_pa_ * el.rest_volume * dv * dv;
+    }
+  }
+  return w;
+}
+
+void MassSpringModel::jacobian(const VectorXd& x, JacobianKind kind, SparseMatrix& J) const {
+  require(x.size() == num_dofs(), "jacobian: x has {} entries (expected 3N = {})", x.size(), num_dofs());
+  if (J.rows() != pattern_.rows() || J.nonZeros() != pattern_.nonZeros()) J = pattern_;
+  double* val = J.valuePtr();
+  std::fill(val, val + J.nonZeros(), 0.0);
+  const bool psd = kind == JacobianKind::SymmetricPsd;
+  // Assemble K = −J, negate at the end.
+  auto add_pair = [&](const int blocks[4], int i, int j, const Matrix3d& H) {
+    add_block(val, blocks[0], i, H);
+    add_block(val, blocks[1], j, -H);
+    add_block(val, blocks[2], i, -H);
+    add_block(val, blocks[3], j, H);
+  };
+  for (const auto& s : springs_) {
+    add_pair(s.blocks, s.i, s.j, spring_hessian(node(x, s.i), node(x, s.j), s.k, s.rest, psd));
+  }
+  const bool cs = options_.kind == TissueModelKind::MssCs;
+  const bool cf = options_.kind == TissueModelKind::MssCf;
+  if (cs || cf) {
+    volume::HexGradient grad;
+    volume::HexHessian hess;
+    for (size_t e = 0; e < elements_.size(); ++e) {
+      const auto& el = elements_[e];
+      const int* eb = &element_blocks_[e * 64];
+      const volume::HexNodes xe = gather_nodes(x, el.nodes);
+      const double v = volume::hex_volume_gradient(xe, grad);
+      const double dv = (v - el.rest_volume) / el.rest_volume;
+      if (cf) {
+        // W = ½ ΔK V0 δv²: K = ΔK/V0 ∇V ∇Vᵀ + ΔK δv ∇²V (second term dropped for PSD).
+        const double a = cf_bulk_increment_pa_ / el.rest_volume;
+        if (!psd) volume::hex_volume_hessian(xe, hess);
+        for (int p = 0; p < 8; ++p)
+          for (int q = 0; q < 8; ++q) {
+            Matrix3d B = a * grad[p] * grad[q].transpose();
+            if (!psd) B += cf_bulk_increment_pa_ * dv * hess.block<3, 3>(3 * p, 3 * q);
+            add_block(val, eb[p * 8 + q], el.nodes[q], B);
+          }
+        continue;
+      }
+      double dk = 0.0;
+      const double kp = corrective_stiffness(dv, el.edge_length, &dk);
+      Eigen::Matrix<double, 24, 1> r = Eigen::Matrix<double, 24, 1>::Zero();  // force per unit k'
+      for (int s = 0; s < 16; ++s) {
+        const auto& c = corrective_[e * 16 + s];
+        const Vec3 d = xe[c.b] - xe[c.a];
+        const double l = d.norm();
+        const Vec3 u = d / l;
+        if (kp != 0.0) {
+          const Matrix3d H = spring_hessian(xe[c.a], xe[c.b], kp, c.rest, psd);
+          add_block(val, eb[c.a * 8 + c.a], el.nodes[c.a], H);
+          add_block(val, eb[c.a * 8 + c.b], el.nodes[c.b], -H);
+          add_block(val, eb[c.b * 8 + c.a], el.nodes[c.a], -H);
+          add_block(val, eb[c.b * 8 + c.b], el.nodes[c.b], H);
+        }
+        r.segment<3>(3 * c.a) += (l - c.rest) * u;
+        r.segment<3>(3 * c.b) -= (l - c.rest) * u;
+      }
+      if (psd || dk == 0.0) continue;
+      // f = k'(δv) r(x): ∂f/∂x gains r ⊗ ∇k' = r ⊗ (dk'/dδv ∇V / V0); K = −J.
+      const double s = dk / el.rest_volume;
+      for (int p = 0; p < 8; ++p)
+        for (int q = 0; q < 8; ++q)
+          add_block(val, eb[p * 8 + q], el.nodes[q], -s * r.segment<3>(3 * p) * grad[q].transpose());
+    }
+  }
+  for (Eigen::Index k = 0; k < J.nonZeros(); ++k) val[k] = -val[k];
+}
+
+void MassSpringModel::damping_matrix(const VectorXd& x, SparseMatrix& D) const {
+  if (D.rows() != pattern_.rows() || D.nonZeros() != pattern_.nonZeros()) D = pattern_;
+  double* val = D.valuePtr();
+  std::fill(val, val + D.nonZeros(), 0.0);
+  for (const auto& s : springs_) {
+    const Vec3 u = (node(x, s.j) - node(x, s.i)).normalized();
+    const Matrix3d C = s.damping * u * u.transpose();
+    add_block(val, s.blocks[0], s.i, C);
+    add_block(val, s.blocks[1], s.j, -C);
+    add_block(val, s.blocks[2], s.i, -C);
+    add_block(val, s.blocks[3], s.j, C);
+  }
+}
+
+VectorXd MassSpringModel::element_volumes(const VectorXd& x) const {
+  VectorXd v(num_elements());
+  for (int e = 0; e < num_elements(); ++e)
+    v[e] = volume::hex_volume(gather_nodes(x, elements_[e].nodes));
+  return v;
+}
+
+double MassSpringModel::total_volume(const VectorXd& x) const { return element_volumes(x).sum(); }
+
+double MassSpringModel::min_corner_jacobian(const VectorXd& x) const {
+  double m = std::numeric_limits<double>::infinity();
+  for (const auto& el : elements_)
+    m = std::min(m, volume::min_corner_jacobian(gather_nodes(x, el.nodes)));
+  return m;
+}
+
+}  // namespace socketsmith::tissue

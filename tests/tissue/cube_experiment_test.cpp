@@ -1,0 +1,89 @@
+#include "socketsmith/tissue/cube_experiment.h"
+
+#include <gtest/gtest.h>
+
+#include "socketsmith/core/errors.h"
+#include "socketsmith/tissue/calibration.h"
+
+namespace socketsmith::tissue {
+namespace {
+
+CubeExperimentResult run(TissueModelKind kind, const CorrectiveSpringConstants& k, int divisions = 2) {
+  CubeExperimentOptions o;
+  o.divisions = divisions;
+  o.model.kind = kind;
+  o.model.corrective = k;
+  return run_cube_experiment(o);
+}
+
+TEST(CubeExperiment, recommended_mss_cs_meets_the_issue_targets) {
+  const auto r = run(TissueModelKind::MssCs, CorrectiveSpringConstants::recommended());
+  ASSERT_TRUE(r.converged) << r.message;
+  ASSERT_EQ(r.rows.size(), 17u);
+  const auto e = cube_errors(r);
+  EXPECT_LT(e.max_displacement_error, 0.05);  // within 5 % up to 60 % strain
+  EXPECT_LT(e.max_volume_error, 0.02);        // within 2 % up to 40 % strain
+  for (const auto& row : r.rows) {
+    // equilibrium: the top reactions carry the box (nominal pressure = W/A), uniformly
+    EXPECT_NEAR(row.top_pressure_pa, row.top_pressure_analytic_pa, 1e-6 * (1 + row.top_pressure_analytic_pa));
+    EXPECT_LT(row.nodal_pressure_spread, 1e-6);
+  }
+}
+
+TEST(CubeExperiment, thesis_constants_reproduce_the_thesis_figures) {
+  // Thesis (Figs. 29–30): displacement error ≤ 11 % up to 60 % strain, volume error ≤ 5 % at 40 %.
+  const auto r = run(TissueModelKind::MssCs, CorrectiveSpringConstants::thesis());
+  ASSERT_TRUE(r.converged) << r.message;
+  const auto e = cube_errors(r);
+  EXPECT_NEAR(e.max_displacement_error, 0.11, 0.02);
+  EXPECT_NEAR(e.max_volume_error, 0.05, 0.01);
+}
+
+TEST(CubeExperiment, mss_cf_conserves_volume_but_is_stiff_in_compression) {
+  const auto r = run(TissueModelKind::MssCf, CorrectiveSpringConstants::thesis());
+  ASSERT_TRUE(r.converged) << r.message;
+  const auto e = cube_errors(r);
+  EXPECT_LT(e.max_volume_error, 0.02);
+  EXPECT_GT(e.max_displacement_error, 0.2);
+  EXPECT_LT(r.rows.back().displacement_ratio, r.rows.back().displacement_ratio_analytic);  // stiffer
+}
+
+TEST(CubeExperiment, plain_mss_does_not_conserve_volume) {
+  const auto r = run(TissueModelKind::Mss, CorrectiveSpringConstants::thesis());
+  ASSERT_TRUE(r.converged) << r.message;
+  EXPECT_GT(cube_errors(r).max_volume_error, 0.1);
+}
+
+TEST(CubeExperiment, result_does_not_depend_on_the_lattice_size) {
+  // Frictionless top and bottom: the exact solution is homogeneous on any lattice.
+  const auto a = run(TissueModelKind::MssCs, CorrectiveSpringConstants::recommended(), 1);
+  const auto b = run(TissueModelKind::MssCs, CorrectiveSpringConstants::recommended(), 3);
+  ASSERT_TRUE(a.converged && b.converged);
+  for (size_t i = 0; i < a.rows.size(); ++i) {
+    EXPECT_NEAR(a.rows[i].displacement_ratio, b.rows[i].displacement_ratio, 1e-7);
+    EXPECT_NEAR(a.rows[i].volume_ratio, b.rows[i].volume_ratio, 1e-7);
+  }
+}
+
+TEST(CubeExperiment, rejects_bad_options) {
+  CubeExperimentOptions o;
+  o.material.youngs_modulus_pa = -1;
+  EXPECT_THROW(run_cube_experiment(o), InvalidInputError);
+  o = {};
+  o.edge_m = 0;
+  EXPECT_THROW(run_cube_experiment(o), InvalidInputError);
+}
+
+TEST(Calibration, improves_on_the_thesis_constants_from_their_own_starting_point) {
+  CalibrationOptions o;
+  o.laws = {CorrectiveLaw::CompressionOnly};
+  o.starts = 1;
+  o.max_evaluations = 120;
+  const auto r = calibrate_corrective_springs(o);
+  EXPECT_LT(r.best.objective, r.thesis.objective);
+  EXPECT_LT(r.best.errors.max_displacement_error, r.thesis.errors.max_displacement_error);
+  EXPECT_GT(r.evaluations, 10);
+}
+
+}  // namespace
+}  // namespace socketsmith::tissue

@@ -1,0 +1,71 @@
+#include "socketsmith/tissue/implicit_euler.h"
+
+#include <gtest/gtest.h>
+
+#include "socketsmith/core/errors.h"
+#include "socketsmith/tissue/static_solver.h"
+#include "socketsmith/core/units.h"
+#include "test_models.h"
+
+namespace socketsmith::tissue {
+namespace {
+using namespace testing;
+
+struct Hanging {
+  MassSpringModel model;
+  DofConstraints constraints;
+  VectorXd gravity;
+};
+
+Hanging hanging_cube(TissueModelKind kind) {
+  const int n = 3;
+  const double L = 0.03;
+  Hanging h{MassSpringModel(small_lattice(n, L), {20e3, 1060}, options_for(kind, CorrectiveLaw::CompressionOnly)), {}, {}};
+  const std::array<int, 3> div = {n, n, n};
+  for (int j = 0; j <= n; ++j)
+    for (int i = 0; i <= n; ++i) h.constraints.fix_nodes({volume::box_node_index(div, i, j, n)});  // hung by its top
+  h.gravity = VectorXd::Zero(h.model.num_dofs());
+  for (int i = 0; i < h.model.num_nodes(); ++i) h.gravity[3 * i + 2] = -h.model.masses()[i] * units::kGravity * 20;
+  return h;
+}
+
+TEST(ImplicitEuler, settles_to_the_static_equilibrium_of_a_hanging_cube) {
+  for (auto kind : {TissueModelKind::Mss, TissueModelKind::MssCs, TissueModelKind::MssCf}) {
+    auto h = hanging_cube(kind);
+    DofMap dofs(h.model.num_dofs(), h.constraints);
+    VectorXd x_static = h.model.rest_positions();
+    StaticSolver statics(h.model, dofs);
+    ASSERT_TRUE(statics.solve(h.gravity, x_static).converged);
+    ImplicitEuler euler(h.model, dofs, {2e-3, 1e-9, 2000});
+    DynamicState s = rest_state(h.model);
+    double max_overshoot = 0.0;
+    const double sag = (x_static - h.model.rest_positions()).cwiseAbs().maxCoeff();
+    for (int step = 0; step < 1500; ++step) {
+      const auto r = euler.step(s, h.gravity);
+      ASSERT_TRUE(r.ok) << r.message;
+      max_overshoot = std::max(max_overshoot, (s.x - h.model.rest_positions()).cwiseAbs().maxCoeff() - sag);
+    }
+    EXPECT_LT((s.x - x_static).cwiseAbs().maxCoeff(), 1e-3 * sag) << to_string(kind);
+    EXPECT_LT(euler.kinetic_energy(s.v), 1e-12) << to_string(kind);
+    EXPECT_LT(max_overshoot, 0.2 * sag) << "oscillates: " << to_string(kind);
+  }
+}
+
+TEST(ImplicitEuler, keeps_fixed_nodes_fixed_and_reports_divergence) {
+  auto h = hanging_cube(TissueModelKind::Mss);
+  DofMap dofs(h.model.num_dofs(), h.constraints);
+  ImplicitEuler euler(h.model, dofs, {1e-3, 1e-8, 500});
+  DynamicState s = rest_state(h.model);
+  for (int i = 0; i < 10; ++i) ASSERT_TRUE(euler.step(s, h.gravity).ok);
+  for (int d : h.constraints.fixed) EXPECT_EQ(s.x[d], h.model.rest_positions()[d]);
+  // A gigantic load inverts elements: detected, state unchanged.
+  const DynamicState before = s;
+  const auto r = euler.step(s, h.gravity * 1e7);
+  EXPECT_FALSE(r.ok);
+  EXPECT_NE(r.message.find("diverged"), std::string::npos);
+  EXPECT_EQ(s.x, before.x);
+  EXPECT_THROW(ImplicitEuler(h.model, dofs, {-1.0, 1e-6, 10}), InvalidInputError);
+}
+
+}  // namespace
+}  // namespace socketsmith::tissue

@@ -1,0 +1,149 @@
+#include "socketsmith/tissue/static_solver.h"
+
+#include <gtest/gtest.h>
+
+#include "socketsmith/core/errors.h"
+#include "test_models.h"
+
+namespace socketsmith::tissue {
+namespace {
+using namespace testing;
+
+/// Uniaxial compression of an n^3 lattice of edge L by a total force F on the top face
+/// (top z tied, frictionless bottom): returns (axial strain, lateral strain, volume ratio).
+struct Uniaxial {
+  double axial, lateral, volume_ratio;
+  StaticResult result;
+};
+Uniaxial uniaxial(const MassSpringModel& m, int n, double L, double F) {
+  const std::array<int, 3> div = {n, n, n};
+  DofConstraints c;
+  std::vector<int> top;
+  for (int j = 0; j <= n; ++j)
+    for (int i = 0; i <= n; ++i) {
+      c.fixed.push_back(dof(volume::box_node_index(div, i, j, 0), 2));
+      top.push_back(dof(volume::box_node_index(div, i, j, n), 2));
+    }
+  c.fixed.push_back(dof(0, 0));
+  c.fixed.push_back(dof(0, 1));
+  c.fixed.push_back(dof(volume::box_node_index(div, n, 0, 0), 1));
+  c.tied_groups.push_back(top);
+  DofMap dofs(m.num_dofs(), c);
+  StaticSolver solver(m, dofs);
+  VectorXd f = VectorXd::Zero(m.num_dofs());
+  for (int d : top) f[d] = -F / static_cast<double>(top.size());
+  VectorXd x = m.rest_positions();
+  Uniaxial u{};
+  u.result = solver.solve(f, x);
+  u.axial = (x[top[0]] - L) / L;
+  u.lateral = (x[3 * volume::box_node_index(div, n, 0, 0)] - L) / L;
+  u.volume_ratio = m.total_volume(x) / m.total_volume(m.rest_positions());
+  return u;
+}
+
+TEST(StaticSolver, mss_recovers_youngs_modulus_and_poisson_ratio_one_quarter_at_small_strain) {
+  const double L = 0.02, E = 50e3, F = 1e-3 * E * L * L;  // 0.1 % strain
+  MassSpringModel m(small_lattice(3, L), {E, 1060}, options_for(TissueModelKind::Mss));
+  const auto u = uniaxial(m, 3, L, F);
+  ASSERT_TRUE(u.result.converged) << u.result.message;
+  EXPECT_NEAR(-u.axial, 1e-3, 1e-3 * 2e-3);  // W/(AE) within 0.2 %
+  EXPECT_NEAR(-u.lateral / u.axial, 0.25, 2e-3);
+}
+
+TEST(StaticSolver, mss_cf_recovers_youngs_modulus_and_its_target_poisson_ratio) {
+  const double L = 0.02, E = 50e3, F = 1e-3 * E * L * L;
+  MassSpringOptions o = options_for(TissueModelKind::MssCf);
+  o.cf_poisson_ratio = 0.45;
+  MassSpringModel m(small_lattice(2, L), {E, 1060}, o);
+  const auto u = uniaxial(m, 2, L, F);
+  ASSERT_TRUE(u.result.converged) << u.result.message;
+  EXPECT_NEAR(-u.axial, 1e-3, 1e-3 * 5e-3);
+  EXPECT_NEAR(-u.lateral / u.axial, 0.45, 5e-3);
+}
+
+TEST(StaticSolver, converges_to_the_stated_residual_and_reuses_its_factorisation) {
+  const double L = 0.02;
+  MassSpringModel m(small_lattice(3, L), {50e3, 1060}, {});
+  const std::array<int, 3> div = {3, 3, 3};
+  DofConstraints c;
+  for (int j = 0; j <= 3; ++j)
+    for (int i = 0; i <= 3; ++i) c.fix_nodes({volume::box_node_index(div, i, j, 0)});
+  DofMap dofs(m.num_dofs(), c);
+  StaticSolver solver(m, dofs);
+  VectorXd f = VectorXd::Zero(m.num_dofs());
+  for (int j = 0; j <= 3; ++j)
+    for (int i = 0; i <= 3; ++i) f[dof(volume::box_node_index(div, i, j, 3), 0)] = 0.05;  // shear the top
+  VectorXd x = m.rest_positions();
+  const auto r1 = solver.solve(f, x);
+  ASSERT_TRUE(r1.converged) << r1.message;
+  const double tol = solver.options().rel_tol * r1.reference_force_n + solver.options().abs_tol_n;
+  EXPECT_LE(static_residual(m, dofs, f, x).norm(), tol);
+  EXPECT_GE(r1.factorizations, 1);
+  // A slightly different load, warm-started: no new factorisation, few iterations.
+  f *= 1.02;
+  const auto r2 = solver.solve(f, x);
+  ASSERT_TRUE(r2.converged) << r2.message;
+  EXPECT_EQ(r2.factorizations, 0);
+  EXPECT_LE(r2.iterations, r1.iterations);
+  EXPECT_LE(static_residual(m, dofs, f, x).norm(), tol);
+  // the fixed nodes did not move
+  for (int d : c.fixed) EXPECT_EQ(x[d], m.rest_positions()[d]);
+}
+
+TEST(StaticSolver, reports_an_unconstrained_model_instead_of_returning_garbage) {
+  MassSpringModel m(small_lattice(1), {50e3, 1060}, {});
+  DofMap dofs(m.num_dofs(), {});
+  StaticSolver solver(m, dofs);
+  VectorXd f = VectorXd::Zero(m.num_dofs());
+  f[2] = 1.0;  // unbalanced: no equilibrium exists
+  VectorXd x = m.rest_positions();
+  const auto r = solver.solve(f, x);
+  EXPECT_FALSE(r.converged);
+  EXPECT_FALSE(r.message.empty());
+  EXPECT_GT(m.min_corner_jacobian(x), 0.0);  // never returns an inverted state
+}
+
+TEST(StaticSolver, detects_a_load_the_tissue_cannot_carry) {
+  // 50 kPa tissue, 1 cm cube, 1 kN on the top: no non-inverted equilibrium.
+  const double L = 0.01;
+  MassSpringModel m(small_lattice(2, L), {50e3, 1060}, options_for(TissueModelKind::Mss));
+  const auto u = uniaxial(m, 2, L, 1e3);
+  EXPECT_FALSE(u.result.converged);
+  EXPECT_NE(u.result.message.find("diverged"), std::string::npos) << u.result.message;
+}
+
+TEST(StaticSolver, rejects_nan_loads) {
+  MassSpringModel m(small_lattice(1), {50e3, 1060}, {});
+  DofConstraints c;
+  c.fix_nodes({0, 1, 2, 3});
+  DofMap dofs(m.num_dofs(), c);
+  StaticSolver solver(m, dofs);
+  VectorXd f = VectorXd::Zero(m.num_dofs());
+  f[5] = std::nan("");
+  VectorXd x = m.rest_positions();
+  EXPECT_THROW(solver.solve(f, x), InvalidInputError);
+}
+
+TEST(DofMap, ties_and_fixes_degrees_of_freedom) {
+  DofConstraints c;
+  c.fixed = {0, 1};
+  c.tied_groups = {{2, 5}};
+  DofMap map(6, c);
+  EXPECT_EQ(map.num_reduced(), 3);  // {2,5} shared, 3, 4
+  VectorXd full(6);
+  full << 1, 2, 3, 4, 5, 6;
+  const VectorXd r = map.restrict_vector(full);
+  EXPECT_DOUBLE_EQ(r[map.reduced_index()[2]], 9.0);
+  VectorXd back = VectorXd::Zero(6);
+  map.add_expanded(VectorXd::Ones(3), back);
+  EXPECT_EQ(back[0], 0.0);
+  EXPECT_EQ(back[2], 1.0);
+  EXPECT_EQ(back[5], 1.0);
+  DofConstraints twice;
+  twice.fixed = {1};
+  twice.tied_groups = {{1, 2}};
+  EXPECT_THROW(DofMap(6, twice), InvalidInputError);
+}
+
+}  // namespace
+}  // namespace socketsmith::tissue

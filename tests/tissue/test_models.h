@@ -1,0 +1,55 @@
+#pragma once
+// Shared fixtures of the tissue tests: small lattices, random rigid motions, finite differences.
+#include <random>
+
+#include <Eigen/Geometry>
+
+#include "socketsmith/tissue/mass_spring_model.h"
+#include "socketsmith/volume/box_mesher.h"
+
+namespace socketsmith::tissue::testing {
+
+inline volume::HexMesh small_lattice(int n = 2, double edge = 0.02) {
+  volume::BoxMeshOptions o;
+  o.size = volume::Vec3::Constant(edge);
+  o.divisions = {n, n, n};
+  return volume::mesh_box(o);
+}
+
+inline MassSpringOptions options_for(TissueModelKind kind, CorrectiveLaw law = CorrectiveLaw::Symmetric) {
+  MassSpringOptions o;
+  o.kind = kind;
+  o.corrective = law == CorrectiveLaw::Symmetric ? CorrectiveSpringConstants::thesis()
+                                                 : CorrectiveSpringConstants::recommended();
+  return o;
+}
+
+/// Rest positions compressed by 15 % in z, sheared a little and randomly perturbed
+/// (so corrective springs are active and no spring is axis-aligned).
+inline VectorXd deformed(const MassSpringModel& m, unsigned seed, double noise = 0.05) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> g(0.0, 1.0);
+  VectorXd x = m.rest_positions();
+  const double h = std::cbrt(m.total_volume(x) / m.num_elements());
+  for (int i = 0; i < m.num_nodes(); ++i) {
+    x[3 * i + 2] *= 0.85;
+    x[3 * i + 0] += 0.1 * x[3 * i + 2];
+    for (int a = 0; a < 3; ++a) x[3 * i + a] += noise * h * g(rng);
+  }
+  return x;
+}
+
+inline Eigen::Matrix3d random_rotation(unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> g(0.0, 1.0);
+  Eigen::Quaterniond q(g(rng), g(rng), g(rng), g(rng));
+  return q.normalized().toRotationMatrix();
+}
+
+inline VectorXd rigid_motion(const VectorXd& x, const Eigen::Matrix3d& R, const Eigen::Vector3d& t) {
+  VectorXd y(x.size());
+  for (Eigen::Index i = 0; i < x.size() / 3; ++i) y.segment<3>(3 * i) = R * x.segment<3>(3 * i) + t;
+  return y;
+}
+
+}  // namespace socketsmith::tissue::testing
