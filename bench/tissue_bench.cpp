@@ -46,7 +46,9 @@ int divisions_for(int64_t target_nodes) { return volume::cube_divisions_for_node
 
 void BM_ImplicitEulerStep(benchmark::State& state) {
   Setup s(divisions_for(state.range(0)));
-  ImplicitEuler euler(s.model, s.dofs, {1e-3, 1e-6, 500});
+  // h = 0.2 ms: with the recommended constants the explicit corrective coupling is unstable
+  // at the thesis's 1 ms under this load (docs/PERFORMANCE.md).
+  ImplicitEuler euler(s.model, s.dofs, {2e-4, 1e-6, 500});
   DynamicState st = rest_state(s.model);
   int cg = 0, steps = 0;
   for (auto _ : state) {

@@ -14,8 +14,8 @@ struct CalibrateFlags {
   std::string out;
   bool json = false;
   std::string law = "both";
-  int evaluations = 600;
-  int starts = 6;
+  int evaluations = 400;
+  int starts = 4;
   unsigned seed = 1;
   bool fixed_springs = false;
   int divisions = 2;

@@ -92,7 +92,7 @@ CubeExperimentResult run_cube_experiment(const CubeExperimentOptions& o, const P
     const volume::Vec3 a = pos(id(n, 0, n)) - pos(id(0, 0, n)), b = pos(id(0, n, n)) - pos(id(0, 0, n));
     const double top_area_now = a.cross(b).norm();
     row.top_pressure_true_pa = top_area_now > 0 ? total / top_area_now : 0.0;
-    row.displacement_ratio = -(x[dof(id(0, 0, n), 2)] - o.edge_m) / o.edge_m;
+    row.displacement_ratio = -(x[dof(id(0, 0, n), 2)] - o.edge_m) / o.edge_m + 0.0;  // no "-0"
     row.volume_ratio = model.total_volume(x) / v0;
     const int mid = n / 2;
     row.lateral_stretch = (pos(id(n, 0, mid)) - pos(id(0, 0, mid))).norm() / o.edge_m;
