@@ -348,9 +348,24 @@ void MassSpringModel::jacobian(const VectorXd& x, JacobianKind kind, SparseMatri
         r.segment<3>(3 * c.a) += (l - c.rest) * u;
         r.segment<3>(3 * c.b) -= (l - c.rest) * u;
       }
-      if (psd || dk == 0.0) continue;
+      if (dk == 0.0) continue;
       // f = k'(δv) r(x): ∂f/∂x gains r ⊗ ∇k' = r ⊗ (dk'/dδv ∇V / V0); K = −J.
       const double s = dk / el.rest_volume;
+      if (psd) {
+        // Symmetric PSD surrogate: project r on ∇V, giving −s (r·∇V)/|∇V|² ∇V ∇Vᵀ — a volumetric
+        // stiffness like MSS-CF's, kept when positive (corrective springs resisting the volume
+        // change). It makes the coupling semi-implicit and the preconditioner see it.
+        double rg = 0.0, gg = 0.0;
+        for (int p = 0; p < 8; ++p) {
+          rg += r.segment<3>(3 * p).dot(grad[p]);
+          gg += grad[p].squaredNorm();
+        }
+        const double coef = gg > 0 ? -s * rg / gg : 0.0;
+        if (coef <= 0) continue;
+        for (int p = 0; p < 8; ++p)
+          for (int q = 0; q < 8; ++q) add_block(val, eb[p * 8 + q], el.nodes[q], coef * grad[p] * grad[q].transpose());
+        continue;
+      }
       for (int p = 0; p < 8; ++p)
         for (int q = 0; q < 8; ++q)
           add_block(val, eb[p * 8 + q], el.nodes[q], -s * r.segment<3>(3 * p) * grad[q].transpose());

@@ -91,8 +91,9 @@ struct MassSpringOptions {
 /// Which Jacobian to assemble.
 enum class JacobianKind {
   Exact,         ///< J = ∂f/∂x including the non-symmetric corrective-spring volume coupling
-  SymmetricPsd,  ///< −K with K symmetric positive semi-definite (springs' transverse terms and
-                 ///< non-symmetric couplings dropped): for CG and as a preconditioner
+  SymmetricPsd,  ///< −K with K symmetric positive semi-definite: springs' negative transverse terms
+                 ///< dropped, the corrective volume coupling r ⊗ ∇k' replaced by its symmetric
+                 ///< projection on ∇V when that is positive: for CG and as a preconditioner
 };
 
 /// A hexahedral mass-spring model. Built once; evaluating forces does not modify it.
