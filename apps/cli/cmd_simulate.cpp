@@ -117,7 +117,6 @@ void run_cube(const CubeFlags& f) {
   const std::vector<std::string> header = {"weight_n", "top_pressure_analytic_pa", "top_pressure_pa",
                                            "displacement_ratio_analytic", "displacement_ratio", "volume_ratio"};
   report::write_csv(out / "cube.csv", header, csv_rows(results.front().second));
-  std::vector<std::string> all_header = {"model"};
   std::vector<std::vector<double>> all_rows;
   {
     std::vector<std::string> h = header;

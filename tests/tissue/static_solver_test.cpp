@@ -90,6 +90,32 @@ TEST(StaticSolver, converges_to_the_stated_residual_and_reuses_its_factorisation
   for (int d : c.fixed) EXPECT_EQ(x[d], m.rest_positions()[d]);
 }
 
+TEST(StaticSolver, load_continuation_reaches_a_load_that_direct_newton_cannot) {
+  // 10 % compression + shear on the recommended MSS-CS: its tangent at rest has no volume
+  // stiffness (β > 1), so Newton from rest crawls and the solver must continue the load.
+  const int n = 4;
+  const double L = 0.05, h = L / n;
+  MassSpringModel m(small_lattice(n, L), {50e3, 1060}, {});
+  DofConstraints c;
+  for (int j = 0; j <= n; ++j)
+    for (int i = 0; i <= n; ++i) c.fix_nodes({volume::box_node_index({n, n, n}, i, j, 0)});
+  DofMap dofs(m.num_dofs(), c);
+  VectorXd f = VectorXd::Zero(m.num_dofs());
+  for (int j = 0; j <= n; ++j)
+    for (int i = 0; i <= n; ++i) {
+      const int node = volume::box_node_index({n, n, n}, i, j, n);
+      f[dof(node, 2)] = -5e3 * h * h;
+      f[dof(node, 0)] = 1e3 * h * h;
+    }
+  StaticSolver solver(m, dofs);
+  VectorXd x = m.rest_positions();
+  const auto r = solver.solve(f, x);
+  ASSERT_TRUE(r.converged) << r.message;
+  EXPECT_GT(r.load_steps, 0);
+  EXPECT_LE(static_residual(m, dofs, f, x).norm(), solver.options().rel_tol * r.reference_force_n + 1e-12);
+  EXPECT_GT(m.min_corner_jacobian(x), 0.0);
+}
+
 TEST(StaticSolver, reports_an_unconstrained_model_instead_of_returning_garbage) {
   MassSpringModel m(small_lattice(1), {50e3, 1060}, {});
   DofMap dofs(m.num_dofs(), {});

@@ -57,7 +57,15 @@ void DofMap::add_expanded(const VectorXd& reduced, VectorXd& full) const {
 
 void DofMap::reduce_matrix(const SparseMatrix& full, SparseMatrix& reduced) const {
   SOCKETSMITH_ASSERT(full.rows() == num_full() && full.cols() == num_full() && full.isCompressed());
-  if (cached_outer_ != full.outerIndexPtr() || cached_nnz_ != full.nonZeros()) {
+  // Same pattern as the cached one? Pointers differ between matrices copied from one pattern
+  // (a model's J, K and D), so compare the index arrays themselves when they do.
+  const bool same_pattern =
+      cached_nnz_ == full.nonZeros() &&
+      (cached_outer_ == full.outerIndexPtr() ||
+       (std::equal(full.outerIndexPtr(), full.outerIndexPtr() + full.outerSize() + 1, cached_outer_copy_.begin()) &&
+        std::equal(full.innerIndexPtr(), full.innerIndexPtr() + full.nonZeros(), cached_inner_copy_.begin())));
+  if (same_pattern) cached_outer_ = full.outerIndexPtr();
+  if (!same_pattern) {
     // Build the reduced pattern and the value map once per full pattern.
     std::vector<Eigen::Triplet<double>> trips;
     trips.reserve(static_cast<size_t>(full.nonZeros()));
@@ -87,6 +95,8 @@ void DofMap::reduce_matrix(const SparseMatrix& full, SparseMatrix& reduced) cons
     }
     cached_outer_ = full.outerIndexPtr();
     cached_nnz_ = full.nonZeros();
+    cached_outer_copy_.assign(full.outerIndexPtr(), full.outerIndexPtr() + full.outerSize() + 1);
+    cached_inner_copy_.assign(full.innerIndexPtr(), full.innerIndexPtr() + full.nonZeros());
   }
   if (reduced.nonZeros() != reduced_pattern_.nonZeros() || reduced.rows() != num_reduced_) reduced = reduced_pattern_;
   double* rv = reduced.valuePtr();

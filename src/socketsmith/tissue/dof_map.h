@@ -54,6 +54,7 @@ class DofMap {
   // cache for reduce_matrix
   mutable const int* cached_outer_ = nullptr;
   mutable Eigen::Index cached_nnz_ = -1;
+  mutable std::vector<int> cached_outer_copy_, cached_inner_copy_;  // the cached full pattern
   mutable std::vector<int> value_map_;  // full value index -> reduced value index or -1
   mutable SparseMatrix reduced_pattern_;
 };
