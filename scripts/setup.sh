@@ -8,6 +8,7 @@ packages=(
   libeigen3-dev           # dense/sparse linear algebra, CG
   libsuitesparse-dev      # CHOLMOD sparse Cholesky (static solver)
   libopenblas-dev         # optimised BLAS for CHOLMOD (the reference BLAS is ~5x slower)
+  libcgal-dev             # AABB trees (closest point, ray casts) for meshing and contact
   libnlopt-cxx-dev        # derivative-free optimisation (constant calibration)
   libcli11-dev            # command line
   nlohmann-json3-dev      # JSON (case files, --json output)

@@ -32,5 +32,7 @@ void print_json(const nlohmann::json& j);
 void register_simulate(CLI::App& app);
 void register_calibrate(CLI::App& app);
 void register_check(CLI::App& app);
+void register_limb(CLI::App& app);  // cmd_limb.cpp: limb generate
+void register_mesh(CLI::App& app);  // cmd_mesh.cpp: mesh
 
 }  // namespace socketsmith::cli

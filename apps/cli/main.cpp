@@ -21,6 +21,8 @@ int main(int argc, char** argv) {
   cli::register_simulate(app);
   cli::register_calibrate(app);
   cli::register_check(app);
+  cli::register_limb(app);
+  cli::register_mesh(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

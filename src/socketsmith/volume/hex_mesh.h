@@ -20,6 +20,7 @@ enum NodeTag : std::uint8_t {
   kNodeFixed = 1 << 0,    ///< Dirichlet node (e.g. inside a bone)
   kNodeSurface = 1 << 1,  ///< on the outer boundary surface
   kNodeBone = 1 << 2,     ///< on or inside a bone
+  kNodeProximal = 1 << 3, ///< on the proximal cut plane of a limb
 };
 
 /// An 8-node hexahedron. Node order as VTK_HEXAHEDRON and Abaqus/CalculiX C3D8: the bottom face

@@ -1,0 +1,260 @@
+// `socketsmith mesh`: limb surface (+ bones) -> hexahedral MSS-CS-ready stump with landmarks.
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <sstream>
+
+#include "cli_common.h"
+#include "socketsmith/core/atomic_file.h"
+#include "socketsmith/core/errors.h"
+#include "socketsmith/core/log.h"
+#include "socketsmith/core/progress.h"
+#include "socketsmith/core/units.h"
+#include "socketsmith/geometry/mesh_checks.h"
+#include "socketsmith/geometry/mesh_io.h"
+#include "socketsmith/report/limb_views.h"
+#include "socketsmith/report/vtk_writer.h"
+#include "socketsmith/tissue/pressure_load.h"
+#include "socketsmith/volume/hex_element.h"
+#include "socketsmith/volume/hex_mesher.h"
+#include "socketsmith/volume/limb_model.h"
+
+namespace socketsmith::cli {
+namespace {
+
+using geometry::Vec3;
+
+struct MeshFlags {
+  std::string limb;
+  std::string bones = "auto";
+  std::string units;
+  double scale = 1.0;
+  std::string type = "transtibial";
+  std::string anterior;
+  std::string side;
+  double cut_height_mm = -1.0;
+  int target_nodes = 8000;
+  double load_kpa = 0.0;
+  ModelFlags model;
+  std::string out;
+  bool json = false;
+};
+
+Vec3 parse_vector(const std::string& text, const std::string& what) {
+  Vec3 v;
+  char c1 = 0, c2 = 0;
+  std::istringstream in(text);
+  in >> v.x() >> c1 >> v.y() >> c2 >> v.z();
+  require(in && c1 == ',' && c2 == ',' && v.allFinite() && v.norm() > 0,
+          "{} '{}' is not a direction x,y,z (e.g. 0,1,0)", what, text);
+  return v;
+}
+
+geometry::TriMesh read_scaled(const std::string& path, const MeshFlags& f) {
+  geometry::MeshReadOptions ro;
+  if (!f.units.empty()) ro.unit = units::parse_length_unit(f.units);
+  if (f.scale != 1.0) ro.warn_on_implausible_size = false;
+  geometry::TriMesh m = geometry::read_mesh(path, ro);
+  if (f.scale != 1.0) geometry::scale(m, f.scale);
+  return m;
+}
+
+nlohmann::json landmark_json(const volume::Landmark& l) {
+  return {{"code", l.code},
+          {"name", l.name},
+          {"position_mm", {l.position.x() * 1e3, l.position.y() * 1e3, l.position.z() * 1e3}},
+          {"theta_deg", l.cylindrical.theta / units::deg},
+          {"h_mm", l.cylindrical.h * 1e3},
+          {"rho_mm", l.cylindrical.rho * 1e3},
+          {"radius_mm", l.radius_m * 1e3},
+          {"estimated", l.estimated}};
+}
+
+void run(const MeshFlags& f) {
+  namespace fs = std::filesystem;
+  require(f.scale > 0.0 && std::isfinite(f.scale), "--scale {} must be positive", f.scale);
+  require(f.target_nodes >= 100 && f.target_nodes <= 2000000, "--target-nodes {} outside [100, 2000000]",
+          f.target_nodes);
+  require(f.load_kpa >= 0.0 && f.load_kpa <= 500.0, "--load-kpa {} outside [0, 500] kPa", f.load_kpa);
+
+  const geometry::TriMesh limb = read_scaled(f.limb, f);
+  geometry::TriMesh extra;
+  volume::LimbInputOptions lo;
+  lo.type = geometry::parse_limb_type(f.type);
+  if (f.bones != "auto" && f.bones != "estimate" && f.bones != "none") extra = read_scaled(f.bones, f);
+  if (!f.anterior.empty()) lo.anterior = parse_vector(f.anterior, "--anterior");
+  if (!f.side.empty()) lo.side = geometry::parse_side(f.side);
+  if (f.cut_height_mm > 0) lo.cut_height_m = f.cut_height_mm * units::mm;
+  lo.estimate_bones = f.bones != "none";
+
+  const auto progress = console_progress(1.0);  // stderr: keeps --json output clean
+  report_progress(progress, 0.0, "mesh: preparing the limb");
+  geometry::TriMesh skin_only = limb;
+  if (f.bones == "estimate" || f.bones == "none") {
+    // Ignore bone shells in the limb file: keep the largest shell only.
+    auto parts = geometry::split_components(limb);
+    std::sort(parts.begin(), parts.end(), [](const auto& a, const auto& b) {
+      return geometry::surface_area(a) > geometry::surface_area(b);
+    });
+    skin_only = parts.front();
+  }
+  volume::LimbModel model = volume::prepare_limb(skin_only, extra, lo);
+  for (const auto& n : model.notes) log::info("mesh: {}", n);
+
+  const volume::HexMesherInput in = volume::mesher_input(model);
+  volume::HexMesherOptions mo;
+  mo.target_nodes = f.target_nodes;
+  mo.progress = progress;
+  volume::HexMesherResult r = volume::mesh_limb(in, mo);
+  for (const auto& n : r.notes) log::info("mesh: {}", n);
+
+  const fs::path out(f.out);
+  ensure_directory(out);
+  // Landmark zone of each node: index of the nearest landmark within its radius, else -1.
+  std::vector<double> zone(r.mesh.num_nodes(), -1.0);
+  for (int n = 0; n < r.mesh.num_nodes(); ++n) {
+    if (!r.mesh.has_tag(n, volume::kNodeSurface)) continue;
+    double best = 1e30;
+    for (size_t k = 0; k < model.landmarks.size(); ++k) {
+      const double d = (r.mesh.nodes[n] - model.landmarks[k].position).norm();
+      if (d <= model.landmarks[k].radius_m && d < best) {
+        best = d;
+        zone[n] = static_cast<double>(k);
+      }
+    }
+  }
+  std::vector<double> sj(r.mesh.num_hexahedra());
+  for (int e = 0; e < r.mesh.num_hexahedra(); ++e) {
+    const auto c = volume::corner_scaled_jacobians(volume::gather(r.mesh.nodes, r.mesh.hexahedra[e]));
+    sj[e] = *std::min_element(c.begin(), c.end());
+  }
+  std::vector<report::VtkField> point_fields{{"landmark_zone", 1, zone}};
+
+  nlohmann::json load_json;
+  if (f.load_kpa > 0.0) {
+    report_progress(progress, 0.9, "mesh: static solve under the test pressure");
+    const auto pr = tissue::solve_uniform_pressure(r.mesh, f.load_kpa * units::kPa, make_material(f.model),
+                                                   make_model_options(f.model));
+    std::vector<Vec3> u(r.mesh.num_nodes());
+    for (int n = 0; n < r.mesh.num_nodes(); ++n) u[n] = pr.positions.segment<3>(3 * n) - r.mesh.nodes[n];
+    point_fields.push_back(report::make_vector_field("displacement_m", u));
+    load_json = {{"pressure_kpa", f.load_kpa},
+                 {"converged", pr.solve.converged},
+                 {"newton_iterations", pr.solve.iterations},
+                 {"load_steps", pr.solve.load_steps},
+                 {"max_displacement_mm", pr.max_displacement_m * 1e3},
+                 {"mean_skin_displacement_mm", pr.mean_skin_displacement_m * 1e3},
+                 {"volume_change", pr.volume_change},
+                 {"setup_s", pr.seconds_setup},
+                 {"solve_s", pr.seconds_solve},
+                 {"model", to_json(make_model_options(f.model), make_material(f.model))}};
+    log::info("mesh: {:.1f} kPa inward: max displacement {:.2f} mm, volume change {:.2f} %, solved in {:.2f} s",
+              f.load_kpa, pr.max_displacement_m * 1e3, 100 * pr.volume_change, pr.seconds_solve);
+  }
+  report::write_vtu(out / "stump.vtu", r.mesh, point_fields, {{"min_scaled_jacobian", 1, sj}});
+  report::write_png(out / "limb.png",
+                    report::render_limb_views(model.skin, model.bones, model.landmarks, model.frame,
+                                              fs::path(f.limb).filename().string() + ": landmarks",
+                                              model.bones_estimated));
+  geometry::write_mesh(out / "skin.stl", model.skin);
+  if (!model.bones.empty()) {
+    geometry::TriMesh all;
+    for (const auto& b : model.bones) {
+      const int off = all.num_vertices();
+      all.vertices.insert(all.vertices.end(), b.mesh.vertices.begin(), b.mesh.vertices.end());
+      for (auto t : b.mesh.triangles) all.triangles.push_back({t[0] + off, t[1] + off, t[2] + off});
+    }
+    geometry::write_mesh(out / (model.bones_estimated ? "bones_estimated.stl" : "bones.stl"), all);
+  }
+  {
+    const auto surf = volume::extract_skin_surface(r.mesh);
+    geometry::TriMesh tri = surf.triangles();
+    std::vector<double> area(surf.area_m2), nodeid(surf.nodes.begin(), surf.nodes.end());
+    report::write_vtp(out / "skin_surface.vtp", tri,
+                      {{"nodal_area_m2", 1, area}, report::make_vector_field("normal", surf.normal), {"node", 1, nodeid}});
+  }
+
+  const double tissue_ref = r.skin_volume_m3 - r.bone_volume_m3;
+  nlohmann::json lms = nlohmann::json::array();
+  for (const auto& l : model.landmarks) lms.push_back(landmark_json(l));
+  std::vector<std::string> bone_names;
+  for (const auto& b : model.bones) bone_names.push_back(b.name);
+  nlohmann::json j{
+      {"limb", f.limb},
+      {"type", geometry::to_string(model.type)},
+      {"nodes", r.mesh.num_nodes()},
+      {"hexahedra", r.mesh.num_hexahedra()},
+      {"target_nodes", f.target_nodes},
+      {"fixed_nodes", r.mesh.count_tag(volume::kNodeFixed)},
+      {"bone_nodes", r.mesh.count_tag(volume::kNodeBone)},
+      {"surface_nodes", r.mesh.count_tag(volume::kNodeSurface)},
+      {"proximal_nodes", r.mesh.count_tag(volume::kNodeProximal)},
+      {"cell_size_mm", r.cell_size_m * 1e3},
+      {"min_scaled_jacobian", r.quality.min_scaled_jacobian},
+      {"mean_scaled_jacobian", r.quality.mean_scaled_jacobian},
+      {"max_aspect_ratio", r.quality.max_aspect_ratio},
+      {"max_skin_distance_m", r.max_skin_distance_m},
+      {"max_face_deviation_m", r.max_face_deviation_m},
+      {"volume_m3", r.tissue_volume_m3},
+      {"skin_volume_m3", r.skin_volume_m3},
+      {"bone_volume_m3", r.bone_volume_m3},
+      {"tissue_volume_error", tissue_ref > 0 ? r.tissue_volume_m3 / tissue_ref - 1.0 : 0.0},
+      {"bones_estimated", model.bones_estimated},
+      {"bones", bone_names},
+      {"cut_height_mm", model.cut_height_m * 1e3},
+      {"frame",
+       {{"origin_mm", {model.frame.origin.x() * 1e3, model.frame.origin.y() * 1e3, model.frame.origin.z() * 1e3}},
+        {"axis", {model.frame.axis.x(), model.frame.axis.y(), model.frame.axis.z()}},
+        {"anterior", {model.frame.anterior.x(), model.frame.anterior.y(), model.frame.anterior.z()}},
+        {"anterior_estimated", model.frame.anterior_estimated},
+        {"side", geometry::to_string(model.frame.side)},
+        {"side_estimated", model.frame.side_estimated}}},
+      {"landmarks", lms},
+      {"mesh_seconds", r.seconds},
+      {"notes", model.notes},
+      {"outputs", {"stump.vtu", "skin_surface.vtp", "skin.stl", "limb.png", "mesh.json"}}};
+  for (const auto& n : r.notes) j["notes"].push_back(n);
+  if (!load_json.is_null()) j["load"] = load_json;
+  write_text_atomically(out / "mesh.json", j.dump(2) + "\n");
+  if (f.json) {
+    print_json(j);
+  } else {
+    log::info("mesh: {} nodes, {} hexahedra ({} fixed, {} on the skin), cell {:.1f} mm, {:.1f} s", r.mesh.num_nodes(),
+              r.mesh.num_hexahedra(), r.mesh.count_tag(volume::kNodeFixed), r.mesh.count_tag(volume::kNodeSurface),
+              r.cell_size_m * 1e3, r.seconds);
+    log::info("mesh: scaled Jacobian min {:.3f} mean {:.3f}, max aspect ratio {:.2f}, skin nodes within {:.3f} mm "
+              "of the skin, quad centres within {:.2f} mm",
+              r.quality.min_scaled_jacobian, r.quality.mean_scaled_jacobian, r.quality.max_aspect_ratio,
+              r.max_skin_distance_m * 1e3, r.max_face_deviation_m * 1e3);
+    log::info("mesh: tissue volume {:.1f} cm^3 vs skin - bones {:.1f} cm^3 ({:+.2f} %){}", r.tissue_volume_m3 * 1e6,
+              tissue_ref * 1e6, tissue_ref > 0 ? 100 * (r.tissue_volume_m3 / tissue_ref - 1.0) : 0.0,
+              model.bones_estimated ? "; bones ESTIMATED" : "");
+    log::info("mesh: wrote {}", (out / "stump.vtu").string());
+  }
+}
+
+}  // namespace
+
+void register_mesh(CLI::App& app) {
+  auto f = std::make_shared<MeshFlags>();
+  auto* cmd = app.add_subcommand("mesh", "hexahedral stump mesh from a limb surface (and bones)");
+  cmd->add_option("--limb", f->limb, "limb surface: STL/OBJ/PLY, may be open proximally, may hold bone shells")
+      ->required()
+      ->check(CLI::ExistingFile);
+  cmd->add_option("--bones", f->bones,
+                  "bones: FILE | auto (shells of the limb file, else estimated) | estimate | none");
+  cmd->add_option("--units", f->units, "length unit of the files: mm | m (default: guessed from the size)");
+  cmd->add_option("--scale", f->scale, "multiply coordinates after unit conversion (e.g. 0.45 for femur-normalised shapes)");
+  cmd->add_option("--type", f->type, "transtibial | transfemoral");
+  cmd->add_option("--anterior", f->anterior, "front of the limb as a direction x,y,z in the file's frame");
+  cmd->add_option("--side", f->side, "right | left");
+  cmd->add_option("--cut-height-mm", f->cut_height_mm, "proximal cut above the distal end (default: just below the open rim)");
+  cmd->add_option("--target-nodes", f->target_nodes, "aimed-at node count (e.g. 3000, 8000, 20000)");
+  cmd->add_option("--load-kpa", f->load_kpa, "also solve the MSS-CS stump under this uniform inward skin pressure");
+  add_model_flags(*cmd, f->model);
+  cmd->add_option("--out", f->out, "output directory")->required();
+  cmd->add_flag("--json", f->json, "print the summary as JSON on stdout");
+  cmd->callback([f] { run(*f); });
+}
+
+}  // namespace socketsmith::cli

@@ -1,0 +1,273 @@
+#include "socketsmith/geometry/limb_frame.h"
+
+#include <algorithm>
+#include <cctype>
+
+#include "socketsmith/core/errors.h"
+
+namespace socketsmith::geometry {
+
+namespace {
+std::string lower(std::string s) {
+  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::tolower(c); });
+  return s;
+}
+}  // namespace
+
+std::string to_string(LimbType type) {
+  return type == LimbType::Transtibial ? "transtibial" : "transfemoral";
+}
+
+LimbType parse_limb_type(const std::string& text) {
+  const std::string t = lower(text);
+  if (t == "transtibial" || t == "tt") return LimbType::Transtibial;
+  if (t == "transfemoral" || t == "tf") return LimbType::Transfemoral;
+  fail("limb type '{}' is not known (expected 'transtibial' or 'transfemoral')", text);
+}
+
+std::string to_string(Side side) { return side == Side::Right ? "right" : "left"; }
+
+Side parse_side(const std::string& text) {
+  const std::string t = lower(text);
+  if (t == "right" || t == "r") return Side::Right;
+  if (t == "left" || t == "l") return Side::Left;
+  fail("side '{}' is not known (expected 'right' or 'left')", text);
+}
+
+}  // namespace socketsmith::geometry
+
+// ---------------------------------------------------------------------------------------------
+// Slices, axis and anterior estimation.
+
+#include <Eigen/Eigenvalues>
+#include <map>
+
+namespace socketsmith::geometry {
+
+Slice slice_surface(const TriMesh& mesh, const Vec3& point, const Vec3& normal) {
+  Slice slice;
+  const Vec3 n = normal.normalized();
+  Vec3 first_moment = Vec3::Zero();
+  for (int t = 0; t < mesh.num_triangles(); ++t) {
+    const auto& tri = mesh.triangles[t];
+    std::array<double, 3> s{};
+    int above = 0;
+    for (int k = 0; k < 3; ++k) {
+      s[k] = n.dot(mesh.vertices[tri[k]] - point);
+      if (s[k] >= 0.0) ++above;
+    }
+    if (above == 0 || above == 3) continue;
+    std::array<Vec3, 2> pts;
+    int found = 0;
+    for (int k = 0; k < 3 && found < 2; ++k) {
+      const int a = k, b = (k + 1) % 3;
+      if ((s[a] >= 0.0) == (s[b] >= 0.0)) continue;
+      const double w = s[a] / (s[a] - s[b]);
+      pts[found++] = mesh.vertices[tri[a]] + w * (mesh.vertices[tri[b]] - mesh.vertices[tri[a]]);
+    }
+    if (found < 2) continue;
+    const Vec3 tangent = n.cross(triangle_normal(mesh, t));
+    if ((pts[1] - pts[0]).dot(tangent) < 0.0) std::swap(pts[0], pts[1]);
+    const double cross = (pts[0] - point).cross(pts[1] - point).dot(n);
+    slice.area += 0.5 * cross;
+    first_moment += cross * ((pts[0] - point) + (pts[1] - point));
+    slice.perimeter += (pts[1] - pts[0]).norm();
+    slice.segments.push_back(pts);
+  }
+  if (slice.area != 0.0) slice.centroid = point + first_moment / (6.0 * slice.area);
+  return slice;
+}
+
+namespace {
+
+/// Heights of the vertices along @p axis from @p origin.
+std::pair<double, double> height_range(const TriMesh& mesh, const Vec3& origin, const Vec3& axis) {
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  for (const auto& v : mesh.vertices) {
+    const double h = (v - origin).dot(axis);
+    lo = std::min(lo, h);
+    hi = std::max(hi, h);
+  }
+  return {lo, hi};
+}
+
+/// Vertices on boundary edges (edges used by one triangle).
+std::vector<int> boundary_vertices(const TriMesh& mesh) {
+  std::map<std::pair<int, int>, int> count;
+  for (const auto& t : mesh.triangles)
+    for (int k = 0; k < 3; ++k) {
+      const int a = t[k], b = t[(k + 1) % 3];
+      ++count[{std::min(a, b), std::max(a, b)}];
+    }
+  std::vector<int> out;
+  for (const auto& [e, c] : count)
+    if (c == 1) {
+      out.push_back(e.first);
+      out.push_back(e.second);
+    }
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
+Vec3 any_perpendicular(const Vec3& axis) {
+  const Vec3 trial = std::abs(axis.x()) < 0.9 ? Vec3::UnitX() : Vec3::UnitY();
+  return (trial - trial.dot(axis) * axis).normalized();
+}
+
+}  // namespace
+
+double lowest_open_boundary_height(const TriMesh& skin, const LimbFrame& frame) {
+  const auto bv = boundary_vertices(skin);
+  if (bv.empty()) return height_range(skin, frame.origin, frame.axis).second;
+  double lo = std::numeric_limits<double>::infinity();
+  for (int v : bv) lo = std::min(lo, (skin.vertices[v] - frame.origin).dot(frame.axis));
+  return lo;
+}
+
+void set_anterior(LimbFrame& frame, const Vec3& direction) {
+  const Vec3 d = direction - direction.dot(frame.axis) * frame.axis;
+  require(d.norm() > 0.05 * direction.norm() && direction.norm() > 0.0,
+          "anterior direction ({:.3g}, {:.3g}, {:.3g}) is (nearly) parallel to the limb axis "
+          "({:.3g}, {:.3g}, {:.3g}); give a direction pointing to the front of the limb",
+          direction.x(), direction.y(), direction.z(), frame.axis.x(), frame.axis.y(), frame.axis.z());
+  frame.anterior = d.normalized();
+}
+
+LimbFrame estimate_limb_axis(const TriMesh& skin) {
+  require(skin.num_triangles() >= 4, "limb surface has {} triangles (expected a scanned limb)",
+          skin.num_triangles());
+  // Area-weighted PCA of the triangle centroids.
+  double total = 0.0;
+  Vec3 mean = Vec3::Zero();
+  for (int t = 0; t < skin.num_triangles(); ++t) {
+    const auto& tri = skin.triangles[t];
+    const double a = triangle_area(skin, t);
+    mean += a * (skin.vertices[tri[0]] + skin.vertices[tri[1]] + skin.vertices[tri[2]]) / 3.0;
+    total += a;
+  }
+  require(total > 0.0, "limb surface has zero area");
+  mean /= total;
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (int t = 0; t < skin.num_triangles(); ++t) {
+    const auto& tri = skin.triangles[t];
+    const Vec3 c = (skin.vertices[tri[0]] + skin.vertices[tri[1]] + skin.vertices[tri[2]]) / 3.0 - mean;
+    cov += triangle_area(skin, t) * c * c.transpose();
+  }
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);
+  Vec3 axis = eig.eigenvectors().col(2).normalized();
+
+  // Elongation check in the PCA frame.
+  {
+    const auto [lo, hi] = height_range(skin, mean, axis);
+    double width = 0.0;
+    for (int c = 0; c < 2; ++c) {
+      const auto [a, b] = height_range(skin, mean, eig.eigenvectors().col(c).normalized());
+      width = std::max(width, b - a);
+    }
+    require(hi - lo >= 1.2 * width,
+            "the surface is {:.0f} mm long and {:.0f} mm wide: not elongated like a residual limb "
+            "(expected a length of at least 1.2 x the width); check that the file is a limb scan",
+            (hi - lo) * 1e3, width * 1e3);
+  }
+
+  // Orientation: proximal = side of the open boundary, else the wider end.
+  const auto bv = boundary_vertices(skin);
+  auto orient = [&](const Vec3& c, Vec3 a) {
+    const auto [lo, hi] = height_range(skin, c, a);
+    if (!bv.empty()) {
+      double hb = 0.0;
+      for (int v : bv) hb += (skin.vertices[v] - c).dot(a);
+      hb /= static_cast<double>(bv.size());
+      return hb >= 0.5 * (lo + hi) ? a : Vec3(-a);
+    }
+    const Slice s_lo = slice_surface(skin, c + (lo + 0.08 * (hi - lo)) * a, a);
+    const Slice s_hi = slice_surface(skin, c + (hi - 0.08 * (hi - lo)) * a, a);
+    return std::abs(s_lo.area) <= std::abs(s_hi.area) ? a : Vec3(-a);
+  };
+  axis = orient(mean, axis);
+  Vec3 centre = mean;
+
+  // Refinement: line through cross-section centroids.
+  for (int iter = 0; iter < 3; ++iter) {
+    LimbFrame tmp;
+    tmp.origin = centre;
+    tmp.axis = axis;
+    const auto [lo, hi_all] = height_range(skin, centre, axis);
+    const double hi = bv.empty() ? hi_all : lowest_open_boundary_height(skin, tmp);
+    std::vector<Vec3> cs;
+    for (int k = 0; k <= 12; ++k) {
+      const double h = lo + (0.2 + 0.6 * k / 12.0) * (hi - lo);
+      const Slice s = slice_surface(skin, centre + h * axis, axis);
+      if (s.area != 0.0) cs.push_back(s.centroid);
+    }
+    if (cs.size() < 3) break;
+    Vec3 m = Vec3::Zero();
+    for (const auto& c : cs) m += c;
+    m /= static_cast<double>(cs.size());
+    Eigen::Matrix3d cc = Eigen::Matrix3d::Zero();
+    for (const auto& c : cs) cc += (c - m) * (c - m).transpose();
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> e2(cc);
+    Vec3 a = e2.eigenvectors().col(2).normalized();
+    if (a.dot(axis) < 0.0) a = -a;
+    // Guard against a degenerate fit (centroids nearly coincident): keep the PCA axis.
+    if (e2.eigenvalues()(2) < 1e-12 || a.dot(axis) < std::cos(25.0 * 3.14159265358979 / 180.0)) break;
+    axis = a;
+    centre = m;
+  }
+
+  LimbFrame frame;
+  frame.axis = axis;
+  const auto [lo, hi] = height_range(skin, centre, axis);
+  frame.origin = centre + lo * axis;
+  frame.anterior = any_perpendicular(axis);
+  frame.anterior_estimated = true;
+  frame.side_estimated = true;
+
+  // A limb tapers to its distal end: the section near the end is clearly smaller than mid-limb.
+  const double top = lowest_open_boundary_height(skin, frame);
+  const Slice s_mid = slice_surface(skin, frame.on_axis(0.5 * top), axis);
+  const Slice s_end = slice_surface(skin, frame.on_axis(0.03 * top), axis);
+  require(s_mid.area != 0.0 && std::abs(s_end.area) < 0.75 * std::abs(s_mid.area),
+          "the surface does not taper to a rounded distal end (section area 3 % from the end is "
+          "{:.0f} % of mid-length): not a residual limb; check the file (a box or cylinder?)",
+          s_mid.area != 0.0 ? 100.0 * std::abs(s_end.area / s_mid.area) : 0.0);
+  (void)hi;
+  return frame;
+}
+
+Vec3 estimate_anterior_from_skin(const TriMesh& skin, const LimbFrame& frame) {
+  // The outline's third moment about the section centroid (its skewness) points to the
+  // postero-medial calf bulge; anterior is kSkewToAnterior from it, towards lateral.
+  const double top = lowest_open_boundary_height(skin, frame);
+  const Vec3 u = frame.anterior;
+  const Vec3 v = frame.axis.cross(u).normalized();
+  constexpr int kDirections = 360;
+  std::vector<double> skew(kDirections, 0.0);
+  for (int k = 0; k <= 8; ++k) {
+    const double h = (0.3 + 0.4 * k / 8.0) * top;
+    const Slice s = slice_surface(skin, frame.on_axis(h), frame.axis);
+    if (s.area == 0.0 || s.perimeter <= 0.0) continue;
+    const double scale = std::sqrt(std::abs(s.area));
+    for (int d = 0; d < kDirections; ++d) {
+      const double th = 2.0 * 3.14159265358979 * d / kDirections;
+      const Vec3 dir = std::cos(th) * u + std::sin(th) * v;
+      double m3 = 0.0;
+      for (const auto& seg : s.segments) {
+        const double len = (seg[1] - seg[0]).norm();
+        const double x = (0.5 * (seg[0] + seg[1]) - s.centroid).dot(dir) / scale;
+        m3 += len * x * x * x;
+      }
+      skew[d] += m3 / s.perimeter;
+    }
+  }
+  const int best = static_cast<int>(std::max_element(skew.begin(), skew.end()) - skew.begin());
+  const double th = 2.0 * 3.14159265358979 * best / kDirections;
+  const Vec3 d = std::cos(th) * u + std::sin(th) * v;
+  // theta grows by a right-hand turn about the axis for a right limb, left-hand for a left one.
+  constexpr double kSkewToAnterior = 120.0 * 3.14159265358979 / 180.0;
+  const double phi = (frame.side == Side::Right ? -1.0 : 1.0) * kSkewToAnterior;
+  return std::cos(phi) * d + std::sin(phi) * frame.axis.cross(d);
+}
+
+}  // namespace socketsmith::geometry

@@ -1,0 +1,57 @@
+#pragma once
+/// @file surface_query.h
+/// Fast geometric queries against a triangle surface: closest point, ray hits, inside test,
+/// signed distance. Backed by a CGAL AABB tree (CGAL stays inside the .cpp file).
+
+#include <memory>
+#include <optional>
+
+#include "socketsmith/geometry/tri_mesh.h"
+
+namespace socketsmith::geometry {
+
+/// A point on the surface.
+struct SurfaceHit {
+  Vec3 point = Vec3::Zero();  ///< position on the surface [m]
+  int triangle = -1;          ///< index of the triangle that holds it
+  double distance = 0.0;      ///< |query − point| for closest_point, |origin − point| = t·|direction| for ray hits
+};
+
+/// Spatial index of a triangle mesh (copied at construction; later edits of the source mesh are
+/// not seen). Queries are const and thread-safe.
+class SurfaceQuery {
+ public:
+  /// Degenerate (zero-area) triangles are left out of the index; they are never returned.
+  /// @throws InvalidInputError when @p mesh has no triangles, only degenerate ones, vertex indices
+  ///         out of range, or NaN/inf coordinates.
+  explicit SurfaceQuery(const TriMesh& mesh);
+  ~SurfaceQuery();
+  SurfaceQuery(SurfaceQuery&&) noexcept;
+  SurfaceQuery& operator=(SurfaceQuery&&) noexcept;
+  SurfaceQuery(const SurfaceQuery&) = delete;
+  SurfaceQuery& operator=(const SurfaceQuery&) = delete;
+
+  const TriMesh& mesh() const;
+
+  /// Closest point of the surface to @p p.
+  SurfaceHit closest_point(const Vec3& p) const;
+
+  /// First intersection of the ray origin + t·direction, t > 0 (direction need not be unit;
+  /// distance = t·|direction|). Triangles through the origin are ignored, so a ray cast from a
+  /// surface point finds the next surface. nullopt when the ray misses.
+  /// @throws InvalidInputError for a zero or non-finite direction.
+  std::optional<SurfaceHit> first_hit(const Vec3& origin, const Vec3& direction) const;
+
+  /// Inside test for a closed surface: parity of ray crossings, majority vote over three
+  /// non-axis-aligned rays (robust to rays that graze an edge or a vertex).
+  bool is_inside(const Vec3& p) const;
+
+  /// Distance to the surface, negative inside (closed surfaces only).
+  double signed_distance(const Vec3& p) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace socketsmith::geometry

@@ -1,0 +1,1096 @@
+#include "socketsmith/volume/shape_math.h"
+#include "socketsmith/volume/bone_template.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <functional>
+#include <limits>
+#include <utility>
+
+#include <Eigen/Dense>
+
+#include "socketsmith/core/errors.h"
+
+namespace socketsmith::volume {
+
+using geometry::LimbFrame;
+using geometry::TriMesh;
+using geometry::Vec3;
+using Eigen::Vector2d;
+
+namespace {
+
+using shape::kPi;
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+using shape::clamp01;
+using shape::gauss;
+using shape::lerp;
+using shape::smoothstep;
+using shape::wrap_angle;
+/// Polar radius of an ellipse with semi-axis @p semi_a along phi = 0 and @p semi_m along phi = pi/2.
+double ellipse_radius(double phi, double semi_a, double semi_m) {
+  const double c = std::cos(phi) / semi_a, s = std::sin(phi) / semi_m;
+  return 1.0 / std::sqrt(c * c + s * s);
+}
+
+void check_range(const char* field, double value, double lo, double hi) {
+  if (!std::isfinite(value) || value < lo || value > hi)
+    fail("BoneTemplateParams: {} = {} is out of range (expected {} to {})", field, value, lo, hi);
+}
+
+// ---------------------------------------------------------------------------------------------
+// A smooth centreline coordinate: least-squares polynomial (degree 1 or 2) in h over the control
+// heights, continued linearly (value and slope at the ends) outside them.
+class SmoothCurve {
+ public:
+  SmoothCurve() = default;
+  SmoothCurve(const std::vector<double>& h, const std::vector<double>& y, int degree = 2) {
+    SOCKETSMITH_ASSERT(h.size() == y.size() && h.size() >= 3);
+    h0_ = *std::min_element(h.begin(), h.end());
+    h1_ = *std::max_element(h.begin(), h.end());
+    hm_ = 0.5 * (h0_ + h1_);
+    Eigen::MatrixXd A(static_cast<Eigen::Index>(h.size()), 3);
+    Eigen::VectorXd b(static_cast<Eigen::Index>(h.size()));
+    for (std::size_t i = 0; i < h.size(); ++i) {
+      const double x = h[i] - hm_;
+      A.row(static_cast<Eigen::Index>(i)) << 1.0, x, degree >= 2 ? x * x : 0.0;
+      b(static_cast<Eigen::Index>(i)) = y[i];
+    }
+    c_ = A.colPivHouseholderQr().solve(b);
+    if (degree < 2) c_(2) = 0.0;
+  }
+  /// Moves the curve by dy.
+  void shift(double dy) { c_(0) += dy; }
+  double operator()(double h) const {
+    const double hc = std::clamp(h, h0_, h1_);
+    const double x = hc - hm_;
+    const double v = c_(0) + c_(1) * x + c_(2) * x * x;
+    const double slope = c_(1) + 2.0 * c_(2) * x;
+    return v + slope * (h - hc);
+  }
+
+ private:
+  double h0_ = 0, h1_ = 0, hm_ = 0;
+  Eigen::Vector3d c_ = Eigen::Vector3d::Zero();
+};
+
+// ---------------------------------------------------------------------------------------------
+// A bone as a generalised cylinder: centreline (a(h), m(h)), radius rho(phi, h) about it,
+// ellipsoidal caps, optional distal bevel (a shear h += bevel * (a - a_c) fading upwards).
+struct BoneShape {
+  std::string name;
+  double h_bottom = 0.0;    ///< apex of the distal cap [m]
+  double h_top = 0.0;       ///< apex of the proximal cap [m]
+  double cap_bottom = 0.005;
+  double cap_top = 0.005;
+  std::function<Vector2d(double)> centre;         ///< (a, m) at h [m]
+  std::function<double(double, double)> radius;   ///< rho(phi, h) [m]
+  double bevel = 0.0;
+  double bevel_fade_m = 0.02;
+  int columns = 48;
+  int rows = 40;
+};
+
+TriMesh mesh_bone(const BoneShape& b, const LimbFrame& frame, double shrink) {
+  const double s = shrink;
+  const double body_nominal = std::max(0.0, (b.h_top - b.cap_top) - (b.h_bottom + b.cap_bottom));
+  const double pull = (1.0 - s) * std::min(0.02, 0.25 * body_nominal);
+  const double cb = s * b.cap_bottom, ct = s * b.cap_top;
+  const double hb0 = b.h_bottom + b.cap_bottom + pull;
+  const double ht0 = std::max(hb0, b.h_top - b.cap_top - pull);
+  auto mean_radius = [&](double h) {
+    double sum = 0.0;
+    for (int j = 0; j < 16; ++j) sum += b.radius(2.0 * kPi * j / 16.0, h);
+    return s * sum / 16.0;
+  };
+  // Global meridian parameter g: [0,1] distal cap (pole → rim), [1,2] body, [2,3] proximal cap.
+  struct Eval {
+    double h, hr, fr;
+  };
+  auto eval = [&](double g) -> Eval {
+    if (g <= 1.0) {
+      const double psi = g * 0.5 * kPi;
+      return {hb0 - cb * std::cos(psi), hb0, std::sin(psi)};
+    }
+    if (g <= 2.0) {
+      const double h = lerp(hb0, ht0, g - 1.0);
+      return {h, h, 1.0};
+    }
+    const double psi = (3.0 - g) * 0.5 * kPi;
+    return {ht0 + ct * std::cos(psi), ht0, std::sin(psi)};
+  };
+  // Arc length of the mean meridian, then rings equally spaced along it.
+  const int fine = 600;
+  std::vector<double> gs, arc;
+  double r_prev = 0.0, h_prev = 0.0;
+  for (int seg = 0; seg < 3; ++seg)
+    for (int i = (seg == 0 ? 0 : 1); i <= fine; ++i) {
+      const double g = seg + static_cast<double>(i) / fine;
+      const Eval e = eval(g);
+      const double r = mean_radius(e.hr) * e.fr;
+      arc.push_back(gs.empty() ? 0.0 : arc.back() + std::hypot(e.h - h_prev, r - r_prev));
+      gs.push_back(g);
+      r_prev = r;
+      h_prev = e.h;
+    }
+  const double total = arc.back();
+  detail::RingStack stack;
+  const Vec3 medial = frame.medial();
+  auto world = [&](double a, double m, double h) -> Vec3 {
+    return frame.origin + h * frame.axis + a * frame.anterior + m * medial;
+  };
+  std::size_t k = 0;
+  for (int r = 1; r <= b.rows; ++r) {
+    const double target = total * r / (b.rows + 1.0);
+    while (k + 1 < arc.size() && arc[k + 1] < target) ++k;
+    const double t = (arc[k + 1] > arc[k]) ? (target - arc[k]) / (arc[k + 1] - arc[k]) : 0.0;
+    const double g = lerp(gs[k], gs[k + 1], clamp01(t));
+    const Eval e = eval(g);
+    const int n = std::clamp(static_cast<int>(std::ceil(b.columns * e.fr)), 6, b.columns);
+    const Vector2d c = b.centre(e.hr);
+    std::vector<Vec3> ring;
+    ring.reserve(static_cast<std::size_t>(n));
+    for (int j = 0; j < n; ++j) {
+      const double phi = 2.0 * kPi * j / n;
+      const double rho = s * b.radius(phi, e.hr) * e.fr;
+      const double a = c.x() + rho * std::cos(phi);
+      const double m = c.y() + rho * std::sin(phi);
+      double h = e.h;
+      if (b.bevel != 0.0) h += b.bevel * (a - c.x()) * (1.0 - smoothstep((e.h - hb0) / b.bevel_fade_m));
+      ring.push_back(world(a, m, h));
+    }
+    stack.rings.push_back(std::move(ring));
+  }
+  const Vector2d cb0 = b.centre(hb0), ct0 = b.centre(ht0);
+  stack.bottom_pole = world(cb0.x(), cb0.y(), hb0 - cb);
+  stack.top_pole = world(ct0.x(), ct0.y(), ht0 + ct);
+  stack.has_bottom_pole = stack.has_top_pole = true;
+  return detail::mesh_ring_stack(stack, detail::is_left_handed(frame));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Triangle index of a mesh for distance queries (uniform grid) and inside tests (parity of
+// horizontal rays, triangles bucketed in slabs along the frame axis).
+class TriangleIndex {
+ public:
+  TriangleIndex(const TriMesh& mesh, const LimbFrame& frame, double cell_m) : mesh_(mesh), frame_(frame), cell_(cell_m) {
+    box_ = geometry::bounding_box(mesh);
+    for (int d = 0; d < 3; ++d)
+      dims_[d] = std::max(1, static_cast<int>(std::ceil((box_.max[d] - box_.min[d]) / cell_)) + 1);
+    const std::size_t ncells = static_cast<std::size_t>(dims_[0]) * dims_[1] * dims_[2];
+    // Grid: counting pass then fill (CSR).
+    std::vector<int> count(ncells + 1, 0);
+    auto for_cells = [&](int t, const std::function<void(std::size_t)>& f) {
+      const auto& tri = mesh_.triangles[static_cast<std::size_t>(t)];
+      Vec3 lo = mesh_.vertices[tri[0]], hi = lo;
+      for (int q = 1; q < 3; ++q) {
+        lo = lo.cwiseMin(mesh_.vertices[tri[q]]);
+        hi = hi.cwiseMax(mesh_.vertices[tri[q]]);
+      }
+      const auto c0 = cell_of(lo), c1 = cell_of(hi);
+      for (int x = c0[0]; x <= c1[0]; ++x)
+        for (int y = c0[1]; y <= c1[1]; ++y)
+          for (int z = c0[2]; z <= c1[2]; ++z) f(flat(x, y, z));
+    };
+    for (int t = 0; t < mesh_.num_triangles(); ++t) for_cells(t, [&](std::size_t c) { ++count[c + 1]; });
+    for (std::size_t c = 0; c < ncells; ++c) count[c + 1] += count[c];
+    cell_start_ = count;
+    cell_tris_.resize(static_cast<std::size_t>(count[ncells]));
+    for (int t = 0; t < mesh_.num_triangles(); ++t)
+      for_cells(t, [&](std::size_t c) { cell_tris_[static_cast<std::size_t>(count[c]++)] = t; });
+    // Slabs along the axis.
+    double hmin = kInf, hmax = -kInf;
+    heights_.resize(mesh_.vertices.size());
+    for (std::size_t v = 0; v < mesh_.vertices.size(); ++v) {
+      heights_[v] = (mesh_.vertices[v] - frame_.origin).dot(frame_.axis);
+      hmin = std::min(hmin, heights_[v]);
+      hmax = std::max(hmax, heights_[v]);
+    }
+    slab_h0_ = hmin;
+    num_slabs_ = std::max(1, static_cast<int>(std::ceil((hmax - hmin) / cell_)) + 1);
+    std::vector<int> scount(static_cast<std::size_t>(num_slabs_) + 1, 0);
+    auto slab_range = [&](int t) {
+      const auto& tri = mesh_.triangles[static_cast<std::size_t>(t)];
+      double lo = heights_[tri[0]], hi = lo;
+      for (int q = 1; q < 3; ++q) {
+        lo = std::min(lo, heights_[tri[q]]);
+        hi = std::max(hi, heights_[tri[q]]);
+      }
+      return std::pair<int, int>{slab_of(lo), slab_of(hi)};
+    };
+    for (int t = 0; t < mesh_.num_triangles(); ++t) {
+      const auto [s0, s1] = slab_range(t);
+      for (int s = s0; s <= s1; ++s) ++scount[static_cast<std::size_t>(s) + 1];
+    }
+    for (int s = 0; s < num_slabs_; ++s) scount[static_cast<std::size_t>(s) + 1] += scount[static_cast<std::size_t>(s)];
+    slab_start_ = scount;
+    slab_tris_.resize(static_cast<std::size_t>(scount.back()));
+    for (int t = 0; t < mesh_.num_triangles(); ++t) {
+      const auto [s0, s1] = slab_range(t);
+      for (int s = s0; s <= s1; ++s) slab_tris_[static_cast<std::size_t>(scount[static_cast<std::size_t>(s)]++)] = t;
+    }
+  }
+
+  const geometry::Aabb& box() const { return box_; }
+
+  /// min(limit, distance from p to the mesh).
+  double distance(const Vec3& p, double limit) const {
+    const Vec3 lo = p - Vec3::Constant(limit), hi = p + Vec3::Constant(limit);
+    if ((hi.array() < box_.min.array()).any() || (lo.array() > box_.max.array()).any()) return limit;
+    const auto c0 = cell_of(lo), c1 = cell_of(hi);
+    double best2 = limit * limit;
+    for (int x = c0[0]; x <= c1[0]; ++x)
+      for (int y = c0[1]; y <= c1[1]; ++y)
+        for (int z = c0[2]; z <= c1[2]; ++z) {
+          const std::size_t c = flat(x, y, z);
+          for (int i = cell_start_[c]; i < cell_start_[c + 1]; ++i) {
+            const auto& tri = mesh_.triangles[static_cast<std::size_t>(cell_tris_[static_cast<std::size_t>(i)])];
+            const Vec3 q = detail::closest_point_on_triangle(p, mesh_.vertices[tri[0]], mesh_.vertices[tri[1]],
+                                                             mesh_.vertices[tri[2]]);
+            best2 = std::min(best2, (q - p).squaredNorm());
+          }
+        }
+    return std::sqrt(best2);
+  }
+
+  /// Inside test: parity of the crossings of three horizontal rays (majority vote).
+  bool inside(const Vec3& p) const {
+    if ((p.array() < box_.min.array()).any() || (p.array() > box_.max.array()).any()) return false;
+    const double h = (p - frame_.origin).dot(frame_.axis);
+    const int s = slab_of(h);
+    const Vec3 medial = frame_.medial();
+    int votes = 0;
+    for (const double angle : {0.3183, 2.4142, 4.2361}) {
+      const Vec3 dir = std::cos(angle) * frame_.anterior + std::sin(angle) * medial;
+      int hits = 0;
+      for (int i = slab_start_[static_cast<std::size_t>(s)]; i < slab_start_[static_cast<std::size_t>(s) + 1]; ++i) {
+        const auto& tri = mesh_.triangles[static_cast<std::size_t>(slab_tris_[static_cast<std::size_t>(i)])];
+        if (ray_hits(p, dir, mesh_.vertices[tri[0]], mesh_.vertices[tri[1]], mesh_.vertices[tri[2]])) ++hits;
+      }
+      votes += hits % 2;
+    }
+    return votes >= 2;
+  }
+
+ private:
+  std::array<int, 3> cell_of(const Vec3& p) const {
+    std::array<int, 3> c{};
+    for (int d = 0; d < 3; ++d)
+      c[static_cast<std::size_t>(d)] = std::clamp(static_cast<int>(std::floor((p[d] - box_.min[d]) / cell_)), 0, dims_[d] - 1);
+    return c;
+  }
+  std::size_t flat(int x, int y, int z) const {
+    return (static_cast<std::size_t>(z) * static_cast<std::size_t>(dims_[1]) + static_cast<std::size_t>(y)) *
+               static_cast<std::size_t>(dims_[0]) +
+           static_cast<std::size_t>(x);
+  }
+  int slab_of(double h) const { return std::clamp(static_cast<int>(std::floor((h - slab_h0_) / cell_)), 0, num_slabs_ - 1); }
+  /// Möller–Trumbore, hits with t > 0.
+  static bool ray_hits(const Vec3& o, const Vec3& d, const Vec3& a, const Vec3& b, const Vec3& c) {
+    const Vec3 e1 = b - a, e2 = c - a;
+    const Vec3 pv = d.cross(e2);
+    const double det = e1.dot(pv);
+    if (std::abs(det) < 1e-18) return false;
+    const double inv = 1.0 / det;
+    const Vec3 tv = o - a;
+    const double u = tv.dot(pv) * inv;
+    if (u < 0.0 || u > 1.0) return false;
+    const Vec3 qv = tv.cross(e1);
+    const double v = d.dot(qv) * inv;
+    if (v < 0.0 || u + v > 1.0) return false;
+    return e2.dot(qv) * inv > 0.0;
+  }
+
+  const TriMesh& mesh_;
+  LimbFrame frame_;
+  double cell_;
+  geometry::Aabb box_;
+  int dims_[3] = {1, 1, 1};
+  std::vector<int> cell_start_, cell_tris_;
+  std::vector<double> heights_;
+  double slab_h0_ = 0.0;
+  int num_slabs_ = 1;
+  std::vector<int> slab_start_, slab_tris_;
+};
+
+// ---------------------------------------------------------------------------------------------
+// Template bones.
+
+std::string bone_name(const char* base, const BonePlacement& placement) { return std::string(base) + placement.name_suffix; }
+
+std::vector<BoneShape> transtibial_shapes(const SkinRadii& skin, const BoneTemplateParams& p, const BonePlacement& pl) {
+  const double H = pl.knee_height_m, T = skin.top_m, B = skin.bottom_m;
+  auto S = [&](double theta, double h) { return skin.radius(theta, h); };
+  auto mid_ml = [&](double h) { return 0.5 * (S(0.5 * kPi, h) - S(-0.5 * kPi, h)); };
+  require(H > B + 0.05 && H <= T + 1e-9,
+          "build_bone_template: knee height {:.1f} mm is outside the skin (expected {:.1f} to {:.1f} mm above the "
+          "frame origin)",
+          H * 1e3, (B + 0.05) * 1e3, T * 1e3);
+  // Short stumps: the cut comes down to keep 40 mm of tibia, but stays 12 mm above the skin end.
+  const double h_end = std::min(B + p.tibia_end_height_m, H - 0.04);
+  require(h_end >= B + 0.012,
+          "build_bone_template: the knee at {:.1f} mm leaves no room for 40 mm of tibia 12 mm above the distal end "
+          "(expected a knee height of at least 52 mm)",
+          (H - B) * 1e3);
+  std::vector<BoneShape> shapes;
+
+  // Tibia.
+  const double W = p.tibia_plateau_width_m, D = p.tibia_plateau_depth_m;
+  const double tib_top = std::min(H, T - 0.006);
+  const double shaft_ref = H - 0.07;
+  auto tibia_radius = [=](double phi, double h) {
+    const double u = smoothstep((h - (H - 0.075)) / 0.062);
+    const double ts = clamp01((h - h_end) / std::max(1e-3, shaft_ref - h_end));
+    const double rs = lerp(p.tibia_distal_radius_m, p.tibia_shaft_radius_m, ts);
+    const double shaft = rs * (1.0 + 0.13 * std::cos(3.0 * phi));
+    const double plateau = ellipse_radius(phi, 0.5 * D, 0.5 * W) * (1.0 - 0.10 * gauss(wrap_angle(phi - kPi), 0.3));
+    return lerp(shaft, plateau, u);
+  };
+  auto tuberosity = [=](double phi, double h) { return 0.0045 * gauss(wrap_angle(phi), 0.35) * gauss(h - (H - 0.03), 0.010); };
+  const double crest_top = std::max(p.crest_tissue_m, 0.024);
+  auto crest_tissue = [=](double h) { return lerp(p.crest_tissue_m, crest_top, smoothstep((h - (H - 0.045)) / 0.04)); };
+  std::vector<double> hs, as, ms;
+  for (int i = 0; i <= 6; ++i) {
+    const double h = lerp(h_end + 0.015, tib_top - 0.005, i / 6.0);
+    hs.push_back(h);
+    as.push_back(S(0.0, h) - crest_tissue(h) - tibia_radius(0.0, h));
+    ms.push_back(mid_ml(h) + p.tibia_medial_shift_m);
+  }
+  // A straight tibia: the least-squares line, moved back so that no control height has less
+  // crest tissue than asked for.
+  SmoothCurve tib_a(hs, as, 1);
+  const SmoothCurve tib_m(hs, ms, 1);
+  double excess = 0.0;
+  for (std::size_t i = 0; i < hs.size(); ++i) excess = std::max(excess, tib_a(hs[i]) - as[i]);
+  tib_a.shift(-excess);
+  auto tib_centre = [=](double h) { return Vector2d(tib_a(h), tib_m(h)); };
+  BoneShape tibia;
+  tibia.name = bone_name("tibia", pl);
+  tibia.h_bottom = h_end;
+  tibia.h_top = tib_top;
+  tibia.cap_bottom = 0.006;
+  tibia.cap_top = 0.006;
+  tibia.centre = tib_centre;
+  tibia.radius = [=](double phi, double h) { return tibia_radius(phi, h) + tuberosity(phi, h); };
+  tibia.bevel = p.tibia_bevel;
+  tibia.columns = 48;
+  tibia.rows = 44;
+  shapes.push_back(tibia);
+
+  // Fibula: postero-lateral of the tibia, head just below the lateral condyle. Omitted when the
+  // residual tibia is too short to keep any fibula (as surgeons do on very short stumps).
+  const double f_end = h_end + p.fibula_shortening_m;
+  const double f_top = std::min(H - 0.016, T - 0.01);
+  if (f_top - f_end >= 0.03) {
+    const double rh = p.fibula_head_radius_m, rf = p.fibula_shaft_radius_m, phi_f = p.fibula_angle_rad;
+    auto fib_mean = [=](double h) {
+      return rf * lerp(0.85, 1.0, clamp01((h - f_end) / (f_top - f_end))) +
+             (rh - rf) * smoothstep((h - (f_top - 0.05)) / 0.028);
+    };
+    // In each plane section the fibula circle slides out from the tibia centre along one direction
+    // near phi_f; it must stay 3 mm from the tibia section (preferably the anatomical gap) and
+    // 6 mm (radially) inside the skin section. The direction closest to phi_f (within ±12°) where
+    // the nominal fibula fits at every height is used, else the roomiest one, with the fibula
+    // narrowed where it does not fit (at most to half size; the clearance fit shrinks further).
+    constexpr int kSection = 72;
+    struct Level {
+      double h, rout;
+      Vector2d ct;
+      std::array<Vector2d, kSection> tibia;
+    };
+    std::vector<Level> levels;
+    for (int i = 0; i <= 9; ++i) {
+      Level l;
+      l.h = lerp(f_end + 0.008, f_top - 0.006, i / 9.0);
+      l.ct = tib_centre(l.h);
+      l.rout = 1.08 * fib_mean(l.h);
+      for (int j = 0; j < kSection; ++j) {
+        const double phi = 2.0 * kPi * j / kSection;
+        l.tibia[static_cast<std::size_t>(j)] = l.ct + tibia.radius(phi, l.h) * Vector2d(std::cos(phi), std::sin(phi));
+      }
+      levels.push_back(l);
+    }
+    auto tibia_distance = [&](const Level& l, const Vector2d& q) {
+      double best = kInf;
+      for (int j = 0; j < kSection; ++j) {
+        const Vector2d& a0 = l.tibia[static_cast<std::size_t>(j)];
+        const Vector2d& a1 = l.tibia[static_cast<std::size_t>((j + 1) % kSection)];
+        const Vector2d e = a1 - a0;
+        const double t = std::clamp((q - a0).dot(e) / e.squaredNorm(), 0.0, 1.0);
+        best = std::min(best, (a0 + t * e - q).norm());
+      }
+      return best;
+    };
+    auto tissue = [&](const Level& l, const Vector2d& q, double r) {
+      double best = kInf;
+      for (int j = 0; j < 24; ++j) {
+        const double phi = 2.0 * kPi * j / 24;
+        const Vector2d x = q + r * Vector2d(std::cos(phi), std::sin(phi));
+        best = std::min(best, S(std::atan2(x.y(), x.x()), l.h) - x.norm());
+      }
+      return best;
+    };
+    // Along a ray the tibia distance grows and the tissue shrinks with the distance d.
+    auto bisect = [](const std::function<bool(double)>& ok_below, double lo, double hi) {
+      for (int it = 0; it < 40; ++it) {
+        const double mid = 0.5 * (lo + hi);
+        (ok_below(mid) ? lo : hi) = mid;
+      }
+      return lo;
+    };
+    struct Fit {
+      double d_min, d_max;
+    };
+    auto fit_along = [&](const Level& l, const Vector2d& dir, double r) {
+      return Fit{bisect([&](double d) { return tibia_distance(l, l.ct + d * dir) < 0.003 + r; }, 0.0, 0.2),
+                 bisect([&](double d) { return tissue(l, l.ct + d * dir, r) >= 0.006; }, 0.0, 0.2)};
+    };
+    auto direction = [&](int step) {
+      const double phi = phi_f + step * 4.0 * kPi / 180.0;
+      return Vector2d(std::cos(phi), std::sin(phi));
+    };
+    double best_slack = -kInf;
+    Vector2d dir = direction(0);
+    for (const int step : {0, 1, -1, 2, -2, 3, -3}) {
+      double slack = kInf;
+      for (const Level& l : levels) {
+        const Fit f = fit_along(l, direction(step), l.rout);
+        slack = std::min(slack, f.d_max - f.d_min);
+      }
+      if (slack > best_slack) {
+        best_slack = slack;
+        dir = direction(step);
+      }
+      if (best_slack >= 0.0) break;
+    }
+    std::vector<double> fh, fa, fm, fk;
+    for (const Level& l : levels) {
+      double r = l.rout;
+      Fit f = fit_along(l, dir, r);
+      if (f.d_max < f.d_min) {
+        r = bisect([&](double rr) { const Fit g = fit_along(l, dir, rr); return g.d_max >= g.d_min; }, 0.5 * l.rout, l.rout);
+        f = fit_along(l, dir, r);
+      }
+      const double gap_pref = lerp(0.010, 0.003, smoothstep((l.h - (f_top - 0.06)) / 0.04));
+      const double d_pref = bisect([&](double d) { return tibia_distance(l, l.ct + d * dir) < gap_pref + r; }, 0.0, 0.2);
+      const double d = std::clamp(d_pref, f.d_min, std::max(f.d_min, f.d_max));
+      fh.push_back(l.h);
+      fa.push_back(l.ct.x() + d * dir.x());
+      fm.push_back(l.ct.y() + d * dir.y());
+      fk.push_back(r / l.rout);
+    }
+    const detail::Pchip fib_a(fh, fa), fib_m(fh, fm), fib_k(fh, fk);
+    BoneShape fibula;
+    fibula.name = bone_name("fibula", pl);
+    fibula.h_bottom = f_end;
+    fibula.h_top = f_top;
+    fibula.cap_bottom = 0.004;
+    fibula.cap_top = std::min(0.009, 0.8 * rh);
+    fibula.centre = [=](double h) { return Vector2d(fib_a(h), fib_m(h)); };
+    fibula.radius = [=](double phi, double h) {
+      return std::clamp(fib_k(h), 0.5, 1.0) * fib_mean(h) * (1.0 + 0.08 * std::cos(3.0 * phi));
+    };
+    fibula.columns = 28;
+    fibula.rows = 48;
+    shapes.push_back(fibula);
+  }
+
+  // Patella and distal femur, when the skin extends above the joint line.
+  const bool has_femur = T - H >= 0.035;
+  const bool has_patella = T - H >= 0.012 + p.patella_height_m + 0.008;
+  Vector2d patella_centre(0.0, 0.0);
+  const double hp0 = H + 0.012, hp1 = hp0 + p.patella_height_m;
+  if (has_patella) {
+    const double hpc = 0.5 * (hp0 + hp1);
+    patella_centre = Vector2d(S(0.0, hpc) - p.patella_tissue_m - 0.5 * p.patella_thickness_m, mid_ml(hpc));
+    BoneShape patella;
+    patella.name = bone_name("patella", pl);
+    patella.h_bottom = hp0;
+    patella.h_top = hp1;
+    patella.cap_bottom = 0.55 * p.patella_height_m;  // the inferior pole (apex) is the pointed end
+    patella.cap_top = 0.45 * p.patella_height_m;
+    patella.centre = [=](double) { return patella_centre; };
+    patella.radius = [=](double phi, double) {
+      return ellipse_radius(phi, 0.5 * p.patella_thickness_m, 0.5 * p.patella_width_m);
+    };
+    patella.columns = 44;
+    patella.rows = 34;
+    shapes.push_back(patella);
+  }
+  if (has_femur) {
+    const double fem_bottom = H + 0.004, fem_top = T - 0.008;
+    const double Wf = p.femur_condyle_width_m, Df = p.femur_condyle_depth_m, rfs = p.femur_shaft_radius_m;
+    auto femur_radius = [=](double phi, double h) {
+      const double u = smoothstep((h - (H + 0.035)) / 0.045);
+      const double condyles = ellipse_radius(phi, 0.5 * Df, 0.5 * Wf) * (1.0 - 0.22 * gauss(wrap_angle(phi - kPi), 0.25)) *
+                              (1.0 - 0.06 * gauss(wrap_angle(phi), 0.3));
+      const double shaft = rfs * (1.0 + 0.08 * gauss(wrap_angle(phi - kPi), 0.3));
+      return lerp(condyles, shaft, u);
+    };
+    double a_f = tib_a(H) - 0.002;
+    if (has_patella)
+      for (int i = 0; i <= 8; ++i) {
+        const double h = lerp(hp0, hp1, i / 8.0);
+        a_f = std::min(a_f, patella_centre.x() - 0.5 * p.patella_thickness_m - 0.004 - femur_radius(0.0, h));
+      }
+    const Vector2d femur_centre(a_f, mid_ml(H + 0.03) + 0.002);
+    BoneShape femur;
+    femur.name = bone_name("femur", pl);
+    femur.h_bottom = fem_bottom;
+    femur.h_top = fem_top;
+    femur.cap_bottom = std::min(0.014, 0.5 * (fem_top - fem_bottom));
+    femur.cap_top = std::min(0.006, 0.25 * (fem_top - fem_bottom));
+    femur.centre = [=](double) { return femur_centre; };
+    femur.radius = femur_radius;
+    femur.columns = 48;
+    femur.rows = 32;
+    shapes.push_back(femur);
+  }
+  return shapes;
+}
+
+std::vector<BoneShape> transfemoral_shapes(const SkinRadii& skin, const BoneTemplateParams& p, const BonePlacement& pl) {
+  const double T = skin.top_m, B = skin.bottom_m;
+  auto S = [&](double theta, double h) { return skin.radius(theta, h); };
+  // Short stumps: the cut comes down to keep 50 mm of femur, but stays 15 mm above the skin end.
+  const double top = T - 0.008;
+  const double h_end = std::min(B + p.femur_end_height_m, top - 0.05);
+  require(h_end >= B + 0.015,
+          "build_bone_template: the skin is {:.1f} mm long, too short for 50 mm of femur 15 mm above the distal end "
+          "(expected at least 73 mm)",
+          (T - B) * 1e3);
+  const double rfs = p.femur_shaft_radius_m;
+  auto mean = [=](double h) { return rfs * (1.0 + 0.35 * smoothstep((h - (T - 0.07)) / 0.06)); };
+  std::vector<double> hs, as, ms;
+  for (int i = 0; i <= 6; ++i) {
+    const double h = lerp(h_end + 0.01, top - 0.01, i / 6.0);
+    const double lat = lerp(0.5 * p.femur_lateral_fraction, p.femur_lateral_fraction, clamp01((h - h_end) / (top - h_end)));
+    hs.push_back(h);
+    as.push_back(p.femur_anterior_fraction * S(0.0, h));
+    ms.push_back(0.5 * (S(0.5 * kPi, h) - S(-0.5 * kPi, h)) - lat * S(-0.5 * kPi, h));
+  }
+  const SmoothCurve fa(hs, as), fm(hs, ms);
+  BoneShape femur;
+  femur.name = bone_name("femur", pl);
+  femur.h_bottom = h_end;
+  femur.h_top = top;
+  femur.cap_bottom = 0.008;
+  femur.cap_top = 0.008;
+  femur.centre = [=](double h) { return Vector2d(fa(h), fm(h)); };
+  femur.radius = [=](double phi, double h) { return mean(h) * (1.0 + 0.10 * gauss(wrap_angle(phi - kPi), 0.25)); };
+  femur.columns = 40;
+  femur.rows = 60;
+  return {femur};
+}
+
+/// Clearances of each bone: to the skin (vertex–triangle both ways, plus inside tests) and to
+/// the other bones, as the smallest values found, capped at the limits. Queries use each bone's
+/// running minimum as their radius, so the exact minimum costs little more than a pass/fail check.
+struct ClearanceReport {
+  std::vector<double> skin;   ///< per bone: smallest skin distance (negative: a vertex outside the skin)
+  std::vector<double> gap;    ///< per bone: smallest distance to another bone (negative: interpenetration)
+  std::vector<double> skin_h; ///< per bone: height of the closest approach to the skin
+  std::vector<int> partner;   ///< per bone: the bone it comes closest to (-1: none within the limit)
+};
+
+ClearanceReport measure_clearances(const TriMesh& skin, const TriangleIndex& skin_index, const std::vector<NamedMesh>& bones,
+                                   const LimbFrame& frame, double skin_limit, double gap_limit) {
+  const std::size_t nb = bones.size();
+  ClearanceReport rep{std::vector<double>(nb, skin_limit), std::vector<double>(nb, gap_limit), std::vector<double>(nb, 0.0),
+                      std::vector<int>(nb, -1)};
+  std::vector<TriangleIndex> indices;
+  indices.reserve(nb);
+  for (const auto& b : bones) indices.emplace_back(b.mesh, frame, 0.006);
+  for (std::size_t i = 0; i < nb; ++i) {
+    const TriMesh& m = bones[i].mesh;
+    double& best = rep.skin[i];
+    auto note = [&](double d, const Vec3& p) {
+      if (d < best) {
+        best = d;
+        rep.skin_h[i] = (p - frame.origin).dot(frame.axis);
+      }
+    };
+    // Both surfaces have edges shorter than twice the clearance, so a crossing would bring a
+    // vertex within it; a sparse inside test then decides the side.
+    for (std::size_t v = 0; v < m.vertices.size(); ++v) {
+      const Vec3& p = m.vertices[v];
+      if (v % 16 == 0 && !skin_index.inside(p)) note(-std::max(skin_index.distance(p, 0.05), 1e-9), p);
+      if (best > 0.0) note(skin_index.distance(p, best), p);
+    }
+    const auto& box = indices[i].box();
+    for (const Vec3& p : skin.vertices) {
+      if (best <= 0.0) break;
+      if ((p.array() < box.min.array() - best).any() || (p.array() > box.max.array() + best).any()) continue;
+      note(indices[i].distance(p, best), p);
+    }
+    for (std::size_t j = 0; j < nb; ++j) {
+      if (j == i) continue;
+      const auto& bj = indices[j].box();
+      double& gap = rep.gap[i];
+      for (std::size_t v = 0; v < m.vertices.size(); ++v) {
+        const Vec3& p = m.vertices[v];
+        const double lim = std::max(gap, 0.0);
+        if ((p.array() < bj.min.array() - lim).any() || (p.array() > bj.max.array() + lim).any()) continue;
+        double d = gap > 0.0 ? indices[j].distance(p, gap) : gap;
+        if (v % 8 == 0 && indices[j].inside(p)) d = -std::max(indices[j].distance(p, 0.05), 1e-9);
+        if (d < gap) {
+          gap = d;
+          rep.partner[i] = static_cast<int>(j);
+        }
+      }
+    }
+  }
+  return rep;
+}
+
+std::vector<BoneShape> template_shapes(const SkinRadii& skin, const BoneTemplateParams& params, const BonePlacement& placement) {
+  validate(params);
+  require(placement.shrink > 0.0 && placement.shrink <= 1.0,
+          "build_bone_template: shrink = {} is out of range (expected (0, 1])", placement.shrink);
+  require(skin.num_heights >= 2 && skin.num_angles >= 8 && skin.top_m > skin.bottom_m,
+          "build_bone_template: the skin radii are empty (measure them with measure_skin_radii)");
+  return placement.type == geometry::LimbType::Transtibial ? transtibial_shapes(skin, params, placement)
+                                                           : transfemoral_shapes(skin, params, placement);
+}
+
+}  // namespace
+
+// -------------------------------------------------------------------------------------------------
+// SkinRadii
+
+double SkinRadii::radius(double theta, double h) const {
+  require(num_heights >= 2 && num_angles >= 3 &&
+              radius_m.size() == static_cast<std::size_t>(num_heights) * static_cast<std::size_t>(num_angles),
+          "SkinRadii::radius: the table is empty or inconsistent ({} heights × {} angles, {} values; measure it with "
+          "measure_skin_radii)",
+          num_heights, num_angles, radius_m.size());
+  const double th = std::fmod(theta, 2.0 * kPi) + (theta < 0 ? 2.0 * kPi : 0.0);
+  const double u = th / (2.0 * kPi) * num_angles;
+  int j0 = static_cast<int>(std::floor(u));
+  const double tu = u - j0;
+  j0 = ((j0 % num_angles) + num_angles) % num_angles;
+  const int j1 = (j0 + 1) % num_angles;
+  const double v = clamp01((h - h_lo_m) / (h_hi_m - h_lo_m)) * (num_heights - 1);
+  const int k0 = std::min(static_cast<int>(std::floor(v)), num_heights - 2);
+  const double tv = v - k0;
+  auto at = [&](int k, int j) { return radius_m[static_cast<std::size_t>(k) * static_cast<std::size_t>(num_angles) + static_cast<std::size_t>(j)]; };
+  return lerp(lerp(at(k0, j0), at(k0, j1), tu), lerp(at(k0 + 1, j0), at(k0 + 1, j1), tu), tv);
+}
+
+double SkinRadii::width_ml(double h) const { return radius(0.5 * kPi, h) + radius(-0.5 * kPi, h); }
+
+SkinRadii measure_skin_radii(const TriMesh& skin, const LimbFrame& frame, int num_heights, int num_angles) {
+  require(!skin.empty(), "measure_skin_radii: the skin has no triangles (expected a closed limb surface)");
+  require(num_heights >= 2 && num_angles >= 8, "measure_skin_radii: {} heights × {} angles (expected at least 2 × 8)",
+          num_heights, num_angles);
+  const int nv = skin.num_vertices();
+  std::vector<double> hv(static_cast<std::size_t>(nv)), av(hv.size()), mv(hv.size());
+  const Vec3 medial = frame.medial();
+  double bottom = kInf, top_closed = -kInf;
+  for (int v = 0; v < nv; ++v) {
+    const Vec3& p = skin.vertices[static_cast<std::size_t>(v)];
+    require(p.allFinite(), "measure_skin_radii: skin vertex {} has a non-finite coordinate", v);
+    const Vec3 d = p - frame.origin;
+    hv[static_cast<std::size_t>(v)] = d.dot(frame.axis);
+    av[static_cast<std::size_t>(v)] = d.dot(frame.anterior);
+    mv[static_cast<std::size_t>(v)] = d.dot(medial);
+    bottom = std::min(bottom, hv[static_cast<std::size_t>(v)]);
+    top_closed = std::max(top_closed, hv[static_cast<std::size_t>(v)]);
+  }
+  // Boundary edges (used once): the proximal end of an open skin.
+  std::vector<std::uint64_t> edges;
+  edges.reserve(static_cast<std::size_t>(3 * skin.num_triangles()));
+  for (const auto& t : skin.triangles)
+    for (int e = 0; e < 3; ++e) {
+      const int a = t[static_cast<std::size_t>(e)], b = t[static_cast<std::size_t>((e + 1) % 3)];
+      require(a >= 0 && a < nv && b >= 0 && b < nv, "measure_skin_radii: a triangle refers to vertex {} of {}",
+              std::max(a, b), nv);
+      edges.push_back((static_cast<std::uint64_t>(std::min(a, b)) << 32) | static_cast<std::uint64_t>(std::max(a, b)));
+    }
+  std::sort(edges.begin(), edges.end());
+  double boundary_low = kInf;
+  for (std::size_t i = 0; i < edges.size();) {
+    std::size_t j = i;
+    while (j < edges.size() && edges[j] == edges[i]) ++j;
+    if (j - i == 1) {
+      boundary_low = std::min({boundary_low, hv[static_cast<std::size_t>(edges[i] >> 32)],
+                               hv[static_cast<std::size_t>(edges[i] & 0xffffffffu)]});
+    }
+    i = j;
+  }
+  const double length = top_closed - bottom;
+  require(length > 0.02, "measure_skin_radii: the skin is {:.1f} mm long along the axis (expected a limb, > 20 mm)",
+          length * 1e3);
+  require(boundary_low == kInf || boundary_low >= bottom + 0.5 * length,
+          "measure_skin_radii: the skin is open at h = {:.1f} mm, in its distal half (expected a closed surface, or "
+          "one open only at its proximal cut)",
+          (boundary_low - bottom) * 1e3);
+  SkinRadii r;
+  r.bottom_m = bottom;
+  r.top_m = std::min(top_closed, boundary_low);
+  r.h_lo_m = bottom + std::min(0.002, 0.05 * (r.top_m - bottom));
+  r.h_hi_m = r.top_m - std::min(0.002, 0.05 * (r.top_m - bottom));
+  r.num_heights = num_heights;
+  r.num_angles = num_angles;
+  r.radius_m.assign(static_cast<std::size_t>(num_heights) * static_cast<std::size_t>(num_angles), -1.0);
+  std::vector<double> ca(static_cast<std::size_t>(num_angles)), sa(ca.size());
+  for (int j = 0; j < num_angles; ++j) {
+    ca[static_cast<std::size_t>(j)] = std::cos(2.0 * kPi * j / num_angles);
+    sa[static_cast<std::size_t>(j)] = std::sin(2.0 * kPi * j / num_angles);
+  }
+  std::vector<std::array<Vector2d, 2>> segments;
+  bool any = false;
+  for (int k = 0; k < num_heights; ++k) {
+    const double h = lerp(r.h_lo_m, r.h_hi_m, static_cast<double>(k) / (num_heights - 1));
+    // Plane section: one segment per triangle crossing h (vertices at h count as above).
+    segments.clear();
+    for (const auto& t : skin.triangles) {
+      Vector2d pts[2];
+      int n = 0;
+      for (int e = 0; e < 3 && n < 2; ++e) {
+        const auto i0 = static_cast<std::size_t>(t[static_cast<std::size_t>(e)]);
+        const auto i1 = static_cast<std::size_t>(t[static_cast<std::size_t>((e + 1) % 3)]);
+        const bool above0 = hv[i0] >= h, above1 = hv[i1] >= h;
+        if (above0 == above1) continue;
+        const double s = (h - hv[i0]) / (hv[i1] - hv[i0]);
+        pts[n++] = Vector2d(lerp(av[i0], av[i1], s), lerp(mv[i0], mv[i1], s));
+      }
+      if (n == 2) segments.push_back({pts[0], pts[1]});
+    }
+    for (int j = 0; j < num_angles; ++j) {
+      const Vector2d d(ca[static_cast<std::size_t>(j)], sa[static_cast<std::size_t>(j)]);
+      double best = kInf;
+      for (const auto& sg : segments) {
+        const Vector2d e = sg[1] - sg[0];
+        const double den = d.x() * e.y() - d.y() * e.x();
+        if (std::abs(den) < 1e-18) continue;
+        // Solve t d = p0 + u e.
+        const double t = (sg[0].x() * e.y() - sg[0].y() * e.x()) / den;
+        const double u = (sg[0].x() * d.y() - sg[0].y() * d.x()) / den;
+        // A ray through a shared endpoint must hit one of its two segments despite rounding.
+        if (t > 0.0 && u >= -1e-9 && u <= 1.0 + 1e-9) best = std::min(best, t);
+      }
+      if (best < kInf) {
+        r.radius_m[static_cast<std::size_t>(k) * static_cast<std::size_t>(num_angles) + static_cast<std::size_t>(j)] = best;
+        any = true;
+      }
+    }
+  }
+  require(any, "measure_skin_radii: no ray from the limb axis meets the skin (is the frame placed on this limb?)");
+  // Fill the misses: nearest hit in the same row, then nearest complete row.
+  std::vector<bool> row_ok(static_cast<std::size_t>(num_heights), false);
+  for (int k = 0; k < num_heights; ++k) {
+    double* row = &r.radius_m[static_cast<std::size_t>(k) * static_cast<std::size_t>(num_angles)];
+    std::vector<double> orig(row, row + num_angles);
+    bool has = false;
+    for (int j = 0; j < num_angles; ++j) has = has || orig[static_cast<std::size_t>(j)] > 0;
+    if (!has) continue;
+    row_ok[static_cast<std::size_t>(k)] = true;
+    for (int j = 0; j < num_angles; ++j) {
+      if (orig[static_cast<std::size_t>(j)] > 0) continue;
+      for (int off = 1; off <= num_angles / 2; ++off) {
+        const double l = orig[static_cast<std::size_t>((j - off + num_angles) % num_angles)];
+        const double rr = orig[static_cast<std::size_t>((j + off) % num_angles)];
+        if (l > 0 || rr > 0) {
+          row[j] = (l > 0 && rr > 0) ? 0.5 * (l + rr) : std::max(l, rr);
+          break;
+        }
+      }
+    }
+  }
+  for (int k = 0; k < num_heights; ++k) {
+    if (row_ok[static_cast<std::size_t>(k)]) continue;
+    for (int off = 1; off < num_heights; ++off) {
+      int src = -1;
+      if (k - off >= 0 && row_ok[static_cast<std::size_t>(k - off)]) src = k - off;
+      else if (k + off < num_heights && row_ok[static_cast<std::size_t>(k + off)]) src = k + off;
+      if (src < 0) continue;
+      std::copy_n(&r.radius_m[static_cast<std::size_t>(src) * static_cast<std::size_t>(num_angles)], num_angles,
+                  &r.radius_m[static_cast<std::size_t>(k) * static_cast<std::size_t>(num_angles)]);
+      break;
+    }
+  }
+  return r;
+}
+
+// -------------------------------------------------------------------------------------------------
+// Template
+
+void validate(const BoneTemplateParams& p) {
+  check_range("tibia_plateau_width_m", p.tibia_plateau_width_m, 0.05, 0.10);
+  check_range("tibia_plateau_depth_m", p.tibia_plateau_depth_m, 0.035, 0.07);
+  check_range("tibia_shaft_radius_m", p.tibia_shaft_radius_m, 0.012, 0.026);
+  check_range("tibia_distal_radius_m", p.tibia_distal_radius_m, 0.008, 0.02);
+  check_range("tibia_end_height_m", p.tibia_end_height_m, 0.012, 0.06);
+  check_range("tibia_bevel", p.tibia_bevel, 0.0, 0.8);
+  check_range("crest_tissue_m", p.crest_tissue_m, 0.005, 0.03);
+  check_range("tibia_medial_shift_m", p.tibia_medial_shift_m, -0.01, 0.01);
+  check_range("fibula_head_radius_m", p.fibula_head_radius_m, 0.007, 0.016);
+  check_range("fibula_shaft_radius_m", p.fibula_shaft_radius_m, 0.003, 0.01);
+  check_range("fibula_shortening_m", p.fibula_shortening_m, 0.01, 0.06);
+  check_range("fibula_angle_rad", p.fibula_angle_rad, -2.8, -1.6);
+  check_range("femur_condyle_width_m", p.femur_condyle_width_m, 0.055, 0.105);
+  check_range("femur_condyle_depth_m", p.femur_condyle_depth_m, 0.04, 0.075);
+  check_range("patella_width_m", p.patella_width_m, 0.03, 0.055);
+  check_range("patella_height_m", p.patella_height_m, 0.03, 0.055);
+  check_range("patella_thickness_m", p.patella_thickness_m, 0.014, 0.026);
+  check_range("patella_tissue_m", p.patella_tissue_m, 0.004, 0.02);
+  check_range("femur_shaft_radius_m", p.femur_shaft_radius_m, 0.009, 0.02);
+  check_range("femur_end_height_m", p.femur_end_height_m, 0.02, 0.09);
+  check_range("femur_lateral_fraction", p.femur_lateral_fraction, 0.0, 0.45);
+  check_range("femur_anterior_fraction", p.femur_anterior_fraction, -0.2, 0.35);
+}
+
+BoneTemplateParams scaled_bone_sizes(const BoneTemplateParams& params, double factor) {
+  require(std::isfinite(factor) && factor > 0.0, "scaled_bone_sizes: factor = {} (expected > 0)", factor);
+  BoneTemplateParams p = params;
+  auto scale = [&](double& v, double lo, double hi) { v = std::clamp(v * factor, lo, hi); };
+  scale(p.tibia_plateau_width_m, 0.05, 0.10);
+  scale(p.tibia_plateau_depth_m, 0.035, 0.07);
+  scale(p.tibia_shaft_radius_m, 0.012, 0.026);
+  scale(p.tibia_distal_radius_m, 0.008, 0.02);
+  scale(p.fibula_head_radius_m, 0.007, 0.016);
+  scale(p.fibula_shaft_radius_m, 0.003, 0.01);
+  scale(p.femur_condyle_width_m, 0.055, 0.105);
+  scale(p.femur_condyle_depth_m, 0.04, 0.075);
+  scale(p.patella_width_m, 0.03, 0.055);
+  scale(p.patella_height_m, 0.03, 0.055);
+  scale(p.patella_thickness_m, 0.014, 0.026);
+  scale(p.femur_shaft_radius_m, 0.009, 0.02);
+  return p;
+}
+
+std::vector<NamedMesh> build_bone_template(const SkinRadii& skin, const LimbFrame& frame, const BoneTemplateParams& params,
+                                           const BonePlacement& placement) {
+  const auto shapes = template_shapes(skin, params, placement);
+  std::vector<NamedMesh> bones;
+  bones.reserve(shapes.size());
+  for (const auto& s : shapes) bones.push_back({s.name, mesh_bone(s, frame, placement.shrink)});
+  return bones;
+}
+
+BoneFitResult fit_bone_template(const TriMesh& skin, const SkinRadii& radii, const LimbFrame& frame,
+                                const BoneTemplateParams& params, const BonePlacement& placement, double min_clearance_m) {
+  require(min_clearance_m >= 0.0 && min_clearance_m < 0.03,
+          "fit_bone_template: min_clearance_m = {} is out of range (expected 0 to 0.03 m)", min_clearance_m);
+  // Vertex–triangle distances miss edge–edge closest pairs by a fraction of a millimetre on these
+  // smooth shells: keep a margin so that the true surface distances honour the clearances.
+  const double need_skin = min_clearance_m + 0.0005, need_gap = kMinBoneGap_m + 0.0005;
+  const TriangleIndex skin_index(skin, frame, 0.006);
+  const auto shapes = template_shapes(radii, params, placement);
+  const std::size_t nb = shapes.size();
+  std::vector<double> shrink(nb, placement.shrink);
+  std::vector<NamedMesh> bones(nb);
+  std::vector<bool> dirty(nb, true);
+  std::vector<double> volume(nb, 0.0);
+  ClearanceReport last;
+  for (int iter = 0; iter < 40; ++iter) {
+    for (std::size_t i = 0; i < nb; ++i)
+      if (dirty[i]) {
+        bones[i] = {shapes[i].name, mesh_bone(shapes[i], frame, shrink[i])};
+        if (iter == 0) volume[i] = geometry::signed_volume(bones[i].mesh);
+      }
+    last = measure_clearances(skin, skin_index, bones, frame, need_skin, need_gap);
+    // Too close to the skin: shrink that bone; too close to another bone: shrink the smaller one.
+    std::fill(dirty.begin(), dirty.end(), false);
+    for (std::size_t i = 0; i < nb; ++i) {
+      if (last.skin[i] < need_skin) dirty[i] = true;
+      if (last.gap[i] < need_gap) {
+        const int j = last.partner[i];
+        dirty[j >= 0 && volume[static_cast<std::size_t>(j)] < volume[i] ? static_cast<std::size_t>(j) : i] = true;
+      }
+    }
+    bool ok = true, stuck = false;
+    for (std::size_t i = 0; i < nb; ++i) {
+      if (!dirty[i]) continue;
+      ok = false;
+      shrink[i] *= 0.93;
+      stuck = stuck || shrink[i] < 0.25;
+    }
+    if (ok) {
+      const ClearanceReport full = measure_clearances(skin, skin_index, bones, frame, 0.02, 0.02);
+      BoneFitResult result;
+      result.shrink = shrink;
+      result.min_skin_clearance_m = *std::min_element(full.skin.begin(), full.skin.end());
+      result.min_bone_gap_m = nb > 1 ? *std::min_element(full.gap.begin(), full.gap.end()) : kInf;
+      result.bones = std::move(bones);
+      return result;
+    }
+    if (stuck) break;
+  }
+  for (std::size_t i = 0; i < nb; ++i) {
+    if (last.skin[i] < need_skin)
+      fail("fit_bone_template: the {} does not fit inside the skin with {:.1f} mm of tissue even shrunk to {:.0f} % "
+           "(closest at h = {:.0f} mm): the skin is too thin there, or the frame does not match it",
+           shapes[i].name, min_clearance_m * 1e3, shrink[i] / 0.93 * 100.0, last.skin_h[i] * 1e3);
+    if (last.gap[i] < need_gap)
+      fail("fit_bone_template: the {} cannot be kept {:.1f} mm from the other bones even shrunk to {:.0f} % (the skin "
+           "is too narrow for the template)",
+           shapes[i].name, kMinBoneGap_m * 1e3, shrink[i] / 0.93 * 100.0);
+  }
+  fail<Error>("fit_bone_template: no shrink factor fits the bones (internal limit of 40 steps reached)");
+}
+
+double estimate_knee_height(const SkinRadii& skin) {
+  const double length = skin.top_m - skin.bottom_m;
+  return skin.top_m - std::clamp(0.32 * length, 0.03, 0.10);
+}
+
+std::vector<NamedMesh> estimate_bones(const TriMesh& closed_skin, const LimbFrame& frame, geometry::LimbType type,
+                                      const BoneEstimateOptions& options) {
+  require(std::abs(frame.axis.norm() - 1.0) < 1e-6 && std::abs(frame.anterior.norm() - 1.0) < 1e-6 &&
+              std::abs(frame.axis.dot(frame.anterior)) < 1e-6,
+          "estimate_bones: the limb frame is not orthonormal (|axis| = {}, |anterior| = {}, axis·anterior = {})",
+          frame.axis.norm(), frame.anterior.norm(), frame.axis.dot(frame.anterior));
+  const SkinRadii radii = measure_skin_radii(closed_skin, frame);
+  const double length = radii.top_m - radii.bottom_m;
+  BoneTemplateParams p;
+  BonePlacement pl;
+  pl.type = type;
+  pl.name_suffix = " (estimated)";
+  if (type == geometry::LimbType::Transtibial) {
+    const double knee = options.knee_height_m > 0.0 ? options.knee_height_m : estimate_knee_height(radii);
+    require(knee > radii.bottom_m + 0.05 && knee <= radii.top_m + 1e-9,
+            "estimate_bones: knee height {:.1f} mm is outside the skin ({:.1f} to {:.1f} mm along the axis)", knee * 1e3,
+            (radii.bottom_m + 0.05) * 1e3, radii.top_m * 1e3);
+    pl.knee_height_m = knee;
+    // Bone size follows the knee width (69 % of the skin's medio-lateral width at the joint line).
+    p = scaled_bone_sizes(p, std::clamp(0.69 * radii.width_ml(knee), 0.055, 0.095) / p.tibia_plateau_width_m);
+    p.tibia_end_height_m = std::clamp(0.17 * (knee - radii.bottom_m), 0.015, 0.04);
+  } else {
+    p.femur_end_height_m = std::clamp(0.16 * length, 0.025, 0.07);
+  }
+  BoneFitResult fit = fit_bone_template(closed_skin, radii, frame, p, pl, options.min_clearance_m);
+  return std::move(fit.bones);
+}
+
+// -------------------------------------------------------------------------------------------------
+// detail
+
+namespace detail {
+
+Pchip::Pchip(std::vector<double> x, std::vector<double> y) : x_(std::move(x)), y_(std::move(y)), d_(x_.size(), 0.0) {
+  const std::size_t n = x_.size();
+  require(n >= 2 && y_.size() == n, "Pchip: {} knots and {} values (expected at least 2 of each, as many)", n, y_.size());
+  std::vector<double> h(n - 1), delta(n - 1);
+  for (std::size_t k = 0; k + 1 < n; ++k) {
+    h[k] = x_[k + 1] - x_[k];
+    require(h[k] > 0.0, "Pchip: knots must increase strictly (x[{}] = {}, x[{}] = {})", k, x_[k], k + 1, x_[k + 1]);
+    delta[k] = (y_[k + 1] - y_[k]) / h[k];
+  }
+  if (n == 2) {
+    d_[0] = d_[1] = delta[0];
+    return;
+  }
+  for (std::size_t k = 1; k + 1 < n; ++k) {
+    if (delta[k - 1] * delta[k] <= 0.0) continue;
+    const double w1 = 2.0 * h[k] + h[k - 1], w2 = h[k] + 2.0 * h[k - 1];
+    d_[k] = (w1 + w2) / (w1 / delta[k - 1] + w2 / delta[k]);
+  }
+  auto end_slope = [](double h0, double h1, double m0, double m1) {
+    double d = ((2.0 * h0 + h1) * m0 - h0 * m1) / (h0 + h1);
+    if (d * m0 <= 0.0) d = 0.0;
+    else if (m0 * m1 <= 0.0 && std::abs(d) > 3.0 * std::abs(m0)) d = 3.0 * m0;
+    return d;
+  };
+  d_[0] = end_slope(h[0], h[1], delta[0], delta[1]);
+  d_[n - 1] = end_slope(h[n - 2], h[n - 3], delta[n - 2], delta[n - 3]);
+}
+
+double Pchip::operator()(double x) const {
+  const std::size_t n = x_.size();
+  if (x <= x_[0]) return y_[0] + d_[0] * (x - x_[0]);
+  if (x >= x_[n - 1]) return y_[n - 1] + d_[n - 1] * (x - x_[n - 1]);
+  const std::size_t k = static_cast<std::size_t>(std::upper_bound(x_.begin(), x_.end(), x) - x_.begin()) - 1;
+  const double h = x_[k + 1] - x_[k], t = (x - x_[k]) / h;
+  const double t2 = t * t, t3 = t2 * t;
+  return (2 * t3 - 3 * t2 + 1) * y_[k] + (t3 - 2 * t2 + t) * h * d_[k] + (-2 * t3 + 3 * t2) * y_[k + 1] +
+         (t3 - t2) * h * d_[k + 1];
+}
+
+bool is_left_handed(const LimbFrame& frame) { return frame.anterior.cross(frame.medial()).dot(frame.axis) < 0.0; }
+
+TriMesh mesh_ring_stack(const RingStack& stack, bool flip, std::vector<int>* band_first_triangle) {
+  TriMesh mesh;
+  std::vector<int> first;  // first vertex index of each ring
+  if (stack.has_bottom_pole) mesh.vertices.push_back(stack.bottom_pole);
+  for (const auto& ring : stack.rings) {
+    SOCKETSMITH_ASSERT(ring.size() >= 3);
+    first.push_back(mesh.num_vertices());
+    mesh.vertices.insert(mesh.vertices.end(), ring.begin(), ring.end());
+  }
+  const int top = mesh.num_vertices();
+  if (stack.has_top_pole) mesh.vertices.push_back(stack.top_pole);
+  auto tri = [&](int a, int b, int c) { mesh.triangles.push_back(flip ? std::array<int, 3>{a, c, b} : std::array<int, 3>{a, b, c}); };
+  if (band_first_triangle) band_first_triangle->clear();
+  if (stack.has_bottom_pole && !stack.rings.empty()) {
+    const int n = static_cast<int>(stack.rings.front().size());
+    for (int j = 0; j < n; ++j) tri(0, first[0] + (j + 1) % n, first[0] + j);
+  }
+  for (std::size_t k = 0; k + 1 < stack.rings.size(); ++k) {
+    if (band_first_triangle) band_first_triangle->push_back(mesh.num_triangles());
+    const int na = static_cast<int>(stack.rings[k].size()), nb = static_cast<int>(stack.rings[k + 1].size());
+    const int a0 = first[k], b0 = first[k + 1];
+    int i = 0, j = 0;
+    while (i < na || j < nb) {
+      // Advance on A when its next vertex comes first in angle (ties: A first).
+      const bool advance_a = j == nb || (i < na && static_cast<double>(i + 1) / na <= static_cast<double>(j + 1) / nb);
+      if (advance_a) {
+        tri(a0 + i, a0 + (i + 1) % na, b0 + j % nb);
+        ++i;
+      } else {
+        tri(a0 + i % na, b0 + (j + 1) % nb, b0 + j);
+        ++j;
+      }
+    }
+  }
+  if (band_first_triangle) band_first_triangle->push_back(mesh.num_triangles());
+  if (stack.has_top_pole && !stack.rings.empty()) {
+    const int n = static_cast<int>(stack.rings.back().size());
+    const int b0 = first.back();
+    for (int j = 0; j < n; ++j) tri(b0 + j, b0 + (j + 1) % n, top);
+  }
+  return mesh;
+}
+
+Vec3 closest_point_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
+  const Vec3 ab = b - a, ac = c - a, ap = p - a;
+  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
+  if (d1 <= 0.0 && d2 <= 0.0) return a;
+  const Vec3 bp = p - b;
+  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
+  if (d3 >= 0.0 && d4 <= d3) return b;
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) return a + (d1 / (d1 - d3)) * ab;
+  const Vec3 cp = p - c;
+  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
+  if (d6 >= 0.0 && d5 <= d6) return c;
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) return a + (d2 / (d2 - d6)) * ac;
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0) return b + ((d4 - d3) / ((d4 - d3) + (d5 - d6))) * (c - b);
+  const double denom = 1.0 / (va + vb + vc);
+  return a + ab * (vb * denom) + ac * (vc * denom);
+}
+
+Vec3 closest_point_on_mesh(const TriMesh& mesh, const Vec3& p) {
+  require(!mesh.empty(), "closest_point_on_mesh: the mesh has no triangles");
+  Vec3 best = mesh.vertices[static_cast<std::size_t>(mesh.triangles[0][0])];
+  double best2 = kInf;
+  for (const auto& t : mesh.triangles) {
+    const Vec3 q = closest_point_on_triangle(p, mesh.vertices[t[0]], mesh.vertices[t[1]], mesh.vertices[t[2]]);
+    const double d2 = (q - p).squaredNorm();
+    if (d2 < best2) {
+      best2 = d2;
+      best = q;
+    }
+  }
+  return best;
+}
+
+}  // namespace detail
+
+}  // namespace socketsmith::volume

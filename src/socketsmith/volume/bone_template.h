@@ -1,0 +1,212 @@
+#pragma once
+/// @file bone_template.h
+/// Anatomical bone template of a residual limb, placed from skin measurements.
+///
+/// The same shape functions make the "true" bones of the parametric limb generator
+/// (limb_generator.h) and the bones estimated from a scanned skin (estimate_bones): a scan has no
+/// bones, so they are placed from what the skin tells — its length along the axis, the radii of
+/// its cross-sections measured by rays from the axis, and the knee joint line.
+///
+/// Each bone is a generalised cylinder in the limb frame (see geometry/limb_frame.h): a
+/// centreline (a(h), m(h)) in the anterior/medial plane, a cross-section radius rho(phi, h)
+/// about it (phi from anterior towards medial, like theta) and rounded ellipsoidal end caps,
+/// optionally bevelled (sheared) at the distal end. Meshes are closed, manifold, outward and free
+/// of self-intersections by construction (rings in increasing height, each star-shaped about
+/// the centreline). Sizes are in metres.
+///
+/// Transtibial template: residual tibia (plateau at the joint line tapering into a rounded
+/// triangular shaft with its crest anterior, tuberosity, bevelled distal cut), fibula
+/// (postero-lateral, head below the lateral condyle, shorter than the tibia), and — when the skin
+/// extends above the joint line — the distal femur (condyles with the intercondylar notch) and
+/// the patella. Transfemoral: the residual femur (anterior-lateral of the centre, widening
+/// towards the trochanters, rounded cut).
+
+#include <string>
+#include <vector>
+
+#include "socketsmith/geometry/limb_frame.h"
+#include "socketsmith/geometry/tri_mesh.h"
+
+namespace socketsmith::volume {
+
+/// A closed surface with a name (a bone, the skin), as the shells of a multi-shell STL.
+struct NamedMesh {
+  std::string name;        ///< e.g. "tibia", "fibula (estimated)"
+  geometry::TriMesh mesh;  ///< closed, outward, metres
+};
+
+/// Smallest soft-tissue thickness kept between a bone and the skin [m].
+inline constexpr double kMinBoneClearance_m = 0.003;
+/// Smallest gap kept between two bones (joint spaces, interosseous space) [m].
+inline constexpr double kMinBoneGap_m = 0.0015;
+
+/// Radius of the skin measured from the limb axis, r(theta, h), on a regular grid: heights
+/// h_k = h_lo_m + k (h_hi_m - h_lo_m) / (num_heights - 1), angles theta_j = 2 pi j / num_angles.
+/// Each sample is the distance from the axis to the nearest skin crossing of the ray at angle
+/// theta in the plane h = h_k (the plane section of the skin triangles).
+struct SkinRadii {
+  double bottom_m = 0.0;  ///< lowest skin height (the distal end) [m]
+  double top_m = 0.0;     ///< proximal end: the lowest point of the open boundary, or the top of a closed skin [m]
+  double h_lo_m = 0.0;    ///< first sampled height [m]
+  double h_hi_m = 0.0;    ///< last sampled height [m]
+  int num_heights = 0;
+  int num_angles = 0;
+  std::vector<double> radius_m;  ///< num_heights × num_angles, row-major by height [m]
+
+  /// Bilinear interpolation, periodic in theta, clamped to [h_lo_m, h_hi_m] in h [m].
+  /// @throws InvalidInputError on an empty or inconsistent table.
+  double radius(double theta, double h) const;
+  /// Medio-lateral width r(+pi/2) + r(-pi/2) at height h [m].
+  double width_ml(double h) const;
+};
+
+/// Measures SkinRadii of @p skin in @p frame (num_heights × num_angles rays).
+/// Rays that miss (the axis outside a section) take the value of the nearest ray that hits.
+/// @pre skin is closed, or open only at its proximal end; frame is orthonormal.
+/// @throws InvalidInputError when the skin is empty, has non-finite coordinates, or no ray hits.
+SkinRadii measure_skin_radii(const geometry::TriMesh& skin, const geometry::LimbFrame& frame,
+                             int num_heights = 64, int num_angles = 72);
+
+/// Sizes and placement rules of the template [m, rad]. Defaults are adult means (OpenLimb mean
+/// transtibial limb; anatomy texts). Heights are measured from the distal end of the skin.
+struct BoneTemplateParams {
+  // Transtibial: tibia.
+  double tibia_plateau_width_m = 0.076;   ///< medio-lateral width of the plateau, [0.05, 0.10]
+  double tibia_plateau_depth_m = 0.050;   ///< antero-posterior depth of the plateau, [0.035, 0.07]
+  double tibia_shaft_radius_m = 0.019;    ///< mean shaft radius 70 mm below the joint line, [0.012, 0.026]
+  double tibia_distal_radius_m = 0.0125;  ///< mean radius at the distal cut, [0.008, 0.02]
+  double tibia_end_height_m = 0.025;      ///< distal cut of the tibia above the distal skin end, [0.012, 0.06]
+  double tibia_bevel = 0.45;              ///< anterior bevel of the cut (shear dh/da), [0, 0.8]
+  double crest_tissue_m = 0.008;          ///< soft tissue over the mid-shaft tibial crest, [0.005, 0.03]
+  double tibia_medial_shift_m = 0.003;    ///< tibia centre medial of the mid-width of the skin, [-0.01, 0.01]
+  // Transtibial: fibula.
+  double fibula_head_radius_m = 0.0115;   ///< radius of the fibular head, [0.007, 0.016]
+  double fibula_shaft_radius_m = 0.006;   ///< radius of the fibular shaft, [0.003, 0.01]
+  double fibula_shortening_m = 0.030;     ///< the fibula ends this much above the tibia, [0.01, 0.06]
+  double fibula_angle_rad = -2.18;        ///< direction of the fibula from the tibia centre (−125°: postero-lateral), [-2.8, -1.6]
+  // Transtibial: distal femur and patella (only when the skin extends above the joint line).
+  double femur_condyle_width_m = 0.080;   ///< medio-lateral width of the femoral condyles, [0.055, 0.105]
+  double femur_condyle_depth_m = 0.056;   ///< antero-posterior depth of the condyles, [0.04, 0.075]
+  double patella_width_m = 0.042;         ///< [0.03, 0.055]
+  double patella_height_m = 0.042;        ///< [0.03, 0.055]
+  double patella_thickness_m = 0.020;     ///< [0.014, 0.026]
+  double patella_tissue_m = 0.007;        ///< skin to patella in front of it, [0.004, 0.02]
+  // Femur shaft (both types) and the transfemoral residual femur.
+  double femur_shaft_radius_m = 0.014;    ///< mean femoral shaft radius, [0.009, 0.02]
+  double femur_end_height_m = 0.045;      ///< transfemoral: femur cut above the distal skin end, [0.02, 0.09]
+  double femur_lateral_fraction = 0.25;   ///< transfemoral: proximal femur centre lateral of the axis, as a fraction of the lateral skin radius, [0, 0.45]
+  double femur_anterior_fraction = 0.12;  ///< transfemoral: femur centre anterior of the axis, fraction of the anterior skin radius, [-0.2, 0.35]
+};
+
+/// Throws InvalidInputError naming the first field of @p params outside its documented range.
+void validate(const BoneTemplateParams& params);
+
+/// @p params with every bone size (plateau, condyles, shaft and head radii, patella) multiplied
+/// by @p factor; heights, tissue thicknesses, fractions and angles unchanged. Sizes are clamped to
+/// their documented ranges.
+BoneTemplateParams scaled_bone_sizes(const BoneTemplateParams& params, double factor);
+
+/// Where the template goes in the limb.
+struct BonePlacement {
+  geometry::LimbType type = geometry::LimbType::Transtibial;
+  double knee_height_m = 0.15;  ///< transtibial knee joint line (frame height) [m]; unused for transfemoral
+  double shrink = 1.0;          ///< (0, 1]: bone radii and caps scaled about the centrelines, ends pulled in
+  std::string name_suffix;      ///< appended to every bone name, e.g. " (estimated)"
+};
+
+/// Builds the template bones in @p frame, placed from @p skin. Transtibial: tibia (its cut
+/// lowered when needed to keep 40 mm of tibia, but at least 12 mm above the distal end), fibula
+/// (omitted when less than 30 mm of it would remain), and femur (when the skin reaches ≥ 35 mm
+/// above the joint line) and patella (≥ 12 mm + its height + 8 mm); transfemoral: femur (its cut
+/// lowered when needed to keep 50 mm of femur). Does not check clearances: see fit_bone_template.
+/// @throws InvalidInputError on invalid params or a placement outside the skin's height range.
+std::vector<NamedMesh> build_bone_template(const SkinRadii& skin, const geometry::LimbFrame& frame,
+                                           const BoneTemplateParams& params, const BonePlacement& placement);
+
+/// Result of fit_bone_template.
+struct BoneFitResult {
+  std::vector<NamedMesh> bones;
+  std::vector<double> shrink;          ///< shrink factor finally used for each bone
+  double min_skin_clearance_m = 0.0;   ///< smallest skin–bone distance (vertex–triangle, both ways), capped at 20 mm
+  double min_bone_gap_m = 0.0;         ///< smallest bone–bone distance, capped at 20 mm (+inf with one bone)
+};
+
+/// Builds the template and shrinks the offending bones (factor 0.93 per step, each bone on its
+/// own) until every bone lies inside @p skin with at least @p min_clearance_m of tissue and the
+/// bones are at least kMinBoneGap_m apart. @p placement.shrink is the starting factor.
+/// @throws InvalidInputError when no shrink factor ≥ 0.25 satisfies the clearances (a skin too
+///         thin for the bones), naming the bone and the height.
+BoneFitResult fit_bone_template(const geometry::TriMesh& skin, const SkinRadii& radii,
+                                const geometry::LimbFrame& frame, const BoneTemplateParams& params,
+                                const BonePlacement& placement, double min_clearance_m = kMinBoneClearance_m);
+
+/// Knee joint line of a transtibial skin estimated from its length alone: the proximal
+/// 32 % of the measured length (clamped to 30–100 mm) is taken to lie above the joint line, as
+/// in typical transtibial scans which include the knee up to the distal thigh [m].
+double estimate_knee_height(const SkinRadii& skin);
+
+/// Options of estimate_bones.
+struct BoneEstimateOptions {
+  double knee_height_m = -1.0;                    ///< > 0: the known joint line height; otherwise estimated
+  double min_clearance_m = kMinBoneClearance_m;   ///< soft tissue kept between skin and bones [m]
+};
+
+/// Estimates the bones of a residual limb from its skin alone: the anatomical template scaled to
+/// the skin (plateau width 69 % of the medio-lateral skin width at the knee line, tibia cut at
+/// 17 % of the residual length above the distal end; transfemoral femur cut at 16 % of the
+/// length) and fitted inside it with at least min_clearance_m of tissue. Bones are named
+/// "tibia (estimated)", "fibula (estimated)", "femur (estimated)", "patella (estimated)".
+/// @param closed_skin the skin, closed (or open only at its proximal cut), outward, metres.
+/// @param frame its limb frame (axis, anterior, side).
+/// @throws InvalidInputError on an empty or non-finite skin, a skin open away from its proximal
+///         end, or a skin too thin to hold the bones.
+std::vector<NamedMesh> estimate_bones(const geometry::TriMesh& closed_skin, const geometry::LimbFrame& frame,
+                                      geometry::LimbType type, const BoneEstimateOptions& options = {});
+
+namespace detail {
+
+/// Closed loops of vertices ("rings") stacked along a limb frame from the distal to the proximal
+/// end. Each ring is ordered by increasing angle about the axis (from anterior towards medial)
+/// and starts at angle 0; consecutive rings may have different vertex counts.
+struct RingStack {
+  std::vector<std::vector<geometry::Vec3>> rings;
+  bool has_bottom_pole = false;  ///< close the first ring with a fan to bottom_pole
+  geometry::Vec3 bottom_pole = geometry::Vec3::Zero();
+  bool has_top_pole = false;     ///< close the last ring with a fan to top_pole
+  geometry::Vec3 top_pole = geometry::Vec3::Zero();
+};
+
+/// Triangulates a RingStack: fans at the poles and, between consecutive rings, a zipper that
+/// advances on the ring whose next vertex has the smaller angle (n_k + n_(k+1) triangles).
+/// Vertices: bottom pole (if any), rings in order, top pole (if any). Triangles are outward for a
+/// right-handed (anterior, medial, axis) frame; pass @p flip = true for a left-handed one.
+/// @param band_first_triangle if not null, receives for each ring k the index of the first
+///        triangle of the band between ring k and ring k + 1 (the last entry: the top fan).
+geometry::TriMesh mesh_ring_stack(const RingStack& stack, bool flip, std::vector<int>* band_first_triangle = nullptr);
+
+/// Monotone piecewise-cubic Hermite interpolation (Fritsch–Carlson, as scipy's PCHIP) through
+/// knots with strictly increasing x, continued linearly (end value and slope) outside them.
+class Pchip {
+ public:
+  /// @pre x.size() == y.size() >= 2, x strictly increasing.
+  Pchip(std::vector<double> x, std::vector<double> y);
+  double operator()(double x) const;
+
+ private:
+  std::vector<double> x_, y_, d_;
+};
+
+/// True when (anterior, medial, axis) is left-handed, as for a left limb: meshes built with
+/// angles from anterior towards medial must then be flipped to stay outward.
+bool is_left_handed(const geometry::LimbFrame& frame);
+
+/// Closest point to @p p on the triangle (a, b, c) (Ericson, Real-Time Collision Detection 5.1.5).
+geometry::Vec3 closest_point_on_triangle(const geometry::Vec3& p, const geometry::Vec3& a, const geometry::Vec3& b,
+                                         const geometry::Vec3& c);
+
+/// Closest point to @p p on @p mesh, by brute force over its triangles (for a few queries).
+geometry::Vec3 closest_point_on_mesh(const geometry::TriMesh& mesh, const geometry::Vec3& p);
+
+}  // namespace detail
+
+}  // namespace socketsmith::volume

@@ -1,0 +1,609 @@
+#include "socketsmith/volume/shape_math.h"
+#include "socketsmith/volume/limb_generator.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+
+#include <nlohmann/json.hpp>
+
+#include "socketsmith/core/atomic_file.h"
+#include "socketsmith/core/errors.h"
+
+namespace socketsmith::volume {
+
+using geometry::LimbFrame;
+using geometry::LimbType;
+using geometry::TriMesh;
+using geometry::Vec3;
+
+namespace {
+
+using shape::kPi;
+constexpr double kDeg = kPi / 180.0;
+
+using shape::clamp01;
+using shape::gauss;
+using shape::lerp;
+using shape::smoothstep;
+using shape::wrap_angle;
+/// Smooth minimum (log-sum-exp with softness k), exact away from the crossing.
+double smooth_min(double a, double b, double k) { return std::min(a, b) - k * std::log1p(std::exp(-std::abs(a - b) / k)); }
+
+/// SplitMix64 (Steele, Lea, Flood 2014): a portable, well-mixed stream from a 64-bit seed, so a
+/// seed gives the same limb with every standard library.
+class SplitMix64 {
+ public:
+  explicit SplitMix64(std::uint64_t seed) : state_(seed) {}
+  std::uint64_t next() {
+    std::uint64_t z = (state_ += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+  }
+  /// Uniform in [-1, 1).
+  double symmetric() { return 2.0 * static_cast<double>(next() >> 11) * 0x1.0p-53 - 1.0; }
+
+ private:
+  std::uint64_t state_;
+};
+
+// ---------------------------------------------------------------------------------------------
+// The analytic skin: r(theta, h) = cap(h) * section_h(theta), where section_h is a raw anatomical
+// shape, translated so that its area centroid lies on the axis, and scaled so that its perimeter
+// is 2 pi R(h) (R: the circumference profile).
+
+class SkinModel {
+ public:
+  explicit SkinModel(const LimbShapeParams& p)
+      : p_(p),
+        tt_(p.type == LimbType::Transtibial),
+        knee_(p.residual_length_m),
+        top_(tt_ ? p.residual_length_m + p.proximal_extension_m : p.residual_length_m),
+        cap_h_(p.distal_cap_height_m),
+        cap_k_(2.0 + p.bulbousness),
+        profile_(make_profile(p)) {}
+
+  double top() const { return top_; }
+  double knee() const { return knee_; }
+  double cap_height() const { return cap_h_; }
+
+  /// Circumference / 2 pi at h, before the cap [m].
+  double mean_radius(double h) const { return profile_(h); }
+  /// Superelliptic distal cap: (1 - (1 - h/hc)^k)^(1/k) below hc, 1 above.
+  double cap_factor(double h) const {
+    if (h >= cap_h_) return 1.0;
+    const double s = std::max(0.0, h) / cap_h_;
+    return std::pow(1.0 - std::pow(1.0 - s, cap_k_), 1.0 / cap_k_);
+  }
+
+  /// A normalised cross-section at height h.
+  class Section {
+   public:
+    Section(const SkinModel& m, double h) : m_(m), h_(h) {
+      constexpr int n = 256;
+      std::array<double, n> raw{}, c{}, s{};
+      for (int i = 0; i < n; ++i) {
+        const double t = 2.0 * kPi * i / n;
+        raw[i] = m.raw(t, h);
+        c[i] = std::cos(t);
+        s[i] = std::sin(t);
+      }
+      // Move the area centroid onto the axis (first-order polar translation, iterated).
+      for (int it = 0; it < 4; ++it) {
+        double area = 0.0, cx = 0.0, cy = 0.0;
+        for (int i = 0; i < n; ++i) {
+          const double r = raw[i] - ca_ * c[i] - cm_ * s[i];
+          area += 0.5 * r * r;
+          cx += r * r * r * c[i] / 3.0;
+          cy += r * r * r * s[i] / 3.0;
+        }
+        ca_ += cx / area;
+        cm_ += cy / area;
+      }
+      double perimeter = 0.0;
+      for (int i = 0; i < n; ++i) {
+        const int j = (i + 1) % n;
+        const double ri = raw[i] - ca_ * c[i] - cm_ * s[i], rj = raw[j] - ca_ * c[j] - cm_ * s[j];
+        perimeter += std::hypot(rj * c[j] - ri * c[i], rj * s[j] - ri * s[i]);
+      }
+      scale_ = 2.0 * kPi * m.mean_radius(h) / perimeter;
+    }
+    /// Radius at angle theta, before the cap factor [m].
+    double operator()(double theta) const {
+      return scale_ * (m_.raw(theta, h_) - ca_ * std::cos(theta) - cm_ * std::sin(theta));
+    }
+
+   private:
+    const SkinModel& m_;
+    double h_;
+    double ca_ = 0.0, cm_ = 0.0, scale_ = 1.0;
+  };
+
+  /// Skin radius at (theta, h) [m].
+  double radius(double theta, double h) const { return cap_factor(h) * Section(*this, h)(theta); }
+
+  /// Raw section shape (medio-lateral semi-axis 1) at angle theta and height h.
+  double raw(double theta, double h) const {
+    const double c = std::cos(theta);
+    if (!tt_) {
+      // Thigh: ellipse rounder distally, fuller posteriorly (hamstrings), slightly flatter
+      // medially near the groin (adductors).
+      const double q = lerp(p_.ap_ml_ratio, std::min(1.0, p_.ap_ml_ratio + 0.08), 1.0 - smoothstep(h / (0.5 * top_)));
+      double r = ellipse(theta, q);
+      if (c < 0.0) r *= 1.0 + p_.posterior_fullness * c * c;
+      r *= 1.0 - 0.05 * gauss(wrap_angle(theta - 0.5 * kPi), 0.5) * smoothstep((h - (top_ - 0.08)) / 0.08);
+      return r;
+    }
+    const double H = knee_;
+    // Shank ellipse rounding off to a circle at the knee (condyles, patella).
+    const double q = lerp(p_.ap_ml_ratio, 1.0, smoothstep((h - (H - 0.03)) / 0.05));
+    // Muscle relief (OpenLimb mean limb, about the section centroid): calf bulges postero-medial
+    // (gastrocnemius, soleus) and postero-lateral, a flatter midline between them, tibialis
+    // anterior antero-laterally; weaker distally and gone at the popliteal fossa.
+    const double w_calf = lerp(0.5, 1.0, smoothstep((h - cap_h_) / std::max(1e-3, 0.4 * (H - cap_h_)))) *
+                          (1.0 - 0.6 * smoothstep((h - (H - 0.03)) / 0.04));
+    const double w_shank = smoothstep(h / (1.5 * cap_h_)) * (1.0 - smoothstep((h - (H - 0.065)) / 0.055));
+    auto base = [&](double t) {
+      double r = ellipse(t, q);
+      r *= 1.0 + p_.posterior_fullness * w_calf *
+                     (gauss(wrap_angle(t - 0.75 * kPi), 0.5) + 0.3 * gauss(wrap_angle(t + 0.75 * kPi), 0.5));
+      r *= 1.0 - 0.07 * w_calf * gauss(wrap_angle(t - kPi), 0.35);
+      r *= 1.0 + 0.04 * w_shank * gauss(wrap_angle(t + 0.6), 0.45);
+      return r;
+    };
+    double r = base(theta);
+    // The antero-medial face of the tibia (subcutaneous, flat) runs from the crest at theta = 0
+    // medially: a line through the crest point whose normal is tilted by beta, cutting the
+    // ellipse by `flat` along that normal (tan beta = q sqrt(1/(1-flat)^2 - 1)). Its corner with
+    // the rounder lateral side is the tibial crest ridge (kept crisp); the medial border of the
+    // face is rounded off by the soft tissue over it.
+    const double flat = p_.anterior_flattening * w_shank;
+    if (flat > 0.0) {
+      const double beta = std::atan(q * std::sqrt(1.0 / ((1.0 - flat) * (1.0 - flat)) - 1.0));
+      const double d = base(0.0) * std::cos(beta);
+      const double cf = std::cos(theta - beta);
+      const double softness = w_shank * (0.025 + 0.04 * smoothstep((theta - 0.5 * beta) / (1.2 * beta))) + 1e-9;
+      if (cf > 0.05) r = smooth_min(r, d / cf, softness);
+    }
+    // Patella in front of the knee, popliteal hollow behind it.
+    r += 0.11 * gauss(wrap_angle(theta), 0.5) * gauss(h - (H + 0.033), 0.02);
+    r *= 1.0 - 0.04 * gauss(wrap_angle(theta - kPi), 0.5) * gauss(h - H, 0.02);
+    return r;
+  }
+
+ private:
+  static double ellipse(double theta, double q) {
+    const double c = std::cos(theta) / q, s = std::sin(theta);
+    return 1.0 / std::sqrt(c * c + s * s);
+  }
+
+  /// Relative circumference growth at dh above the knee joint line.
+  static double above_knee_growth(double dh) { return 0.09 * (1.0 - std::exp(-dh / 0.025)) + 0.4 * dh; }
+
+  static detail::Pchip make_profile(const LimbShapeParams& p) {
+    const bool tt = p.type == LimbType::Transtibial;
+    const double hc = p.distal_cap_height_m, L = p.residual_length_m;
+    const double rd = p.distal_circumference_m / (2.0 * kPi), rp = p.proximal_circumference_m / (2.0 * kPi);
+    const double b = p.bulbousness;
+    std::vector<double> xs{hc}, ys{rd};
+    for (const double s : {0.25, 0.5, 0.75}) {
+      const double g = (1.0 - b) * s + b * (1.0 - std::pow(1.0 - s, 3.0));
+      xs.push_back(lerp(hc, L, s));
+      ys.push_back(lerp(rd, rp, g));
+    }
+    xs.push_back(L);
+    ys.push_back(rp);
+    if (tt && p.proximal_extension_m > 0.005) {
+      // Above the joint line the skin widens quickly over the patella and the condyles, then
+      // slowly along the distal thigh (OpenLimb mean limb: +6 % at 22 mm, +10 % at 70 mm).
+      for (const double s : {1.0 / 3.0, 2.0 / 3.0, 1.0}) {
+        const double dh = s * p.proximal_extension_m;
+        xs.push_back(L + dh);
+        ys.push_back(rp * (1.0 + above_knee_growth(dh)));
+      }
+    }
+    return detail::Pchip(xs, ys);
+  }
+
+  LimbShapeParams p_;
+  bool tt_;
+  double knee_, top_, cap_h_, cap_k_;
+  detail::Pchip profile_;
+};
+
+// ---------------------------------------------------------------------------------------------
+
+void check_range(const char* field, double value, double lo, double hi, const char* unit, const char* what = "") {
+  if (!std::isfinite(value) || value < lo || value > hi)
+    fail("generate_limb: {} = {} is out of range (expected {} to {}{}{})", field, value, lo, hi, unit, what);
+}
+
+/// Bone sizes follow the knee (transtibial) or thigh (transfemoral) circumference.
+double bone_size_factor(const LimbShapeParams& p) {
+  const double nominal = p.type == LimbType::Transtibial ? 0.35 : 0.48;
+  return std::clamp(p.proximal_circumference_m / nominal, 0.7, 1.3);
+}
+
+Vec3 world(const LimbFrame& f, double theta, double rho, double h) { return f.from_cylindrical({rho, theta, h}); }
+
+Landmark make_landmark(const LimbFrame& frame, const TriMesh& skin, const char* code, const char* name, const Vec3& near,
+                       double radius_m) {
+  Landmark l;
+  l.code = code;
+  l.name = name;
+  l.position = detail::closest_point_on_mesh(skin, near);
+  l.cylindrical = frame.to_cylindrical(l.position);
+  if (l.cylindrical.theta <= -kPi) l.cylindrical.theta += 2.0 * kPi;  // atan2(-0, -1): keep theta in (-pi, pi]
+  l.radius_m = radius_m;
+  l.estimated = false;
+  return l;
+}
+
+const NamedMesh* find_bone(const std::vector<NamedMesh>& bones, const std::string& name) {
+  for (const auto& b : bones)
+    if (b.name == name) return &b;
+  return nullptr;
+}
+
+// (+ 0.0 turns -0.0 into 0.0 for the reader.)
+nlohmann::json vec_mm(const Vec3& v) { return {v.x() * 1e3 + 0.0, v.y() * 1e3 + 0.0, v.z() * 1e3 + 0.0}; }
+nlohmann::json vec(const Vec3& v) { return {v.x() + 0.0, v.y() + 0.0, v.z() + 0.0}; }
+
+}  // namespace
+
+// -------------------------------------------------------------------------------------------------
+
+LimbShapeParams default_params(LimbType type, std::uint64_t seed) {
+  LimbShapeParams p;
+  p.type = type;
+  p.seed = seed;
+  const bool tt = type == LimbType::Transtibial;
+  if (!tt) {
+    p.residual_length_m = 0.27;
+    p.proximal_extension_m = 0.0;
+    p.proximal_circumference_m = 0.48;
+    p.distal_circumference_m = 0.71 * 0.48;
+    p.distal_cap_height_m = 0.05;
+    p.ap_ml_ratio = 0.90;
+    p.anterior_flattening = 0.0;
+  }
+  if (seed == 0) return p;
+  SplitMix64 rng(seed * 0x2545F4914F6CDD1Dull + (tt ? 0x1234567ull : 0x7654321ull));
+  auto jitter = [&](double& x, double half) { x += half * rng.symmetric(); };
+  auto jitter_rel = [&](double& x, double rel) { x *= 1.0 + rel * rng.symmetric(); };
+  jitter(p.residual_length_m, tt ? 0.02 : 0.03);
+  if (tt) jitter(p.proximal_extension_m, 0.01);
+  else rng.next();
+  jitter_rel(p.proximal_circumference_m, 0.06);
+  double ratio = tt ? 0.77 : 0.71;
+  jitter(ratio, 0.06);
+  p.distal_circumference_m = ratio * p.proximal_circumference_m;
+  jitter(p.distal_cap_height_m, tt ? 0.005 : 0.008);
+  jitter(p.bulbousness, 0.25);
+  jitter(p.ap_ml_ratio, 0.05);
+  if (tt) jitter(p.anterior_flattening, 0.03);
+  else rng.next();
+  jitter(p.posterior_fullness, 0.04);
+  BoneTemplateParams& b = p.bones;
+  jitter(b.tibia_plateau_width_m, 0.004);
+  b.tibia_plateau_depth_m = 0.66 * b.tibia_plateau_width_m;
+  jitter_rel(b.tibia_plateau_depth_m, 0.05);
+  jitter_rel(b.tibia_shaft_radius_m, 0.08);
+  jitter_rel(b.tibia_distal_radius_m, 0.08);
+  jitter(b.tibia_end_height_m, 0.005);
+  jitter(b.tibia_bevel, 0.1);
+  jitter(b.crest_tissue_m, 0.002);
+  jitter(b.tibia_medial_shift_m, 0.002);
+  jitter_rel(b.fibula_head_radius_m, 0.08);
+  jitter_rel(b.fibula_shaft_radius_m, 0.1);
+  jitter(b.fibula_shortening_m, 0.01);
+  jitter(b.fibula_angle_rad, 8.0 * kDeg);
+  jitter(b.femur_condyle_width_m, 0.004);
+  jitter(b.femur_condyle_depth_m, 0.003);
+  jitter_rel(b.patella_width_m, 0.07);
+  jitter_rel(b.patella_height_m, 0.07);
+  jitter_rel(b.patella_thickness_m, 0.07);
+  jitter(b.patella_tissue_m, 0.0015);
+  jitter_rel(b.femur_shaft_radius_m, 0.07);
+  jitter(b.femur_end_height_m, 0.015);
+  jitter(b.femur_lateral_fraction, 0.05);
+  jitter(b.femur_anterior_fraction, 0.04);
+  return p;
+}
+
+std::pair<double, double> residual_length_range(LimbType type) {
+  return type == LimbType::Transtibial ? std::pair{0.06, 0.30} : std::pair{0.10, 0.45};
+}
+
+void validate(const LimbShapeParams& p) {
+  const bool tt = p.type == LimbType::Transtibial;
+  const auto [lo, hi] = residual_length_range(p.type);
+  check_range("residual_length_m", p.residual_length_m, lo, hi, " m", tt ? " for a transtibial limb" : " for a transfemoral limb");
+  if (tt) check_range("proximal_extension_m", p.proximal_extension_m, 0.0, 0.12, " m");
+  else check_range("proximal_extension_m", p.proximal_extension_m, 0.0, 0.0, " m", ": a transfemoral skin ends at its proximal cut");
+  if (tt) check_range("proximal_circumference_m", p.proximal_circumference_m, 0.26, 0.60, " m", " for a transtibial limb");
+  else check_range("proximal_circumference_m", p.proximal_circumference_m, 0.30, 0.80, " m", " for a transfemoral limb");
+  check_range("distal_circumference_m", p.distal_circumference_m, 0.5 * p.proximal_circumference_m,
+              1.1 * p.proximal_circumference_m, " m", ", 0.5 to 1.1 × the proximal circumference");
+  check_range("distal_cap_height_m", p.distal_cap_height_m, 0.01, std::min(0.09, 0.5 * p.residual_length_m), " m",
+              ", at most half the residual length");
+  check_range("bulbousness", p.bulbousness, 0.0, 1.0, "");
+  check_range("ap_ml_ratio", p.ap_ml_ratio, 0.6, 1.3, "");
+  check_range("anterior_flattening", p.anterior_flattening, 0.0, 0.3, "");
+  check_range("posterior_fullness", p.posterior_fullness, 0.0, 0.4, "");
+  check_range("ring_vertices", p.ring_vertices, 24, 256, "");
+  validate(p.bones);
+}
+
+GeneratedLimb generate_limb(const LimbShapeParams& params) {
+  validate(params);
+  const SkinModel skin_model(params);
+  GeneratedLimb limb;
+  limb.params = params;
+  LimbFrame& frame = limb.frame;
+  frame.origin = Vec3::Zero();
+  frame.axis = Vec3::UnitZ();
+  frame.anterior = Vec3::UnitY();
+  frame.side = params.side;
+  frame.anterior_estimated = false;
+  frame.side_estimated = false;
+  const double top = skin_model.top();
+  limb.cut_height_m = top;
+
+  // Meridian of the mean radius, sampled finely; rings equally spaced along its arc length.
+  const int cols = params.ring_vertices;
+  const double hc = skin_model.cap_height();
+  const double k_cap = 2.0 + params.bulbousness;
+  std::vector<double> fine_h, fine_arc;
+  double r_max = 0.0;
+  {
+    double prev_h = 0.0, prev_r = 0.0;
+    auto add = [&](double h) {
+      const double r = skin_model.mean_radius(h) * skin_model.cap_factor(h);
+      r_max = std::max(r_max, r);
+      fine_arc.push_back(fine_h.empty() ? 0.0 : fine_arc.back() + std::hypot(h - prev_h, r - prev_r));
+      fine_h.push_back(h);
+      prev_h = h;
+      prev_r = r;
+    };
+    constexpr int n_cap = 600, n_body = 1200;
+    for (int i = 0; i <= n_cap; ++i) {
+      const double psi = 0.5 * kPi * i / n_cap;  // superellipse angle: 1 - h/hc = cos(psi)^(2/k)
+      add(hc * (1.0 - std::pow(std::cos(psi), 2.0 / k_cap)));
+    }
+    for (int i = 1; i <= n_body; ++i) add(lerp(hc, top, static_cast<double>(i) / n_body));
+  }
+  // Rings slightly closer than the vertices around them: near-equilateral triangles.
+  const double spacing = 0.9 * 2.0 * kPi * r_max / cols;
+  const int rows = std::max(16, static_cast<int>(std::lround(fine_arc.back() / spacing)));
+  detail::RingStack stack;
+  stack.has_bottom_pole = true;
+  stack.bottom_pole = frame.origin;
+  std::size_t k = 0;
+  for (int r = 1; r <= rows; ++r) {
+    double h = top;
+    if (r < rows) {
+      const double target = fine_arc.back() * r / rows;
+      while (k + 1 < fine_arc.size() && fine_arc[k + 1] < target) ++k;
+      const double t = (target - fine_arc[k]) / (fine_arc[k + 1] - fine_arc[k]);
+      h = lerp(fine_h[k], fine_h[k + 1], clamp01(t));
+    }
+    const double f = skin_model.cap_factor(h);
+    const int n = std::clamp(static_cast<int>(std::ceil(cols * f)), 8, cols);
+    const SkinModel::Section section(skin_model, h);
+    std::vector<Vec3> ring;
+    ring.reserve(static_cast<std::size_t>(n));
+    for (int j = 0; j < n; ++j) {
+      const double theta = 2.0 * kPi * j / n;
+      ring.push_back(world(frame, theta, f * section(theta), h));
+    }
+    stack.rings.push_back(std::move(ring));
+  }
+  const bool flip = detail::is_left_handed(frame);
+  const TriMesh open_skin = detail::mesh_ring_stack(stack, flip);
+  // Planar cap: concentric rings shrinking to the axis in the cut plane.
+  const std::size_t side_rings = stack.rings.size();
+  const Vec3 centre = frame.on_axis(top);
+  const int n_cap_rings = std::max(2, static_cast<int>(std::lround(skin_model.mean_radius(top) / spacing)));
+  const std::vector<Vec3> top_ring = stack.rings.back();
+  for (int i = 1; i < n_cap_rings; ++i) {
+    const double lambda = 1.0 - static_cast<double>(i) / n_cap_rings;
+    const int n = std::clamp(static_cast<int>(std::ceil(cols * lambda)), 8, cols);
+    std::vector<Vec3> ring;
+    for (int j = 0; j < n; ++j) {
+      // Same angle as on the top ring, interpolated around it.
+      const double u = static_cast<double>(j) * static_cast<double>(top_ring.size()) / n;
+      const auto j0 = static_cast<std::size_t>(std::floor(u));
+      const double t = u - static_cast<double>(j0);
+      const Vec3 p = (1.0 - t) * top_ring[j0 % top_ring.size()] + t * top_ring[(j0 + 1) % top_ring.size()];
+      ring.push_back(centre + lambda * (p - centre));
+    }
+    stack.rings.push_back(std::move(ring));
+  }
+  stack.has_top_pole = true;
+  stack.top_pole = centre;
+  std::vector<int> bands;
+  const TriMesh closed_skin = detail::mesh_ring_stack(stack, flip, &bands);
+  limb.skin_volume_m3 = geometry::signed_volume(closed_skin);
+  if (params.open_proximal) {
+    limb.skin = open_skin;
+  } else {
+    limb.skin = closed_skin;
+    limb.first_cap_triangle = bands[side_rings - 1];
+  }
+
+  // Bones: the shared template, measured on and fitted inside the closed skin (so that the open
+  // and the closed limb of the same parameters have the same bones).
+  const SkinRadii radii = measure_skin_radii(closed_skin, frame);
+  BonePlacement placement;
+  placement.type = params.type;
+  placement.knee_height_m = skin_model.knee();
+  const BoneTemplateParams bones = scaled_bone_sizes(params.bones, bone_size_factor(params));
+  BoneFitResult fit = fit_bone_template(closed_skin, radii, frame, bones, placement);
+  limb.bones = std::move(fit.bones);
+
+  // Landmarks: anatomical points projected onto the skin.
+  auto on_skin = [&](double theta, double h) { return world(frame, theta, skin_model.radius(theta, h), h); };
+  auto add = [&](const char* code, const char* name, const Vec3& near, double radius) {
+    limb.landmarks.push_back(make_landmark(frame, limb.skin, code, name, near, radius));
+  };
+  auto height = [&](const Vec3& p) { return (p - frame.origin).dot(frame.axis); };
+  auto lowest = [&](const TriMesh& m) {
+    return *std::min_element(m.vertices.begin(), m.vertices.end(),
+                             [&](const Vec3& a, const Vec3& b) { return height(a) < height(b); });
+  };
+  /// Most anterior vertex of a bone within a height band.
+  auto most_anterior = [&](const TriMesh& m, double h0, double h1) {
+    Vec3 best = m.vertices.front();
+    double best_a = -std::numeric_limits<double>::infinity();
+    for (const Vec3& v : m.vertices) {
+      const double h = height(v), a = (v - frame.origin).dot(frame.anterior);
+      if (h >= h0 && h <= h1 && a > best_a) {
+        best_a = a;
+        best = v;
+      }
+    }
+    return best;
+  };
+  if (params.type == LimbType::Transtibial) {
+    const double H = skin_model.knee();
+    const NamedMesh* tibia = find_bone(limb.bones, "tibia");
+    const NamedMesh* fibula = find_bone(limb.bones, "fibula");
+    SOCKETSMITH_ASSERT(tibia != nullptr);
+    add("PT", "patellar tendon", on_skin(0.0, H - 0.012), 0.015);
+    add("MF", "medial tibial flare", on_skin(60.0 * kDeg, H - 0.03), 0.02);
+    add("LF", "lateral tibial flare", on_skin(-55.0 * kDeg, H - 0.035), 0.015);
+    if (fibula != nullptr) {
+      // Centre of the fibular head: the top 20 mm of the fibula.
+      double hmax = -std::numeric_limits<double>::infinity();
+      for (const Vec3& v : fibula->mesh.vertices) hmax = std::max(hmax, height(v));
+      Vec3 c = Vec3::Zero();
+      int n = 0;
+      for (const Vec3& v : fibula->mesh.vertices)
+        if (height(v) > hmax - 0.02) {
+          c += v;
+          ++n;
+        }
+      const auto cyl = frame.to_cylindrical(c / n);
+      add("FH", "fibular head", on_skin(cyl.theta, cyl.h), 0.012);
+    }
+    add("POP", "popliteal fossa", on_skin(kPi, std::min(H - 0.005, top - 0.005)), 0.025);
+    const double tib_low = height(lowest(tibia->mesh));
+    const Vec3 distal_crest = most_anterior(tibia->mesh, tib_low, tib_low + 0.015);
+    const auto cad = frame.to_cylindrical(distal_crest);
+    add("AD", "anterior distal tibia", on_skin(cad.theta, cad.h), 0.015);
+    const double h_mid = 0.5 * (tib_low + (H - 0.045));
+    const auto ctc = frame.to_cylindrical(most_anterior(tibia->mesh, h_mid - 0.004, h_mid + 0.004));
+    add("TC", "tibial crest", on_skin(ctc.theta, h_mid), 0.015);
+    add("DT", "distal tibia (end)", lowest(tibia->mesh), 0.02);
+  } else {
+    const NamedMesh* femur = find_bone(limb.bones, "femur");
+    SOCKETSMITH_ASSERT(femur != nullptr);
+    add("IS", "ischial seat", on_skin(150.0 * kDeg, top - 0.02), 0.025);
+    add("AR", "adductor longus / pubic ramus", on_skin(80.0 * kDeg, top - 0.035), 0.025);
+    add("GT", "greater trochanter", on_skin(-90.0 * kDeg, top - 0.025), 0.025);
+    add("DF", "distal femur", lowest(femur->mesh), 0.025);
+  }
+  return limb;
+}
+
+TriMesh merge_shells(const GeneratedLimb& limb) {
+  TriMesh out = limb.skin;
+  for (const auto& b : limb.bones) {
+    const int offset = out.num_vertices();
+    out.vertices.insert(out.vertices.end(), b.mesh.vertices.begin(), b.mesh.vertices.end());
+    for (const auto& t : b.mesh.triangles) out.triangles.push_back({t[0] + offset, t[1] + offset, t[2] + offset});
+  }
+  return out;
+}
+
+nlohmann::json limb_sidecar_json(const GeneratedLimb& limb) {
+  const LimbShapeParams& p = limb.params;
+  const BoneTemplateParams& b = p.bones;
+  nlohmann::json j;
+  j["generator"] = "socketsmith parametric residual limb";
+  j["type"] = geometry::to_string(p.type);
+  j["side"] = geometry::to_string(p.side);
+  j["seed"] = p.seed;
+  j["units"] = {{"positions", "mm"}, {"angles", "deg"}, {"params", "SI (m, rad)"}};
+  j["params"] = {{"residual_length_m", p.residual_length_m},
+                 {"proximal_extension_m", p.proximal_extension_m},
+                 {"proximal_circumference_m", p.proximal_circumference_m},
+                 {"distal_circumference_m", p.distal_circumference_m},
+                 {"distal_cap_height_m", p.distal_cap_height_m},
+                 {"bulbousness", p.bulbousness},
+                 {"ap_ml_ratio", p.ap_ml_ratio},
+                 {"anterior_flattening", p.anterior_flattening},
+                 {"posterior_fullness", p.posterior_fullness},
+                 {"open_proximal", p.open_proximal},
+                 {"ring_vertices", p.ring_vertices},
+                 {"bones",
+                  {{"tibia_plateau_width_m", b.tibia_plateau_width_m},
+                   {"tibia_plateau_depth_m", b.tibia_plateau_depth_m},
+                   {"tibia_shaft_radius_m", b.tibia_shaft_radius_m},
+                   {"tibia_distal_radius_m", b.tibia_distal_radius_m},
+                   {"tibia_end_height_m", b.tibia_end_height_m},
+                   {"tibia_bevel", b.tibia_bevel},
+                   {"crest_tissue_m", b.crest_tissue_m},
+                   {"tibia_medial_shift_m", b.tibia_medial_shift_m},
+                   {"fibula_head_radius_m", b.fibula_head_radius_m},
+                   {"fibula_shaft_radius_m", b.fibula_shaft_radius_m},
+                   {"fibula_shortening_m", b.fibula_shortening_m},
+                   {"fibula_angle_rad", b.fibula_angle_rad},
+                   {"femur_condyle_width_m", b.femur_condyle_width_m},
+                   {"femur_condyle_depth_m", b.femur_condyle_depth_m},
+                   {"patella_width_m", b.patella_width_m},
+                   {"patella_height_m", b.patella_height_m},
+                   {"patella_thickness_m", b.patella_thickness_m},
+                   {"patella_tissue_m", b.patella_tissue_m},
+                   {"femur_shaft_radius_m", b.femur_shaft_radius_m},
+                   {"femur_end_height_m", b.femur_end_height_m},
+                   {"femur_lateral_fraction", b.femur_lateral_fraction},
+                   {"femur_anterior_fraction", b.femur_anterior_fraction}}}};
+  const LimbFrame& f = limb.frame;
+  j["frame"] = {{"origin_mm", vec_mm(f.origin)},
+                {"axis", vec(f.axis)},
+                {"anterior", vec(f.anterior)},
+                {"medial", vec(f.medial())},
+                {"side", geometry::to_string(f.side)},
+                {"anterior_estimated", f.anterior_estimated},
+                {"side_estimated", f.side_estimated}};
+  if (p.type == LimbType::Transtibial) j["knee_joint_line_h_mm"] = p.residual_length_m * 1e3;
+  j["cut_height_mm"] = limb.cut_height_m * 1e3;
+  j["skin_open"] = p.open_proximal;
+  j["skin_volume_cm3"] = limb.skin_volume_m3 * 1e6;
+  nlohmann::json marks = nlohmann::json::array();
+  for (const auto& l : limb.landmarks)
+    marks.push_back({{"code", l.code},
+                     {"name", l.name},
+                     {"position_mm", vec_mm(l.position)},
+                     {"rho_mm", l.cylindrical.rho * 1e3},
+                     {"theta_deg", l.cylindrical.theta / kDeg},
+                     {"h_mm", l.cylindrical.h * 1e3},
+                     {"radius_mm", l.radius_m * 1e3},
+                     {"estimated", l.estimated}});
+  j["landmarks"] = marks;
+  nlohmann::json shells = nlohmann::json::array();
+  auto shell = [&](const std::string& name, const TriMesh& m, bool closed) {
+    nlohmann::json s = {{"name", name}, {"vertices", m.num_vertices()}, {"triangles", m.num_triangles()}, {"closed", closed}};
+    if (closed) s["volume_cm3"] = geometry::signed_volume(m) * 1e6;
+    shells.push_back(s);
+  };
+  shell("skin", limb.skin, !p.open_proximal);
+  nlohmann::json names = nlohmann::json::array();
+  for (const auto& bone : limb.bones) {
+    shell(bone.name, bone.mesh, true);
+    names.push_back(bone.name);
+  }
+  j["shells"] = shells;
+  j["bones"] = names;
+  return j;
+}
+
+void write_limb_sidecar(const std::filesystem::path& path, const GeneratedLimb& limb) {
+  write_text_atomically(path, limb_sidecar_json(limb).dump(2) + "\n");
+}
+
+}  // namespace socketsmith::volume
