@@ -34,27 +34,33 @@ struct MeshFlags {
   std::string side;
   double cut_height_mm = -1.0;
   int target_nodes = 8000;
+  std::vector<std::string> landmarks;  // CODE=x,y,z in the file's unit (after --scale)
   double load_kpa = 0.0;
   ModelFlags model;
   std::string out;
   bool json = false;
 };
 
-Vec3 parse_vector(const std::string& text, const std::string& what) {
+/// Parses "x,y,z"; a direction must be non-zero, a point may be anything finite.
+Vec3 parse_vector(const std::string& text, const std::string& what, bool point = false) {
   Vec3 v;
   char c1 = 0, c2 = 0;
   std::istringstream in(text);
   in >> v.x() >> c1 >> v.y() >> c2 >> v.z();
-  require(in && c1 == ',' && c2 == ',' && v.allFinite() && v.norm() > 0,
-          "{} '{}' is not a direction x,y,z (e.g. 0,1,0)", what, text);
+  require(in && c1 == ',' && c2 == ',' && v.allFinite() && (point || v.norm() > 0),
+          "{} '{}' is not {} x,y,z (e.g. {})", what, text, point ? "a point" : "a direction",
+          point ? "12.5,-80,160" : "0,1,0");
   return v;
 }
 
-geometry::TriMesh read_scaled(const std::string& path, const MeshFlags& f) {
+/// Reads a mesh in metres, then applies --scale. @p unit_m receives the file unit in metres.
+geometry::TriMesh read_scaled(const std::string& path, const MeshFlags& f, double* unit_m = nullptr) {
   geometry::MeshReadOptions ro;
   if (!f.units.empty()) ro.unit = units::parse_length_unit(f.units);
   if (f.scale != 1.0) ro.warn_on_implausible_size = false;
-  geometry::TriMesh m = geometry::read_mesh(path, ro);
+  geometry::MeshReadInfo info;
+  geometry::TriMesh m = geometry::read_mesh(path, ro, &info);
+  if (unit_m) *unit_m = units::to_metres(info.unit);
   if (f.scale != 1.0) geometry::scale(m, f.scale);
   return m;
 }
@@ -77,7 +83,8 @@ void run(const MeshFlags& f) {
           f.target_nodes);
   require(f.load_kpa >= 0.0 && f.load_kpa <= 500.0, "--load-kpa {} outside [0, 500] kPa", f.load_kpa);
 
-  const geometry::TriMesh limb = read_scaled(f.limb, f);
+  double file_unit_m = 1.0;
+  const geometry::TriMesh limb = read_scaled(f.limb, f, &file_unit_m);
   geometry::TriMesh extra;
   volume::LimbInputOptions lo;
   lo.type = geometry::parse_limb_type(f.type);
@@ -99,6 +106,15 @@ void run(const MeshFlags& f) {
     skin_only = parts.front();
   }
   volume::LimbModel model = volume::prepare_limb(skin_only, extra, lo);
+  for (const auto& text : f.landmarks) {
+    const auto eq = text.find('=');
+    require(eq != std::string::npos && eq > 0, "--landmark '{}' is not CODE=x,y,z (e.g. PT=12.5,-80,160)", text);
+    volume::Landmark given;
+    given.code = text.substr(0, eq);
+    given.position = parse_vector(text.substr(eq + 1), "--landmark " + given.code, true) * file_unit_m * f.scale;
+    volume::override_landmark(model.landmarks, model.skin, model.frame, given);
+    model.notes.push_back(fmt::format("landmark {} given by the user", given.code));
+  }
   for (const auto& n : model.notes) log::info("mesh: {}", n);
 
   const volume::HexMesherInput in = volume::mesher_input(model);
@@ -250,6 +266,8 @@ void register_mesh(CLI::App& app) {
   cmd->add_option("--side", f->side, "right | left");
   cmd->add_option("--cut-height-mm", f->cut_height_mm, "proximal cut above the distal end (default: just below the open rim)");
   cmd->add_option("--target-nodes", f->target_nodes, "aimed-at node count (e.g. 3000, 8000, 20000)");
+  cmd->add_option("--landmark", f->landmarks,
+                  "move a landmark: CODE=x,y,z in the file's unit, projected onto the skin (repeatable)");
   cmd->add_option("--load-kpa", f->load_kpa, "also solve the MSS-CS stump under this uniform inward skin pressure");
   add_model_flags(*cmd, f->model);
   cmd->add_option("--out", f->out, "output directory")->required();
