@@ -138,6 +138,164 @@ TEST(StaticSolver, detects_a_load_the_tissue_cannot_carry) {
   EXPECT_NE(u.result.message.find("diverged"), std::string::npos) << u.result.message;
 }
 
+/// A 4×4×4 lattice of a 2 cm cube, bottom fixed, with a thin (30 % of a layer), skewed top layer of
+/// elements like the pillow layer under the skin of a limb mesh; uniform pressure on the top face.
+struct ThinLayerBox {
+  static constexpr int n = 4;
+  static constexpr double L = 0.02;
+  volume::HexMesh mesh;
+  std::vector<int> top;
+  ThinLayerBox() {
+    volume::BoxMeshOptions o;
+    o.size = volume::Vec3::Constant(L);
+    o.divisions = {n, n, n};
+    mesh = volume::mesh_box(o);
+    const double h = L / n;
+    for (int k = 0; k <= n; ++k)
+      for (int j = 0; j <= n; ++j)
+        for (int i = 0; i <= n; ++i) {
+          auto& p = mesh.nodes[volume::box_node_index({n, n, n}, i, j, k)];
+          p.z() = k == n ? L : (L - 0.3 * h) * k / (n - 1.0);
+          if (k == n - 1 && i > 0 && i < n) p.x() += 0.3 * h * ((i + j) % 2 ? 1 : -1);
+          if (k == n) top.push_back(volume::box_node_index({n, n, n}, i, j, k));
+        }
+  }
+  DofConstraints constraints() const {
+    DofConstraints c;
+    for (int j = 0; j <= n; ++j)
+      for (int i = 0; i <= n; ++i) c.fix_nodes({volume::box_node_index({n, n, n}, i, j, 0)});
+    return c;
+  }
+  VectorXd pressure(int num_dofs, double p) const {
+    VectorXd f = VectorXd::Zero(num_dofs);
+    const double a = (L / n) * (L / n);
+    for (int node : top) {
+      const auto& x = mesh.nodes[node];
+      const bool ex = x.x() < 1e-9 || x.x() > L - 1e-9, ey = x.y() < 1e-9 || x.y() > L - 1e-9;
+      f[dof(node, 2)] = -p * a * (ex ? 0.5 : 1.0) * (ey ? 0.5 : 1.0);
+    }
+    return f;
+  }
+};
+
+TEST(StaticSolver, reports_the_collapse_of_a_thin_distorted_layer_as_a_loss_of_stability) {
+  // The limb meshes' stall (docs/tissue.md, "Static solves on limb meshes") in small: with the
+  // recommended constants the top layer's elements pass the ≈ −3 % volume change beyond which an
+  // MSS-CS element is unstable, and the continuation stalls at ~40 % of 5 kPa. The solver must say
+  // so (not "no step reduces the residual"), and return the last equilibrium, not a broken state.
+  const ThinLayerBox box;
+  MassSpringModel m(box.mesh, {50e3, 1060}, {});
+  DofMap dofs(m.num_dofs(), box.constraints());
+  StaticSolver solver(m, dofs);
+  const VectorXd f = box.pressure(m.num_dofs(), 5e3);
+  VectorXd x = m.rest_positions();
+  const auto r = solver.solve(f, x);
+  EXPECT_FALSE(r.converged);
+  EXPECT_NE(r.message.find("diverged"), std::string::npos) << r.message;
+  EXPECT_NE(r.message.find("loses stability"), std::string::npos) << r.message;
+  EXPECT_GT(r.elements_outside_stable_range, 0);
+  EXPECT_LT(r.min_volume_change, element_stability_range(m).min_volume_change);
+  EXPECT_GT(r.load_fraction, 0.1);
+  EXPECT_LT(r.load_fraction, 1.0);
+  EXPECT_TRUE(r.stability.computed);
+  EXPECT_GT(m.min_corner_jacobian(x), 0.0);
+  // x is the equilibrium of the part of the load reached (from rest: f₀ = 0).
+  const double tol = 1e3 * solver.options().rel_tol * r.reference_force_n;
+  EXPECT_LE(static_residual(m, dofs, r.load_fraction * f, x).norm(), tol);
+  // A load the model can carry on the same mesh still converges, without a warning.
+  VectorXd y = m.rest_positions();
+  const auto ok = solver.solve(box.pressure(m.num_dofs(), 1e3), y);
+  ASSERT_TRUE(ok.converged) << ok.message;
+}
+
+TEST(StaticSolver, thesis_constants_lose_stability_when_elements_expand) {
+  // The thesis's symmetric corrective law pushes expanding elements to expand further: a regular
+  // lattice pulled by 3 kPa cannot pass ≈ +0.3 % volume change.
+  const ThinLayerBox shape;
+  MassSpringModel m(small_lattice(4, 0.02), {50e3, 1060}, options_for(TissueModelKind::MssCs));
+  DofConstraints c;
+  for (int j = 0; j <= 4; ++j)
+    for (int i = 0; i <= 4; ++i) c.fix_nodes({volume::box_node_index({4, 4, 4}, i, j, 0)});
+  DofMap dofs(m.num_dofs(), c);
+  StaticSolver solver(m, dofs);
+  const VectorXd f = shape.pressure(m.num_dofs(), -3e3);  // the same top nodes: a pull
+  VectorXd x = m.rest_positions();
+  const auto r = solver.solve(f, x);
+  EXPECT_FALSE(r.converged);
+  EXPECT_NE(r.message.find("loses stability"), std::string::npos) << r.message;
+  EXPECT_LT(r.load_fraction, 0.2);
+  EXPECT_GT(r.max_volume_change, 0.002);
+}
+
+TEST(StaticSolver, element_stability_range_of_the_presets) {
+  const auto range = [](TissueModelKind kind, CorrectiveLaw law) {
+    return element_stability_range(MassSpringModel(small_lattice(1), {50e3, 1060}, options_for(kind, law)));
+  };
+  const auto recommended = range(TissueModelKind::MssCs, CorrectiveLaw::CompressionOnly);
+  EXPECT_NEAR(recommended.min_volume_change, -0.0297, 1e-3);
+  EXPECT_EQ(recommended.max_volume_change, 0.5);  // compression-only: never inflates
+  const auto thesis = range(TissueModelKind::MssCs, CorrectiveLaw::Symmetric);
+  EXPECT_NEAR(thesis.min_volume_change, -0.068, 2e-3);
+  EXPECT_NEAR(thesis.max_volume_change, 0.0028, 5e-4);
+  // Under a dead load even MSS (A = 0.5) and MSS-CF (ν = 0.49, where p = K|δv| reaches ~μ) have an
+  // edge: the range is an indication for diagnosis, not a bound that holds inside a mesh.
+  EXPECT_NEAR(range(TissueModelKind::Mss, CorrectiveLaw::Symmetric).min_volume_change, -0.169, 2e-3);
+  EXPECT_NEAR(range(TissueModelKind::MssCf, CorrectiveLaw::Symmetric).min_volume_change, -0.0157, 1e-3);
+  EXPECT_EQ(range(TissueModelKind::Mss, CorrectiveLaw::Symmetric).max_volume_change, 0.5);
+}
+
+TEST(StaticSolver, tangent_stability_certifies_an_unstable_element) {
+  // One thesis-constant element inflated by 1 %: its volume mode has negative stiffness.
+  MassSpringModel m(small_lattice(1, 0.01), {50e3, 1060}, options_for(TissueModelKind::MssCs));
+  DofConstraints c;  // remove the rigid motions only
+  c.fixed = {dof(0, 0), dof(0, 1), dof(0, 2), dof(1, 1), dof(1, 2), dof(2, 2)};
+  DofMap dofs(m.num_dofs(), c);
+  const double s = std::cbrt(1.01);
+  const VectorXd inflated = s * m.rest_positions();
+  const auto unstable = tangent_stability(m, dofs, inflated);
+  ASSERT_TRUE(unstable.computed);
+  EXPECT_EQ(unstable.determinant_sign, -1);
+  const auto rest = tangent_stability(m, dofs, m.rest_positions());
+  EXPECT_EQ(rest.determinant_sign, 1);
+  EXPECT_GT(rest.softest_eigenvalue, 0.0);
+  EXPECT_TRUE(rest.softest_converged);
+  // check_stability turns an unstable equilibrium into a failure: hold the inflated element there
+  // with the forces that balance it.
+  StaticSolverOptions o;
+  o.check_stability = true;
+  StaticSolver solver(m, dofs, o);
+  const VectorXd f = -m.elastic_forces(inflated);
+  VectorXd x = inflated;
+  const auto r = solver.solve(f, x);
+  EXPECT_FALSE(r.converged);
+  EXPECT_NE(r.message.find("unstable"), std::string::npos) << r.message;
+  EXPECT_EQ(r.stability.determinant_sign, -1);
+}
+
+TEST(StaticSolver, falls_back_to_a_direct_solve_when_bicgstab_fails) {
+  // BiCGSTAB allowed one iteration to 1e-14 always fails: the Newton steps must then come from a
+  // sparse LU of the true tangent (quadratic convergence kept), not from the PSD preconditioner.
+  const double L = 0.02;
+  MassSpringModel m(small_lattice(3, L), {50e3, 1060}, {});
+  DofConstraints c;
+  for (int j = 0; j <= 3; ++j)
+    for (int i = 0; i <= 3; ++i) c.fix_nodes({volume::box_node_index({3, 3, 3}, i, j, 0)});
+  DofMap dofs(m.num_dofs(), c);
+  StaticSolverOptions o;
+  o.max_krylov_iterations = 1;
+  o.krylov_rel_tol = 1e-14;
+  StaticSolver solver(m, dofs, o);
+  VectorXd f = VectorXd::Zero(m.num_dofs());
+  for (int j = 0; j <= 3; ++j)
+    for (int i = 0; i <= 3; ++i) f[dof(volume::box_node_index({3, 3, 3}, i, j, 3), 0)] = 0.05;
+  VectorXd x = m.rest_positions();
+  const auto r = solver.solve(f, x);
+  ASSERT_TRUE(r.converged) << r.message;
+  EXPECT_GT(r.direct_solves, 0);
+  EXPECT_LE(r.iterations, 15);
+  EXPECT_LE(static_residual(m, dofs, f, x).norm(), o.rel_tol * r.reference_force_n + o.abs_tol_n);
+}
+
 TEST(StaticSolver, rejects_nan_loads) {
   MassSpringModel m(small_lattice(1), {50e3, 1060}, {});
   DofConstraints c;

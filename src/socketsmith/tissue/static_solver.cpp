@@ -1,15 +1,22 @@
 #include "socketsmith/tissue/static_solver.h"
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <mutex>
+#include <vector>
 
 #include <dlfcn.h>
 
 #include <Eigen/CholmodSupport>
+#include <Eigen/Dense>
 #include <Eigen/IterativeLinearSolvers>
+#include <Eigen/SparseLU>
 
 #include "socketsmith/core/errors.h"
 #include "socketsmith/core/log.h"
+#include "socketsmith/volume/box_mesher.h"
+#include "socketsmith/volume/hex_element.h"
 
 namespace socketsmith::tissue {
 namespace {
@@ -54,6 +61,12 @@ void limit_blas_threads() {
 struct StaticSolver::Impl {
   SparseMatrix J, J_red, K, K_red;
   Cholmod chol;
+  Eigen::SparseLU<SparseMatrix> lu;  // fallback when BiCGSTAB fails with a fresh preconditioner
+  bool lu_analyzed = false;
+  // Line searches that found no acceptable step in this solve, and how many of them had trial
+  // points rejected because an element inverted.
+  int failed_searches = 0;
+  int failed_searches_inverting = 0;
   bool analyzed = false;
   bool factor_valid = false;
   double shift = 0.0;  // diagonal shift added when K_psd is only semi-definite
@@ -80,6 +93,216 @@ StaticSolver::~StaticSolver() = default;
 
 VectorXd static_residual(const MassSpringModel& model, const DofMap& dofs, const VectorXd& f_ext, const VectorXd& x) {
   return dofs.restrict_vector(model.elastic_forces(x) + f_ext);
+}
+
+TangentStability tangent_stability(const MassSpringModel& model, const DofMap& dofs, const VectorXd& x) {
+  require(x.size() == model.num_dofs() && x.allFinite(), "tangent_stability: x has {} entries (expected 3N = {})",
+          x.size(), model.num_dofs());
+  TangentStability out;
+  if (dofs.num_reduced() == 0) return out;
+  SparseMatrix J, K;
+  model.jacobian(x, JacobianKind::Exact, J);
+  dofs.reduce_matrix(J, K);
+  K *= -1.0;
+  K.makeCompressed();
+  out.computed = true;
+  out.max_diagonal = K.diagonal().maxCoeff();
+  Eigen::SparseLU<SparseMatrix> lu;
+  lu.compute(K);
+  if (lu.info() != Eigen::Success) return out;  // numerically singular: determinant_sign stays 0
+  out.determinant_sign = lu.signDeterminant() < 0 ? -1 : 1;
+  // Inverse iteration: the eigenvalue of smallest magnitude and its mode.
+  const Eigen::Index n = K.rows();
+  VectorXd v(n);
+  for (Eigen::Index i = 0; i < n; ++i) v[i] = 1.0 + 0.5 * std::sin(0.7 * static_cast<double>(i));
+  v.normalize();
+  double mu = 0.0;
+  for (int it = 0; it < 100; ++it) {
+    VectorXd w = lu.solve(v);
+    if (!w.allFinite() || w.norm() == 0) break;
+    v = w.normalized();
+    const VectorXd Kv = K * v;
+    mu = v.dot(Kv);
+    if ((Kv - mu * v).norm() <= 1e-8 * out.max_diagonal) {
+      out.softest_converged = true;
+      break;
+    }
+  }
+  out.softest_eigenvalue = mu;
+  VectorXd full = VectorXd::Zero(model.num_dofs());
+  dofs.add_expanded(v, full);
+  double best = -1;
+  for (int i = 0; i < model.num_nodes(); ++i) {
+    const double a = full.segment<3>(3 * i).norm();
+    if (a > best) {
+      best = a;
+      out.softest_mode_node = i;
+    }
+  }
+  return out;
+}
+
+ElementStabilityRange element_stability_range(const MassSpringModel& model) {
+  volume::BoxMeshOptions box;
+  box.size = volume::Vec3::Constant(0.01);
+  box.divisions = {1, 1, 1};
+  const MassSpringModel cube(volume::mesh_box(box), model.material(), model.options());
+  const VectorXd x0 = cube.rest_positions();
+  Eigen::Vector3d c = Eigen::Vector3d::Zero();
+  for (int i = 0; i < 8; ++i) c += x0.segment<3>(3 * i) / 8.0;
+  // Orthonormal basis of the 18 deformation modes (complement of the 6 rigid ones).
+  Eigen::MatrixXd rigid = Eigen::MatrixXd::Zero(24, 6);
+  for (int i = 0; i < 8; ++i)
+    for (int a = 0; a < 3; ++a) {
+      rigid(3 * i + a, a) = 1.0;
+      rigid.block<3, 1>(3 * i, 3 + a) = Eigen::Vector3d::Unit(a).cross(x0.segment<3>(3 * i) - c);
+    }
+  const Eigen::MatrixXd q = Eigen::HouseholderQR<Eigen::MatrixXd>(rigid).householderQ();
+  const Eigen::MatrixXd basis = q.rightCols(18);
+  SparseMatrix J;
+  auto smallest = [&](double dv) {
+    const double scale = std::cbrt(1.0 + dv);
+    VectorXd x = x0;
+    for (int i = 0; i < 8; ++i) x.segment<3>(3 * i) = c + scale * (x0.segment<3>(3 * i) - c);
+    cube.jacobian(x, JacobianKind::Exact, J);
+    const Eigen::MatrixXd k = -(basis.transpose() * Eigen::MatrixXd(J) * basis);
+    return Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(0.5 * (k + k.transpose()), Eigen::EigenvaluesOnly)
+        .eigenvalues()[0];
+  };
+  auto edge = [&](double direction) {
+    // Scan in steps of 0.25 % up to 50 %, then bisect the first sign change.
+    double stable = 0.0;
+    for (double dv = 0.0025; dv <= 0.5 + 1e-12; dv += 0.0025) {
+      if (smallest(direction * dv) > 0) {
+        stable = dv;
+        continue;
+      }
+      double lo = stable, hi = dv;
+      for (int it = 0; it < 20; ++it) {
+        const double mid = 0.5 * (lo + hi);
+        (smallest(direction * mid) > 0 ? lo : hi) = mid;
+      }
+      return direction * lo;
+    }
+    return direction * 0.5;
+  };
+  ElementStabilityRange range;
+  if (smallest(0.0) <= 0) {
+    range.min_volume_change = range.max_volume_change = 0.0;
+    return range;
+  }
+  range.min_volume_change = edge(-1.0);
+  range.max_volume_change = edge(1.0);
+  return range;
+}
+
+int StaticSolver::count_outside_stable_range(const VectorXd& x, ElementStabilityRange& range) const {
+  range = element_stability_range(model_);
+  const VectorXd v = model_.element_volumes(x), v0 = model_.element_volumes(model_.rest_positions());
+  int n = 0;
+  for (Eigen::Index e = 0; e < v.size(); ++e) {
+    const double dv = (v[e] - v0[e]) / v0[e];
+    if (dv < range.min_volume_change || dv > range.max_volume_change) ++n;
+  }
+  return n;
+}
+
+/// Worst element (smallest corner scaled Jacobian) and the range of volume changes at x.
+void StaticSolver::describe_state(const VectorXd& x, StaticResult& res) const {
+  const auto& mesh = model_.mesh();
+  const VectorXd v = model_.element_volumes(x);
+  res.worst_element = -1;
+  res.worst_scaled_jacobian = std::numeric_limits<double>::infinity();
+  res.min_volume_change = std::numeric_limits<double>::infinity();
+  res.max_volume_change = -std::numeric_limits<double>::infinity();
+  volume::HexNodes xe, x0;
+  for (int e = 0; e < mesh.num_hexahedra(); ++e) {
+    for (int k = 0; k < 8; ++k) {
+      xe[k] = x.segment<3>(3 * mesh.hexahedra[e][k]);
+      x0[k] = model_.rest_positions().segment<3>(3 * mesh.hexahedra[e][k]);
+    }
+    const auto sj = volume::corner_scaled_jacobians(xe);
+    const double m = *std::min_element(sj.begin(), sj.end());
+    if (m < res.worst_scaled_jacobian) {
+      res.worst_scaled_jacobian = m;
+      res.worst_element = e;
+    }
+    const double v0 = volume::hex_volume(x0);
+    const double dv = (v[e] - v0) / v0;
+    res.min_volume_change = std::min(res.min_volume_change, dv);
+    res.max_volume_change = std::max(res.max_volume_change, dv);
+  }
+  if (res.worst_element < 0) {
+    res.worst_scaled_jacobian = 1.0;
+    res.min_volume_change = res.max_volume_change = 0.0;
+  }
+}
+
+/// Why the continuation stalled at x (the last equilibrium), in words.
+std::string StaticSolver::stall_diagnosis(const VectorXd& x, StaticResult& res, double path_stiffness_ratio) const {
+  const Impl& s = *impl_;
+  describe_state(x, res);
+  std::vector<std::string> signs;
+  std::string facts;
+  if (res.worst_element >= 0) {
+    const auto& hex = model_.mesh().hexahedra[res.worst_element];
+    volume::HexNodes x0, xe;
+    for (int k = 0; k < 8; ++k) {
+      x0[k] = model_.rest_positions().segment<3>(3 * hex[k]);
+      xe[k] = x.segment<3>(3 * hex[k]);
+    }
+    const auto sj0 = volume::corner_scaled_jacobians(x0);
+    const double rest_sj = *std::min_element(sj0.begin(), sj0.end());
+    const double dv = volume::hex_volume(xe) / volume::hex_volume(x0) - 1.0;
+    const bool collapsing = res.worst_scaled_jacobian < 0.05 || res.worst_scaled_jacobian < 0.1 * rest_sj;
+    facts += fmt::format("element {} is {} (corner scaled Jacobian {:.3g}, {:.3g} at rest; volume change {:+.1f}%)",
+                         res.worst_element, collapsing ? "collapsing" : "the most distorted", res.worst_scaled_jacobian,
+                         rest_sj, 100 * dv);
+    if (collapsing) signs.push_back(fmt::format("element {} collapses", res.worst_element));
+  }
+  if (s.failed_searches > 0)
+    facts += fmt::format("; {} of {} failed line searches had trial steps that invert an element", s.failed_searches_inverting,
+                         s.failed_searches);
+  ElementStabilityRange range;
+  res.elements_outside_stable_range = count_outside_stable_range(x, range);
+  facts += fmt::format("; element volume changes {:+.1f}% to {:+.1f}% ({} element(s) outside {:+.1f}% to {:+.1f}%, the "
+                       "range in which one cube element of this model is stable)",
+                       100 * res.min_volume_change, 100 * res.max_volume_change, res.elements_outside_stable_range,
+                       100 * range.min_volume_change, 100 * range.max_volume_change);
+  std::string indication;
+  if (res.elements_outside_stable_range > 0)
+    indication = fmt::format("{} element(s) beyond the volume change at which one element of this model is stable",
+                             res.elements_outside_stable_range);
+  if (path_stiffness_ratio > 0) {
+    facts += fmt::format("; the last load step's secant stiffness is {:.2g}% of the first's", 100 * path_stiffness_ratio);
+    if (path_stiffness_ratio < 0.05) signs.push_back("the load-displacement path is nearly flat");
+  }
+  if (options_.stability_check_max_dofs > 0 && dofs_.num_reduced() <= options_.stability_check_max_dofs) {
+    res.stability = tangent_stability(model_, dofs_, x);
+    const auto& st = res.stability;
+    if (st.computed) {
+      facts += fmt::format("; tangent at that state: det {}, softest eigenvalue {:.3g} N/m ({:.2g} of the largest "
+                           "diagonal{}, largest at node {})",
+                           st.determinant_sign < 0 ? "< 0" : st.determinant_sign > 0 ? "> 0" : "= 0 (singular)",
+                           st.softest_eigenvalue, st.softest_eigenvalue / st.max_diagonal,
+                           st.softest_converged ? "" : ", not converged", st.softest_mode_node);
+      if (st.determinant_sign < 0) signs.push_back("the tangent has a negative eigenvalue (unstable equilibrium)");
+      if (st.determinant_sign == 0 ||
+          (st.softest_converged && std::abs(st.softest_eigenvalue) < 1e-4 * st.max_diagonal))
+        signs.push_back("the tangent is nearly singular");
+    }
+  }
+  std::string verdict;
+  if (signs.empty() && indication.empty()) {
+    verdict = "no sign of a loss of stability was found";
+  } else {
+    if (!indication.empty()) signs.push_back(indication);
+    verdict = signs.size() == 1 && !indication.empty() ? "the lattice model likely loses stability here ("
+                                                       : "the lattice model loses stability here (";
+    for (size_t i = 0; i < signs.size(); ++i) verdict += (i ? ", " : "") + signs[i];
+    verdict += "): a property of the model under this load, not an inaccurate linear solve (docs/tissue.md)";
+  }
+  return fmt::format("at the last equilibrium {}; {}", facts, verdict);
 }
 
 /// One Newton solve toward @p f_ext from @p x, at most @p max_iterations iterations, to
@@ -147,9 +370,25 @@ bool StaticSolver::newton(const VectorXd& f_ext, VectorXd& x, int max_iterations
     s.last_krylov_iterations = kit;
     if (s.krylov_after_factor < 0) s.krylov_after_factor = kit;
     const bool krylov_ok = krylov.info() == Eigen::Success && delta.allFinite();
+    if (!krylov_ok && !fresh) {
+      s.factor_valid = false;  // retry this iterate with a fresh preconditioner
+      continue;
+    }
     if (!krylov_ok) {
-      // Fall back to the SPD (modified Newton) direction and refresh the factorisation next time.
-      delta = s.chol.solve(r);
+      // BiCGSTAB failed even with a fresh preconditioner (e.g. an indefinite tangent): solve the
+      // true tangent by sparse LU, so that the direction is the exact Newton direction.
+      s.J_red.makeCompressed();
+      if (!s.lu_analyzed) {
+        s.lu.analyzePattern(s.J_red);
+        s.lu_analyzed = true;
+      }
+      s.lu.factorize(s.J_red);
+      if (s.lu.info() == Eigen::Success) delta = s.lu.solve(r);
+      if (s.lu.info() == Eigen::Success && delta.allFinite()) {
+        ++res.direct_solves;
+      } else {
+        delta = s.chol.solve(r);  // singular tangent: the SPD (modified Newton) direction
+      }
       s.factor_valid = false;
     }
     if (options_.max_step_m > 0) {
@@ -159,11 +398,15 @@ bool StaticSolver::newton(const VectorXd& f_ext, VectorXd& x, int max_iterations
     // Backtracking line search on ‖r‖, rejecting inverted elements.
     double t = 1.0;
     bool accepted = false;
+    int inverted_trials = 0;
     VectorXd x_try(x.size());
     for (int ls = 0; ls < options_.max_line_search; ++ls, t *= 0.5) {
       x_try = x;
       dofs_.add_expanded(t * delta, x_try);
-      if (model_.min_corner_jacobian(x_try) <= 0) continue;
+      if (model_.min_corner_jacobian(x_try) <= 0) {
+        ++inverted_trials;
+        continue;
+      }
       VectorXd r_try = static_residual(model_, dofs_, f_ext, x_try);
       const double n_try = r_try.norm();
       if (std::isfinite(n_try) && n_try < (1.0 - 1e-4 * t) * rnorm) {
@@ -181,6 +424,8 @@ bool StaticSolver::newton(const VectorXd& f_ext, VectorXd& x, int max_iterations
         s.factor_valid = false;  // retry with a fresh factorisation at this iterate
         continue;
       }
+      ++s.failed_searches;
+      if (inverted_trials > 0) ++s.failed_searches_inverting;
       res.residual_n = rnorm;
       res.message = fmt::format("diverged: no step along the Newton direction reduces the residual ({:.3g} N)", rnorm);
       return false;
@@ -205,9 +450,11 @@ StaticResult StaticSolver::solve(const VectorXd& f_ext, VectorXd& x) {
     res.message = "initial state has an inverted element";
     return res;
   }
+  impl_->failed_searches = impl_->failed_searches_inverting = 0;
   const VectorXd x0 = x;
   // 1. Plain Newton from the warm start (the common case: a small load change).
   res.converged = newton(f_ext, x, options_.continuation_newton_iterations, tol, res);
+  if (res.converged) res.load_fraction = 1.0;
   // 2. Otherwise, load continuation from the load the initial state already balances,
   //    f(λ) = f₀ + λ (f_ext − f₀) with f₀ = −f_int(x₀), λ: 0 → 1 in adaptive steps.
   if (!res.converged) {
@@ -216,6 +463,9 @@ StaticResult StaticSolver::solve(const VectorXd& f_ext, VectorXd& x) {
     const VectorXd f0 = -model_.elastic_forces(x0);
     double lambda = 0.0, step = 0.25;
     const double loose_tol = std::max(tol, 1e3 * options_.rel_tol * res.reference_force_n);
+    // Secant stiffness of the path, Δλ/‖Δx‖, of the first and of the last accepted load step: their
+    // ratio tells how much the structure has softened (→ 0 at a limit point or a collapse).
+    double first_stiffness = 0.0, last_stiffness = 0.0;
     while (lambda < 1.0) {
       const double target = std::min(1.0, lambda + step);
       VectorXd x_try = x;
@@ -223,28 +473,63 @@ StaticResult StaticSolver::solve(const VectorXd& f_ext, VectorXd& x) {
       const bool last = target >= 1.0;
       log::debug("StaticSolver: load step {:.4g} -> {:.4g}", lambda, target);
       if (newton(f, x_try, options_.continuation_newton_iterations, last ? tol : loose_tol, res)) {
+        const double moved = (x_try - x).norm();
+        if (moved > 0) {
+          last_stiffness = (target - lambda) / moved;
+          if (first_stiffness == 0.0) first_stiffness = last_stiffness;
+        }
         x = std::move(x_try);
         step = std::min(2.0 * (target - lambda), 1.0);
         lambda = target;
         ++res.load_steps;
       } else {
         step = 0.5 * (target - lambda);
-        if (step < options_.min_load_step) {
-          res.message = fmt::format("diverged: load continuation stalled at {:.1f}% of the load ({})", 100 * lambda,
-                                    res.message);
+        const double ratio = first_stiffness > 0 ? last_stiffness / first_stiffness : 0.0;
+        const bool flat = res.load_steps >= 2 && ratio > 0 && ratio < options_.collapse_stiffness_ratio;
+        if (step < options_.min_load_step || flat) {
+          res.load_fraction = lambda;
+          res.message = fmt::format("diverged: load continuation stalled at {:.1f}% of the load ({}{}); {}", 100 * lambda,
+                                    res.message,
+                                    flat ? fmt::format("; stopped: the path's stiffness fell below {:.2g}% of its initial "
+                                                       "value (collapse_stiffness_ratio)",
+                                                       100 * options_.collapse_stiffness_ratio)
+                                         : std::string(),
+                                    stall_diagnosis(x, res, ratio));
           break;
         }
       }
     }
     res.converged = lambda >= 1.0;
+    if (res.converged) res.load_fraction = 1.0;
+  }
+  if (res.worst_element < 0) describe_state(x, res);
+  if (res.converged && options_.check_stability && options_.stability_check_max_dofs > 0 &&
+      dofs_.num_reduced() <= options_.stability_check_max_dofs) {
+    res.stability = tangent_stability(model_, dofs_, x);
+    ElementStabilityRange range;
+    res.elements_outside_stable_range = count_outside_stable_range(x, range);
+    if (res.stability.determinant_sign < 0) {
+      res.converged = false;
+      res.message = fmt::format(
+          "unstable: converged to an equilibrium (residual {:.3g} N) whose tangent has a negative eigenvalue "
+          "(det < 0; softest eigenvalue {:.3g} N/m, largest at node {}; element volume changes {:+.1f}% to {:+.1f}%): "
+          "the lattice model cannot hold this state (docs/tissue.md)",
+          res.residual_n, res.stability.softest_eigenvalue, res.stability.softest_mode_node,
+          100 * res.min_volume_change, 100 * res.max_volume_change);
+    }
   }
   if (res.converged) {
     res.message = fmt::format("converged in {} iterations{}, residual {:.3g} N", res.iterations,
                               res.load_steps > 0 ? fmt::format(" ({} load steps)", res.load_steps) : std::string(),
                               res.residual_n);
+    if (res.elements_outside_stable_range > 0)  // only computed with check_stability
+      res.message += fmt::format("; warning: {} element(s) beyond the volume change at which one element of this "
+                                 "model is stable (volume changes {:+.1f}% to {:+.1f}%): the equilibrium may be unstable",
+                                 res.elements_outside_stable_range, 100 * res.min_volume_change,
+                                 100 * res.max_volume_change);
   }
-  log::debug("StaticSolver: {} ({} Krylov iterations, {} factorisations)", res.message, res.krylov_iterations,
-             res.factorizations);
+  log::debug("StaticSolver: {} ({} Krylov iterations, {} factorisations, {} direct solves)", res.message,
+             res.krylov_iterations, res.factorizations, res.direct_solves);
   return res;
 }
 

@@ -13,6 +13,14 @@
 /// the initial state already balances (f₀ = −f_int(x₀)), halving the load step on failure.
 ///
 /// Convergence: ‖r‖₂ ≤ rel_tol · max(‖Pᵀ f_ext‖₂, force_scale_n) + abs_tol_n.
+///
+/// When the continuation stalls, the result says why (docs/tissue.md, "Static solves on limb
+/// meshes"): the element closest to inversion, whether inverting it blocked the line searches,
+/// the range of element volume changes, how much the load–displacement path has softened, and
+/// (up to `stability_check_max_dofs`) the tangent's determinant sign and softest eigenvalue at
+/// the last equilibrium. A stall of these lattices is usually a genuine loss of stability of the
+/// model (e.g. MSS-CS elements compressed by more than ≈ 3 % with the recommended constants, or
+/// expanded by more than ≈ 0.3 % with the thesis's), not an inaccurate linear solve.
 
 #include <memory>
 #include <string>
@@ -36,7 +44,49 @@ struct StaticSolverOptions {
   int continuation_newton_iterations = 15;  ///< Newton cap of the direct attempt and of each load step
   double min_load_step = 1.0 / 1024;    ///< smallest load-continuation step before giving up [-]
   double max_step_m = 0.0;        ///< cap on the largest nodal move per iteration [m] (0: none)
+  /// Gives up the load continuation when a load step fails while the secant stiffness of the
+  /// path (Δλ/‖Δx‖ of the last accepted load step) is below this fraction of the first step's:
+  /// the load–displacement path is nearly flat (a limit point or a collapse), where continuation
+  /// in the load only crawls (measured: 25 Newton iterations per 0.1 % of the load at 8k nodes).
+  /// 0: crawl on until min_load_step.
+  double collapse_stiffness_ratio = 0.01;
+  /// Checks the tangent's stability (sparse LU of the exact reduced tangent: determinant sign and
+  /// softest eigenvalue) after a converged solve; a negative determinant (an odd number of real
+  /// negative eigenvalues: the equilibrium is unstable) is then reported as not converged.
+  /// Costs about one LU factorisation (0.5 s at 3k nodes, 3 s at 8k): off by default.
+  bool check_stability = false;
+  /// Largest reduced system for which a stalled solve (or check_stability) computes the tangent
+  /// stability by sparse LU [DOFs] (0: never). The LU's fill is ~ 20 M entries at 18k DOFs.
+  int stability_check_max_dofs = 30000;
 };
+
+/// Stability of the tangent K = −Pᵀ J P at a state (computed by sparse LU of the exact tangent).
+/// det K < 0 proves the state unstable (an odd number of real negative eigenvalues: a static
+/// divergence mode exists whatever the masses); det K > 0 does not prove it stable.
+struct TangentStability {
+  bool computed = false;
+  int determinant_sign = 0;          ///< sign of det K (−1: unstable), 0 when not computed or singular
+  double softest_eigenvalue = 0.0;   ///< eigenvalue of K of smallest magnitude (inverse iteration) [N/m]
+  bool softest_converged = false;    ///< inverse iteration converged (else a complex pair may be softest)
+  double max_diagonal = 0.0;         ///< largest diagonal entry of K [N/m] (scale of the eigenvalue)
+  int softest_mode_node = -1;        ///< node with the largest amplitude in the softest mode
+};
+
+/// Volume changes (V − V0)/V0 between which one cube element of a model, scaled uniformly (a
+/// hydrostatic state), has a positive definite tangent on its 18 deformation modes. Outside this
+/// range the element alone is unstable (MSS-CS: the pre-compressed corrective springs' negative
+/// transverse stiffness beats the Golec springs in compression; the thesis's symmetric law
+/// inflates expanding elements). Distorted or sheared elements, and their neighbours, move the
+/// threshold: an indication for diagnosis, not a proof.
+struct ElementStabilityRange {
+  double min_volume_change = -0.5;  ///< lower end; −0.5 when stable down to −50 %
+  double max_volume_change = 0.5;   ///< upper end; +0.5 when stable up to +50 %
+};
+ElementStabilityRange element_stability_range(const MassSpringModel& model);
+
+/// Tangent stability at positions @p x (3N). Factorises the exact reduced tangent with Eigen's
+/// SparseLU: memory and time of a direct solve; meant for diagnosis, not every solve.
+TangentStability tangent_stability(const MassSpringModel& model, const DofMap& dofs, const VectorXd& x);
 
 struct StaticResult {
   bool converged = false;
@@ -46,6 +96,18 @@ struct StaticResult {
   int load_steps = 0;          ///< load-continuation steps taken (0: direct Newton converged)
   double residual_n = 0.0;     ///< final ‖r‖₂ [N]
   double reference_force_n = 0.0;  ///< the reference of the relative tolerance [N]
+  double load_fraction = 0.0;  ///< fraction of the load (from the one x₀ balances) that x balances [-]
+  int direct_solves = 0;       ///< Newton steps solved by sparse LU because BiCGSTAB failed
+  /// Element closest to inversion in the returned state: its smallest corner scaled Jacobian
+  /// (1 for a cube, ≤ 0 inverted) and its volume change (V − V0)/V0.
+  int worst_element = -1;
+  double worst_scaled_jacobian = 1.0;
+  double min_volume_change = 0.0;  ///< smallest (V − V0)/V0 over the elements
+  double max_volume_change = 0.0;  ///< largest (V − V0)/V0 over the elements
+  /// Elements whose volume change lies outside element_stability_range (filled with the stall
+  /// diagnosis and by check_stability; −1 when not computed).
+  int elements_outside_stable_range = -1;
+  TangentStability stability;  ///< filled when the solve stalled or check_stability is set
   std::string message;         ///< why it stopped
 };
 
@@ -68,6 +130,9 @@ class StaticSolver {
  private:
   struct Impl;
   bool newton(const VectorXd& f_ext, VectorXd& x, int max_iterations, double tol, StaticResult& res);
+  void describe_state(const VectorXd& x, StaticResult& res) const;
+  std::string stall_diagnosis(const VectorXd& x, StaticResult& res, double path_stiffness_ratio) const;
+  int count_outside_stable_range(const VectorXd& x, ElementStabilityRange& range) const;
   const MassSpringModel& model_;
   const DofMap& dofs_;
   StaticSolverOptions options_;
