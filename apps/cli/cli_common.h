@@ -34,5 +34,6 @@ void register_calibrate(CLI::App& app);
 void register_check(CLI::App& app);
 void register_limb(CLI::App& app);  // cmd_limb.cpp: limb generate
 void register_mesh(CLI::App& app);  // cmd_mesh.cpp: mesh
+void register_design(CLI::App& app);  // cmd_design.cpp: design, run, demo
 
 }  // namespace socketsmith::cli

@@ -23,6 +23,7 @@ int main(int argc, char** argv) {
   cli::register_check(app);
   cli::register_limb(app);
   cli::register_mesh(app);
+  cli::register_design(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

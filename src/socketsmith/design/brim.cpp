@@ -1,0 +1,263 @@
+#include "socketsmith/design/brim.h"
+
+#include <algorithm>
+#include <array>
+#include <cctype>
+#include <cmath>
+#include <numbers>
+
+#include "socketsmith/core/errors.h"
+#include "socketsmith/core/units.h"
+
+namespace socketsmith::design {
+namespace {
+
+using geometry::LimbType;
+constexpr double kDeg = units::deg, kMm = units::mm;
+
+struct NamedTemplate {
+  BrimTemplate kind;
+  const char* name;
+};
+constexpr std::array<NamedTemplate, 8> kNames{{{BrimTemplate::Ptb, "ptb"},
+                                               {BrimTemplate::PtbSc, "ptb-sc"},
+                                               {BrimTemplate::PtbScsp, "ptb-scsp"},
+                                               {BrimTemplate::Kbm, "kbm"},
+                                               {BrimTemplate::Tsb, "tsb"},
+                                               {BrimTemplate::Quad, "quad"},
+                                               {BrimTemplate::Ics, "ics"},
+                                               {BrimTemplate::Custom, "custom"}}};
+
+std::string names_of(LimbType type) {
+  std::string out;
+  for (const auto& n : kNames)
+    if (n.kind != BrimTemplate::Custom && limb_type_of(n.kind) == type) out += (out.empty() ? "" : ", ") + std::string(n.name);
+  return out;
+}
+
+geometry::PeriodicAkimaSpline build_spline(const std::vector<BrimKeyPoint>& points) {
+  std::vector<double> th, h;
+  for (const auto& p : points) {
+    th.push_back(p.theta);
+    h.push_back(p.h);
+  }
+  try {
+    return geometry::PeriodicAkimaSpline(th, h);
+  } catch (const InvalidInputError& e) {
+    fail("brim line: {}", e.what());
+  }
+}
+
+const volume::Landmark& landmark(const std::vector<volume::Landmark>& landmarks, const std::string& code,
+                                 BrimTemplate kind) {
+  for (const auto& l : landmarks)
+    if (l.code == code) return l;
+  fail("make_brim: template '{}' needs landmark {}, which the limb does not have; place it (--landmark {}=x,y,z)",
+       to_string(kind), code, code);
+}
+
+/// Key point (θ in degrees, h in metres).
+BrimKeyPoint kp(const char* label, double theta_deg, double h) { return {label, theta_deg * kDeg, h}; }
+
+}  // namespace
+
+std::string to_string(BrimTemplate kind) {
+  for (const auto& n : kNames)
+    if (n.kind == kind) return n.name;
+  return "custom";
+}
+
+BrimTemplate parse_brim_template(const std::string& text) {
+  std::string lower = text;
+  std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return std::tolower(c); });
+  for (const auto& n : kNames)
+    if (lower == n.name) return n.kind;
+  fail("brim template '{}' is not known (valid: ptb, ptb-sc, ptb-scsp, kbm, tsb, quad, ics, custom)", text);
+}
+
+LimbType limb_type_of(BrimTemplate kind) {
+  switch (kind) {
+    case BrimTemplate::Quad:
+    case BrimTemplate::Ics:
+      return LimbType::Transfemoral;
+    case BrimTemplate::Custom:
+      fail("brim template 'custom' has no limb type (it is made of explicit key points)");
+    default:
+      return LimbType::Transtibial;
+  }
+}
+
+BrimLine::BrimLine(BrimTemplate kind, std::vector<BrimKeyPoint> key_points)
+    : kind_(kind), points_(std::move(key_points)), spline_(build_spline(points_)) {}
+
+double BrimLine::min_height() const {
+  double v = std::numeric_limits<double>::infinity();
+  for (int k = 0; k < 720; ++k) v = std::min(v, height(-std::numbers::pi + k * std::numbers::pi / 360));
+  return v;
+}
+
+double BrimLine::max_height() const {
+  double v = -std::numeric_limits<double>::infinity();
+  for (int k = 0; k < 720; ++k) v = std::max(v, height(-std::numbers::pi + k * std::numbers::pi / 360));
+  return v;
+}
+
+void BrimLine::move_key_point(int index, double theta, double h) {
+  require(index >= 0 && index < static_cast<int>(points_.size()),
+          "BrimLine::move_key_point: index {} is out of range (the brim has {} key points)", index, points_.size());
+  std::vector<BrimKeyPoint> moved = points_;
+  moved[index].theta = theta;
+  moved[index].h = h;
+  set_key_points(std::move(moved));
+}
+
+void BrimLine::set_key_points(std::vector<BrimKeyPoint> key_points) {
+  geometry::PeriodicAkimaSpline s = build_spline(key_points);  // throws before anything changes
+  points_ = std::move(key_points);
+  spline_ = std::move(s);
+  edited_ = true;
+}
+
+BrimLine make_brim(BrimTemplate kind, LimbType type, const std::vector<volume::Landmark>& landmarks,
+                   double cut_height_m, const BrimOptions& options) {
+  require(kind != BrimTemplate::Custom,
+          "make_brim: 'custom' is not a template; give the key points (brim_from_key_points) or pick one of {}",
+          names_of(type));
+  require(limb_type_of(kind) == type, "make_brim: brim '{}' is a {} template but the limb is {}; use one of {}",
+          to_string(kind), geometry::to_string(limb_type_of(kind)), geometry::to_string(type), names_of(type));
+  require(std::isfinite(cut_height_m) && cut_height_m > 0.0,
+          "make_brim: cut height {} m is not positive (expected the limb's cut above its distal end)", cut_height_m);
+  require(options.top_margin_m >= 0.0 && options.top_margin_m < 0.5 * cut_height_m,
+          "make_brim: top_margin_m = {} m is out of range [0, half the cut height {} m]", options.top_margin_m,
+          0.5 * cut_height_m);
+  require(options.min_height_fraction >= 0.0 && options.min_height_fraction < 1.0,
+          "make_brim: min_height_fraction = {} is out of range [0, 1)", options.min_height_fraction);
+
+  std::vector<BrimKeyPoint> p;
+  if (type == LimbType::Transtibial) {
+    const double pt = landmark(landmarks, "PT", kind).cylindrical.h;
+    const double k = landmark(landmarks, "POP", kind).cylindrical.h + 10 * kMm;  // knee joint line
+    const double mm = kMm;
+    switch (kind) {
+      case BrimTemplate::Ptb:
+        p = {kp("anterior (mid-patella)", 0, pt + 30 * mm), kp("antero-medial", 35, pt + 30 * mm),
+             kp("medial wing (condyle)", 80, k + 20 * mm), kp("postero-medial", 110, k + 5 * mm),
+             kp("medial hamstring relief", 145, pt), kp("posterior (popliteal)", 180, pt + 10 * mm),
+             kp("lateral hamstring relief", -145, pt + 5 * mm), kp("postero-lateral", -110, k + 5 * mm),
+             kp("lateral wing (condyle)", -80, k + 20 * mm), kp("antero-lateral", -35, pt + 30 * mm)};
+        break;
+      case BrimTemplate::PtbSc:
+        p = {kp("anterior (mid-patella)", 0, pt + 30 * mm), kp("antero-medial", 35, pt + 35 * mm),
+             kp("medial wing (supracondylar)", 80, k + 50 * mm), kp("postero-medial", 110, k + 15 * mm),
+             kp("medial hamstring relief", 145, pt), kp("posterior (popliteal)", 180, pt + 10 * mm),
+             kp("lateral hamstring relief", -145, pt + 5 * mm), kp("postero-lateral", -110, k + 15 * mm),
+             kp("lateral wing (supracondylar)", -80, k + 50 * mm), kp("antero-lateral", -35, pt + 35 * mm)};
+        break;
+      case BrimTemplate::PtbScsp:
+        p = {kp("anterior (suprapatellar)", 0, k + 55 * mm), kp("antero-medial", 35, k + 50 * mm),
+             kp("medial wing (supracondylar)", 80, k + 55 * mm), kp("postero-medial", 115, k + 15 * mm),
+             kp("medial hamstring relief", 145, pt), kp("posterior (popliteal)", 180, pt + 10 * mm),
+             kp("lateral hamstring relief", -145, pt + 5 * mm), kp("postero-lateral", -115, k + 15 * mm),
+             kp("lateral wing (supracondylar)", -80, k + 55 * mm), kp("antero-lateral", -35, k + 50 * mm)};
+        break;
+      case BrimTemplate::Kbm:
+        p = {kp("anterior (below the patella)", 0, pt + 10 * mm), kp("antero-medial", 30, pt + 15 * mm),
+             kp("medial wing (over the condyle)", 80, k + 50 * mm), kp("postero-medial", 110, k + 20 * mm),
+             kp("medial hamstring relief", 145, pt), kp("posterior (popliteal)", 180, pt + 10 * mm),
+             kp("lateral hamstring relief", -145, pt + 5 * mm), kp("postero-lateral", -110, k + 20 * mm),
+             kp("lateral wing (over the condyle)", -80, k + 50 * mm), kp("antero-lateral", -30, pt + 15 * mm)};
+        break;
+      case BrimTemplate::Tsb:
+        p = {kp("anterior", 0, k + 25 * mm), kp("antero-medial", 40, k + 25 * mm), kp("medial", 85, k + 30 * mm),
+             kp("postero-medial", 130, k + 15 * mm), kp("posterior", 180, k + 5 * mm),
+             kp("postero-lateral", -130, k + 15 * mm), kp("lateral", -85, k + 30 * mm),
+             kp("antero-lateral", -40, k + 25 * mm)};
+        break;
+      default:
+        break;
+    }
+  } else {
+    const double is = landmark(landmarks, "IS", kind).cylindrical.h;
+    const double gt = landmark(landmarks, "GT", kind).cylindrical.h;
+    const double mm = kMm;
+    if (kind == BrimTemplate::Quad)
+      p = {kp("anterior (Scarpa)", 0, is + 65 * mm), kp("antero-medial", 40, is + 50 * mm),
+           kp("medial wall", 90, is), kp("postero-medial", 120, is), kp("ischial seat", 150, is),
+           kp("posterior", 180, is), kp("postero-lateral", -140, is + 25 * mm),
+           kp("lateral wall", -90, is + 70 * mm), kp("antero-lateral", -40, is + 65 * mm)};
+    else
+      p = {kp("anterior", 0, is + 50 * mm), kp("antero-medial", 40, is + 40 * mm),
+           kp("medial (ramus)", 90, is + 20 * mm), kp("postero-medial", 120, is + 30 * mm),
+           kp("ischial containment", 150, is + 35 * mm), kp("posterior", 180, is + 20 * mm),
+           kp("postero-lateral", -140, gt + 30 * mm), kp("lateral (over the trochanter)", -90, gt + 50 * mm),
+           kp("antero-lateral", -40, is + 55 * mm)};
+  }
+  const double lo = options.min_height_fraction * cut_height_m, hi = cut_height_m - options.top_margin_m;
+  for (auto& q : p) q.h = std::clamp(q.h, lo, hi);
+  return BrimLine(kind, std::move(p));
+}
+
+BrimLine make_brim(BrimTemplate kind, const volume::LimbModel& model, const BrimOptions& options) {
+  return make_brim(kind, model.type, model.landmarks, model.cut_height_m, options);
+}
+
+BrimLine brim_from_key_points(std::vector<BrimKeyPoint> key_points, BrimTemplate kind) {
+  return BrimLine(kind, std::move(key_points));
+}
+
+void validate_brim(const BrimLine& brim, const geometry::TriMesh& skin, const geometry::LimbFrame& frame,
+                   const BrimValidationOptions& options) {
+  require(!brim.spline().empty(), "validate_brim: the brim has no key points (pick a template or give key points)");
+  require(!skin.empty(), "validate_brim: the skin has no triangles");
+  require(options.min_enclosed_fraction > 0.0 && options.min_enclosed_fraction <= 1.0,
+          "validate_brim: min_enclosed_fraction = {} is out of range (0, 1]", options.min_enclosed_fraction);
+  std::vector<geometry::Cylindrical> c(skin.vertices.size());
+  double top = -std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < c.size(); ++i) {
+    c[i] = frame.to_cylindrical(skin.vertices[i]);
+    top = std::max(top, c[i].h);
+  }
+  const auto& pts = brim.key_points();
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    const auto& q = pts[i];
+    const std::string label = q.label.empty() ? "" : " '" + q.label + "'";
+    require(q.h <= top - options.top_margin_m,
+            "validate_brim: brim key point {}{} at h = {:.1f} mm is above the top of the skin ({:.1f} mm); "
+            "lower it below {:.1f} mm",
+            i, label, q.h / kMm, top / kMm, (top - options.top_margin_m) / kMm);
+    require(q.h > 0.0,
+            "validate_brim: brim key point {}{} at h = {:.1f} mm is at or below the distal end of the limb; "
+            "raise it (h is measured from the distal end)",
+            i, label, q.h / kMm);
+  }
+  // Side area (the flat proximal cap, if any, is left out: it is never inside the socket).
+  double side = 0.0, below = 0.0;
+  const double cap_tol = 1e-6;
+  for (int t = 0; t < skin.num_triangles(); ++t) {
+    const auto& tri = skin.triangles[t];
+    if (c[tri[0]].h >= top - cap_tol && c[tri[1]].h >= top - cap_tol && c[tri[2]].h >= top - cap_tol) continue;
+    const double a = geometry::triangle_area(skin, t);
+    side += a;
+    const Eigen::Vector3d centroid = (skin.vertices[tri[0]] + skin.vertices[tri[1]] + skin.vertices[tri[2]]) / 3.0;
+    if (!above_brim(brim, centroid, frame)) below += a;
+  }
+  const double fraction = side > 0 ? below / side : 0.0;
+  require(fraction >= options.min_enclosed_fraction,
+          "validate_brim: only {:.0f} % of the skin lies below the brim (at least {:.0f} % expected; lowest point "
+          "h = {:.1f} mm); raise the brim's key points",
+          100 * fraction, 100 * options.min_enclosed_fraction, brim.min_height() / kMm);
+}
+
+bool above_brim(const BrimLine& brim, const Eigen::Vector3d& p, const geometry::LimbFrame& frame) {
+  const geometry::Cylindrical c = frame.to_cylindrical(p);
+  return c.h > brim.height(c.theta);
+}
+
+std::vector<char> points_above_brim(const BrimLine& brim, const std::vector<Eigen::Vector3d>& points,
+                                    const geometry::LimbFrame& frame) {
+  std::vector<char> out(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) out[i] = above_brim(brim, points[i], frame) ? 1 : 0;
+  return out;
+}
+
+}  // namespace socketsmith::design

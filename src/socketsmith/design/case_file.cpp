@@ -1,0 +1,340 @@
+#include "socketsmith/design/case_file.h"
+
+#include <cmath>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include "socketsmith/core/atomic_file.h"
+#include "socketsmith/core/errors.h"
+#include "socketsmith/core/units.h"
+
+namespace socketsmith::design {
+namespace {
+using nlohmann::json;
+constexpr double kDeg = units::deg;
+
+void check_keys(const json& j, const std::string& where, const std::set<std::string>& known) {
+  require(j.is_object(), "case file: '{}' must be a JSON object", where);
+  for (const auto& [k, v] : j.items()) {
+    if (known.count(k)) continue;
+    std::string list;
+    for (const auto& n : known) list += (list.empty() ? "" : ", ") + n;
+    fail("case file: unknown key '{}' in '{}' (known: {})", k, where, list);
+  }
+}
+
+double number(const json& j, const std::string& key, const std::string& where, double fallback) {
+  if (!j.contains(key)) return fallback;
+  const auto& v = j.at(key);
+  require(v.is_number(), "case file: '{}.{}' must be a number (got {})", where, key, v.dump());
+  const double d = v.get<double>();
+  require(std::isfinite(d), "case file: '{}.{}' is not finite", where, key);
+  return d;
+}
+
+std::string text(const json& j, const std::string& key, const std::string& where, const std::string& fallback) {
+  if (!j.contains(key)) return fallback;
+  require(j.at(key).is_string(), "case file: '{}.{}' must be a string (got {})", where, key, j.at(key).dump());
+  return j.at(key).get<std::string>();
+}
+
+bool flag(const json& j, const std::string& key, const std::string& where, bool fallback) {
+  if (!j.contains(key)) return fallback;
+  require(j.at(key).is_boolean(), "case file: '{}.{}' must be true or false (got {})", where, key, j.at(key).dump());
+  return j.at(key).get<bool>();
+}
+
+Eigen::Vector3d vec3(const json& j, const std::string& where) {
+  require(j.is_array() && j.size() == 3 && j[0].is_number() && j[1].is_number() && j[2].is_number(),
+          "case file: '{}' must be [x, y, z] (got {})", where, j.dump());
+  Eigen::Vector3d v(j[0].get<double>(), j[1].get<double>(), j[2].get<double>());
+  require(v.allFinite(), "case file: '{}' is not finite", where);
+  return v;
+}
+
+std::string objective_name(OptimizerOptions::Objective o) {
+  return o == OptimizerOptions::Objective::Ratio ? "ratio" : "pressure";
+}
+}  // namespace
+
+json spot_to_json(const Spot& s) {
+  json j{{"name", s.name}, {"type", to_string(s.type)}, {"amplitude_kpa", s.amplitude_pa / 1e3}};
+  switch (s.type) {
+    case SpotType::Cos2:
+      j["theta0_deg"] = s.theta0 / kDeg;
+      j["r_theta_deg"] = s.r_theta / kDeg;
+      j["h0_mm"] = s.h0 * 1e3;
+      j["r_h_mm"] = s.r_h * 1e3;
+      break;
+    case SpotType::Sig2:
+      j["theta1_deg"] = s.theta1 / kDeg;
+      j["theta2_deg"] = s.theta2 / kDeg;
+      j["lambda_theta_per_deg"] = s.lambda_theta * kDeg;
+      j["h1_mm"] = s.h1 * 1e3;
+      j["h2_mm"] = s.h2 * 1e3;
+      j["lambda_h_per_mm"] = s.lambda_h * 1e-3;
+      break;
+    case SpotType::CosSig:
+      j["theta0_deg"] = s.theta0 / kDeg;
+      j["r_theta_deg"] = s.r_theta / kDeg;
+      j["h1_mm"] = s.h1 * 1e3;
+      j["h2_mm"] = s.h2 * 1e3;
+      j["lambda_h_per_mm"] = s.lambda_h * 1e-3;
+      break;
+    case SpotType::Grad:
+      j["h1_mm"] = s.h1 * 1e3;
+      j["h2_mm"] = s.h2 * 1e3;
+      break;
+  }
+  if (!s.enabled) j["enabled"] = false;
+  if (!s.optimise_amplitude) j["optimise_amplitude"] = false;
+  if (!s.optimise_position) j["optimise_position"] = false;
+  if (s.max_amplitude_pa > 0) j["max_amplitude_kpa"] = s.max_amplitude_pa / 1e3;
+  return j;
+}
+
+Spot spot_from_json(const json& j, const std::string& where) {
+  check_keys(j, where,
+             {"name", "type", "amplitude_kpa", "theta0_deg", "r_theta_deg", "h0_mm", "r_h_mm", "theta1_deg", "theta2_deg",
+              "lambda_theta_per_deg", "h1_mm", "h2_mm", "lambda_h_per_mm", "enabled", "optimise_amplitude",
+              "optimise_position", "max_amplitude_kpa"});
+  Spot s;
+  s.name = text(j, "name", where, where);
+  require(j.contains("type"), "case file: '{}' has no 'type' (cos2, sig2, cos-sig or grad)", where);
+  s.type = parse_spot_type(text(j, "type", where, ""));
+  s.amplitude_pa = number(j, "amplitude_kpa", where, 10.0) * 1e3;
+  s.theta0 = number(j, "theta0_deg", where, s.theta0 / kDeg) * kDeg;
+  s.r_theta = number(j, "r_theta_deg", where, s.r_theta / kDeg) * kDeg;
+  s.h0 = number(j, "h0_mm", where, s.h0 * 1e3) * 1e-3;
+  s.r_h = number(j, "r_h_mm", where, s.r_h * 1e3) * 1e-3;
+  s.theta1 = number(j, "theta1_deg", where, s.theta1 / kDeg) * kDeg;
+  s.theta2 = number(j, "theta2_deg", where, s.theta2 / kDeg) * kDeg;
+  s.lambda_theta = number(j, "lambda_theta_per_deg", where, s.lambda_theta * kDeg) / kDeg;
+  s.h1 = number(j, "h1_mm", where, s.h1 * 1e3) * 1e-3;
+  s.h2 = number(j, "h2_mm", where, s.h2 * 1e3) * 1e-3;
+  s.lambda_h = number(j, "lambda_h_per_mm", where, s.lambda_h * 1e-3) * 1e3;
+  s.enabled = flag(j, "enabled", where, true);
+  s.optimise_amplitude = flag(j, "optimise_amplitude", where, true);
+  s.optimise_position = flag(j, "optimise_position", where, true);
+  s.max_amplitude_pa = number(j, "max_amplitude_kpa", where, 0.0) * 1e3;
+  require(s.amplitude_pa >= 0, "case file: '{}.amplitude_kpa' is negative (a socket can only push: use 0 or more)",
+          where);
+  return s;
+}
+
+CaseFile parse_case(const json& doc, const std::filesystem::path& folder) {
+  CaseFile c;
+  c.folder = folder;
+  check_keys(doc, "case", {"socketsmith_case", "limb", "patient", "tissue", "mesh", "landmarks", "design", "brim", "socket"});
+  if (doc.contains("socketsmith_case"))
+    require(doc.at("socketsmith_case") == 1, "case file: version {} is not supported (this socketsmith reads 1)",
+            doc.at("socketsmith_case").dump());
+  if (doc.contains("limb")) {
+    const auto& j = doc.at("limb");
+    check_keys(j, "limb", {"file", "bones", "units", "type", "side", "anterior", "cut_height_mm", "generate_seed"});
+    c.limb.file = text(j, "file", "limb", "");
+    c.limb.bones = text(j, "bones", "limb", "auto");
+    c.limb.units = text(j, "units", "limb", "");
+    if (!c.limb.units.empty()) (void)units::parse_length_unit(c.limb.units);
+    c.limb.type = geometry::parse_limb_type(text(j, "type", "limb", "transtibial"));
+    if (j.contains("side")) c.limb.side = geometry::parse_side(text(j, "side", "limb", ""));
+    if (j.contains("anterior")) {
+      c.limb.anterior = vec3(j.at("anterior"), "limb.anterior");
+      require(c.limb.anterior->norm() > 0, "case file: 'limb.anterior' is the zero vector (give the front direction)");
+    }
+    if (j.contains("cut_height_mm")) c.limb.cut_height_m = number(j, "cut_height_mm", "limb", 0) * 1e-3;
+    if (j.contains("generate_seed")) {
+      require(j.at("generate_seed").is_number_unsigned(), "case file: 'limb.generate_seed' must be a whole number ≥ 0");
+      c.limb.generate_seed = j.at("generate_seed").get<std::uint64_t>();
+    }
+  }
+  if (doc.contains("patient")) {
+    const auto& j = doc.at("patient");
+    check_keys(j, "patient", {"id", "note", "body_mass_kg", "prosthesis_mass_kg", "friction", "thresholds_kpa",
+                              "force_tolerance", "torque_tolerance"});
+    c.patient_id = text(j, "id", "patient", "");
+    c.patient_note = text(j, "note", "patient", "");
+    c.patient.body_mass_kg = number(j, "body_mass_kg", "patient", c.patient.body_mass_kg);
+    c.patient.prosthesis_mass_kg = number(j, "prosthesis_mass_kg", "patient", c.patient.prosthesis_mass_kg);
+    c.patient.friction = number(j, "friction", "patient", c.patient.friction);
+    c.patient.force_tolerance = number(j, "force_tolerance", "patient", c.patient.force_tolerance);
+    c.patient.torque_tolerance = number(j, "torque_tolerance", "patient", c.patient.torque_tolerance);
+    if (j.contains("thresholds_kpa")) {
+      const auto& t = j.at("thresholds_kpa");
+      require(t.is_object(), "case file: 'patient.thresholds_kpa' must be an object {{\"PT\": 189.72, ...}}");
+      for (const auto& [code, v] : t.items()) {
+        require(v.is_number(), "case file: pain threshold of landmark {} must be a number in kPa (got {})", code,
+                v.dump());
+        c.thresholds[code] = v.get<double>() * 1e3;
+      }
+    }
+  }
+  // Validate the patient now: the message names the field.
+  require(c.patient.body_mass_kg > 0, "case file: patient.body_mass_kg = {} kg: the body mass must be positive",
+          c.patient.body_mass_kg);
+  (void)radar_targets(c.patient, 0.1);
+  if (doc.contains("tissue")) {
+    const auto& j = doc.at("tissue");
+    check_keys(j, "tissue", {"model", "constants", "youngs_kpa", "density_kg_m3", "solve"});
+    c.model = text(j, "model", "tissue", c.model);
+    require(c.model == "mss-cs" || c.model == "mss-cf" || c.model == "mss",
+            "case file: tissue.model '{}' is not known (mss-cs, mss-cf or mss)", c.model);
+    c.constants = text(j, "constants", "tissue", c.constants);
+    require(c.constants == "recommended" || c.constants == "thesis",
+            "case file: tissue.constants '{}' is not known (recommended or thesis)", c.constants);
+    c.youngs_modulus_pa = number(j, "youngs_kpa", "tissue", c.youngs_modulus_pa / 1e3) * 1e3;
+    c.density_kg_m3 = number(j, "density_kg_m3", "tissue", c.density_kg_m3);
+    c.solve_mode = parse_design_solve_mode(text(j, "solve", "tissue", to_string(c.solve_mode)));
+  }
+  require(c.youngs_modulus_pa > 0 && c.youngs_modulus_pa < 1e8,
+          "case file: tissue.youngs_kpa = {} kPa: give the soft tissue's Young's modulus in kPa (10–500)",
+          c.youngs_modulus_pa / 1e3);
+  require(c.density_kg_m3 > 0, "case file: tissue.density_kg_m3 must be positive");
+  if (doc.contains("mesh")) {
+    const auto& j = doc.at("mesh");
+    check_keys(j, "mesh", {"target_nodes"});
+    c.target_nodes = static_cast<int>(number(j, "target_nodes", "mesh", c.target_nodes));
+  }
+  require(c.target_nodes >= 200 && c.target_nodes <= 200000,
+          "case file: mesh.target_nodes = {} is outside 200–200000 (e.g. 3000, 8000, 20000)", c.target_nodes);
+  if (doc.contains("landmarks")) {
+    const auto& j = doc.at("landmarks");
+    require(j.is_object(), "case file: 'landmarks' must be an object {{\"PT\": [x, y, z] in mm, ...}}");
+    for (const auto& [code, v] : j.items()) c.landmarks[code] = vec3(v, "landmarks." + code) * 1e-3;
+  }
+  if (doc.contains("design")) {
+    const auto& j = doc.at("design");
+    check_keys(j, "design", {"spots", "optimise", "objective", "model_pressure_limit"});
+    c.optimise = flag(j, "optimise", "design", true);
+    const std::string obj = text(j, "objective", "design", "pressure");
+    require(obj == "pressure" || obj == "ratio", "case file: design.objective '{}' is not known (pressure or ratio)", obj);
+    c.objective = obj == "ratio" ? OptimizerOptions::Objective::Ratio : OptimizerOptions::Objective::Pressure;
+    c.model_pressure_limit = number(j, "model_pressure_limit", "design", c.model_pressure_limit);
+    require(c.model_pressure_limit >= 0, "case file: design.model_pressure_limit must be ≥ 0 (a fraction of E; 0 = none)");
+    if (j.contains("spots")) {
+      const auto& s = j.at("spots");
+      if (s.is_string()) {
+        require(s == "default", "case file: design.spots must be a list of spots or \"default\"");
+      } else {
+        require(s.is_array(), "case file: design.spots must be a list of spots or \"default\"");
+        for (size_t i = 0; i < s.size(); ++i) c.spots.push_back(spot_from_json(s[i], fmt::format("design.spots[{}]", i)));
+      }
+    }
+  }
+  if (doc.contains("brim")) {
+    const auto& j = doc.at("brim");
+    check_keys(j, "brim", {"template", "key_points"});
+    c.brim = parse_brim_template(text(j, "template", "brim", "ptb"));
+    if (j.contains("key_points")) {
+      const auto& k = j.at("key_points");
+      require(k.is_array(), "case file: brim.key_points must be a list of {{\"theta_deg\", \"h_mm\"}}");
+      for (size_t i = 0; i < k.size(); ++i) {
+        const std::string w = fmt::format("brim.key_points[{}]", i);
+        check_keys(k[i], w, {"theta_deg", "h_mm", "label"});
+        require(k[i].contains("theta_deg") && k[i].contains("h_mm"), "case file: '{}' needs theta_deg and h_mm", w);
+        c.brim_key_points.push_back(
+            {text(k[i], "label", w, ""), number(k[i], "theta_deg", w, 0) * kDeg, number(k[i], "h_mm", w, 0) * 1e-3});
+      }
+    }
+  }
+  if (doc.contains("socket")) {
+    const auto& j = doc.at("socket");
+    check_keys(j, "socket", {"thickness_mm", "distal_pad", "distal_pad_diameter_mm", "round_brim", "subdivisions"});
+    c.socket.thickness_m = number(j, "thickness_mm", "socket", c.socket.thickness_m * 1e3) * 1e-3;
+    c.socket.distal_pad = flag(j, "distal_pad", "socket", c.socket.distal_pad);
+    c.socket.distal_pad_diameter_m =
+        number(j, "distal_pad_diameter_mm", "socket", c.socket.distal_pad_diameter_m * 1e3) * 1e-3;
+    c.socket.round_brim = flag(j, "round_brim", "socket", c.socket.round_brim);
+    c.socket.subdivisions = static_cast<int>(number(j, "subdivisions", "socket", c.socket.subdivisions));
+  }
+  require(c.socket.thickness_m > 0 && c.socket.thickness_m <= 0.05,
+          "case file: socket.thickness_mm = {} mm: the wall must be thicker than 0 and at most 50 mm (typical 4–8)",
+          c.socket.thickness_m * 1e3);
+  return c;
+}
+
+CaseFile read_case(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  require<IoError>(in.good(), "cannot open case file '{}' (check the path)", path.string());
+  std::stringstream ss;
+  ss << in.rdbuf();
+  json doc;
+  try {
+    doc = json::parse(ss.str());
+  } catch (const json::parse_error& e) {
+    fail("case file '{}' is not valid JSON: {}", path.string(), e.what());
+  }
+  return parse_case(doc, std::filesystem::absolute(path).parent_path());
+}
+
+json case_to_json(const CaseFile& c) {
+  json limb{{"bones", c.limb.bones}, {"type", geometry::to_string(c.limb.type)}};
+  if (!c.limb.file.empty()) limb["file"] = c.limb.file;
+  else limb["generate_seed"] = c.limb.generate_seed;
+  if (!c.limb.units.empty()) limb["units"] = c.limb.units;
+  if (c.limb.side) limb["side"] = geometry::to_string(*c.limb.side);
+  if (c.limb.anterior) limb["anterior"] = {c.limb.anterior->x(), c.limb.anterior->y(), c.limb.anterior->z()};
+  if (c.limb.cut_height_m) limb["cut_height_mm"] = *c.limb.cut_height_m * 1e3;
+  json patient{{"body_mass_kg", c.patient.body_mass_kg},
+               {"prosthesis_mass_kg", c.patient.prosthesis_mass_kg},
+               {"friction", c.patient.friction},
+               {"force_tolerance", c.patient.force_tolerance},
+               {"torque_tolerance", c.patient.torque_tolerance}};
+  if (!c.patient_id.empty()) patient["id"] = c.patient_id;
+  if (!c.patient_note.empty()) patient["note"] = c.patient_note;
+  if (!c.thresholds.empty()) {
+    json t = json::object();
+    for (const auto& [code, v] : c.thresholds) t[code] = v / 1e3;
+    patient["thresholds_kpa"] = t;
+  }
+  json spots = json::array();
+  for (const auto& s : c.spots) spots.push_back(spot_to_json(s));
+  json design{{"optimise", c.optimise}, {"objective", objective_name(c.objective)},
+              {"model_pressure_limit", c.model_pressure_limit}};
+  if (c.spots.empty()) design["spots"] = "default";
+  else design["spots"] = spots;
+  json brim{{"template", to_string(c.brim)}};
+  if (!c.brim_key_points.empty()) {
+    json k = json::array();
+    for (const auto& p : c.brim_key_points) {
+      json e{{"theta_deg", p.theta / kDeg}, {"h_mm", p.h * 1e3}};
+      if (!p.label.empty()) e["label"] = p.label;
+      k.push_back(e);
+    }
+    brim["key_points"] = k;
+  }
+  json lms = json::object();
+  for (const auto& [code, p] : c.landmarks) lms[code] = {p.x() * 1e3, p.y() * 1e3, p.z() * 1e3};
+  json doc{{"socketsmith_case", 1},
+           {"limb", limb},
+           {"patient", patient},
+           {"tissue",
+            {{"model", c.model},
+             {"constants", c.constants},
+             {"youngs_kpa", c.youngs_modulus_pa / 1e3},
+             {"density_kg_m3", c.density_kg_m3},
+             {"solve", to_string(c.solve_mode)}}},
+           {"mesh", {{"target_nodes", c.target_nodes}}},
+           {"design", design},
+           {"brim", brim},
+           {"socket",
+            {{"thickness_mm", c.socket.thickness_m * 1e3},
+             {"distal_pad", c.socket.distal_pad},
+             {"distal_pad_diameter_mm", c.socket.distal_pad_diameter_m * 1e3},
+             {"round_brim", c.socket.round_brim},
+             {"subdivisions", c.socket.subdivisions}}}};
+  if (!lms.empty()) doc["landmarks"] = lms;
+  return doc;
+}
+
+void write_case(const std::filesystem::path& path, const CaseFile& c) {
+  write_text_atomically(path, case_to_json(c).dump(2) + "\n");
+}
+
+std::filesystem::path resolve(const CaseFile& c, const std::string& file) {
+  const std::filesystem::path p(file);
+  return p.is_absolute() || c.folder.empty() ? p : c.folder / p;
+}
+
+}  // namespace socketsmith::design

@@ -1,0 +1,87 @@
+#pragma once
+/// @file case_file.h
+/// The case file: one JSON document describing a whole socket design job (docs/case_file.md).
+/// In the file, angles are in degrees, lengths in mm, pressures in kPa, masses in kg; inside
+/// socketsmith everything is SI. Relative paths are relative to the case file's folder. Unknown
+/// keys are errors (a misspelt key would otherwise be silently ignored).
+
+#include <filesystem>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <nlohmann/json.hpp>
+
+#include "socketsmith/design/brim.h"
+#include "socketsmith/design/design_solver.h"
+#include "socketsmith/design/optimizer.h"
+#include "socketsmith/design/pain_map.h"
+#include "socketsmith/design/socket_builder.h"
+#include "socketsmith/design/spots.h"
+
+namespace socketsmith::design {
+
+/// Where the limb comes from: a file (with optional bones) or the generator (the sample).
+struct CaseLimb {
+  std::string file;                        ///< STL/OBJ/PLY; "" = generate
+  std::string bones = "auto";              ///< auto (shells of the file) | estimate | none | a file
+  std::string units;                       ///< mm | m | "" (guess from the size)
+  geometry::LimbType type = geometry::LimbType::Transtibial;
+  std::optional<geometry::Side> side;
+  std::optional<Eigen::Vector3d> anterior; ///< world direction of the front
+  std::optional<double> cut_height_m;      ///< proximal cut above the distal end [m]
+  std::uint64_t generate_seed = 1;         ///< when file is empty
+};
+
+struct CaseFile {
+  std::filesystem::path folder;            ///< relative paths are resolved against this
+  CaseLimb limb;
+  // Patient
+  std::string patient_id;
+  std::string patient_note;
+  PatientLoad patient;
+  ThresholdTable thresholds;               ///< [Pa]; empty = the limb type's defaults
+  // Tissue model
+  std::string model = "mss-cs";            ///< mss-cs | mss-cf | mss
+  std::string constants = "recommended";   ///< recommended | thesis
+  double youngs_modulus_pa = 100e3;
+  double density_kg_m3 = 1060.0;
+  DesignSolveMode solve_mode = DesignSolveMode::Linear;
+  int target_nodes = 8000;
+  // Landmarks moved by the user (world positions [m], projected onto the skin)
+  std::map<std::string, Eigen::Vector3d> landmarks;
+  // Design
+  std::vector<Spot> spots;                 ///< empty = the default layout of the limb type
+  bool optimise = true;
+  OptimizerOptions::Objective objective = OptimizerOptions::Objective::Pressure;
+  double model_pressure_limit = 0.25;      ///< × E (see OptimizerOptions)
+  BrimTemplate brim = BrimTemplate::Ptb;
+  std::vector<BrimKeyPoint> brim_key_points;  ///< non-empty = the user's brim (overrides the template)
+  SocketOptions socket;
+};
+
+/// Parses a case document. @p folder resolves relative paths.
+/// @throws InvalidInputError with one line naming the key and the fix (unknown key, wrong type,
+///         negative mass, thickness ≤ 0, ...).
+CaseFile parse_case(const nlohmann::json& doc, const std::filesystem::path& folder = {});
+
+/// Reads and parses a case file. @throws IoError when it cannot be read, InvalidInputError when it
+/// is not JSON or not a valid case.
+CaseFile read_case(const std::filesystem::path& path);
+
+/// The case as JSON in file units (the inverse of parse_case for every field it holds).
+nlohmann::json case_to_json(const CaseFile& c);
+
+/// Writes the case atomically (temporary file + rename).
+void write_case(const std::filesystem::path& path, const CaseFile& c);
+
+/// Spot ↔ JSON in file units (degrees, mm, kPa).
+nlohmann::json spot_to_json(const Spot& s);
+Spot spot_from_json(const nlohmann::json& j, const std::string& where);
+
+/// Absolute path of a file named in the case.
+std::filesystem::path resolve(const CaseFile& c, const std::string& file);
+
+}  // namespace socketsmith::design

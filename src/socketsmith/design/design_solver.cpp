@@ -1,0 +1,370 @@
+#include "socketsmith/design/design_solver.h"
+
+#include <algorithm>
+#include <chrono>
+#include <limits>
+#include <cmath>
+
+#include <Eigen/CholmodSupport>
+
+#include "socketsmith/core/errors.h"
+#include "socketsmith/core/units.h"
+#include "socketsmith/tissue/dof_map.h"
+#include "socketsmith/tissue/pressure_load.h"
+
+namespace socketsmith::design {
+
+bool ConstraintStatus::all_ok() const {
+  return force_ok[0] && force_ok[1] && force_ok[2] && torque_ok[0] && torque_ok[1] && torque_ok[2] && stability_ok &&
+         comfort_ok;
+}
+
+std::string ConstraintStatus::failing() const {
+  std::string out;
+  const auto add = [&](bool ok, const char* name) {
+    if (ok) return;
+    if (!out.empty()) out += ", ";
+    out += name;
+  };
+  add(force_ok[0], "F_x");
+  add(force_ok[1], "F_y");
+  add(force_ok[2], "F_z");
+  add(torque_ok[0], "T_x");
+  add(torque_ok[1], "T_y");
+  add(torque_ok[2], "T_z");
+  add(stability_ok, "stability");
+  add(comfort_ok, "comfort");
+  return out;
+}
+
+RadarTargets radar_targets(const PatientLoad& patient, double stump_length_m) {
+  require(std::isfinite(patient.body_mass_kg) && patient.body_mass_kg > 0,
+          "body mass {} kg must be a positive number of kilograms", patient.body_mass_kg);
+  require(patient.body_mass_kg < 400, "body mass {} kg is not plausible (the case file takes kg)", patient.body_mass_kg);
+  require(std::isfinite(patient.prosthesis_mass_kg) && patient.prosthesis_mass_kg >= 0,
+          "prosthesis mass {} kg must be zero or more", patient.prosthesis_mass_kg);
+  require(patient.prosthesis_mass_kg < patient.body_mass_kg, "prosthesis mass {} kg is not below the body mass {} kg",
+          patient.prosthesis_mass_kg, patient.body_mass_kg);
+  require(std::isfinite(patient.friction) && patient.friction >= 0 && patient.friction <= 2,
+          "friction coefficient {} must be in [0, 2] (skin on a socket: about 0.5)", patient.friction);
+  require(patient.force_tolerance > 0 && patient.torque_tolerance > 0, "constraint tolerances must be positive");
+  RadarTargets t;
+  t.fz_n = 0.5 * patient.body_mass_kg * units::kGravity;
+  t.stability_min_n = patient.prosthesis_mass_kg * units::kGravity;
+  t.force_tol_n = patient.force_tolerance * t.fz_n;
+  t.torque_tol_nm = patient.torque_tolerance * t.fz_n * stump_length_m;
+  return t;
+}
+
+RadarValues compute_radar(const std::vector<Vec3>& pos, const std::vector<Vec3>& normal,
+                          const std::vector<double>& area, const std::vector<double>& p,
+                          const geometry::LimbFrame& frame, const Vec3& centre, double friction) {
+  require(pos.size() == normal.size() && pos.size() == area.size() && pos.size() == p.size(),
+          "compute_radar: sizes differ ({} positions, {} normals, {} areas, {} pressures)", pos.size(), normal.size(),
+          area.size(), p.size());
+  const Vec3 ex = frame.anterior, ey = frame.medial(), ez = frame.axis;
+  Vec3 f = Vec3::Zero(), t = Vec3::Zero();
+  double fr = 0;
+  for (size_t i = 0; i < pos.size(); ++i) {
+    if (p[i] == 0.0) continue;
+    const double mag = p[i] * area[i];
+    const Vec3 fi = -mag * normal[i];
+    f += fi;
+    t += (pos[i] - centre).cross(fi);
+    const double nz = normal[i].dot(ez);
+    fr += friction * mag * std::sqrt(std::max(0.0, 1.0 - nz * nz));
+  }
+  RadarValues r;
+  r.force_n = Vec3(f.dot(ex), f.dot(ey), f.dot(ez) + fr);
+  r.torque_nm = Vec3(t.dot(ex), t.dot(ey), t.dot(ez));
+  r.stability_n = fr;
+  return r;
+}
+
+ConstraintStatus check_constraints(const RadarValues& r, const RadarTargets& t, double max_requested_ratio) {
+  ConstraintStatus s;
+  s.force_ok[0] = std::abs(r.force_n.x()) <= t.force_tol_n;
+  s.force_ok[1] = std::abs(r.force_n.y()) <= t.force_tol_n;
+  s.force_ok[2] = std::abs(r.force_n.z() - t.fz_n) <= t.force_tol_n;
+  for (int a = 0; a < 3; ++a) s.torque_ok[a] = std::abs(r.torque_nm[a]) <= t.torque_tol_nm;
+  s.stability_ok = r.stability_n >= t.stability_min_n;
+  s.comfort_ok = max_requested_ratio <= 1.0 + 1e-9;
+  return s;
+}
+
+std::string to_string(DesignSolveMode mode) {
+  switch (mode) {
+    case DesignSolveMode::Nonlinear: return "nonlinear";
+    case DesignSolveMode::Linear: return "linear";
+    case DesignSolveMode::Auto: return "auto";
+  }
+  return "?";
+}
+
+DesignSolveMode parse_design_solve_mode(const std::string& text) {
+  if (text == "nonlinear") return DesignSolveMode::Nonlinear;
+  if (text == "linear") return DesignSolveMode::Linear;
+  if (text == "auto") return DesignSolveMode::Auto;
+  fail("design solve mode '{}' is not known (expected nonlinear, linear or auto)", text);
+}
+
+struct DesignSolver::Impl {
+  tissue::MassSpringModel model;
+  volume::SkinSurface skin;
+  geometry::LimbFrame frame;
+  std::vector<double> thresholds;
+  PatientLoad patient;
+  double length = 0;
+  RadarTargets targets;
+  DesignSolverOptions options;
+  std::vector<geometry::Cylindrical> cyl;
+  std::vector<char> above;
+  tissue::DofMap dofs;
+  std::unique_ptr<tissue::StaticSolver> solver;
+  tissue::VectorXd x;  // warm start
+  std::vector<int> local_of_node;
+  Vec3 failure_point = Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
+  bool fell_back = false;  // Auto mode: the nonlinear lattice lost stability once; linear since
+  std::string fallback_reason;
+  // Linearised model: K₀ = −Pᵀ J(x₀) P, factorised on first use.
+  std::unique_ptr<Eigen::CholmodSupernodalLLT<tissue::SparseMatrix>> k0;
+  void factor_linear() {
+    if (k0) return;
+    tissue::SparseMatrix J, K;
+    model.jacobian(model.rest_positions(), tissue::JacobianKind::Exact, J);
+    dofs.reduce_matrix(J, K);
+    K *= -1.0;
+    tissue::SparseMatrix Ks = 0.5 * (tissue::SparseMatrix(K.transpose()) + K);
+    k0 = std::make_unique<Eigen::CholmodSupernodalLLT<tissue::SparseMatrix>>();
+    k0->compute(Ks);
+    require<SolverError>(k0->info() == Eigen::Success,
+                         "design solve: the stump's stiffness at rest is not positive definite (a free part of the "
+                         "mesh? check the fixed bone nodes)");
+  }
+  tissue::VectorXd linear_solve(const tissue::VectorXd& f) {
+    factor_linear();
+    tissue::VectorXd x = model.rest_positions();
+    dofs.add_expanded(k0->solve(dofs.restrict_vector(f)), x);
+    return x;
+  }
+
+  Impl(const volume::HexMesh& mesh, const tissue::TissueMaterial& material, const tissue::MassSpringOptions& mo,
+       const geometry::LimbFrame& f, std::vector<double> thr, const PatientLoad& pl, double len,
+       const DesignSolverOptions& o)
+      : model(mesh, material, mo),
+        skin(volume::extract_skin_surface(mesh)),
+        frame(f),
+        thresholds(std::move(thr)),
+        patient(pl),
+        length(len),
+        targets(radar_targets(pl, len)),
+        options(o),
+        dofs(make_dofs(mesh)) {
+    solver = std::make_unique<tissue::StaticSolver>(model, dofs, options.solver);
+    x = model.rest_positions();
+    cyl.reserve(skin.nodes.size());
+    for (const auto& p : skin.positions) cyl.push_back(frame.to_cylindrical(p));
+    above.assign(skin.nodes.size(), 0);
+  }
+  tissue::DofMap make_dofs(const volume::HexMesh& mesh) const {
+    tissue::DofConstraints cons;
+    std::vector<int> fixed;
+    for (int n = 0; n < mesh.num_nodes(); ++n)
+      if (mesh.has_tag(n, volume::kNodeFixed)) fixed.push_back(n);
+    require(!fixed.empty(), "the stump mesh has no fixed node (bones or proximal cut): the design solve is singular");
+    cons.fix_nodes(fixed);
+    return tissue::DofMap(3 * mesh.num_nodes(), cons);
+  }
+};
+
+DesignSolver::DesignSolver(const volume::HexMesh& mesh, const tissue::TissueMaterial& material,
+                           const tissue::MassSpringOptions& model_options, const geometry::LimbFrame& frame,
+                           std::vector<double> thresholds_pa, const PatientLoad& patient, double stump_length_m,
+                           const DesignSolverOptions& options) {
+  require(std::isfinite(stump_length_m) && stump_length_m > 0, "stump length {} m must be positive", stump_length_m);
+  impl_ = std::make_unique<Impl>(mesh, material, model_options, frame, std::move(thresholds_pa), patient,
+                                 stump_length_m, options);
+  require(impl_->thresholds.size() == impl_->skin.nodes.size(), "DesignSolver: {} thresholds for {} skin nodes",
+          impl_->thresholds.size(), impl_->skin.nodes.size());
+  for (double t : impl_->thresholds)
+    require(std::isfinite(t) && t > 0, "DesignSolver: a pain threshold is not a positive pressure ({} Pa)", t);
+}
+
+DesignSolver::~DesignSolver() = default;
+
+const volume::SkinSurface& DesignSolver::skin() const { return impl_->skin; }
+const std::vector<geometry::Cylindrical>& DesignSolver::skin_cylindrical() const { return impl_->cyl; }
+const std::vector<double>& DesignSolver::thresholds() const { return impl_->thresholds; }
+const geometry::LimbFrame& DesignSolver::frame() const { return impl_->frame; }
+const PatientLoad& DesignSolver::patient() const { return impl_->patient; }
+const RadarTargets& DesignSolver::targets() const { return impl_->targets; }
+const tissue::MassSpringModel& DesignSolver::model() const { return impl_->model; }
+double DesignSolver::stump_length_m() const { return impl_->length; }
+const std::vector<char>& DesignSolver::above_brim() const { return impl_->above; }
+void DesignSolver::reset() {
+  impl_->x = impl_->model.rest_positions();
+  impl_->fell_back = false;
+}
+Vec3 DesignSolver::last_failure_point() const { return impl_->failure_point; }
+
+void DesignSolver::set_brim(const std::function<double(double)>& brim_height_m) {
+  auto& s = *impl_;
+  for (size_t i = 0; i < s.cyl.size(); ++i) s.above[i] = brim_height_m ? (s.cyl[i].h > brim_height_m(s.cyl[i].theta)) : 0;
+}
+
+std::vector<double> DesignSolver::requested_pressure(const std::vector<Spot>& spots) const {
+  const auto& s = *impl_;
+  std::vector<double> p(s.cyl.size(), 0.0);
+  for (size_t i = 0; i < p.size(); ++i)
+    if (!s.above[i]) p[i] = std::max(0.0, field_pressure(spots, s.cyl[i].theta, s.cyl[i].h));
+  return p;
+}
+
+void DesignSolver::skin_geometry(const tissue::VectorXd& x, std::vector<Vec3>& pos, std::vector<Vec3>& normal,
+                                 std::vector<double>& area) const {
+  const auto& s = *impl_;
+  const size_t n = s.skin.nodes.size();
+  pos.resize(n);
+  normal.assign(n, Vec3::Zero());
+  area.assign(n, 0.0);
+  if (s.local_of_node.empty()) {
+    auto& lon = const_cast<std::vector<int>&>(s.local_of_node);
+    lon.assign(s.model.num_nodes(), -1);
+    for (size_t i = 0; i < n; ++i) lon[s.skin.nodes[i]] = static_cast<int>(i);
+  }
+  for (size_t i = 0; i < n; ++i) pos[i] = x.segment<3>(3 * s.skin.nodes[i]);
+  for (const auto& q : s.skin.quads) {
+    const Vec3 a = x.segment<3>(3 * q[0]), b = x.segment<3>(3 * q[1]), c = x.segment<3>(3 * q[2]),
+               d = x.segment<3>(3 * q[3]);
+    const Vec3 an = 0.5 * (c - a).cross(d - b);
+    for (int nd : q) {
+      const int l = s.local_of_node[nd];
+      area[l] += 0.25 * an.norm();
+      normal[l] += an;
+    }
+  }
+  for (auto& v : normal)
+    if (v.squaredNorm() > 0) v.normalize();
+}
+
+DesignState DesignSolver::solve(const std::vector<Spot>& spots) {
+  auto& s = *impl_;
+  const auto t0 = std::chrono::steady_clock::now();
+  DesignState st;
+  st.requested_pa = requested_pressure(spots);
+  const size_t n = st.requested_pa.size();
+  st.pressure_pa.resize(n);
+  for (size_t i = 0; i < n; ++i) {
+    st.pressure_pa[i] = std::min(st.requested_pa[i], s.thresholds[i]);
+    const double r = st.requested_pa[i] / s.thresholds[i];
+    if (r > st.max_requested_ratio) {
+      st.max_requested_ratio = r;
+      st.max_ratio_node = static_cast<int>(i);
+    }
+    st.max_applied_ratio = std::max(st.max_applied_ratio, st.pressure_pa[i] / s.thresholds[i]);
+    if (r > 1.0) ++st.saturated_nodes;
+  }
+  bool linear = s.options.mode == DesignSolveMode::Linear || s.fell_back;
+  if (s.fell_back) {
+    st.linearised = true;
+    st.nonlinear_failure = s.fallback_reason;
+  }
+  tissue::VectorXd x = s.x;  // warm start: the last equilibrium and its geometry
+  std::vector<Vec3> pos, normal;
+  std::vector<double> area;
+  skin_geometry(x, pos, normal, area);
+  tissue::VectorXd f_prev;
+  for (int pass = 0; pass < s.options.max_follower_passes + 1; ++pass) {
+    tissue::VectorXd f = tissue::VectorXd::Zero(s.model.num_dofs());
+    for (size_t i = 0; i < n; ++i) f.segment<3>(3 * s.skin.nodes[i]) = -st.pressure_pa[i] * area[i] * normal[i];
+    double change = 0;
+    if (f_prev.size() == f.size()) {
+      double fmax = 0, dmax = 0;
+      for (size_t i = 0; i < n; ++i) {
+        fmax = std::max(fmax, f.segment<3>(3 * s.skin.nodes[i]).norm());
+        dmax = std::max(dmax, (f - f_prev).segment<3>(3 * s.skin.nodes[i]).norm());
+      }
+      change = fmax > 0 ? dmax / fmax : 0.0;
+      if (change <= s.options.follower_tolerance) break;
+    }
+    if (pass == s.options.max_follower_passes) {
+      st.follower_capped = true;
+      st.follower_change = change;
+      break;
+    }
+    if (linear) {
+      x = s.linear_solve(f);
+      ++st.follower_passes;
+      f_prev = std::move(f);
+      skin_geometry(x, pos, normal, area);
+      continue;
+    }
+    const auto res = s.solver->solve(f, x);
+    st.newton_iterations += res.iterations;
+    ++st.follower_passes;
+    if (!res.converged && s.options.mode == DesignSolveMode::Auto) {
+      s.fell_back = true;  // sticky: this stump's lattice cannot carry such fields
+      s.fallback_reason = res.message;
+      // The lattice has no stable equilibrium here: take the linearised model, say so.
+      st.nonlinear_failure = res.message;
+      s.failure_point = Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
+      if (res.worst_element >= 0) {
+        Vec3 c = Vec3::Zero();
+        for (int nd : s.model.mesh().hexahedra[res.worst_element]) c += s.model.rest_positions().segment<3>(3 * nd) / 8.0;
+        s.failure_point = c;
+      }
+      linear = true;
+      st.linearised = true;
+      x = s.model.rest_positions();
+      skin_geometry(x, pos, normal, area);
+      f_prev.resize(0);
+      pass = -1;
+      continue;
+    }
+    if (!res.converged) {
+      st.converged = false;
+      s.failure_point = Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
+      if (res.worst_element >= 0) {
+        Vec3 c = Vec3::Zero();
+        for (int nd : s.model.mesh().hexahedra[res.worst_element]) c += s.model.rest_positions().segment<3>(3 * nd) / 8.0;
+        s.failure_point = c;
+      }
+      st.message = res.message;
+      fail<SolverError>("design solve: the stump found no equilibrium under these pressures (peak applied {:.1f} kPa): {}",
+                        *std::max_element(st.pressure_pa.begin(), st.pressure_pa.end()) / 1e3, res.message);
+    }
+    f_prev = std::move(f);
+    skin_geometry(x, pos, normal, area);
+  }
+  s.x = x;  // warm start of the next solve
+  st.converged = true;
+  st.positions = x;
+  st.skin_positions = pos;
+  st.skin_normals = normal;
+  st.skin_areas = area;
+  st.displacement_m.resize(n);
+  const tissue::VectorXd& x0 = s.model.rest_positions();
+  for (size_t i = 0; i < n; ++i) st.displacement_m[i] = (pos[i] - x0.segment<3>(3 * s.skin.nodes[i])).norm();
+  for (Eigen::Index k = 0; k < x.size() / 3; ++k)
+    st.max_displacement_m = std::max(st.max_displacement_m, (x - x0).segment<3>(3 * k).norm());
+  const auto& m = s.model.masses();
+  Vec3 c = Vec3::Zero();
+  double mt = 0;
+  for (Eigen::Index k = 0; k < m.size(); ++k) {
+    c += m[k] * x.segment<3>(3 * k);
+    mt += m[k];
+  }
+  st.centre_of_inertia = c / mt;
+  st.radar = compute_radar(pos, normal, area, st.pressure_pa, s.frame, st.centre_of_inertia, s.patient.friction);
+  st.status = check_constraints(st.radar, s.targets, st.max_requested_ratio);
+  st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  st.message = st.status.all_ok() ? "all constraints met" : "not met: " + st.status.failing();
+  if (st.follower_capped)
+    st.message += fmt::format(" (follower iteration stopped after {} passes with a force change of {:.2g}, above {:.2g})",
+                              s.options.max_follower_passes, st.follower_change, s.options.follower_tolerance);
+  if (st.linearised && s.options.mode == DesignSolveMode::Auto)
+    st.message += " (shape from the linearised stump model: the nonlinear lattice lost stability under this field)";
+  return st;
+}
+
+}  // namespace socketsmith::design

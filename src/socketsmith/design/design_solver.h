@@ -1,0 +1,183 @@
+#pragma once
+/// @file design_solver.h
+/// The design solve of the inverse socket design (thesis ch. 5, METHOD.md §3): pressures from
+/// the spots, saturated at the pain thresholds and removed above the brim, become nodal forces
+/// on the stump's skin; the static equilibrium of the MSS-CS stump (bones and proximal cut fixed)
+/// under them is the socket's inner surface; the seven radar values say whether that pressure
+/// field carries a standing patient.
+///
+/// Radar values, in the limb frame (x = anterior, y = medial, z = the limb axis, proximal):
+///   F   = Σ_i p_i A_i (−n_i) + ẑ Σ_i μ p_i A_i cos θ_i     (eq. 42; the friction term only in z)
+///   T   = Σ_i (P_i − C_I) × p_i A_i (−n_i)                   (eqs. 43–44, normal forces)
+///   S   = Σ_i μ p_i A_i cos θ_i                               (eqs. 46–47, available friction)
+/// with P_i, n_i, A_i the deformed position, outward normal and nodal area of skin node i,
+/// cos θ_i = sqrt(1 − (n_i·ẑ)²) (θ_i: angle between the vertical and the surface tangent), and
+/// C_I the stump's centre of inertia (mass-weighted mean of the deformed nodes).
+/// Targets: F = (0, 0, M g / 2), T = 0, S ≥ m_prosthesis g. Tolerances: forces within
+/// `force_tolerance` (1 %) of M g / 2, torques within `torque_tolerance` (1 %) of M g / 2 × the
+/// stump length.
+///
+/// The pressure is a follower load: forces use the deformed normals and areas. A solve fixes the
+/// forces at the current geometry, solves, recomputes the geometry, and repeats until the nodal
+/// forces change by less than `follower_tolerance` (usually 2–3 passes).
+
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "socketsmith/design/spots.h"
+#include "socketsmith/geometry/limb_frame.h"
+#include "socketsmith/tissue/mass_spring_model.h"
+#include "socketsmith/tissue/static_solver.h"
+#include "socketsmith/volume/hex_mesher.h"
+
+namespace socketsmith::design {
+
+using Vec3 = Eigen::Vector3d;
+
+/// Patient data that enter the constraints.
+struct PatientLoad {
+  double body_mass_kg = 70.0;        ///< M [kg], > 0
+  double prosthesis_mass_kg = 2.0;   ///< [kg], ≥ 0 (thesis: ≈ 2 kg)
+  double friction = 0.5;             ///< static friction coefficient μ skin–socket [-], ≥ 0
+  double force_tolerance = 0.01;     ///< forces within this fraction of M g / 2
+  double torque_tolerance = 0.01;    ///< torques within this fraction of M g / 2 × stump length
+};
+
+/// The seven radar values (frame components: x anterior, y medial, z axis).
+struct RadarValues {
+  Vec3 force_n = Vec3::Zero();
+  Vec3 torque_nm = Vec3::Zero();
+  double stability_n = 0.0;
+};
+
+/// Targets and tolerances of the radar values.
+struct RadarTargets {
+  double fz_n = 0.0;            ///< M g / 2
+  double stability_min_n = 0.0; ///< m_prosthesis g
+  double force_tol_n = 0.0;
+  double torque_tol_nm = 0.0;
+};
+
+/// Which constraints hold.
+struct ConstraintStatus {
+  bool force_ok[3] = {false, false, false};
+  bool torque_ok[3] = {false, false, false};
+  bool stability_ok = false;
+  bool comfort_ok = false;          ///< no node's requested pressure above its threshold
+  bool all_ok() const;
+  std::string failing() const;      ///< "F_x, comfort" or "" when all hold
+};
+
+RadarTargets radar_targets(const PatientLoad& patient, double stump_length_m);
+
+/// Radar values of pressures @p p [Pa] on skin nodes at deformed @p pos with outward unit
+/// @p normal and nodal @p area, about @p centre. Pure function (the same formula a reader applies
+/// to surface_nodes.csv).
+RadarValues compute_radar(const std::vector<Vec3>& pos, const std::vector<Vec3>& normal,
+                          const std::vector<double>& area, const std::vector<double>& p,
+                          const geometry::LimbFrame& frame, const Vec3& centre, double friction);
+
+ConstraintStatus check_constraints(const RadarValues& r, const RadarTargets& t, double max_requested_ratio);
+
+/// The design state after a solve.
+struct DesignState {
+  tissue::VectorXd positions;              ///< deformed node positions (3N) [m]
+  std::vector<double> requested_pa;        ///< the spots' field at each skin node, 0 above the brim [Pa]
+  std::vector<double> pressure_pa;         ///< applied: requested saturated at the threshold [Pa]
+  std::vector<Vec3> skin_positions;        ///< deformed skin node positions [m]
+  std::vector<Vec3> skin_normals;          ///< deformed outward unit normals
+  std::vector<double> skin_areas;          ///< deformed nodal areas [m²]
+  std::vector<double> displacement_m;      ///< |u| per skin node [m]
+  Vec3 centre_of_inertia = Vec3::Zero();   ///< [m], world frame
+  RadarValues radar;
+  ConstraintStatus status;
+  double max_requested_ratio = 0.0;        ///< max requested / threshold (> 1: saturated)
+  double max_applied_ratio = 0.0;          ///< max applied / threshold (≤ 1)
+  int max_ratio_node = -1;                 ///< skin node of max_requested_ratio
+  int saturated_nodes = 0;
+  double max_displacement_m = 0.0;
+  bool converged = false;
+  bool linearised = false;                 ///< the shape comes from the linearised model
+  std::string nonlinear_failure;           ///< why the nonlinear solve failed (Auto mode)
+  int follower_passes = 0;
+  bool follower_capped = false;            ///< stopped at max_follower_passes before the tolerance
+  double follower_change = 0.0;            ///< the force change when capped
+  int newton_iterations = 0;
+  double seconds = 0.0;
+  std::string message;
+};
+
+/// How the stump's equilibrium is found.
+enum class DesignSolveMode {
+  Nonlinear,  ///< the MSS-CS model's static equilibrium (Newton, warm-started)
+  Linear,     ///< its linearisation at rest: K₀ u = f with K₀ factorised once (updates in ms)
+  Auto,       ///< nonlinear; once the lattice loses stability (no equilibrium), the linearised
+              ///< model from then on, reported in DesignState::linearised and its message
+};
+std::string to_string(DesignSolveMode mode);
+DesignSolveMode parse_design_solve_mode(const std::string& text);
+
+struct DesignSolverOptions {
+  /// Linear by default: on automatically meshed stumps the nonlinear MSS-CS lattice (any variant)
+  /// loses stability at 10–30 kPa where thin tissue covers the tibia (docs/design.md), below the
+  /// pressures a standing patient needs; its linearisation is stable, and factorised once it
+  /// makes a design update a few back-substitutions.
+  DesignSolveMode mode = DesignSolveMode::Linear;
+  tissue::StaticSolverOptions solver;
+  double follower_tolerance = 1e-3;  ///< max |Δf_i| / max |f_i| between passes
+  int max_follower_passes = 8;
+};
+
+/// The stump under design: model, solver and skin geometry built once; each solve() warm-starts
+/// from the previous equilibrium and reuses the factorisation.
+class DesignSolver {
+ public:
+  /// @param thresholds_pa pain threshold per skin node (extract_skin_surface(mesh) order) [Pa].
+  DesignSolver(const volume::HexMesh& mesh, const tissue::TissueMaterial& material,
+               const tissue::MassSpringOptions& model_options, const geometry::LimbFrame& frame,
+               std::vector<double> thresholds_pa, const PatientLoad& patient, double stump_length_m,
+               const DesignSolverOptions& options = {});
+  ~DesignSolver();
+  DesignSolver(const DesignSolver&) = delete;
+  DesignSolver& operator=(const DesignSolver&) = delete;
+
+  const volume::SkinSurface& skin() const;
+  /// Rest cylindrical coordinates of the skin nodes (where the spots are evaluated).
+  const std::vector<geometry::Cylindrical>& skin_cylindrical() const;
+  const std::vector<double>& thresholds() const;
+  const geometry::LimbFrame& frame() const;
+  const PatientLoad& patient() const;
+  const RadarTargets& targets() const;
+  const tissue::MassSpringModel& model() const;
+  double stump_length_m() const;
+
+  /// Marks skin nodes above the brim (h > brim(θ), rest coordinates): no pressure there.
+  void set_brim(const std::function<double(double theta)>& brim_height_m);
+  const std::vector<char>& above_brim() const;
+
+  /// The spots' field at the skin nodes (rest coordinates), 0 above the brim, not saturated [Pa].
+  std::vector<double> requested_pressure(const std::vector<Spot>& spots) const;
+
+  /// Static equilibrium under the spots (warm start from the last equilibrium).
+  /// @throws SolverError when the equilibrium cannot be found (the stump's message says why).
+  DesignState solve(const std::vector<Spot>& spots);
+
+  /// Skin geometry (positions, outward normals, nodal areas) at node positions @p x (3N).
+  void skin_geometry(const tissue::VectorXd& x, std::vector<Vec3>& pos, std::vector<Vec3>& normal,
+                     std::vector<double>& area) const;
+
+  /// Forgets the warm start (next solve starts from rest).
+  void reset();
+
+  /// After a failed solve: the rest position of the centre of the element that collapsed or was
+  /// closest to inversion (the stall diagnosis's worst element) [m]; NaN when none is known.
+  Vec3 last_failure_point() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace socketsmith::design

@@ -1,0 +1,984 @@
+#include "socketsmith/report/design_report.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <ostream>
+#include <sstream>
+
+#include <fmt/format.h>
+
+#include "socketsmith/core/atomic_file.h"
+#include "socketsmith/core/errors.h"
+
+// The PNG encoder for embedded pictures: stb is header-only; static linkage keeps this copy
+// private to this file (raster.cpp compiles its own the same way).
+#define STB_IMAGE_WRITE_IMPLEMENTATION
+#define STB_IMAGE_WRITE_STATIC
+#define STBI_WRITE_NO_STDIO
+#include <stb/stb_image_write.h>
+
+namespace socketsmith::report {
+namespace {
+
+using Eigen::Vector2d;
+using Eigen::Vector3d;
+constexpr double kPi = std::numbers::pi;
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr Rgb kWhite{255, 255, 255};
+constexpr Rgb kInk{30, 30, 30};
+constexpr Rgb kGrid{200, 200, 200};
+constexpr Rgb kTargetColour{30, 60, 150};
+constexpr Rgb kPolygonColour{70, 130, 220};
+
+// ---- number formatting ---------------------------------------------------------------------
+
+/// @p v with about @p digits significant digits, no exponent for ordinary magnitudes.
+std::string num(double v, int digits = 3) {
+  if (!std::isfinite(v)) return "n/a";
+  if (v == 0) return "0";
+  const double a = std::abs(v);
+  if (a >= std::pow(10.0, digits) && a < 1e9) return fmt::format("{:.0f}", v);
+  if (a >= 1e-3 && a < 1e9) {
+    const int decimals = std::max(0, digits - 1 - static_cast<int>(std::floor(std::log10(a))));
+    std::string s = fmt::format("{:.{}f}", v, decimals);
+    if (s.find('.') != std::string::npos) {
+      while (s.back() == '0') s.pop_back();
+      if (s.back() == '.') s.pop_back();
+    }
+    return s;
+  }
+  return fmt::format("{:.{}g}", v, digits);
+}
+
+/// The smallest of 1, 1.2, 1.5, 2, 2.5, 3, 4, 5, 6, 8 × 10^k that is ≥ @p v (> 0).
+double nice_ceil(double v) {
+  const double p = std::pow(10.0, std::floor(std::log10(v)));
+  for (double m : {1.0, 1.2, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 8.0, 10.0})
+    if (m * p >= v * (1 - 1e-12)) return m * p;
+  return 10 * p;
+}
+
+// ---- 2-D drawing on an Image (anti-aliased by coverage) ------------------------------------
+
+void blend_pixel(Image& img, int x, int y, Rgb c, double a) {
+  if (x < 0 || y < 0 || x >= img.width || y >= img.height || a <= 0) return;
+  Rgb& d = img.at(x, y);
+  if (a >= 1) {
+    d = c;
+    return;
+  }
+  auto mix = [a](std::uint8_t dst, std::uint8_t src) {
+    return static_cast<std::uint8_t>(std::lround((1 - a) * dst + a * src));
+  };
+  d = {mix(d.r, c.r), mix(d.g, c.g), mix(d.b, c.b)};
+}
+
+/// Calls f(x, y, px, py) for every pixel of the box [lo, hi] clipped to the image; (px, py) is
+/// the pixel centre.
+template <class F>
+void for_pixels(const Image& img, Vector2d lo, Vector2d hi, F&& f) {
+  const int x0 = std::max(0, static_cast<int>(std::floor(lo.x())));
+  const int y0 = std::max(0, static_cast<int>(std::floor(lo.y())));
+  const int x1 = std::min(img.width - 1, static_cast<int>(std::ceil(hi.x())));
+  const int y1 = std::min(img.height - 1, static_cast<int>(std::ceil(hi.y())));
+  for (int y = y0; y <= y1; ++y)
+    for (int x = x0; x <= x1; ++x) f(x, y, x + 0.5, y + 0.5);
+}
+
+/// A segment of @p width px (round caps).
+void draw_segment(Image& img, Vector2d p, Vector2d q, double width, Rgb c, double alpha = 1) {
+  const double r = 0.5 * width;
+  const Vector2d lo = p.cwiseMin(q).array() - r - 1, hi = p.cwiseMax(q).array() + r + 1;
+  const Vector2d d = q - p;
+  const double len2 = d.squaredNorm();
+  for_pixels(img, lo, hi, [&](int x, int y, double px, double py) {
+    const Vector2d v(px - p.x(), py - p.y());
+    const double t = len2 > 0 ? std::clamp(v.dot(d) / len2, 0.0, 1.0) : 0.0;
+    const double dist = (v - t * d).norm();
+    blend_pixel(img, x, y, c, alpha * std::clamp(r + 0.5 - dist, 0.0, 1.0));
+  });
+}
+
+/// A circle of @p radius px drawn with a line of @p width px.
+void draw_ring(Image& img, Vector2d centre, double radius, double width, Rgb c) {
+  const double r = radius + 0.5 * width + 1;
+  for_pixels(img, centre.array() - r, centre.array() + r, [&](int x, int y, double px, double py) {
+    const double dist = std::abs(std::hypot(px - centre.x(), py - centre.y()) - radius);
+    blend_pixel(img, x, y, c, std::clamp(0.5 * width + 0.5 - dist, 0.0, 1.0));
+  });
+}
+
+void fill_disc(Image& img, Vector2d centre, double radius, Rgb c) {
+  const double r = radius + 1;
+  for_pixels(img, centre.array() - r, centre.array() + r, [&](int x, int y, double px, double py) {
+    const double dist = std::hypot(px - centre.x(), py - centre.y());
+    blend_pixel(img, x, y, c, std::clamp(radius + 0.5 - dist, 0.0, 1.0));
+  });
+}
+
+/// Fills a simple polygon (even-odd rule at pixel centres) blended at @p alpha.
+void fill_polygon(Image& img, const std::vector<Vector2d>& pts, Rgb c, double alpha) {
+  if (pts.size() < 3) return;
+  Vector2d lo = pts[0], hi = pts[0];
+  for (const auto& p : pts) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  for_pixels(img, lo, hi, [&](int x, int y, double px, double py) {
+    bool inside = false;
+    for (std::size_t i = 0, j = pts.size() - 1; i < pts.size(); j = i++) {
+      const Vector2d& a = pts[i];
+      const Vector2d& b = pts[j];
+      if ((a.y() > py) != (b.y() > py) &&
+          px < (b.x() - a.x()) * (py - a.y()) / (b.y() - a.y()) + a.x())
+        inside = !inside;
+    }
+    if (inside) blend_pixel(img, x, y, c, alpha);
+  });
+}
+
+// ---- radar layout --------------------------------------------------------------------------
+
+constexpr int kRadarTitleScale = 3, kRadarLabelScale = 2;
+constexpr int kRadarSideRoom = 140;  // label room left and right of the outer ring [px]
+constexpr int kRadarVertRoom = 60;   // label room above and below the outer ring [px]
+constexpr int kRadarLegendRows = 2;
+
+struct RadarLayout {
+  int width = 0, height = 0;
+  int title_h = 0;
+  Vector2d centre;
+  double r_out = 0;  // [px] of kRadarMaxRadius
+};
+
+void validate_radar(const RadarChart& chart) {
+  const auto n = chart.axes.size();
+  require(n >= 3 && n <= 12, "render_radar_chart: {} axes (expected 3..12; 7 for the design tool)",
+          n);
+  require(chart.size_px >= 80 && chart.size_px <= 2000,
+          "render_radar_chart: size {} px (expected 80..2000)", chart.size_px);
+  for (const auto& a : chart.axes) {
+    require(std::isfinite(a.value) && std::isfinite(a.target),
+            "render_radar_chart: axis '{}' value {} / target {} (expected finite numbers)", a.name,
+            a.value, a.target);
+    require(std::isfinite(a.tolerance) && a.tolerance >= 0,
+            "render_radar_chart: axis '{}' tolerance {} (expected ≥ 0)", a.name, a.tolerance);
+    require(std::isfinite(a.scale) && a.scale > 0,
+            "render_radar_chart: axis '{}' scale {} (expected a positive reference, e.g. M g / 2)",
+            a.name, a.scale);
+  }
+}
+
+RadarLayout radar_layout(const RadarChart& chart) {
+  RadarLayout l;
+  l.r_out = chart.size_px;
+  l.title_h = 12 + text_height("X", kRadarTitleScale) + 8;
+  const int legend_h = kRadarLegendRows * text_height("X", kRadarLabelScale) + 24;
+  l.width = 2 * chart.size_px + 2 * kRadarSideRoom;
+  l.height = l.title_h + 2 * (chart.size_px + kRadarVertRoom) + legend_h;
+  l.centre = Vector2d(0.5 * l.width, l.title_h + kRadarVertRoom + chart.size_px);
+  return l;
+}
+
+Vector2d radar_direction(int k, int n) {
+  const double a = -0.5 * kPi + 2 * kPi * k / n;
+  return {std::cos(a), std::sin(a)};
+}
+
+double radar_radius(const RadarAxis& a) { return 1 + (a.value - a.target) / a.scale; }
+
+std::string radar_value_text(const RadarAxis& a) {
+  return a.unit.empty() ? num(a.value) : num(a.value) + " " + a.unit;
+}
+
+// ---- frame checks --------------------------------------------------------------------------
+
+void validate_frame(const SurfaceFrame& f, const char* fn) {
+  const bool finite = f.origin.allFinite() && f.axis.allFinite() && f.anterior.allFinite() &&
+                      f.medial.allFinite();
+  require(finite, "{}: the frame has a non-finite origin or direction", fn);
+  constexpr double tol = 1e-4;
+  const bool ortho = std::abs(f.axis.norm() - 1) < tol && std::abs(f.anterior.norm() - 1) < tol &&
+                     std::abs(f.medial.norm() - 1) < tol && std::abs(f.axis.dot(f.anterior)) < tol &&
+                     std::abs(f.axis.dot(f.medial)) < tol && std::abs(f.anterior.dot(f.medial)) < tol;
+  require(ortho,
+          "{}: the frame's axis, anterior and medial are not orthonormal (|a|={:.4g}, |ant|={:.4g}, "
+          "|med|={:.4g}; use surface_frame() of a LimbFrame)",
+          fn, f.axis.norm(), f.anterior.norm(), f.medial.norm());
+}
+
+double wrap_pi(double a) {
+  a = std::remainder(a, 2 * kPi);  // [-π, π]
+  return a <= -kPi ? a + 2 * kPi : a;
+}
+
+/// A dark tube of 6 sides along the closed polyline @p pts.
+geometry::TriMesh brim_tube(const std::vector<Vector3d>& pts, double radius) {
+  geometry::TriMesh m;
+  const std::size_t n = pts.size();
+  if (n < 2) return m;
+  constexpr int kSides = 6;
+  const std::size_t segments = n == 2 ? 1 : n;
+  for (std::size_t i = 0; i < segments; ++i) {
+    const Vector3d& a = pts[i];
+    const Vector3d& b = pts[(i + 1) % n];
+    const Vector3d d = b - a;
+    if (d.norm() <= 0) continue;
+    const Vector3d t = d.normalized();
+    Vector3d u = t.unitOrthogonal();
+    const Vector3d v = t.cross(u);
+    const int base = m.num_vertices();
+    for (int k = 0; k < kSides; ++k) {
+      const double ang = 2 * kPi * k / kSides;
+      const Vector3d off = radius * (std::cos(ang) * u + std::sin(ang) * v);
+      m.vertices.push_back(a + off);
+      m.vertices.push_back(b + off);
+    }
+    for (int k = 0; k < kSides; ++k) {
+      const int k1 = (k + 1) % kSides;
+      const int a0 = base + 2 * k, b0 = a0 + 1, a1 = base + 2 * k1, b1 = a1 + 1;
+      m.triangles.push_back({a0, a1, b1});
+      m.triangles.push_back({a0, b1, b0});
+    }
+  }
+  return m;
+}
+
+// ---- HTML ----------------------------------------------------------------------------------
+
+std::string png_uri(const Image& img) { return "data:image/png;base64," + base64_encode(encode_png(img)); }
+
+std::string deg(double rad) { return num(rad * 180 / kPi); }
+std::string mm(double m) { return num(m * 1e3); }
+std::string kpa(double pa) { return num(pa * 1e-3); }
+
+struct Html {
+  std::ostringstream out;
+  void text(std::string_view s) { out << html_escape(s); }
+  void raw(std::string_view s) { out << s; }
+  void row(const std::vector<std::string>& cells, bool header = false, std::string_view cls = "") {
+    out << (cls.empty() ? std::string("<tr>") : fmt::format("<tr class=\"{}\">", cls));
+    for (const auto& c : cells) out << (header ? "<th>" : "<td>") << html_escape(c) << (header ? "</th>" : "</td>");
+    out << "</tr>\n";
+  }
+  void kv(const std::string& k, const std::string& v) { row({k, v}); }
+};
+
+std::string spot_theta(const ReportSpot& s) {
+  if (s.type == "cos2" || s.type == "cos-sig")
+    return fmt::format("θ0 {} ± {}", deg(s.theta0_rad), deg(s.r_theta_rad));
+  if (s.type == "sig2")
+    return fmt::format("{} … {} (λ {} /°)", deg(s.theta1_rad), deg(s.theta2_rad),
+                       num(s.lambda_theta_per_rad * kPi / 180));
+  return "all";
+}
+
+std::string spot_height(const ReportSpot& s) {
+  if (s.type == "cos2") return fmt::format("h0 {} ± {}", mm(s.h0_m), mm(s.r_h_m));
+  if (s.type == "sig2" || s.type == "cos-sig")
+    return fmt::format("{} … {} (λ {} /mm)", mm(s.h1_m), mm(s.h2_m), num(s.lambda_h_per_m * 1e-3));
+  if (s.type == "grad") return fmt::format("full below {}, none above {}", mm(s.h1_m), mm(s.h2_m));
+  return "";
+}
+
+}  // namespace
+
+// ==== radar =================================================================================
+
+std::vector<RadarAxis> seven_radar_axes(const RadarInputs& in) {
+  require(std::isfinite(in.body_mass_kg) && in.body_mass_kg > 0,
+          "seven_radar_axes: body mass {} kg (expected > 0)", in.body_mass_kg);
+  require(std::isfinite(in.prosthesis_mass_kg) && in.prosthesis_mass_kg >= 0,
+          "seven_radar_axes: prosthesis mass {} kg (expected ≥ 0)", in.prosthesis_mass_kg);
+  require(std::isfinite(in.stump_length_m) && in.stump_length_m > 0,
+          "seven_radar_axes: stump length {} m (expected > 0)", in.stump_length_m);
+  require(std::isfinite(in.force_tolerance) && in.force_tolerance >= 0 &&
+              std::isfinite(in.torque_tolerance) && in.torque_tolerance >= 0,
+          "seven_radar_axes: tolerances {} / {} (expected fractions ≥ 0)", in.force_tolerance,
+          in.torque_tolerance);
+  require(std::isfinite(in.gravity) && in.gravity > 0, "seven_radar_axes: g = {} (expected > 0)",
+          in.gravity);
+  require(in.force_n.allFinite() && in.torque_nm.allFinite() && std::isfinite(in.stability_n),
+          "seven_radar_axes: a force, torque or stability value is not finite");
+  const double half_weight = 0.5 * in.body_mass_kg * in.gravity;
+  const double torque_scale = half_weight * in.stump_length_m;
+  const double force_tol = in.force_tolerance * half_weight;
+  const double torque_tol = in.torque_tolerance * torque_scale;
+  std::vector<RadarAxis> axes;
+  const char* fnames[3] = {"F_x", "F_y", "F_z"};
+  const char* tnames[3] = {"T_x", "T_y", "T_z"};
+  for (int i = 0; i < 3; ++i) {
+    RadarAxis a;
+    a.name = fnames[i];
+    a.unit = "N";
+    a.value = in.force_n[i];
+    a.target = i == 2 ? half_weight : 0.0;
+    a.tolerance = force_tol;
+    a.scale = half_weight;
+    a.is_ok = std::abs(a.value - a.target) <= a.tolerance;
+    axes.push_back(a);
+  }
+  for (int i = 0; i < 3; ++i) {
+    RadarAxis a;
+    a.name = tnames[i];
+    a.unit = "N·m";
+    a.value = in.torque_nm[i];
+    a.target = 0;
+    a.tolerance = torque_tol;
+    a.scale = torque_scale;
+    a.is_ok = std::abs(a.value) <= a.tolerance;
+    axes.push_back(a);
+  }
+  RadarAxis s;
+  s.name = "stability";
+  s.unit = "N";
+  s.value = in.stability_n;
+  s.target = in.prosthesis_mass_kg * in.gravity;
+  s.is_lower_bound = true;
+  s.scale = half_weight;
+  s.is_ok = s.value >= s.target;
+  axes.push_back(s);
+  return axes;
+}
+
+int radar_axes_met(const std::vector<RadarAxis>& axes) {
+  return static_cast<int>(std::count_if(axes.begin(), axes.end(), [](const RadarAxis& a) { return a.is_ok; }));
+}
+
+Eigen::Vector2d radar_axis_pixel(const RadarChart& chart, int axis, double r) {
+  validate_radar(chart);
+  const int n = static_cast<int>(chart.axes.size());
+  require(axis >= 0 && axis < n, "radar_axis_pixel: axis {} (expected 0..{})", axis, n - 1);
+  const RadarLayout l = radar_layout(chart);
+  return l.centre + (r / kRadarMaxRadius) * l.r_out * radar_direction(axis, n);
+}
+
+Image render_radar_chart(const RadarChart& chart) {
+  validate_radar(chart);
+  const RadarLayout l = radar_layout(chart);
+  const int n = static_cast<int>(chart.axes.size());
+  Image img(l.width, l.height, kWhite);
+  const double px_per_r = l.r_out / kRadarMaxRadius;
+  auto at = [&](int k, double r) -> Vector2d { return l.centre + r * px_per_r * radar_direction(k, n); };
+
+  const std::string title = to_ascii(chart.title);
+  draw_text(img, (l.width - text_width(title, kRadarTitleScale)) / 2, 12, title, kInk, kRadarTitleScale);
+
+  // Grid rings, the value polygon, the axes, the target circle, ticks, points.
+  for (double r : {0.5, 1.5, kRadarMaxRadius}) draw_ring(img, l.centre, r * px_per_r, 1.0, kGrid);
+  std::vector<Vector2d> poly;
+  std::vector<double> radii;
+  for (int k = 0; k < n; ++k) {
+    const double r = radar_radius(chart.axes[k]);
+    radii.push_back(r);
+    poly.push_back(at(k, std::clamp(r, 0.0, kRadarMaxRadius)));
+  }
+  fill_polygon(img, poly, kPolygonColour, 0.25);
+  for (int k = 0; k < n; ++k) {
+    const Rgb c = chart.axes[k].is_ok ? kRadarOkColour : kRadarFailColour;
+    draw_segment(img, l.centre, at(k, kRadarMaxRadius), 3.0, c);
+  }
+  draw_ring(img, l.centre, px_per_r, 3.0, kTargetColour);
+  for (int k = 0; k < n; ++k) {
+    const RadarAxis& a = chart.axes[k];
+    const Vector2d d = radar_direction(k, n), perp(-d.y(), d.x());
+    const double lo = a.is_lower_bound ? 1.0 : 1 - a.tolerance / a.scale;
+    const double hi = a.is_lower_bound ? kRadarMaxRadius : 1 + a.tolerance / a.scale;
+    for (double r : {lo, hi}) {
+      if (r < 0 || r > kRadarMaxRadius) continue;
+      const Vector2d p = at(k, r);
+      draw_segment(img, p - 7 * perp, p + 7 * perp, 2.0, kInk);
+    }
+  }
+  for (int k = 0; k < n; ++k) draw_segment(img, poly[k], poly[(k + 1) % n], 2.0, kPolygonColour);
+  for (int k = 0; k < n; ++k) {
+    const Rgb c = chart.axes[k].is_ok ? kRadarOkColour : kRadarFailColour;
+    const bool clamped = radii[k] < 0 || radii[k] > kRadarMaxRadius;
+    fill_disc(img, poly[k], 7.5, kInk);
+    if (clamped) {
+      fill_disc(img, poly[k], 5.5, kWhite);
+      draw_ring(img, poly[k], 4.0, 2.5, c);
+    } else {
+      fill_disc(img, poly[k], 6.0, c);
+    }
+  }
+
+  // Labels outside the outer ring: "name" over "value unit".
+  for (int k = 0; k < n; ++k) {
+    const RadarAxis& a = chart.axes[k];
+    const Rgb c = a.is_ok ? kRadarOkColour : kRadarFailColour;
+    const std::string text = to_ascii(a.name) + "\n" + to_ascii(radar_value_text(a));
+    const int w = text_width(text, kRadarLabelScale), h = text_height(text, kRadarLabelScale);
+    const Vector2d d = radar_direction(k, n);
+    const Vector2d p = at(k, kRadarMaxRadius) + 14 * d;
+    const double x = d.x() > 0.3 ? p.x() : (d.x() < -0.3 ? p.x() - w : p.x() - 0.5 * w);
+    const double y = d.y() < -0.3 ? p.y() - h : (d.y() > 0.3 ? p.y() : p.y() - 0.5 * h);
+    draw_text(img, static_cast<int>(std::lround(x)), static_cast<int>(std::lround(y)), text, c,
+              kRadarLabelScale);
+  }
+
+  // Legend.
+  const int met = radar_axes_met(chart.axes);
+  std::string legend;
+  if (met == n) {
+    legend = "all constraints met";
+  } else {
+    legend = fmt::format("{} of {} met - failing:", met, n);
+    for (const auto& a : chart.axes)
+      if (!a.is_ok) legend += " " + to_ascii(a.name);
+  }
+  const int ly = l.height - kRadarLegendRows * text_height("X", kRadarLabelScale) - 12;
+  draw_text(img, (l.width - text_width(legend, kRadarLabelScale)) / 2, ly, legend,
+            met == n ? kRadarOkColour : kRadarFailColour, kRadarLabelScale);
+  const std::string key = "circle: target   r = 1 + (value - target) / scale   ticks: tolerance";
+  draw_text(img, (l.width - text_width(key, 1)) / 2, ly + text_height("X", kRadarLabelScale) + 4,
+            key, Rgb{110, 110, 110}, 1);
+  return img;
+}
+
+void write_radar_chart(const std::filesystem::path& path, const RadarChart& chart) {
+  write_png(path, render_radar_chart(chart));
+}
+
+// ==== pressure maps =========================================================================
+
+SurfaceFrame surface_frame(const geometry::LimbFrame& frame) {
+  SurfaceFrame f;
+  f.origin = frame.origin;
+  f.axis = frame.axis.normalized();
+  f.anterior = frame.anterior.normalized();
+  f.medial = frame.medial();
+  return f;
+}
+
+Image render_pressure_map(const PressureMapData& data) {
+  require(data.surface != nullptr && !data.surface->empty(),
+          "render_pressure_map: '{}' has no surface triangles (expected the stump's skin mesh)",
+          data.title);
+  const geometry::TriMesh& mesh = *data.surface;
+  require(data.values.size() == mesh.vertices.size(),
+          "render_pressure_map: {} values for {} vertices (expected one per vertex)",
+          data.values.size(), mesh.vertices.size());
+  validate_frame(data.frame, "render_pressure_map");
+  require(std::isfinite(data.brim_tube_radius_m) && data.brim_tube_radius_m > 0,
+          "render_pressure_map: brim tube radius {} m (expected > 0)", data.brim_tube_radius_m);
+  double vmin = data.value_min, vmax = data.value_max;
+  if (!(vmax > vmin)) {
+    require(std::isfinite(vmin) && std::isfinite(vmax),
+            "render_pressure_map: value range {}..{} (expected finite numbers)", vmin, vmax);
+    double lo = 0, hi = -std::numeric_limits<double>::infinity();
+    for (double v : data.values)
+      if (std::isfinite(v)) {
+        lo = std::min(lo, v);
+        hi = std::max(hi, v);
+      }
+    vmin = lo;
+    vmax = hi > lo ? hi : lo + 1;
+  }
+  require(std::isfinite(vmin) && std::isfinite(vmax),
+          "render_pressure_map: value range {}..{} (expected finite numbers)", vmin, vmax);
+
+  MeshLayer field;
+  field.mesh = &mesh;
+  field.vertex_values = data.values;
+  field.colour = data.no_data_colour;
+  field.value_min = vmin;
+  field.value_max = vmax;
+  field.colormap = data.colormap;
+  field.value_label = to_ascii(data.value_label);
+  std::vector<MeshLayer> layers{field};
+  geometry::TriMesh tube;
+  if (!data.brim.empty()) {
+    for (const auto& p : data.brim)
+      require(p.allFinite(), "render_pressure_map: a brim point is not finite");
+    tube = brim_tube(data.brim, data.brim_tube_radius_m);
+    if (!tube.empty()) {
+      MeshLayer b;
+      b.mesh = &tube;
+      b.colour = Rgb{25, 25, 25};
+      layers.push_back(b);
+    }
+  }
+  std::vector<Marker> markers;
+  for (const auto& lm : data.landmarks) {
+    Marker m;
+    m.position = lm.position;
+    m.label = to_ascii(lm.code);
+    m.colour = lm.is_estimated ? Rgb{220, 60, 220} : Rgb{250, 250, 250};
+    m.radius_px = 5;
+    markers.push_back(m);
+  }
+  const SurfaceFrame& f = data.frame;
+  const std::vector<std::pair<Camera, std::string>> views{{{-f.anterior, f.axis}, "anterior"},
+                                                          {{-f.medial, f.axis}, "medial"},
+                                                          {{f.anterior, f.axis}, "posterior"},
+                                                          {{f.medial, f.axis}, "lateral"}};
+  require(data.view_px >= 64 && data.view_px <= 2048,
+          "render_pressure_map: view size {} px (expected 64..2048)", data.view_px);
+  return render_views(layers, markers, views, data.view_px, to_ascii(data.title));
+}
+
+void write_pressure_map(const std::filesystem::path& path, const PressureMapData& data) {
+  write_png(path, render_pressure_map(data));
+}
+
+// ==== paths =================================================================================
+
+std::vector<PathSample> sample_path(const std::vector<Eigen::Vector3d>& points,
+                                    const std::vector<double>& values, const SurfaceFrame& frame,
+                                    const PathSpec& path) {
+  require(values.empty() || values.size() == points.size(),
+          "sample_path: {} values for {} points (expected one per point or none)", values.size(),
+          points.size());
+  validate_frame(frame, "sample_path");
+  require(std::isfinite(path.band_m) && path.band_m > 0,
+          "sample_path: band {} m (expected > 0, e.g. half a node spacing)", path.band_m);
+  require(std::isfinite(path.bin_m) && path.bin_m >= 0, "sample_path: bin {} m (expected ≥ 0)",
+          path.bin_m);
+  require(std::isfinite(path.theta_rad) && std::isfinite(path.height_m),
+          "sample_path: path angle {} rad / height {} m (expected finite)", path.theta_rad,
+          path.height_m);
+  const bool vertical = path.kind == PathKind::Vertical;
+  std::vector<PathSample> out;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    require(points[i].allFinite(), "sample_path: point {} is not finite", i);
+    const Vector3d d = points[i] - frame.origin;
+    const double h = d.dot(frame.axis);
+    const double a = d.dot(frame.anterior), m = d.dot(frame.medial);
+    const double rho = std::hypot(a, m);
+    const double theta = std::atan2(m, a);
+    PathSample s;
+    s.index = static_cast<int>(i);
+    s.value = values.empty() ? kNaN : values[i];
+    s.rho_m = rho;
+    s.theta_rad = theta;
+    s.h_m = h;
+    if (vertical) {
+      s.distance_m = std::abs(wrap_pi(theta - path.theta_rad)) * rho;
+      s.s = h;
+    } else {
+      s.distance_m = std::abs(h - path.height_m);
+      double phi = std::fmod(theta - path.theta_rad, 2 * kPi);
+      if (phi < 0) phi += 2 * kPi;
+      if (phi >= 2 * kPi) phi = 0;
+      s.s = phi;
+    }
+    if (s.distance_m <= path.band_m) out.push_back(s);
+  }
+  auto by_s = [](const PathSample& x, const PathSample& y) {
+    return x.s != y.s ? x.s < y.s : x.distance_m < y.distance_m;
+  };
+  std::sort(out.begin(), out.end(), by_s);
+  if (path.bin_m > 0 && !out.empty()) {
+    // Length along the path: h, or the mean radius × angle on a circumference.
+    double rho_mean = 0;
+    for (const auto& s : out) rho_mean += s.rho_m;
+    rho_mean /= static_cast<double>(out.size());
+    const double length_per_s = vertical ? 1.0 : rho_mean;
+    // Greedy bins: a bin starts at its first sample and holds the samples less than bin_m
+    // further along (robust to nodes lying exactly on a grid of bin_m).
+    std::vector<PathSample> thinned;
+    double bin_start = -std::numeric_limits<double>::infinity();
+    for (const auto& s : out) {
+      const double len = s.s * length_per_s;
+      if (len >= bin_start + path.bin_m) {
+        thinned.push_back(s);
+        bin_start = len;
+      } else if (s.distance_m < thinned.back().distance_m) {
+        thinned.back() = s;
+      }
+    }
+    out = std::move(thinned);
+  }
+  return out;
+}
+
+double interpolate_path(const std::vector<PathSample>& samples, double s) {
+  if (samples.empty() || !std::isfinite(s) || s < samples.front().s || s > samples.back().s)
+    return kNaN;
+  const auto it = std::lower_bound(samples.begin(), samples.end(), s,
+                                   [](const PathSample& a, double x) { return a.s < x; });
+  if (it == samples.begin()) return it->value;
+  const PathSample& b = *it;
+  const PathSample& a = *(it - 1);
+  if (b.s == a.s) return b.value;
+  const double t = (s - a.s) / (b.s - a.s);
+  return (1 - t) * a.value + t * b.value;
+}
+
+PathProfile make_path_profile(const std::string& name, PathKind kind,
+                              const std::vector<PathSample>& samples,
+                              const std::vector<double>& pressure_pa,
+                              const std::vector<double>& threshold_pa) {
+  PathProfile p;
+  p.name = name;
+  const bool vertical = kind == PathKind::Vertical;
+  p.s_label = vertical ? "height above the distal end [mm]"
+                       : "angle along the circumference from its start, towards medial [deg]";
+  if (!vertical) {
+    p.s_min = 0;
+    p.s_max = 360;
+  }
+  for (const auto& s : samples) {
+    require(s.index >= 0 && static_cast<std::size_t>(s.index) < pressure_pa.size(),
+            "make_path_profile: '{}' sample index {} outside the {} pressures", name, s.index,
+            pressure_pa.size());
+    require(threshold_pa.empty() || static_cast<std::size_t>(s.index) < threshold_pa.size(),
+            "make_path_profile: '{}' sample index {} outside the {} thresholds", name, s.index,
+            threshold_pa.size());
+    p.s.push_back(vertical ? s.s * 1e3 : s.s * 180 / kPi);
+    p.pressure_kpa.push_back(pressure_pa[s.index] * 1e-3);
+    if (!threshold_pa.empty()) p.threshold_kpa.push_back(threshold_pa[s.index] * 1e-3);
+  }
+  return p;
+}
+
+Plot path_profile_plot(const PathProfile& profile) {
+  require(profile.pressure_kpa.size() == profile.s.size() &&
+              (profile.threshold_kpa.empty() || profile.threshold_kpa.size() == profile.s.size()),
+          "path_profile_plot: '{}' has {} coordinates, {} pressures, {} thresholds (expected the "
+          "same count, or no thresholds)",
+          profile.name, profile.s.size(), profile.pressure_kpa.size(), profile.threshold_kpa.size());
+  Plot plot;
+  plot.title = profile.name;
+  plot.x_label = profile.s_label;
+  plot.y_label = "pressure [kPa]";
+  plot.width_px = 640;
+  plot.height_px = 360;
+  PlotSeries pressure;
+  pressure.name = "applied pressure";
+  pressure.x = profile.s;
+  pressure.y = profile.pressure_kpa;
+  pressure.color = "#0072B2";
+  pressure.markers = true;
+  plot.series.push_back(pressure);
+  if (!profile.threshold_kpa.empty()) {
+    PlotSeries threshold;
+    threshold.name = "pain threshold";
+    threshold.x = profile.s;
+    threshold.y = profile.threshold_kpa;
+    threshold.color = "#D55E00";
+    threshold.dashed = true;
+    plot.series.push_back(threshold);
+  }
+  double ymax = -std::numeric_limits<double>::infinity();
+  int finite_x = 0;
+  double xmin = std::numeric_limits<double>::infinity(), xmax = -xmin;
+  for (std::size_t i = 0; i < profile.s.size(); ++i) {
+    if (std::isfinite(profile.s[i])) {
+      ++finite_x;
+      xmin = std::min(xmin, profile.s[i]);
+      xmax = std::max(xmax, profile.s[i]);
+    }
+    if (std::isfinite(profile.pressure_kpa[i])) ymax = std::max(ymax, profile.pressure_kpa[i]);
+    if (!profile.threshold_kpa.empty() && std::isfinite(profile.threshold_kpa[i]))
+      ymax = std::max(ymax, profile.threshold_kpa[i]);
+  }
+  plot.y_min = 0.0;
+  plot.y_max = nice_ceil(ymax > 0 ? 1.1 * ymax : 1.0);
+  if (std::isfinite(profile.s_min) && std::isfinite(profile.s_max) && profile.s_max > profile.s_min) {
+    plot.x_min = profile.s_min;
+    plot.x_max = profile.s_max;
+  } else if (finite_x == 0 || !(xmax > xmin)) {  // nothing to span: an explicit unit range
+    const double c = finite_x == 0 ? 0.0 : xmin;
+    plot.x_min = c - 0.5;
+    plot.x_max = c + 0.5;
+  }
+  return plot;
+}
+
+// ==== helpers ===============================================================================
+
+std::string html_escape(std::string_view text) {
+  std::string out;
+  out.reserve(text.size());
+  for (char c : text) {
+    switch (c) {
+      case '&': out += "&amp;"; break;
+      case '<': out += "&lt;"; break;
+      case '>': out += "&gt;"; break;
+      case '"': out += "&quot;"; break;
+      case '\'': out += "&#39;"; break;
+      default: out += c;
+    }
+  }
+  return out;
+}
+
+std::string base64_encode(std::string_view bytes) {
+  static constexpr char kAlphabet[] =
+      "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  out.reserve((bytes.size() + 2) / 3 * 4);
+  std::size_t i = 0;
+  auto byte = [&](std::size_t k) { return static_cast<std::uint32_t>(static_cast<unsigned char>(bytes[k])); };
+  for (; i + 3 <= bytes.size(); i += 3) {
+    const std::uint32_t v = byte(i) << 16 | byte(i + 1) << 8 | byte(i + 2);
+    out += kAlphabet[v >> 18 & 63];
+    out += kAlphabet[v >> 12 & 63];
+    out += kAlphabet[v >> 6 & 63];
+    out += kAlphabet[v & 63];
+  }
+  const std::size_t rest = bytes.size() - i;
+  if (rest > 0) {
+    std::uint32_t v = byte(i) << 16;
+    if (rest == 2) v |= byte(i + 1) << 8;
+    out += kAlphabet[v >> 18 & 63];
+    out += kAlphabet[v >> 12 & 63];
+    out += rest == 2 ? kAlphabet[v >> 6 & 63] : '=';
+    out += '=';
+  }
+  return out;
+}
+
+std::string encode_png(const Image& img) {
+  require(img.width >= 1 && img.height >= 1 && img.width <= kMaxImageSide &&
+              img.height <= kMaxImageSide &&
+              img.pixels.size() == static_cast<std::size_t>(img.width) * img.height,
+          "encode_png: image {}×{} with {} pixels (expected width × height, sides 1..{})",
+          img.width, img.height, img.pixels.size(), kMaxImageSide);
+  std::string bytes;
+  auto append = [](void* context, void* data, int size) {
+    static_cast<std::string*>(context)->append(static_cast<const char*>(data), std::size_t(size));
+  };
+  if (stbi_write_png_to_func(append, &bytes, img.width, img.height, 3, img.pixels.data(),
+                             img.width * 3) == 0)
+    fail("encode_png: cannot encode the {}×{} image", img.width, img.height);
+  return bytes;
+}
+
+std::string to_ascii(std::string_view text) {
+  static const std::pair<std::string_view, std::string_view> kMap[] = {
+      {"·", "."}, {"μ", "u"}, {"µ", "u"}, {"θ", "theta"}, {"°", "deg"}, {"≥", ">="},
+      {"≤", "<="}, {"²", "^2"}, {"³", "^3"}, {"×", "x"}, {"−", "-"}, {"Δ", "d"},
+      {"ρ", "rho"}, {"λ", "lambda"}, {"±", "+/-"}, {"…", "..."}, {"–", "-"}, {"—", "-"}};
+  std::string out;
+  for (std::size_t i = 0; i < text.size();) {
+    const auto c = static_cast<unsigned char>(text[i]);
+    if (c < 0x80) {
+      out += text[i++];
+      continue;
+    }
+    bool mapped = false;
+    for (const auto& [from, to] : kMap)
+      if (text.substr(i, from.size()) == from) {
+        out += to;
+        i += from.size();
+        mapped = true;
+        break;
+      }
+    if (mapped) continue;
+    // Skip one UTF-8 sequence (lead byte + continuation bytes).
+    ++i;
+    while (i < text.size() && (static_cast<unsigned char>(text[i]) & 0xC0) == 0x80) ++i;
+    out += '?';
+  }
+  return out;
+}
+
+// ==== HTML report ===========================================================================
+
+std::string render_design_report_html(const DesignReportData& d) {
+  Html h;
+  h.raw("<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>");
+  h.text(d.title);
+  h.raw(
+      "</title>\n<style>\n"
+      "body{font-family:sans-serif;max-width:1100px;margin:1em auto;padding:0 1em;color:#222}\n"
+      "h1{font-size:1.6em}h2{font-size:1.25em;border-bottom:1px solid #ccc;margin-top:1.6em}\n"
+      "table{border-collapse:collapse;margin:.5em 0}td,th{border:1px solid #ccc;padding:.25em .6em;"
+      "text-align:left}th{background:#f2f2f2}\n"
+      "tr.ok td:last-child{color:#1e963c;font-weight:bold}tr.fail td:last-child{color:#d22828;"
+      "font-weight:bold}\n"
+      "img{max-width:100%;height:auto;display:block;margin:.5em 0}\n"
+      ".warn{color:#a05a00}.note{white-space:pre-wrap;background:#fafafa;padding:.5em;border:1px "
+      "solid #eee}\n</style>\n</head>\n<body>\n<h1>");
+  h.text(d.title);
+  h.raw("</h1>\n");
+  if (!d.generated.empty()) {
+    h.raw("<p>");
+    h.text(d.generated);
+    h.raw("</p>\n");
+  }
+
+  if (!d.warnings.empty()) {
+    h.raw("<h2>Warnings</h2>\n<ul class=\"warn\">\n");
+    for (const auto& w : d.warnings) {
+      h.raw("<li>");
+      h.text(w);
+      h.raw("</li>\n");
+    }
+    h.raw("</ul>\n");
+  }
+
+  // Patient.
+  const ReportPatient& p = d.patient;
+  h.raw("<h2>Patient</h2>\n<table>\n");
+  if (!p.id.empty()) h.kv("patient", p.id);
+  h.kv("body mass", num(p.body_mass_kg) + " kg");
+  h.kv("prosthesis mass", num(p.prosthesis_mass_kg) + " kg");
+  h.kv("tissue Young's modulus E", kpa(p.tissue_youngs_modulus_pa) + " kPa");
+  h.kv("friction coefficient μ (skin–socket)", num(p.friction));
+  h.raw("</table>\n");
+  if (!p.note.empty()) {
+    h.raw("<div class=\"note\">");
+    h.text(p.note);
+    h.raw("</div>\n");
+  }
+
+  // Inputs.
+  h.raw("<h2>Inputs</h2>\n<table>\n");
+  h.kv("limb file", d.limb_file.empty() ? "—" : d.limb_file);
+  h.kv("limb", (d.limb_type.empty() ? std::string("—") : d.limb_type) +
+                   (d.side.empty() ? std::string() : ", " + d.side));
+  h.kv("mesh nodes", d.mesh_nodes > 0 ? std::to_string(d.mesh_nodes) : "—");
+  h.kv("tissue model", d.model.empty() ? "—" : d.model);
+  h.kv("brim template", d.brim_template.empty() ? "—" : d.brim_template);
+  h.raw("</table>\n");
+  if (!d.spots.empty()) {
+    h.raw("<h3>Pressure spots</h3>\n<table>\n");
+    h.row({"name", "type", "A [kPa]", "θ [°]", "h [mm]", "enabled"}, true);
+    for (const auto& s : d.spots)
+      h.row({s.name, s.type, kpa(s.amplitude_pa), spot_theta(s), spot_height(s),
+             s.is_enabled ? "yes" : "no"});
+    h.raw("</table>\n<p>θ: 0° anterior, +90° medial, 180° posterior; h above the distal end.</p>\n");
+  }
+  if (!d.brim_key_points.empty()) {
+    h.raw("<h3>Brim key points</h3>\n<table>\n");
+    h.row({"θ [°]", "h [mm]"}, true);
+    for (const auto& k : d.brim_key_points) h.row({deg(k.theta_rad), mm(k.h_m)});
+    h.raw("</table>\n");
+  }
+
+  // Constraints.
+  if (!d.radar.axes.empty()) {
+    const Image radar = render_radar_chart(d.radar);
+    const int met = radar_axes_met(d.radar.axes);
+    const int n = static_cast<int>(d.radar.axes.size());
+    h.raw("<h2>Constraints</h2>\n<p><strong>");
+    h.text(met == n ? std::string("all constraints met") : fmt::format("{} of {} met", met, n));
+    h.raw("</strong></p>\n<img alt=\"radar chart of the constraints\" src=\"");
+    h.raw(png_uri(radar));
+    h.raw("\">\n<table>\n");
+    h.row({"constraint", "value", "target", "normalised r", "status"}, true);
+    for (const auto& a : d.radar.axes) {
+      const std::string unit = a.unit.empty() ? "" : " " + a.unit;
+      const std::string target = a.is_lower_bound ? "≥ " + num(a.target) + unit
+                                                  : num(a.target) + " ± " + num(a.tolerance) + unit;
+      h.row({a.name, num(a.value) + unit, target, num(radar_radius(a)), a.is_ok ? "pass" : "FAIL"},
+            false, a.is_ok ? "ok" : "fail");
+    }
+    h.raw("</table>\n<p>Radius r = 1 + (value − target) / scale: the target circle is r = 1 for "
+          "every axis; scale = M g / 2 for forces and stability, M g / 2 × stump length for "
+          "torques.</p>\n");
+  }
+
+  // Comfort.
+  h.raw("<h2>Comfort</h2>\n<table>\n");
+  h.kv("largest applied pressure", kpa(d.max_pressure_pa) + " kPa");
+  std::string where = "—";
+  if (d.has_max_ratio_position) {
+    const auto& lms = !d.landmarks.empty() ? d.landmarks
+                                           : (d.maps.empty() ? d.landmarks : d.maps.front().landmarks);
+    double best = std::numeric_limits<double>::infinity();
+    for (const auto& lm : lms) {
+      const double dist = (lm.position - d.max_ratio_position).norm();
+      if (dist < best) {
+        best = dist;
+        where = fmt::format("nearest landmark zone {} ({} mm away)", lm.code, mm(dist));
+      }
+    }
+    if (lms.empty())
+      where = fmt::format("at ({}, {}, {}) mm", mm(d.max_ratio_position.x()),
+                          mm(d.max_ratio_position.y()), mm(d.max_ratio_position.z()));
+  }
+  h.kv("largest pressure / pain threshold", num(d.max_pressure_ratio) +
+                                                (d.max_pressure_ratio > 1 ? " (above the threshold)" : ""));
+  h.kv("where", where);
+  h.raw("</table>\n");
+
+  // Maps.
+  if (!d.maps.empty()) {
+    h.raw("<h2>Pressure maps</h2>\n");
+    for (const auto& m : d.maps) {
+      const Image img = render_pressure_map(m);
+      h.raw("<h3>");
+      h.text(m.title);
+      h.raw("</h3>\n<img alt=\"");
+      h.text(m.title);
+      h.raw("\" src=\"");
+      h.raw(png_uri(img));
+      h.raw("\">\n");
+    }
+    h.raw("<p>Views: anterior, medial, posterior, lateral. Grey: no pressure (above the brim). "
+          "White markers: landmarks given; magenta: placed automatically.</p>\n");
+  }
+
+  // Profiles.
+  if (!d.profiles.empty()) {
+    h.raw("<h2>Pressure along paths</h2>\n");
+    for (const auto& pr : d.profiles) {
+      const std::string svg = render_svg(path_profile_plot(pr));
+      h.raw("<img alt=\"");
+      h.text(pr.name);
+      h.raw("\" src=\"data:image/svg+xml;base64,");
+      h.raw(base64_encode(svg));
+      h.raw("\">\n");
+    }
+  }
+
+  // Socket.
+  const ReportSocket& s = d.socket;
+  h.raw("<h2>Socket</h2>\n");
+  if (!s.has_socket) {
+    h.raw("<p>No socket built.</p>\n");
+  } else {
+    h.raw("<table>\n");
+    if (!s.stl_file.empty()) h.kv("socket file", s.stl_file);
+    h.kv("wall thickness", mm(s.thickness_m) + " mm");
+    h.kv("limb volume (below the brim)", num(s.limb_volume_m3 * 1e6) + " cm³");
+    h.kv("socket inner volume", num(s.socket_volume_m3 * 1e6) + " cm³");
+    if (s.limb_volume_m3 > 0)
+      h.kv("volume reduction",
+           num(100 * (s.limb_volume_m3 - s.socket_volume_m3) / s.limb_volume_m3) + " %");
+    h.raw("</table>\n");
+    if (!s.circumferences.empty()) {
+      h.raw("<table>\n");
+      h.row({"h [mm]", "limb [mm]", "socket [mm]", "reduction [%]"}, true);
+      for (const auto& c : s.circumferences)
+        h.row({mm(c.height_m), mm(c.limb_m), mm(c.socket_m),
+               c.limb_m > 0 ? num(100 * (c.limb_m - c.socket_m) / c.limb_m) : "—"});
+      h.raw("</table>\n");
+    }
+  }
+
+  // Runs.
+  auto run_section = [&](const char* heading, const ReportRun& r) {
+    h.raw(fmt::format("<h2>{}</h2>\n", heading));
+    if (!r.has_run) {
+      h.raw("<p>Not run.</p>\n");
+      return;
+    }
+    h.raw("<table>\n");
+    h.kv("converged", r.converged ? "yes" : "no");
+    h.kv("iterations", std::to_string(r.iterations));
+    h.kv("residual", num(r.residual, 4));
+    h.kv("time", num(r.seconds) + " s");
+    if (!r.message.empty()) h.kv("message", r.message);
+    for (const auto& [k, v] : r.details) h.kv(k, v);
+    h.raw("</table>\n");
+  };
+  run_section("Optimiser", d.optimiser);
+  run_section("Solver", d.solver);
+  h.raw("</body>\n</html>\n");
+  return h.out.str();
+}
+
+void write_design_report_html(const std::filesystem::path& path, const DesignReportData& data) {
+  const std::string html = render_design_report_html(data);  // any error: nothing written
+  write_text_atomically(path, html);
+}
+
+}  // namespace socketsmith::report

@@ -1,0 +1,153 @@
+// The case file: file units ↔ SI, round trip, and one-line errors for bad input.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "socketsmith/core/errors.h"
+#include "socketsmith/core/units.h"
+#include "socketsmith/design/case_file.h"
+
+namespace socketsmith::design {
+namespace {
+using nlohmann::json;
+
+json full_case() {
+  return json::parse(R"({
+    "socketsmith_case": 1,
+    "limb": {"file": "scan.stl", "bones": "estimate", "units": "mm", "type": "transtibial", "side": "left",
+             "anterior": [0, 1, 0], "cut_height_mm": 180},
+    "patient": {"id": "P-7", "note": "a <note>", "body_mass_kg": 80, "prosthesis_mass_kg": 2.5, "friction": 0.4,
+                "thresholds_kpa": {"MF": 50, "PT": 190, "FH": 45, "POP": 60, "AD": 98, "TC": 30}},
+    "tissue": {"model": "mss-cf", "constants": "thesis", "youngs_kpa": 200, "density_kg_m3": 1000, "solve": "auto"},
+    "mesh": {"target_nodes": 12000},
+    "landmarks": {"PT": [1, 2, 3]},
+    "design": {"optimise": false, "objective": "ratio", "model_pressure_limit": 0.3,
+               "spots": [{"name": "PT", "type": "cos2", "amplitude_kpa": 30, "theta0_deg": 10, "r_theta_deg": 20,
+                          "h0_mm": 120, "r_h_mm": 15, "max_amplitude_kpa": 50},
+                         {"name": "band", "type": "sig2", "amplitude_kpa": 5, "theta1_deg": 150, "theta2_deg": -150,
+                          "lambda_theta_per_deg": 0.5, "h1_mm": 20, "h2_mm": 90, "lambda_h_per_mm": 0.4,
+                          "optimise_position": false}]},
+    "brim": {"template": "kbm", "key_points": [{"theta_deg": 0, "h_mm": 150}, {"theta_deg": 90, "h_mm": 170},
+                                               {"theta_deg": 180, "h_mm": 140, "label": "back"}]},
+    "socket": {"thickness_mm": 4, "distal_pad": true, "distal_pad_diameter_mm": 30, "round_brim": false,
+               "subdivisions": 1}
+  })");
+}
+
+TEST(CaseFile, file_units_become_si) {
+  const CaseFile c = parse_case(full_case(), "/cases");
+  EXPECT_EQ(c.limb.file, "scan.stl");
+  EXPECT_EQ(resolve(c, c.limb.file), std::filesystem::path("/cases/scan.stl"));
+  EXPECT_EQ(resolve(c, "/abs/x.stl"), std::filesystem::path("/abs/x.stl"));
+  EXPECT_EQ(*c.limb.side, geometry::Side::Left);
+  EXPECT_NEAR(*c.limb.cut_height_m, 0.18, 1e-12);
+  EXPECT_DOUBLE_EQ(c.patient.body_mass_kg, 80);
+  EXPECT_DOUBLE_EQ(c.patient.friction, 0.4);
+  EXPECT_NEAR(c.thresholds.at("PT"), 190e3, 1e-6);
+  EXPECT_NEAR(c.thresholds.at("TC"), 30e3, 1e-6);
+  EXPECT_NEAR(c.youngs_modulus_pa, 200e3, 1e-6);
+  EXPECT_EQ(c.solve_mode, DesignSolveMode::Auto);
+  EXPECT_EQ(c.target_nodes, 12000);
+  EXPECT_NEAR(c.landmarks.at("PT").z(), 0.003, 1e-12);
+  EXPECT_FALSE(c.optimise);
+  EXPECT_EQ(c.objective, OptimizerOptions::Objective::Ratio);
+  ASSERT_EQ(c.spots.size(), 2u);
+  EXPECT_NEAR(c.spots[0].amplitude_pa, 30e3, 1e-6);
+  EXPECT_NEAR(c.spots[0].theta0, 10 * units::deg, 1e-12);
+  EXPECT_NEAR(c.spots[0].h0, 0.12, 1e-12);
+  EXPECT_NEAR(c.spots[0].max_amplitude_pa, 50e3, 1e-6);
+  EXPECT_EQ(c.spots[1].type, SpotType::Sig2);
+  EXPECT_NEAR(c.spots[1].lambda_theta, 0.5 / units::deg, 1e-9);   // per degree → per radian
+  EXPECT_NEAR(c.spots[1].lambda_h, 400.0, 1e-9);                   // per mm → per metre
+  EXPECT_FALSE(c.spots[1].optimise_position);
+  EXPECT_EQ(c.brim, BrimTemplate::Kbm);
+  ASSERT_EQ(c.brim_key_points.size(), 3u);
+  EXPECT_NEAR(c.brim_key_points[1].theta, 90 * units::deg, 1e-12);
+  EXPECT_NEAR(c.brim_key_points[2].h, 0.14, 1e-12);
+  EXPECT_EQ(c.brim_key_points[2].label, "back");
+  EXPECT_NEAR(c.socket.thickness_m, 0.004, 1e-12);
+  EXPECT_TRUE(c.socket.distal_pad);
+  EXPECT_FALSE(c.socket.round_brim);
+}
+
+TEST(CaseFile, round_trip_keeps_every_value) {
+  const CaseFile a = parse_case(full_case(), "/cases");
+  const CaseFile b = parse_case(case_to_json(a), "/cases");
+  EXPECT_EQ(case_to_json(a), case_to_json(b));
+  ASSERT_EQ(b.spots.size(), a.spots.size());
+  for (size_t k = 0; k < a.spots.size(); ++k) {
+    EXPECT_NEAR(b.spots[k].amplitude_pa, a.spots[k].amplitude_pa, 1e-9);
+    EXPECT_NEAR(b.spots[k].theta1, a.spots[k].theta1, 1e-12);
+    EXPECT_NEAR(b.spots[k].lambda_theta, a.spots[k].lambda_theta, 1e-9);
+  }
+  // Through a file, atomically written.
+  const auto dir = std::filesystem::temp_directory_path() / "socketsmith_case_test";
+  std::filesystem::create_directories(dir);
+  write_case(dir / "case.json", a);
+  const CaseFile c = read_case(dir / "case.json");
+  EXPECT_EQ(case_to_json(c), case_to_json(a));
+  EXPECT_EQ(c.folder, std::filesystem::absolute(dir));
+}
+
+TEST(CaseFile, an_empty_document_is_the_default_case) {
+  const CaseFile c = parse_case(json::object());
+  EXPECT_TRUE(c.limb.file.empty());  // the generated sample
+  EXPECT_TRUE(c.spots.empty());      // the default layout
+  EXPECT_TRUE(c.thresholds.empty()); // Table 7
+  EXPECT_EQ(c.brim, BrimTemplate::Ptb);
+  EXPECT_EQ(c.solve_mode, DesignSolveMode::Linear);
+  EXPECT_NEAR(c.socket.thickness_m, 0.005, 1e-12);
+  EXPECT_EQ(case_to_json(c)["design"]["spots"], "default");
+}
+
+void expect_error(const std::string& text, const std::string& needle) {
+  try {
+    parse_case(json::parse(text));
+    ADD_FAILURE() << "no error for " << text;
+  } catch (const InvalidInputError& e) {
+    EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
+    EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos) << "one line: " << e.what();
+  }
+}
+
+TEST(CaseFile, bad_input_is_one_line_naming_the_key) {
+  expect_error(R"({"patient": {"body_mas_kg": 70}})", "unknown key 'body_mas_kg' in 'patient'");
+  expect_error(R"({"pateint": {}})", "unknown key 'pateint'");
+  expect_error(R"({"patient": {"body_mass_kg": -70}})", "body mass must be positive");
+  expect_error(R"({"patient": {"body_mass_kg": "70"}})", "must be a number");
+  expect_error(R"({"patient": {"body_mass_kg": 70, "prosthesis_mass_kg": 90}})", "is not below the body mass");
+  expect_error(R"({"patient": {"friction": 3}})", "friction coefficient 3");
+  expect_error(R"({"patient": {"thresholds_kpa": {"PT": "high"}}})", "must be a number in kPa");
+  expect_error(R"({"socket": {"thickness_mm": 0}})", "thickness_mm = 0 mm");
+  expect_error(R"({"socket": {"thickness_mm": -5}})", "thickness_mm = -5 mm");
+  expect_error(R"({"tissue": {"youngs_kpa": -1}})", "youngs_kpa");
+  expect_error(R"({"tissue": {"model": "fem"}})", "tissue.model 'fem' is not known");
+  expect_error(R"({"tissue": {"solve": "fast"}})", "design solve mode 'fast' is not known");
+  expect_error(R"({"mesh": {"target_nodes": 10}})", "target_nodes = 10");
+  expect_error(R"({"limb": {"units": "inch"}})", "inch");
+  expect_error(R"({"limb": {"type": "banana"}})", "banana");
+  expect_error(R"({"limb": {"anterior": [0, 0]}})", "limb.anterior");
+  expect_error(R"({"brim": {"template": "bucket"}})", "bucket");
+  expect_error(R"({"design": {"spots": [{"type": "cos2", "amplitude_kpa": -3}]}})", "negative");
+  expect_error(R"({"design": {"spots": [{"amplitude_kpa": 3}]}})", "has no 'type'");
+  expect_error(R"({"design": {"spots": [{"type": "blob"}]}})", "spot type 'blob' is not known");
+  expect_error(R"({"design": {"spots": [{"type": "cos2", "h0": 3}]}})", "unknown key 'h0'");
+  expect_error(R"({"design": {"objective": "cheap"}})", "design.objective 'cheap'");
+  expect_error(R"({"socketsmith_case": 2})", "version 2 is not supported");
+}
+
+TEST(CaseFile, files_that_are_missing_or_not_json) {
+  EXPECT_THROW(read_case("/no/such/case.json"), IoError);
+  const auto p = std::filesystem::temp_directory_path() / "socketsmith_not_json.json";
+  std::ofstream(p) << "{\"patient\": ";
+  try {
+    read_case(p);
+    ADD_FAILURE() << "no error";
+  } catch (const InvalidInputError& e) {
+    EXPECT_NE(std::string(e.what()).find("is not valid JSON"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace socketsmith::design

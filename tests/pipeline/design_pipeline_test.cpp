@@ -1,0 +1,103 @@
+// `socketsmith demo` end to end: the radar reported in design.json is recomputed from
+// surface_nodes.csv with the thesis's formulas (eqs. 42–47, written out here independently of
+// design::compute_radar), and the socket STL is a closed manifold solid of the requested wall.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+
+#include <nlohmann/json.hpp>
+
+#include "socketsmith/geometry/mesh_checks.h"
+#include "socketsmith/geometry/mesh_io.h"
+#include "socketsmith/geometry/surface_query.h"
+#include "socketsmith/report/csv.h"
+
+namespace socketsmith {
+namespace {
+namespace fs = std::filesystem;
+
+class DemoRun : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    out_ = fs::path(SOCKETSMITH_BINARY_DIR) / "tests" / "pipeline_demo";
+    fs::remove_all(out_);
+    const std::string cmd = std::string(SOCKETSMITH_BINARY_DIR) + "/socketsmith demo --target-nodes 3000 --out " +
+                            out_.string() + " > " + (out_.string() + ".log") + " 2>&1";
+    rc_ = std::system(cmd.c_str());
+  }
+  static fs::path out_;
+  static int rc_;
+};
+fs::path DemoRun::out_;
+int DemoRun::rc_ = -1;
+
+Eigen::Vector3d vec(const nlohmann::json& j) { return {j[0].get<double>(), j[1].get<double>(), j[2].get<double>()}; }
+
+TEST_F(DemoRun, RadarRecomputedFromSurfaceNodesEqualsTheReportAndTheSocketIsASolid) {
+  ASSERT_EQ(rc_, 0) << "see " << out_.string() << ".log";
+  std::ifstream in(out_ / "design.json");
+  const auto j = nlohmann::json::parse(in);
+  ASSERT_TRUE(j["constraints_met"].get<bool>());
+  const auto t = report::read_csv(out_ / "surface_nodes.csv");
+  const Eigen::Vector3d C = vec(j["center_of_inertia_m"]), ex = vec(j["frame"]["anterior"]),
+                        ey = vec(j["frame"]["medial"]), ez = vec(j["frame"]["axis"]);
+  const double mu = j["friction"].get<double>();
+  Eigen::Vector3d F = Eigen::Vector3d::Zero(), T = Eigen::Vector3d::Zero();
+  double S = 0;
+  const auto col = [&](const char* name) { return t.column(name); };
+  const auto x = col("x_m"), y = col("y_m"), z = col("z_m"), nx = col("nx"), ny = col("ny"), nz = col("nz"),
+             a = col("area_m2"), p = col("pressure_pa"), thr = col("threshold_pa"), above = col("above_brim");
+  ASSERT_GT(x.size(), 500u);
+  for (size_t i = 0; i < x.size(); ++i) {
+    if (above[i] > 0.5) EXPECT_EQ(p[i], 0.0) << "pressure above the brim at row " << i;
+    EXPECT_LE(p[i], thr[i] * (1 + 1e-9)) << "pressure above the threshold at row " << i;
+    const Eigen::Vector3d n(nx[i], ny[i], nz[i]);
+    const Eigen::Vector3d fi = -p[i] * a[i] * n;  // socket on stump: along the inward normal
+    F += fi;
+    T += (Eigen::Vector3d(x[i], y[i], z[i]) - C).cross(fi);
+    const double cos_t = std::sqrt(std::max(0.0, 1.0 - std::pow(n.dot(ez), 2)));  // angle vertical–tangent
+    S += mu * p[i] * a[i] * cos_t;
+  }
+  const auto& r = j["radar"];
+  const double fz_target = j["targets"]["fz_n"].get<double>();
+  EXPECT_NEAR(F.dot(ex), r["fx_n"].get<double>(), 1e-6 * fz_target);
+  EXPECT_NEAR(F.dot(ey), r["fy_n"].get<double>(), 1e-6 * fz_target);
+  EXPECT_NEAR(F.dot(ez) + S, r["fz_n"].get<double>(), 1e-6 * fz_target);
+  EXPECT_NEAR(T.dot(ex), r["tx_nm"].get<double>(), 1e-6 * fz_target * 0.2);
+  EXPECT_NEAR(T.dot(ey), r["ty_nm"].get<double>(), 1e-6 * fz_target * 0.2);
+  EXPECT_NEAR(T.dot(ez), r["tz_nm"].get<double>(), 1e-6 * fz_target * 0.2);
+  EXPECT_NEAR(S, r["stability_n"].get<double>(), 1e-6 * fz_target);
+  // And they meet the targets: forces within 1 % of M g / 2, stability above the prosthesis weight.
+  EXPECT_NEAR(F.dot(ez) + S, fz_target, 0.01 * fz_target);
+  EXPECT_LT(std::abs(F.dot(ex)), 0.01 * fz_target);
+  EXPECT_LT(std::abs(F.dot(ey)), 0.01 * fz_target);
+  EXPECT_LE(T.norm(), std::sqrt(3.0) * j["targets"]["torque_tolerance_nm"].get<double>());
+  EXPECT_GE(S, j["targets"]["stability_min_n"].get<double>());
+
+  // The socket: a closed manifold solid of the requested thickness.
+  geometry::MeshReadOptions ro;
+  ro.unit = units::LengthUnit::Millimetre;
+  const auto socket = geometry::read_mesh(out_ / "socket.stl", ro);
+  const auto rep = geometry::check_mesh(socket);
+  EXPECT_TRUE(rep.is_valid_closed_surface()) << (rep.problems().empty() ? "" : rep.problems().front());
+  EXPECT_EQ(rep.connected_components, 1);
+  EXPECT_GT(rep.signed_volume_m3, 0.0);
+  // Wall: every socket vertex within 5 mm (+ tolerance) of the deformed stump surface (the inner
+  // wall lies on it, the outer wall 5 mm out).
+  std::vector<Eigen::Vector3d> pts;
+  for (size_t i = 0; i < x.size(); ++i) pts.emplace_back(x[i], y[i], z[i]);
+  double max_d = 0;
+  for (const auto& v : socket.vertices) {
+    double best = 1e9;
+    for (const auto& q : pts) best = std::min(best, (v - q).norm());
+    max_d = std::max(max_d, best);
+  }
+  EXPECT_LT(max_d, 0.005 + 0.006);  // nodes are ~6 mm apart on a 3k stump
+  EXPECT_GT(max_d, 0.004);          // and the wall is really there
+}
+
+}  // namespace
+}  // namespace socketsmith
