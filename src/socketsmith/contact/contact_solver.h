@@ -1,0 +1,92 @@
+#pragma once
+/// @file contact_solver.h
+/// Quasi-static contact between the stump and a rigid obstacle (a socket, a plane), with Coulomb
+/// friction (thesis ch. 3.3, METHOD.md §2, in a stated different formulation):
+///
+/// - detection: every candidate node (the skin) against the obstacle's inner wall through a BVH
+///   (CGAL AABB tree), never all pairs;
+/// - normal response: a penalty pressure p = k (−g) for a gap g < 0, k = penalty [Pa/m] (default
+///   200 E / h, h the mean skin node spacing: 15 kPa penetrates h·15/(200·E) ≈ 0.005 mm at
+///   E = 100 kPa), force p A along the wall normal, Newton's third law on the obstacle;
+/// - friction: incremental Coulomb (elastic stick with stiffness k A per unit slip, return
+///   mapping to μ f_n when it slides), history kept between converged steps;
+/// - quasi-static path: the obstacle moves in steps (displacement control) or is pushed until its
+///   reaction reaches a force (force control by a safeguarded secant on its position); at each
+///   position Newton solves the equilibrium of the body with the contact forces, with the exact
+///   normal tangent and a symmetric friction tangent. No time step, so no stability limit (the
+///   thesis needed 1 ms explicit steps).
+///
+/// The body is the linearised stump (K₀, like the design solve, default) or the nonlinear model.
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "socketsmith/contact/rigid_socket.h"
+#include "socketsmith/tissue/dof_map.h"
+#include "socketsmith/tissue/mass_spring_model.h"
+
+namespace socketsmith::contact {
+
+struct ContactOptions {
+  double penalty_pa_per_m = 0.0;  ///< k [Pa/m]; 0: 200 E / (mean node spacing of the candidates)
+  double friction = 0.5;          ///< Coulomb μ [-], ≥ 0
+  bool linear_body = true;        ///< linearised body (K₀ at rest) or the nonlinear model
+  int max_newton = 60;
+  double rel_tol = 1e-6;          ///< ‖r‖ ≤ rel_tol · max(Σ |f_contact|, 1e-3 N)
+};
+
+/// Contact state of one candidate node.
+struct NodeContact {
+  bool active = false;
+  bool sliding = false;
+  double gap_m = 0.0;
+  double normal_force_n = 0.0;
+  double pressure_pa = 0.0;         ///< normal force / nodal area
+  Vec3 normal = Vec3::Zero();       ///< wall normal (into the cavity)
+  Vec3 tangential_n = Vec3::Zero(); ///< friction force on the node [N]
+};
+
+struct ContactStep {
+  bool converged = false;
+  int newton_iterations = 0;
+  double residual_n = 0.0;
+  Vec3 force_on_obstacle_n = Vec3::Zero();   ///< Σ of the contact forces on the obstacle (third law)
+  Vec3 torque_on_obstacle_nm = Vec3::Zero(); ///< about the obstacle's translation origin
+  int contact_nodes = 0;
+  int sliding_nodes = 0;
+  double max_penetration_m = 0.0;
+  double seconds = 0.0;
+  std::string message;
+};
+
+class ContactSolver {
+ public:
+  /// @param nodes candidate nodes (e.g. the skin nodes) and their nodal areas [m²]
+  ContactSolver(const tissue::MassSpringModel& model, const tissue::DofMap& dofs, std::vector<int> nodes,
+                std::vector<double> areas, Obstacle& obstacle, const ContactOptions& options = {});
+  ~ContactSolver();
+  ContactSolver(const ContactSolver&) = delete;
+  ContactSolver& operator=(const ContactSolver&) = delete;
+
+  /// Moves the obstacle to @p translation and solves the equilibrium (warm start from the last
+  /// converged state; friction history updated when converged).
+  ContactStep move_to(const Vec3& translation);
+
+  /// Moves the obstacle along unit @p direction (from its current translation) until the force
+  /// the body exerts on it along −direction equals @p force_n [N] (the obstacle pushed with
+  /// that force), within @p rel_tol. Displacement steps of at most @p max_step_m.
+  ContactStep push_with_force(const Vec3& direction, double force_n, double rel_tol = 1e-3,
+                              double max_step_m = 0.002);
+
+  const tissue::VectorXd& positions() const;
+  const std::vector<NodeContact>& contacts() const;
+  const std::vector<int>& nodes() const;
+  double penalty() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace socketsmith::contact

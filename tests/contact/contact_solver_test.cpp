@@ -1,0 +1,134 @@
+// The thesis's cube loaded through a rigid box by contact must match the constrained cube of the
+// foundation issue (thesis Fig. 28): top pressure within 2 % of W/A, same displacements, no node
+// deeper than 0.1 mm in the box.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "socketsmith/contact/contact_solver.h"
+#include "socketsmith/core/errors.h"
+#include "socketsmith/tissue/cube_experiment.h"
+#include "socketsmith/volume/box_mesher.h"
+
+namespace socketsmith::contact {
+namespace {
+
+using tissue::dof;
+
+struct ContactCube {
+  static constexpr int n = 6;
+  static constexpr double L = 0.05;
+  volume::HexMesh mesh;
+  std::vector<int> top;
+  std::vector<double> top_area;
+  tissue::DofConstraints cons;
+  ContactCube() {
+    volume::BoxMeshOptions o;
+    o.size = volume::Vec3::Constant(L);
+    o.divisions = {n, n, n};
+    mesh = volume::mesh_box(o);
+    const double h = L / n;
+    for (int j = 0; j <= n; ++j)
+      for (int i = 0; i <= n; ++i) {
+        cons.fixed.push_back(dof(volume::box_node_index({n, n, n}, i, j, 0), 2));
+        top.push_back(volume::box_node_index({n, n, n}, i, j, n));
+        top_area.push_back(h * h * ((i == 0 || i == n) ? 0.5 : 1.0) * ((j == 0 || j == n) ? 0.5 : 1.0));
+      }
+    const int c0 = volume::box_node_index({n, n, n}, 0, 0, 0), c1 = volume::box_node_index({n, n, n}, n, 0, 0);
+    cons.fixed.push_back(dof(c0, 0));
+    cons.fixed.push_back(dof(c0, 1));
+    cons.fixed.push_back(dof(c1, 1));
+  }
+};
+
+TEST(ContactCube, matches_the_constrained_cube_at_every_weight) {
+  const ContactCube c;
+  tissue::MassSpringOptions mo;  // MSS-CS, recommended constants
+  const tissue::TissueMaterial mat{50e3, 1060};
+  const tissue::MassSpringModel model(c.mesh, mat, mo);
+  const tissue::DofMap dofs(model.num_dofs(), c.cons);
+  PlaneObstacle box(Vec3(0, 0, ContactCube::L), Vec3(0, 0, -1));  // the box's bottom face, cube below
+  ContactOptions co;
+  co.friction = 0.0;  // the thesis's box rests frictionlessly, like the constrained cube's tied top
+  co.linear_body = false;
+  ContactSolver solver(model, dofs, c.top, c.top_area, box, co);
+  // The constrained reference: same mesh, same model.
+  tissue::CubeExperimentOptions ref_opt;
+  ref_opt.divisions = ContactCube::n;
+  ref_opt.material = mat;
+  ref_opt.model = mo;
+  ref_opt.num_weights = 9;
+  const auto ref = tissue::run_cube_experiment(ref_opt);
+  ASSERT_TRUE(ref.converged) << ref.message;
+  const double A = ContactCube::L * ContactCube::L;
+  for (const auto& row : ref.rows) {
+    if (row.weight_n == 0) continue;
+    const auto st = solver.push_with_force(Vec3(0, 0, -1), row.weight_n, 1e-4, 0.004);
+    ASSERT_TRUE(st.converged) << st.message;
+    double sum = 0, top_z = 0;
+    for (size_t i = 0; i < c.top.size(); ++i) {
+      sum += solver.contacts()[i].normal_force_n;
+      top_z += solver.positions()[dof(c.top[i], 2)] / static_cast<double>(c.top.size());
+    }
+    const double p = sum / A;
+    EXPECT_NEAR(p, row.weight_n / A, 0.02 * row.weight_n / A) << "W = " << row.weight_n;
+    EXPECT_NEAR(st.force_on_obstacle_n.z(), row.weight_n, 1e-3 * row.weight_n) << "third law: the cube pushes the box up";
+    EXPECT_LE(st.max_penetration_m, 1e-4) << "W = " << row.weight_n;
+    EXPECT_EQ(st.contact_nodes, static_cast<int>(c.top.size()));
+    const double ratio = (ContactCube::L - top_z) / ContactCube::L;
+    EXPECT_NEAR(ratio, row.displacement_ratio, 0.01 * row.displacement_ratio + 1e-4) << "W = " << row.weight_n;
+    // Nodal pressures as even as the constrained cube's.
+    double pmin = 1e30, pmax = 0;
+    for (size_t i = 0; i < c.top.size(); ++i) {
+      pmin = std::min(pmin, solver.contacts()[i].pressure_pa);
+      pmax = std::max(pmax, solver.contacts()[i].pressure_pa);
+    }
+    EXPECT_LE((pmax - pmin) / p, 2 * row.nodal_pressure_spread + 0.02) << "W = " << row.weight_n;
+  }
+}
+
+TEST(ContactCube, friction_holds_a_sideways_push_below_mu_times_the_normal_force) {
+  // A block glued to the ground, pressed by the plane and dragged sideways: stick below μ N, slip above.
+  const ContactCube c;
+  const tissue::MassSpringModel model(c.mesh, {50e3, 1060}, {});
+  tissue::DofConstraints glued;
+  for (int j = 0; j <= ContactCube::n; ++j)
+    for (int i = 0; i <= ContactCube::n; ++i)
+      glued.fix_nodes({volume::box_node_index({ContactCube::n, ContactCube::n, ContactCube::n}, i, j, 0)});
+  const tissue::DofMap dofs(model.num_dofs(), glued);
+  PlaneObstacle box(Vec3(0, 0, ContactCube::L), Vec3(0, 0, -1));
+  ContactOptions co;
+  co.friction = 0.3;
+  ContactSolver solver(model, dofs, c.top, c.top_area, box, co);
+  auto st = solver.move_to(Vec3(0, 0, -0.002));  // press 2 mm
+  ASSERT_TRUE(st.converged) << st.message;
+  const double N = st.force_on_obstacle_n.z();
+  ASSERT_GT(N, 1.0);
+  // Drag the plane by 0.1 mm sideways: the top sticks (elastic), friction below μ N.
+  st = solver.move_to(Vec3(1e-4, 0, -0.002));
+  ASSERT_TRUE(st.converged) << st.message;
+  EXPECT_LT(std::abs(st.force_on_obstacle_n.x()), co.friction * N);
+  EXPECT_GT(std::abs(st.force_on_obstacle_n.x()), 0.0);
+  // Drag it far (20 mm): everything slides, the friction force is μ × the normal force.
+  for (int k = 1; k <= 20; ++k) {
+    st = solver.move_to(Vec3(1e-3 * k, 0, -0.002));
+    ASSERT_TRUE(st.converged) << st.message;
+  }
+  const double N2 = st.force_on_obstacle_n.z();
+  EXPECT_EQ(st.sliding_nodes, st.contact_nodes);
+  EXPECT_NEAR(std::abs(st.force_on_obstacle_n.x()), co.friction * N2, 1e-3 * N2);
+}
+
+TEST(ContactSolver, rejects_bad_input) {
+  const ContactCube c;
+  const tissue::MassSpringModel model(c.mesh, {50e3, 1060}, {});
+  const tissue::DofMap dofs(model.num_dofs(), c.cons);
+  PlaneObstacle box(Vec3(0, 0, ContactCube::L), Vec3(0, 0, -1));
+  ContactOptions co;
+  co.friction = -1;
+  EXPECT_THROW(ContactSolver(model, dofs, c.top, c.top_area, box, co), InvalidInputError);
+  EXPECT_THROW(ContactSolver(model, dofs, c.top, {}, box, {}), InvalidInputError);
+}
+
+}  // namespace
+}  // namespace socketsmith::contact
