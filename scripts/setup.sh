@@ -16,6 +16,7 @@ packages=(
   libstb-dev              # PNG writing
   libgtest-dev libgmock-dev  # tests
   libbenchmark-dev        # benchmarks
+  libopencv-dev           # scan: 16-bit depth PNG IO, undistortion, Kinect calibration YAML (cv::FileStorage)
 )
 
 missing=()

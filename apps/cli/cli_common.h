@@ -36,5 +36,6 @@ void register_limb(CLI::App& app);  // cmd_limb.cpp: limb generate
 void register_mesh(CLI::App& app);  // cmd_mesh.cpp: mesh
 void register_design(CLI::App& app);  // cmd_design.cpp: design, run, demo
 void register_contact(CLI::App& app);  // cmd_contact.cpp: simulate donning
+void register_scan(CLI::App& app);  // cmd_scan.cpp: scan simulate, scan reconstruct
 
 }  // namespace socketsmith::cli

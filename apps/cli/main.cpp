@@ -24,6 +24,7 @@ int main(int argc, char** argv) {
   cli::register_limb(app);
   cli::register_mesh(app);
   cli::register_design(app);
+  cli::register_scan(app);
   cli::register_contact(app);
   try {
     app.parse(argc, argv);

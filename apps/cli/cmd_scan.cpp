@@ -1,0 +1,239 @@
+// `socketsmith scan simulate` (a simulated Kinect v2 rig writes a recording folder) and
+// `socketsmith scan reconstruct` (a recording folder becomes a watertight limb surface in mm).
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+
+#include "cli_common.h"
+#include "socketsmith/core/errors.h"
+#include "socketsmith/core/log.h"
+#include "socketsmith/core/progress.h"
+#include "socketsmith/geometry/mesh_io.h"
+#include "socketsmith/scan/reconstruction.h"
+#include "socketsmith/scan/simulated_sensor.h"
+
+namespace socketsmith::cli {
+namespace {
+namespace fs = std::filesystem;
+
+struct SimulateFlags {
+  std::string mesh;
+  std::string units;
+  double cylinder_mm = -1;
+  double cylinder_height_mm = 400;
+  bool box = false;
+  bool chessboard = false;
+  int sensors = 4;
+  double radius_mm = 750;
+  double height_mm = 0;
+  std::uint64_t seed = 1;
+  double noise_scale = 1.0;
+  int frames = 1;
+  std::string calibration;
+  std::string out;
+  bool json = false;
+};
+
+struct ReconstructFlags {
+  std::string recording;
+  std::string out;
+  bool open = false;
+  bool closed = false;
+  bool no_cut = false;
+  int upsample = 1;
+  double grid_mm = 2.5;
+  int smooth = 0;
+  double facet_mm = 8.0;
+  bool json = false;
+};
+
+double elapsed_s(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+/// Intrinsics for the simulated rig: --calibration is an iai_kinect2 root (one serial folder per
+/// sensor, in name order, reused cyclically), a serial folder, or a calib_ir.yaml.
+std::vector<scan::CameraIntrinsics> rig_intrinsics(const std::string& calibration, int sensors) {
+  if (calibration.empty()) return {};
+  const fs::path p(calibration);
+  if (!fs::exists(p))
+    fail<IoError>("scan simulate: --calibration '{}' not found (expected an iai_kinect2 folder with calib_ir.yaml, or "
+                  "a folder of such folders)",
+                  calibration);
+  if (!fs::is_directory(p) || fs::exists(p / "calib_ir.yaml")) return {scan::read_kinect2_calibration(p)};
+  std::vector<fs::path> serials;
+  for (const auto& e : fs::directory_iterator(p))
+    if (e.is_directory() && fs::exists(e.path() / "calib_ir.yaml")) serials.push_back(e.path());
+  std::sort(serials.begin(), serials.end());
+  require(!serials.empty(), "scan simulate: --calibration '{}' holds no calib_ir.yaml (expected iai_kinect2 folders)",
+          calibration);
+  std::vector<scan::CameraIntrinsics> out;
+  for (int i = 0; i < sensors; ++i) out.push_back(scan::read_kinect2_calibration(serials[static_cast<size_t>(i) % serials.size()]));
+  return out;
+}
+
+void run_simulate(const SimulateFlags& f) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const int scenes = (f.mesh.empty() ? 0 : 1) + (f.cylinder_mm > 0 ? 1 : 0) + (f.box ? 1 : 0) + (f.chessboard ? 1 : 0);
+  require(scenes == 1,
+          "scan simulate: give exactly one scene: --mesh FILE, --cylinder-mm D, --box or --chessboard ({} given)",
+          scenes);
+  require(f.sensors >= 1 && f.sensors <= 32, "scan simulate: --sensors {} is out of range (expected 1 to 32)",
+          f.sensors);
+  require(std::isfinite(f.noise_scale) && f.noise_scale >= 0.0,
+          "scan simulate: --noise-scale {} must be >= 0 (0: noise free, 1: default Kinect v2 errors)", f.noise_scale);
+  geometry::TriMesh scene;
+  std::string what;
+  if (!f.mesh.empty()) {
+    geometry::MeshReadOptions ro;
+    if (!f.units.empty()) ro.unit = units::parse_length_unit(f.units);
+    scene = geometry::read_mesh(f.mesh, ro);
+    const geometry::Vec3 c = geometry::bounding_box(scene).center();
+    for (auto& v : scene.vertices) v -= c;  // the rig looks at the origin
+    what = fmt::format("mesh '{}' centred at the rig's centre", f.mesh);
+  } else if (f.cylinder_mm > 0) {
+    require(std::isfinite(f.cylinder_mm) && f.cylinder_mm <= 1000 && f.cylinder_height_mm > 0,
+            "scan simulate: --cylinder-mm {} is not a plausible diameter (expected 10 to 1000 mm)", f.cylinder_mm);
+    scene = scan::make_cylinder(f.cylinder_mm * units::mm, f.cylinder_height_mm * units::mm);
+    what = fmt::format("cylinder of diameter {:g} mm, height {:g} mm, axis z", f.cylinder_mm, f.cylinder_height_mm);
+  } else if (f.box) {
+    scene = scan::make_box(geometry::Vec3(0.30, 0.30, 0.70));
+    what = "box 300 x 300 x 700 mm";
+  } else {
+    scene = scan::make_chessboard(9, 7, 0.08);
+    what = "chessboard 9 x 7 squares of 80 mm facing K1 (-y)";
+  }
+  const auto sensors = scan::default_rig(f.sensors, f.radius_mm * units::mm, f.height_mm * units::mm,
+                                         geometry::Vec3::Zero(), rig_intrinsics(f.calibration, f.sensors));
+  scan::SimulationOptions so;
+  so.seed = f.seed;
+  so.frames = f.frames;
+  so.error.scale = f.noise_scale;
+  const scan::Recording rec = scan::simulate_recording(scene, sensors, so, f.json ? ProgressCallback{} : console_progress(1.0));
+  scan::Recording named = rec;
+  named.description = fmt::format("simulated Kinect v2 rig ({} sensors, radius {:g} mm, seed {}, noise scale {:g}): {}",
+                                  f.sensors, f.radius_mm, f.seed, f.noise_scale, what);
+  scan::write_recording(f.out, named);
+  nlohmann::json j;
+  j["command"] = "socketsmith scan simulate";
+  j["recording"] = f.out;
+  j["scene"] = what;
+  j["seed"] = f.seed;
+  j["noise_scale"] = f.noise_scale;
+  nlohmann::json js = nlohmann::json::array();
+  std::string summary;
+  for (const auto& s : rec.sensors) {
+    const int valid = s.frames.front().count_valid();
+    js.push_back({{"name", s.name}, {"valid_pixels", valid}, {"frames", s.frames.size()}});
+    summary += fmt::format("{}{} {} px", summary.empty() ? "" : ", ", s.name, valid);
+  }
+  j["sensors"] = js;
+  j["wall_s"] = elapsed_s(t0);
+  if (f.json) {
+    print_json(j);
+    return;
+  }
+  log::info("simulated {} sensor(s) x {} frame(s) of the {}; valid pixels: {}; wrote recording '{}' in {:.2f} s.",
+            f.sensors, f.frames, what, summary, f.out, elapsed_s(t0));
+}
+
+void run_reconstruct(const ReconstructFlags& f) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const fs::path out(f.out);
+  std::string ext = out.extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  require(ext == ".stl" || ext == ".obj" || ext == ".ply",
+          "scan reconstruct: --out '{}' has extension '{}' (expected .stl, .obj or .ply)", f.out, ext);
+  scan::ReconstructionOptions o;
+  o.back_projection.upsample = f.upsample;
+  o.grid_cell_m = f.grid_mm * units::mm;
+  o.smoothing_iterations = f.smooth;
+  o.max_facet_m = f.facet_mm * units::mm;
+  o.open_proximal = f.open;
+  o.cut_proximal = !f.no_cut;
+  const auto progress = f.json ? ProgressCallback{} : console_progress(1.0);
+  report_progress(progress, 0.0, "reading the recording");
+  const scan::Recording rec = scan::read_recording(f.recording);
+  const double read_s = elapsed_s(t0);
+  const scan::ReconstructionResult r = scan::reconstruct_recording(rec, o, progress);
+  geometry::write_mesh(out, r.mesh, units::LengthUnit::Millimetre);
+  const double wall_s = elapsed_s(t0);
+  const bool watertight = r.check.is_valid_closed_surface();
+  nlohmann::json j;
+  j["command"] = "socketsmith scan reconstruct";
+  j["recording"] = f.recording;
+  j["output"] = f.out;
+  j["sensors"] = rec.sensors.size();
+  j["input_points"] = r.input_points;
+  j["outliers_removed"] = r.outliers_removed;
+  j["poisson_points"] = r.poisson_points;
+  j["average_spacing_mm"] = r.average_spacing_m / units::mm;
+  j["points_per_sensor"] = r.points_per_sensor;
+  j["overlap_per_sensor"] = r.overlap_per_sensor;
+  j["vertices"] = r.mesh.num_vertices();
+  j["triangles"] = r.mesh.num_triangles();
+  j["boundary_loops"] = r.check.boundary_loops;
+  j["watertight"] = watertight;
+  j["volume_ml"] = watertight ? r.check.signed_volume_m3 * 1e6 : 0.0;
+  j["timing_s"] = {{"read", read_s},          {"back_projection", r.back_projection_s}, {"outliers", r.outliers_s},
+                   {"poisson", r.poisson_s}, {"reconstruct", r.total_s},              {"total", wall_s}};
+  if (f.json) {
+    print_json(j);
+    return;
+  }
+  log::info("reconstructed {} sensor(s): {} points, {} outliers removed, {} for Poisson (spacing {:.2f} mm); surface "
+            "{} vertices, {} triangles, {}; wrote {} (mm) in {:.2f} s (reconstruction {:.2f} s).",
+            rec.sensors.size(), r.input_points, r.outliers_removed, r.poisson_points, r.average_spacing_m / units::mm,
+            r.mesh.num_vertices(), r.mesh.num_triangles(),
+            watertight ? fmt::format("watertight, {:.1f} ml", r.check.signed_volume_m3 * 1e6)
+                       : fmt::format("open ({} boundary loop(s))", r.check.boundary_loops),
+            f.out, wall_s, r.total_s);
+}
+
+}  // namespace
+
+void register_scan(CLI::App& app) {
+  auto* scan_cmd = app.add_subcommand("scan", "multi-sensor depth scans: simulate a Kinect v2 rig, reconstruct a limb");
+  scan_cmd->require_subcommand(1);
+
+  auto sf = std::make_shared<SimulateFlags>();
+  auto* sim = scan_cmd->add_subcommand("simulate", "ray-cast a scene from a simulated Kinect v2 rig into a recording folder");
+  sim->add_option("--mesh", sf->mesh, "scene mesh (STL/OBJ/PLY), centred on the rig");
+  sim->add_option("--units", sf->units, "units of --mesh: mm | m (default: guessed)");
+  sim->add_option("--cylinder-mm", sf->cylinder_mm, "scene: a cylinder of this diameter [mm] (thesis: 100, 160, 210)");
+  sim->add_option("--cylinder-height-mm", sf->cylinder_height_mm, "height of the cylinder [mm] (default 400)");
+  sim->add_flag("--box", sf->box, "scene: the 300 x 300 x 700 mm calibration box");
+  sim->add_flag("--chessboard", sf->chessboard, "scene: a 9 x 7 chessboard of 80 mm squares facing K1");
+  sim->add_option("--sensors", sf->sensors, "number of sensors on the ring (default 4)");
+  sim->add_option("--radius-mm", sf->radius_mm, "ring radius [mm] (default 750, as the thesis)");
+  sim->add_option("--height-mm", sf->height_mm, "sensor height above the scene centre [mm] (default 0)");
+  sim->add_option("--seed", sf->seed, "seed of the error model (default 1)");
+  sim->add_option("--noise-scale", sf->noise_scale, "scale of every error term (0: noise free; default 1)");
+  sim->add_option("--frames", sf->frames, "frames per sensor (default 1)");
+  sim->add_option("--calibration", sf->calibration,
+                  "iai_kinect2 calibration: a folder of <serial> folders (one per sensor), a <serial> folder or a "
+                  "calib_ir.yaml (default: typical Kinect v2 intrinsics)");
+  sim->add_option("--out", sf->out, "recording folder to write")->required();
+  sim->add_flag("--json", sf->json, "print a JSON summary on stdout");
+  sim->callback([sf] { run_simulate(*sf); });
+
+  auto rf = std::make_shared<ReconstructFlags>();
+  auto* rec = scan_cmd->add_subcommand("reconstruct", "reconstruct a watertight limb surface from a recording folder");
+  rec->add_option("recording", rf->recording, "recording folder (rig.json + one folder per sensor)")->required();
+  rec->add_option("--out", rf->out, "output surface: .stl, .obj or .ply, in mm")->required();
+  auto* open = rec->add_flag("--open", rf->open, "leave the proximal cut open (one boundary loop)");
+  auto* closed = rec->add_flag("--closed", rf->closed, "cap the proximal cut with a plane (default)");
+  open->excludes(closed);
+  rec->add_flag("--no-cut", rf->no_cut, "keep the whole Poisson surface (no proximal cut)");
+  rec->add_option("--upsample", rf->upsample, "bilinear up-sampling of the depth frames, 1 to 8 (default 1)");
+  rec->add_option("--grid-mm", rf->grid_mm, "voxel-grid simplification before Poisson [mm] (default 2.5; 0: off)");
+  rec->add_option("--facet-mm", rf->facet_mm, "largest facet of the output surface [mm] (default 8)");
+  rec->add_option("--smooth", rf->smooth, "Taubin smoothing iterations (default 0)");
+  rec->add_flag("--json", rf->json, "print a JSON summary on stdout");
+  rec->callback([rf] { run_reconstruct(*rf); });
+}
+
+}  // namespace socketsmith::cli

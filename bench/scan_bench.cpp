@@ -1,0 +1,45 @@
+// Scan benchmarks: a simulated 4-sensor Kinect v2 recording (512×424, default errors) of a 16 cm
+// cylinder; ray table, back-projection, simulation, and the whole reconstruction (4 frames →
+// watertight mesh; target ≤ 3 s on the 2-core machine, thesis 12.8 s). Needs socketsmith::scan
+// (wire: add scan_bench.cpp to socketsmith_bench and link socketsmith::scan).
+#include <benchmark/benchmark.h>
+
+#include "socketsmith/scan/reconstruction.h"
+#include "socketsmith/scan/simulated_sensor.h"
+
+namespace {
+
+using namespace socketsmith;
+
+const scan::Recording& cylinder_recording() {
+  static const scan::Recording rec = scan::simulate_recording(scan::make_cylinder(0.16, 0.4), scan::default_rig(4));
+  return rec;
+}
+
+void BM_ScanRayTable(benchmark::State& state) {
+  const scan::CameraIntrinsics k = scan::kinect_v2_typical_intrinsics();
+  for (auto _ : state) benchmark::DoNotOptimize(scan::make_ray_table(k, 1));
+}
+
+void BM_ScanBackProject4Frames(benchmark::State& state) {
+  const scan::Recording& rec = cylinder_recording();
+  for (auto _ : state) benchmark::DoNotOptimize(scan::recording_point_cloud(rec));
+}
+
+void BM_ScanSimulate4Sensors(benchmark::State& state) {
+  const geometry::TriMesh cyl = scan::make_cylinder(0.16, 0.4);
+  const auto rig = scan::default_rig(4);
+  for (auto _ : state) benchmark::DoNotOptimize(scan::simulate_recording(cyl, rig));
+}
+
+void BM_ScanReconstruct4Frames(benchmark::State& state) {
+  const scan::Recording& rec = cylinder_recording();
+  for (auto _ : state) benchmark::DoNotOptimize(scan::reconstruct_recording(rec));
+}
+
+}  // namespace
+
+BENCHMARK(BM_ScanRayTable)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_ScanBackProject4Frames)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_ScanSimulate4Sensors)->Unit(benchmark::kMillisecond)->Iterations(2);
+BENCHMARK(BM_ScanReconstruct4Frames)->Unit(benchmark::kMillisecond)->Iterations(3);

@@ -1,0 +1,125 @@
+#include "socketsmith/scan/depth_image.h"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "socketsmith/core/atomic_file.h"
+#include "socketsmith/core/errors.h"
+
+namespace socketsmith::scan {
+namespace fs = std::filesystem;
+
+int DepthImage::count_valid() const {
+  return static_cast<int>(std::count_if(raw.begin(), raw.end(), [](std::uint16_t r) { return r != 0; }));
+}
+
+DepthImage read_depth_png(const fs::path& path, double scale_m) {
+  require(std::isfinite(scale_m) && scale_m > 0.0, "read_depth_png: depth scale {} m per unit is not positive",
+          scale_m);
+  if (!fs::exists(path)) fail<IoError>("read_depth_png: cannot open '{}' (file not found)", path.string());
+  cv::Mat m;
+  try {
+    m = cv::imread(path.string(), cv::IMREAD_ANYDEPTH | cv::IMREAD_ANYCOLOR);
+  } catch (const cv::Exception& e) {
+    fail<IoError>("read_depth_png: cannot decode '{}' ({})", path.string(), e.what());
+  }
+  if (m.empty()) fail<IoError>("read_depth_png: cannot decode '{}' (not a PNG/PGM image)", path.string());
+  require(m.channels() == 1, "read_depth_png: '{}' has {} channels (expected a single-channel 16-bit depth image)",
+          path.string(), m.channels());
+  require(m.depth() == CV_16U,
+          "read_depth_png: '{}' is {}-bit (expected 16-bit depth, e.g. in mm; an 8-bit PNG is a picture, not depth)",
+          path.string(), m.depth() == CV_8U || m.depth() == CV_8S ? 8 : 32);
+  DepthImage d;
+  d.width = m.cols;
+  d.height = m.rows;
+  d.scale_m = scale_m;
+  d.raw.resize(static_cast<size_t>(d.width) * d.height);
+  for (int v = 0; v < d.height; ++v) {
+    const auto* row = m.ptr<std::uint16_t>(v);
+    std::copy(row, row + d.width, d.raw.begin() + static_cast<std::ptrdiff_t>(v) * d.width);
+  }
+  return d;
+}
+
+void write_depth_png(const fs::path& path, const DepthImage& image) {
+  require(image.width > 0 && image.height > 0 &&
+              image.raw.size() == static_cast<size_t>(image.width) * image.height,
+          "write_depth_png: image {}x{} has {} readings (expected width·height)", image.width, image.height,
+          image.raw.size());
+  cv::Mat m(image.height, image.width, CV_16UC1, const_cast<std::uint16_t*>(image.raw.data()));
+  std::vector<uchar> buffer;
+  if (!cv::imencode(".png", m, buffer)) fail<IoError>("write_depth_png: cannot encode '{}'", path.string());
+  write_file_atomically(
+      path, [&](std::ostream& os) { os.write(reinterpret_cast<const char*>(buffer.data()), buffer.size()); }, true);
+}
+
+DepthImage median_of_frames(const std::vector<DepthImage>& frames) {
+  require(!frames.empty(), "median_of_frames: no frames");
+  const DepthImage& f0 = frames.front();
+  for (const DepthImage& f : frames)
+    require(f.width == f0.width && f.height == f0.height && f.scale_m == f0.scale_m,
+            "median_of_frames: frames differ in size or scale ({}x{} vs {}x{}); a sensor's frames must match",
+            f.width, f.height, f0.width, f0.height);
+  if (frames.size() == 1) return f0;
+  DepthImage out = f0;
+  std::vector<std::uint16_t> values;
+  for (size_t i = 0; i < out.raw.size(); ++i) {
+    values.clear();
+    for (const DepthImage& f : frames)
+      if (f.raw[i] != 0) values.push_back(f.raw[i]);
+    if (2 * values.size() < frames.size() || values.empty()) {
+      out.raw[i] = 0;
+      continue;
+    }
+    auto mid = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
+    std::nth_element(values.begin(), mid, values.end());
+    out.raw[i] = *mid;
+  }
+  return out;
+}
+
+DepthMap to_depth_map(const DepthImage& image, double depth_shift_m, int upsample, double max_jump_m) {
+  require(upsample >= 1 && upsample <= 8, "to_depth_map: upsample factor {} is out of range (expected 1 to 8)",
+          upsample);
+  const int w = image.width, h = image.height;
+  auto metres = [&](int u, int v) -> double {
+    const std::uint16_t r = image.at(u, v);
+    return r == 0 ? 0.0 : r * image.scale_m + depth_shift_m;
+  };
+  DepthMap m;
+  m.width = w * upsample;
+  m.height = h * upsample;
+  m.depth_m.assign(static_cast<size_t>(m.width) * m.height, 0.0f);
+  if (upsample == 1) {
+    for (int v = 0; v < h; ++v)
+      for (int u = 0; u < w; ++u) m.depth_m[static_cast<size_t>(v) * w + u] = static_cast<float>(std::max(0.0, metres(u, v)));
+    return m;
+  }
+  for (int V = 0; V < m.height; ++V) {
+    const double y = (V + 0.5) / upsample - 0.5;
+    const int v0 = std::clamp(static_cast<int>(std::floor(y)), 0, h - 1), v1 = std::min(v0 + 1, h - 1);
+    const double fy = std::clamp(y - v0, 0.0, 1.0);
+    for (int U = 0; U < m.width; ++U) {
+      const double x = (U + 0.5) / upsample - 0.5;
+      const int u0 = std::clamp(static_cast<int>(std::floor(x)), 0, w - 1), u1 = std::min(u0 + 1, w - 1);
+      const double fx = std::clamp(x - u0, 0.0, 1.0);
+      const double d00 = metres(u0, v0), d10 = metres(u1, v0), d01 = metres(u0, v1), d11 = metres(u1, v1);
+      const double lo = std::min({d00, d10, d01, d11}), hi = std::max({d00, d10, d01, d11});
+      double d;
+      if (lo > 0.0 && hi - lo <= max_jump_m) {
+        d = (1 - fy) * ((1 - fx) * d00 + fx * d10) + fy * ((1 - fx) * d01 + fx * d11);
+      } else {
+        const int un = fx < 0.5 ? u0 : u1, vn = fy < 0.5 ? v0 : v1;
+        d = metres(un, vn);
+      }
+      m.depth_m[static_cast<size_t>(V) * m.width + U] = static_cast<float>(std::max(0.0, d));
+    }
+  }
+  return m;
+}
+
+}  // namespace socketsmith::scan

@@ -1,0 +1,48 @@
+#pragma once
+/// @file depth_image.h
+/// A raw 16-bit depth frame (0 = invalid) and its PNG IO, the temporal median of several frames,
+/// and conversion to metres with optional bilinear up-sampling.
+
+#include <cstdint>
+#include <filesystem>
+#include <vector>
+
+namespace socketsmith::scan {
+
+/// A depth frame as the sensor delivers it: depth along the optical axis (Z, not the ray length).
+struct DepthImage {
+  int width = 0;                   ///< [px]
+  int height = 0;                  ///< [px]
+  std::vector<std::uint16_t> raw;  ///< #width·height row-major readings, 0 = no measurement
+  double scale_m = 1e-3;           ///< metres per raw unit (1e-3: mm; TUM: 1/5000)
+
+  std::uint16_t at(int u, int v) const { return raw[static_cast<size_t>(v) * width + u]; }
+  int count_valid() const;
+};
+
+/// Reads a single-channel 16-bit PNG (or PGM) depth frame.
+/// @param scale_m metres per raw unit.
+/// @throws IoError when the file is missing or unreadable; InvalidInputError when it is not a
+///         single-channel 16-bit image (e.g. an 8-bit PNG: "expected 16-bit depth in mm").
+DepthImage read_depth_png(const std::filesystem::path& path, double scale_m = 1e-3);
+
+/// Writes @p image as a 16-bit single-channel PNG, atomically.
+void write_depth_png(const std::filesystem::path& path, const DepthImage& image);
+
+/// Per-pixel median of the valid readings of several frames of one static scene (a pixel valid in
+/// fewer than half of the frames becomes invalid): a cheap temporal denoiser.
+/// @throws InvalidInputError for no frames or frames of different sizes or scales.
+DepthImage median_of_frames(const std::vector<DepthImage>& frames);
+
+/// Depth in metres (0 = invalid) on a grid up-sampled by @p upsample, depth shift applied to valid
+/// readings. Bilinear interpolation between the four surrounding sensor pixels when they are all
+/// valid and within @p max_jump_m of each other (no mixing across depth edges), else the nearest
+/// sensor pixel.
+struct DepthMap {
+  int width = 0, height = 0;
+  std::vector<float> depth_m;  ///< row-major [m], 0 = invalid
+  float at(int u, int v) const { return depth_m[static_cast<size_t>(v) * width + u]; }
+};
+DepthMap to_depth_map(const DepthImage& image, double depth_shift_m, int upsample = 1, double max_jump_m = 0.02);
+
+}  // namespace socketsmith::scan

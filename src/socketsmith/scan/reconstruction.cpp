@@ -1,0 +1,247 @@
+#include "socketsmith/scan/reconstruction.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <map>
+#include <utility>
+
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Surface_mesh.h>
+#include <CGAL/poisson_surface_reconstruction.h>
+#include <CGAL/property_map.h>
+
+#include "socketsmith/core/errors.h"
+#include "socketsmith/core/log.h"
+#include "socketsmith/geometry/mesh_repair.h"
+
+namespace socketsmith::scan {
+namespace {
+
+using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
+using Point3 = Kernel::Point_3;
+using Vector3 = Kernel::Vector_3;
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+geometry::TriMesh poisson(const PointCloud& cloud, double spacing, const ReconstructionOptions& o) {
+  std::vector<std::pair<Point3, Vector3>> pwn;
+  pwn.reserve(cloud.points.size());
+  for (size_t i = 0; i < cloud.points.size(); ++i) {
+    const Vec3& p = cloud.points[i];
+    const Vec3& n = cloud.normals[i];
+    pwn.emplace_back(Point3(p.x(), p.y(), p.z()), Vector3(n.x(), n.y(), n.z()));
+  }
+  CGAL::Surface_mesh<Point3> sm;
+  const bool ok = CGAL::poisson_surface_reconstruction_delaunay(
+      pwn.begin(), pwn.end(), CGAL::First_of_pair_property_map<std::pair<Point3, Vector3>>(),
+      CGAL::Second_of_pair_property_map<std::pair<Point3, Vector3>>(), sm, spacing, o.poisson_angle_deg,
+      o.max_facet_m / spacing, o.poisson_distance);
+  require(ok && sm.number_of_faces() > 0,
+          "reconstruct_surface: Poisson reconstruction failed on {} points (the points do not enclose a volume: "
+          "are the sensors around the limb and the normals facing the sensors?)",
+          cloud.size());
+  geometry::TriMesh m;
+  std::map<CGAL::Surface_mesh<Point3>::Vertex_index, int> id;
+  for (auto v : sm.vertices()) {
+    const Point3& p = sm.point(v);
+    id[v] = m.num_vertices();
+    m.vertices.emplace_back(p.x(), p.y(), p.z());
+  }
+  for (auto f : sm.faces()) {
+    std::array<int, 3> t{};
+    int k = 0;
+    for (auto v : CGAL::vertices_around_face(sm.halfedge(f), sm)) {
+      if (k < 3) t[static_cast<size_t>(k)] = id[v];
+      ++k;
+    }
+    if (k == 3) m.triangles.push_back(t);
+  }
+  return m;
+}
+
+/// Keeps the triangles [0, end) and the vertices they use (renumbered).
+geometry::TriMesh keep_triangles(const geometry::TriMesh& mesh, int end) {
+  geometry::TriMesh out;
+  std::vector<int> map(mesh.vertices.size(), -1);
+  for (int t = 0; t < end; ++t) {
+    std::array<int, 3> tri{};
+    for (int c = 0; c < 3; ++c) {
+      int& m = map[static_cast<size_t>(mesh.triangles[static_cast<size_t>(t)][static_cast<size_t>(c)])];
+      if (m < 0) {
+        m = out.num_vertices();
+        out.vertices.push_back(mesh.vertices[static_cast<size_t>(mesh.triangles[static_cast<size_t>(t)][static_cast<size_t>(c)])]);
+      }
+      tri[static_cast<size_t>(c)] = m;
+    }
+    out.triangles.push_back(tri);
+  }
+  return out;
+}
+
+void validate(const ReconstructionOptions& o) {
+  require(o.grid_cell_m >= 0.0 && o.grid_cell_m < 0.05,
+          "reconstruct_surface: grid_cell_m = {} m is out of range (expected 0 to 0.05 m; 0 disables)", o.grid_cell_m);
+  require(o.max_facet_m >= 1e-4 && o.max_facet_m <= 0.1,
+          "reconstruct_surface: max_facet_m = {} m is out of range (expected 0.1 to 100 mm)", o.max_facet_m);
+  require(o.poisson_distance > 0.0 && o.poisson_angle_deg > 0.0 &&
+              o.poisson_angle_deg <= 30.0,
+          "reconstruct_surface: Poisson mesher bounds must be positive (angle at most 30 deg)");
+  require(std::abs(o.up.norm() - 1.0) < 1e-6, "reconstruct_surface: 'up' must be a unit vector");
+  require(o.proximal_trim_m >= 0.0, "reconstruct_surface: proximal_trim_m = {} m must be >= 0", o.proximal_trim_m);
+  require(o.smoothing_iterations >= 0 && o.smoothing_iterations <= 1000,
+          "reconstruct_surface: smoothing_iterations = {} (expected 0 to 1000)", o.smoothing_iterations);
+  require(o.min_overlap_fraction >= 0.0 && o.min_overlap_fraction <= 1.0 && o.overlap_radius_m > 0.0,
+          "reconstruct_surface: overlap settings out of range");
+}
+
+}  // namespace
+
+void taubin_smooth(geometry::TriMesh& mesh, int iterations) {
+  if (iterations <= 0 || mesh.empty()) return;
+  const size_t n = mesh.vertices.size();
+  std::vector<std::vector<int>> nbr(n);
+  std::map<std::pair<int, int>, int> edge_count;
+  for (const auto& t : mesh.triangles)
+    for (int c = 0; c < 3; ++c) {
+      const int a = t[static_cast<size_t>(c)], b = t[static_cast<size_t>((c + 1) % 3)];
+      nbr[static_cast<size_t>(a)].push_back(b);
+      nbr[static_cast<size_t>(b)].push_back(a);
+      ++edge_count[std::minmax(a, b)];
+    }
+  std::vector<char> fixed(n, 0);
+  for (const auto& [e, count] : edge_count)
+    if (count == 1) fixed[static_cast<size_t>(e.first)] = fixed[static_cast<size_t>(e.second)] = 1;
+  for (auto& l : nbr) {
+    std::sort(l.begin(), l.end());
+    l.erase(std::unique(l.begin(), l.end()), l.end());
+  }
+  std::vector<Vec3> next(n);
+  auto step = [&](double factor) {
+    for (size_t i = 0; i < n; ++i) {
+      next[i] = mesh.vertices[i];
+      if (fixed[i] || nbr[i].empty()) continue;
+      Vec3 c = Vec3::Zero();
+      for (int j : nbr[i]) c += mesh.vertices[static_cast<size_t>(j)];
+      c /= static_cast<double>(nbr[i].size());
+      next[i] += factor * (c - mesh.vertices[i]);
+    }
+    mesh.vertices.swap(next);
+  };
+  for (int it = 0; it < iterations; ++it) {
+    step(0.5);
+    step(-0.53);
+  }
+}
+
+ReconstructionResult reconstruct_surface(const PointCloud& input, const ReconstructionOptions& o,
+                                         const ProgressCallback& progress) {
+  validate(o);
+  require(input.points.size() == input.normals.size() && input.points.size() == input.sensor.size(),
+          "reconstruct_surface: points, normals and sensor ids differ in size");
+  require(input.size() >= 100,
+          "reconstruct_surface: only {} points (expected thousands; did the sensors see the limb?)", input.size());
+  const auto t0 = Clock::now();
+  ReconstructionResult r;
+  r.input_points = input.size();
+  PointCloud cloud = input;
+  if (o.use_outlier_removal) {
+    report_progress(progress, 0.05, "removing outliers");
+    const auto t = Clock::now();
+    r.outliers_removed = remove_statistical_outliers(cloud, o.outliers);
+    r.outliers_s = seconds_since(t);
+  }
+  if (o.grid_cell_m > 0.0) cloud = grid_simplify(cloud, o.grid_cell_m);
+  r.poisson_points = cloud.size();
+  require(cloud.size() >= 100, "reconstruct_surface: only {} points left after filtering (expected thousands)",
+          cloud.size());
+  r.average_spacing_m = average_spacing(cloud, 6);
+  if (!report_progress(progress, 0.2, "Poisson reconstruction")) {
+    r.converged = false;
+    r.message = "cancelled";
+    return r;
+  }
+  const auto tp = Clock::now();
+  geometry::TriMesh mesh = poisson(cloud, r.average_spacing_m, o);
+  r.poisson_s = seconds_since(tp);
+  report_progress(progress, 0.85, "cropping and capping");
+
+  // Largest component, outward orientation.
+  std::vector<geometry::TriMesh> parts = geometry::split_components(mesh);
+  auto largest = std::max_element(parts.begin(), parts.end(),
+                                  [](const auto& a, const auto& b) { return a.num_triangles() < b.num_triangles(); });
+  mesh = std::move(*largest);
+  if (geometry::signed_volume(mesh) < 0.0) geometry::flip_orientation(mesh);
+
+  if (o.cut_proximal) {
+    double top = -std::numeric_limits<double>::infinity();
+    for (const Vec3& p : cloud.points) top = std::max(top, o.up.dot(p));
+    const Vec3 plane_point = (top - o.proximal_trim_m) * o.up;
+    const geometry::TrimResult cut = geometry::trim_and_cap(mesh, plane_point, o.up);
+    mesh = o.open_proximal ? keep_triangles(cut.mesh, cut.first_cap_triangle) : cut.mesh;
+  }
+  taubin_smooth(mesh, o.smoothing_iterations);
+  r.check = geometry::check_mesh(mesh);
+  if (r.check.non_manifold_edges > 0 || r.check.non_finite_vertices > 0)
+    fail<TopologyError>("reconstruct_surface: the reconstructed surface is not manifold ({}); try a larger grid_cell_m",
+                        r.check.problems().empty() ? std::string("unknown") : r.check.problems().front());
+  r.mesh = std::move(mesh);
+  r.total_s = seconds_since(t0);
+  r.message = fmt::format("{} triangles, {} boundary loop(s)", r.check.num_triangles, r.check.boundary_loops);
+  report_progress(progress, 1.0, "reconstruction done");
+  return r;
+}
+
+PointCloud recording_point_cloud(const Recording& rec, const BackProjectionOptions& options) {
+  require(!rec.sensors.empty(), "reconstruct: the recording has no sensors");
+  PointCloud all;
+  for (size_t s = 0; s < rec.sensors.size(); ++s) {
+    const SensorRecording& sr = rec.sensors[s];
+    require(!sr.frames.empty(), "reconstruct: sensor '{}' has no depth frames", sr.name);
+    const DepthImage frame = median_of_frames(sr.frames);
+    const std::string file = sr.frame_files.empty() ? std::string("frame 0") : sr.frame_files.front();
+    require(frame.count_valid() > 0,
+            "reconstruct: sensor '{}': every pixel of {} is invalid (0) — the sensor saw nothing in range; check that "
+            "it is aimed at the limb and 0.5-4.5 m away, or remove it from rig.json",
+            sr.name, file);
+    const RayTable rays = make_ray_table(sr.intrinsics, options.upsample);
+    const PointCloud c = back_project(frame, sr.intrinsics, sr.world_from_sensor, options, static_cast<int>(s), &rays);
+    require(c.size() > 0,
+            "reconstruct: sensor '{}': no usable point in {} ({} valid pixels but none within {}-{} m with a surface "
+            "normal); check the depth scale in rig.json",
+            sr.name, file, frame.count_valid(), options.min_depth_m, options.max_depth_m);
+    all.append(c);
+  }
+  return all;
+}
+
+ReconstructionResult reconstruct_recording(const Recording& rec, const ReconstructionOptions& o,
+                                           const ProgressCallback& progress) {
+  validate(o);
+  const auto t0 = Clock::now();
+  report_progress(progress, 0.0, "back-projecting depth frames");
+  const PointCloud cloud = recording_point_cloud(rec, o.back_projection);
+  const double bp_s = seconds_since(t0);
+  const int n = static_cast<int>(rec.sensors.size());
+  std::vector<int> counts(static_cast<size_t>(n), 0);
+  for (int s : cloud.sensor) ++counts[static_cast<size_t>(s)];
+  std::vector<double> overlap(static_cast<size_t>(n), 1.0);
+  if (n >= 2) {
+    overlap = sensor_overlap_fractions(cloud, n, o.overlap_radius_m);
+    for (int s = 0; s < n; ++s)
+      require(overlap[static_cast<size_t>(s)] >= o.min_overlap_fraction,
+              "reconstruct: sensor '{}' does not overlap the others ({:.1f} % of its points within {:.0f} mm of another "
+              "sensor's, expected >= {:.1f} %): check its pose in rig.json and that all sensors look at the limb",
+              rec.sensors[static_cast<size_t>(s)].name, 100.0 * overlap[static_cast<size_t>(s)],
+              o.overlap_radius_m * 1e3, 100.0 * o.min_overlap_fraction);
+  }
+  ReconstructionResult r = reconstruct_surface(cloud, o, progress);
+  r.points_per_sensor = counts;
+  r.overlap_per_sensor = overlap;
+  r.back_projection_s = bp_s;
+  r.total_s = seconds_since(t0);
+  return r;
+}
+
+}  // namespace socketsmith::scan

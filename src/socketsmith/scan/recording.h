@@ -1,0 +1,52 @@
+#pragma once
+/// @file recording.h
+/// A scan session on disk (docs/scan.md): a folder with `rig.json` (the sensors, their
+/// intrinsics files, poses world←sensor in metres and depth scales) and one sub-folder per
+/// sensor with `intrinsics.json` and `depth_XXXX.png` frames (16-bit, mm by default).
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "socketsmith/scan/depth_image.h"
+#include "socketsmith/scan/intrinsics.h"
+
+namespace socketsmith::scan {
+
+/// One sensor of a recording and its frames of a static scene.
+struct SensorRecording {
+  std::string name;                    ///< e.g. "K1"; also the sub-folder name
+  CameraIntrinsics intrinsics;
+  /// Pose of the sensor: maps sensor-frame points (OpenCV: x right, y down, z forward) to the
+  /// world frame [m].
+  Eigen::Isometry3d world_from_sensor = Eigen::Isometry3d::Identity();
+  double depth_scale_m = 1e-3;         ///< metres per raw depth unit (1e-3: mm)
+  std::vector<DepthImage> frames;      ///< at least one
+  std::vector<std::string> frame_files;  ///< file names, same order (filled by read_recording)
+};
+
+/// A whole session.
+struct Recording {
+  std::vector<SensorRecording> sensors;
+  std::string description;  ///< free text (e.g. what was simulated)
+};
+
+/// Reads a recording folder: rig.json, every sensor's intrinsics (project JSON, iai_kinect2 YAML
+/// folder or Open3D JSON, path relative to the recording) and its `depth_*.png` frames (sorted
+/// by name) or the list "frames" of rig.json.
+/// @throws IoError for a missing folder, rig.json, intrinsics or frame; InvalidInputError for a
+///         malformed rig.json, a pose that is not a rigid transform, a frame of the wrong bit depth
+///         or size, or a sensor without frames.
+Recording read_recording(const std::filesystem::path& folder);
+
+/// Writes @p recording to @p folder (created if needed): rig.json, <name>/intrinsics.json and
+/// <name>/depth_0000.png… (every file atomically).
+void write_recording(const std::filesystem::path& folder, const Recording& recording);
+
+/// Parses a row-major 4×4 rigid transform (array of 4 arrays of 4 numbers, last row 0 0 0 1).
+/// @throws InvalidInputError when it is not a rotation (|RᵀR − I| > 1e-4 or det < 0) + translation.
+Eigen::Isometry3d pose_from_rows(const std::vector<std::vector<double>>& rows, const std::string& what);
+
+}  // namespace socketsmith::scan

@@ -1,0 +1,118 @@
+#include "socketsmith/scan/reconstruction.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+
+#include "scan_fixtures.h"
+#include "socketsmith/core/errors.h"
+#include "socketsmith/core/log.h"
+#include "socketsmith/geometry/mesh_checks.h"
+#include "socketsmith/scan/simulated_sensor.h"
+
+namespace socketsmith::scan {
+namespace {
+
+constexpr double kHeight = 0.4;  // cylinder height [m]
+constexpr double kBand = 0.14;   // errors measured for |z| <= kBand (away from the cut and the closure)
+
+/// Real Kinect v2 intrinsics when the shared data is present (else typical ones).
+std::vector<CameraIntrinsics> rig_intrinsics() {
+  const auto root = test::shared_data() / "kinect2_calibration";
+  std::vector<CameraIntrinsics> k;
+  for (const char* serial : {"001530565347", "002061565347", "004429261047", "017436750747"})
+    if (std::filesystem::exists(root / serial / "calib_ir.yaml")) k.push_back(read_kinect2_calibration(root / serial));
+  if (k.size() != 4) k.clear();
+  return k;
+}
+
+Recording cylinder_recording(double diameter, double noise_scale, std::uint64_t seed = 1) {
+  SimulationOptions so;
+  so.error.scale = noise_scale;
+  so.seed = seed;
+  return simulate_recording(make_cylinder(diameter, kHeight), default_rig(4, 0.75, 0.0, Vec3::Zero(), rig_intrinsics()),
+                            so);
+}
+
+TEST(Reconstruction, noise_free_cylinders_come_back_within_1_mm_rms) {
+  for (double diameter : {0.10, 0.16, 0.21}) {
+    const ReconstructionResult r = reconstruct_recording(cylinder_recording(diameter, 0.0));
+    const auto e = test::cylinder_radial_error(r.mesh, diameter / 2, kBand);
+    log::info("noise-free cylinder {:.0f} mm: RMS {:.3f} mm, max {:.3f} mm, mean {:+.3f} mm over {} vertices, {:.2f} s",
+              diameter * 1e3, e.rms_m * 1e3, e.max_m * 1e3, e.mean_m * 1e3, e.count, r.total_s);
+    EXPECT_GT(e.count, 500);
+    EXPECT_LT(e.rms_m, 1.0e-3) << "diameter " << diameter;
+    EXPECT_TRUE(r.check.is_valid_closed_surface()) << r.message;
+    EXPECT_EQ(r.points_per_sensor.size(), 4u);
+  }
+}
+
+TEST(Reconstruction, default_noise_16_cm_cylinder_within_2_mm_rms_and_watertight) {
+  const ReconstructionResult r = reconstruct_recording(cylinder_recording(0.16, 1.0, 3));
+  const auto e = test::cylinder_radial_error(r.mesh, 0.08, kBand);
+  log::info("noisy cylinder 160 mm: RMS {:.3f} mm, max {:.3f} mm, mean {:+.3f} mm; {} outliers removed of {}",
+            e.rms_m * 1e3, e.max_m * 1e3, e.mean_m * 1e3, r.outliers_removed, r.input_points);
+  EXPECT_GT(e.count, 500);
+  EXPECT_LT(e.rms_m, 2.0e-3);
+  EXPECT_GT(r.outliers_removed, 0);
+  EXPECT_TRUE(r.check.is_valid_closed_surface()) << r.message;
+  // Volume of the capped surface: the cylinder below the cut (closure at the unseen bottom aside).
+  EXPECT_GT(r.check.signed_volume_m3, 0.8 * M_PI * 0.08 * 0.08 * kHeight);
+  EXPECT_LT(r.check.signed_volume_m3, 1.2 * M_PI * 0.08 * 0.08 * kHeight);
+}
+
+TEST(Reconstruction, open_proximal_end_leaves_one_boundary_loop_at_the_top) {
+  ReconstructionOptions o;
+  o.open_proximal = true;
+  const ReconstructionResult r = reconstruct_recording(cylinder_recording(0.16, 0.0), o);
+  EXPECT_EQ(r.check.boundary_loops, 1);
+  EXPECT_EQ(r.check.non_manifold_edges, 0);
+  double top = -1;
+  for (const auto& v : r.mesh.vertices) top = std::max(top, v.z());
+  EXPECT_LT(top, kHeight / 2);
+  EXPECT_GT(top, kHeight / 2 - 0.03);
+}
+
+TEST(Reconstruction, recording_folder_round_trip_and_bad_input_messages) {
+  const auto dir = test::temp_dir("recording");
+  const Recording rec = cylinder_recording(0.16, 0.0);
+  write_recording(dir / "ok", rec);
+  const Recording back = read_recording(dir / "ok");
+  ASSERT_EQ(back.sensors.size(), 4u);
+  EXPECT_EQ(back.sensors[2].frames[0].raw, rec.sensors[2].frames[0].raw);
+  EXPECT_TRUE(back.sensors[1].world_from_sensor.isApprox(rec.sensors[1].world_from_sensor, 1e-12));
+  EXPECT_DOUBLE_EQ(back.sensors[3].intrinsics.k1, rec.sensors[3].intrinsics.k1);
+
+  auto message = [](auto&& fn) -> std::string {
+    try {
+      fn();
+    } catch (const Error& e) {
+      return e.what();
+    }
+    return "no error";
+  };
+  // Missing intrinsics.
+  write_recording(dir / "no_intrinsics", rec);
+  std::filesystem::remove(dir / "no_intrinsics" / "K2" / "intrinsics.json");
+  EXPECT_NE(message([&] { read_recording(dir / "no_intrinsics"); }).find("intrinsics"), std::string::npos);
+  EXPECT_THROW(read_recording(dir / "no_intrinsics"), IoError);
+  // All-invalid frame.
+  Recording blank = rec;
+  std::fill(blank.sensors[1].frames[0].raw.begin(), blank.sensors[1].frames[0].raw.end(), 0);
+  const std::string m1 = message([&] { reconstruct_recording(blank); });
+  EXPECT_NE(m1.find("sensor 'K2': every pixel"), std::string::npos) << m1;
+  // A sensor that overlaps no other: its pose moved 2 m away.
+  Recording moved = rec;
+  moved.sensors[3].world_from_sensor.translation() += Vec3(2.0, 0, 0);
+  const std::string m2 = message([&] { reconstruct_recording(moved); });
+  EXPECT_NE(m2.find("sensor 'K4' does not overlap"), std::string::npos) << m2;
+  // Missing folder and a broken rig.json.
+  EXPECT_THROW(read_recording(dir / "nothing_here"), IoError);
+  std::filesystem::create_directories(dir / "bad_rig");
+  std::ofstream(dir / "bad_rig" / "rig.json") << R"({"sensors": []})";
+  EXPECT_THROW(read_recording(dir / "bad_rig"), InvalidInputError);
+}
+
+}  // namespace
+}  // namespace socketsmith::scan
