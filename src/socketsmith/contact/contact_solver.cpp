@@ -64,7 +64,9 @@ struct ContactSolver::Impl {
       const double kA = k * areas[i];
       s.normal_force_n = kA * (-g.gap_m);
       s.pressure_pa = s.normal_force_n / areas[i];
-      Eigen::Matrix3d Kn = kA * g.normal * g.normal.transpose();
+      // Inside a face: stiffness along the normal only; on an edge or a vertex the force points to
+      // a fixed point of the wall (f = kA (c − x)), stiff in every direction.
+      Eigen::Matrix3d Kn = kA * g.stiffness_shape;
       Eigen::Matrix3d Kt = Eigen::Matrix3d::Zero();
       Vec3 ft = Vec3::Zero();
       if (opt.friction > 0) {
@@ -131,6 +133,11 @@ struct ContactSolver::Impl {
       if (rn <= tol) {
         out.converged = true;
         break;
+      }
+      {
+        int act = 0;
+        for (const auto& c : st) act += c.active ? 1 : 0;
+        log::debug("contact: Newton {}: |r| {:.3g} N (tol {:.3g}), {} active", it, rn, tol, act);
       }
       if (it == opt.max_newton) break;
       VectorXd delta;

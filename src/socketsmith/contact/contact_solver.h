@@ -33,7 +33,7 @@ struct ContactOptions {
   double friction = 0.5;          ///< Coulomb μ [-], ≥ 0
   bool linear_body = true;        ///< linearised body (K₀ at rest) or the nonlinear model
   int max_newton = 60;
-  double rel_tol = 1e-6;          ///< ‖r‖ ≤ rel_tol · max(Σ |f_contact|, 1e-3 N)
+  double rel_tol = 1e-5;          ///< ‖r‖ ≤ rel_tol · max(Σ |f_contact|, 1e-3 N)
 };
 
 /// Contact state of one candidate node.

@@ -120,6 +120,33 @@ Gap RigidSocket::gap(const Vec3& p) const {
   // closest point moves across an edge between two faces (face normals would jump there and
   // Newton would stall).
   const double dist = d.norm();
+  // Where on the triangle is the closest point: barycentric coordinates ≈ 0 mark edges/vertices.
+  const auto& tri = inner_.triangles[hit.triangle];
+  const Vec3 a = inner_.vertices[tri[0]], b = inner_.vertices[tri[1]], c = inner_.vertices[tri[2]];
+  const Vec3 v0 = b - a, v1 = c - a, v2 = hit.point - a;
+  const double d00 = v0.dot(v0), d01 = v0.dot(v1), d11 = v1.dot(v1), d20 = v2.dot(v0), d21 = v2.dot(v1);
+  const double den = d00 * d11 - d01 * d01;
+  double bary[3] = {1.0 / 3, 1.0 / 3, 1.0 / 3};
+  if (den > 0) {
+    bary[1] = (d11 * d20 - d01 * d21) / den;
+    bary[2] = (d00 * d21 - d01 * d20) / den;
+    bary[0] = 1.0 - bary[1] - bary[2];
+  }
+  int zeros = 0, zero_at = -1;
+  for (int k = 0; k < 3; ++k)
+    if (bary[k] < 1e-9) {
+      ++zeros;
+      zero_at = k;
+    }
+  g.on_face = zeros == 0 || dist < 1e-15;
+  if (g.on_face) {
+    g.stiffness_shape = n * n.transpose();
+  } else if (zeros == 1) {
+    const Vec3 e = (inner_.vertices[tri[(zero_at + 2) % 3]] - inner_.vertices[tri[(zero_at + 1) % 3]]).normalized();
+    g.stiffness_shape = Eigen::Matrix3d::Identity() - e * e.transpose();
+  } else {
+    g.stiffness_shape = Eigen::Matrix3d::Identity();
+  }
   if (dist > 1e-12) {
     const double sign = along_signed >= 0 ? 1.0 : -1.0;
     g.gap_m = sign * dist;

@@ -28,6 +28,12 @@ struct Gap {
   Vec3 normal = Vec3::Zero();  ///< unit normal of the wall at the closest point, pointing into the cavity
   Vec3 point = Vec3::Zero();   ///< closest point on the wall (socket at its current pose) [m]
   int triangle = -1;
+  /// The closest point lies inside a face (else on an edge or a vertex, where the contact force
+  /// acts like a spring towards that point and has stiffness across the normal too).
+  bool on_face = true;
+  /// ∂(gap · normal)/∂x: n nᵀ inside a face, I − e eᵀ on an edge of direction e, I at a vertex —
+  /// the penalty force's stiffness per unit penalty k A.
+  Eigen::Matrix3d stiffness_shape = Eigen::Matrix3d::Zero();
 };
 
 /// A rigid obstacle the stump's nodes may touch, at a translation from its rest pose.
@@ -54,6 +60,7 @@ class PlaneObstacle : public Obstacle {
     g.normal = normal_;
     g.gap_m = (p - point_ - translation_).dot(normal_);
     g.point = p - g.gap_m * normal_;
+    g.stiffness_shape = normal_ * normal_.transpose();
     return g;
   }
 
