@@ -1,7 +1,6 @@
 // Scan benchmarks: a simulated 4-sensor Kinect v2 recording (512×424, default errors) of a 16 cm
 // cylinder; ray table, back-projection, simulation, and the whole reconstruction (4 frames →
-// watertight mesh; target ≤ 3 s on the 2-core machine, thesis 12.8 s). Needs socketsmith::scan
-// (wire: add scan_bench.cpp to socketsmith_bench and link socketsmith::scan).
+// watertight mesh; target ≤ 3 s on the 2-core machine, thesis 12.8 s).
 #include <benchmark/benchmark.h>
 
 #include "socketsmith/scan/reconstruction.h"

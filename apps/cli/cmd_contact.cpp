@@ -124,13 +124,13 @@ int run_donning(const DonningFlags& f) {
     report::CsvTable t;
     t.header = {"time",         "socket_position_mm", "reaction_force_n",   "lateral_force_n",   "contact_nodes",
                 "sliding_nodes", "max_pressure_kpa",   "mean_pressure_kpa", "max_penetration_mm", "newton_iterations",
-                "seconds"};
+                "factorizations", "seconds"};
     for (size_t k = 0; k < r.series.size(); ++k) {
       const auto& s = r.series[k];
       t.rows.push_back({static_cast<double>(k + 1), s.offset_m * 1e3, s.axial_force_n, s.lateral_force_n,
                         static_cast<double>(s.contact_nodes), static_cast<double>(s.sliding_nodes),
                         s.max_pressure_pa / 1e3, s.mean_pressure_pa / 1e3, s.max_penetration_m * 1e3,
-                        static_cast<double>(s.newton_iterations), s.seconds});
+                        static_cast<double>(s.newton_iterations), static_cast<double>(s.factorizations), s.seconds});
     }
     report::write_csv(out / "donning.csv", t.header, t.rows, 9);
   }
@@ -264,6 +264,7 @@ int run_donning(const DonningFlags& f) {
                    {"max_penetration_mm", last.max_penetration_m * 1e3},
                    {"socket_mass_kg", r.socket_mass_kg},
                    {"newton_iterations", r.newton_iterations},
+                   {"factorizations", r.series.empty() ? 0L : r.series.back().factorizations},
                    {"donning_seconds", r.seconds},
                    {"out", out.string()},
                    {"outputs", {"donning.csv", "contact.csv", "stump.vtu", "contact_map.png", "donning_force.svg",

@@ -10,6 +10,7 @@
 
 #include "socketsmith/core/errors.h"
 #include "socketsmith/core/log.h"
+#include "socketsmith/tissue/static_solver.h"
 
 namespace socketsmith::contact {
 
@@ -30,12 +31,20 @@ struct ContactSolver::Impl {
   std::vector<Vec3> hist;  // tangential spring force of the last converged step (opposes slip)
   std::vector<NodeContact> state;
   std::vector<char> was_active;  // active at the last converged step
+  struct QueryCache {
+    Vec3 p = Vec3::Zero(), t = Vec3::Zero();
+    double clearance = -1.0;  // gap of the last query when the node was in the cavity, else −1
+  };
+  std::vector<QueryCache> qcache;  // per candidate node
+  std::vector<Gap> gaps;           // scratch of evaluate()
   std::vector<double> conv_fn, lag_fn;  // normal force at the last converged step / friction lag
   std::vector<Vec3> conv_n, lag_n;      // wall normal at the last converged step / friction lag
   double force_floor = 1e-3;            // [N] scale of the residual tolerance when forces are small
   SparseMatrix K0;         // linear body: reduced stiffness at rest
   Eigen::CholmodSupernodalLLT<SparseMatrix> llt;
   Eigen::Index analysed_nnz = -1;
+  bool factor_valid = false;
+  long factorizations = 0, cg_iterations = 0;  // counters for ContactStep
 
   Impl(const tissue::MassSpringModel& m, const tissue::DofMap& d, std::vector<int> n, std::vector<double> a,
        Obstacle& o, const ContactOptions& op)
@@ -56,10 +65,28 @@ struct ContactSolver::Impl {
     const auto& ri = dofs.reduced_index();
     st.assign(nodes.size(), NodeContact{});
     trial_hist.assign(nodes.size(), Vec3::Zero());
+    // Gaps, in parallel. A node whose last query found it in the cavity with a clearance larger
+    // than how far it and the obstacle have moved since cannot have reached the wall: no query.
+    gaps.resize(nodes.size());
+    const int n_nodes = static_cast<int>(nodes.size());
+#pragma omp parallel for schedule(dynamic, 64)
+    for (int i = 0; i < n_nodes; ++i) {
+      const Vec3 p = xs.segment<3>(3 * nodes[i]);
+      QueryCache& c = qcache[i];
+      if (c.clearance > 0 && c.clearance > (p - c.p).norm() + (t - c.t).norm()) {
+        gaps[i] = Gap{};
+        gaps[i].gap_m = c.clearance;  // a lower bound; the node is not in contact
+        continue;
+      }
+      gaps[i] = wall_gap(i, p);
+      c.p = p;
+      c.t = t;
+      c.clearance = gaps[i].valid && gaps[i].gap_m > 0 ? gaps[i].gap_m : -1.0;
+    }
     for (size_t i = 0; i < nodes.size(); ++i) {
       const int nd = nodes[i];
       const Vec3 p = xs.segment<3>(3 * nd);
-      const Gap g = wall_gap(i, p);
+      const Gap& g = gaps[i];
       const bool valid = g.valid;
       const double kA = k * areas[i];
       Eigen::Matrix3d B = Eigen::Matrix3d::Zero();
@@ -154,6 +181,33 @@ struct ContactSolver::Impl {
     }
     return g;
   }
+  /// CG on K d = b preconditioned by the last factorisation; false when it needs more than
+  /// opt.max_reuse_cg iterations for a relative residual of 1e-8.
+  bool pcg(const SparseMatrix& K, const VectorXd& b, VectorXd& d) {
+    const double bn = b.norm();
+    d = llt.solve(b);
+    VectorXd res = b - K * d;
+    if (res.norm() <= 1e-8 * bn) return true;
+    VectorXd z = llt.solve(res);
+    VectorXd p = z;
+    double rz = res.dot(z);
+    for (int it = 0; it < opt.max_reuse_cg; ++it) {
+      ++cg_iterations;
+      const VectorXd Kp = K * p;
+      const double pKp = p.dot(Kp);
+      if (!(pKp > 0)) return false;
+      const double alpha = rz / pKp;
+      d += alpha * p;
+      res -= alpha * Kp;
+      if (res.norm() <= 1e-8 * bn) return true;
+      z = llt.solve(res);
+      const double rz_new = res.dot(z);
+      p = z + (rz_new / rz) * p;
+      rz = rz_new;
+    }
+    return false;
+  }
+
   double tolerance(const std::vector<NodeContact>& st) const {
     double fsum = 0;
     for (const auto& s : st) fsum += s.normal_force_n + s.tangential_n.norm();
@@ -168,6 +222,7 @@ struct ContactSolver::Impl {
   bool newton(VectorXd& xs, const Vec3& t, std::vector<NodeContact>& st, std::vector<Vec3>& th, int& iterations,
               double& rn, bool& at_kink) {
     at_kink = false;
+    tissue::limit_solver_threads();
     SparseMatrix K;
     std::vector<double> pi_history;
     double pi = 0;
@@ -189,13 +244,19 @@ struct ContactSolver::Impl {
       }
       VectorXd delta;
       if (opt.linear_body) {
-        if (K.nonZeros() != analysed_nnz) {
-          llt.analyzePattern(K);
-          analysed_nnz = K.nonZeros();
+        // The last factorisation (of a nearby contact state) preconditions CG on the new tangent;
+        // a fresh factorisation only when CG does not converge quickly.
+        if (!(factor_valid && pcg(K, r, delta))) {
+          if (K.nonZeros() != analysed_nnz) {
+            llt.analyzePattern(K);
+            analysed_nnz = K.nonZeros();
+          }
+          llt.factorize(K);
+          if (llt.info() != Eigen::Success) return false;
+          factor_valid = true;
+          ++factorizations;
+          delta = llt.solve(r);
         }
-        llt.factorize(K);
-        if (llt.info() != Eigen::Success) return false;
-        delta = llt.solve(r);
       } else {
         Eigen::SparseLU<SparseMatrix> lu;
         lu.compute(K);
@@ -327,6 +388,8 @@ struct ContactSolver::Impl {
     out.force_on_obstacle_n = F;
     out.torque_on_obstacle_nm = T;
     out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    out.factorizations = factorizations;
+    out.cg_iterations = cg_iterations;
     if (out.converged) {
       out.message = fmt::format("converged in {} Newton iterations ({} friction passes), {} nodes in contact{}",
                                 out.newton_iterations, out.friction_passes, out.contact_nodes,
@@ -366,8 +429,8 @@ struct ContactSolver::Impl {
     for (int depth = 0; depth < 6 && !st.converged; ++depth, pieces *= 2) {
       const Vec3 from = t_conv;
       x = x_conv;
-      for (int k = 1; k <= pieces; ++k) {
-        st = solve(from + (t - from) * (static_cast<double>(k) / pieces), commit);
+      for (int piece = 1; piece <= pieces; ++piece) {
+        st = solve(from + (t - from) * (static_cast<double>(piece) / pieces), commit);
         total_newton += st.newton_iterations;
         if (!st.converged) break;
       }
@@ -405,6 +468,9 @@ ContactSolver::ContactSolver(const tissue::MassSpringModel& model, const tissue:
   // of rel_tol of it is far below anything a pressure map shows.
   s.force_floor = model.material().youngs_modulus_pa * spacing * spacing;
   s.state.assign(s.nodes.size(), NodeContact{});
+  s.qcache.assign(s.nodes.size(), Impl::QueryCache{});
+  // One query before any parallel one (CGAL builds its distance-query structures lazily).
+  (void)obstacle.gap(model.rest_positions().segment<3>(3 * s.nodes.front()));
   if (options.linear_body) {
     SparseMatrix J;
     model.jacobian(model.rest_positions(), tissue::JacobianKind::Exact, J);

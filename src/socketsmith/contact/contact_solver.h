@@ -48,6 +48,9 @@ struct ContactOptions {
   /// ≤ kink_rel_tol · max(Σ |f_contact|, E h²) is accepted and reported (ContactStep::at_kink).
   double kink_rel_tol = 2e-3;
   double kink_step_tol_m = 1e-6;
+  /// Linear body: Newton's linear systems are solved by CG preconditioned with the last
+  /// factorisation of the tangent, refactorised only when CG needs more than this many iterations.
+  int max_reuse_cg = 12;
 };
 
 /// Contact state of one candidate node.
@@ -71,7 +74,9 @@ struct ContactStep {
   int sliding_nodes = 0;
   double max_penetration_m = 0.0;
   int friction_passes = 0;
-  bool at_kink = false;              ///< converged to the kink tolerance (ContactOptions::kink_rel_tol)
+  bool at_kink = false;
+  long factorizations = 0;           ///< tangent factorisations so far (whole solver life)
+  long cg_iterations = 0;            ///< CG iterations on a reused factorisation so far              ///< converged to the kink tolerance (ContactOptions::kink_rel_tol)
   double friction_lag_change = 0.0;  ///< last change of the normal forces between friction passes / max
   double seconds = 0.0;
   std::string message;

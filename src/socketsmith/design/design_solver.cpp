@@ -135,6 +135,7 @@ struct DesignSolver::Impl {
     dofs.reduce_matrix(J, K);
     K *= -1.0;
     tissue::SparseMatrix Ks = 0.5 * (tissue::SparseMatrix(K.transpose()) + K);
+    tissue::limit_solver_threads();
     k0 = std::make_unique<Eigen::CholmodSupernodalLLT<tissue::SparseMatrix>>();
     k0->compute(Ks);
     require<SolverError>(k0->info() == Eigen::Success,

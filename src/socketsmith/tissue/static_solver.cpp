@@ -7,6 +7,9 @@
 #include <vector>
 
 #include <dlfcn.h>
+#ifdef _OPENMP
+#include <omp.h>
+#endif
 
 #include <Eigen/CholmodSupport>
 #include <Eigen/Dense>
@@ -45,18 +48,25 @@ class FactorPreconditioner {
   const Cholmod* factor = nullptr;
 };
 
-/// CHOLMOD's supernodes on these meshes are small: OpenBLAS's own threads only add overhead
-/// (measured: a 1k-node solve took 4.6 s wall with them, 2.7 s without). Ask OpenBLAS, when it
-/// is the BLAS in use, to run single-threaded; other BLAS libraries are left alone.
-void limit_blas_threads() {
+}  // namespace
+
+void limit_solver_threads() {
+  // CHOLMOD's supernodes on these meshes are small: OpenBLAS's own threads only add overhead
+  // (measured: a 1k-node solve took 4.6 s wall with them, 2.7 s without). Ask OpenBLAS, when it
+  // is the BLAS in use, to run single-threaded; other BLAS libraries are left alone.
   static std::once_flag once;
   std::call_once(once, [] {
     using SetThreads = void (*)(int);
     if (auto* f = reinterpret_cast<SetThreads>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"))) f(1);
   });
+#ifdef _OPENMP
+  // CHOLMOD's supernodal factorisation asks OpenMP for 4 threads whatever OMP_NUM_THREADS says; on
+  // 2 cores, or with other work running, they spin against each other (a 1.8k-node donning took
+  // 24 s with them, 6.6 s with dynamic teams under a load of 6). Dynamic teams let the runtime give
+  // fewer threads than asked, by the free cores. Per thread: call it on each solving thread.
+  omp_set_dynamic(1);
+#endif
 }
-
-}  // namespace
 
 struct StaticSolver::Impl {
   SparseMatrix J, J_red, K, K_red;
@@ -76,7 +86,7 @@ struct StaticSolver::Impl {
 
 StaticSolver::StaticSolver(const MassSpringModel& model, const DofMap& dofs, const StaticSolverOptions& options)
     : model_(model), dofs_(dofs), options_(options), impl_(std::make_unique<Impl>()) {
-  limit_blas_threads();
+  limit_solver_threads();
   require(dofs.num_full() == model.num_dofs(), "StaticSolver: DofMap has {} DOFs, model has {}", dofs.num_full(),
           model.num_dofs());
   require(options.rel_tol > 0 && options.max_iterations >= 1 && options.max_line_search >= 1,

@@ -139,6 +139,11 @@ class StaticSolver {
   std::unique_ptr<Impl> impl_;
 };
 
+/// Keeps the sparse factorisations from oversubscribing the cores: OpenBLAS single-threaded, and
+/// dynamic OpenMP teams on the calling thread (CHOLMOD asks for 4 threads regardless of
+/// OMP_NUM_THREADS). Cheap; call it on every thread that factorises (solvers do it themselves).
+void limit_solver_threads();
+
 /// Residual Pᵀ(f_int(x) + f_ext) (for tests and reports).
 VectorXd static_residual(const MassSpringModel& model, const DofMap& dofs, const VectorXd& f_ext, const VectorXd& x);
 
