@@ -75,6 +75,12 @@ void check_spec(const DeckSpec& s) {
       require(f.hexahedron >= 0 && f.hexahedron < static_cast<int>(sh.hexahedra.size()) && f.local_face >= 0 &&
                   f.local_face < 6,
               "write_deck: socket contact face ({}, {}) is out of range", f.hexahedron, f.local_face);
+    require(s.socket_node_displacements.empty() || s.socket_node_displacements.size() == sh.nodes.size(),
+            "write_deck: {} socket node displacements for {} socket nodes", s.socket_node_displacements.size(),
+            sh.nodes.size());
+    for (const auto& d : s.socket_node_displacements) require(finite(d), "write_deck: a socket node displacement is not finite");
+    require(s.socket_node_displacements.empty() || st.axial_load_n == 0,
+            "write_deck: an axial load step needs a rigid socket (no prescribed node displacements)");
     require(s.contact.penalty_pa_per_m > 0, "write_deck: contact penalty {} Pa/m (expected > 0)", s.contact.penalty_pa_per_m);
     require(s.contact.friction >= 0, "write_deck: friction {} (expected ≥ 0)", s.contact.friction);
     require(s.contact.stick_slope_pa_per_m > 0, "write_deck: stick slope {} Pa/m (expected > 0)",
@@ -121,6 +127,7 @@ std::string write_deck(const DeckSpec& s) {
   for (int i = 0; i < nn; ++i)
     out += fmt::format("{}, {:.12g}, {:.12g}, {:.12g}\n", i + 1, m.nodes[i].x(), m.nodes[i].y(), m.nodes[i].z());
   const int sock_node0 = nn + 1, sock_elem0 = ne + 1;
+  const bool rigid = s.socket && s.socket_node_displacements.empty();
   if (s.socket) {
     out += "*NODE, NSET=NSOCK\n";
     for (size_t i = 0; i < s.socket->nodes.size(); ++i) {
@@ -128,8 +135,10 @@ std::string write_deck(const DeckSpec& s) {
       out += fmt::format("{}, {:.12g}, {:.12g}, {:.12g}\n", sock_node0 + static_cast<int>(i), p.x(), p.y(), p.z());
     }
     const auto& r = s.socket->reference_point;
-    out += fmt::format("*NODE, NSET=REF\n{}, {:.12g}, {:.12g}, {:.12g}\n", kRefNode, r.x(), r.y(), r.z());
-    out += fmt::format("*NODE, NSET=ROT\n{}, {:.12g}, {:.12g}, {:.12g}\n", kRotNode, r.x(), r.y(), r.z());
+    if (rigid) {
+      out += fmt::format("*NODE, NSET=REF\n{}, {:.12g}, {:.12g}, {:.12g}\n", kRefNode, r.x(), r.y(), r.z());
+      out += fmt::format("*NODE, NSET=ROT\n{}, {:.12g}, {:.12g}, {:.12g}\n", kRotNode, r.x(), r.y(), r.z());
+    }
   }
   out += fmt::format("*ELEMENT, TYPE={}, ELSET=LIMB\n", to_string(s.element));
   for (int e = 0; e < ne; ++e) {
@@ -174,7 +183,7 @@ std::string write_deck(const DeckSpec& s) {
   out += "*SOLID SECTION, ELSET=LIMB, MATERIAL=TISSUE\n";
   if (s.socket) {
     out += "*MATERIAL, NAME=RIGIDMAT\n*ELASTIC\n2e11, 0.3\n*SOLID SECTION, ELSET=SOCKET, MATERIAL=RIGIDMAT\n";
-    out += fmt::format("*RIGID BODY, NSET=NSOCK, REF NODE={}, ROT NODE={}\n", kRefNode, kRotNode);
+    if (rigid) out += fmt::format("*RIGID BODY, NSET=NSOCK, REF NODE={}, ROT NODE={}\n", kRefNode, kRotNode);
     out += "*SURFACE INTERACTION, NAME=SI\n*SURFACE BEHAVIOR, PRESSURE-OVERCLOSURE=LINEAR\n";
     out += fmt::format("{:.9g}, 0.1\n", s.contact.penalty_pa_per_m);
     if (s.contact.friction > 0)
@@ -192,10 +201,14 @@ std::string write_deck(const DeckSpec& s) {
   out += "*BOUNDARY\n";
   if (!s.fixed_nodes.empty()) out += "BONE, 1, 3\n";
   for (const auto& [v, c] : s.fixed_components) out += fmt::format("{}, {}, {}\n", v + 1, c + 1, c + 1);
-  if (s.socket) {
+  if (rigid) {
     for (int c = 0; c < 3; ++c) out += fmt::format("{}, {}, {}, {:.12g}\n", kRefNode, c + 1, c + 1, st.donning_travel_m[c]);
     out += fmt::format("{}, 1, 3\n", kRotNode);
   }
+  for (size_t i = 0; i < s.socket_node_displacements.size(); ++i)
+    for (int c = 0; c < 3; ++c)
+      out += fmt::format("{}, {}, {}, {:.12g}\n", sock_node0 + static_cast<int>(i), c + 1, c + 1,
+                         s.socket_node_displacements[i][c]);
   if (!s.nodal_forces.empty()) {
     out += "*CLOAD\n";
     for (const auto& [v, f] : s.nodal_forces)
@@ -206,7 +219,8 @@ std::string write_deck(const DeckSpec& s) {
     std::string o = "*NODE FILE\nU\n";
     if (s.socket) {
       o += "*CONTACT FILE\nCDIS, CSTR\n";
-      o += "*NODE PRINT, NSET=REF\nU, RF\n*CONTACT PRINT, SLAVE=SLIMB, MASTER=SSOCK\nCF\n";
+      if (rigid) o += "*NODE PRINT, NSET=REF\nU, RF\n";
+      o += "*CONTACT PRINT, SLAVE=SLIMB, MASTER=SSOCK\nCF\n";
     }
     if (!s.fixed_nodes.empty()) o += "*NODE PRINT, NSET=BONE, TOTALS=ONLY\nRF\n";
     o += "*END STEP\n";
@@ -276,6 +290,7 @@ RigidShell extrude_shell(const std::vector<Vec3>& points, const std::vector<Vec3
     }
   const int ni = static_cast<int>(sh.nodes.size());
   for (int v : source) sh.nodes.push_back(points[v] + thickness_m * normals[v].normalized());
+  sh.source_points = source;
   Vec3 centre = Vec3::Zero();
   for (int k = 0; k < ni; ++k) centre += sh.nodes[k];
   sh.reference_point = centre / ni;

@@ -56,6 +56,7 @@ struct RigidShell {
   std::vector<volume::Hex> hexahedra;     ///< indices into nodes
   std::vector<HexFace> contact_faces;     ///< faces of the shell's hexahedra facing the stump
   Vec3 reference_point = Vec3::Zero();    ///< reference node position [m]
+  std::vector<int> source_points;         ///< extrude_shell: input point of inner node k (outer node = k + #inner)
 };
 
 /// Surface-to-surface penalty contact (CALCULIX.md: penetration = p / K).
@@ -94,6 +95,10 @@ struct DeckSpec {
   ElementType element = ElementType::C3D8;
   std::vector<std::pair<int, Vec3>> nodal_forces;  ///< (stump node, force [N]) applied in step 1
   const RigidShell* socket = nullptr;              ///< not owned; null = no contact
+  /// Non-empty (one per socket node): the socket is not a rigid body; in step 1 every socket
+  /// node is moved by its vector (a prescribed fit: the shell shrinks from a clearance outside
+  /// the stump onto the designed socket surface). No axial load step then.
+  std::vector<Vec3> socket_node_displacements;
   FeContact contact;
   FeSteps steps;
 };
