@@ -10,13 +10,17 @@
 #include "socketsmith/core/log.h"
 #include "socketsmith/core/progress.h"
 #include "socketsmith/fe/cube_validation.h"
+#include "socketsmith/fe/design_check.h"
+#include "socketsmith/pipeline/design_pipeline.h"
 #include "socketsmith/report/csv.h"
 #include "socketsmith/report/svg_plot.h"
+#include "socketsmith/report/vtk_writer.h"
 
 namespace socketsmith::cli {
 namespace {
 
 namespace fs = std::filesystem;
+using fe::Vec3;
 
 struct CcxFlags {
   std::string ccx = "ccx";
@@ -115,6 +119,213 @@ void run_validate_cube(const CubeFlags& f) {
   log::info("validate cube: outputs in {}", out.string());
 }
 
+struct DesignFlags {
+  std::string case_file;
+  std::string out;
+  bool json = false;
+  bool demo = false;
+  bool no_optimise = false;
+  int target_nodes = 0;  // 0: the case's
+  std::string mode = "contact";
+  std::string element = "c3d8";
+  double poisson = 0.45;
+  double penalty = 1e9;
+  double friction = -1;  // < 0: the case's μ
+  double clearance_mm = 1.0;
+  double initial_increment = 0.05;
+  bool neo_hookean = false;
+  CcxFlags ccx;
+};
+
+std::vector<double> scaled(const std::vector<double>& v, double s) {
+  std::vector<double> o;
+  o.reserve(v.size());
+  for (double x : v) o.push_back(x * s);
+  return o;
+}
+
+void run_validate_design(const DesignFlags& f) {
+  const fs::path out(f.out);
+  ensure_directory(out);
+  design::CaseFile c = f.demo ? pipeline::demo_case(f.target_nodes > 0 ? f.target_nodes : 3000)
+                              : design::read_case(f.case_file);
+  if (f.target_nodes > 0) c.target_nodes = f.target_nodes;
+  if (f.demo) design::write_case(out / "case.json", c);
+  const auto t0 = std::chrono::steady_clock::now();
+  pipeline::DesignArtifacts art;
+  const auto progress = console_progress(1.0);
+  log::info("validate design: designing the socket ({} nodes)", c.target_nodes);
+  pipeline::run_design(c, out / "design", c.optimise && !f.no_optimise, progress, &art);
+  const double ss_wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const auto& setup = *art.setup;
+  const auto& state = art.result.state;
+  const auto& solver = *setup.solver;
+  const auto& mesh = setup.mesh.mesh;
+
+  fe::DesignedStump d;
+  d.mesh = &mesh;
+  d.skin = &solver.skin();
+  for (int n = 0; n < mesh.num_nodes(); ++n)
+    if (mesh.has_tag(n, volume::kNodeFixed)) d.fixed_nodes.push_back(n);
+  d.frame = setup.model.frame;
+  d.designed_positions.resize(mesh.nodes.size());
+  for (int n = 0; n < mesh.num_nodes(); ++n) d.designed_positions[n] = state.positions.segment<3>(3 * n);
+  d.pressure_pa = state.pressure_pa;
+  d.skin_normals = state.skin_normals;
+  d.skin_areas_m2 = state.skin_areas;
+  d.above_brim = solver.above_brim();
+  for (const auto& l : setup.model.landmarks)
+    if (l.code == "PT") d.front_theta_rad = l.cylindrical.theta;
+  d.stump_length_m = setup.model.length_m;
+
+  fe::DesignCheckOptions o;
+  o.mode = fe::parse_design_check_mode(f.mode);
+  o.material.youngs_modulus_pa = c.youngs_modulus_pa;
+  o.material.poisson_ratio = f.poisson;
+  o.material.density_kg_m3 = c.density_kg_m3;
+  o.material.is_neo_hookean = f.neo_hookean;
+  o.element = fe::parse_element_type(f.element);
+  o.contact.penalty_pa_per_m = f.penalty;
+  o.contact.friction = f.friction >= 0 ? f.friction : c.patient.friction;
+  o.clearance_m = f.clearance_mm * 1e-3;
+  o.initial_increment = f.initial_increment;
+  o.max_increment = std::max(0.1, f.initial_increment);
+  o.ccx = ccx_options(f.ccx);
+  log::info("validate design: CalculiX {} check ({} nodes, {} elements, {}, ν {})", fe::to_string(o.mode),
+            mesh.num_nodes(), mesh.num_hexahedra(), fe::to_string(o.element), f.poisson);
+  const auto r = fe::check_design(d, o, out, "design_fe");
+
+  // Outputs: per-node CSV, path profiles and a scatter (SVG), stump VTU, summary JSON.
+  const bool contact = o.mode == fe::DesignCheckMode::Contact;
+  const double scale = contact ? 1e-3 : 1e3;  // kPa or mm
+  const std::string unit = contact ? "kPa" : "mm", suffix = contact ? "_kpa" : "_mm";
+  const std::string what = contact ? "contact pressure" : "displacement";
+  const auto& skin = solver.skin();
+  {
+    std::vector<std::vector<double>> rows;
+    for (size_t i = 0; i < skin.nodes.size(); ++i) {
+      const auto& p = skin.positions[i];
+      rows.push_back({static_cast<double>(i), static_cast<double>(skin.nodes[i] + 1), p.x(), p.y(), p.z(),
+                      static_cast<double>(std::min(r.brim_ring[i], 999)), r.socketsmith_value[i] * scale,
+                      r.fe_value[i] * scale, (r.fe_value[i] - r.socketsmith_value[i]) * scale,
+                      r.fe_penetration_m[i] * 1e3});
+    }
+    report::write_csv(out / "comparison.csv",
+                      {"skin_index", "ccx_node", "x_m", "y_m", "z_m", "rings_from_brim", "socketsmith_" + unit,
+                       "calculix_" + unit, "error_" + unit, "penetration_mm"},
+                      rows);
+  }
+  std::vector<report::Plot> panels;
+  nlohmann::json paths_json = nlohmann::json::object();
+  for (const auto& pc : r.paths) {
+    std::vector<double> a, b;
+    for (int i : pc.skin_index) {
+      a.push_back(r.socketsmith_value[i] * scale);
+      b.push_back(r.fe_value[i] * scale);
+    }
+    report::Plot p;
+    p.title = fmt::format("{}: MAE {:.2f} ± {:.2f} {}, R {:.2f}", pc.label, pc.stats.mae * scale, pc.stats.sd * scale,
+                          unit, pc.stats.r);
+    p.x_label = pc.is_vertical ? "height above the distal end [mm]" : "angle from the front line [deg]";
+    p.y_label = fmt::format("{} [{}]", what, unit);
+    p.series = {{"socketsmith (designed)", pc.s, a, "#0072B2", false, true, 2},
+                {"CalculiX", pc.s, b, "#D55E00", false, true, 2}};
+    report::write_svg(out / fmt::format("profile_{}.svg", pc.name), p);
+    panels.push_back(p);
+    auto pj = fe::to_json(pc.stats, scale, suffix);
+    pj["label"] = pc.label;
+    paths_json[pc.name] = pj;
+  }
+  {
+    std::vector<double> a, b;
+    for (size_t i = 0; i < skin.nodes.size(); ++i)
+      if (r.brim_ring[i] >= 1) {
+        a.push_back(r.socketsmith_value[i] * scale);
+        b.push_back(r.fe_value[i] * scale);
+      }
+    double hi = 0;
+    for (double v : a) hi = std::max(hi, v);
+    for (double v : b) hi = std::max(hi, v);
+    report::Plot p;
+    p.title = fmt::format("every socket node: R {:.2f}, MAE {:.2f} {}", r.all.r, r.all.mae * scale, unit);
+    p.x_label = fmt::format("socketsmith {} [{}]", what, unit);
+    p.y_label = fmt::format("CalculiX {} [{}]", what, unit);
+    p.series = {{"nodes", a, b, "#0072B2", false, true, 0}, {"y = x", {0, hi}, {0, hi}, "#999999", true, false, 1}};
+    report::write_svg(out / "scatter.svg", p);
+    panels.push_back(p);
+  }
+  report::write_svg_grid(out / "comparison.svg", panels, 2);
+  {
+    const int nn = mesh.num_nodes();
+    std::vector<Vec3> u_ss(nn);
+    std::vector<double> v_ss(nn, 0.0), v_fe(nn, 0.0), err(nn, 0.0);
+    for (int n = 0; n < nn; ++n) u_ss[n] = d.designed_positions[n] - mesh.nodes[n];
+    for (size_t i = 0; i < skin.nodes.size(); ++i) {
+      v_ss[skin.nodes[i]] = r.socketsmith_value[i] * scale;
+      v_fe[skin.nodes[i]] = r.fe_value[i] * scale;
+      err[skin.nodes[i]] = (r.fe_value[i] - r.socketsmith_value[i]) * scale;
+    }
+    const std::string tag = contact ? "pressure_kpa" : "displacement_mm";
+    report::write_vtu(out / "stump_fe.vtu", mesh,
+                      {report::make_vector_field("displacement_socketsmith_m", u_ss),
+                       report::make_vector_field("displacement_calculix_m", r.fe_displacement_m),
+                       {"socketsmith_" + tag, 1, v_ss}, {"calculix_" + tag, 1, v_fe}, {"error_" + tag, 1, err}});
+  }
+  nlohmann::json j{{"case", f.demo ? std::string("demo") : f.case_file},
+                   {"mode", fe::to_string(o.mode)},
+                   {"compared", what + " [" + unit + "]"},
+                   {"converged", r.converged},
+                   {"message", r.message},
+                   {"nodes", r.nodes},
+                   {"elements", r.elements},
+                   {"socket_elements", r.socket_elements},
+                   {"element", fe::to_string(o.element)},
+                   {"poisson_ratio", f.poisson},
+                   {"youngs_modulus_kpa", c.youngs_modulus_pa / 1e3},
+                   {"neo_hookean", f.neo_hookean},
+                   {"penalty_pa_per_m", o.contact.penalty_pa_per_m},
+                   {"friction", o.contact.friction},
+                   {"designed_force_n", r.designed_force_n},
+                   {"fe_force_n", r.fe_force_n},
+                   {"mean_designed_kpa", r.mean_designed_pa / 1e3},
+                   {"mean_fe_kpa", r.mean_fe_pa / 1e3},
+                   {"max_penetration_mm", r.max_penetration_m * 1e3},
+                   {"all", fe::to_json(r.all, scale, suffix)},
+                   {"one_ring_away", fe::to_json(r.one_ring_away, scale, suffix)},
+                   {"away_from_brim", fe::to_json(r.away_from_brim, scale, suffix)},
+                   {"paths", paths_json},
+                   {"ccx_wall_s", r.ccx.wall_s},
+                   {"ccx_increments", r.ccx.increments},
+                   {"socketsmith_wall_s", ss_wall},
+                   {"socketsmith_solve_s", state.seconds},
+                   {"deck", "design_fe.inp"},
+                   {"outputs",
+                    {"design_fe.inp", "design_fe.frd", "design_fe.dat", "design_fe.log", "comparison.csv", "comparison.svg",
+                     "profile_front.svg", "profile_back.svg", "profile_mid.svg", "scatter.svg", "stump_fe.vtu",
+                     "summary.json", "design/"}},
+                   {"out", out.string()}};
+  write_text_atomically(out / "summary.json", j.dump(2) + "\n");
+  if (f.json) print_json(j);
+  else {
+    log::info("validate design: {}{} — CalculiX {:.1f} s vs socketsmith {:.1f} s (design solve {:.3f} s)",
+              r.converged ? "" : "PARTIAL ", what, r.ccx.wall_s, ss_wall, state.seconds);
+    log::info("validate design: force designed {:.1f} N, CalculiX {:.1f} N; mean designed {:.2f}, CalculiX {:.2f}",
+              r.designed_force_n, r.fe_force_n, r.all.mean_b * scale, r.all.mean_a * scale);
+    const auto line = [&](const std::string& name, const fe::ErrorStats& st) {
+      log::info("validate design: {:<26} n {:4d}  MAE {:.2f} ± {:.2f} {}  R {:.2f}  max {:.2f}", name, st.count,
+                st.mae * scale, st.sd * scale, unit, st.r, st.max_error * scale);
+    };
+    line("every socket node", r.all);
+    line("one ring from the brim", r.one_ring_away);
+    line("away from the brim (≥ 4)", r.away_from_brim);
+    for (const auto& pc : r.paths) line(pc.label.substr(0, 26), pc.stats);
+    log::info("validate design: outputs in {}", out.string());
+  }
+  if (!r.converged)
+    fail<SolverError>("validate design: {} (the partial comparison is in {}, labelled PARTIAL)", r.ccx.message,
+                      (out / "summary.json").string());
+}
+
 }  // namespace
 
 void register_validate(CLI::App& app) {
@@ -134,6 +345,33 @@ void register_validate(CLI::App& app) {
   cube->add_option("--element", cf->element, "c3d8 | c3d8i | c3d8r (default c3d8)");
   add_ccx_flags(*cube, cf->ccx);
   cube->callback([cf] { run_validate_cube(*cf); });
+
+  auto df = std::make_shared<DesignFlags>();
+  auto* des = v->add_subcommand("design", "design a case's socket, then check its pressures with CalculiX (thesis ch. 5)");
+  des->add_option("case", df->case_file, "case file (JSON, docs/case_file.md)");
+  des->add_flag("--demo", df->demo, "use the embedded sample case (generated limb, 3k nodes) instead of a case file");
+  des->add_option("--out", df->out, "output folder (comparison.csv/.svg, profiles, stump_fe.vtu, summary.json, deck)")
+      ->required();
+  des->add_flag("--json", df->json, "print the summary as JSON on stdout");
+  des->add_flag("--no-optimise", df->no_optimise, "solve the case's spots as given");
+  des->add_option("--target-nodes", df->target_nodes, "stump size (default: the case's)")->check(CLI::Range(500, 100000));
+  des->add_option("--mode", df->mode, "contact (socket fitted, CPRESS vs designed pressure) | load (designed loads, "
+                                       "displacements)")
+      ->check(CLI::IsMember({"contact", "load"}));
+  des->add_option("--element", df->element, "c3d8 | c3d8i | c3d8r (default c3d8)");
+  des->add_option("--poisson", df->poisson, "tissue Poisson ratio in CalculiX (default 0.45, the thesis's)");
+  des->add_flag("--neo-hookean", df->neo_hookean, "neo-Hookean tissue instead of linear elastic");
+  des->add_option("--penalty", df->penalty, "contact penalty stiffness [Pa/m] (default 1e9)")->check(CLI::PositiveNumber);
+  des->add_option("--friction", df->friction, "friction coefficient (default: the case's μ)");
+  des->add_option("--clearance-mm", df->clearance_mm, "where the socket fit starts outside the skin [mm] (default 1)")
+      ->check(CLI::PositiveNumber);
+  des->add_option("--initial-increment", df->initial_increment, "first ccx increment (fraction of the step, default 0.05)")
+      ->check(CLI::Range(1e-4, 1.0));
+  add_ccx_flags(*des, df->ccx);
+  des->callback([df] {
+    if (df->case_file.empty() && !df->demo) fail("validate design: give a case file or --demo");
+    run_validate_design(*df);
+  });
 }
 
 }  // namespace socketsmith::cli
