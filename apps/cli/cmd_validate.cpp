@@ -10,7 +10,7 @@
 #include "socketsmith/core/log.h"
 #include "socketsmith/core/progress.h"
 #include "socketsmith/fe/cube_validation.h"
-#include "socketsmith/fe/design_check.h"
+#include "socketsmith/fe/design_artifacts.h"
 #include "socketsmith/pipeline/design_pipeline.h"
 #include "socketsmith/report/csv.h"
 #include "socketsmith/report/svg_plot.h"
@@ -159,24 +159,9 @@ void run_validate_design(const DesignFlags& f) {
   const double ss_wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const auto& setup = *art.setup;
   const auto& state = art.result.state;
-  const auto& solver = *setup.solver;
   const auto& mesh = setup.mesh.mesh;
 
-  fe::DesignedStump d;
-  d.mesh = &mesh;
-  d.skin = &solver.skin();
-  for (int n = 0; n < mesh.num_nodes(); ++n)
-    if (mesh.has_tag(n, volume::kNodeFixed)) d.fixed_nodes.push_back(n);
-  d.frame = setup.model.frame;
-  d.designed_positions.resize(mesh.nodes.size());
-  for (int n = 0; n < mesh.num_nodes(); ++n) d.designed_positions[n] = state.positions.segment<3>(3 * n);
-  d.pressure_pa = state.pressure_pa;
-  d.skin_normals = state.skin_normals;
-  d.skin_areas_m2 = state.skin_areas;
-  d.above_brim = solver.above_brim();
-  for (const auto& l : setup.model.landmarks)
-    if (l.code == "PT") d.front_theta_rad = l.cylindrical.theta;
-  d.stump_length_m = setup.model.length_m;
+  const fe::DesignedStump d = fe::designed_stump(art);
 
   fe::DesignCheckOptions o;
   o.mode = fe::parse_design_check_mode(f.mode);
@@ -200,7 +185,7 @@ void run_validate_design(const DesignFlags& f) {
   const double scale = contact ? 1e-3 : 1e3;  // kPa or mm
   const std::string unit = contact ? "kPa" : "mm", suffix = contact ? "_kpa" : "_mm";
   const std::string what = contact ? "contact pressure" : "displacement";
-  const auto& skin = solver.skin();
+  const auto& skin = *d.skin;
   {
     std::vector<std::vector<double>> rows;
     for (size_t i = 0; i < skin.nodes.size(); ++i) {
