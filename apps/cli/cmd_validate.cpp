@@ -23,12 +23,14 @@ namespace fs = std::filesystem;
 using fe::Vec3;
 
 struct CcxFlags {
+  std::string solver = "calculix";
   std::string ccx = "ccx";
   int threads = 1;
   double time_limit_s = 3600;
 };
 
 void add_ccx_flags(CLI::App& cmd, CcxFlags& f) {
+  cmd.add_option("--fe", f.solver, "FE solver (only calculix)")->check(CLI::IsMember({"calculix"}));
   cmd.add_option("--ccx", f.ccx, "CalculiX executable (default: ccx on the PATH; package calculix-ccx)");
   cmd.add_option("--ccx-threads", f.threads, "threads for ccx (default 1)")->check(CLI::Range(1, 64));
   cmd.add_option("--ccx-time-limit", f.time_limit_s, "wall-time limit of ccx [s] (default 3600)")->check(CLI::PositiveNumber);
