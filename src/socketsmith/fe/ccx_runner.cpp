@@ -46,6 +46,7 @@ struct OutputParser {
   const CcxOptions& options;
   bool job_finished = false;
   bool cancel = false;
+  double attempted_time = 0;
   void line(const std::string& l) {
     const auto first = l.find_first_not_of(' ');
     if (first == std::string::npos) return;
@@ -54,12 +55,14 @@ struct OutputParser {
       run.last_step = std::atoi(t.c_str() + 5);
       run.last_step_time = 0;
     } else if (t.starts_with("actual step time=")) {
-      run.last_step_time = std::atof(t.c_str() + 17);
+      attempted_time = std::atof(t.c_str() + 17);  // the increment being attempted
+    } else if (t.starts_with("convergence")) {       // "convergence" / "convergence; the increment size ..."
+      run.last_step_time = attempted_time;
       ++run.increments;
       const double f = (std::max(run.last_step, 1) - 1 + run.last_step_time) / std::max(options.num_steps, 1);
       if (!report_progress(options.progress, std::min(f, 1.0),
-                           fmt::format("ccx: step {}, increment {}, step time {:.3f}", run.last_step, run.increments,
-                                       run.last_step_time)))
+                           fmt::format("ccx: step {}, increment {} converged at step time {:.3f}", run.last_step,
+                                       run.increments, run.last_step_time)))
         cancel = true;
     } else if (t.starts_with("*ERROR") && run.error_line.empty()) {
       run.error_line = t;

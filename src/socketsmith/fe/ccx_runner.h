@@ -1,7 +1,7 @@
 #pragma once
 /// @file ccx_runner.h
 /// Runs CalculiX (`ccx`) on a deck in a job directory as a subprocess: progress from its output
-/// (step, increment, step time), a wall-time limit, its log kept beside the deck, and a clear
+/// (step, converged increments, step time), a wall-time limit, its log kept beside the deck, and a clear
 /// outcome when it is missing, rejects the deck, or does not converge.
 
 #include <filesystem>
