@@ -188,31 +188,19 @@ DesignCheckResult check_design(const DesignedStump& d, const DesignCheckOptions&
   res.mean_designed_pa = res.all.mean_b;
   // The thesis's paths, sampled on the rest skin as in the design report.
   const auto sframe = report::surface_frame(d.frame);
-  double spacing = 0;
-  for (double a : skin.area_m2) spacing += std::sqrt(a) / ns;
-  const auto add_path = [&](const std::string& name, const std::string& label, report::PathKind kind, double theta, double h) {
-    report::PathSpec ps;
-    ps.kind = kind;
-    ps.theta_rad = theta;
-    ps.height_m = h;
-    ps.band_m = 0.75 * spacing;
-    ps.bin_m = 0.8 * spacing;
+  for (const auto& path : report::thesis_paths(d.front_theta_rad, 0.5 * d.stump_length_m, skin.area_m2)) {
     PathComparison pc;
-    pc.name = name;
-    pc.label = label;
-    pc.is_vertical = kind == report::PathKind::Vertical;
-    for (const auto& smp : report::sample_path(skin.positions, {}, sframe, ps)) {
+    pc.name = path.key;
+    pc.label = path.label;
+    pc.is_vertical = path.spec.kind == report::PathKind::Vertical;
+    for (const auto& smp : report::sample_path(skin.positions, {}, sframe, path.spec)) {
       if (res.brim_ring[smp.index] < 1) continue;
       pc.skin_index.push_back(smp.index);
       pc.s.push_back(pc.is_vertical ? smp.s * 1e3 : smp.s * 180 / std::numbers::pi);
     }
     pc.stats = compare_fields(res.fe_value, res.socketsmith_value, pc.skin_index);
     res.paths.push_back(std::move(pc));
-  };
-  const double pi = std::numbers::pi;
-  add_path("front", "front line (through the patellar tendon)", report::PathKind::Vertical, d.front_theta_rad, 0);
-  add_path("back", "back line", report::PathKind::Vertical, std::remainder(d.front_theta_rad + pi, 2 * pi), 0);
-  add_path("mid", "circumference at mid-stump", report::PathKind::Circumferential, d.front_theta_rad, 0.5 * d.stump_length_m);
+  }
   return res;
 }
 
