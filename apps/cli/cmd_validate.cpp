@@ -195,11 +195,13 @@ void run_validate_design(const DesignFlags& f) {
       rows.push_back({static_cast<double>(i), static_cast<double>(skin.nodes[i] + 1), p.x(), p.y(), p.z(),
                       static_cast<double>(std::min(r.brim_ring[i], 999)), r.socketsmith_value[i] * scale,
                       r.fe_value[i] * scale, (r.fe_value[i] - r.socketsmith_value[i]) * scale,
-                      r.fe_penetration_m[i] * 1e3});
+                      r.fe_penetration_m[i] * 1e3, r.socketsmith_value_smoothed[i] * scale,
+                      r.fe_value_smoothed[i] * scale});
     }
     report::write_csv(out / "comparison.csv",
                       {"skin_index", "ccx_node", "x_m", "y_m", "z_m", "rings_from_brim", "socketsmith_" + unit,
-                       "calculix_" + unit, "error_" + unit, "penetration_mm"},
+                       "calculix_" + unit, "error_" + unit, "penetration_mm",
+                       "socketsmith_one_ring_" + unit, "calculix_one_ring_" + unit},
                       rows);
   }
   std::vector<report::Plot> panels;
@@ -221,6 +223,7 @@ void run_validate_design(const DesignFlags& f) {
     panels.push_back(p);
     auto pj = fe::to_json(pc.stats, scale, suffix);
     pj["label"] = pc.label;
+    pj["smoothed"] = fe::to_json(pc.smoothed, scale, suffix);
     paths_json[pc.name] = pj;
   }
   {
@@ -280,6 +283,8 @@ void run_validate_design(const DesignFlags& f) {
                    {"all", fe::to_json(r.all, scale, suffix)},
                    {"one_ring_away", fe::to_json(r.one_ring_away, scale, suffix)},
                    {"away_from_brim", fe::to_json(r.away_from_brim, scale, suffix)},
+                   {"all_smoothed", fe::to_json(r.all_smoothed, scale, suffix)},
+                   {"away_from_brim_smoothed", fe::to_json(r.away_from_brim_smoothed, scale, suffix)},
                    {"paths", paths_json},
                    {"ccx_wall_s", r.ccx.wall_s},
                    {"ccx_increments", r.ccx.increments},
@@ -306,6 +311,8 @@ void run_validate_design(const DesignFlags& f) {
     line("one ring from the brim", r.one_ring_away);
     line("away from the brim (≥ 4)", r.away_from_brim);
     for (const auto& pc : r.paths) line(pc.label.substr(0, 26), pc.stats);
+    line("every node, one-ring mean", r.all_smoothed);
+    line("away, one-ring mean", r.away_from_brim_smoothed);
     log::info("validate design: outputs in {}", out.string());
   }
   if (!r.converged)

@@ -14,16 +14,38 @@
 namespace socketsmith::fe {
 namespace {
 
-/// Rings of skin quads from the nodes above the brim (0 there; INT_MAX/2 when there are none).
-std::vector<int> brim_rings(const volume::SkinSurface& skin, const std::vector<int>& skin_of, const std::vector<char>& above) {
-  const int n = static_cast<int>(skin.nodes.size());
-  std::vector<std::vector<int>> adj(n);
+/// Neighbours of each skin node along the quads' edges.
+std::vector<std::vector<int>> skin_neighbours(const volume::SkinSurface& skin, const std::vector<int>& skin_of) {
+  std::vector<std::vector<int>> adj(skin.nodes.size());
   for (const auto& q : skin.quads)
     for (int k = 0; k < 4; ++k) {
       const int a = skin_of[q[k]], b = skin_of[q[(k + 1) % 4]];
-      adj[a].push_back(b);
-      adj[b].push_back(a);
+      if (std::find(adj[a].begin(), adj[a].end(), b) == adj[a].end()) {
+        adj[a].push_back(b);
+        adj[b].push_back(a);
+      }
     }
+  return adj;
+}
+
+/// Area-weighted mean of @p v over each node and its neighbours.
+std::vector<double> smooth_one_ring(const std::vector<double>& v, const std::vector<std::vector<int>>& adj,
+                                    const std::vector<double>& area) {
+  std::vector<double> out(v.size());
+  for (size_t i = 0; i < v.size(); ++i) {
+    double sw = area[i], s = area[i] * v[i];
+    for (int j : adj[i]) {
+      sw += area[j];
+      s += area[j] * v[j];
+    }
+    out[i] = sw > 0 ? s / sw : v[i];
+  }
+  return out;
+}
+
+/// Rings of skin quads from the nodes above the brim (0 there; 2^29 when there are none).
+std::vector<int> brim_rings(const std::vector<std::vector<int>>& adj, const std::vector<char>& above) {
+  const int n = static_cast<int>(adj.size());
   std::vector<int> ring(n, 1 << 29);
   std::deque<int> queue;
   for (int i = 0; i < n; ++i)
@@ -80,7 +102,8 @@ DesignCheckResult check_design(const DesignedStump& d, const DesignCheckOptions&
   res.mode = o.mode;
   res.nodes = mesh.num_nodes();
   res.elements = mesh.num_hexahedra();
-  res.brim_ring = brim_rings(skin, skin_of, d.above_brim);
+  const auto adj = skin_neighbours(skin, skin_of);
+  res.brim_ring = brim_rings(adj, d.above_brim);
   Vec3 f_design = Vec3::Zero();
   for (int i = 0; i < ns; ++i) f_design += d.pressure_pa[i] * d.skin_areas_m2[i] * d.skin_normals[i];
   res.designed_force_n = f_design.norm();
@@ -184,6 +207,10 @@ DesignCheckResult check_design(const DesignedStump& d, const DesignCheckOptions&
   res.all = compare_fields(res.fe_value, res.socketsmith_value, all);
   res.one_ring_away = compare_fields(res.fe_value, res.socketsmith_value, ring2);
   res.away_from_brim = compare_fields(res.fe_value, res.socketsmith_value, ring4);
+  res.fe_value_smoothed = smooth_one_ring(res.fe_value, adj, skin.area_m2);
+  res.socketsmith_value_smoothed = smooth_one_ring(res.socketsmith_value, adj, skin.area_m2);
+  res.all_smoothed = compare_fields(res.fe_value_smoothed, res.socketsmith_value_smoothed, all);
+  res.away_from_brim_smoothed = compare_fields(res.fe_value_smoothed, res.socketsmith_value_smoothed, ring4);
   res.mean_fe_pa = res.all.mean_a;
   res.mean_designed_pa = res.all.mean_b;
   // The thesis's paths, sampled on the rest skin as in the design report.
@@ -199,6 +226,7 @@ DesignCheckResult check_design(const DesignedStump& d, const DesignCheckOptions&
       pc.s.push_back(pc.is_vertical ? smp.s * 1e3 : smp.s * 180 / std::numbers::pi);
     }
     pc.stats = compare_fields(res.fe_value, res.socketsmith_value, pc.skin_index);
+    pc.smoothed = compare_fields(res.fe_value_smoothed, res.socketsmith_value_smoothed, pc.skin_index);
     res.paths.push_back(std::move(pc));
   }
   return res;

@@ -67,6 +67,7 @@ struct PathComparison {
   std::vector<int> skin_index;  ///< skin nodes along the path, in order
   std::vector<double> s;        ///< path coordinate: mm (vertical) or degrees (circumference)
   ErrorStats stats;             ///< FE vs socketsmith on the path (Pa or m)
+  ErrorStats smoothed;          ///< the same on the one-ring smoothed fields
 };
 
 struct DesignCheckResult {
@@ -79,6 +80,10 @@ struct DesignCheckResult {
   ErrorStats all;                         ///< socket nodes (ring ≥ 1)
   ErrorStats one_ring_away;               ///< ring ≥ 2
   ErrorStats away_from_brim;              ///< ring ≥ 4
+  /// Both fields averaged over each node's one ring (area-weighted): separates the pattern from
+  /// node-level scatter of nodal CPRESS (CALCULIX.md: ±40 % between formulations).
+  std::vector<double> socketsmith_value_smoothed, fe_value_smoothed;
+  ErrorStats all_smoothed, away_from_brim_smoothed;
   std::vector<PathComparison> paths;      ///< front, back, mid
   double designed_force_n = 0;            ///< |Σ p A n| of the design [N]
   double fe_force_n = 0;                  ///< |contact force| (Contact) or |bone reaction| (Load) [N]
