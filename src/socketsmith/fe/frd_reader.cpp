@@ -19,23 +19,15 @@ std::string_view trim(std::string_view s) {
   return s;
 }
 
-double field_double(std::string_view line, size_t pos, size_t width, const std::string& source, int line_no) {
-  if (pos >= line.size()) fail("read_frd: {} line {}: record too short (expected a value at column {})", source, line_no, pos + 1);
+/// The number in columns [pos, pos + width) of a fixed-width record.
+template <class T>
+T field(std::string_view line, size_t pos, size_t width, const std::string& source, int line_no) {
+  if (pos >= line.size()) fail("read_frd: {} line {}: record too short (expected a field at column {})", source, line_no, pos + 1);
   const auto f = trim(line.substr(pos, width));
-  double v = 0;
+  T v{};
   const auto [p, ec] = std::from_chars(f.data(), f.data() + f.size(), v);
   if (ec != std::errc() || p != f.data() + f.size())
     fail("read_frd: {} line {}: '{}' is not a number", source, line_no, std::string(f));
-  return v;
-}
-
-int field_int(std::string_view line, size_t pos, size_t width, const std::string& source, int line_no) {
-  if (pos >= line.size()) fail("read_frd: {} line {}: record too short (expected an id at column {})", source, line_no, pos + 1);
-  const auto f = trim(line.substr(pos, width));
-  int v = 0;
-  const auto [p, ec] = std::from_chars(f.data(), f.data() + f.size(), v);
-  if (ec != std::errc() || p != f.data() + f.size())
-    fail("read_frd: {} line {}: '{}' is not an integer", source, line_no, std::string(f));
   return v;
 }
 
@@ -43,7 +35,7 @@ int field_int(std::string_view line, size_t pos, size_t width, const std::string
 void read_values(std::string_view line, size_t start, std::vector<double>& out, const std::string& source, int line_no) {
   for (size_t pos = start; pos + 1 < line.size(); pos += 12) {
     if (trim(line.substr(pos, 12)).empty()) break;
-    out.push_back(field_double(line, pos, 12, source, line_no));
+    out.push_back(field<double>(line, pos, 12, source, line_no));
   }
 }
 
@@ -119,7 +111,7 @@ FrdResults parse_frd(std::string_view text, const std::string& source) {
     }
     if (t.starts_with("100C")) {
       // "  100CL  101 2.50000E-01  ..." — the step time at columns 13..24.
-      time = field_double(line, 12, 12, source, line_no);
+      time = field<double>(line, 12, 12, source, line_no);
       continue;
     }
     if (t.starts_with("-4")) {
@@ -144,13 +136,13 @@ FrdResults parse_frd(std::string_view text, const std::string& source) {
     }
     if (t.starts_with("-1")) {
       if (mode == Mode::Nodes) {
-        res.node_ids.push_back(field_int(line, 3, 10, source, line_no));
+        res.node_ids.push_back(field<int>(line, 3, 10, source, line_no));
         row.clear();
         read_values(line, 13, row, source, line_no);
         if (row.size() < 3) fail("read_frd: {} line {}: a node record needs 3 coordinates", source, line_no);
         res.node_positions.emplace_back(row[0], row[1], row[2]);
       } else if (mode == Mode::Block) {
-        cur.node_ids.push_back(field_int(line, 3, 10, source, line_no));
+        cur.node_ids.push_back(field<int>(line, 3, 10, source, line_no));
         read_values(line, 13, cur.values, source, line_no);
       }
       continue;
