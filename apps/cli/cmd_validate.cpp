@@ -134,6 +134,7 @@ struct DesignFlags {
   double penalty = 1e9;
   double friction = -1;  // < 0: the case's μ
   double clearance_mm = 1.0;
+  double travel_mm = 30.0;
   double initial_increment = 0.05;
   bool neo_hookean = false;
   CcxFlags ccx;
@@ -176,6 +177,7 @@ void run_validate_design(const DesignFlags& f) {
   o.contact.friction = f.friction >= 0 ? f.friction : c.patient.friction;
   o.clearance_m = f.clearance_mm * 1e-3;
   o.initial_increment = f.initial_increment;
+  o.donning_travel_m = f.travel_mm * 1e-3;
   o.max_increment = std::max(0.1, f.initial_increment);
   o.ccx = ccx_options(f.ccx);
   log::info("validate design: CalculiX {} check ({} nodes, {} elements, {}, ν {})", fe::to_string(o.mode),
@@ -183,7 +185,7 @@ void run_validate_design(const DesignFlags& f) {
   const auto r = fe::check_design(d, o, out, "design_fe");
 
   // Outputs: per-node CSV, path profiles and a scatter (SVG), stump VTU, summary JSON.
-  const bool contact = o.mode == fe::DesignCheckMode::Contact;
+  const bool contact = o.mode != fe::DesignCheckMode::Load;
   const double scale = contact ? 1e-3 : 1e3;  // kPa or mm
   const std::string unit = contact ? "kPa" : "mm", suffix = contact ? "_kpa" : "_mm";
   const std::string what = contact ? "contact pressure" : "displacement";
@@ -350,14 +352,16 @@ void register_validate(CLI::App& app) {
   des->add_flag("--no-optimise", df->no_optimise, "solve the case's spots as given");
   des->add_option("--target-nodes", df->target_nodes, "stump size (default: the case's)")->check(CLI::Range(500, 100000));
   des->add_option("--mode", df->mode, "contact (socket fitted, CPRESS vs designed pressure) | load (designed loads, "
-                                       "displacements)")
-      ->check(CLI::IsMember({"contact", "load"}));
+                                       "displacements) | donning (rigid socket pushed up the axis)")
+      ->check(CLI::IsMember({"contact", "load", "donning"}));
   des->add_option("--element", df->element, "c3d8 | c3d8i | c3d8r (default c3d8)");
   des->add_option("--poisson", df->poisson, "tissue Poisson ratio in CalculiX (default 0.45, the thesis's)");
   des->add_flag("--neo-hookean", df->neo_hookean, "neo-Hookean tissue instead of linear elastic");
   des->add_option("--penalty", df->penalty, "contact penalty stiffness [Pa/m] (default 1e9)")->check(CLI::PositiveNumber);
   des->add_option("--friction", df->friction, "friction coefficient (default: the case's μ)");
   des->add_option("--clearance-mm", df->clearance_mm, "where the socket fit starts outside the skin [mm] (default 1)")
+      ->check(CLI::PositiveNumber);
+  des->add_option("--travel-mm", df->travel_mm, "donning: start this far distally [mm] (default 30)")
       ->check(CLI::PositiveNumber);
   des->add_option("--initial-increment", df->initial_increment, "first ccx increment (fraction of the step, default 0.05)")
       ->check(CLI::Range(1e-4, 1.0));

@@ -80,12 +80,20 @@ void check_input(const DesignedStump& d, const DesignCheckOptions& o) {
 
 }  // namespace
 
-std::string to_string(DesignCheckMode mode) { return mode == DesignCheckMode::Contact ? "contact" : "load"; }
+std::string to_string(DesignCheckMode mode) {
+  switch (mode) {
+    case DesignCheckMode::Contact: return "contact";
+    case DesignCheckMode::Load: return "load";
+    case DesignCheckMode::Donning: return "donning";
+  }
+  return "contact";
+}
 
 DesignCheckMode parse_design_check_mode(const std::string& text) {
   if (text == "contact") return DesignCheckMode::Contact;
   if (text == "load") return DesignCheckMode::Load;
-  fail("FE check mode '{}' is not known (expected contact or load)", text);
+  if (text == "donning") return DesignCheckMode::Donning;
+  fail("FE check mode '{}' is not known (expected contact, load or donning)", text);
 }
 
 DesignCheckResult check_design(const DesignedStump& d, const DesignCheckOptions& o, const std::filesystem::path& dir,
@@ -119,7 +127,8 @@ DesignCheckResult check_design(const DesignedStump& d, const DesignCheckOptions&
   spec.steps.max_increment = std::max(o.max_increment, o.initial_increment);
   spec.steps.min_increment = std::min(1e-5, o.initial_increment);
   RigidShell shell;
-  if (o.mode == DesignCheckMode::Contact) {
+  const bool contact = o.mode != DesignCheckMode::Load;
+  if (contact) {
     std::vector<std::array<int, 4>> socket_quads;  // local skin ids
     for (const auto& q : skin.quads) {
       std::array<int, 4> l{skin_of[q[0]], skin_of[q[1]], skin_of[q[2]], skin_of[q[3]]};
@@ -131,9 +140,22 @@ DesignCheckResult check_design(const DesignedStump& d, const DesignCheckOptions&
       rest_normal[i] = skin.normal[i].normalized();
       start[i] = mesh.nodes[skin.nodes[i]] + o.clearance_m * rest_normal[i];
     }
-    shell = extrude_shell(start, rest_normal, socket_quads, o.socket_thickness_m);
-    const int ni = static_cast<int>(shell.source_points.size());
-    spec.socket_node_displacements.resize(shell.nodes.size());
+    if (o.mode == DesignCheckMode::Donning) {
+      require(o.donning_travel_m > 0, "check_design: donning travel {} m (expected > 0)", o.donning_travel_m);
+      // The designed socket, rigid, moved distally; pushed back up by the reference node.
+      std::vector<Vec3> inner(ns), normal(ns);
+      const Vec3 down = -o.donning_travel_m * d.frame.axis.normalized();
+      for (int i = 0; i < ns; ++i) {
+        inner[i] = d.designed_positions[skin.nodes[i]] + down;
+        normal[i] = d.skin_normals[i].normalized();
+      }
+      shell = extrude_shell(inner, normal, socket_quads, o.socket_thickness_m);
+      spec.steps.donning_travel_m = -down;
+    } else {
+      shell = extrude_shell(start, rest_normal, socket_quads, o.socket_thickness_m);
+    }
+    const int ni = o.mode == DesignCheckMode::Donning ? 0 : static_cast<int>(shell.source_points.size());
+    if (ni > 0) spec.socket_node_displacements.resize(shell.nodes.size());
     for (int k = 0; k < ni; ++k) {
       const int i = shell.source_points[k];
       const Vec3 target = d.designed_positions[skin.nodes[i]];
@@ -161,8 +183,8 @@ DesignCheckResult check_design(const DesignedStump& d, const DesignCheckOptions&
   FrdResults frd;
   if (std::filesystem::exists(res.ccx.frd)) frd = read_frd(res.ccx.frd);
   const FrdBlock* disp = frd.last("DISP");
-  const FrdBlock* cont = o.mode == DesignCheckMode::Contact ? frd.last("CONTACT") : nullptr;
-  if (!disp || (o.mode == DesignCheckMode::Contact && !cont))
+  const FrdBlock* cont = contact ? frd.last("CONTACT") : nullptr;
+  if (!disp || (contact && !cont))
     fail<SolverError>("validate design: CalculiX produced no converged increment: {}", res.ccx.message);
   if (!res.converged)
     res.message = fmt::format("PARTIAL results (step time {:.3f} of 1): {}", disp->time, res.ccx.message);
@@ -178,7 +200,7 @@ DesignCheckResult check_design(const DesignedStump& d, const DesignCheckOptions&
   std::vector<double> dat_time;
   std::vector<DatBlock> dat;
   if (std::filesystem::exists(res.ccx.dat)) dat = read_dat(res.ccx.dat);
-  if (o.mode == DesignCheckMode::Contact) {
+  if (contact) {
     const auto cp = cont->dense("CPRESS", nn), copen = cont->dense("COPEN", nn);
     for (int i = 0; i < ns; ++i) {
       res.socketsmith_value[i] = d.pressure_pa[i];

@@ -11,6 +11,10 @@
 ///   one layer of C3D8; each socket node starts `clearance_m` outside the rest skin along its
 ///   normal and is moved onto its designed position (a prescribed fit, step 1, NLGEOM), with
 ///   surface-to-surface penalty contact and friction μ. Compared: nodal CPRESS vs designed p.
+/// - Donning (the thesis's procedure, step 1 only): the designed socket as a rigid body (one
+///   layer of C3D8 outside the designed skin, tied to a reference node) starts
+///   `donning_travel_m` distally along the limb axis and is pushed up by that travel under
+///   displacement control. Compared as Contact.
 /// - Load: the designed pressures as nodal forces p A (−n) at the designed geometry (what the
 ///   design solve applied), no socket. Compared: FE displacement vs socketsmith's displacement,
 ///   total applied force vs the bones' reaction.
@@ -42,9 +46,9 @@ struct DesignedStump {
   double stump_length_m = 0;                   ///< for the mid-stump circumference
 };
 
-enum class DesignCheckMode { Contact, Load };
+enum class DesignCheckMode { Contact, Load, Donning };
 std::string to_string(DesignCheckMode mode);
-/// "contact" | "load". @throws InvalidInputError otherwise.
+/// "contact" | "load" | "donning". @throws InvalidInputError otherwise.
 DesignCheckMode parse_design_check_mode(const std::string& text);
 
 struct DesignCheckOptions {
@@ -54,6 +58,7 @@ struct DesignCheckOptions {
   FeContact contact{1e9, 0.5, 5e7};    ///< penalty 1e9 Pa/m: 20 kPa penetrates 0.02 mm
   double clearance_m = 1e-3;           ///< start of the fit outside the rest skin [m], > 0
   double socket_thickness_m = 3e-3;    ///< the rigid layer [m], > 0
+  double donning_travel_m = 0.03;      ///< Donning: start this far distally along the axis [m], > 0
   double initial_increment = 0.05;
   double max_increment = 0.1;
   CcxOptions ccx;
