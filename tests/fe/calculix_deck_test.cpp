@@ -1,4 +1,5 @@
 #include "socketsmith/fe/calculix_deck.h"
+#include "socketsmith/fe/design_check.h"
 
 #include <map>
 #include <sstream>
@@ -124,6 +125,29 @@ TEST(CalculixDeck, socket_contact_and_the_two_steps_follow_calculix_md) {
   EXPECT_EQ(deck.find("ENCASTRE"), std::string::npos);  // CALCULIX.md: fails in ccx
 }
 
+TEST(CalculixDeck, a_shell_with_prescribed_node_displacements_is_not_a_rigid_body) {
+  Box b;
+  const std::vector<Vec3> pts{{-0.01, -0.01, 0.021}, {0.03, -0.01, 0.021}, {0.03, 0.03, 0.021}, {-0.01, 0.03, 0.021}};
+  const RigidShell shell = extrude_shell(pts, std::vector<Vec3>(4, Vec3::UnitZ()), {{0, 1, 2, 3}}, 0.002);
+  DeckSpec s;
+  s.stump = &b.mesh;
+  s.fixed_nodes = {0};
+  s.skin_faces = b.top;
+  s.socket = &shell;
+  s.socket_node_displacements.assign(8, Vec3(0, 0, -0.002));
+  const std::string deck = write_deck(s);
+  EXPECT_EQ(deck.find("*RIGID BODY"), std::string::npos);
+  EXPECT_EQ(deck.find("900001"), std::string::npos);
+  // Socket nodes 28..35, each moved in x, y, z.
+  EXPECT_NE(deck.find("28, 3, 3, -0.002\n"), std::string::npos);
+  EXPECT_NE(deck.find("35, 1, 1, 0\n"), std::string::npos);
+  s.socket_node_displacements.resize(3);
+  EXPECT_THROW(write_deck(s), InvalidInputError);
+  s.socket_node_displacements.assign(8, Vec3::Zero());
+  s.steps.axial_load_n = 100;
+  EXPECT_THROW(write_deck(s), InvalidInputError);  // a load step needs a rigid socket
+}
+
 TEST(CalculixDeck, extruded_shell_elements_are_not_inverted_and_face_the_body) {
   // A quad facing +z (counter-clockwise seen from above) over a body below it.
   const std::vector<Vec3> pts{{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
@@ -166,6 +190,9 @@ TEST(CalculixDeck, bad_input_names_the_field) {
   EXPECT_THROW(faces_of_quads(b.mesh, {{0, 1, 2, 3}}), InvalidInputError);  // an interior quad
   EXPECT_THROW(parse_element_type("C3D20"), InvalidInputError);
   EXPECT_EQ(parse_element_type("c3d8i"), ElementType::C3D8I);
+  EXPECT_EQ(parse_design_check_mode("donning"), DesignCheckMode::Donning);
+  EXPECT_EQ(to_string(DesignCheckMode::Load), "load");
+  EXPECT_THROW(parse_design_check_mode("abaqus"), InvalidInputError);
 }
 
 }  // namespace
