@@ -58,6 +58,21 @@ struct Box {
   }
 };
 
+/// A plate (one shell element) over the box's top at height @p z, and a deck with the box and it.
+struct BoxAndPlate {
+  Box b;
+  RigidShell plate;
+  DeckSpec spec;
+  explicit BoxAndPlate(double z) {
+    const std::vector<Vec3> pts{{-0.01, -0.01, z}, {0.03, -0.01, z}, {0.03, 0.03, z}, {-0.01, 0.03, z}};
+    plate = extrude_shell(pts, std::vector<Vec3>(4, Vec3::UnitZ()), {{0, 1, 2, 3}}, 0.002);
+    spec.stump = &b.mesh;
+    spec.fixed_nodes = {0};
+    spec.skin_faces = b.top;
+    spec.socket = &plate;
+  }
+};
+
 TEST(CalculixDeck, nodes_elements_sets_and_loads_read_back) {
   Box b;
   DeckSpec s;
@@ -94,14 +109,8 @@ TEST(CalculixDeck, nodes_elements_sets_and_loads_read_back) {
 }
 
 TEST(CalculixDeck, socket_contact_and_the_two_steps_follow_calculix_md) {
-  Box b;
-  const std::vector<Vec3> pts{{-0.01, -0.01, 0.02}, {0.03, -0.01, 0.02}, {0.03, 0.03, 0.02}, {-0.01, 0.03, 0.02}};
-  const RigidShell plate = extrude_shell(pts, std::vector<Vec3>(4, Vec3::UnitZ()), {{0, 1, 2, 3}}, 0.002);
-  DeckSpec s;
-  s.stump = &b.mesh;
-  s.fixed_nodes = {0};
-  s.skin_faces = b.top;
-  s.socket = &plate;
+  BoxAndPlate bp(0.02);
+  DeckSpec& s = bp.spec;
   s.contact.friction = 0.5;
   s.steps.donning_travel_m = Vec3(0, 0, 0.03);
   s.steps.axial_load_n = 300;
@@ -126,14 +135,8 @@ TEST(CalculixDeck, socket_contact_and_the_two_steps_follow_calculix_md) {
 }
 
 TEST(CalculixDeck, a_shell_with_prescribed_node_displacements_is_not_a_rigid_body) {
-  Box b;
-  const std::vector<Vec3> pts{{-0.01, -0.01, 0.021}, {0.03, -0.01, 0.021}, {0.03, 0.03, 0.021}, {-0.01, 0.03, 0.021}};
-  const RigidShell shell = extrude_shell(pts, std::vector<Vec3>(4, Vec3::UnitZ()), {{0, 1, 2, 3}}, 0.002);
-  DeckSpec s;
-  s.stump = &b.mesh;
-  s.fixed_nodes = {0};
-  s.skin_faces = b.top;
-  s.socket = &shell;
+  BoxAndPlate bp(0.021);
+  DeckSpec& s = bp.spec;
   s.socket_node_displacements.assign(8, Vec3(0, 0, -0.002));
   const std::string deck = write_deck(s);
   EXPECT_EQ(deck.find("*RIGID BODY"), std::string::npos);
