@@ -10,6 +10,7 @@ packages=(
   libopenblas-dev         # optimised BLAS for CHOLMOD (the reference BLAS is ~5x slower)
   libcgal-dev             # AABB trees (closest point, ray casts) for meshing and contact
   libnlopt-cxx-dev        # derivative-free optimisation (constant calibration)
+  calculix-ccx            # ccx, the independent FE solver of `socketsmith validate` (tests labelled validation)
   libcli11-dev            # command line
   nlohmann-json3-dev      # JSON (case files, --json output)
   libspdlog-dev libfmt-dev  # logging sink, formatting

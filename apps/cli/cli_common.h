@@ -37,5 +37,6 @@ void register_mesh(CLI::App& app);  // cmd_mesh.cpp: mesh
 void register_design(CLI::App& app);  // cmd_design.cpp: design, run, demo
 void register_contact(CLI::App& app);  // cmd_contact.cpp: simulate donning
 void register_scan(CLI::App& app);  // cmd_scan.cpp: scan simulate, scan reconstruct
+void register_validate(CLI::App& app);  // cmd_validate.cpp: validate cube, validate design
 
 }  // namespace socketsmith::cli

@@ -26,6 +26,7 @@ int main(int argc, char** argv) {
   cli::register_design(app);
   cli::register_scan(app);
   cli::register_contact(app);
+  cli::register_validate(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

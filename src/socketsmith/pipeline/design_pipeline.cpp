@@ -300,23 +300,11 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
   double pt_theta = 0;
   for (const auto& l : model.landmarks)
     if (l.code == "PT") pt_theta = l.cylindrical.theta;
-  double spacing = 0;
-  for (double a : skin.area_m2) spacing += std::sqrt(a) / static_cast<double>(skin.area_m2.size());
   std::vector<report::PathProfile> profiles;
-  std::vector<Vec3> rest_pos = skin.positions;
-  const auto add_profile = [&](const std::string& name, report::PathKind kind, double theta, double h) {
-    report::PathSpec ps;
-    ps.kind = kind;
-    ps.theta_rad = theta;
-    ps.height_m = h;
-    ps.band_m = 0.75 * spacing;
-    ps.bin_m = 0.8 * spacing;
-    const auto samples = report::sample_path(rest_pos, {}, sframe, ps);
-    profiles.push_back(report::make_path_profile(name, kind, samples, state.pressure_pa, thresholds));
-  };
-  add_profile("front line (through the patellar tendon)", report::PathKind::Vertical, pt_theta, 0);
-  add_profile("back line", report::PathKind::Vertical, design::wrap_angle(pt_theta + std::numbers::pi), 0);
-  add_profile("circumference at mid-stump", report::PathKind::Circumferential, 0, 0.5 * model.length_m);
+  for (const auto& path : report::thesis_paths(pt_theta, 0.5 * model.length_m, skin.area_m2)) {
+    const auto samples = report::sample_path(skin.positions, {}, sframe, path.spec);
+    profiles.push_back(report::make_path_profile(path.label, path.spec.kind, samples, state.pressure_pa, thresholds));
+  }
   for (size_t k = 0; k < profiles.size(); ++k)
     report::write_svg(out / fmt::format("profile_{}.svg", k == 0 ? "front" : k == 1 ? "back" : "mid"),
                       report::path_profile_plot(profiles[k]));

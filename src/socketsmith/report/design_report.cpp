@@ -595,6 +595,24 @@ std::vector<PathSample> sample_path(const std::vector<Eigen::Vector3d>& points,
   return out;
 }
 
+std::vector<NamedPath> thesis_paths(double front_theta_rad, double mid_height_m,
+                                    const std::vector<double>& node_areas_m2) {
+  double spacing = 0;
+  for (double a : node_areas_m2) spacing += std::sqrt(a) / static_cast<double>(node_areas_m2.size());
+  const auto make = [&](std::string key, std::string label, PathKind kind, double theta, double h) {
+    NamedPath p{std::move(key), std::move(label), {}};
+    p.spec.kind = kind;
+    p.spec.theta_rad = theta;
+    p.spec.height_m = h;
+    p.spec.band_m = 0.75 * spacing;
+    p.spec.bin_m = 0.8 * spacing;
+    return p;
+  };
+  return {make("front", "front line (through the patellar tendon)", PathKind::Vertical, front_theta_rad, 0),
+          make("back", "back line", PathKind::Vertical, std::remainder(front_theta_rad + std::numbers::pi, 2 * std::numbers::pi), 0),
+          make("mid", "circumference at mid-stump", PathKind::Circumferential, 0, mid_height_m)};
+}
+
 double interpolate_path(const std::vector<PathSample>& samples, double s) {
   if (samples.empty() || !std::isfinite(s) || s < samples.front().s || s > samples.back().s)
     return kNaN;

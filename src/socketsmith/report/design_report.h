@@ -209,6 +209,21 @@ std::vector<PathSample> sample_path(const std::vector<Eigen::Vector3d>& points,
                                     const std::vector<double>& values, const SurfaceFrame& frame,
                                     const PathSpec& path);
 
+/// One of the thesis's comparison paths.
+struct NamedPath {
+  std::string key;    ///< "front", "back", "mid"
+  std::string label;  ///< "front line (through the patellar tendon)", "back line", "circumference at mid-stump"
+  PathSpec spec;
+};
+
+/// The thesis's three paths (ch. 3.6, 5.5) on a stump: the front vertical line at
+/// @p front_theta_rad (through the patellar tendon), the back line opposite it, the
+/// circumference at @p mid_height_m (s from θ = 0); band 0.75 and bins 0.8 of the mean node
+/// spacing (mean √area of @p node_areas_m2), so each path picks one row of nodes. The design
+/// report and the CalculiX comparison sample the same nodes.
+std::vector<NamedPath> thesis_paths(double front_theta_rad, double mid_height_m,
+                                    const std::vector<double>& node_areas_m2);
+
 /// Linear interpolation of the samples' values at path coordinate @p s (samples sorted by s,
 /// as sample_path returns them); NaN outside [s_first, s_last] or when there are no samples.
 double interpolate_path(const std::vector<PathSample>& samples, double s);

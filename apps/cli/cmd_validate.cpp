@@ -1,0 +1,375 @@
+// `socketsmith validate cube` and `socketsmith validate design CASE`: socketsmith against
+// CalculiX (an independent FE solver) on the same mesh — the thesis's FE checks (ch. 3.6, 5.5).
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+
+#include "cli_common.h"
+#include "socketsmith/core/atomic_file.h"
+#include "socketsmith/core/errors.h"
+#include "socketsmith/core/log.h"
+#include "socketsmith/core/progress.h"
+#include "socketsmith/fe/cube_validation.h"
+#include "socketsmith/fe/design_artifacts.h"
+#include "socketsmith/pipeline/design_pipeline.h"
+#include "socketsmith/report/csv.h"
+#include "socketsmith/report/svg_plot.h"
+#include "socketsmith/report/vtk_writer.h"
+
+namespace socketsmith::cli {
+namespace {
+
+namespace fs = std::filesystem;
+using fe::Vec3;
+
+struct CcxFlags {
+  std::string solver = "calculix";
+  std::string ccx = "ccx";
+  int threads = 1;
+  double time_limit_s = 3600;
+};
+
+void add_ccx_flags(CLI::App& cmd, CcxFlags& f) {
+  cmd.add_option("--fe", f.solver, "FE solver (only calculix)")->check(CLI::IsMember({"calculix"}));
+  cmd.add_option("--ccx", f.ccx, "CalculiX executable (default: ccx on the PATH; package calculix-ccx)");
+  cmd.add_option("--ccx-threads", f.threads, "threads for ccx (default 1)")->check(CLI::Range(1, 64));
+  cmd.add_option("--ccx-time-limit", f.time_limit_s, "wall-time limit of ccx [s] (default 3600)")->check(CLI::PositiveNumber);
+}
+
+fe::CcxOptions ccx_options(const CcxFlags& f) {
+  fe::CcxOptions o;
+  o.executable = f.ccx;
+  o.threads = f.threads;
+  o.time_limit_s = f.time_limit_s;
+  o.progress = console_progress(2.0);
+  return o;
+}
+
+struct CubeFlags {
+  std::string out;
+  bool json = false;
+  int divisions = 4;
+  double youngs_kpa = 50, poisson = 0.45, max_force = 8, edge_mm = 50;
+  int increments = 8;
+  std::string element = "c3d8";
+  CcxFlags ccx;
+};
+
+void run_validate_cube(const CubeFlags& f) {
+  const fs::path out(f.out);
+  ensure_directory(out);
+  fe::CubeFeOptions o;
+  o.edge_m = f.edge_mm * 1e-3;
+  o.divisions = f.divisions;
+  o.youngs_modulus_pa = f.youngs_kpa * 1e3;
+  o.poisson_ratio = f.poisson;
+  o.max_force_n = f.max_force;
+  o.increments = f.increments;
+  o.element = fe::parse_element_type(f.element);
+  o.ccx = ccx_options(f.ccx);
+  const auto r = fe::run_cube_fe(o, out);
+  std::vector<std::vector<double>> rows;
+  for (size_t k = 0; k < r.force_n.size(); ++k)
+    rows.push_back({r.force_n[k], r.fe_displacement_m[k] * 1e3, r.analytic_displacement_m[k] * 1e3,
+                    r.fe_pressure_pa[k] / 1e3, r.analytic_pressure_pa[k] / 1e3});
+  report::write_csv(out / "cube_fe.csv",
+                    {"force_n", "fe_displacement_mm", "analytic_displacement_mm", "fe_pressure_kpa", "analytic_pressure_kpa"},
+                    rows);
+  const auto scaled = [](const std::vector<double>& v, double s) {
+    std::vector<double> o2;
+    for (double x : v) o2.push_back(x * s);
+    return o2;
+  };
+  report::Plot pd;
+  pd.title = "Cube: top displacement, CalculiX vs analytic";
+  pd.x_label = "plate force [N]";
+  pd.y_label = "displacement [mm]";
+  pd.series = {{"CalculiX", r.force_n, scaled(r.fe_displacement_m, 1e3), "", false, true, 2},
+               {"analytic F L / (A E)", r.force_n, scaled(r.analytic_displacement_m, 1e3), "", true, false, 2}};
+  report::Plot pp = pd;
+  pp.title = "Cube: top contact pressure, CalculiX vs analytic";
+  pp.y_label = "pressure [kPa]";
+  pp.series = {{"CalculiX (mean nodal CPRESS)", r.force_n, scaled(r.fe_pressure_pa, 1e-3), "", false, true, 2},
+               {"analytic F / (A (1 + ν ε)²)", r.force_n, scaled(r.analytic_pressure_pa, 1e-3), "", true, false, 2}};
+  report::write_svg_grid(out / "cube_fe.svg", {pd, pp}, 2);
+  nlohmann::json j{{"nodes", r.nodes},
+                   {"elements", r.elements},
+                   {"element", fe::to_string(o.element)},
+                   {"youngs_modulus_kpa", f.youngs_kpa},
+                   {"poisson_ratio", f.poisson},
+                   {"max_force_n", r.force_n.back()},
+                   {"max_displacement_rel_error", r.max_displacement_rel_error},
+                   {"max_pressure_rel_error", r.max_pressure_rel_error},
+                   {"displacement", fe::to_json(r.displacement, 1e3, "_mm")},
+                   {"pressure", fe::to_json(r.pressure, 1e-3, "_kpa")},
+                   {"pressure_without_edges", fe::to_json(r.interior_pressure, 1e-3, "_kpa")},
+                   {"ccx_wall_s", r.ccx.wall_s},
+                   {"ccx_increments", r.ccx.increments},
+                   {"deck", "cube.inp"},
+                   {"outputs", {"cube.inp", "cube.frd", "cube.dat", "cube.log", "cube_fe.csv", "cube_fe.svg", "summary.json"}},
+                   {"out", out.string()}};
+  write_text_atomically(out / "summary.json", j.dump(2) + "\n");
+  if (f.json) {
+    print_json(j);
+    return;
+  }
+  log::info("validate cube: {} nodes, {} elements ({}), ccx {:.1f} s", r.nodes, r.elements, fe::to_string(o.element),
+            r.ccx.wall_s);
+  log::info("validate cube: top displacement max error {:.2f} % of analytic; contact pressure max error {:.2f} %, "
+            "nodal R {:.4f}, MAE {:.3f} kPa",
+            100 * r.max_displacement_rel_error, 100 * r.max_pressure_rel_error, r.pressure.r, r.pressure.mae / 1e3);
+  log::info("validate cube: outputs in {}", out.string());
+}
+
+struct DesignFlags {
+  std::string case_file;
+  std::string out;
+  bool json = false;
+  bool demo = false;
+  bool no_optimise = false;
+  int target_nodes = 0;  // 0: the case's
+  std::string mode = "contact";
+  std::string element = "c3d8";
+  double poisson = 0.45;
+  double penalty = 1e9;
+  double friction = -1;  // < 0: the case's μ
+  double clearance_mm = 1.0;
+  double travel_mm = 30.0;
+  double initial_increment = 0.05;
+  bool neo_hookean = false;
+  CcxFlags ccx;
+};
+
+std::vector<double> scaled(const std::vector<double>& v, double s) {
+  std::vector<double> o;
+  o.reserve(v.size());
+  for (double x : v) o.push_back(x * s);
+  return o;
+}
+
+void run_validate_design(const DesignFlags& f) {
+  const fs::path out(f.out);
+  ensure_directory(out);
+  design::CaseFile c = f.demo ? pipeline::demo_case(f.target_nodes > 0 ? f.target_nodes : 3000)
+                              : design::read_case(f.case_file);
+  if (f.target_nodes > 0) c.target_nodes = f.target_nodes;
+  if (f.demo) design::write_case(out / "case.json", c);
+  const auto t0 = std::chrono::steady_clock::now();
+  pipeline::DesignArtifacts art;
+  const auto progress = console_progress(1.0);
+  log::info("validate design: designing the socket ({} nodes)", c.target_nodes);
+  pipeline::run_design(c, out / "design", c.optimise && !f.no_optimise, progress, &art);
+  const double ss_wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const auto& setup = *art.setup;
+  const auto& state = art.result.state;
+  const auto& mesh = setup.mesh.mesh;
+
+  const fe::DesignedStump d = fe::designed_stump(art);
+
+  fe::DesignCheckOptions o;
+  o.mode = fe::parse_design_check_mode(f.mode);
+  o.material.youngs_modulus_pa = c.youngs_modulus_pa;
+  o.material.poisson_ratio = f.poisson;
+  o.material.density_kg_m3 = c.density_kg_m3;
+  o.material.is_neo_hookean = f.neo_hookean;
+  o.element = fe::parse_element_type(f.element);
+  o.contact.penalty_pa_per_m = f.penalty;
+  o.contact.friction = f.friction >= 0 ? f.friction : c.patient.friction;
+  o.clearance_m = f.clearance_mm * 1e-3;
+  o.initial_increment = f.initial_increment;
+  o.donning_travel_m = f.travel_mm * 1e-3;
+  o.max_increment = std::max(0.1, f.initial_increment);
+  o.ccx = ccx_options(f.ccx);
+  log::info("validate design: CalculiX {} check ({} nodes, {} elements, {}, ν {})", fe::to_string(o.mode),
+            mesh.num_nodes(), mesh.num_hexahedra(), fe::to_string(o.element), f.poisson);
+  const auto r = fe::check_design(d, o, out, "design_fe");
+
+  // Outputs: per-node CSV, path profiles and a scatter (SVG), stump VTU, summary JSON.
+  const bool contact = o.mode != fe::DesignCheckMode::Load;
+  const double scale = contact ? 1e-3 : 1e3;  // kPa or mm
+  const std::string unit = contact ? "kPa" : "mm", suffix = contact ? "_kpa" : "_mm";
+  const std::string what = contact ? "contact pressure" : "displacement";
+  const auto& skin = *d.skin;
+  {
+    std::vector<std::vector<double>> rows;
+    for (size_t i = 0; i < skin.nodes.size(); ++i) {
+      const auto& p = skin.positions[i];
+      rows.push_back({static_cast<double>(i), static_cast<double>(skin.nodes[i] + 1), p.x(), p.y(), p.z(),
+                      static_cast<double>(std::min(r.brim_ring[i], 999)), r.socketsmith_value[i] * scale,
+                      r.fe_value[i] * scale, (r.fe_value[i] - r.socketsmith_value[i]) * scale,
+                      r.fe_penetration_m[i] * 1e3, r.socketsmith_value_smoothed[i] * scale,
+                      r.fe_value_smoothed[i] * scale});
+    }
+    report::write_csv(out / "comparison.csv",
+                      {"skin_index", "ccx_node", "x_m", "y_m", "z_m", "rings_from_brim", "socketsmith_" + unit,
+                       "calculix_" + unit, "error_" + unit, "penetration_mm",
+                       "socketsmith_one_ring_" + unit, "calculix_one_ring_" + unit},
+                      rows);
+  }
+  std::vector<report::Plot> panels;
+  nlohmann::json paths_json = nlohmann::json::object();
+  for (const auto& pc : r.paths) {
+    std::vector<double> a, b;
+    for (int i : pc.skin_index) {
+      a.push_back(r.socketsmith_value[i] * scale);
+      b.push_back(r.fe_value[i] * scale);
+    }
+    report::Plot p;
+    p.title = fmt::format("{}: MAE {:.2f} ± {:.2f} {}, R {:.2f}", pc.label, pc.stats.mae * scale, pc.stats.sd * scale,
+                          unit, pc.stats.r);
+    p.x_label = pc.is_vertical ? "height above the distal end [mm]" : "angle from the front line [deg]";
+    p.y_label = fmt::format("{} [{}]", what, unit);
+    p.series = {{"socketsmith (designed)", pc.s, a, "#0072B2", false, true, 2},
+                {"CalculiX", pc.s, b, "#D55E00", false, true, 2}};
+    report::write_svg(out / fmt::format("profile_{}.svg", pc.name), p);
+    panels.push_back(p);
+    auto pj = fe::to_json(pc.stats, scale, suffix);
+    pj["label"] = pc.label;
+    pj["smoothed"] = fe::to_json(pc.smoothed, scale, suffix);
+    paths_json[pc.name] = pj;
+  }
+  {
+    std::vector<double> a, b;
+    for (size_t i = 0; i < skin.nodes.size(); ++i)
+      if (r.brim_ring[i] >= 1) {
+        a.push_back(r.socketsmith_value[i] * scale);
+        b.push_back(r.fe_value[i] * scale);
+      }
+    double hi = 0;
+    for (double v : a) hi = std::max(hi, v);
+    for (double v : b) hi = std::max(hi, v);
+    report::Plot p;
+    p.title = fmt::format("every socket node: R {:.2f}, MAE {:.2f} {}", r.all.r, r.all.mae * scale, unit);
+    p.x_label = fmt::format("socketsmith {} [{}]", what, unit);
+    p.y_label = fmt::format("CalculiX {} [{}]", what, unit);
+    p.series = {{"nodes", a, b, "#0072B2", false, true, 0}, {"y = x", {0, hi}, {0, hi}, "#999999", true, false, 1}};
+    report::write_svg(out / "scatter.svg", p);
+    panels.push_back(p);
+  }
+  report::write_svg_grid(out / "comparison.svg", panels, 2);
+  {
+    const int nn = mesh.num_nodes();
+    std::vector<Vec3> u_ss(nn);
+    std::vector<double> v_ss(nn, 0.0), v_fe(nn, 0.0), err(nn, 0.0);
+    for (int n = 0; n < nn; ++n) u_ss[n] = d.designed_positions[n] - mesh.nodes[n];
+    for (size_t i = 0; i < skin.nodes.size(); ++i) {
+      v_ss[skin.nodes[i]] = r.socketsmith_value[i] * scale;
+      v_fe[skin.nodes[i]] = r.fe_value[i] * scale;
+      err[skin.nodes[i]] = (r.fe_value[i] - r.socketsmith_value[i]) * scale;
+    }
+    const std::string tag = contact ? "pressure_kpa" : "displacement_mm";
+    report::write_vtu(out / "stump_fe.vtu", mesh,
+                      {report::make_vector_field("displacement_socketsmith_m", u_ss),
+                       report::make_vector_field("displacement_calculix_m", r.fe_displacement_m),
+                       {"socketsmith_" + tag, 1, v_ss}, {"calculix_" + tag, 1, v_fe}, {"error_" + tag, 1, err}});
+  }
+  nlohmann::json j{{"case", f.demo ? std::string("demo") : f.case_file},
+                   {"mode", fe::to_string(o.mode)},
+                   {"compared", what + " [" + unit + "]"},
+                   {"converged", r.converged},
+                   {"message", r.message},
+                   {"nodes", r.nodes},
+                   {"elements", r.elements},
+                   {"socket_elements", r.socket_elements},
+                   {"element", fe::to_string(o.element)},
+                   {"poisson_ratio", f.poisson},
+                   {"youngs_modulus_kpa", c.youngs_modulus_pa / 1e3},
+                   {"neo_hookean", f.neo_hookean},
+                   {"penalty_pa_per_m", o.contact.penalty_pa_per_m},
+                   {"friction", o.contact.friction},
+                   {"designed_force_n", r.designed_force_n},
+                   {"fe_force_n", r.fe_force_n},
+                   {"mean_designed_kpa", r.mean_designed_pa / 1e3},
+                   {"mean_fe_kpa", r.mean_fe_pa / 1e3},
+                   {"max_penetration_mm", r.max_penetration_m * 1e3},
+                   {"all", fe::to_json(r.all, scale, suffix)},
+                   {"one_ring_away", fe::to_json(r.one_ring_away, scale, suffix)},
+                   {"away_from_brim", fe::to_json(r.away_from_brim, scale, suffix)},
+                   {"all_smoothed", fe::to_json(r.all_smoothed, scale, suffix)},
+                   {"away_from_brim_smoothed", fe::to_json(r.away_from_brim_smoothed, scale, suffix)},
+                   {"paths", paths_json},
+                   {"ccx_wall_s", r.ccx.wall_s},
+                   {"ccx_increments", r.ccx.increments},
+                   {"socketsmith_wall_s", ss_wall},
+                   {"socketsmith_solve_s", state.seconds},
+                   {"deck", "design_fe.inp"},
+                   {"outputs",
+                    {"design_fe.inp", "design_fe.frd", "design_fe.dat", "design_fe.log", "comparison.csv", "comparison.svg",
+                     "profile_front.svg", "profile_back.svg", "profile_mid.svg", "scatter.svg", "stump_fe.vtu",
+                     "summary.json", "design/"}},
+                   {"out", out.string()}};
+  write_text_atomically(out / "summary.json", j.dump(2) + "\n");
+  if (f.json) print_json(j);
+  else {
+    log::info("validate design: {}{} — CalculiX {:.1f} s vs socketsmith {:.1f} s (design solve {:.3f} s)",
+              r.converged ? "" : "PARTIAL ", what, r.ccx.wall_s, ss_wall, state.seconds);
+    log::info("validate design: force designed {:.1f} N, CalculiX {:.1f} N; mean designed {:.2f}, CalculiX {:.2f}",
+              r.designed_force_n, r.fe_force_n, r.all.mean_b * scale, r.all.mean_a * scale);
+    const auto line = [&](const std::string& name, const fe::ErrorStats& st) {
+      log::info("validate design: {:<26} n {:4d}  MAE {:.2f} ± {:.2f} {}  R {:.2f}  max {:.2f}", name, st.count,
+                st.mae * scale, st.sd * scale, unit, st.r, st.max_error * scale);
+    };
+    line("every socket node", r.all);
+    line("one ring from the brim", r.one_ring_away);
+    line("away from the brim (≥ 4)", r.away_from_brim);
+    for (const auto& pc : r.paths) line(pc.label.substr(0, 26), pc.stats);
+    line("every node, one-ring mean", r.all_smoothed);
+    line("away, one-ring mean", r.away_from_brim_smoothed);
+    log::info("validate design: outputs in {}", out.string());
+  }
+  if (!r.converged)
+    fail<SolverError>("validate design: {} (the partial comparison is in {}, labelled PARTIAL)", r.ccx.message,
+                      (out / "summary.json").string());
+}
+
+}  // namespace
+
+void register_validate(CLI::App& app) {
+  auto* v = app.add_subcommand("validate", "compare socketsmith with CalculiX (ccx) on the same mesh");
+  v->require_subcommand(1);
+
+  auto cf = std::make_shared<CubeFlags>();
+  auto* cube = v->add_subcommand("cube", "the thesis's cube in CalculiX against the analytic solution (checks the FE chain)");
+  cube->add_option("--out", cf->out, "output folder (cube.inp, cube_fe.csv, cube_fe.svg, summary.json)")->required();
+  cube->add_flag("--json", cf->json, "print the summary as JSON on stdout");
+  cube->add_option("--divisions", cf->divisions, "elements per edge (default 4)")->check(CLI::Range(1, 40));
+  cube->add_option("--youngs-kpa", cf->youngs_kpa, "Young's modulus [kPa] (default 50)");
+  cube->add_option("--poisson", cf->poisson, "Poisson ratio (default 0.45)");
+  cube->add_option("--max-force", cf->max_force, "plate force at the end [N] (default 8: 6.4 % strain)");
+  cube->add_option("--increments", cf->increments, "equal load increments (default 8)")->check(CLI::Range(1, 100));
+  cube->add_option("--edge-mm", cf->edge_mm, "cube edge [mm] (default 50)");
+  cube->add_option("--element", cf->element, "c3d8 | c3d8i | c3d8r (default c3d8)");
+  add_ccx_flags(*cube, cf->ccx);
+  cube->callback([cf] { run_validate_cube(*cf); });
+
+  auto df = std::make_shared<DesignFlags>();
+  auto* des = v->add_subcommand("design", "design a case's socket, then check its pressures with CalculiX (thesis ch. 5)");
+  des->add_option("case", df->case_file, "case file (JSON, docs/case_file.md)");
+  des->add_flag("--demo", df->demo, "use the embedded sample case (generated limb, 3k nodes) instead of a case file");
+  des->add_option("--out", df->out, "output folder (comparison.csv/.svg, profiles, stump_fe.vtu, summary.json, deck)")
+      ->required();
+  des->add_flag("--json", df->json, "print the summary as JSON on stdout");
+  des->add_flag("--no-optimise", df->no_optimise, "solve the case's spots as given");
+  des->add_option("--target-nodes", df->target_nodes, "stump size (default: the case's)")->check(CLI::Range(500, 100000));
+  des->add_option("--mode", df->mode, "contact (socket fitted, CPRESS vs designed pressure) | load (designed loads, "
+                                       "displacements) | donning (rigid socket pushed up the axis)")
+      ->check(CLI::IsMember({"contact", "load", "donning"}));
+  des->add_option("--element", df->element, "c3d8 | c3d8i | c3d8r (default c3d8)");
+  des->add_option("--poisson", df->poisson, "tissue Poisson ratio in CalculiX (default 0.45, the thesis's)");
+  des->add_flag("--neo-hookean", df->neo_hookean, "neo-Hookean tissue instead of linear elastic");
+  des->add_option("--penalty", df->penalty, "contact penalty stiffness [Pa/m] (default 1e9)")->check(CLI::PositiveNumber);
+  des->add_option("--friction", df->friction, "friction coefficient (default: the case's μ)");
+  des->add_option("--clearance-mm", df->clearance_mm, "where the socket fit starts outside the skin [mm] (default 1)")
+      ->check(CLI::PositiveNumber);
+  des->add_option("--travel-mm", df->travel_mm, "donning: start this far distally [mm] (default 30)")
+      ->check(CLI::PositiveNumber);
+  des->add_option("--initial-increment", df->initial_increment, "first ccx increment (fraction of the step, default 0.05)")
+      ->check(CLI::Range(1e-4, 1.0));
+  add_ccx_flags(*des, df->ccx);
+  des->callback([df] {
+    if (df->case_file.empty() && !df->demo) fail("validate design: give a case file or --demo");
+    run_validate_design(*df);
+  });
+}
+
+}  // namespace socketsmith::cli

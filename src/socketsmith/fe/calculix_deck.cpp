@@ -1,0 +1,307 @@
+#include "socketsmith/fe/calculix_deck.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <map>
+
+#include <fmt/format.h>
+
+#include "socketsmith/core/errors.h"
+
+namespace socketsmith::fe {
+namespace {
+
+bool finite(const Vec3& v) { return std::isfinite(v.x()) && std::isfinite(v.y()) && std::isfinite(v.z()); }
+
+/// Writes ids in lines of at most 16 (ccx reads at most 16 entries per data line).
+void write_id_lines(std::string& out, const std::vector<int>& ids) {
+  for (size_t k = 0; k < ids.size(); ++k) {
+    out += fmt::format("{}", ids[k]);
+    out += (k + 1 == ids.size() || k % 16 == 15) ? "\n" : ", ";
+  }
+}
+
+void check_spec(const DeckSpec& s) {
+  require(s.stump != nullptr, "write_deck: no stump mesh (DeckSpec::stump is null)");
+  const auto& m = *s.stump;
+  require(m.num_nodes() > 0 && m.num_hexahedra() > 0, "write_deck: the stump has {} nodes and {} hexahedra (expected a volume mesh)",
+          m.num_nodes(), m.num_hexahedra());
+  for (int i = 0; i < m.num_nodes(); ++i)
+    require(finite(m.nodes[i]), "write_deck: stump node {} has a non-finite coordinate", i);
+  for (int e = 0; e < m.num_hexahedra(); ++e)
+    for (int v : m.hexahedra[e])
+      require(v >= 0 && v < m.num_nodes(), "write_deck: hexahedron {} uses node {} (mesh has {} nodes)", e, v, m.num_nodes());
+  for (int v : s.fixed_nodes)
+    require(v >= 0 && v < m.num_nodes(), "write_deck: fixed node {} is out of range (mesh has {} nodes)", v, m.num_nodes());
+  for (const auto& [v, c] : s.fixed_components)
+    require(v >= 0 && v < m.num_nodes() && c >= 0 && c < 3, "write_deck: fixed component ({}, {}) is out of range", v, c);
+  for (const auto& [v, f] : s.nodal_forces) {
+    require(v >= 0 && v < m.num_nodes(), "write_deck: force on node {} is out of range (mesh has {} nodes)", v, m.num_nodes());
+    require(finite(f), "write_deck: the force on node {} is not finite", v);
+  }
+  for (const auto& f : s.skin_faces)
+    require(f.hexahedron >= 0 && f.hexahedron < m.num_hexahedra() && f.local_face >= 0 && f.local_face < 6,
+            "write_deck: skin face ({}, {}) is out of range", f.hexahedron, f.local_face);
+  const auto& mat = s.material;
+  require(mat.youngs_modulus_pa > 0 && std::isfinite(mat.youngs_modulus_pa),
+          "write_deck: Young's modulus {} Pa (expected > 0)", mat.youngs_modulus_pa);
+  require(mat.poisson_ratio > -1 && mat.poisson_ratio < 0.5, "write_deck: Poisson ratio {} (expected in (-1, 0.5))",
+          mat.poisson_ratio);
+  require(mat.density_kg_m3 > 0, "write_deck: density {} kg/m^3 (expected > 0)", mat.density_kg_m3);
+  const auto& st = s.steps;
+  require(st.initial_increment > 0 && st.initial_increment <= 1, "write_deck: initial increment {} (expected in (0, 1])",
+          st.initial_increment);
+  require(st.min_increment > 0 && st.min_increment <= st.initial_increment,
+          "write_deck: minimum increment {} (expected in (0, initial increment {}])", st.min_increment, st.initial_increment);
+  require(st.max_increment >= st.initial_increment && st.max_increment <= 1,
+          "write_deck: maximum increment {} (expected in [initial increment {}, 1])", st.max_increment, st.initial_increment);
+  require(st.max_increments > 0, "write_deck: max_increments {} (expected > 0)", st.max_increments);
+  require(finite(st.donning_travel_m), "write_deck: the donning travel is not finite");
+  require(st.axial_load_n >= 0 && std::isfinite(st.axial_load_n), "write_deck: axial load {} N (expected ≥ 0)",
+          st.axial_load_n);
+  if (s.socket) {
+    const auto& sh = *s.socket;
+    require(!sh.hexahedra.empty() && !sh.contact_faces.empty(),
+            "write_deck: the socket has {} elements and {} contact faces (expected a shell facing the stump)",
+            sh.hexahedra.size(), sh.contact_faces.size());
+    require(!s.skin_faces.empty(), "write_deck: a socket needs the stump's skin faces (DeckSpec::skin_faces is empty)");
+    for (const auto& p : sh.nodes) require(finite(p), "write_deck: a socket node has a non-finite coordinate");
+    for (const auto& h : sh.hexahedra)
+      for (int v : h)
+        require(v >= 0 && v < static_cast<int>(sh.nodes.size()), "write_deck: a socket element uses node {} (socket has {})",
+                v, sh.nodes.size());
+    for (const auto& f : sh.contact_faces)
+      require(f.hexahedron >= 0 && f.hexahedron < static_cast<int>(sh.hexahedra.size()) && f.local_face >= 0 &&
+                  f.local_face < 6,
+              "write_deck: socket contact face ({}, {}) is out of range", f.hexahedron, f.local_face);
+    require(s.socket_node_displacements.empty() || s.socket_node_displacements.size() == sh.nodes.size(),
+            "write_deck: {} socket node displacements for {} socket nodes", s.socket_node_displacements.size(),
+            sh.nodes.size());
+    for (const auto& d : s.socket_node_displacements) require(finite(d), "write_deck: a socket node displacement is not finite");
+    require(s.socket_node_displacements.empty() || st.axial_load_n == 0,
+            "write_deck: an axial load step needs a rigid socket (no prescribed node displacements)");
+    require(s.contact.penalty_pa_per_m > 0, "write_deck: contact penalty {} Pa/m (expected > 0)", s.contact.penalty_pa_per_m);
+    require(s.contact.friction >= 0, "write_deck: friction {} (expected ≥ 0)", s.contact.friction);
+    require(s.contact.stick_slope_pa_per_m > 0, "write_deck: stick slope {} Pa/m (expected > 0)",
+            s.contact.stick_slope_pa_per_m);
+  } else {
+    require(!s.nodal_forces.empty(), "write_deck: nothing loads the stump (no nodal forces and no socket)");
+    require(st.axial_load_n == 0, "write_deck: an axial load step needs a socket");
+  }
+}
+
+std::string static_card(const FeSteps& st) {
+  return fmt::format("*STEP{}, INC={}\n*STATIC\n{:.9g}, 1., {:.9g}, {:.9g}\n", st.is_nonlinear_geometry ? ", NLGEOM" : "",
+                     st.max_increments, st.initial_increment, st.min_increment, st.max_increment);
+}
+
+}  // namespace
+
+std::string to_string(ElementType type) {
+  switch (type) {
+    case ElementType::C3D8: return "C3D8";
+    case ElementType::C3D8I: return "C3D8I";
+    case ElementType::C3D8R: return "C3D8R";
+  }
+  return "C3D8";
+}
+
+ElementType parse_element_type(const std::string& text) {
+  std::string t = text;
+  std::transform(t.begin(), t.end(), t.begin(), [](unsigned char c) { return static_cast<char>(std::toupper(c)); });
+  if (t == "C3D8") return ElementType::C3D8;
+  if (t == "C3D8I") return ElementType::C3D8I;
+  if (t == "C3D8R") return ElementType::C3D8R;
+  fail("element type '{}' is not known (expected c3d8, c3d8i or c3d8r)", text);
+}
+
+std::string write_deck(const DeckSpec& s) {
+  check_spec(s);
+  const auto& m = *s.stump;
+  const int nn = m.num_nodes(), ne = m.num_hexahedra();
+  std::string out;
+  out.reserve(static_cast<size_t>(nn) * 60 + static_cast<size_t>(ne) * 70 + 4096);
+  out += fmt::format("** {}\n** written by socketsmith (fe/calculix_deck); SI units (m, N, Pa)\n", s.title);
+  out += "*NODE, NSET=NLIMB\n";
+  for (int i = 0; i < nn; ++i)
+    out += fmt::format("{}, {:.12g}, {:.12g}, {:.12g}\n", i + 1, m.nodes[i].x(), m.nodes[i].y(), m.nodes[i].z());
+  const int sock_node0 = nn + 1, sock_elem0 = ne + 1;
+  const bool rigid = s.socket && s.socket_node_displacements.empty();
+  if (s.socket) {
+    out += "*NODE, NSET=NSOCK\n";
+    for (size_t i = 0; i < s.socket->nodes.size(); ++i) {
+      const auto& p = s.socket->nodes[i];
+      out += fmt::format("{}, {:.12g}, {:.12g}, {:.12g}\n", sock_node0 + static_cast<int>(i), p.x(), p.y(), p.z());
+    }
+    const auto& r = s.socket->reference_point;
+    if (rigid) {
+      out += fmt::format("*NODE, NSET=REF\n{}, {:.12g}, {:.12g}, {:.12g}\n", kRefNode, r.x(), r.y(), r.z());
+      out += fmt::format("*NODE, NSET=ROT\n{}, {:.12g}, {:.12g}, {:.12g}\n", kRotNode, r.x(), r.y(), r.z());
+    }
+  }
+  out += fmt::format("*ELEMENT, TYPE={}, ELSET=LIMB\n", to_string(s.element));
+  for (int e = 0; e < ne; ++e) {
+    const auto& h = m.hexahedra[e];
+    out += fmt::format("{}, {}, {}, {}, {}, {}, {}, {}, {}\n", e + 1, h[0] + 1, h[1] + 1, h[2] + 1, h[3] + 1, h[4] + 1,
+                       h[5] + 1, h[6] + 1, h[7] + 1);
+  }
+  if (s.socket) {
+    out += "*ELEMENT, TYPE=C3D8, ELSET=SOCKET\n";
+    for (size_t e = 0; e < s.socket->hexahedra.size(); ++e) {
+      const auto& h = s.socket->hexahedra[e];
+      out += fmt::format("{}", sock_elem0 + static_cast<int>(e));
+      for (int v : h) out += fmt::format(", {}", sock_node0 + v);
+      out += "\n";
+    }
+  }
+  if (!s.fixed_nodes.empty()) {
+    out += "*NSET, NSET=BONE\n";
+    std::vector<int> ids;
+    for (int v : s.fixed_nodes) ids.push_back(v + 1);
+    write_id_lines(out, ids);
+  }
+  if (!s.skin_faces.empty()) {
+    out += "*SURFACE, NAME=SLIMB, TYPE=ELEMENT\n";
+    for (const auto& f : s.skin_faces) out += fmt::format("{}, S{}\n", f.hexahedron + 1, f.local_face + 1);
+  }
+  if (s.socket) {
+    out += "*SURFACE, NAME=SSOCK, TYPE=ELEMENT\n";
+    for (const auto& f : s.socket->contact_faces)
+      out += fmt::format("{}, S{}\n", sock_elem0 + f.hexahedron, f.local_face + 1);
+  }
+  const auto& mat = s.material;
+  out += "*MATERIAL, NAME=TISSUE\n";
+  if (mat.is_neo_hookean) {
+    const double c10 = mat.youngs_modulus_pa / (4 * (1 + mat.poisson_ratio));
+    const double d1 = 6 * (1 - 2 * mat.poisson_ratio) / mat.youngs_modulus_pa;
+    out += fmt::format("*HYPERELASTIC, NEO HOOKE\n{:.9g}, {:.9g}\n", c10, d1);
+  } else {
+    out += fmt::format("*ELASTIC\n{:.9g}, {:.9g}\n", mat.youngs_modulus_pa, mat.poisson_ratio);
+  }
+  out += fmt::format("*DENSITY\n{:.9g}\n", mat.density_kg_m3);
+  out += "*SOLID SECTION, ELSET=LIMB, MATERIAL=TISSUE\n";
+  if (s.socket) {
+    out += "*MATERIAL, NAME=RIGIDMAT\n*ELASTIC\n2e11, 0.3\n*SOLID SECTION, ELSET=SOCKET, MATERIAL=RIGIDMAT\n";
+    if (rigid) out += fmt::format("*RIGID BODY, NSET=NSOCK, REF NODE={}, ROT NODE={}\n", kRefNode, kRotNode);
+    out += "*SURFACE INTERACTION, NAME=SI\n*SURFACE BEHAVIOR, PRESSURE-OVERCLOSURE=LINEAR\n";
+    out += fmt::format("{:.9g}, 0.1\n", s.contact.penalty_pa_per_m);
+    if (s.contact.friction > 0)
+      out += fmt::format("*FRICTION\n{:.9g}, {:.9g}\n", s.contact.friction, s.contact.stick_slope_pa_per_m);
+    out += "*CONTACT PAIR, INTERACTION=SI, TYPE=SURFACE TO SURFACE\nSLIMB, SSOCK\n";
+  }
+  const auto& st = s.steps;
+  const bool load_step = s.socket && st.axial_load_n > 0;
+  if (load_step) {
+    const double a0 = std::clamp(st.donning_force_n / st.axial_load_n, 0.0, 1.0);
+    out += fmt::format("*AMPLITUDE, NAME=A2\n0., {:.9g}, 1., 1.\n", a0);
+  }
+  // Step 1: nodal forces, or donning under displacement control.
+  out += static_card(st);
+  out += "*BOUNDARY\n";
+  if (!s.fixed_nodes.empty()) out += "BONE, 1, 3\n";
+  for (const auto& [v, c] : s.fixed_components) out += fmt::format("{}, {}, {}\n", v + 1, c + 1, c + 1);
+  if (rigid) {
+    for (int c = 0; c < 3; ++c) out += fmt::format("{}, {}, {}, {:.12g}\n", kRefNode, c + 1, c + 1, st.donning_travel_m[c]);
+    out += fmt::format("{}, 1, 3\n", kRotNode);
+  }
+  for (size_t i = 0; i < s.socket_node_displacements.size(); ++i)
+    for (int c = 0; c < 3; ++c)
+      out += fmt::format("{}, {}, {}, {:.12g}\n", sock_node0 + static_cast<int>(i), c + 1, c + 1,
+                         s.socket_node_displacements[i][c]);
+  if (!s.nodal_forces.empty()) {
+    out += "*CLOAD\n";
+    for (const auto& [v, f] : s.nodal_forces)
+      for (int c = 0; c < 3; ++c)
+        if (f[c] != 0) out += fmt::format("{}, {}, {:.12g}\n", v + 1, c + 1, f[c]);
+  }
+  const auto outputs = [&] {
+    std::string o = "*NODE FILE\nU\n";
+    if (s.socket) {
+      o += "*CONTACT FILE\nCDIS, CSTR\n";
+      if (rigid) o += "*NODE PRINT, NSET=REF\nU, RF\n";
+      o += "*CONTACT PRINT, SLAVE=SLIMB, MASTER=SSOCK\nCF\n";
+    }
+    if (!s.fixed_nodes.empty()) o += "*NODE PRINT, NSET=BONE, TOTALS=ONLY\nRF\n";
+    o += "*END STEP\n";
+    return o;
+  };
+  out += outputs();
+  if (load_step) {
+    FeSteps st2 = st;
+    st2.initial_increment = std::min(st.initial_increment, 0.02);
+    st2.max_increment = std::max(st2.initial_increment, std::min(st.max_increment, 0.05));
+    st2.min_increment = std::min(st.min_increment, st2.initial_increment);
+    out += static_card(st2);
+    out += "*BOUNDARY, OP=NEW\n";
+    if (!s.fixed_nodes.empty()) out += "BONE, 1, 3\n";
+    for (const auto& [v, c] : s.fixed_components) out += fmt::format("{}, {}, {}\n", v + 1, c + 1, c + 1);
+    out += fmt::format("{}, 1, 3\n", kRotNode);
+    // The reference node is free along the load; held in the other two directions when the load
+    // is along a coordinate axis (the usual case: the deck is written in the limb frame).
+    const Vec3 d = st.load_direction.normalized();
+    for (int c = 0; c < 3; ++c)
+      if (std::abs(d[c]) < 1e-12) out += fmt::format("{}, {}, {}\n", kRefNode, c + 1, c + 1);
+    out += "*CLOAD, AMPLITUDE=A2\n";
+    for (int c = 0; c < 3; ++c)
+      if (std::abs(d[c]) >= 1e-12) out += fmt::format("{}, {}, {:.12g}\n", kRefNode, c + 1, st.axial_load_n * d[c]);
+    out += outputs();
+  }
+  return out;
+}
+
+std::vector<HexFace> faces_of_quads(const volume::HexMesh& mesh, const std::vector<std::array<int, 4>>& quads) {
+  std::map<std::array<int, 4>, HexFace> by_nodes;
+  for (const auto& b : volume::boundary_quads(mesh)) {
+    auto key = b.nodes;
+    std::sort(key.begin(), key.end());
+    by_nodes[key] = {b.hexahedron, b.local_face};
+  }
+  std::vector<HexFace> faces;
+  faces.reserve(quads.size());
+  for (size_t k = 0; k < quads.size(); ++k) {
+    auto key = quads[k];
+    std::sort(key.begin(), key.end());
+    const auto it = by_nodes.find(key);
+    require(it != by_nodes.end(), "faces_of_quads: quad {} (nodes {}, {}, {}, {}) is not a boundary face of the mesh", k,
+            quads[k][0], quads[k][1], quads[k][2], quads[k][3]);
+    faces.push_back(it->second);
+  }
+  return faces;
+}
+
+RigidShell extrude_shell(const std::vector<Vec3>& points, const std::vector<Vec3>& normals,
+                         const std::vector<std::array<int, 4>>& quads, double thickness_m) {
+  require(points.size() == normals.size(), "extrude_shell: {} points but {} normals", points.size(), normals.size());
+  require(thickness_m > 0 && std::isfinite(thickness_m), "extrude_shell: thickness {} m (expected > 0)", thickness_m);
+  require(!quads.empty(), "extrude_shell: no quads");
+  const int np = static_cast<int>(points.size());
+  // Only the points used by the quads become shell nodes.
+  std::vector<int> inner(np, -1), source;
+  RigidShell sh;
+  for (const auto& q : quads)
+    for (int v : q) {
+      require(v >= 0 && v < np, "extrude_shell: quad uses point {} ({} points)", v, np);
+      if (inner[v] < 0) {
+        inner[v] = static_cast<int>(sh.nodes.size());
+        sh.nodes.push_back(points[v]);
+        source.push_back(v);
+      }
+    }
+  const int ni = static_cast<int>(sh.nodes.size());
+  for (int v : source) sh.nodes.push_back(points[v] + thickness_m * normals[v].normalized());
+  sh.source_points = source;
+  Vec3 centre = Vec3::Zero();
+  for (int k = 0; k < ni; ++k) centre += sh.nodes[k];
+  sh.reference_point = centre / ni;
+  for (const auto& q : quads) {
+    // Bottom face 0-1-2-3 counter-clockwise seen from the top (away from the body), top above it.
+    volume::Hex h{inner[q[0]], inner[q[1]], inner[q[2]], inner[q[3]],
+                  ni + inner[q[0]], ni + inner[q[1]], ni + inner[q[2]], ni + inner[q[3]]};
+    sh.contact_faces.push_back({static_cast<int>(sh.hexahedra.size()), 0});
+    sh.hexahedra.push_back(h);
+  }
+  return sh;
+}
+
+}  // namespace socketsmith::fe

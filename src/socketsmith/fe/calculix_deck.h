@@ -1,0 +1,127 @@
+#pragma once
+/// @file calculix_deck.h
+/// A flat CalculiX (Abaqus-style) input deck of socketsmith's own hexahedral stump: the same
+/// nodes and hexahedra (C3D8 by default), fixed (bone) nodes, a tissue material, and either
+/// nodal forces (the designed pressures as loads) or a rigid socket (one layer of solids tied to
+/// a reference node) donned under displacement control with surface-to-surface penalty contact,
+/// optionally followed by an axial force step. The deck follows ../shared/docs/CALCULIX.md, a deck
+/// known to run with ccx 2.20 (what it accepts, what it silently ignores).
+///
+/// Numbering: stump node i is CalculiX node i + 1, hexahedron e is element e + 1 (same ids, so
+/// results map back one to one); socket nodes and elements follow; the rigid body's reference
+/// and rotation nodes are kRefNode and kRotNode.
+
+#include <array>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "socketsmith/volume/hex_mesh.h"
+
+namespace socketsmith::fe {
+
+using Vec3 = Eigen::Vector3d;
+
+inline constexpr int kRefNode = 900001;  ///< rigid socket's reference node (translation)
+inline constexpr int kRotNode = 900002;  ///< rigid socket's rotation node
+
+/// Element formulation of the stump (CALCULIX.md: C3D8 is the safe choice; C3D8R hourglasses
+/// under contact; C3D8I is most accurate but ≈ 4× the equations).
+enum class ElementType { C3D8, C3D8I, C3D8R };
+std::string to_string(ElementType type);
+/// "c3d8" | "c3d8i" | "c3d8r" (case-insensitive). @throws InvalidInputError otherwise.
+ElementType parse_element_type(const std::string& text);
+
+/// Tissue material of the FE stump.
+struct FeMaterial {
+  double youngs_modulus_pa = 100e3;  ///< E [Pa], > 0
+  double poisson_ratio = 0.45;       ///< ν [-], in (-1, 0.5) (thesis's FE: 0.45)
+  double density_kg_m3 = 1060.0;     ///< ρ [kg/m³], > 0
+  /// true: *HYPERELASTIC, NEO HOOKE with C10 = E/(4(1+ν)), D1 = 6(1−2ν)/E (like-for-like with
+  /// Abaqus at large strain); false: *ELASTIC (St Venant–Kirchhoff under NLGEOM in ccx).
+  bool is_neo_hookean = false;
+};
+
+/// A face of a hexahedron: element index (0-based in its mesh) and local face (kHexFaces index;
+/// CalculiX face label S(local_face + 1)).
+struct HexFace {
+  int hexahedron = -1;
+  int local_face = -1;
+};
+
+/// A rigid socket: one layer of hexahedra (its own nodes), the faces that touch the stump.
+struct RigidShell {
+  std::vector<Vec3> nodes;                ///< [m]
+  std::vector<volume::Hex> hexahedra;     ///< indices into nodes
+  std::vector<HexFace> contact_faces;     ///< faces of the shell's hexahedra facing the stump
+  Vec3 reference_point = Vec3::Zero();    ///< reference node position [m]
+  std::vector<int> source_points;         ///< extrude_shell: input point of inner node k (outer node = k + #inner)
+};
+
+/// Surface-to-surface penalty contact (CALCULIX.md: penetration = p / K).
+struct FeContact {
+  double penalty_pa_per_m = 2e8;   ///< K [Pa/m], > 0
+  double friction = 0.0;           ///< μ [-], ≥ 0; 0 = frictionless (no *FRICTION card)
+  double stick_slope_pa_per_m = 5e7;  ///< [Pa/m], > 0 (used when friction > 0)
+};
+
+/// The analysis steps. Step 1 always exists.
+struct FeSteps {
+  bool is_nonlinear_geometry = true;  ///< NLGEOM
+  /// Donning: the socket starts displaced by −donning_travel_m and is moved back by it
+  /// (displacement control of the reference node) [m]. Ignored without a socket.
+  Vec3 donning_travel_m = Vec3::Zero();
+  double initial_increment = 0.05;  ///< of the step time 1, in (0, 1]
+  double min_increment = 1e-5;      ///< in (0, initial_increment]
+  double max_increment = 0.1;       ///< in [initial_increment, 1]
+  int max_increments = 1000;        ///< > 0
+  /// > 0: a second step applies this force on the socket's reference node along
+  /// load_direction (CALCULIX.md: amplitude from donning_force_n so the reaction does not drop).
+  double axial_load_n = 0.0;
+  Vec3 load_direction = Vec3::UnitZ();  ///< unit
+  double donning_force_n = 0.0;         ///< step-1 reaction along load_direction [N], ≥ 0
+};
+
+/// Everything a deck holds.
+struct DeckSpec {
+  std::string title = "socketsmith";
+  const volume::HexMesh* stump = nullptr;  ///< not owned, required
+  std::vector<int> fixed_nodes;            ///< stump nodes fixed in x, y, z (bones, cut)
+  /// (stump node, component 0..2) fixed: rollers, symmetry planes (frictionless supports).
+  std::vector<std::array<int, 2>> fixed_components;
+  std::vector<HexFace> skin_faces;         ///< stump faces of the contact (slave) surface
+  FeMaterial material;
+  ElementType element = ElementType::C3D8;
+  std::vector<std::pair<int, Vec3>> nodal_forces;  ///< (stump node, force [N]) applied in step 1
+  const RigidShell* socket = nullptr;              ///< not owned; null = no contact
+  /// Non-empty (one per socket node): the socket is not a rigid body; in step 1 every socket
+  /// node is moved by its vector (a prescribed fit: the shell shrinks from a clearance outside
+  /// the stump onto the designed socket surface). No axial load step then.
+  std::vector<Vec3> socket_node_displacements;
+  FeContact contact;
+  FeSteps steps;
+};
+
+/// The deck as text (SI units).
+/// @throws InvalidInputError naming the field: no stump, a node/element/face index out of range,
+///         a non-finite coordinate or force, a material or step value out of range, a socket
+///         without contact faces or a stump without skin faces when there is a socket, no load
+///         at all (no forces and no socket).
+std::string write_deck(const DeckSpec& spec);
+
+/// Faces of @p mesh whose four nodes are the given quads (any order/rotation): maps a surface
+/// given by node quads (e.g. volume::SkinSurface::quads) to element faces.
+/// @throws InvalidInputError naming the first quad that is not a boundary face of the mesh.
+std::vector<HexFace> faces_of_quads(const volume::HexMesh& mesh,
+                                    const std::vector<std::array<int, 4>>& quads);
+
+/// A rigid shell from a surface of quads facing a body: the quads (node ids into @p points,
+/// counter-clockwise seen from the side away from the body, i.e. their normal points away from
+/// the body) extruded by @p thickness_m along the per-point @p normals (away from the body).
+/// The contact faces are the quads themselves (face S1 of each shell element).
+/// @throws InvalidInputError when sizes differ, an index is out of range, or thickness ≤ 0.
+RigidShell extrude_shell(const std::vector<Vec3>& points, const std::vector<Vec3>& normals,
+                         const std::vector<std::array<int, 4>>& quads, double thickness_m);
+
+}  // namespace socketsmith::fe

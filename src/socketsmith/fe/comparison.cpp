@@ -1,0 +1,74 @@
+#include "socketsmith/fe/comparison.h"
+
+#include <cmath>
+#include <limits>
+
+#include "socketsmith/core/errors.h"
+
+namespace socketsmith::fe {
+
+ErrorStats compare_fields(const std::vector<double>& a, const std::vector<double>& b, const std::vector<int>& subset) {
+  require(a.size() == b.size(), "compare_fields: the fields have {} and {} values (expected the same points)", a.size(),
+          b.size());
+  const int n = static_cast<int>(a.size());
+  std::vector<int> idx = subset;
+  if (idx.empty()) {
+    idx.resize(n);
+    for (int i = 0; i < n; ++i) idx[i] = i;
+  }
+  ErrorStats s;
+  double sa = 0, sb = 0, se = 0, se2 = 0, sd = 0;
+  for (int i : idx) {
+    require(i >= 0 && i < n, "compare_fields: subset index {} is out of range ({} values)", i, n);
+    if (!std::isfinite(a[i]) || !std::isfinite(b[i])) continue;
+    const double d = a[i] - b[i], e = std::abs(d);
+    ++s.count;
+    sa += a[i];
+    sb += b[i];
+    se += e;
+    se2 += e * e;
+    sd += d;
+    if (e > s.max_error || s.max_index < 0) {
+      s.max_error = e;
+      s.max_index = i;
+    }
+  }
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  if (s.count == 0) {
+    s.mae = s.sd = s.rmse = s.bias = s.r = s.mean_a = s.mean_b = nan;
+    return s;
+  }
+  const double c = s.count;
+  s.mean_a = sa / c;
+  s.mean_b = sb / c;
+  s.mae = se / c;
+  s.bias = sd / c;
+  s.rmse = std::sqrt(se2 / c);
+  s.sd = std::sqrt(std::max(0.0, se2 / c - s.mae * s.mae));
+  double saa = 0, sbb = 0, sab = 0;
+  for (int i : idx) {
+    if (!std::isfinite(a[i]) || !std::isfinite(b[i])) continue;
+    const double da = a[i] - s.mean_a, db = b[i] - s.mean_b;
+    saa += da * da;
+    sbb += db * db;
+    sab += da * db;
+  }
+  s.r = (s.count >= 2 && saa > 0 && sbb > 0) ? sab / std::sqrt(saa * sbb) : nan;
+  return s;
+}
+
+nlohmann::json to_json(const ErrorStats& s, double scale, const std::string& suffix) {
+  const auto num = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
+  return {{"count", s.count},
+          {"mae" + suffix, num(s.mae * scale)},
+          {"sd" + suffix, num(s.sd * scale)},
+          {"rmse" + suffix, num(s.rmse * scale)},
+          {"bias" + suffix, num(s.bias * scale)},
+          {"r", num(s.r)},
+          {"max_err" + suffix, num(s.max_error * scale)},
+          {"max_index", s.max_index},
+          {"mean_a" + suffix, num(s.mean_a * scale)},
+          {"mean_b" + suffix, num(s.mean_b * scale)}};
+}
+
+}  // namespace socketsmith::fe

@@ -1,0 +1,36 @@
+#pragma once
+/// @file comparison.h
+/// Agreement between two fields on the same points (socketsmith vs CalculiX): mean absolute
+/// error and its standard deviation, RMSE, bias, Pearson R, the largest error and where — the
+/// thesis's measures (ch. 3.6, 5.5).
+
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+namespace socketsmith::fe {
+
+struct ErrorStats {
+  int count = 0;          ///< points compared
+  double mae = 0;         ///< mean |a − b|
+  double sd = 0;          ///< standard deviation of |a − b| (the thesis's "± x kPa")
+  double rmse = 0;        ///< sqrt(mean (a − b)²)
+  double bias = 0;        ///< mean (a − b)
+  double r = 0;           ///< Pearson correlation; NaN when either field is constant or count < 2
+  double max_error = 0;   ///< max |a − b|
+  int max_index = -1;     ///< index (into the inputs) of max_error
+  double mean_a = 0, mean_b = 0;
+};
+
+/// Statistics of @p a against @p b over @p subset (indices; all points when empty). Points where
+/// either value is not finite are skipped.
+/// @throws InvalidInputError when a and b differ in size or a subset index is out of range.
+ErrorStats compare_fields(const std::vector<double>& a, const std::vector<double>& b, const std::vector<int>& subset = {});
+
+/// The statistics scaled by @p scale (e.g. 1e-3 for Pa → kPa; r and count unchanged) as JSON:
+/// {count, mae, sd, rmse, bias, r, max_err, max_index, mean_a, mean_b} with @p suffix appended to
+/// the names of scaled values ("_kpa": mae_kpa, sd_kpa, max_err_kpa...). NaN becomes null.
+nlohmann::json to_json(const ErrorStats& s, double scale = 1.0, const std::string& suffix = "");
+
+}  // namespace socketsmith::fe

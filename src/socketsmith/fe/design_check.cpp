@@ -1,0 +1,257 @@
+#include "socketsmith/fe/design_check.h"
+
+#include <algorithm>
+#include <cmath>
+#include <deque>
+#include <numbers>
+
+#include "socketsmith/core/atomic_file.h"
+#include "socketsmith/core/errors.h"
+#include "socketsmith/fe/dat_reader.h"
+#include "socketsmith/fe/frd_reader.h"
+#include "socketsmith/report/design_report.h"
+
+namespace socketsmith::fe {
+namespace {
+
+/// Neighbours of each skin node along the quads' edges.
+std::vector<std::vector<int>> skin_neighbours(const volume::SkinSurface& skin, const std::vector<int>& skin_of) {
+  std::vector<std::vector<int>> adj(skin.nodes.size());
+  for (const auto& q : skin.quads)
+    for (int k = 0; k < 4; ++k) {
+      const int a = skin_of[q[k]], b = skin_of[q[(k + 1) % 4]];
+      if (std::find(adj[a].begin(), adj[a].end(), b) == adj[a].end()) {
+        adj[a].push_back(b);
+        adj[b].push_back(a);
+      }
+    }
+  return adj;
+}
+
+/// Area-weighted mean of @p v over each node and its neighbours.
+std::vector<double> smooth_one_ring(const std::vector<double>& v, const std::vector<std::vector<int>>& adj,
+                                    const std::vector<double>& area) {
+  std::vector<double> out(v.size());
+  for (size_t i = 0; i < v.size(); ++i) {
+    double sw = area[i], s = area[i] * v[i];
+    for (int j : adj[i]) {
+      sw += area[j];
+      s += area[j] * v[j];
+    }
+    out[i] = sw > 0 ? s / sw : v[i];
+  }
+  return out;
+}
+
+/// Rings of skin quads from the nodes above the brim (0 there; 2^29 when there are none).
+std::vector<int> brim_rings(const std::vector<std::vector<int>>& adj, const std::vector<char>& above) {
+  const int n = static_cast<int>(adj.size());
+  std::vector<int> ring(n, 1 << 29);
+  std::deque<int> queue;
+  for (int i = 0; i < n; ++i)
+    if (above[i]) {
+      ring[i] = 0;
+      queue.push_back(i);
+    }
+  while (!queue.empty()) {
+    const int i = queue.front();
+    queue.pop_front();
+    for (int j : adj[i])
+      if (ring[j] > ring[i] + 1) {
+        ring[j] = ring[i] + 1;
+        queue.push_back(j);
+      }
+  }
+  return ring;
+}
+
+void check_input(const DesignedStump& d, const DesignCheckOptions& o) {
+  require(d.mesh && d.skin, "check_design: no stump mesh or skin surface");
+  const size_t nn = d.mesh->nodes.size(), ns = d.skin->nodes.size();
+  require(d.designed_positions.size() == nn, "check_design: {} designed positions for {} nodes", d.designed_positions.size(), nn);
+  require(d.pressure_pa.size() == ns && d.skin_normals.size() == ns && d.skin_areas_m2.size() == ns && d.above_brim.size() == ns,
+          "check_design: per-skin-node fields have sizes {}, {}, {}, {} (expected {} skin nodes)", d.pressure_pa.size(),
+          d.skin_normals.size(), d.skin_areas_m2.size(), d.above_brim.size(), ns);
+  require(o.clearance_m > 0, "check_design: clearance {} m (expected > 0)", o.clearance_m);
+  require(o.socket_thickness_m > 0, "check_design: socket thickness {} m (expected > 0)", o.socket_thickness_m);
+  require(std::any_of(d.above_brim.begin(), d.above_brim.end(), [](char c) { return !c; }),
+          "check_design: every skin node is above the brim (no socket to check)");
+}
+
+}  // namespace
+
+std::string to_string(DesignCheckMode mode) {
+  switch (mode) {
+    case DesignCheckMode::Contact: return "contact";
+    case DesignCheckMode::Load: return "load";
+    case DesignCheckMode::Donning: return "donning";
+  }
+  return "contact";
+}
+
+DesignCheckMode parse_design_check_mode(const std::string& text) {
+  if (text == "contact") return DesignCheckMode::Contact;
+  if (text == "load") return DesignCheckMode::Load;
+  if (text == "donning") return DesignCheckMode::Donning;
+  fail("FE check mode '{}' is not known (expected contact, load or donning)", text);
+}
+
+DesignCheckResult check_design(const DesignedStump& d, const DesignCheckOptions& o, const std::filesystem::path& dir,
+                               const std::string& job) {
+  check_input(d, o);
+  find_ccx(o.ccx.executable);
+  const auto& mesh = *d.mesh;
+  const auto& skin = *d.skin;
+  const int ns = static_cast<int>(skin.nodes.size());
+  std::vector<int> skin_of(mesh.nodes.size(), -1);
+  for (int i = 0; i < ns; ++i) skin_of[skin.nodes[i]] = i;
+
+  DesignCheckResult res;
+  res.mode = o.mode;
+  res.nodes = mesh.num_nodes();
+  res.elements = mesh.num_hexahedra();
+  const auto adj = skin_neighbours(skin, skin_of);
+  res.brim_ring = brim_rings(adj, d.above_brim);
+  Vec3 f_design = Vec3::Zero();
+  for (int i = 0; i < ns; ++i) f_design += d.pressure_pa[i] * d.skin_areas_m2[i] * d.skin_normals[i];
+  res.designed_force_n = f_design.norm();
+
+  DeckSpec spec;
+  spec.title = fmt::format("socketsmith validate design ({} check)", to_string(o.mode));
+  spec.stump = &mesh;
+  spec.fixed_nodes = d.fixed_nodes;
+  spec.material = o.material;
+  spec.element = o.element;
+  spec.contact = o.contact;
+  spec.steps.initial_increment = o.initial_increment;
+  spec.steps.max_increment = std::max(o.max_increment, o.initial_increment);
+  spec.steps.min_increment = std::min(1e-5, o.initial_increment);
+  RigidShell shell;
+  const bool contact = o.mode != DesignCheckMode::Load;
+  if (contact) {
+    std::vector<std::array<int, 4>> socket_quads;  // local skin ids
+    for (const auto& q : skin.quads) {
+      std::array<int, 4> l{skin_of[q[0]], skin_of[q[1]], skin_of[q[2]], skin_of[q[3]]};
+      if (!d.above_brim[l[0]] && !d.above_brim[l[1]] && !d.above_brim[l[2]] && !d.above_brim[l[3]]) socket_quads.push_back(l);
+    }
+    require(!socket_quads.empty(), "check_design: no skin quad lies wholly below the brim (no socket to check)");
+    std::vector<Vec3> start(ns), rest_normal(ns);
+    for (int i = 0; i < ns; ++i) {
+      rest_normal[i] = skin.normal[i].normalized();
+      start[i] = mesh.nodes[skin.nodes[i]] + o.clearance_m * rest_normal[i];
+    }
+    if (o.mode == DesignCheckMode::Donning) {
+      require(o.donning_travel_m > 0, "check_design: donning travel {} m (expected > 0)", o.donning_travel_m);
+      // The designed socket, rigid, moved distally; pushed back up by the reference node.
+      std::vector<Vec3> inner(ns), normal(ns);
+      const Vec3 down = -o.donning_travel_m * d.frame.axis.normalized();
+      for (int i = 0; i < ns; ++i) {
+        inner[i] = d.designed_positions[skin.nodes[i]] + down;
+        normal[i] = d.skin_normals[i].normalized();
+      }
+      shell = extrude_shell(inner, normal, socket_quads, o.socket_thickness_m);
+      spec.steps.donning_travel_m = -down;
+    } else {
+      shell = extrude_shell(start, rest_normal, socket_quads, o.socket_thickness_m);
+    }
+    const int ni = o.mode == DesignCheckMode::Donning ? 0 : static_cast<int>(shell.source_points.size());
+    if (ni > 0) spec.socket_node_displacements.resize(shell.nodes.size());
+    for (int k = 0; k < ni; ++k) {
+      const int i = shell.source_points[k];
+      const Vec3 target = d.designed_positions[skin.nodes[i]];
+      spec.socket_node_displacements[k] = target - shell.nodes[k];
+      spec.socket_node_displacements[ni + k] =
+          target + o.socket_thickness_m * d.skin_normals[i].normalized() - shell.nodes[ni + k];
+    }
+    spec.socket = &shell;
+    spec.skin_faces = faces_of_quads(mesh, skin.quads);
+    res.socket_elements = static_cast<int>(shell.hexahedra.size());
+  } else {
+    for (int i = 0; i < ns; ++i)
+      if (d.pressure_pa[i] > 0)
+        spec.nodal_forces.push_back({skin.nodes[i], -d.pressure_pa[i] * d.skin_areas_m2[i] * d.skin_normals[i]});
+  }
+  ensure_directory(dir);
+  res.deck = dir / (job + ".inp");
+  write_text_atomically(res.deck, write_deck(spec));
+  CcxOptions co = o.ccx;
+  co.num_steps = 1;
+  res.ccx = run_ccx(dir, job, co);
+  res.converged = res.ccx.converged;
+  res.message = res.ccx.message;
+
+  FrdResults frd;
+  if (std::filesystem::exists(res.ccx.frd)) frd = read_frd(res.ccx.frd);
+  const FrdBlock* disp = frd.last("DISP");
+  const FrdBlock* cont = contact ? frd.last("CONTACT") : nullptr;
+  if (!disp || (contact && !cont))
+    fail<SolverError>("validate design: CalculiX produced no converged increment: {}", res.ccx.message);
+  if (!res.converged)
+    res.message = fmt::format("PARTIAL results (step time {:.3f} of 1): {}", disp->time, res.ccx.message);
+  const int nn = mesh.num_nodes();
+  {
+    const auto u1 = disp->dense("D1", nn), u2 = disp->dense("D2", nn), u3 = disp->dense("D3", nn);
+    res.fe_displacement_m.resize(nn);
+    for (int k = 0; k < nn; ++k) res.fe_displacement_m[k] = Vec3(u1[k], u2[k], u3[k]);
+  }
+  res.socketsmith_value.assign(ns, 0.0);
+  res.fe_value.assign(ns, 0.0);
+  res.fe_penetration_m.assign(ns, 0.0);
+  std::vector<double> dat_time;
+  std::vector<DatBlock> dat;
+  if (std::filesystem::exists(res.ccx.dat)) dat = read_dat(res.ccx.dat);
+  if (contact) {
+    const auto cp = cont->dense("CPRESS", nn), copen = cont->dense("COPEN", nn);
+    for (int i = 0; i < ns; ++i) {
+      res.socketsmith_value[i] = d.pressure_pa[i];
+      res.fe_value[i] = cp[skin.nodes[i]];
+      res.fe_penetration_m[i] = std::max(0.0, -copen[skin.nodes[i]]);
+      res.max_penetration_m = std::max(res.max_penetration_m, res.fe_penetration_m[i]);
+    }
+    if (const auto* st = last_block(dat, "statistics", "SLIMB"); st && !st->rows.empty() && st->rows[0].size() >= 3)
+      res.fe_force_n = Vec3(st->rows[0][0], st->rows[0][1], st->rows[0][2]).norm();
+  } else {
+    for (int i = 0; i < ns; ++i) {
+      const int v = skin.nodes[i];
+      res.socketsmith_value[i] = (d.designed_positions[v] - mesh.nodes[v]).norm();
+      res.fe_value[i] = res.fe_displacement_m[v].norm();
+    }
+    if (const auto* st = last_block(dat, "total force", "BONE"); st && !st->rows.empty() && st->rows[0].size() >= 3)
+      res.fe_force_n = Vec3(st->rows[0][0], st->rows[0][1], st->rows[0][2]).norm();
+  }
+  // Regions by rings from the brim.
+  std::vector<int> all, ring2, ring4;
+  for (int i = 0; i < ns; ++i) {
+    if (res.brim_ring[i] >= 1) all.push_back(i);
+    if (res.brim_ring[i] >= 2) ring2.push_back(i);
+    if (res.brim_ring[i] >= 4) ring4.push_back(i);
+  }
+  res.all = compare_fields(res.fe_value, res.socketsmith_value, all);
+  res.one_ring_away = compare_fields(res.fe_value, res.socketsmith_value, ring2);
+  res.away_from_brim = compare_fields(res.fe_value, res.socketsmith_value, ring4);
+  res.fe_value_smoothed = smooth_one_ring(res.fe_value, adj, skin.area_m2);
+  res.socketsmith_value_smoothed = smooth_one_ring(res.socketsmith_value, adj, skin.area_m2);
+  res.all_smoothed = compare_fields(res.fe_value_smoothed, res.socketsmith_value_smoothed, all);
+  res.away_from_brim_smoothed = compare_fields(res.fe_value_smoothed, res.socketsmith_value_smoothed, ring4);
+  res.mean_fe_pa = res.all.mean_a;
+  res.mean_designed_pa = res.all.mean_b;
+  // The thesis's paths, sampled on the rest skin as in the design report.
+  const auto sframe = report::surface_frame(d.frame);
+  for (const auto& path : report::thesis_paths(d.front_theta_rad, 0.5 * d.stump_length_m, skin.area_m2)) {
+    PathComparison pc;
+    pc.name = path.key;
+    pc.label = path.label;
+    pc.is_vertical = path.spec.kind == report::PathKind::Vertical;
+    for (const auto& smp : report::sample_path(skin.positions, {}, sframe, path.spec)) {
+      if (res.brim_ring[smp.index] < 1) continue;
+      pc.skin_index.push_back(smp.index);
+      pc.s.push_back(pc.is_vertical ? smp.s * 1e3 : smp.s * 180 / std::numbers::pi);
+    }
+    pc.stats = compare_fields(res.fe_value, res.socketsmith_value, pc.skin_index);
+    pc.smoothed = compare_fields(res.fe_value_smoothed, res.socketsmith_value_smoothed, pc.skin_index);
+    res.paths.push_back(std::move(pc));
+  }
+  return res;
+}
+
+}  // namespace socketsmith::fe

@@ -1,0 +1,111 @@
+#pragma once
+/// @file design_check.h
+/// The thesis's ch. 5 FE check of a designed socket, with CalculiX: the stump (same hexahedra,
+/// same ids, bones fixed) is put into the designed socket and CalculiX's contact pressure is
+/// compared with the pressure socketsmith designed, node by node, on regions (whole socket, away
+/// from the brim) and along the thesis's paths (front line through the patellar tendon, back
+/// line, mid-stump circumference).
+///
+/// Two modes:
+/// - Contact (the thesis's check): the socket is the designed (deformed) skin below the brim,
+///   one layer of C3D8; each socket node starts `clearance_m` outside the rest skin along its
+///   normal and is moved onto its designed position (a prescribed fit, step 1, NLGEOM), with
+///   surface-to-surface penalty contact and friction μ. Compared: nodal CPRESS vs designed p.
+/// - Donning (the thesis's procedure, step 1 only): the designed socket as a rigid body (one
+///   layer of C3D8 outside the designed skin, tied to a reference node) starts
+///   `donning_travel_m` distally along the limb axis and is pushed up by that travel under
+///   displacement control. Compared as Contact.
+/// - Load: the designed pressures as nodal forces p A (−n) at the designed geometry (what the
+///   design solve applied), no socket. Compared: FE displacement vs socketsmith's displacement,
+///   total applied force vs the bones' reaction.
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "socketsmith/fe/calculix_deck.h"
+#include "socketsmith/fe/ccx_runner.h"
+#include "socketsmith/fe/comparison.h"
+#include "socketsmith/geometry/limb_frame.h"
+#include "socketsmith/volume/hex_mesher.h"
+
+namespace socketsmith::fe {
+
+/// The designed state, as plain data (from the design pipeline).
+struct DesignedStump {
+  const volume::HexMesh* mesh = nullptr;       ///< rest stump, not owned
+  const volume::SkinSurface* skin = nullptr;   ///< rest skin (node ids, quads, normals), not owned
+  std::vector<int> fixed_nodes;                ///< bones and cut (mesh ids)
+  geometry::LimbFrame frame;
+  std::vector<Vec3> designed_positions;        ///< deformed position of every mesh node [m]
+  std::vector<double> pressure_pa;             ///< designed (applied) pressure per skin node [Pa]
+  std::vector<Vec3> skin_normals;              ///< deformed outward normals per skin node
+  std::vector<double> skin_areas_m2;           ///< deformed nodal areas per skin node [m²]
+  std::vector<char> above_brim;                ///< per skin node: above the brim (no socket)
+  double front_theta_rad = 0;                  ///< angle of the front line (through PT)
+  double stump_length_m = 0;                   ///< for the mid-stump circumference
+};
+
+enum class DesignCheckMode { Contact, Load, Donning };
+std::string to_string(DesignCheckMode mode);
+/// "contact" | "load" | "donning". @throws InvalidInputError otherwise.
+DesignCheckMode parse_design_check_mode(const std::string& text);
+
+struct DesignCheckOptions {
+  DesignCheckMode mode = DesignCheckMode::Contact;
+  FeMaterial material;                 ///< E from the case; ν = 0.45 (thesis)
+  ElementType element = ElementType::C3D8;
+  FeContact contact{1e9, 0.5, 5e7};    ///< penalty 1e9 Pa/m: 20 kPa penetrates 0.02 mm
+  double clearance_m = 1e-3;           ///< start of the fit outside the rest skin [m], > 0
+  double socket_thickness_m = 3e-3;    ///< the rigid layer [m], > 0
+  double donning_travel_m = 0.03;      ///< Donning: start this far distally along the axis [m], > 0
+  double initial_increment = 0.05;
+  double max_increment = 0.1;
+  CcxOptions ccx;
+};
+
+/// Per-path comparison.
+struct PathComparison {
+  std::string name;           ///< "front", "back", "mid"
+  std::string label;          ///< "front line (through the patellar tendon)", ...
+  bool is_vertical = true;
+  std::vector<int> skin_index;  ///< skin nodes along the path, in order
+  std::vector<double> s;        ///< path coordinate: mm (vertical) or degrees (circumference)
+  ErrorStats stats;             ///< FE vs socketsmith on the path (Pa or m)
+  ErrorStats smoothed;          ///< the same on the one-ring smoothed fields
+};
+
+struct DesignCheckResult {
+  DesignCheckMode mode = DesignCheckMode::Contact;
+  /// Compared field per skin node: pressure [Pa] (Contact) or displacement magnitude [m] (Load).
+  std::vector<double> socketsmith_value, fe_value;
+  std::vector<double> fe_penetration_m;   ///< −COPEN where > 0 (Contact), per skin node
+  std::vector<Vec3> fe_displacement_m;    ///< per mesh node (last increment)
+  std::vector<int> brim_ring;             ///< per skin node: rings of quads from the brim (0 = above)
+  ErrorStats all;                         ///< socket nodes (ring ≥ 1)
+  ErrorStats one_ring_away;               ///< ring ≥ 2
+  ErrorStats away_from_brim;              ///< ring ≥ 4
+  /// Both fields averaged over each node's one ring (area-weighted): separates the pattern from
+  /// node-level scatter of nodal CPRESS (CALCULIX.md: ±40 % between formulations).
+  std::vector<double> socketsmith_value_smoothed, fe_value_smoothed;
+  ErrorStats all_smoothed, away_from_brim_smoothed;
+  std::vector<PathComparison> paths;      ///< front, back, mid
+  double designed_force_n = 0;            ///< |Σ p A n| of the design [N]
+  double fe_force_n = 0;                  ///< |contact force| (Contact) or |bone reaction| (Load) [N]
+  double mean_designed_pa = 0, mean_fe_pa = 0;  ///< over the socket nodes (Contact)
+  double max_penetration_m = 0;
+  int nodes = 0, elements = 0, socket_elements = 0;
+  CcxRun ccx;
+  std::filesystem::path deck;
+  bool converged = false;
+  std::string message;                    ///< ccx's message (partial results when not converged)
+};
+
+/// Writes <dir>/<job>.inp, runs ccx, reads and compares. When ccx fails after some increments,
+/// the last converged increment is compared and the result says so (converged = false).
+/// @throws InvalidInputError for inconsistent input or a missing ccx; SolverError when ccx
+///         produced no usable increment (deck and log kept in @p dir).
+DesignCheckResult check_design(const DesignedStump& stump, const DesignCheckOptions& options,
+                               const std::filesystem::path& dir, const std::string& job = "design");
+
+}  // namespace socketsmith::fe

@@ -1,0 +1,202 @@
+#include "socketsmith/fe/calculix_deck.h"
+#include "socketsmith/fe/design_check.h"
+
+#include <map>
+#include <sstream>
+
+#include <gtest/gtest.h>
+
+#include "socketsmith/core/errors.h"
+#include "socketsmith/volume/box_mesher.h"
+
+namespace socketsmith::fe {
+namespace {
+
+/// The deck's keyword blocks: keyword line → data lines.
+std::multimap<std::string, std::vector<std::string>> parse_blocks(const std::string& deck) {
+  std::multimap<std::string, std::vector<std::string>> out;
+  std::istringstream in(deck);
+  std::string line;
+  std::vector<std::string>* cur = nullptr;
+  while (std::getline(in, line)) {
+    if (line.starts_with("**")) continue;
+    if (line.starts_with("*")) {
+      cur = &out.emplace(line, std::vector<std::string>{})->second;
+    } else if (cur) {
+      cur->push_back(line);
+    }
+  }
+  return out;
+}
+
+std::vector<double> numbers(const std::string& line) {
+  std::vector<double> v;
+  std::string s = line;
+  for (auto& c : s)
+    if (c == ',') c = ' ';
+  std::istringstream in(s);
+  double x;
+  while (in >> x) v.push_back(x);
+  return v;
+}
+
+struct Box {
+  volume::HexMesh mesh;
+  std::vector<HexFace> top;
+  std::vector<std::array<int, 4>> top_quads;
+  Box() {
+    volume::BoxMeshOptions o;
+    o.size = Vec3(0.02, 0.02, 0.02);
+    o.divisions = {2, 2, 2};
+    mesh = volume::mesh_box(o);
+    for (int j = 0; j < 2; ++j)
+      for (int i = 0; i < 2; ++i)
+        top_quads.push_back({volume::box_node_index(o.divisions, i, j, 2), volume::box_node_index(o.divisions, i + 1, j, 2),
+                             volume::box_node_index(o.divisions, i + 1, j + 1, 2),
+                             volume::box_node_index(o.divisions, i, j + 1, 2)});
+    top = faces_of_quads(mesh, top_quads);
+  }
+};
+
+/// A plate (one shell element) over the box's top at height @p z, and a deck with the box and it.
+struct BoxAndPlate {
+  Box b;
+  RigidShell plate;
+  DeckSpec spec;
+  explicit BoxAndPlate(double z) {
+    const std::vector<Vec3> pts{{-0.01, -0.01, z}, {0.03, -0.01, z}, {0.03, 0.03, z}, {-0.01, 0.03, z}};
+    plate = extrude_shell(pts, std::vector<Vec3>(4, Vec3::UnitZ()), {{0, 1, 2, 3}}, 0.002);
+    spec.stump = &b.mesh;
+    spec.fixed_nodes = {0};
+    spec.skin_faces = b.top;
+    spec.socket = &plate;
+  }
+};
+
+TEST(CalculixDeck, nodes_elements_sets_and_loads_read_back) {
+  Box b;
+  DeckSpec s;
+  s.stump = &b.mesh;
+  s.fixed_nodes = {0, 1, 2};
+  s.nodal_forces = {{26, Vec3(0, 0, -1.5)}};
+  s.material.youngs_modulus_pa = 100e3;
+  s.material.poisson_ratio = 0.45;
+  const auto blocks = parse_blocks(write_deck(s));
+  const auto& nodes = blocks.find("*NODE, NSET=NLIMB")->second;
+  ASSERT_EQ(nodes.size(), 27u);
+  for (int i = 0; i < 27; ++i) {
+    const auto v = numbers(nodes[i]);
+    ASSERT_EQ(v.size(), 4u);
+    EXPECT_EQ(v[0], i + 1);
+    EXPECT_NEAR(v[1], b.mesh.nodes[i].x(), 1e-12);
+    EXPECT_NEAR(v[3], b.mesh.nodes[i].z(), 1e-12);
+  }
+  const auto& elems = blocks.find("*ELEMENT, TYPE=C3D8, ELSET=LIMB")->second;
+  ASSERT_EQ(elems.size(), 8u);
+  for (int e = 0; e < 8; ++e) {
+    const auto v = numbers(elems[e]);
+    ASSERT_EQ(v.size(), 9u);
+    for (int k = 0; k < 8; ++k) EXPECT_EQ(v[k + 1], b.mesh.hexahedra[e][k] + 1);
+  }
+  EXPECT_EQ(numbers(blocks.find("*NSET, NSET=BONE")->second.at(0)), (std::vector<double>{1, 2, 3}));
+  const auto& el = blocks.find("*ELASTIC")->second;
+  EXPECT_EQ(numbers(el.at(0)), (std::vector<double>{100e3, 0.45}));
+  const auto& cl = blocks.find("*CLOAD")->second;
+  ASSERT_EQ(cl.size(), 1u);
+  EXPECT_EQ(numbers(cl[0]), (std::vector<double>{27, 3, -1.5}));
+  EXPECT_EQ(blocks.count("*CONTACT PAIR, INTERACTION=SI, TYPE=SURFACE TO SURFACE"), 0u);
+  EXPECT_EQ(blocks.count("*STEP, NLGEOM, INC=1000"), 1u);
+}
+
+TEST(CalculixDeck, socket_contact_and_the_two_steps_follow_calculix_md) {
+  BoxAndPlate bp(0.02);
+  DeckSpec& s = bp.spec;
+  s.contact.friction = 0.5;
+  s.steps.donning_travel_m = Vec3(0, 0, 0.03);
+  s.steps.axial_load_n = 300;
+  s.steps.donning_force_n = 150;
+  const std::string deck = write_deck(s);
+  const auto blocks = parse_blocks(deck);
+  // Each top face is face S2 (+z, local face 1) of a top-layer element.
+  const auto& slimb = blocks.find("*SURFACE, NAME=SLIMB, TYPE=ELEMENT")->second;
+  ASSERT_EQ(slimb.size(), 4u);
+  for (const auto& l : slimb) EXPECT_NE(l.find(", S2"), std::string::npos) << l;
+  // Socket nodes and element follow the stump's ids; its contact face is S1, facing the stump.
+  EXPECT_EQ(blocks.find("*NODE, NSET=NSOCK")->second.size(), 8u);
+  EXPECT_EQ(blocks.find("*SURFACE, NAME=SSOCK, TYPE=ELEMENT")->second.at(0), "9, S1");
+  EXPECT_EQ(numbers(blocks.find("*FRICTION")->second.at(0)), (std::vector<double>{0.5, 5e7}));
+  EXPECT_EQ(numbers(blocks.find("*AMPLITUDE, NAME=A2")->second.at(0)), (std::vector<double>{0, 0.5, 1, 1}));
+  EXPECT_EQ(blocks.count("*STEP, NLGEOM, INC=1000"), 2u);
+  EXPECT_NE(deck.find("900001, 3, 3, 0.03\n"), std::string::npos);
+  EXPECT_NE(deck.find("*CLOAD, AMPLITUDE=A2\n900001, 3, 300\n"), std::string::npos);
+  EXPECT_NE(deck.find("*BOUNDARY, OP=NEW\nBONE, 1, 3\n900002, 1, 3\n900001, 1, 1\n900001, 2, 2\n"), std::string::npos);
+  EXPECT_NE(deck.find("*RIGID BODY, NSET=NSOCK, REF NODE=900001, ROT NODE=900002"), std::string::npos);
+  EXPECT_EQ(deck.find("ENCASTRE"), std::string::npos);  // CALCULIX.md: fails in ccx
+}
+
+TEST(CalculixDeck, a_shell_with_prescribed_node_displacements_is_not_a_rigid_body) {
+  BoxAndPlate bp(0.021);
+  DeckSpec& s = bp.spec;
+  s.socket_node_displacements.assign(8, Vec3(0, 0, -0.002));
+  const std::string deck = write_deck(s);
+  EXPECT_EQ(deck.find("*RIGID BODY"), std::string::npos);
+  EXPECT_EQ(deck.find("900001"), std::string::npos);
+  // Socket nodes 28..35, each moved in x, y, z.
+  EXPECT_NE(deck.find("28, 3, 3, -0.002\n"), std::string::npos);
+  EXPECT_NE(deck.find("35, 1, 1, 0\n"), std::string::npos);
+  s.socket_node_displacements.resize(3);
+  EXPECT_THROW(write_deck(s), InvalidInputError);
+  s.socket_node_displacements.assign(8, Vec3::Zero());
+  s.steps.axial_load_n = 100;
+  EXPECT_THROW(write_deck(s), InvalidInputError);  // a load step needs a rigid socket
+}
+
+TEST(CalculixDeck, extruded_shell_elements_are_not_inverted_and_face_the_body) {
+  // A quad facing +z (counter-clockwise seen from above) over a body below it.
+  const std::vector<Vec3> pts{{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
+  const auto sh = extrude_shell(pts, std::vector<Vec3>(4, Vec3::UnitZ()), {{0, 1, 2, 3}}, 0.1);
+  volume::HexMesh m;
+  m.nodes = sh.nodes;
+  m.hexahedra = sh.hexahedra;
+  m.node_tags.assign(m.nodes.size(), 0);
+  EXPECT_NO_THROW(volume::validate(m));
+  EXPECT_NEAR(volume::total_volume(m), 0.1, 1e-12);
+  // The contact face S1 = local face 0 lies on the quad (z = 0), its outward normal is −z (towards the body).
+  ASSERT_EQ(sh.contact_faces.size(), 1u);
+  const auto& f = volume::kHexFaces[sh.contact_faces[0].local_face];
+  const Vec3 a = m.nodes[sh.hexahedra[0][f[0]]], b = m.nodes[sh.hexahedra[0][f[1]]], c = m.nodes[sh.hexahedra[0][f[2]]];
+  EXPECT_LT((b - a).cross(c - a).z(), 0);
+  for (int k = 0; k < 4; ++k) EXPECT_EQ(m.nodes[sh.hexahedra[0][f[k]]].z(), 0.0);
+}
+
+TEST(CalculixDeck, bad_input_names_the_field) {
+  Box b;
+  DeckSpec s;
+  EXPECT_THROW(write_deck(s), InvalidInputError);
+  s.stump = &b.mesh;
+  try {
+    write_deck(s);
+    FAIL();
+  } catch (const InvalidInputError& e) {
+    EXPECT_NE(std::string(e.what()).find("nothing loads the stump"), std::string::npos);
+  }
+  s.nodal_forces = {{99, Vec3(1, 0, 0)}};
+  EXPECT_THROW(write_deck(s), InvalidInputError);
+  s.nodal_forces = {{3, Vec3(1, 0, 0)}};
+  s.material.poisson_ratio = 0.5;
+  try {
+    write_deck(s);
+    FAIL();
+  } catch (const InvalidInputError& e) {
+    EXPECT_NE(std::string(e.what()).find("Poisson ratio 0.5"), std::string::npos);
+  }
+  EXPECT_THROW(faces_of_quads(b.mesh, {{0, 1, 2, 3}}), InvalidInputError);  // an interior quad
+  EXPECT_THROW(parse_element_type("C3D20"), InvalidInputError);
+  EXPECT_EQ(parse_element_type("c3d8i"), ElementType::C3D8I);
+  EXPECT_EQ(parse_design_check_mode("donning"), DesignCheckMode::Donning);
+  EXPECT_EQ(to_string(DesignCheckMode::Load), "load");
+  EXPECT_THROW(parse_design_check_mode("abaqus"), InvalidInputError);
+}
+
+}  // namespace
+}  // namespace socketsmith::fe

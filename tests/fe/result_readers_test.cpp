@@ -1,0 +1,154 @@
+// The readers on excerpts of files written by ccx 2.20 (a one-element cube under a rigid plate;
+// the deck is in calculix_deck_test's style), cut to a few records.
+#include <gtest/gtest.h>
+
+#include "socketsmith/core/errors.h"
+#include "socketsmith/fe/dat_reader.h"
+#include "socketsmith/fe/frd_reader.h"
+
+namespace socketsmith::fe {
+namespace {
+
+const char* kFrd = R"(    1C
+    1UVERSION           Version 2.20                             
+    2C                            3                                     1
+ -1         1 0.00000E+00 0.00000E+00 0.00000E+00
+ -1         2 1.00000E+00 0.00000E+00 0.00000E+00
+ -1        11-5.00000E-01-5.00000E-01 1.00000E+00
+ -3
+    3C                             1                                     1
+ -1         1    1    0    1
+ -2         1         2         3         4         5         6         7         8
+ -3
+    1PSTEP                         1           1           1          
+  100CL  101 2.50000E-01           3                     0    1           1
+ -4  DISP        4    1
+ -5  D1          1    2    1    0
+ -5  D2          1    2    2    0
+ -5  D3          1    2    3    0
+ -5  ALL         1    2    0    0    1ALL
+ -1         1 0.00000E+00 0.00000E+00 0.00000E+00
+ -1         2 7.50000E-04 0.00000E+00 0.00000E+00
+ -1        11 0.00000E+00 0.00000E+00-2.50025E-03
+ -3
+    1PSTEP                         3           1           1          
+  100CL  101 2.50000E-01           3                     0    1           1
+ -4  CONTACT     6    1
+ -5  COPEN       1    4    1    1
+ -5  CSLIP1      1    4    2    2
+ -5  CSLIP2      1    4    3    3
+ -5  CPRESS      1    4    1    2
+ -5  CSHEAR1     1    4    2    3
+ -5  CSHEAR2     1    4    3    1
+ -1         1 0.00000E+00 0.00000E+00 0.00000E+00 0.00000E+00 0.00000E+00 0.00000E+00
+ -1         2-2.50000E-07 0.00000E+00 0.00000E+00 2.50000E+02 0.00000E+00 0.00000E+00
+ -3
+    1PSTEP                         5           2           1          
+  100CL  102 5.00000E-01           3                     0    2           1
+ -4  DISP        4    1
+ -5  D1          1    2    1    0
+ -5  D2          1    2    2    0
+ -5  D3          1    2    3    0
+ -5  ALL         1    2    0    0    1ALL
+ -1         1 0.00000E+00 0.00000E+00 0.00000E+00
+ -1         2 1.50000E-03 0.00000E+00 0.00000E+00
+ -1        11 0.00000E+00 0.00000E+00-5.00066E-03
+ -3
+ 9999
+)";
+
+const char* kDat = R"(
+ displacements (vx,vy,vz) for set REF and time  0.2500000E+00
+
+    900001  0.000000E+00  0.000000E+00 -2.500250E-03
+
+ forces (fx,fy,fz) for set REF and time  0.2500000E+00
+
+    900001  0.000000E+00  8.496473E-16 -2.500000E+02
+
+
+ statistics for slave set SLIMB, master set SSOCK and time  0.2500000E+00
+
+   total surface force (fx,fy,fz) and moment about the origin (mx,my,mz)
+
+    0.000000E+00  8.496473E-16 -2.500000E+02 -1.250938E+02  1.250938E+02  6.496762E-16
+
+   center of gravity and mean normal
+
+    5.003750E-01  5.003750E-01  9.975000E-01  0.000000E+00 -3.398589E-18  1.000000E+00
+
+   moment about the center of gravity(mx,my,mz)
+
+   -2.401193E-09 -1.164452E-09  2.245340E-16
+
+   area,  normal force (+ = tension) and shear force (size)
+
+    1.000000E+00 -2.500000E+02  9.561586E-26
+
+ forces (fx,fy,fz) for set REF and time  0.5000000E+00
+
+    900001  0.000000E+00  1.284750E-15 -5.000000E+02
+)";
+
+TEST(FrdReader, nodes_and_blocks_of_every_increment) {
+  const auto r = parse_frd(kFrd, "fixture");
+  ASSERT_EQ(r.node_ids.size(), 3u);
+  EXPECT_EQ(r.node_ids[2], 11);
+  EXPECT_DOUBLE_EQ(r.node_positions[2].x(), -0.5);
+  EXPECT_DOUBLE_EQ(r.node_positions[2].z(), 1.0);
+  ASSERT_EQ(r.blocks.size(), 3u);
+  const auto* c = r.last("CONTACT");
+  ASSERT_NE(c, nullptr);
+  EXPECT_EQ(c->components.size(), 6u);
+  EXPECT_EQ(c->component_index("CPRESS"), 3);
+  EXPECT_DOUBLE_EQ(c->time, 0.25);
+  const auto p = c->dense("CPRESS", 11);
+  EXPECT_DOUBLE_EQ(p[1], 250.0);
+  EXPECT_DOUBLE_EQ(p[0], 0.0);
+  EXPECT_DOUBLE_EQ(c->dense("COPEN", 11)[1], -2.5e-7);
+  const auto* d = r.last("DISP");
+  ASSERT_NE(d, nullptr);
+  EXPECT_EQ(d->increment, 2);
+  EXPECT_EQ(d->step, 1);
+  EXPECT_DOUBLE_EQ(d->time, 0.5);
+  EXPECT_EQ(d->components, (std::vector<std::string>{"D1", "D2", "D3"}));
+  EXPECT_DOUBLE_EQ(d->dense("D3", 11)[10], -5.00066e-3);
+  EXPECT_DOUBLE_EQ(d->dense("D1", 11)[1], 1.5e-3);
+  EXPECT_THROW(d->dense("CPRESS", 11), InvalidInputError);
+  EXPECT_EQ(r.last("STRESS"), nullptr);
+}
+
+TEST(FrdReader, malformed_and_truncated_files_are_errors) {
+  std::string bad = kFrd;
+  bad.replace(bad.find("2.50000E+02"), 11, "2.5000xE+02");
+  EXPECT_THROW(parse_frd(bad, "bad"), InvalidInputError);
+  std::string cut(kFrd);
+  cut = cut.substr(0, cut.find(" -1         2-2.50000E-07")) + " -1         2-2.50000E-07 0.00000E+00\n -3\n";
+  EXPECT_THROW(parse_frd(cut, "cut"), InvalidInputError);
+  EXPECT_THROW(read_frd("/nonexistent/job.frd"), IoError);
+}
+
+TEST(DatReader, node_prints_and_contact_statistics) {
+  const auto b = parse_dat(kDat, "fixture");
+  ASSERT_EQ(b.size(), 4u);
+  EXPECT_EQ(b[0].title, "displacements (vx,vy,vz)");
+  EXPECT_EQ(b[0].set, "REF");
+  EXPECT_DOUBLE_EQ(b[0].time, 0.25);
+  ASSERT_EQ(b[0].rows.size(), 1u);
+  EXPECT_DOUBLE_EQ(b[0].rows[0][0], 900001);
+  EXPECT_DOUBLE_EQ(b[0].rows[0][3], -2.50025e-3);
+  EXPECT_EQ(b[2].title, "statistics");
+  EXPECT_EQ(b[2].set, "SLIMB");
+  ASSERT_EQ(b[2].rows.size(), 4u);
+  EXPECT_DOUBLE_EQ(b[2].rows[0][2], -250.0);
+  EXPECT_DOUBLE_EQ(b[2].rows[3][0], 1.0);   // contact area
+  EXPECT_DOUBLE_EQ(b[2].rows[3][1], -250);  // normal force
+  const auto* f = last_block(b, "forces", "ref");
+  ASSERT_NE(f, nullptr);
+  EXPECT_DOUBLE_EQ(f->time, 0.5);
+  EXPECT_DOUBLE_EQ(f->rows[0][3], -500.0);
+  EXPECT_EQ(last_block(b, "forces", "BONE"), nullptr);
+}
+
+}  // namespace
+}  // namespace socketsmith::fe
