@@ -1,0 +1,511 @@
+#include "socketsmith/pipeline/design_pipeline.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+#include "socketsmith/core/atomic_file.h"
+#include "socketsmith/core/errors.h"
+#include "socketsmith/core/log.h"
+#include "socketsmith/core/units.h"
+#include "socketsmith/geometry/mesh_checks.h"
+#include "socketsmith/geometry/mesh_io.h"
+#include "socketsmith/report/csv.h"
+#include "socketsmith/report/design_report.h"
+#include "socketsmith/report/vtk_writer.h"
+#include "socketsmith/volume/limb_generator.h"
+
+namespace socketsmith::pipeline {
+namespace {
+
+namespace fs = std::filesystem;
+using geometry::Vec3;
+
+nlohmann::json vec_json(const Vec3& v) { return {v.x(), v.y(), v.z()}; }
+
+/// The limb surface (and extra bones) of a case, in metres.
+std::pair<geometry::TriMesh, geometry::TriMesh> load_limb(const design::CaseFile& c, const fs::path& generated_stl,
+                                                          std::string& label) {
+  geometry::TriMesh limb, extra;
+  if (c.limb.file.empty()) {
+    auto p = volume::default_params(c.limb.type, c.limb.generate_seed);
+    if (c.limb.side) p.side = *c.limb.side;
+    const auto g = volume::generate_limb(p);
+    limb = volume::merge_shells(g);
+    if (!generated_stl.empty()) geometry::write_mesh(generated_stl, limb);
+    label = fmt::format("generated {} {} limb (seed {})", geometry::to_string(p.side), geometry::to_string(c.limb.type),
+                        c.limb.generate_seed);
+    return {limb, extra};
+  }
+  geometry::MeshReadOptions ro;
+  if (!c.limb.units.empty()) ro.unit = units::parse_length_unit(c.limb.units);
+  limb = geometry::read_mesh(design::resolve(c, c.limb.file), ro);
+  if (c.limb.bones != "auto" && c.limb.bones != "estimate" && c.limb.bones != "none")
+    extra = geometry::read_mesh(design::resolve(c, c.limb.bones), ro);
+  if (c.limb.bones == "estimate" || c.limb.bones == "none") {
+    auto parts = geometry::split_components(limb);
+    std::sort(parts.begin(), parts.end(),
+              [](const auto& a, const auto& b) { return geometry::surface_area(a) > geometry::surface_area(b); });
+    limb = parts.front();
+  }
+  label = c.limb.file;
+  return {limb, extra};
+}
+
+report::ReportSpot report_spot(const design::Spot& s) {
+  report::ReportSpot r;
+  r.name = s.name;
+  r.type = design::to_string(s.type);
+  r.amplitude_pa = s.amplitude_pa;
+  r.theta0_rad = s.theta0;
+  r.r_theta_rad = s.r_theta;
+  r.h0_m = s.h0;
+  r.r_h_m = s.r_h;
+  r.theta1_rad = s.theta1;
+  r.theta2_rad = s.theta2;
+  r.lambda_theta_per_rad = s.lambda_theta;
+  r.h1_m = s.h1;
+  r.h2_m = s.h2;
+  r.lambda_h_per_m = s.lambda_h;
+  r.is_enabled = s.enabled;
+  return r;
+}
+
+}  // namespace
+
+tissue::MassSpringOptions model_options(const design::CaseFile& c) {
+  tissue::MassSpringOptions o;
+  o.kind = tissue::parse_tissue_model(c.model);
+  // MSS and MSS-CF use Golec's springs with the thesis's A.
+  o.corrective = o.kind == tissue::TissueModelKind::MssCs ? tissue::CorrectiveSpringConstants::preset(c.constants)
+                                                          : tissue::CorrectiveSpringConstants::thesis();
+  return o;
+}
+
+tissue::TissueMaterial material(const design::CaseFile& c) { return {c.youngs_modulus_pa, c.density_kg_m3}; }
+
+std::unique_ptr<DesignSetup> prepare_design(const design::CaseFile& c, const fs::path& generated_limb_stl,
+                                            const ProgressCallback& progress) {
+  auto s = std::make_unique<DesignSetup>();
+  s->case_file = c;
+  report_progress(progress, 0.0, "design: reading the limb");
+  const auto [limb, extra] = load_limb(c, generated_limb_stl, s->limb_label);
+  s->limb = limb;
+  volume::LimbInputOptions lo;
+  lo.type = c.limb.type;
+  lo.anterior = c.limb.anterior;
+  lo.side = c.limb.side;
+  lo.cut_height_m = c.limb.cut_height_m;
+  lo.estimate_bones = c.limb.bones != "none";
+  s->model = volume::prepare_limb(limb, extra, lo);
+  auto& model = s->model;
+  for (const auto& [code, p] : c.landmarks) {
+    volume::Landmark given;
+    given.code = code;
+    given.position = p;
+    volume::override_landmark(model.landmarks, model.skin, model.frame, given);
+    model.notes.push_back(fmt::format("landmark {} given in the case file", code));
+  }
+  for (const auto& n : model.notes) log::info("design: {}", n);
+  // Checks that need the limb, before the expensive steps.
+  s->table = c.thresholds.empty() ? design::default_thresholds(model.type) : c.thresholds;
+  design::validate_thresholds(s->table, model.landmarks, model.type);
+  s->brim = c.brim_key_points.empty() ? design::make_brim(c.brim, model)
+                                      : design::brim_from_key_points(c.brim_key_points, c.brim);
+  design::validate_brim(s->brim, model.skin, model.frame);
+  s->spots = c.spots.empty() ? design::default_spots(model.type, model.landmarks, model.length_m) : c.spots;
+  for (const auto& sp : s->spots) design::validate_spot(sp, model.length_m);
+
+  report_progress(progress, 0.1, "design: meshing the stump");
+  volume::HexMesherOptions mo;
+  mo.target_nodes = c.target_nodes;
+  mo.progress = [&](double f, std::string_view stage) { return report_progress(progress, 0.1 + 0.8 * f, stage); };
+  s->mesh = volume::mesh_limb(volume::mesher_input(model), mo);
+
+  s->model_options = model_options(c);
+  s->material = material(c);
+  const auto skin0 = volume::extract_skin_surface(s->mesh.mesh);
+  s->thresholds = design::threshold_map(skin0.positions, model.landmarks, s->table);
+  design::DesignSolverOptions so;
+  so.mode = c.solve_mode;
+  report_progress(progress, 0.92, "design: building the stump model");
+  s->solver = std::make_unique<design::DesignSolver>(s->mesh.mesh, s->material, s->model_options, model.frame,
+                                                     s->thresholds, c.patient, model.length_m, so);
+  const auto& brim = s->brim;
+  s->solver->set_brim([&brim](double theta) { return brim.height(theta); });
+  report_progress(progress, 1.0, "design: stump model ready");
+  return s;
+}
+
+DesignResult solve_design(DesignSetup& setup, bool optimise, const ProgressCallback& progress) {
+  const design::CaseFile& c = setup.case_file;
+  auto& solver = *setup.solver;
+  DesignResult r;
+  r.optimised = optimise;
+  if (optimise) {
+    design::OptimizerOptions oo;
+    oo.objective = c.objective;
+    oo.model_pressure_limit = c.model_pressure_limit;
+    oo.progress = [&](double f, std::string_view stage) { return report_progress(progress, 0.9 * f, stage); };
+    r.optimiser = design::optimise_design(solver, setup.spots, oo);
+    r.spots = r.optimiser.spots;
+    r.state = r.optimiser.state;
+    for (const auto& l : r.optimiser.log) log::info("design: {}", l);
+  } else {
+    report_progress(progress, 0.1, "design: solving the stump under the spots");
+    r.spots = setup.spots;
+    r.state = solver.solve(r.spots);
+  }
+  r.constraints_met = r.state.status.all_ok();
+  // Deformed and rest skin as triangles (local ids = skin order).
+  r.rest_skin = solver.skin().triangles();
+  r.deformed_skin = r.rest_skin;
+  r.deformed_skin.vertices = r.state.skin_positions;
+  if (r.constraints_met) {
+    report_progress(progress, 0.92, "design: building the socket");
+    design::SocketOptions sopt = c.socket;
+    sopt.undeformed_skin = &r.rest_skin;
+    r.socket = design::build_socket(r.deformed_skin, setup.model.frame, setup.brim, sopt);
+    for (const auto& n : r.socket->notes) log::info("design: socket: {}", n);
+    // Limb volume below the brim: the same cavity measure on the undeformed skin.
+    try {
+      design::SocketOptions lopt = sopt;
+      lopt.undeformed_skin = nullptr;
+      r.limb_volume_below_brim_m3 = design::build_socket(r.rest_skin, setup.model.frame, setup.brim, lopt).cavity_volume_m3;
+    } catch (const Error&) {
+      r.limb_volume_below_brim_m3 = 0;
+    }
+  }
+  report_progress(progress, 1.0, "design: solved");
+  return r;
+}
+
+nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult& result, const fs::path& out,
+                                    double seconds) {
+  ensure_directory(out);
+  const design::CaseFile& c = setup.case_file;
+  const auto& model = setup.model;
+  const auto& mesh = setup.mesh;
+  const auto& solver = *setup.solver;
+  const auto& brim = setup.brim;
+  const auto& thresholds = setup.thresholds;
+  const auto& limb_label = setup.limb_label;
+  const auto& state = result.state;
+  const auto& opt = result.optimiser;
+  const auto& spots = result.spots;
+  const bool optimise = result.optimised;
+  const bool met = result.constraints_met;
+
+  // Outputs: surface nodes, stump fields, pictures, socket, report, case replay.
+  const auto& skin = solver.skin();
+  const auto& above = solver.above_brim();
+  {
+    report::CsvTable t;
+    t.header = {"x_m", "y_m", "z_m", "nx", "ny", "nz", "area_m2", "pressure_pa", "threshold_pa", "above_brim"};
+    for (size_t i = 0; i < skin.nodes.size(); ++i) {
+      const auto& p = state.skin_positions[i];
+      const auto& n = state.skin_normals[i];
+      t.rows.push_back({p.x(), p.y(), p.z(), n.x(), n.y(), n.z(), state.skin_areas[i], state.pressure_pa[i],
+                        thresholds[i], above[i] ? 1.0 : 0.0});
+    }
+    report::write_csv(out / "surface_nodes.csv", t.header, t.rows, 12);
+  }
+  {
+    const int nn = mesh.mesh.num_nodes();
+    std::vector<Vec3> u(nn);
+    std::vector<double> pn(nn, 0.0), tn(nn, 0.0), rn(nn, 0.0);
+    for (int k = 0; k < nn; ++k) u[k] = state.positions.segment<3>(3 * k) - mesh.mesh.nodes[k];
+    for (size_t i = 0; i < skin.nodes.size(); ++i) {
+      pn[skin.nodes[i]] = state.pressure_pa[i];
+      tn[skin.nodes[i]] = thresholds[i];
+      rn[skin.nodes[i]] = state.requested_pa[i] / thresholds[i];
+    }
+    report::write_vtu(out / "stump.vtu", mesh.mesh,
+                      {report::make_vector_field("displacement_m", u), {"pressure_pa", 1, pn},
+                       {"threshold_pa", 1, tn}, {"pressure_ratio", 1, rn}},
+                      {});
+  }
+  const geometry::TriMesh& def_tri = result.deformed_skin;
+  // Pictures.
+  const auto sframe = report::surface_frame(model.frame);
+  std::vector<report::MapLandmark> marks;
+  for (const auto& l : model.landmarks) marks.push_back({l.code, l.position, l.estimated});
+  std::vector<Vec3> brim_poly;
+  for (int k = 0; k < 180; ++k) {
+    const double th = -std::numbers::pi + 2 * std::numbers::pi * k / 180.0;
+    const double h = brim.height(th);
+    // The brim on the skin: the ray from the axis at (θ, h) — radius from the nearest skin node.
+    double best = 1e9, rho = 0;
+    for (size_t i = 0; i < skin.nodes.size(); ++i) {
+      const auto& cy = solver.skin_cylindrical()[i];
+      const double d = std::abs(design::wrap_angle(cy.theta - th)) * cy.rho + std::abs(cy.h - h);
+      if (d < best) {
+        best = d;
+        rho = cy.rho;
+      }
+    }
+    brim_poly.push_back(model.frame.from_cylindrical({rho, th, h}));
+  }
+  std::vector<double> p_kpa(skin.nodes.size()), ratio(skin.nodes.size()), thr_kpa(skin.nodes.size()),
+      disp_mm(skin.nodes.size());
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  for (size_t i = 0; i < skin.nodes.size(); ++i) {
+    p_kpa[i] = above[i] ? nan : state.pressure_pa[i] / 1e3;
+    ratio[i] = above[i] ? nan : state.requested_pa[i] / thresholds[i];
+    thr_kpa[i] = thresholds[i] / 1e3;
+    disp_mm[i] = state.displacement_m[i] * 1e3;
+  }
+  const auto make_map = [&](const std::vector<double>& v, const std::string& label, const std::string& title, double lo,
+                            double hi) {
+    report::PressureMapData m;
+    m.surface = &def_tri;
+    m.values = v;
+    m.value_label = label;
+    m.title = title;
+    m.value_min = lo;
+    m.value_max = hi;
+    m.frame = sframe;
+    m.landmarks = marks;
+    m.brim = brim_poly;
+    return m;
+  };
+  std::vector<report::PressureMapData> maps{
+      make_map(p_kpa, "kPa", "Applied pressure (socket inner surface)", 0, 0),
+      make_map(ratio, "p/T", "Pressure / pain threshold", 0, 1.2),
+      make_map(thr_kpa, "kPa", "Pain-threshold map (IDW from the landmarks)", 0, 0),
+      make_map(disp_mm, "mm", "Tissue displacement", 0, 0)};
+  report::write_pressure_map(out / "pressure_map.png", maps[0]);
+  report::write_pressure_map(out / "ratio_map.png", maps[1]);
+  report::RadarInputs ri;
+  ri.force_n = state.radar.force_n;
+  ri.torque_nm = state.radar.torque_nm;
+  ri.stability_n = state.radar.stability_n;
+  ri.body_mass_kg = c.patient.body_mass_kg;
+  ri.prosthesis_mass_kg = c.patient.prosthesis_mass_kg;
+  ri.stump_length_m = model.length_m;
+  ri.force_tolerance = c.patient.force_tolerance;
+  ri.torque_tolerance = c.patient.torque_tolerance;
+  ri.gravity = units::kGravity;
+  report::RadarChart radar;
+  radar.title = met ? "Constraints: all met" : "Constraints: NOT all met";
+  radar.axes = report::seven_radar_axes(ri);
+  const bool* oks[] = {&state.status.force_ok[0], &state.status.force_ok[1], &state.status.force_ok[2],
+                       &state.status.torque_ok[0], &state.status.torque_ok[1], &state.status.torque_ok[2],
+                       &state.status.stability_ok};
+  for (size_t k = 0; k < radar.axes.size() && k < 7; ++k) radar.axes[k].is_ok = *oks[k];
+  report::write_radar_chart(out / "radar.png", radar);
+  // Paths: front line through PT, back line, mid-stump circumference.
+  double pt_theta = 0;
+  for (const auto& l : model.landmarks)
+    if (l.code == "PT") pt_theta = l.cylindrical.theta;
+  double spacing = 0;
+  for (double a : skin.area_m2) spacing += std::sqrt(a) / static_cast<double>(skin.area_m2.size());
+  std::vector<report::PathProfile> profiles;
+  std::vector<Vec3> rest_pos = skin.positions;
+  const auto add_profile = [&](const std::string& name, report::PathKind kind, double theta, double h) {
+    report::PathSpec ps;
+    ps.kind = kind;
+    ps.theta_rad = theta;
+    ps.height_m = h;
+    ps.band_m = 0.75 * spacing;
+    ps.bin_m = 0.8 * spacing;
+    const auto samples = report::sample_path(rest_pos, {}, sframe, ps);
+    profiles.push_back(report::make_path_profile(name, kind, samples, state.pressure_pa, thresholds));
+  };
+  add_profile("front line (through the patellar tendon)", report::PathKind::Vertical, pt_theta, 0);
+  add_profile("back line", report::PathKind::Vertical, design::wrap_angle(pt_theta + std::numbers::pi), 0);
+  add_profile("circumference at mid-stump", report::PathKind::Circumferential, 0, 0.5 * model.length_m);
+  for (size_t k = 0; k < profiles.size(); ++k)
+    report::write_svg(out / fmt::format("profile_{}.svg", k == 0 ? "front" : k == 1 ? "back" : "mid"),
+                      report::path_profile_plot(profiles[k]));
+
+  // Socket (only for a valid design: never a socket that violates the constraints).
+  nlohmann::json socket_json;
+  report::ReportSocket rs;
+  rs.thickness_m = c.socket.thickness_m;
+  if (result.socket) {
+    const auto& sock = *result.socket;
+    design::write_socket_stl(out / "socket.stl", sock);
+    rs.has_socket = true;
+    rs.socket_volume_m3 = sock.cavity_volume_m3;
+    rs.stl_file = "socket.stl";
+    rs.limb_volume_m3 = result.limb_volume_below_brim_m3;
+    nlohmann::json levels = nlohmann::json::array();
+    for (const auto& l : sock.levels) {
+      rs.circumferences.push_back({l.h_m, l.limb_circumference_m, l.inner_circumference_m});
+      levels.push_back({{"h_mm", l.h_m * 1e3},
+                        {"socket_mm", l.inner_circumference_m * 1e3},
+                        {"limb_mm", l.limb_circumference_m * 1e3},
+                        {"reduction_percent", l.reduction_percent}});
+    }
+    socket_json = {{"file", "socket.stl"},
+                   {"triangles", sock.solid.num_triangles()},
+                   {"thickness_mm", c.socket.thickness_m * 1e3},
+                   {"min_thickness_mm", sock.min_thickness_m * 1e3},
+                   {"max_thickness_mm", sock.max_thickness_m * 1e3},
+                   {"shell_volume_cm3", sock.shell_volume_m3 * 1e6},
+                   {"cavity_volume_cm3", sock.cavity_volume_m3 * 1e6},
+                   {"limb_volume_below_brim_cm3", rs.limb_volume_m3 * 1e6},
+                   {"volume_reduction_percent",
+                    rs.limb_volume_m3 > 0 ? 100 * (1 - sock.cavity_volume_m3 / rs.limb_volume_m3) : 0.0},
+                   {"levels", levels}};
+  }
+  // The design as a case file that replays it (spots fixed, no optimisation).
+  design::CaseFile replay = c;
+  replay.spots = spots;
+  replay.optimise = false;
+  if (!c.limb.file.empty()) replay.limb.file = fs::absolute(design::resolve(c, c.limb.file)).string();
+  if (c.limb.bones != "auto" && c.limb.bones != "estimate" && c.limb.bones != "none")
+    replay.limb.bones = fs::absolute(design::resolve(c, c.limb.bones)).string();
+  replay.folder.clear();
+  design::write_case(out / "design_case.json", replay);
+
+  // Report.
+  report::DesignReportData rd;
+  rd.patient.id = c.patient_id;
+  rd.patient.body_mass_kg = c.patient.body_mass_kg;
+  rd.patient.prosthesis_mass_kg = c.patient.prosthesis_mass_kg;
+  rd.patient.tissue_youngs_modulus_pa = c.youngs_modulus_pa;
+  rd.patient.friction = c.patient.friction;
+  rd.patient.note = c.patient_note;
+  rd.generated = "socketsmith 0.1.0";
+  rd.limb_file = limb_label;
+  rd.limb_type = geometry::to_string(model.type);
+  rd.side = geometry::to_string(model.frame.side);
+  rd.mesh_nodes = mesh.mesh.num_nodes();
+  rd.model = fmt::format("{} ({} constants, E = {:.0f} kPa), {} design solve", c.model, c.constants,
+                         c.youngs_modulus_pa / 1e3, design::to_string(c.solve_mode));
+  for (const auto& s : spots) rd.spots.push_back(report_spot(s));
+  rd.brim_template = brim.name();
+  for (const auto& k : brim.key_points()) rd.brim_key_points.push_back({k.theta, k.h});
+  rd.radar = radar;
+  rd.maps = maps;
+  rd.profiles = profiles;
+  rd.max_pressure_ratio = state.max_requested_ratio;
+  if (state.max_ratio_node >= 0) {
+    rd.has_max_ratio_position = true;
+    rd.max_ratio_position = skin.positions[state.max_ratio_node];
+  }
+  rd.max_pressure_pa = *std::max_element(state.pressure_pa.begin(), state.pressure_pa.end());
+  rd.landmarks = marks;
+  rd.socket = rs;
+  rd.optimiser.has_run = optimise;
+  rd.optimiser.converged = opt.constraints_met;
+  rd.optimiser.iterations = opt.rounds;
+  rd.optimiser.residual = opt.objective;
+  rd.optimiser.seconds = opt.seconds;
+  rd.optimiser.message = opt.message;
+  rd.optimiser.details.push_back({"amplitude fits", std::to_string(opt.evaluations)});
+  rd.optimiser.details.push_back({"SLSQP evaluations", std::to_string(opt.slsqp_iterations)});
+  for (size_t k = 0; k < opt.log.size(); ++k) rd.optimiser.details.push_back({fmt::format("log {}", k + 1), opt.log[k]});
+  rd.solver.has_run = true;
+  rd.solver.converged = state.converged;
+  rd.solver.iterations = state.follower_passes;
+  rd.solver.seconds = state.seconds;
+  rd.solver.message = state.message;
+  rd.solver.details.push_back({"max displacement", fmt::format("{:.2f} mm", state.max_displacement_m * 1e3)});
+  rd.solver.details.push_back({"follower passes", std::to_string(state.follower_passes)});
+  if (model.bones_estimated) rd.warnings.push_back("bones ESTIMATED from the skin (no bone surfaces given)");
+  if (model.frame.anterior_estimated) rd.warnings.push_back("anterior direction ESTIMATED from the skin: check it");
+  if (model.frame.side_estimated) rd.warnings.push_back("side ESTIMATED: check it");
+  if (state.linearised) rd.warnings.push_back("shape from the linearised stump model: " + state.nonlinear_failure);
+  if (!met) rd.warnings.push_back("constraints not met: no socket written. " + (optimise ? opt.message : state.message));
+  report::write_design_report_html(out / "report.html", rd);
+
+  // Summary.
+  const auto& T = solver.targets();
+  nlohmann::json outputs = {"surface_nodes.csv", "stump.vtu",      "pressure_map.png", "ratio_map.png",
+                            "radar.png",         "report.html",    "design_case.json", "design.json",
+                            "profile_front.svg", "profile_back.svg", "profile_mid.svg"};
+  if (met) outputs.push_back("socket.stl");
+  if (c.limb.file.empty()) outputs.push_back("limb.stl");
+  nlohmann::json spots_json = nlohmann::json::array();
+  for (const auto& s : spots) spots_json.push_back(design::spot_to_json(s));
+  nlohmann::json j{
+      {"limb", limb_label},
+      {"type", geometry::to_string(model.type)},
+      {"nodes", mesh.mesh.num_nodes()},
+      {"skin_nodes", skin.nodes.size()},
+      {"radar",
+       {{"fx_n", state.radar.force_n.x()},
+        {"fy_n", state.radar.force_n.y()},
+        {"fz_n", state.radar.force_n.z()},
+        {"tx_nm", state.radar.torque_nm.x()},
+        {"ty_nm", state.radar.torque_nm.y()},
+        {"tz_nm", state.radar.torque_nm.z()},
+        {"stability_n", state.radar.stability_n}}},
+      {"targets",
+       {{"fx_n", 0.0},
+        {"fy_n", 0.0},
+        {"fz_n", T.fz_n},
+        {"tx_nm", 0.0},
+        {"ty_nm", 0.0},
+        {"tz_nm", 0.0},
+        {"stability_min_n", T.stability_min_n},
+        {"force_tolerance_n", T.force_tol_n},
+        {"torque_tolerance_nm", T.torque_tol_nm}}},
+      {"frame",
+       {{"origin_m", vec_json(model.frame.origin)},
+        {"axis", vec_json(model.frame.axis)},
+        {"anterior", vec_json(model.frame.anterior)},
+        {"medial", vec_json(model.frame.medial())}}},
+      {"center_of_inertia_m", vec_json(state.centre_of_inertia)},
+      {"friction", c.patient.friction},
+      {"max_pressure_ratio", state.max_requested_ratio},
+      {"max_pressure_kpa", rd.max_pressure_pa / 1e3},
+      {"max_displacement_mm", state.max_displacement_m * 1e3},
+      {"constraints_met", met},
+      {"failing", state.status.failing()},
+      {"optimised", optimise},
+      {"iterations", opt.rounds},
+      {"amplitude_fits", opt.evaluations},
+      {"optimiser_message", opt.message},
+      {"optimiser_seconds", opt.seconds},
+      {"model_caps", opt.model_caps},
+      {"linearised", state.linearised || c.solve_mode == design::DesignSolveMode::Linear},
+      {"solve_mode", design::to_string(c.solve_mode)},
+      {"brim", {{"template", brim.name()}, {"min_h_mm", brim.min_height() * 1e3}, {"max_h_mm", brim.max_height() * 1e3}}},
+      {"spots", spots_json},
+      {"bones_estimated", model.bones_estimated},
+      {"anterior_estimated", model.frame.anterior_estimated},
+      {"seconds", seconds},
+      {"out", out.string()},
+      {"outputs", outputs}};
+  if (!socket_json.is_null()) j["socket"] = socket_json;
+  write_text_atomically(out / "design.json", j.dump(2) + "\n");
+  return j;
+}
+
+nlohmann::json run_design(const design::CaseFile& c, const fs::path& out, bool optimise,
+                          const ProgressCallback& progress, DesignArtifacts* artifacts) {
+  const auto t0 = std::chrono::steady_clock::now();
+  ensure_directory(out);
+  const auto stage = [&](double a, double b) {
+    return [&progress, a, b](double f, std::string_view s) { return report_progress(progress, a + (b - a) * f, s); };
+  };
+  auto setup = prepare_design(c, c.limb.file.empty() ? out / "limb.stl" : fs::path(), stage(0.0, 0.45));
+  DesignResult result = solve_design(*setup, optimise, stage(0.45, 0.9));
+  report_progress(progress, 0.9, "design: writing the socket and the report");
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  nlohmann::json j = write_design_outputs(*setup, result, out, seconds);
+  report_progress(progress, 1.0, "design: done");
+  if (artifacts) {
+    artifacts->setup = std::move(setup);
+    artifacts->result = std::move(result);
+  }
+  return j;
+}
+
+design::CaseFile demo_case(int target_nodes) {
+  design::CaseFile c;
+  c.patient_id = "demo (generated limb)";
+  c.patient.body_mass_kg = 70;
+  c.youngs_modulus_pa = 100e3;
+  c.target_nodes = target_nodes;
+  c.socket.distal_pad = true;
+  return c;
+}
+
+}  // namespace socketsmith::pipeline

@@ -1,0 +1,106 @@
+#pragma once
+/// @file design_pipeline.h
+/// The inverse socket design of a case file as a library: limb → stump model → pressure spots
+/// (optimised) → socket STL and report. The CLI (`design`, `run`, `demo`), the GUI and the
+/// CalculiX validation call it, so a design made in one replays in the others.
+///
+/// Three stages, usable alone or through run_design:
+///  1. prepare_design: reads/generates the limb, builds its model (frame, bones, landmarks),
+///     checks the case against it, meshes the stump and builds the DesignSolver (the expensive,
+///     once-per-case part);
+///  2. solve_design: the optimiser (or one solve of the case's spots) and the socket;
+///  3. write_design_outputs: every file of docs/design.md and the summary JSON.
+
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "socketsmith/core/progress.h"
+#include "socketsmith/design/brim.h"
+#include "socketsmith/design/case_file.h"
+#include "socketsmith/design/design_solver.h"
+#include "socketsmith/design/optimizer.h"
+#include "socketsmith/design/pain_map.h"
+#include "socketsmith/design/socket_builder.h"
+#include "socketsmith/geometry/tri_mesh.h"
+#include "socketsmith/volume/hex_mesher.h"
+#include "socketsmith/volume/limb_model.h"
+
+namespace socketsmith::pipeline {
+
+/// Everything a case needs before the first design solve. Not copyable or movable (the solver
+/// refers to the mesh): prepare_design returns it behind a unique_ptr.
+struct DesignSetup {
+  design::CaseFile case_file;
+  std::string limb_label;              ///< file name, or "generated right transtibial limb (seed 1)"
+  geometry::TriMesh limb;              ///< the limb surface as read [m]
+  volume::LimbModel model;             ///< frame, bones, landmarks, length
+  design::ThresholdTable table;        ///< pain thresholds per landmark [Pa]
+  design::BrimLine brim;
+  std::vector<design::Spot> spots;     ///< the case's spots, or the default layout
+  volume::HexMesherResult mesh;
+  tissue::MassSpringOptions model_options;
+  tissue::TissueMaterial material;
+  std::vector<double> thresholds;      ///< pain threshold per skin node [Pa]
+  std::unique_ptr<design::DesignSolver> solver;
+
+  DesignSetup() = default;
+  DesignSetup(const DesignSetup&) = delete;
+  DesignSetup& operator=(const DesignSetup&) = delete;
+};
+
+/// Stage 1. When the case's limb is generated and @p generated_limb_stl is not empty, the
+/// generated limb is written there. Progress goes from 0 to 1 over reading, meshing, building.
+/// @throws InvalidInputError (one line: the problem and the fix) for a case that does not fit
+///         its limb: thresholds for unknown landmarks, a brim outside the limb, a spot off the stump…
+std::unique_ptr<DesignSetup> prepare_design(const design::CaseFile& c,
+                                            const std::filesystem::path& generated_limb_stl = {},
+                                            const ProgressCallback& progress = {});
+
+/// The MSS model options and material a case asks for.
+tissue::MassSpringOptions model_options(const design::CaseFile& c);
+tissue::TissueMaterial material(const design::CaseFile& c);
+
+/// What solve_design found.
+struct DesignResult {
+  std::vector<design::Spot> spots;     ///< the final layout (optimised or as given)
+  design::DesignState state;           ///< the stump solved under it
+  design::OptimizerResult optimiser;   ///< empty when not optimised
+  bool optimised = false;
+  bool constraints_met = false;
+  geometry::TriMesh rest_skin;         ///< skin triangles at rest (local ids = skin order) [m]
+  geometry::TriMesh deformed_skin;     ///< same triangles at the designed shape = the socket's inner wall
+  std::optional<design::SocketResult> socket;  ///< only when every constraint is met
+  double limb_volume_below_brim_m3 = 0.0;      ///< the cavity measure on the undeformed skin
+};
+
+/// Stage 2. Optimises (or solves the setup's spots) and builds the socket when every constraint
+/// holds. Never builds a socket that violates the constraints.
+/// @throws SolverError when the stump cannot be solved at all.
+DesignResult solve_design(DesignSetup& setup, bool optimise, const ProgressCallback& progress = {});
+
+/// Stage 3. Writes surface_nodes.csv, stump.vtu, the maps, radar, profiles, socket.stl (when
+/// built), design_case.json (the replay), report.html and design.json into @p out (created).
+/// Returns the summary (the content of design.json). @p seconds: time spent so far, reported.
+nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult& result,
+                                    const std::filesystem::path& out, double seconds);
+
+/// The setup and the result of a run, for callers that go on with them (validation, GUI).
+struct DesignArtifacts {
+  std::unique_ptr<DesignSetup> setup;
+  DesignResult result;
+};
+
+/// The three stages into @p out. Returns the summary (also written as design.json); when
+/// @p artifacts is given, the setup and result are moved into it.
+nlohmann::json run_design(const design::CaseFile& c, const std::filesystem::path& out, bool optimise,
+                          const ProgressCallback& progress = {}, DesignArtifacts* artifacts = nullptr);
+
+/// The embedded sample: the generated transtibial limb, 70 kg, E = 100 kPa, PTB brim, distal pad.
+design::CaseFile demo_case(int target_nodes = 8000);
+
+}  // namespace socketsmith::pipeline
