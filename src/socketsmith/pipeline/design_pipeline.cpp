@@ -182,6 +182,71 @@ DesignResult solve_design(DesignSetup& setup, bool optimise, const ProgressCallb
   return r;
 }
 
+std::vector<Vec3> brim_on_skin(const DesignSetup& setup, int samples) {
+  const auto& cyl = setup.solver->skin_cylindrical();
+  std::vector<Vec3> poly;
+  for (int k = 0; k < samples; ++k) {
+    const double th = -std::numbers::pi + 2 * std::numbers::pi * k / samples;
+    const double h = setup.brim.height(th);
+    // The brim on the skin: the ray from the axis at (θ, h) — radius from the nearest skin node.
+    double best = 1e9, rho = 0;
+    for (const auto& cy : cyl) {
+      const double d = std::abs(design::wrap_angle(cy.theta - th)) * cy.rho + std::abs(cy.h - h);
+      if (d < best) {
+        best = d;
+        rho = cy.rho;
+      }
+    }
+    poly.push_back(setup.model.frame.from_cylindrical({rho, th, h}));
+  }
+  return poly;
+}
+
+std::vector<report::RadarAxis> radar_axes(const DesignSetup& setup, const design::DesignState& state) {
+  const design::CaseFile& c = setup.case_file;
+  report::RadarInputs ri;
+  ri.force_n = state.radar.force_n;
+  ri.torque_nm = state.radar.torque_nm;
+  ri.stability_n = state.radar.stability_n;
+  ri.body_mass_kg = c.patient.body_mass_kg;
+  ri.prosthesis_mass_kg = c.patient.prosthesis_mass_kg;
+  ri.stump_length_m = setup.model.length_m;
+  ri.force_tolerance = c.patient.force_tolerance;
+  ri.torque_tolerance = c.patient.torque_tolerance;
+  ri.gravity = units::kGravity;
+  auto axes = report::seven_radar_axes(ri);
+  const bool* oks[] = {&state.status.force_ok[0], &state.status.force_ok[1], &state.status.force_ok[2],
+                       &state.status.torque_ok[0], &state.status.torque_ok[1], &state.status.torque_ok[2],
+                       &state.status.stability_ok};
+  for (size_t k = 0; k < axes.size() && k < 7; ++k) axes[k].is_ok = *oks[k];
+  return axes;
+}
+
+std::vector<report::PathProfile> pressure_profiles(const DesignSetup& setup, const design::DesignState& state) {
+  const auto& skin = setup.solver->skin();
+  const auto sframe = report::surface_frame(setup.model.frame);
+  double pt_theta = 0;
+  for (const auto& l : setup.model.landmarks)
+    if (l.code == "PT") pt_theta = l.cylindrical.theta;
+  double spacing = 0;
+  for (double a : skin.area_m2) spacing += std::sqrt(a) / static_cast<double>(skin.area_m2.size());
+  std::vector<report::PathProfile> profiles;
+  const auto add_profile = [&](const std::string& name, report::PathKind kind, double theta, double h) {
+    report::PathSpec ps;
+    ps.kind = kind;
+    ps.theta_rad = theta;
+    ps.height_m = h;
+    ps.band_m = 0.75 * spacing;
+    ps.bin_m = 0.8 * spacing;
+    const auto samples = report::sample_path(skin.positions, {}, sframe, ps);
+    profiles.push_back(report::make_path_profile(name, kind, samples, state.pressure_pa, setup.thresholds));
+  };
+  add_profile("front line (through the patellar tendon)", report::PathKind::Vertical, pt_theta, 0);
+  add_profile("back line", report::PathKind::Vertical, design::wrap_angle(pt_theta + std::numbers::pi), 0);
+  add_profile("circumference at mid-stump", report::PathKind::Circumferential, 0, 0.5 * setup.model.length_m);
+  return profiles;
+}
+
 nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult& result, const fs::path& out,
                                     double seconds) {
   ensure_directory(out);
@@ -232,22 +297,7 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
   const auto sframe = report::surface_frame(model.frame);
   std::vector<report::MapLandmark> marks;
   for (const auto& l : model.landmarks) marks.push_back({l.code, l.position, l.estimated});
-  std::vector<Vec3> brim_poly;
-  for (int k = 0; k < 180; ++k) {
-    const double th = -std::numbers::pi + 2 * std::numbers::pi * k / 180.0;
-    const double h = brim.height(th);
-    // The brim on the skin: the ray from the axis at (θ, h) — radius from the nearest skin node.
-    double best = 1e9, rho = 0;
-    for (size_t i = 0; i < skin.nodes.size(); ++i) {
-      const auto& cy = solver.skin_cylindrical()[i];
-      const double d = std::abs(design::wrap_angle(cy.theta - th)) * cy.rho + std::abs(cy.h - h);
-      if (d < best) {
-        best = d;
-        rho = cy.rho;
-      }
-    }
-    brim_poly.push_back(model.frame.from_cylindrical({rho, th, h}));
-  }
+  const std::vector<Vec3> brim_poly = brim_on_skin(setup, 180);
   std::vector<double> p_kpa(skin.nodes.size()), ratio(skin.nodes.size()), thr_kpa(skin.nodes.size()),
       disp_mm(skin.nodes.size());
   const double nan = std::numeric_limits<double>::quiet_NaN();
@@ -278,45 +328,12 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
       make_map(disp_mm, "mm", "Tissue displacement", 0, 0)};
   report::write_pressure_map(out / "pressure_map.png", maps[0]);
   report::write_pressure_map(out / "ratio_map.png", maps[1]);
-  report::RadarInputs ri;
-  ri.force_n = state.radar.force_n;
-  ri.torque_nm = state.radar.torque_nm;
-  ri.stability_n = state.radar.stability_n;
-  ri.body_mass_kg = c.patient.body_mass_kg;
-  ri.prosthesis_mass_kg = c.patient.prosthesis_mass_kg;
-  ri.stump_length_m = model.length_m;
-  ri.force_tolerance = c.patient.force_tolerance;
-  ri.torque_tolerance = c.patient.torque_tolerance;
-  ri.gravity = units::kGravity;
   report::RadarChart radar;
   radar.title = met ? "Constraints: all met" : "Constraints: NOT all met";
-  radar.axes = report::seven_radar_axes(ri);
-  const bool* oks[] = {&state.status.force_ok[0], &state.status.force_ok[1], &state.status.force_ok[2],
-                       &state.status.torque_ok[0], &state.status.torque_ok[1], &state.status.torque_ok[2],
-                       &state.status.stability_ok};
-  for (size_t k = 0; k < radar.axes.size() && k < 7; ++k) radar.axes[k].is_ok = *oks[k];
+  radar.axes = radar_axes(setup, state);
   report::write_radar_chart(out / "radar.png", radar);
   // Paths: front line through PT, back line, mid-stump circumference.
-  double pt_theta = 0;
-  for (const auto& l : model.landmarks)
-    if (l.code == "PT") pt_theta = l.cylindrical.theta;
-  double spacing = 0;
-  for (double a : skin.area_m2) spacing += std::sqrt(a) / static_cast<double>(skin.area_m2.size());
-  std::vector<report::PathProfile> profiles;
-  std::vector<Vec3> rest_pos = skin.positions;
-  const auto add_profile = [&](const std::string& name, report::PathKind kind, double theta, double h) {
-    report::PathSpec ps;
-    ps.kind = kind;
-    ps.theta_rad = theta;
-    ps.height_m = h;
-    ps.band_m = 0.75 * spacing;
-    ps.bin_m = 0.8 * spacing;
-    const auto samples = report::sample_path(rest_pos, {}, sframe, ps);
-    profiles.push_back(report::make_path_profile(name, kind, samples, state.pressure_pa, thresholds));
-  };
-  add_profile("front line (through the patellar tendon)", report::PathKind::Vertical, pt_theta, 0);
-  add_profile("back line", report::PathKind::Vertical, design::wrap_angle(pt_theta + std::numbers::pi), 0);
-  add_profile("circumference at mid-stump", report::PathKind::Circumferential, 0, 0.5 * model.length_m);
+  const std::vector<report::PathProfile> profiles = pressure_profiles(setup, state);
   for (size_t k = 0; k < profiles.size(); ++k)
     report::write_svg(out / fmt::format("profile_{}.svg", k == 0 ? "front" : k == 1 ? "back" : "mid"),
                       report::path_profile_plot(profiles[k]));

@@ -27,6 +27,7 @@
 #include "socketsmith/design/pain_map.h"
 #include "socketsmith/design/socket_builder.h"
 #include "socketsmith/geometry/tri_mesh.h"
+#include "socketsmith/report/design_report.h"
 #include "socketsmith/volume/hex_mesher.h"
 #include "socketsmith/volume/limb_model.h"
 
@@ -88,6 +89,18 @@ DesignResult solve_design(DesignSetup& setup, bool optimise, const ProgressCallb
 /// Returns the summary (the content of design.json). @p seconds: time spent so far, reported.
 nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult& result,
                                     const std::filesystem::path& out, double seconds);
+
+/// The brim line drawn on the skin: @p samples points, each where the ray from the axis at
+/// (θ, brim(θ)) meets the skin (radius of the nearest skin node) [m]. For pictures and the GUI.
+std::vector<Eigen::Vector3d> brim_on_skin(const DesignSetup& setup, int samples);
+
+/// The seven radar axes of @p state (report::seven_radar_axes with the case's patient and the
+/// state's verdict per axis in is_ok).
+std::vector<report::RadarAxis> radar_axes(const DesignSetup& setup, const design::DesignState& state);
+
+/// Applied pressure against the pain threshold along the front line (through the patellar
+/// tendon), the back line and the mid-stump circumference, sampled on the rest skin.
+std::vector<report::PathProfile> pressure_profiles(const DesignSetup& setup, const design::DesignState& state);
 
 /// The setup and the result of a run, for callers that go on with them (validation, GUI).
 struct DesignArtifacts {

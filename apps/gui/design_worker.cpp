@@ -1,0 +1,137 @@
+#include "design_worker.h"
+
+#include <chrono>
+
+#include "socketsmith/core/errors.h"
+
+namespace socketsmith::gui {
+
+DesignWorker::DesignWorker(design::DesignSolver& solver) : solver_(solver), thread_([this] { run(); }) {}
+
+DesignWorker::~DesignWorker() {
+  {
+    std::lock_guard lock(mutex_);
+    stop_ = true;
+    queue_.clear();
+  }
+  cancel_ = true;
+  wake_.notify_all();
+  thread_.join();
+}
+
+void DesignWorker::solve(DesignRequest request) {
+  {
+    std::lock_guard lock(mutex_);
+    // Latest wins: a waiting solve is replaced, but a brim change it carried is kept.
+    for (auto it = queue_.begin(); it != queue_.end(); ++it)
+      if (it->kind == DesignOutcome::Kind::Solve) {
+        if (!request.brim && it->request.brim) request.brim = std::move(it->request.brim);
+        queue_.erase(it);
+        break;
+      }
+    queue_.push_back({DesignOutcome::Kind::Solve, std::move(request), {}});
+  }
+  wake_.notify_one();
+}
+
+void DesignWorker::optimise(DesignRequest request, design::OptimizerOptions options) {
+  {
+    std::lock_guard lock(mutex_);
+    for (auto it = queue_.begin(); it != queue_.end(); ++it)
+      if (it->kind == DesignOutcome::Kind::Solve) {
+        if (!request.brim && it->request.brim) request.brim = std::move(it->request.brim);
+        queue_.erase(it);
+        break;
+      }
+    progress_ = 0;
+    stage_ = "design: optimising";
+    queue_.push_back({DesignOutcome::Kind::Optimise, std::move(request), std::move(options)});
+  }
+  cancel_ = false;
+  wake_.notify_one();
+}
+
+void DesignWorker::cancel() { cancel_ = true; }
+
+std::vector<DesignOutcome> DesignWorker::take_results() {
+  std::lock_guard lock(mutex_);
+  std::vector<DesignOutcome> out;
+  out.swap(results_);
+  return out;
+}
+
+bool DesignWorker::is_busy() const {
+  std::lock_guard lock(mutex_);
+  return running_job_ || !queue_.empty();
+}
+
+std::pair<double, std::string> DesignWorker::progress() const {
+  std::lock_guard lock(mutex_);
+  return {progress_, stage_};
+}
+
+void DesignWorker::run() {
+  for (;;) {
+    Job job;
+    {
+      std::unique_lock lock(mutex_);
+      wake_.wait(lock, [this] { return stop_ || !queue_.empty(); });
+      if (stop_) return;
+      job = std::move(queue_.front());
+      queue_.erase(queue_.begin());
+      running_job_ = true;
+    }
+    DesignOutcome outcome = execute(job);
+    {
+      std::lock_guard lock(mutex_);
+      results_.push_back(std::move(outcome));
+      running_job_ = false;
+    }
+  }
+}
+
+DesignOutcome DesignWorker::execute(Job& job) {
+  const auto t0 = std::chrono::steady_clock::now();
+  DesignOutcome out;
+  out.kind = job.kind;
+  out.generation = job.request.generation;
+  out.spots = job.request.spots;
+  try {
+    if (job.request.brim) {
+      const design::BrimLine brim = *job.request.brim;
+      solver_.set_brim([brim](double theta) { return brim.height(theta); });
+    }
+    if (job.kind == DesignOutcome::Kind::Solve) {
+      out.state = solver_.solve(job.request.spots);
+      ++solves_done_;
+    } else {
+      auto options = job.options;
+      options.progress = [this](double f, std::string_view stage) {
+        {
+          std::lock_guard lock(mutex_);
+          progress_ = f;
+          stage_ = stage;
+        }
+        return !cancel_.load();
+      };
+      auto result = design::optimise_design(solver_, job.request.spots, options);
+      if (result.message == "cancelled") {
+        out.is_cancelled = true;
+      } else {
+        out.spots = result.spots;
+        out.state = result.state;
+      }
+      out.optimiser = std::move(result);
+    }
+  } catch (const Error& e) {
+    out.error = e.what();
+    out.state.reset();
+  } catch (const std::exception& e) {
+    out.error = std::string("unexpected error: ") + e.what();
+    out.state.reset();
+  }
+  out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return out;
+}
+
+}  // namespace socketsmith::gui
