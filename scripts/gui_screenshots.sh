@@ -23,7 +23,7 @@ cat > "$tmp/script.json" <<'JSON'
   {"do": "screenshot", "name": "gui_displacement.png"},
   {"do": "brim", "template": "kbm"},
   {"do": "field", "value": "threshold"},
-  {"do": "view", "yaw_deg": 60, "pitch_deg": 15, "bones": true, "socket": false},
+  {"do": "view", "yaw_deg": 60, "pitch_deg": 15, "bones": true, "socket": false, "stump_opacity": 0.55},
   {"do": "screenshot", "name": "gui_threshold_kbm.png"}
 ]}
 JSON

@@ -295,6 +295,7 @@ void App::add_spot_at(const Vec3& point, design::SpotType type, double amplitude
   design::validate_spot(s, length);
   edit([&] { case_.spots.push_back(s); });
   selected_spot_ = static_cast<int>(case_.spots.size()) - 1;
+  scroll_to_selected_ = true;
 }
 
 void App::add_spot_at_landmark(const std::string& code, design::SpotType type, double amplitude_pa) {
@@ -597,9 +598,10 @@ void App::frame(int width, int height) {
 void App::render_scene(int x, int y, int width, int height, int framebuffer_height) {
   renderer_->begin(camera_, x, framebuffer_height - y - height, width, height);
   if (setup_) {
-    renderer_->draw_opaque(stump_);
     if (show_bones_)
       for (const auto& b : bones_) renderer_->draw_opaque(*b);
+    if (stump_alpha_ < 1.0f) renderer_->draw_translucent(stump_, stump_alpha_);  // x-ray: the bones show
+    else renderer_->draw_opaque(stump_);
     if (show_brim_) renderer_->draw_lines(brim_lines_, {0.1f, 0.1f, 0.1f, 1.0f}, false);
     if (show_socket_ && state_) renderer_->draw_translucent(socket_, socket_alpha_);
   }
@@ -688,6 +690,10 @@ void App::draw_design_panel() {
       const std::string label =
           fmt::format("{} [{}] {:.1f} kPa", s.name, design::to_string(s.type), s.amplitude_pa / 1e3);
       if (ImGui::Selectable(label.c_str(), selected_spot_ == k)) selected_spot_ = k;
+      if (selected_spot_ == k && scroll_to_selected_) {
+        ImGui::SetScrollHereY(0.2f);
+        scroll_to_selected_ = false;
+      }
       if (selected_spot_ == k) {
         ImGui::Indent();
         const auto slider = [&](const char* name, const char* field, double value, float lo, float hi, const char* fmt_) {
@@ -908,6 +914,8 @@ void App::draw_viewport_overlay(int x, int y, int width, int height) {
     ImGui::SetNextItemWidth(200);
     if (ImGui::DragFloatRange2("range", &range_min_, &range_max_, 0.1f, 0.0f, 1000.0f)) colours_dirty_ = true;
   }
+  ImGui::SetNextItemWidth(200);
+  ImGui::SliderFloat("stump opacity", &stump_alpha_, 0.2f, 1.0f, "%.2f");
   ImGui::Checkbox("bones", &show_bones_);
   ImGui::SameLine();
   ImGui::Checkbox("landmarks", &show_landmarks_);
@@ -915,7 +923,7 @@ void App::draw_viewport_overlay(int x, int y, int width, int height) {
   ImGui::Checkbox("socket", &show_socket_);
   if (show_socket_) {
     ImGui::SetNextItemWidth(200);
-    ImGui::SliderFloat("opacity", &socket_alpha_, 0.05f, 0.9f, "%.2f");
+    ImGui::SliderFloat("socket opacity", &socket_alpha_, 0.05f, 0.9f, "%.2f");
   }
   ImGui::End();
 }

@@ -88,12 +88,16 @@ class App {
   /// A continuous edit (a slider drag) starts / ends: its changes make one undo step.
   void begin_edit();
   void end_edit() { edit_start_.reset(); }
-  void set_view_toggles(bool bones, bool landmarks, bool socket) {
+  void set_view_toggles(bool bones, bool landmarks, bool socket, float stump_opacity) {
+    stump_alpha_ = stump_opacity;
     show_bones_ = bones;
     show_landmarks_ = landmarks;
     show_socket_ = socket;
   }
-  void select_spot(int index) { selected_spot_ = index; }
+  void select_spot(int index) {
+    selected_spot_ = index;
+    scroll_to_selected_ = true;
+  }
 
   // ---- Frame ----------------------------------------------------------------------------------
   /// Builds the UI and renders one frame into the current framebuffer (width × height).
@@ -180,6 +184,8 @@ class App {
   float range_min_ = 0, range_max_ = 100;
   bool show_bones_ = true, show_landmarks_ = true, show_socket_ = true, show_brim_ = true;
   float socket_alpha_ = 0.3f;
+  float stump_alpha_ = 1.0f;
+  bool scroll_to_selected_ = false;
   bool colours_dirty_ = true;
   bool is_placing_spot_ = false;
   int new_spot_type_ = 0;

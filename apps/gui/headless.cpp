@@ -100,7 +100,8 @@ void HeadlessRunner::run_action(const json& a, int width, int height) {
     if (a.contains("yaw_deg")) cam.yaw_rad = a["yaw_deg"].get<double>() * std::numbers::pi / 180;
     if (a.contains("pitch_deg")) cam.pitch_rad = a["pitch_deg"].get<double>() * std::numbers::pi / 180;
     if (a.contains("zoom")) cam.distance_m /= a["zoom"].get<double>();
-    app_.set_view_toggles(a.value("bones", true), a.value("landmarks", true), a.value("socket", true));
+    app_.set_view_toggles(a.value("bones", true), a.value("landmarks", true), a.value("socket", true),
+                          static_cast<float>(a.value("stump_opacity", 1.0)));
   } else if (what == "screenshot") {
     require(!options_.screenshot_dir.empty(), "screenshot: give --screenshot-dir");
     app_.screenshot(options_.screenshot_dir / a.at("name").get<std::string>(), width, height);
