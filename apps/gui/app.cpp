@@ -70,13 +70,14 @@ void App::start_job(const std::string& what, std::function<void(const ProgressCa
   job_ = std::move(job);
 }
 
-void App::load(design::CaseFile c, fs::path path, const std::string& what) {
-  start_job(what, [this, c = std::move(c), path = std::move(path)](const ProgressCallback& progress) {
+void App::load(design::CaseFile c, fs::path path, const std::string& what, bool is_rebuild) {
+  start_job(what, [this, c = std::move(c), path = std::move(path), is_rebuild](const ProgressCallback& progress) {
     auto setup = pipeline::prepare_design(c, {}, progress);
     std::lock_guard lock(loaded_mutex_);
     loaded_ = std::move(setup);
     loaded_case_ = c;
     loaded_path_ = path;
+    loaded_is_rebuild_ = is_rebuild;
   });
 }
 
@@ -126,7 +127,7 @@ void App::install_setup(std::unique_ptr<pipeline::DesignSetup> setup, design::Ca
   camera_.yaw_rad = 0.5;
   camera_.pitch_rad = 0.2;
   camera_.frame(geometry::bounding_box(setup_->model.skin));
-  update_meshes();
+  update_brim();
   info_ = fmt::format("{}: {} nodes, {} skin nodes", case_path_.empty() ? "new case" : case_path_.string(),
                       setup_->solver->model().num_nodes(), setup_->solver->skin().nodes.size());
   request_solve(false);
@@ -162,7 +163,7 @@ void App::export_design(const fs::path& dir) {
   start_job("exporting to " + dir.string(), [this, c, dir](const ProgressCallback& progress) {
     const auto summary = pipeline::run_design(c, dir, false, progress);
     std::lock_guard lock(loaded_mutex_);
-    info_ = summary.value("constraints_met", false)
+    job_message_ = summary.value("constraints_met", false)
                 ? fmt::format("exported socket.stl and report.html to {}", dir.string())
                 : fmt::format("exported the report to {}; no socket: the constraints are not all met", dir.string());
   });
@@ -177,11 +178,10 @@ void App::push_history() {
 void App::undo() {
   if (undo_.empty() || !setup_) return;
   redo_.push_back(case_);
-  const bool brim = undo_.back().brim != case_.brim || undo_.back().brim_key_points.size() != case_.brim_key_points.size();
   case_ = undo_.back();
   undo_.pop_back();
   is_dirty_ = true;
-  request_solve(true || brim);
+  request_solve(true);
 }
 
 void App::redo() {
@@ -221,7 +221,7 @@ void App::request_solve(bool brim_changed) {
       show_error(e.what());
     }
     r.brim = setup_->brim;
-    update_meshes();
+    update_brim();
   }
   worker_->solve(std::move(r));
 }
@@ -423,13 +423,27 @@ void App::poll_jobs() {
   std::unique_ptr<pipeline::DesignSetup> loaded;
   design::CaseFile c;
   fs::path p;
+  bool is_rebuild = false;
   {
     std::lock_guard lock(loaded_mutex_);
     loaded = std::move(loaded_);
     c = loaded_case_;
     p = loaded_path_;
+    is_rebuild = loaded_is_rebuild_;
+    if (!job_message_.empty()) info_ = std::move(job_message_);
+    job_message_.clear();
   }
-  if (loaded) install_setup(std::move(loaded), std::move(c), std::move(p));
+  if (!loaded) return;
+  if (is_rebuild) {  // the same case with new patient data: the edits and their history stay
+    auto undo = std::move(undo_), redo = std::move(redo_);
+    const bool dirty = is_dirty_;
+    install_setup(std::move(loaded), std::move(c), std::move(p));
+    undo_ = std::move(undo);
+    redo_ = std::move(redo);
+    is_dirty_ = dirty;
+  } else {
+    install_setup(std::move(loaded), std::move(c), std::move(p));
+  }
 }
 
 void App::poll_worker() {
@@ -452,9 +466,7 @@ void App::poll_worker() {
       continue;
     }
     if (!r.state) continue;
-    if (r.kind == DesignOutcome::Kind::Solve && r.generation < generation_ && worker_->is_busy()) {
-      // A newer edit is being solved: still show this one (the radar follows the drag).
-    }
+    // An older generation is shown too while a newer edit is solved: the radar follows the drag.
     state_ = std::move(r.state);
     solve_status_ = fmt::format("{} ({:.0f} ms)", state_->message, r.seconds * 1e3);
     colours_dirty_ = true;
@@ -463,13 +475,17 @@ void App::poll_worker() {
   }
 }
 
-void App::update_meshes() {
+void App::update_brim() {
   if (!setup_) return;
   const auto& frame = setup_->model.frame;
   // Brim line on the skin, 1 mm outside it so the stump does not hide it.
   std::vector<Vec3> brim = pipeline::brim_on_skin(*setup_, 120);
   for (auto& p : brim) p += 0.001 * frame.radial(frame.to_cylindrical(p).theta);
   brim_lines_.set_points(brim, true);
+}
+
+void App::update_meshes() {
+  if (!setup_) return;
   // Socket: the deformed skin below the brim, moved out by the wall thickness (its outer wall).
   if (state_) {
     geometry::TriMesh s;
@@ -589,19 +605,21 @@ void App::frame(int width, int height) {
   draw_viewport_overlay(vx, vy, vw, vh);
 
   ImGui::Render();
-  glViewport(0, 0, width, height);
-  glClearColor(0.2f, 0.2f, 0.22f, 1.0f);
-  glClear(GL_COLOR_BUFFER_BIT);
+  // The panels cover the window but the view, which render_scene clears: no full-window clear.
   render_scene(vx, vy, vw, vh, height);
+  glViewport(0, 0, width, height);
 }
 
 void App::render_scene(int x, int y, int width, int height, int framebuffer_height) {
   renderer_->begin(camera_, x, framebuffer_height - y - height, width, height);
   if (setup_) {
+    // Opaque stump first: the bones inside it then fail the depth test before shading (llvmpipe
+    // shades in software, so overdraw costs frame rate); x-ray: bones first, stump blended over.
+    const bool is_xray = stump_alpha_ < 1.0f;
+    if (!is_xray) renderer_->draw_opaque(stump_);
     if (show_bones_)
       for (const auto& b : bones_) renderer_->draw_opaque(*b);
-    if (stump_alpha_ < 1.0f) renderer_->draw_translucent(stump_, stump_alpha_);  // x-ray: the bones show
-    else renderer_->draw_opaque(stump_);
+    if (is_xray) renderer_->draw_translucent(stump_, stump_alpha_);
     if (show_brim_) renderer_->draw_lines(brim_lines_, {0.1f, 0.1f, 0.1f, 1.0f}, false);
     if (show_socket_ && state_) renderer_->draw_translucent(socket_, socket_alpha_);
   }
@@ -669,6 +687,7 @@ void App::draw_design_panel() {
     return;
   }
   if (ImGui::CollapsingHeader("Spots", ImGuiTreeNodeFlags_DefaultOpen)) {
+    ImGui::BeginDisabled(is_optimising_);  // the optimiser's result replaces the spots
     const char* types[] = {"cos2", "sig2", "cos-sig", "grad"};
     ImGui::SetNextItemWidth(90);
     ImGui::Combo("type", &new_spot_type_, types, 4);
@@ -733,6 +752,7 @@ void App::draw_design_panel() {
       ImGui::PopID();
     }
     ImGui::EndChild();
+    ImGui::EndDisabled();
     const auto [fraction, stage] = worker_ ? worker_->progress() : std::pair<double, std::string>{0, ""};
     if (is_optimising_) {
       ImGui::ProgressBar(static_cast<float>(fraction), ImVec2(-80, 0), stage.c_str());
@@ -812,7 +832,7 @@ void App::draw_patient_panel() {
     }
   }
   if (ImGui::Button("Apply (rebuild the stump model)")) {
-    load(case_, case_path_, "rebuilding the stump model");
+    load(case_, case_path_, "rebuilding the stump model", true);
   }
 }
 
@@ -882,16 +902,7 @@ void App::draw_viewport_overlay(int x, int y, int width, int height) {
   if (selected_spot_ >= 0 && selected_spot_ < static_cast<int>(case_.spots.size())) {
     double th = 0, h = 0;
     design::spot_centre(case_.spots[selected_spot_], th, h);
-    const auto& cyl = setup_->solver->skin_cylindrical();
-    double best = 1e9, rho = 0;
-    for (const auto& c : cyl) {
-      const double d = std::abs(design::wrap_angle(c.theta - th)) * c.rho + std::abs(c.h - h);
-      if (d < best) {
-        best = d;
-        rho = c.rho;
-      }
-    }
-    if (const auto q = camera_.project(setup_->model.frame.from_cylindrical({rho, th, h}), width, height))
+    if (const auto q = camera_.project(pipeline::skin_point(*setup_, th, h), width, height))
       dl->AddCircle(ImVec2(x + static_cast<float>(q->x()), y + static_cast<float>(q->y())), 10,
                     IM_COL32(255, 255, 255, 255), 24, 3);
   }

@@ -120,7 +120,8 @@ class App {
 
  private:
   /// Prepares @p c on a worker thread; installed by poll_jobs() when ready.
-  void load(design::CaseFile c, std::filesystem::path path, const std::string& what);
+  /// @p is_rebuild: the same case with new patient data (edits, history and dirty flag kept).
+  void load(design::CaseFile c, std::filesystem::path path, const std::string& what, bool is_rebuild = false);
   void start_job(const std::string& what, std::function<void(const ProgressCallback&)> work);
   void poll_jobs();
   void poll_worker();
@@ -129,6 +130,7 @@ class App {
   void push_history();
   void request_solve(bool brim_changed);
   void autosave();
+  void update_brim();
   void update_meshes();
   void update_colours();
   void update_feedback();
@@ -161,6 +163,8 @@ class App {
   std::unique_ptr<pipeline::DesignSetup> loaded_;  // handed over by a finished load job
   design::CaseFile loaded_case_;
   std::filesystem::path loaded_path_;
+  bool loaded_is_rebuild_ = false;
+  std::string job_message_;  // set by a finished job, shown by poll_jobs()
   std::mutex loaded_mutex_;
   std::uint64_t generation_ = 0;
   std::optional<design::DesignState> state_;

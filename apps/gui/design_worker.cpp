@@ -21,16 +21,20 @@ DesignWorker::~DesignWorker() {
   thread_.join();
 }
 
+void DesignWorker::drop_waiting_solve(DesignRequest& request) {
+  // Latest wins: a waiting solve is replaced, but a brim change it carried is kept.
+  for (auto it = queue_.begin(); it != queue_.end(); ++it)
+    if (it->kind == DesignOutcome::Kind::Solve) {
+      if (!request.brim && it->request.brim) request.brim = std::move(it->request.brim);
+      queue_.erase(it);
+      return;
+    }
+}
+
 void DesignWorker::solve(DesignRequest request) {
   {
     std::lock_guard lock(mutex_);
-    // Latest wins: a waiting solve is replaced, but a brim change it carried is kept.
-    for (auto it = queue_.begin(); it != queue_.end(); ++it)
-      if (it->kind == DesignOutcome::Kind::Solve) {
-        if (!request.brim && it->request.brim) request.brim = std::move(it->request.brim);
-        queue_.erase(it);
-        break;
-      }
+    drop_waiting_solve(request);
     queue_.push_back({DesignOutcome::Kind::Solve, std::move(request), {}});
   }
   wake_.notify_one();
@@ -39,12 +43,7 @@ void DesignWorker::solve(DesignRequest request) {
 void DesignWorker::optimise(DesignRequest request, design::OptimizerOptions options) {
   {
     std::lock_guard lock(mutex_);
-    for (auto it = queue_.begin(); it != queue_.end(); ++it)
-      if (it->kind == DesignOutcome::Kind::Solve) {
-        if (!request.brim && it->request.brim) request.brim = std::move(it->request.brim);
-        queue_.erase(it);
-        break;
-      }
+    drop_waiting_solve(request);
     progress_ = 0;
     stage_ = "design: optimising";
     queue_.push_back({DesignOutcome::Kind::Optimise, std::move(request), std::move(options)});

@@ -70,6 +70,8 @@ class DesignWorker {
   };
   void run();
   DesignOutcome execute(Job& job);
+  /// Removes the waiting solve (if any), moving its brim change into @p request. Lock held.
+  void drop_waiting_solve(DesignRequest& request);
 
   design::DesignSolver& solver_;
   mutable std::mutex mutex_;

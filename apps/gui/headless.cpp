@@ -6,6 +6,8 @@
 #include <iostream>
 #include <numbers>
 
+#include <sys/resource.h>
+
 #include "socketsmith/core/atomic_file.h"
 #include "socketsmith/core/errors.h"
 
@@ -46,6 +48,21 @@ void HeadlessRunner::fail_run(const std::string& message) {
 }
 
 namespace {
+
+/// CPU time of the whole process (all threads: UI, solver, llvmpipe) [s].
+double process_cpu_seconds() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return static_cast<double>(u.ru_utime.tv_sec + u.ru_stime.tv_sec) + 1e-6 * (u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+}
+
+/// The 1-minute load average of the machine (other processes compete for the cores).
+double load_average() {
+  std::ifstream in("/proc/loadavg");
+  double l = -1;
+  in >> l;
+  return l;
+}
 
 design::SpotType spot_type(const json& a) { return design::parse_spot_type(a.value("type", std::string("cos2"))); }
 
@@ -215,6 +232,8 @@ bool HeadlessRunner::bench_frame() {
     bench_t0_ = now;
     bench_frames_ = 0;
     bench_solves0_ = app_.solves_done();
+    bench_cpu0_ = process_cpu_seconds();
+    bench_load0_ = load_average();
     frame_ms_.clear();
     last_frame_ = now;
     return false;
@@ -231,6 +250,7 @@ bool HeadlessRunner::bench_frame() {
   app_.end_edit();
   bench_ = Bench::Done;
   const long solves = app_.solves_done() - bench_solves0_;
+  const double cpu = process_cpu_seconds() - bench_cpu0_;
   std::sort(frame_ms_.begin(), frame_ms_.end());
   const double p95 = frame_ms_.empty() ? 0 : frame_ms_[static_cast<size_t>(0.95 * (frame_ms_.size() - 1))];
   const json result{{"seconds", t},
@@ -239,6 +259,9 @@ bool HeadlessRunner::bench_frame() {
                     {"frame_ms_p95", p95},
                     {"solves", solves},
                     {"solves_per_s", solves / t},
+                    {"cpu_ms_per_frame", 1e3 * cpu / std::max(1L, bench_frames_)},
+                    {"cpu_cores_used", cpu / t},
+                    {"load_average_1min", {bench_load0_, load_average()}},
                     {"skin_nodes", app_.state() ? app_.state()->pressure_pa.size() : 0},
                     {"nodes", app_.state() ? app_.state()->positions.size() / 3 : 0}};
   std::cout << result.dump() << std::endl;

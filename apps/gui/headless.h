@@ -58,6 +58,7 @@ class HeadlessRunner {
   int bench_spot_ = -1;
   double bench_base_kpa_ = 0;
   long bench_frames_ = 0, bench_solves0_ = 0;
+  double bench_cpu0_ = 0, bench_load0_ = 0;
   std::chrono::steady_clock::time_point bench_t0_;
   std::vector<double> frame_ms_;
   std::chrono::steady_clock::time_point last_frame_;

@@ -182,22 +182,24 @@ DesignResult solve_design(DesignSetup& setup, bool optimise, const ProgressCallb
   return r;
 }
 
+Vec3 skin_point(const DesignSetup& setup, double theta, double h) {
+  // The ray from the axis at (θ, h) — radius from the nearest skin node (rest coordinates).
+  double best = 1e9, rho = 0;
+  for (const auto& cy : setup.solver->skin_cylindrical()) {
+    const double d = std::abs(design::wrap_angle(cy.theta - theta)) * cy.rho + std::abs(cy.h - h);
+    if (d < best) {
+      best = d;
+      rho = cy.rho;
+    }
+  }
+  return setup.model.frame.from_cylindrical({rho, theta, h});
+}
+
 std::vector<Vec3> brim_on_skin(const DesignSetup& setup, int samples) {
-  const auto& cyl = setup.solver->skin_cylindrical();
   std::vector<Vec3> poly;
   for (int k = 0; k < samples; ++k) {
     const double th = -std::numbers::pi + 2 * std::numbers::pi * k / samples;
-    const double h = setup.brim.height(th);
-    // The brim on the skin: the ray from the axis at (θ, h) — radius from the nearest skin node.
-    double best = 1e9, rho = 0;
-    for (const auto& cy : cyl) {
-      const double d = std::abs(design::wrap_angle(cy.theta - th)) * cy.rho + std::abs(cy.h - h);
-      if (d < best) {
-        best = d;
-        rho = cy.rho;
-      }
-    }
-    poly.push_back(setup.model.frame.from_cylindrical({rho, th, h}));
+    poly.push_back(skin_point(setup, th, setup.brim.height(th)));
   }
   return poly;
 }

@@ -90,6 +90,10 @@ DesignResult solve_design(DesignSetup& setup, bool optimise, const ProgressCallb
 nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult& result,
                                     const std::filesystem::path& out, double seconds);
 
+/// The skin point at cylindrical (θ [rad], h [m]) of the limb frame: on the ray from the axis,
+/// at the radius of the nearest skin node (rest shape) [m].
+Eigen::Vector3d skin_point(const DesignSetup& setup, double theta, double h);
+
 /// The brim line drawn on the skin: @p samples points, each where the ray from the axis at
 /// (θ, brim(θ)) meets the skin (radius of the nearest skin node) [m]. For pictures and the GUI.
 std::vector<Eigen::Vector3d> brim_on_skin(const DesignSetup& setup, int samples);
