@@ -482,6 +482,7 @@ void App::update_brim() {
   std::vector<Vec3> brim = pipeline::brim_on_skin(*setup_, 120);
   for (auto& p : brim) p += 0.001 * frame.radial(frame.to_cylindrical(p).theta);
   brim_lines_.set_points(brim, true);
+  ++scene_version_;
 }
 
 void App::update_meshes() {
@@ -497,6 +498,7 @@ void App::update_meshes() {
     socket_.set_geometry(s);
     socket_.set_colour({0.55f, 0.75f, 0.95f, 1.0f});
   }
+  ++scene_version_;
 }
 
 void App::update_colours() {
@@ -539,6 +541,7 @@ void App::update_colours() {
     colours[i] = {c.r / 255.0f, c.g / 255.0f, c.b / 255.0f, 1.0f};
   }
   stump_.set_colours(colours);
+  ++scene_version_;
 }
 
 void App::update_feedback() {
@@ -611,7 +614,23 @@ void App::frame(int width, int height) {
 }
 
 void App::render_scene(int x, int y, int width, int height, int framebuffer_height) {
-  renderer_->begin(camera_, x, framebuffer_height - y - height, width, height);
+  // Redrawn only when something in it changed (camera, data, toggles, size).
+  const std::array<double, 12> key{camera_.target.x(), camera_.target.y(), camera_.target.z(), camera_.yaw_rad,
+                                   camera_.pitch_rad,  camera_.distance_m, static_cast<double>(scene_version_),
+                                   static_cast<double>(show_bones_ + 2 * show_socket_ + 4 * show_brim_),
+                                   socket_alpha_,      stump_alpha_,       static_cast<double>(setup_ != nullptr),
+                                   static_cast<double>(state_.has_value())};
+  const bool resized = scene_target_.resize(width, height, is_headless_ ? 0 : 4);
+  if (resized || key != scene_key_) {
+    scene_key_ = key;
+    scene_target_.bind();
+    draw_scene(width, height);
+  }
+  scene_target_.blit_to_window(x, framebuffer_height - y - height);
+}
+
+void App::draw_scene(int width, int height) {
+  renderer_->begin(camera_, width, height);
   if (setup_) {
     // Opaque stump first: the bones inside it then fail the depth test before shading (llvmpipe
     // shades in software, so overdraw costs frame rate); x-ray: bones first, stump blended over.

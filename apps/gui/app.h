@@ -5,6 +5,7 @@
 /// per displayed frame; everything slow (preparing a case, solving, optimising, exporting) runs
 /// off the UI thread, and every error is shown in the window with the user's work kept.
 
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cstdint>
@@ -144,6 +145,7 @@ class App {
   void draw_close_dialog();
   void handle_view_input(int x, int y, int width, int height);
   void render_scene(int x, int y, int width, int height, int framebuffer_height);
+  void draw_scene(int width, int height);
 
   GLFWwindow* window_;
   bool is_headless_;
@@ -179,6 +181,9 @@ class App {
   // View
   OrbitCamera camera_;
   std::unique_ptr<MeshRenderer> renderer_;
+  SceneTarget scene_target_;
+  std::array<double, 12> scene_key_{};
+  std::uint64_t scene_version_ = 0;  // bumped whenever GPU data of the scene changes
   GpuMesh stump_, socket_;
   std::vector<std::unique_ptr<GpuMesh>> bones_;
   GpuLines brim_lines_;

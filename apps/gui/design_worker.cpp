@@ -63,7 +63,7 @@ std::vector<DesignOutcome> DesignWorker::take_results() {
 
 bool DesignWorker::is_busy() const {
   std::lock_guard lock(mutex_);
-  return running_job_ || !queue_.empty();
+  return running_job_ || !queue_.empty() || !results_.empty();  // a result not yet taken counts
 }
 
 std::pair<double, std::string> DesignWorker::progress() const {

@@ -55,7 +55,7 @@ class DesignWorker {
   void cancel();
   /// The finished jobs since the last call, oldest first.
   std::vector<DesignOutcome> take_results();
-  /// A job runs or waits.
+  /// A job runs or waits, or a result waits to be taken.
   bool is_busy() const;
   /// Progress of the running optimisation: fraction [0, 1] and stage.
   std::pair<double, std::string> progress() const;

@@ -47,7 +47,6 @@ int run(const Flags& f) {
   glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 3);
   glfwWindowHint(GLFW_OPENGL_PROFILE, GLFW_OPENGL_CORE_PROFILE);
   glfwWindowHint(GLFW_OPENGL_FORWARD_COMPAT, GLFW_TRUE);
-  glfwWindowHint(GLFW_SAMPLES, f.headless ? 0 : 4);  // llvmpipe (Xvfb) renders 4× MSAA several times slower
   GLFWwindow* window = glfwCreateWindow(f.width, f.height, "socketsmith", nullptr, nullptr);
   if (!window) {
     glfwTerminate();

@@ -315,10 +315,9 @@ MeshRenderer::MeshRenderer() {
 
 MeshRenderer::~MeshRenderer() { glDeleteProgram(program_); }
 
-void MeshRenderer::begin(const OrbitCamera& camera, int x, int y, int width, int height) {
-  glViewport(x, y, width, height);
-  glEnable(GL_SCISSOR_TEST);
-  glScissor(x, y, width, height);
+void MeshRenderer::begin(const OrbitCamera& camera, int width, int height) {
+  glViewport(0, 0, width, height);
+  glDisable(GL_SCISSOR_TEST);
   glClearColor(0.93f, 0.94f, 0.96f, 1.0f);
   glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
   glEnable(GL_DEPTH_TEST);
@@ -365,8 +364,53 @@ void MeshRenderer::draw_lines(const GpuLines& lines, const Rgba& colour, bool on
 
 void MeshRenderer::end() {
   glUseProgram(0);
-  glDisable(GL_SCISSOR_TEST);
   glDisable(GL_DEPTH_TEST);
+}
+
+SceneTarget::~SceneTarget() {
+  if (fbo_ == 0) return;
+  glDeleteFramebuffers(1, &fbo_);
+  const GLuint rb[] = {colour_, depth_};
+  glDeleteRenderbuffers(2, rb);
+}
+
+bool SceneTarget::resize(int width, int height, int samples) {
+  if (fbo_ != 0 && width == width_ && height == height_ && samples == samples_) return false;
+  if (fbo_ == 0) {
+    glGenFramebuffers(1, &fbo_);
+    GLuint rb[2];
+    glGenRenderbuffers(2, rb);
+    colour_ = rb[0];
+    depth_ = rb[1];
+  }
+  width_ = width;
+  height_ = height;
+  samples_ = samples;
+  glBindRenderbuffer(GL_RENDERBUFFER, colour_);
+  glRenderbufferStorageMultisample(GL_RENDERBUFFER, samples > 1 ? samples : 0, GL_RGBA8, width, height);
+  glBindRenderbuffer(GL_RENDERBUFFER, depth_);
+  glRenderbufferStorageMultisample(GL_RENDERBUFFER, samples > 1 ? samples : 0, GL_DEPTH_COMPONENT24, width, height);
+  glBindRenderbuffer(GL_RENDERBUFFER, 0);
+  glBindFramebuffer(GL_FRAMEBUFFER, fbo_);
+  glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, colour_);
+  glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, depth_);
+  const GLenum status = glCheckFramebufferStatus(GL_FRAMEBUFFER);
+  glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  if (status != GL_FRAMEBUFFER_COMPLETE)
+    fail<Error>("socketsmith-gui: the offscreen framebuffer is incomplete (status 0x{:x})", status);
+  return true;
+}
+
+void SceneTarget::bind() const {
+  glBindFramebuffer(GL_FRAMEBUFFER, fbo_);
+  glViewport(0, 0, width_, height_);
+}
+
+void SceneTarget::blit_to_window(int x, int y) const {
+  glBindFramebuffer(GL_READ_FRAMEBUFFER, fbo_);
+  glBindFramebuffer(GL_DRAW_FRAMEBUFFER, 0);
+  glBlitFramebuffer(0, 0, width_, height_, x, y, x + width_, y + height_, GL_COLOR_BUFFER_BIT, GL_NEAREST);
+  glBindFramebuffer(GL_FRAMEBUFFER, 0);
 }
 
 std::vector<std::uint8_t> read_pixels(int width, int height) {

@@ -104,8 +104,8 @@ class MeshRenderer {
   MeshRenderer(const MeshRenderer&) = delete;
   MeshRenderer& operator=(const MeshRenderer&) = delete;
 
-  /// Starts drawing into the viewport (x, y from the bottom-left, pixels) with the camera.
-  void begin(const OrbitCamera& camera, int x, int y, int width, int height);
+  /// Starts drawing into the bound framebuffer (width × height pixels) with the camera.
+  void begin(const OrbitCamera& camera, int width, int height);
   /// Draws an opaque mesh (depth written).
   void draw_opaque(const GpuMesh& mesh);
   /// Draws a translucent mesh (after the opaque ones; depth tested, not written).
@@ -117,6 +117,29 @@ class MeshRenderer {
  private:
   unsigned program_ = 0;
   int loc_mvp_ = -1, loc_view_ = -1, loc_alpha_ = -1, loc_lit_ = -1, loc_colour_ = -1, loc_use_colour_ = -1;
+};
+
+/// An offscreen framebuffer the 3D view is rendered into (multisampled when samples > 1), blitted
+/// into the window every frame: the scene is redrawn only when it changed, the panels every frame
+/// (with software OpenGL the scene's shading is the costly part of a frame).
+class SceneTarget {
+ public:
+  SceneTarget() = default;
+  ~SceneTarget();
+  SceneTarget(const SceneTarget&) = delete;
+  SceneTarget& operator=(const SceneTarget&) = delete;
+  /// (Re)creates the buffers when the size or sample count changed; true when it did.
+  bool resize(int width, int height, int samples);
+  /// Binds it for drawing (viewport set to its size).
+  void bind() const;
+  /// Copies (resolves) it into the window's framebuffer at (x, y) from the bottom-left.
+  void blit_to_window(int x, int y) const;
+  int width() const { return width_; }
+  int height() const { return height_; }
+
+ private:
+  unsigned fbo_ = 0, colour_ = 0, depth_ = 0;
+  int width_ = 0, height_ = 0, samples_ = 0;
 };
 
 /// Reads the back buffer's pixels (RGB, top row first) of a width × height framebuffer.

@@ -71,7 +71,8 @@ class GuiSession : public ::testing::Test {
           {{"do", "field"}, {"value", "ratio"}},
           {{"do", "screenshot"}, {"name", "optimised.png"}},
           {{"do", "save"}, {"path", (dir_ / "optimised.json").string()}},
-          {{"do", "write_state"}, {"path", (dir_ / "optimised_state.json").string()}}}}};
+          {{"do", "write_state"}, {"path", (dir_ / "optimised_state.json").string()}},
+          {{"do", "export"}, {"dir", (dir_ / "export").string()}}}}};
     const fs::path gui = kBin / "socketsmith-gui", stamp = dir_ / "session.stamp";
     if (fs::exists(stamp) && fs::last_write_time(stamp) > fs::last_write_time(gui)) {
       const json st = read_json(stamp);
@@ -198,6 +199,15 @@ TEST_F(GuiSession, a_saved_case_replays_headless_to_the_same_radar) {
     EXPECT_NEAR(cli["radar"][k].get<double>(), gui["radar"][k].get<double>(), 1e-3 * fz) << k;
   EXPECT_NEAR(cli["max_pressure_ratio"].get<double>(), gui["max_pressure_ratio"].get<double>(), 1e-3);
   EXPECT_TRUE(fs::exists(out / "socket.stl"));
+}
+
+TEST_F(GuiSession, export_writes_the_socket_and_the_report) {
+  ASSERT_EQ(rc_, 0) << read_text(dir_ / "gui.log");
+  EXPECT_GT(fs::file_size(dir_ / "export" / "socket.stl"), 10000u);
+  EXPECT_TRUE(fs::exists(dir_ / "export" / "report.html"));
+  const json summary = read_json(dir_ / "export" / "design.json");
+  EXPECT_TRUE(summary["constraints_met"].get<bool>());
+  EXPECT_FALSE(summary["optimised"].get<bool>());  // the spots as designed in the window
 }
 
 TEST(GuiErrors, a_bad_case_file_is_reported_and_the_exit_status_is_not_zero) {
