@@ -175,23 +175,18 @@ void App::push_history() {
   redo_.clear();
 }
 
-void App::undo() {
-  if (undo_.empty() || !setup_) return;
-  redo_.push_back(case_);
-  case_ = undo_.back();
-  undo_.pop_back();
+void App::step_history(std::vector<design::CaseFile>& from, std::vector<design::CaseFile>& to) {
+  if (from.empty() || !setup_) return;
+  to.push_back(case_);
+  case_ = from.back();
+  from.pop_back();
   is_dirty_ = true;
   request_solve(true);
 }
 
-void App::redo() {
-  if (redo_.empty() || !setup_) return;
-  undo_.push_back(case_);
-  case_ = redo_.back();
-  redo_.pop_back();
-  is_dirty_ = true;
-  request_solve(true);
-}
+void App::undo() { step_history(undo_, redo_); }
+
+void App::redo() { step_history(redo_, undo_); }
 
 void App::begin_edit() {
   if (edit_start_) return;

@@ -129,6 +129,8 @@ class App {
   void install_setup(std::unique_ptr<pipeline::DesignSetup> setup, design::CaseFile c, std::filesystem::path path);
   void edit(const std::function<void()>& change, bool brim_changed = false);
   void push_history();
+  /// Undo (from = undo, to = redo) or redo: the case goes back to from's last snapshot.
+  void step_history(std::vector<design::CaseFile>& from, std::vector<design::CaseFile>& to);
   void request_solve(bool brim_changed);
   void autosave();
   void update_brim();

@@ -63,6 +63,12 @@ class GuiSession : public ::testing::Test {
          {{{"do", "add_spot"}, {"landmark", "PT"}, {"type", "cos2"}, {"amplitude_kpa", 20}},
           {{"do", "set"}, {"spot", "PT (added)"}, {"field", "amplitude_kpa"}, {"value", 27.5}},
           {{"do", "set"}, {"spot", "PT (added)"}, {"field", "r_h_mm"}, {"value", 12}},
+          // Undo/redo: 99 kPa, undone, redone, undone again → 27.5 kPa and R_h 12 mm are saved
+          // (a redo that did nothing would let the second undo take R_h back to 15 mm).
+          {{"do", "set"}, {"spot", "PT (added)"}, {"field", "amplitude_kpa"}, {"value", 99}},
+          {{"do", "undo"}},
+          {{"do", "redo"}},
+          {{"do", "undo"}},
           {{"do", "field"}, {"value", "pressure"}},
           {{"do", "screenshot"}, {"name", "edited.png"}},
           {{"do", "save"}, {"path", (dir_ / "edited.json").string()}},
@@ -101,7 +107,7 @@ TEST_F(GuiSession, loads_the_demo_and_runs_the_script_with_status_zero) {
   EXPECT_TRUE(fs::exists(dir_ / "final.png"));
 }
 
-TEST_F(GuiSession, the_saved_case_holds_the_added_spot_in_file_units) {
+TEST_F(GuiSession, the_saved_case_holds_the_added_spot_in_file_units_after_undo_and_redo) {
   ASSERT_EQ(rc_, 0) << read_text(dir_ / "gui.log");
   const design::CaseFile c = design::read_case(dir_ / "edited.json");
   const design::Spot* added = nullptr;
