@@ -1,7 +1,7 @@
 // socketsmith-gui: the interactive socket design application (docs/gui.md).
-// Interactive: socketsmith-gui [--case FILE | --demo] [--target-nodes N]
+// Interactive: socketsmith-gui [--case FILE | --limb FILE | --demo] [--target-nodes N]
 // Headless (tests, screenshots, benchmark), under Xvfb:
-//   socketsmith-gui --headless --case FILE|--demo [--target-nodes N] [--script actions.json]
+//   socketsmith-gui --headless --case FILE|--limb FILE|--demo [--target-nodes N] [--script actions.json]
 //                   [--frames N] [--screenshot-dir DIR] [--bench-drag SECONDS [--bench-spot NAME]]
 #include <cstdio>
 #include <iostream>
@@ -22,6 +22,7 @@ namespace {
 
 struct Flags {
   std::string case_file;
+  std::string limb_file;
   bool demo = false;
   int target_nodes = 8000;
   bool headless = false;
@@ -65,6 +66,7 @@ int run(const Flags& f) {
   {
     gui::App app(window, f.headless);
     if (!f.case_file.empty()) app.open_case(f.case_file);
+    else if (!f.limb_file.empty()) app.open_limb(f.limb_file, f.target_nodes);
     else if (f.demo) app.open_demo(f.target_nodes);
     std::unique_ptr<gui::HeadlessRunner> runner;
     if (f.headless) {
@@ -111,8 +113,10 @@ int main(int argc, char** argv) {
   Flags f;
   CLI::App cli("socketsmith-gui: interactive prosthetic socket design");
   auto* case_opt = cli.add_option("--case", f.case_file, "case file to open (JSON, docs/case_file.md)");
-  cli.add_flag("--demo", f.demo, "open the demo sample (generated transtibial limb)")->excludes(case_opt);
-  cli.add_option("--target-nodes", f.target_nodes, "stump size of the demo (default 8000)")->check(CLI::Range(500, 100000));
+  auto* limb_opt = cli.add_option("--limb", f.limb_file, "limb scan to open as a new case (STL/OBJ/PLY)")->excludes(case_opt);
+  cli.add_flag("--demo", f.demo, "open the demo sample (generated transtibial limb)")->excludes(case_opt)->excludes(limb_opt);
+  cli.add_option("--target-nodes", f.target_nodes, "stump size of the demo or the limb (default 8000)")
+      ->check(CLI::Range(500, 100000));
   cli.add_flag("--headless", f.headless, "run a script, save screenshots and exit (tests, docs; under xvfb-run)");
   cli.add_option("--script", f.script, "headless: actions to apply (JSON, docs/gui.md)");
   cli.add_option("--frames", f.frames, "headless: frames rendered after the last action")->check(CLI::Range(0, 100000));
@@ -124,8 +128,8 @@ int main(int argc, char** argv) {
   cli.add_option("--width", f.width, "window width [px]")->check(CLI::Range(800, 8000));
   cli.add_option("--height", f.height, "window height [px]")->check(CLI::Range(600, 8000));
   CLI11_PARSE(cli, argc, argv);
-  if (f.headless && f.case_file.empty() && !f.demo) {
-    std::fprintf(stderr, "socketsmith-gui: --headless needs --case FILE or --demo\n");
+  if (f.headless && f.case_file.empty() && f.limb_file.empty() && !f.demo) {
+    std::fprintf(stderr, "socketsmith-gui: --headless needs --case FILE, --limb FILE or --demo\n");
     return 2;
   }
   try {

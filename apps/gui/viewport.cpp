@@ -344,8 +344,11 @@ void MeshRenderer::draw_translucent(const GpuMesh& mesh, float alpha) {
   glEnable(GL_BLEND);
   glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
   glDepthMask(GL_FALSE);
+  glEnable(GL_CULL_FACE);  // the near wall only: one blended layer (cheaper in software, reads better)
+  glCullFace(GL_BACK);
   glUniform1f(loc_alpha_, alpha);
   mesh.draw();
+  glDisable(GL_CULL_FACE);
   glDepthMask(GL_TRUE);
   glDisable(GL_BLEND);
   glUniform1f(loc_alpha_, 1.0f);

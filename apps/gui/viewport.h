@@ -108,7 +108,8 @@ class MeshRenderer {
   void begin(const OrbitCamera& camera, int width, int height);
   /// Draws an opaque mesh (depth written).
   void draw_opaque(const GpuMesh& mesh);
-  /// Draws a translucent mesh (after the opaque ones; depth tested, not written).
+  /// Draws a translucent mesh (after the opaque ones; depth tested, not written; back faces
+  /// culled: the mesh's outward, counter-clockwise faces are seen).
   void draw_translucent(const GpuMesh& mesh, float alpha);
   /// Draws a line strip in one colour, unlit, always on top when @p on_top.
   void draw_lines(const GpuLines& lines, const Rgba& colour, bool on_top);
