@@ -5,6 +5,7 @@
 #include <numbers>
 
 #include <GLFW/glfw3.h>
+#include <fmt/ranges.h>
 #include <imgui.h>
 
 #include "plots.h"
@@ -878,6 +879,19 @@ void App::draw_feedback_panel() {
     ImGui::SameLine();
     ImGui::TextDisabled("(updating)");
   }
+  std::vector<std::string> estimated;
+  if (setup_->model.bones_estimated) estimated.push_back("the bones");
+  if (setup_->model.frame.anterior_estimated) estimated.push_back("the front direction");
+  if (setup_->model.frame.side_estimated) estimated.push_back("the side");
+  if (!estimated.empty()) {
+    ImGui::PushStyleColor(ImGuiCol_Text, IM_COL32(255, 200, 80, 255));
+    ImGui::TextWrapped("Check %s: estimated from the skin", fmt::format("{}", fmt::join(estimated, ", ")).c_str());
+    ImGui::PopStyleColor();
+  }
+  if (ImGui::CollapsingHeader("Limb notes")) {
+    ImGui::TextWrapped("%s", setup_->limb_label.c_str());
+    for (const auto& n : setup_->model.notes) ImGui::BulletText("%s", n.c_str());
+  }
   radar_chart(radar_, kRightPanel - 20);
   if (state_)
     ImGui::TextWrapped("peak p/T %.0f %%, max displacement %.1f mm; %s", 100 * state_->max_requested_ratio,
@@ -960,6 +974,28 @@ void App::handle_view_input(int x, int y, int width, int height) {
   if (io.WantCaptureMouse || !inside) {
     if (!ImGui::IsMouseDown(ImGuiMouseButton_Left)) is_dragging_view_ = false;
     if (!is_dragging_view_) return;
+  }
+  // Hover: the values under the cursor (the nearest skin node of the triangle hit).
+  if (setup_ && !ImGui::IsAnyMouseDown()) {
+    const auto [o, dir] = camera_.ray(m.x - x, m.y - y, width, height);
+    if (const auto hit = pick(skin_rest_, o, dir)) {
+      int node = -1;
+      double best = 1e9;
+      for (int k : skin_rest_.triangles[hit->triangle])
+        if ((skin_rest_.vertices[k] - hit->point).norm() < best) {
+          best = (skin_rest_.vertices[k] - hit->point).norm();
+          node = k;
+        }
+      const auto c = setup_->model.frame.to_cylindrical(hit->point);
+      std::string text = fmt::format("theta {:.0f} deg, h {:.0f} mm\nthreshold {:.1f} kPa", c.theta / kDeg, c.h * 1e3,
+                                     setup_->solver->thresholds()[node] / 1e3);
+      if (state_ && setup_->solver->above_brim()[node]) text += "\nabove the brim";
+      else if (state_)
+        text += fmt::format("\npressure {:.1f} kPa (p/T {:.2f})\ndisplacement {:.2f} mm", state_->pressure_pa[node] / 1e3,
+                            state_->requested_pa[node] / setup_->solver->thresholds()[node],
+                            state_->displacement_m[node] * 1e3);
+      ImGui::SetTooltip("%s", text.c_str());
+    }
   }
   if (ImGui::IsMouseClicked(ImGuiMouseButton_Left)) {
     is_dragging_view_ = true;
