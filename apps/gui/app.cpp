@@ -797,17 +797,28 @@ void App::draw_design_panel() {
       float th = static_cast<float>(kp[i].theta / kDeg), h = static_cast<float>(kp[i].h * 1e3);
       ImGui::SetNextItemWidth(150);
       bool changed = ImGui::DragFloat("##th", &th, 0.5f, -180, 180, "%.0f deg");
-      if (ImGui::IsItemActivated()) selected_key_point_ = i;
+      if (ImGui::IsItemActivated()) {
+        selected_key_point_ = i;
+        begin_edit();  // one drag, one undo step
+      }
+      if (ImGui::IsItemDeactivated()) end_edit();
       ImGui::SameLine();
       ImGui::SetNextItemWidth(150);
       changed |= ImGui::DragFloat("##h", &h, 0.5f, 0, static_cast<float>(setup_->model.length_m * 1e3), "%.0f mm");
-      if (ImGui::IsItemActivated()) selected_key_point_ = i;
+      if (ImGui::IsItemActivated()) {
+        selected_key_point_ = i;
+        begin_edit();  // one drag, one undo step
+      }
+      if (ImGui::IsItemDeactivated()) end_edit();
       if (changed) move_brim_key_point(i, th * kDeg, h * 1e-3);
       ImGui::PopID();
     }
     ImGui::TextDisabled("Drag a key point's values, or Shift+drag it on the stump.");
     float thk = static_cast<float>(case_.socket.thickness_m * 1e3);
-    if (ImGui::SliderFloat("wall [mm]", &thk, 1, 15, "%.1f")) set_thickness(thk * 1e-3);
+    const bool thk_changed = ImGui::SliderFloat("wall [mm]", &thk, 1, 15, "%.1f");
+    if (ImGui::IsItemActivated()) begin_edit();  // before the change: one drag, one undo step
+    if (thk_changed) set_thickness(thk * 1e-3);
+    if (ImGui::IsItemDeactivated()) end_edit();
   }
 }
 
@@ -1010,7 +1021,10 @@ void App::handle_view_input(int x, int y, int width, int height) {
       const auto [o, dir] = camera_.ray(m.x - x, m.y - y, width, height);
       if (const auto hit = pick(skin_rest_, o, dir)) {
         const auto c = setup_->model.frame.to_cylindrical(hit->point);
-        if (drag_distance_px_ > 3) move_brim_key_point(selected_key_point_, c.theta, c.h);
+        if (drag_distance_px_ > 3) {
+          begin_edit();  // ended when the button is released
+          move_brim_key_point(selected_key_point_, c.theta, c.h);
+        }
       }
     } else if (!is_placing_spot_) {
       camera_.orbit(d.x, d.y);
@@ -1020,6 +1034,7 @@ void App::handle_view_input(int x, int y, int width, int height) {
     camera_.pan(d.x, d.y, height);
   if (ImGui::IsMouseReleased(ImGuiMouseButton_Left) && is_dragging_view_) {
     is_dragging_view_ = false;
+    end_edit();
     if (is_placing_spot_ && drag_distance_px_ < 4 && setup_) {
       const auto [o, dir] = camera_.ray(m.x - x, m.y - y, width, height);
       if (const auto hit = pick(skin_rest_, o, dir)) {
