@@ -85,8 +85,10 @@ int run(const Flags& f) {
         if (app.request_close()) break;
         glfwSetWindowShouldClose(window, 0);
       }
+      // Interactive: wakes for input at once; otherwise at 60 Hz while something is computed or
+      // edited, 4 Hz when all is still (software OpenGL would spend a core redrawing an idle window).
       if (f.headless) glfwPollEvents();
-      else glfwWaitEventsTimeout(1.0 / 60.0);  // wakes for input, and at 60 Hz for worker results
+      else glfwWaitEventsTimeout(app.is_idle() && !ImGui::IsAnyItemActive() ? 0.25 : 1.0 / 60.0);
       ImGui_ImplOpenGL3_NewFrame();
       ImGui_ImplGlfw_NewFrame();
       ImGui::NewFrame();
