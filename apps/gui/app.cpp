@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <numbers>
 
 #include <GLFW/glfw3.h>
@@ -40,9 +41,20 @@ Field parse_field(const std::string& text) {
 App::App(GLFWwindow* window, bool is_headless)
     : window_(window), is_headless_(is_headless), renderer_(std::make_unique<MeshRenderer>()) {
   dialog_folder_ = fs::current_path().string();
+  // Library messages (limb repairs, estimated bones, optimiser rounds): on stderr as before, and
+  // kept for the Log panel.
+  log::set_sink([lines = log_](log::Level level, std::string_view message) {
+    static const char* names[] = {"debug", "info", "warn", "error", "off"};
+    const std::string line = fmt::format("[{}] {}", names[static_cast<int>(level)], message);
+    std::fprintf(stderr, "%s\n", line.c_str());
+    std::lock_guard lock(lines->mutex);
+    lines->lines.push_back(line);
+    if (lines->lines.size() > 500) lines->lines.erase(lines->lines.begin(), lines->lines.begin() + 100);
+  });
 }
 
 App::~App() {
+  log::set_sink(nullptr);
   worker_.reset();  // joins the solve thread before the solver goes
   if (job_ && job_->done.valid()) job_->done.wait();
 }
@@ -898,6 +910,13 @@ void App::draw_feedback_panel() {
     ImGui::PushStyleColor(ImGuiCol_Text, IM_COL32(255, 200, 80, 255));
     ImGui::TextWrapped("Check %s: estimated from the skin", fmt::format("{}", fmt::join(estimated, ", ")).c_str());
     ImGui::PopStyleColor();
+  }
+  if (ImGui::CollapsingHeader("Log")) {
+    ImGui::BeginChild("log", ImVec2(0, 160), true, ImGuiWindowFlags_HorizontalScrollbar);
+    std::lock_guard lock(log_->mutex);
+    for (const auto& l : log_->lines) ImGui::TextUnformatted(l.c_str());
+    if (ImGui::GetScrollY() >= ImGui::GetScrollMaxY()) ImGui::SetScrollHereY(1.0f);
+    ImGui::EndChild();
   }
   if (ImGui::CollapsingHeader("Limb notes")) {
     ImGui::TextWrapped("%s", setup_->limb_label.c_str());

@@ -179,6 +179,12 @@ class App {
   bool is_optimising_ = false;
   std::vector<std::string> errors_;
   std::string info_;
+  /// The libraries' log lines (any thread), newest last, for the Log panel.
+  struct LogLines {
+    std::mutex mutex;
+    std::vector<std::string> lines;
+  };
+  std::shared_ptr<LogLines> log_ = std::make_shared<LogLines>();
 
   // View
   OrbitCamera camera_;
