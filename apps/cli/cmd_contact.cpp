@@ -1,5 +1,323 @@
-// placeholder
+// `socketsmith simulate donning`: the designed (or a given) socket slides onto the stump with
+// friction, then the patient stands; contact pressures against the designed ones.
+#include <cmath>
+#include <filesystem>
+#include <limits>
+#include <numbers>
+
 #include "cli_common.h"
+#include "socketsmith/contact/donning.h"
+#include "socketsmith/core/atomic_file.h"
+#include "socketsmith/core/errors.h"
+#include "socketsmith/core/log.h"
+#include "socketsmith/core/progress.h"
+#include "socketsmith/core/units.h"
+#include "socketsmith/geometry/mesh_checks.h"
+#include "socketsmith/geometry/mesh_io.h"
+#include "socketsmith/pipeline/design_pipeline.h"
+#include "socketsmith/report/csv.h"
+#include "socketsmith/report/design_report.h"
+#include "socketsmith/report/svg_plot.h"
+#include "socketsmith/report/vtk_writer.h"
+
 namespace socketsmith::cli {
-void register_contact(CLI::App&) {}
+namespace {
+
+namespace fs = std::filesystem;
+using geometry::Vec3;
+
+struct DonningFlags {
+  std::string case_file, limb, socket, units, out;
+  double offset_mm = 0;  // 0: automatic
+  int steps = 0;         // 0: one per step_mm
+  double step_mm = 2;
+  int target_nodes = 0;
+  double friction = -1;
+  double penalty_factor = 20;
+  bool no_stand = false;
+  bool json = false;
+};
+
+nlohmann::json agreement_json(const contact::PressureAgreement& a) {
+  return {{"nodes", a.nodes},
+          {"mae_kpa", a.mae_pa / 1e3},
+          {"rmse_kpa", a.rmse_pa / 1e3},
+          {"pearson_r", std::isfinite(a.pearson_r) ? nlohmann::json(a.pearson_r) : nlohmann::json(nullptr)},
+          {"mean_designed_kpa", a.mean_a_pa / 1e3},
+          {"mean_contact_kpa", a.mean_b_pa / 1e3},
+          {"max_designed_kpa", a.max_a_pa / 1e3},
+          {"max_contact_kpa", a.max_b_pa / 1e3}};
 }
+
+int run_donning(const DonningFlags& f) {
+  require(f.case_file.empty() != f.limb.empty(),
+          "simulate donning: give either --case CASE.json or --limb FILE --socket FILE, not both");
+  require(!f.limb.empty() == !f.socket.empty() || !f.case_file.empty(),
+          "simulate donning: --limb needs --socket (the socket to put on it)");
+  require(std::isfinite(f.offset_mm) && f.offset_mm >= 0,
+          "simulate donning: start offset {} mm must be positive (the socket starts that far below the stump)",
+          f.offset_mm);
+  const fs::path out(f.out);
+  ensure_directory(out);
+  const auto progress = console_progress(1.0);
+  const auto stage = [&](double a, double b) {
+    return [&progress, a, b](double x, std::string_view s) { return report_progress(progress, a + (b - a) * x, s); };
+  };
+
+  // The stump and the socket: the case's own design, or a limb and a given socket.
+  design::CaseFile c;
+  std::unique_ptr<pipeline::DesignSetup> setup;
+  std::optional<pipeline::DesignResult> designed;
+  geometry::TriMesh socket_solid;
+  std::string socket_label;
+  if (!f.case_file.empty()) {
+    c = design::read_case(f.case_file);
+    if (f.target_nodes > 0) c.target_nodes = f.target_nodes;
+    pipeline::DesignArtifacts art;
+    pipeline::run_design(c, out / "design", c.optimise, stage(0.0, 0.3), &art);
+    require(art.result.socket.has_value(),
+            "simulate donning: the case's design does not meet its constraints, so it has no socket to don (see {}); "
+            "fix the design first",
+            (out / "design" / "report.html").string());
+    setup = std::move(art.setup);
+    designed = std::move(art.result);
+    socket_solid = designed->socket->solid;
+    socket_label = (out / "design" / "socket.stl").string();
+  } else {
+    // The socket first: a bad file is reported before the stump is meshed.
+    geometry::MeshReadOptions ro;
+    if (!f.units.empty()) ro.unit = units::parse_length_unit(f.units);
+    socket_solid = geometry::read_mesh(f.socket, ro);
+    const auto rep = geometry::check_mesh(socket_solid);
+    require<TopologyError>(rep.is_closed(),
+                           "simulate donning: the socket {} is not a closed surface ({} boundary edges): give the "
+                           "socket as a solid (inner and outer wall joined at the brim)",
+                           f.socket, rep.boundary_edges);
+    socket_label = f.socket;
+    c.limb.file = fs::absolute(f.limb).string();
+    c.limb.units = f.units;
+    if (f.target_nodes > 0) c.target_nodes = f.target_nodes;
+    setup = pipeline::prepare_design(c, {}, stage(0.0, 0.3));
+  }
+  const auto& solver = *setup->solver;
+  const auto& skin = solver.skin();
+  const double mu = f.friction >= 0 ? f.friction : c.patient.friction;
+
+  contact::DonningOptions o;
+  o.start_offset_m = f.offset_mm * 1e-3;
+  o.steps = f.steps;
+  o.step_m = f.step_mm * 1e-3;
+  o.friction = mu;
+  o.stand_force_n = f.no_stand ? 0.0 : 0.5 * c.patient.body_mass_kg * units::kGravity;
+  o.progress = stage(0.3, 0.95);
+  o.contact.penalty_factor = f.penalty_factor;
+  log::info("donning: {} onto a {}-node stump ({} skin nodes), from {} in {}, μ = {:.2f}{}",
+            socket_label, setup->mesh.mesh.num_nodes(), skin.nodes.size(),
+            f.offset_mm > 0 ? fmt::format("{:.0f} mm below", f.offset_mm) : std::string("below the stump"),
+            f.steps > 0 ? fmt::format("{} steps", f.steps) : fmt::format("steps of {:.1f} mm", f.step_mm), mu,
+            o.stand_force_n > 0 ? fmt::format(", then standing ({:.0f} N)", o.stand_force_n) : "");
+  const contact::DonningResult r =
+      contact::simulate_donning(solver.model(), skin.nodes, skin.area_m2, socket_solid, setup->model.frame, o);
+
+  // Time series.
+  {
+    report::CsvTable t;
+    t.header = {"time",         "socket_position_mm", "reaction_force_n",   "lateral_force_n",   "contact_nodes",
+                "sliding_nodes", "max_pressure_kpa",   "mean_pressure_kpa", "max_penetration_mm", "newton_iterations",
+                "seconds"};
+    for (size_t k = 0; k < r.series.size(); ++k) {
+      const auto& s = r.series[k];
+      t.rows.push_back({static_cast<double>(k + 1), s.offset_m * 1e3, s.axial_force_n, s.lateral_force_n,
+                        static_cast<double>(s.contact_nodes), static_cast<double>(s.sliding_nodes),
+                        s.max_pressure_pa / 1e3, s.mean_pressure_pa / 1e3, s.max_penetration_m * 1e3,
+                        static_cast<double>(s.newton_iterations), s.seconds});
+    }
+    report::write_csv(out / "donning.csv", t.header, t.rows, 9);
+  }
+  // Per skin node: the columns of surface_nodes.csv, pressure = contact pressure (+ the designed one).
+  const size_t ns = skin.nodes.size();
+  std::vector<Vec3> pos(ns), nrm(ns);
+  std::vector<double> area(ns), pc(ns), pd(ns, 0.0);
+  std::vector<char> below(ns, 1);
+  {
+    const volume::SkinSurface& s0 = skin;
+    for (size_t i = 0; i < ns; ++i) {
+      pos[i] = r.positions.segment<3>(3 * s0.nodes[i]);
+      pc[i] = r.contacts[i].pressure_pa;
+    }
+    // Deformed normals and areas from the final positions.
+    tissue::VectorXd x = r.positions;
+    std::vector<Vec3> p2;
+    solver.skin_geometry(x, p2, nrm, area);
+    const auto& above = solver.above_brim();
+    for (size_t i = 0; i < ns; ++i) below[i] = above[i] ? 0 : 1;
+    if (designed) pd = designed->state.pressure_pa;
+    report::CsvTable t;
+    t.header = {"x_m",     "y_m",         "z_m",          "nx",          "ny",      "nz",      "area_m2",
+                "pressure_pa", "threshold_pa", "above_brim", "designed_pressure_pa", "sliding", "gap_m"};
+    for (size_t i = 0; i < ns; ++i)
+      t.rows.push_back({pos[i].x(), pos[i].y(), pos[i].z(), nrm[i].x(), nrm[i].y(), nrm[i].z(), area[i], pc[i],
+                        setup->thresholds[i], below[i] ? 0.0 : 1.0, pd[i], r.contacts[i].sliding ? 1.0 : 0.0,
+                        r.contacts[i].gap_m});
+    report::write_csv(out / "contact.csv", t.header, t.rows, 12);
+  }
+  // The stump for ParaView.
+  {
+    const auto& mesh = setup->mesh.mesh;
+    const int nn = mesh.num_nodes();
+    std::vector<Vec3> u(nn);
+    std::vector<double> pcn(nn, 0.0), pdn(nn, 0.0);
+    for (int k = 0; k < nn; ++k) u[k] = r.positions.segment<3>(3 * k) - mesh.nodes[k];
+    for (size_t i = 0; i < ns; ++i) {
+      pcn[skin.nodes[i]] = pc[i];
+      pdn[skin.nodes[i]] = pd[i];
+    }
+    report::write_vtu(out / "stump.vtu", mesh,
+                      {report::make_vector_field("displacement_m", u), {"contact_pressure_pa", 1, pcn},
+                       {"designed_pressure_pa", 1, pdn}},
+                      {});
+  }
+  // Pressure maps (contact; designed beside it on the same scale when there is a design).
+  geometry::TriMesh def_tri = skin.triangles();
+  def_tri.vertices = pos;
+  const auto sframe = report::surface_frame(setup->model.frame);
+  std::vector<report::MapLandmark> marks;
+  for (const auto& l : setup->model.landmarks) marks.push_back({l.code, l.position, l.estimated});
+  double vmax = 0;
+  for (size_t i = 0; i < ns; ++i) vmax = std::max({vmax, pc[i] / 1e3, pd[i] / 1e3});
+  const auto map = [&](const std::vector<double>& p, const std::string& title) {
+    report::PressureMapData m;
+    m.surface = &def_tri;
+    for (double v : p) m.values.push_back(v / 1e3);
+    m.value_label = "kPa";
+    m.title = title;
+    m.value_min = 0;
+    m.value_max = std::max(vmax, 1e-3);
+    m.frame = sframe;
+    m.landmarks = marks;
+    return m;
+  };
+  report::write_pressure_map(out / "contact_map.png", map(pc, "Contact pressure after donning"));
+  if (designed) report::write_pressure_map(out / "designed_map.png", map(pd, "Designed pressure (same scale)"));
+  // Force and contact along the path.
+  {
+    report::Plot p;
+    p.title = "Donning: reaction of the stump on the socket";
+    p.x_label = "socket position relative to the designed pose [mm]";
+    p.y_label = "axial force [N]";
+    report::PlotSeries s;
+    s.name = "axial force";
+    for (const auto& d : r.series) {
+      s.x.push_back(d.offset_m * 1e3);
+      s.y.push_back(d.axial_force_n);
+    }
+    s.markers = true;
+    p.series.push_back(s);
+    report::write_svg(out / "donning_force.svg", p);
+  }
+
+  // Agreement with the design: below the brim, along the front line, back line, mid circumference.
+  nlohmann::json agreement;
+  if (designed) {
+    agreement["below_brim"] = agreement_json(contact::compare_pressures(pd, pc, below));
+    double pt_theta = 0;
+    for (const auto& l : setup->model.landmarks)
+      if (l.code == "PT") pt_theta = l.cylindrical.theta;
+    double spacing = 0;
+    for (double a : skin.area_m2) spacing += std::sqrt(a) / static_cast<double>(ns);
+    const auto path = [&](const std::string& key, report::PathKind kind, double theta, double h) {
+      report::PathSpec ps;
+      ps.kind = kind;
+      ps.theta_rad = theta;
+      ps.height_m = h;
+      ps.band_m = 0.75 * spacing;
+      ps.bin_m = 0.8 * spacing;
+      std::vector<char> m(ns, 0);
+      for (const auto& s : report::sample_path(skin.positions, {}, sframe, ps))
+        if (below[s.index]) m[s.index] = 1;
+      int count = 0;
+      for (char v : m) count += v;
+      if (count >= 3) agreement[key] = agreement_json(contact::compare_pressures(pd, pc, m));
+    };
+    path("front_line", report::PathKind::Vertical, pt_theta, 0);
+    path("back_line", report::PathKind::Vertical, design::wrap_angle(pt_theta + std::numbers::pi), 0);
+    path("mid_circumference", report::PathKind::Circumferential, 0, 0.5 * setup->model.length_m);
+  }
+
+  const contact::DonningSample last = r.series.empty() ? contact::DonningSample{} : r.series.back();
+  nlohmann::json j{{"socket", socket_label},
+                   {"completed", r.completed},
+                   {"stood", r.stood},
+                   {"message", r.message},
+                   {"nodes", setup->mesh.mesh.num_nodes()},
+                   {"skin_nodes", ns},
+                   {"steps", r.series.size()},
+                   {"start_offset_mm", r.start_offset_m * 1e3},
+                   {"friction", mu},
+                   {"stand_force_n", o.stand_force_n},
+                   {"final_offset_mm", r.final_offset_m * 1e3},
+                   {"force_on_socket_n", {r.force_on_socket_n.x(), r.force_on_socket_n.y(), r.force_on_socket_n.z()}},
+                   {"axial_force_n", last.axial_force_n},
+                   {"contact_nodes", last.contact_nodes},
+                   {"sliding_nodes", last.sliding_nodes},
+                   {"max_pressure_kpa", last.max_pressure_pa / 1e3},
+                   {"max_penetration_mm", last.max_penetration_m * 1e3},
+                   {"socket_mass_kg", r.socket_mass_kg},
+                   {"newton_iterations", r.newton_iterations},
+                   {"donning_seconds", r.seconds},
+                   {"out", out.string()},
+                   {"outputs", {"donning.csv", "contact.csv", "stump.vtu", "contact_map.png", "donning_force.svg",
+                                "donning.json"}}};
+  if (designed) {
+    j["agreement"] = agreement;
+    j["outputs"].push_back("designed_map.png");
+    j["outputs"].push_back("design/");
+  }
+  write_text_atomically(out / "donning.json", j.dump(2) + "\n");
+  report_progress(progress, 1.0, "donning: done");
+  if (!r.completed) fail<SolverError>("simulate donning: {} (the converged part is in {})", r.message, out.string());
+  if (o.stand_force_n > 0 && !r.stood) log::warn("donning: {}", r.message);
+  if (f.json) {
+    print_json(j);
+    return 0;
+  }
+  log::info("donning: done in {:.1f} s ({} Newton iterations); socket at {:+.1f} mm, axial reaction {:.1f} N, {} nodes in "
+            "contact, max pressure {:.1f} kPa, max penetration {:.3f} mm",
+            r.seconds, r.newton_iterations, r.final_offset_m * 1e3, last.axial_force_n, last.contact_nodes,
+            last.max_pressure_pa / 1e3, last.max_penetration_m * 1e3);
+  if (designed) {
+    const auto& b = agreement["below_brim"];
+    log::info("donning: below the brim, contact vs designed: MAE {:.2f} kPa, R {}, mean {:.2f} vs {:.2f} kPa",
+              b["mae_kpa"].get<double>(), b["pearson_r"].is_null() ? "n/a" : fmt::format("{:.3f}", b["pearson_r"].get<double>()),
+              b["mean_contact_kpa"].get<double>(), b["mean_designed_kpa"].get<double>());
+  }
+  log::info("donning: outputs in {}", out.string());
+  return 0;
+}
+
+}  // namespace
+
+void register_contact(CLI::App& app) {
+  auto* sim = app.get_subcommand("simulate");
+  auto f = std::make_shared<DonningFlags>();
+  auto* don = sim->add_subcommand("donning", "slide a socket onto the stump with friction, then stand; contact pressures");
+  don->add_option("--case", f->case_file, "case file: design it, then don its own socket");
+  don->add_option("--limb", f->limb, "limb scan (STL/OBJ/PLY) to mesh as the stump (with --socket)");
+  don->add_option("--socket", f->socket, "closed socket solid (STL/OBJ/PLY) placed on the limb (with --limb)");
+  don->add_option("--units", f->units, "units of --limb and --socket: mm | m (default: guessed from the size)");
+  don->add_option("--offset-mm", f->offset_mm,
+                  "start this far below the designed pose [mm] (default: the socket's top 5 mm below the stump)");
+  don->add_option("--steps", f->steps, "displacement steps (default: one per --step-mm)")->check(CLI::Range(1, 100000));
+  don->add_option("--step-mm", f->step_mm, "step length when --steps is not given [mm] (default 2)")
+      ->check(CLI::PositiveNumber);
+  don->add_option("--target-nodes", f->target_nodes, "stump size (default: the case's, 8000)")->check(CLI::Range(500, 100000));
+  don->add_option("--friction", f->friction, "Coulomb μ (default: the case's)");
+  don->add_option("--penalty-factor", f->penalty_factor,
+                  "contact penalty k = factor · E / h (default 20: 15 kPa penetrates ~45 µm at E = 100 kPa, h = 6 mm)");
+  don->add_flag("--no-stand", f->no_stand, "stop at the designed pose (no half-body-weight load)");
+  don->add_option("--out", f->out, "output directory")->required();
+  don->add_flag("--json", f->json, "print the summary as JSON on stdout");
+  don->callback([f] { run_donning(*f); });
+}
+
+}  // namespace socketsmith::cli

@@ -1,0 +1,165 @@
+#include "socketsmith/contact/donning.h"
+
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+#include "socketsmith/core/errors.h"
+#include "socketsmith/core/log.h"
+
+namespace socketsmith::contact {
+namespace {
+
+tissue::DofMap fixed_node_dofs(const volume::HexMesh& mesh) {
+  std::vector<int> fixed;
+  for (int n = 0; n < mesh.num_nodes(); ++n)
+    if (mesh.has_tag(n, volume::kNodeFixed)) fixed.push_back(n);
+  require(!fixed.empty(), "donning: the stump has no fixed node (bones or proximal cut): it would slide away with the "
+                          "socket; mesh it with its bones");
+  tissue::DofConstraints cons;
+  cons.fix_nodes(fixed);
+  return tissue::DofMap(3 * mesh.num_nodes(), cons);
+}
+
+DonningSample sample(const ContactStep& st, const std::vector<NodeContact>& contacts, const Vec3& axis,
+                     double offset_m) {
+  DonningSample s;
+  s.offset_m = offset_m;
+  s.axial_force_n = -st.force_on_obstacle_n.dot(axis);
+  s.lateral_force_n = (st.force_on_obstacle_n - st.force_on_obstacle_n.dot(axis) * axis).norm();
+  s.contact_nodes = st.contact_nodes;
+  s.sliding_nodes = st.sliding_nodes;
+  s.max_penetration_m = st.max_penetration_m;
+  s.newton_iterations = st.newton_iterations;
+  s.seconds = st.seconds;
+  double sum = 0;
+  for (const auto& c : contacts) {
+    if (!c.active) continue;
+    s.max_pressure_pa = std::max(s.max_pressure_pa, c.pressure_pa);
+    sum += c.pressure_pa;
+  }
+  s.mean_pressure_pa = s.contact_nodes > 0 ? sum / s.contact_nodes : 0.0;
+  return s;
+}
+
+}  // namespace
+
+DonningResult simulate_donning(const tissue::MassSpringModel& model, const std::vector<int>& skin_nodes,
+                               const std::vector<double>& skin_areas, const geometry::TriMesh& socket_solid,
+                               const geometry::LimbFrame& frame, const DonningOptions& options) {
+  DonningOptions o = options;
+  require(std::isfinite(o.start_offset_m) && o.start_offset_m >= 0,
+          "donning: start offset {} mm must be positive (the socket starts below the stump)", o.start_offset_m * 1e3);
+  require(o.steps >= 0 && std::isfinite(o.step_m) && o.step_m > 0, "donning: {} steps of {} mm: use positive values",
+          o.steps, o.step_m * 1e3);
+  require(std::isfinite(o.stand_force_n) && o.stand_force_n >= 0, "donning: standing force {} N must be ≥ 0",
+          o.stand_force_n);
+  if (o.start_offset_m == 0) {
+    // The socket's top 5 mm below the stump's lowest skin node: nothing touches at the start.
+    double top = -1e30, bottom = 1e30;
+    for (const auto& v : socket_solid.vertices) top = std::max(top, (v - frame.origin).dot(frame.axis));
+    for (int n : skin_nodes) bottom = std::min(bottom, (model.rest_positions().segment<3>(3 * n) - frame.origin).dot(frame.axis));
+    o.start_offset_m = std::max(top - bottom + 0.005, o.step_m);
+  }
+  if (o.steps == 0) o.steps = static_cast<int>(std::ceil(o.start_offset_m / o.step_m - 1e-9));
+  const auto t0 = std::chrono::steady_clock::now();
+  const Vec3 axis = frame.axis.normalized();
+  RigidSocket socket(socket_solid, frame, o.socket_density_kg_m3);
+  const tissue::DofMap dofs = fixed_node_dofs(model.mesh());
+  ContactOptions co = o.contact;
+  co.friction = o.friction;
+  socket.set_translation(-o.start_offset_m * axis);
+  ContactSolver solver(model, dofs, skin_nodes, skin_areas, socket, co);
+
+  DonningResult r;
+  r.start_offset_m = o.start_offset_m;
+  r.steps = o.steps;
+  r.nodes = skin_nodes;
+  r.socket_mass_kg = socket.mass_kg();
+  // Where the path starts, nothing may be gripped already: a node inside the wall at the start
+  // means the offset is too small for this socket (it would start half donned).
+  {
+    const ContactStep st = solver.move_to(-o.start_offset_m * axis);
+    require(st.contact_nodes == 0,
+            "donning: {} skin nodes already touch the socket {:.0f} mm below its designed pose: start further "
+            "down (--offset-mm larger than {:.0f})",
+            st.contact_nodes, o.start_offset_m * 1e3, o.start_offset_m * 1e3);
+  }
+  r.completed = true;
+  for (int k = 1; k <= o.steps; ++k) {
+    const double offset = -o.start_offset_m * (1.0 - static_cast<double>(k) / o.steps);
+    const ContactStep st = solver.move_to(offset * axis);
+    if (!st.converged) {
+      r.completed = false;
+      r.message = fmt::format("donning stalled at {:.1f} mm below the designed pose (step {} of {}): {}; try more "
+                              "--steps or a smaller --offset-mm",
+                              -offset * 1e3, k, o.steps, st.message);
+      break;
+    }
+    r.series.push_back(sample(st, solver.contacts(), axis, offset));
+    r.newton_iterations += st.newton_iterations;
+    r.force_on_socket_n = st.force_on_obstacle_n;
+    r.final_offset_m = offset;
+    if (!report_progress(o.progress, static_cast<double>(k) / (o.steps + (o.stand_force_n > 0 ? 1 : 0)),
+                         "donning")) {
+      r.completed = false;
+      r.message = fmt::format("donning cancelled at {:.1f} mm below the designed pose", -offset * 1e3);
+      break;
+    }
+  }
+  r.contacts = solver.contacts();
+  r.positions = solver.positions();
+  if (r.completed && o.stand_force_n > 0) {
+    try {
+      const ContactStep st = solver.push_with_force(axis, o.stand_force_n, 1e-3, o.start_offset_m / o.steps);
+      const double offset = socket.translation().dot(axis);
+      r.series.push_back(sample(st, solver.contacts(), axis, offset));
+      r.newton_iterations += st.newton_iterations;
+      r.force_on_socket_n = st.force_on_obstacle_n;
+      r.final_offset_m = offset;
+      r.stood = true;
+      r.contacts = solver.contacts();
+      r.positions = solver.positions();
+    } catch (const SolverError& e) {
+      r.message = fmt::format("standing with {:.0f} N not reached ({}); the results are those of the donned socket at "
+                              "its designed pose",
+                              o.stand_force_n, e.what());
+    }
+    report_progress(o.progress, 1.0, "donning: standing");
+  }
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return r;
+}
+
+PressureAgreement compare_pressures(const std::vector<double>& a, const std::vector<double>& b,
+                                    const std::vector<char>& mask) {
+  require(a.size() == b.size() && a.size() == mask.size(), "compare_pressures: {} / {} values for {} mask entries",
+          a.size(), b.size(), mask.size());
+  PressureAgreement r;
+  double sa = 0, sb = 0, saa = 0, sbb = 0, sab = 0, sae = 0, sse = 0;
+  for (size_t i = 0; i < a.size(); ++i) {
+    if (!mask[i]) continue;
+    ++r.nodes;
+    sa += a[i];
+    sb += b[i];
+    saa += a[i] * a[i];
+    sbb += b[i] * b[i];
+    sab += a[i] * b[i];
+    sae += std::abs(a[i] - b[i]);
+    sse += (a[i] - b[i]) * (a[i] - b[i]);
+    r.max_a_pa = std::max(r.max_a_pa, a[i]);
+    r.max_b_pa = std::max(r.max_b_pa, b[i]);
+  }
+  require(r.nodes > 0, "compare_pressures: no node selected");
+  const double n = r.nodes;
+  r.mean_a_pa = sa / n;
+  r.mean_b_pa = sb / n;
+  r.mae_pa = sae / n;
+  r.rmse_pa = std::sqrt(sse / n);
+  const double va = saa / n - r.mean_a_pa * r.mean_a_pa, vb = sbb / n - r.mean_b_pa * r.mean_b_pa;
+  const double cov = sab / n - r.mean_a_pa * r.mean_b_pa;
+  r.pearson_r = (va > 0 && vb > 0) ? cov / std::sqrt(va * vb) : std::numeric_limits<double>::quiet_NaN();
+  return r;
+}
+
+}  // namespace socketsmith::contact

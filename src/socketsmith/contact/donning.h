@@ -1,0 +1,98 @@
+#pragma once
+/// @file donning.h
+/// The donning simulation (thesis ch. 4.3, METHOD.md §2): the designed socket starts below the
+/// stump along the limb axis and slides up onto it in displacement steps, with Coulomb friction
+/// between skin and socket and the bones held; optionally the patient then stands (the socket is
+/// pushed until its axial reaction equals half the body weight). The contact pressure at the end
+/// is compared with the pressure the design asked for: if the design is right, the socket
+/// reproduces it.
+
+#include <string>
+#include <vector>
+
+#include "socketsmith/contact/contact_solver.h"
+#include "socketsmith/core/progress.h"
+#include "socketsmith/geometry/limb_frame.h"
+#include "socketsmith/geometry/tri_mesh.h"
+#include "socketsmith/volume/hex_mesh.h"
+
+namespace socketsmith::contact {
+
+struct DonningOptions {
+  /// The socket starts this far distal of its designed pose [m]; 0 = automatic: its top 5 mm
+  /// below the stump's distal end (nothing touches at the start).
+  double start_offset_m = 0.0;
+  int steps = 0;                 ///< displacement steps to the designed pose; 0 = one per step_m
+  double step_m = 0.002;         ///< step length when steps = 0 [m], > 0
+  double friction = 0.5;         ///< Coulomb μ skin–socket
+  /// > 0: after donning, push the socket along the axis until its axial reaction is this force [N]
+  /// (half the body weight for a standing patient); 0: stop at the designed pose.
+  double stand_force_n = 0.0;
+  double socket_density_kg_m3 = 1250.0;
+  /// Penalty, tolerances (its friction is set from `friction`). The penalty factor is 20 here
+  /// (15 kPa penetrates ~45 µm at E = 100 kPa, h = 6 mm): against a faceted socket wall, a stiffer
+  /// penalty made Newton 2–3× slower for the same pressures (docs/contact.md).
+  ContactOptions contact = [] {
+    ContactOptions c;
+    c.penalty_factor = 20.0;
+    return c;
+  }();
+  ProgressCallback progress;
+};
+
+/// One point of the donning path.
+struct DonningSample {
+  double offset_m = 0.0;          ///< socket position along the axis relative to the designed pose (< 0: below)
+  double axial_force_n = 0.0;     ///< force of the stump on the socket along −axis (what holds the socket)
+  double lateral_force_n = 0.0;   ///< its component across the axis
+  int contact_nodes = 0;
+  int sliding_nodes = 0;
+  double max_pressure_pa = 0.0;
+  double mean_pressure_pa = 0.0;  ///< over the nodes in contact
+  double max_penetration_m = 0.0;
+  int newton_iterations = 0;
+  double seconds = 0.0;
+};
+
+struct DonningResult {
+  bool completed = false;              ///< every step converged (the socket reached its designed pose)
+  bool stood = false;                  ///< the standing load was reached (when asked)
+  std::string message;                 ///< why it stopped early / why standing failed; "" when all went well
+  std::vector<DonningSample> series;   ///< one per converged step (and one for the standing load)
+  std::vector<int> nodes;              ///< the candidate (skin) nodes
+  std::vector<NodeContact> contacts;   ///< their contact state at the end
+  tissue::VectorXd positions;          ///< node positions at the end (3N) [m]
+  double start_offset_m = 0.0;         ///< where the path started (below the designed pose) [m]
+  int steps = 0;                       ///< steps asked for
+  double final_offset_m = 0.0;
+  Vec3 force_on_socket_n = Vec3::Zero();
+  double socket_mass_kg = 0.0;
+  int newton_iterations = 0;
+  double seconds = 0.0;
+};
+
+/// Simulates donning @p socket_solid (closed, [m], at its designed pose) onto the stump @p mesh
+/// (nodes tagged kNodeFixed are held) whose candidate nodes are the skin nodes @p skin_nodes with
+/// rest nodal areas @p skin_areas. The body is the linearised MSS model of @p model (K₀).
+/// A step that does not converge ends the path: the result then holds the converged part,
+/// completed = false and a message naming the offset where it stalled and the fix (more steps).
+/// A standing load that cannot be reached leaves the donned state with stood = false.
+/// @throws InvalidInputError for bad options, a socket that does not surround the axis or one
+///         that grips the stump already at the start.
+DonningResult simulate_donning(const tissue::MassSpringModel& model, const std::vector<int>& skin_nodes,
+                               const std::vector<double>& skin_areas, const geometry::TriMesh& socket_solid,
+                               const geometry::LimbFrame& frame, const DonningOptions& options = {});
+
+/// Agreement of two pressure fields over the nodes where @p mask is set (e.g. below the brim).
+struct PressureAgreement {
+  int nodes = 0;
+  double mae_pa = 0.0;      ///< mean |a − b|
+  double rmse_pa = 0.0;
+  double pearson_r = 0.0;   ///< NaN when one field is constant
+  double mean_a_pa = 0.0, mean_b_pa = 0.0;
+  double max_a_pa = 0.0, max_b_pa = 0.0;
+};
+PressureAgreement compare_pressures(const std::vector<double>& a, const std::vector<double>& b,
+                                    const std::vector<char>& mask);
+
+}  // namespace socketsmith::contact
