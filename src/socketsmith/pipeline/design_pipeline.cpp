@@ -224,28 +224,35 @@ std::vector<report::RadarAxis> radar_axes(const DesignSetup& setup, const design
   return axes;
 }
 
-std::vector<report::PathProfile> pressure_profiles(const DesignSetup& setup, const design::DesignState& state) {
+std::vector<DesignPath> design_paths(const DesignSetup& setup) {
   const auto& skin = setup.solver->skin();
-  const auto sframe = report::surface_frame(setup.model.frame);
   double pt_theta = 0;
   for (const auto& l : setup.model.landmarks)
     if (l.code == "PT") pt_theta = l.cylindrical.theta;
   double spacing = 0;
   for (double a : skin.area_m2) spacing += std::sqrt(a) / static_cast<double>(skin.area_m2.size());
-  std::vector<report::PathProfile> profiles;
-  const auto add_profile = [&](const std::string& name, report::PathKind kind, double theta, double h) {
-    report::PathSpec ps;
-    ps.kind = kind;
-    ps.theta_rad = theta;
-    ps.height_m = h;
-    ps.band_m = 0.75 * spacing;
-    ps.bin_m = 0.8 * spacing;
-    const auto samples = report::sample_path(skin.positions, {}, sframe, ps);
-    profiles.push_back(report::make_path_profile(name, kind, samples, state.pressure_pa, setup.thresholds));
+  const auto path = [&](std::string key, std::string name, report::PathKind kind, double theta, double h) {
+    DesignPath p{std::move(key), std::move(name), {}};
+    p.spec.kind = kind;
+    p.spec.theta_rad = theta;
+    p.spec.height_m = h;
+    p.spec.band_m = 0.75 * spacing;  // one row of skin nodes
+    p.spec.bin_m = 0.8 * spacing;
+    return p;
   };
-  add_profile("front line (through the patellar tendon)", report::PathKind::Vertical, pt_theta, 0);
-  add_profile("back line", report::PathKind::Vertical, design::wrap_angle(pt_theta + std::numbers::pi), 0);
-  add_profile("circumference at mid-stump", report::PathKind::Circumferential, 0, 0.5 * setup.model.length_m);
+  return {path("front_line", "front line (through the patellar tendon)", report::PathKind::Vertical, pt_theta, 0),
+          path("back_line", "back line", report::PathKind::Vertical, design::wrap_angle(pt_theta + std::numbers::pi), 0),
+          path("mid_circumference", "circumference at mid-stump", report::PathKind::Circumferential, 0,
+               0.5 * setup.model.length_m)};
+}
+
+std::vector<report::PathProfile> pressure_profiles(const DesignSetup& setup, const design::DesignState& state) {
+  const auto sframe = report::surface_frame(setup.model.frame);
+  std::vector<report::PathProfile> profiles;
+  for (const auto& p : design_paths(setup)) {
+    const auto samples = report::sample_path(setup.solver->skin().positions, {}, sframe, p.spec);
+    profiles.push_back(report::make_path_profile(p.name, p.spec.kind, samples, state.pressure_pa, setup.thresholds));
+  }
   return profiles;
 }
 

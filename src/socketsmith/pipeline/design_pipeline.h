@@ -102,8 +102,18 @@ std::vector<Eigen::Vector3d> brim_on_skin(const DesignSetup& setup, int samples)
 /// state's verdict per axis in is_ok).
 std::vector<report::RadarAxis> radar_axes(const DesignSetup& setup, const design::DesignState& state);
 
-/// Applied pressure against the pain threshold along the front line (through the patellar
-/// tendon), the back line and the mid-stump circumference, sampled on the rest skin.
+/// A path of the design report on the skin.
+struct DesignPath {
+  std::string key;       ///< "front_line", "back_line", "mid_circumference"
+  std::string name;      ///< as shown: "front line (through the patellar tendon)", ...
+  report::PathSpec spec; ///< banded to one row of skin nodes (from the mean node spacing)
+};
+
+/// The front line through the patellar tendon (PT; θ = 0 without it), the back line opposite it
+/// and the circumference at mid-stump.
+std::vector<DesignPath> design_paths(const DesignSetup& setup);
+
+/// Applied pressure against the pain threshold along design_paths(), sampled on the rest skin.
 std::vector<report::PathProfile> pressure_profiles(const DesignSetup& setup, const design::DesignState& state);
 
 /// The setup and the result of a run, for callers that go on with them (validation, GUI).
