@@ -18,6 +18,8 @@ packages=(
   libgtest-dev libgmock-dev  # tests
   libbenchmark-dev        # benchmarks
   libopencv-dev           # scan: 16-bit depth PNG IO, undistortion, Kinect calibration YAML (cv::FileStorage)
+  libimgui-dev libglfw3-dev libgl-dev  # socketsmith-gui: Dear ImGui (with its GLFW/OpenGL3 back-ends), window, OpenGL
+  xvfb xauth libgl1-mesa-dri  # GUI tests and screenshots headless: virtual X server, Mesa llvmpipe OpenGL
 )
 
 missing=()

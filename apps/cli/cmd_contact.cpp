@@ -220,28 +220,14 @@ int run_donning(const DonningFlags& f) {
   nlohmann::json agreement;
   if (designed) {
     agreement["below_brim"] = agreement_json(contact::compare_pressures(pd, pc, below));
-    double pt_theta = 0;
-    for (const auto& l : setup->model.landmarks)
-      if (l.code == "PT") pt_theta = l.cylindrical.theta;
-    double spacing = 0;
-    for (double a : skin.area_m2) spacing += std::sqrt(a) / static_cast<double>(ns);
-    const auto path = [&](const std::string& key, report::PathKind kind, double theta, double h) {
-      report::PathSpec ps;
-      ps.kind = kind;
-      ps.theta_rad = theta;
-      ps.height_m = h;
-      ps.band_m = 0.75 * spacing;
-      ps.bin_m = 0.8 * spacing;
+    for (const auto& path : pipeline::design_paths(*setup)) {
       std::vector<char> m(ns, 0);
-      for (const auto& s : report::sample_path(skin.positions, {}, sframe, ps))
+      for (const auto& s : report::sample_path(skin.positions, {}, sframe, path.spec))
         if (below[s.index]) m[s.index] = 1;
       int count = 0;
       for (char v : m) count += v;
-      if (count >= 3) agreement[key] = agreement_json(contact::compare_pressures(pd, pc, m));
-    };
-    path("front_line", report::PathKind::Vertical, pt_theta, 0);
-    path("back_line", report::PathKind::Vertical, design::wrap_angle(pt_theta + std::numbers::pi), 0);
-    path("mid_circumference", report::PathKind::Circumferential, 0, 0.5 * setup->model.length_m);
+      if (count >= 3) agreement[path.key] = agreement_json(contact::compare_pressures(pd, pc, m));
+    }
   }
 
   const contact::DonningSample last = r.series.empty() ? contact::DonningSample{} : r.series.back();

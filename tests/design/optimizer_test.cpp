@@ -312,6 +312,23 @@ TEST(OptimiseDesign, a_progress_callback_returning_false_cancels) {
   EXPECT_LT(res.seconds, 1.0);
 }
 
+TEST(OptimiseDesign, cancel_stops_the_position_search_too) {
+  // Tiny thresholds: the amplitudes alone fail, so the optimiser starts moving spots (a search of
+  // up to 300 fits); a cancel there must stop it at once, not after the search.
+  auto solver = make_solver(patient_60kg(), std::vector<double>(stump().thresholds.size(), 1 * kKPa));
+  int searching = 0;
+  OptimizerOptions o;
+  o.progress = [&](double, std::string_view stage) {
+    if (stage != "design: moving spots") return true;
+    return ++searching < 3;  // cancel at the third fit of the search
+  };
+  const auto res = optimise_design(*solver, layout(), o);
+  EXPECT_EQ(searching, 3);
+  EXPECT_EQ(res.message, "cancelled");
+  EXPECT_FALSE(res.constraints_met);
+  EXPECT_LE(res.evaluations, 4);  // the first amplitude fit + the two fits of the search before the cancel
+}
+
 TEST(OptimiseDesign, rejects_an_invalid_spot_up_front) {
   auto solver = make_solver(patient_60kg());
   auto spots = layout();

@@ -433,9 +433,20 @@ OptimizerResult optimise_design(DesignSolver& solver, std::vector<Spot> spots, c
           std::vector<Spot> work;
           int evaluations = 0;
           double length = 0;
+          // Cancel: the progress callback is asked at every evaluation; false stops the search.
+          const ProgressCallback* progress = nullptr;
+          double fraction0 = 0, fraction_span = 0;
+          int max_evaluations = 1;
+          nlopt::opt* opt = nullptr;
+          bool cancelled = false;
         } ctx{&P, &base, &params, &targets, base, 0, solver.stump_length_m()};
         const unsigned n = static_cast<unsigned>(params.size());
         nlopt::opt opt(nlopt::LN_SBPLX, n);
+        ctx.progress = &options.progress;
+        ctx.fraction0 = 0.1 + 0.8 * round / options.max_rounds;
+        ctx.fraction_span = 0.7 / options.max_rounds;
+        ctx.max_evaluations = std::max(1, options.max_position_evaluations);
+        ctx.opt = &opt;
         std::vector<double> lo(n), hi(n), step(n), x(n, 0.0);
         for (unsigned i = 0; i < n; ++i) {
           const double r = params[i].kind == 0 ? options.max_position_shift_rad : options.max_position_shift_m;
@@ -451,6 +462,12 @@ OptimizerResult optimise_design(DesignSolver& solver, std::vector<Spot> spots, c
         opt.set_min_objective(
             [](unsigned nn, const double* d, double*, void* data) {
               auto& c = *static_cast<Ctx*>(data);
+              const double done = std::min(1.0, static_cast<double>(c.evaluations) / c.max_evaluations);
+              if (!report_progress(*c.progress, c.fraction0 + c.fraction_span * done, "design: moving spots")) {
+                c.cancelled = true;
+                c.opt->force_stop();
+                return std::numeric_limits<double>::max();
+              }
               c.work = *c.base;
               for (unsigned i = 0; i < nn; ++i) shift_spot(c.work[(*c.params)[i].spot], (*c.params)[i].kind, d[i]);
               for (auto& s : c.work) {  // keep heights on the limb
@@ -468,6 +485,11 @@ OptimizerResult optimise_design(DesignSolver& solver, std::vector<Spot> spots, c
           opt.optimize(x, best);
         } catch (const std::exception& e) {
           log::debug("optimise_design: position search stopped: {}", e.what());
+        }
+        if (ctx.cancelled) {
+          out.evaluations += ctx.evaluations;
+          out.message = "cancelled";
+          break;
         }
         for (unsigned i = 0; i < n; ++i) shift_spot(spots[params[i].spot], params[i].kind, x[i]);
         for (auto& s : spots) s.h0 = std::clamp(s.h0, 0.0, solver.stump_length_m());

@@ -182,6 +182,71 @@ DesignResult solve_design(DesignSetup& setup, bool optimise, const ProgressCallb
   return r;
 }
 
+Vec3 skin_point(const DesignSetup& setup, double theta, double h) {
+  // The ray from the axis at (θ, h) — radius from the nearest skin node (rest coordinates).
+  double best = 1e9, rho = 0;
+  for (const auto& cy : setup.solver->skin_cylindrical()) {
+    const double d = std::abs(design::wrap_angle(cy.theta - theta)) * cy.rho + std::abs(cy.h - h);
+    if (d < best) {
+      best = d;
+      rho = cy.rho;
+    }
+  }
+  return setup.model.frame.from_cylindrical({rho, theta, h});
+}
+
+std::vector<Vec3> brim_on_skin(const DesignSetup& setup, int samples) {
+  std::vector<Vec3> poly;
+  for (int k = 0; k < samples; ++k) {
+    const double th = -std::numbers::pi + 2 * std::numbers::pi * k / samples;
+    poly.push_back(skin_point(setup, th, setup.brim.height(th)));
+  }
+  return poly;
+}
+
+std::vector<report::RadarAxis> radar_axes(const DesignSetup& setup, const design::DesignState& state) {
+  const design::CaseFile& c = setup.case_file;
+  report::RadarInputs ri;
+  ri.force_n = state.radar.force_n;
+  ri.torque_nm = state.radar.torque_nm;
+  ri.stability_n = state.radar.stability_n;
+  ri.body_mass_kg = c.patient.body_mass_kg;
+  ri.prosthesis_mass_kg = c.patient.prosthesis_mass_kg;
+  ri.stump_length_m = setup.model.length_m;
+  ri.force_tolerance = c.patient.force_tolerance;
+  ri.torque_tolerance = c.patient.torque_tolerance;
+  ri.gravity = units::kGravity;
+  auto axes = report::seven_radar_axes(ri);
+  const bool* oks[] = {&state.status.force_ok[0], &state.status.force_ok[1], &state.status.force_ok[2],
+                       &state.status.torque_ok[0], &state.status.torque_ok[1], &state.status.torque_ok[2],
+                       &state.status.stability_ok};
+  for (size_t k = 0; k < axes.size() && k < 7; ++k) axes[k].is_ok = *oks[k];
+  return axes;
+}
+
+std::vector<DesignPath> design_paths(const DesignSetup& setup) {
+  double pt_theta = 0;
+  for (const auto& l : setup.model.landmarks)
+    if (l.code == "PT") pt_theta = l.cylindrical.theta;
+  // The thesis's three paths, shared with the CalculiX comparison (report::thesis_paths).
+  std::vector<DesignPath> out;
+  for (auto& t : report::thesis_paths(pt_theta, 0.5 * setup.model.length_m, setup.solver->skin().area_m2)) {
+    const std::string key = t.key == "front" ? "front_line" : t.key == "back" ? "back_line" : "mid_circumference";
+    out.push_back(DesignPath{key, t.label, t.spec});
+  }
+  return out;
+}
+
+std::vector<report::PathProfile> pressure_profiles(const DesignSetup& setup, const design::DesignState& state) {
+  const auto sframe = report::surface_frame(setup.model.frame);
+  std::vector<report::PathProfile> profiles;
+  for (const auto& p : design_paths(setup)) {
+    const auto samples = report::sample_path(setup.solver->skin().positions, {}, sframe, p.spec);
+    profiles.push_back(report::make_path_profile(p.name, p.spec.kind, samples, state.pressure_pa, setup.thresholds));
+  }
+  return profiles;
+}
+
 nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult& result, const fs::path& out,
                                     double seconds) {
   ensure_directory(out);
@@ -232,22 +297,7 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
   const auto sframe = report::surface_frame(model.frame);
   std::vector<report::MapLandmark> marks;
   for (const auto& l : model.landmarks) marks.push_back({l.code, l.position, l.estimated});
-  std::vector<Vec3> brim_poly;
-  for (int k = 0; k < 180; ++k) {
-    const double th = -std::numbers::pi + 2 * std::numbers::pi * k / 180.0;
-    const double h = brim.height(th);
-    // The brim on the skin: the ray from the axis at (θ, h) — radius from the nearest skin node.
-    double best = 1e9, rho = 0;
-    for (size_t i = 0; i < skin.nodes.size(); ++i) {
-      const auto& cy = solver.skin_cylindrical()[i];
-      const double d = std::abs(design::wrap_angle(cy.theta - th)) * cy.rho + std::abs(cy.h - h);
-      if (d < best) {
-        best = d;
-        rho = cy.rho;
-      }
-    }
-    brim_poly.push_back(model.frame.from_cylindrical({rho, th, h}));
-  }
+  const std::vector<Vec3> brim_poly = brim_on_skin(setup, 180);
   std::vector<double> p_kpa(skin.nodes.size()), ratio(skin.nodes.size()), thr_kpa(skin.nodes.size()),
       disp_mm(skin.nodes.size());
   const double nan = std::numeric_limits<double>::quiet_NaN();
@@ -278,33 +328,12 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
       make_map(disp_mm, "mm", "Tissue displacement", 0, 0)};
   report::write_pressure_map(out / "pressure_map.png", maps[0]);
   report::write_pressure_map(out / "ratio_map.png", maps[1]);
-  report::RadarInputs ri;
-  ri.force_n = state.radar.force_n;
-  ri.torque_nm = state.radar.torque_nm;
-  ri.stability_n = state.radar.stability_n;
-  ri.body_mass_kg = c.patient.body_mass_kg;
-  ri.prosthesis_mass_kg = c.patient.prosthesis_mass_kg;
-  ri.stump_length_m = model.length_m;
-  ri.force_tolerance = c.patient.force_tolerance;
-  ri.torque_tolerance = c.patient.torque_tolerance;
-  ri.gravity = units::kGravity;
   report::RadarChart radar;
   radar.title = met ? "Constraints: all met" : "Constraints: NOT all met";
-  radar.axes = report::seven_radar_axes(ri);
-  const bool* oks[] = {&state.status.force_ok[0], &state.status.force_ok[1], &state.status.force_ok[2],
-                       &state.status.torque_ok[0], &state.status.torque_ok[1], &state.status.torque_ok[2],
-                       &state.status.stability_ok};
-  for (size_t k = 0; k < radar.axes.size() && k < 7; ++k) radar.axes[k].is_ok = *oks[k];
+  radar.axes = radar_axes(setup, state);
   report::write_radar_chart(out / "radar.png", radar);
   // Paths: front line through PT, back line, mid-stump circumference.
-  double pt_theta = 0;
-  for (const auto& l : model.landmarks)
-    if (l.code == "PT") pt_theta = l.cylindrical.theta;
-  std::vector<report::PathProfile> profiles;
-  for (const auto& path : report::thesis_paths(pt_theta, 0.5 * model.length_m, skin.area_m2)) {
-    const auto samples = report::sample_path(skin.positions, {}, sframe, path.spec);
-    profiles.push_back(report::make_path_profile(path.label, path.spec.kind, samples, state.pressure_pa, thresholds));
-  }
+  const std::vector<report::PathProfile> profiles = pressure_profiles(setup, state);
   for (size_t k = 0; k < profiles.size(); ++k)
     report::write_svg(out / fmt::format("profile_{}.svg", k == 0 ? "front" : k == 1 ? "back" : "mid"),
                       report::path_profile_plot(profiles[k]));

@@ -27,6 +27,7 @@
 #include "socketsmith/design/pain_map.h"
 #include "socketsmith/design/socket_builder.h"
 #include "socketsmith/geometry/tri_mesh.h"
+#include "socketsmith/report/design_report.h"
 #include "socketsmith/volume/hex_mesher.h"
 #include "socketsmith/volume/limb_model.h"
 
@@ -88,6 +89,32 @@ DesignResult solve_design(DesignSetup& setup, bool optimise, const ProgressCallb
 /// Returns the summary (the content of design.json). @p seconds: time spent so far, reported.
 nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult& result,
                                     const std::filesystem::path& out, double seconds);
+
+/// The skin point at cylindrical (θ [rad], h [m]) of the limb frame: on the ray from the axis,
+/// at the radius of the nearest skin node (rest shape) [m].
+Eigen::Vector3d skin_point(const DesignSetup& setup, double theta, double h);
+
+/// The brim line drawn on the skin: @p samples points, each where the ray from the axis at
+/// (θ, brim(θ)) meets the skin (radius of the nearest skin node) [m]. For pictures and the GUI.
+std::vector<Eigen::Vector3d> brim_on_skin(const DesignSetup& setup, int samples);
+
+/// The seven radar axes of @p state (report::seven_radar_axes with the case's patient and the
+/// state's verdict per axis in is_ok).
+std::vector<report::RadarAxis> radar_axes(const DesignSetup& setup, const design::DesignState& state);
+
+/// A path of the design report on the skin.
+struct DesignPath {
+  std::string key;       ///< "front_line", "back_line", "mid_circumference"
+  std::string name;      ///< as shown: "front line (through the patellar tendon)", ...
+  report::PathSpec spec; ///< banded to one row of skin nodes (from the mean node spacing)
+};
+
+/// The front line through the patellar tendon (PT; θ = 0 without it), the back line opposite it
+/// and the circumference at mid-stump.
+std::vector<DesignPath> design_paths(const DesignSetup& setup);
+
+/// Applied pressure against the pain threshold along design_paths(), sampled on the rest skin.
+std::vector<report::PathProfile> pressure_profiles(const DesignSetup& setup, const design::DesignState& state);
 
 /// The setup and the result of a run, for callers that go on with them (validation, GUI).
 struct DesignArtifacts {

@@ -1,0 +1,272 @@
+#include "headless.h"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <iostream>
+#include <numbers>
+
+#include <sys/resource.h>
+
+#include "socketsmith/core/atomic_file.h"
+#include "socketsmith/core/errors.h"
+
+namespace socketsmith::gui {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+std::vector<json> read_script(const fs::path& path) {
+  std::ifstream in(path);
+  if (!in) fail<IoError>("socketsmith-gui: cannot open script '{}'", path.string());
+  json doc;
+  try {
+    doc = json::parse(in);
+  } catch (const json::exception& e) {
+    fail("socketsmith-gui: script '{}' is not valid JSON: {}", path.string(), e.what());
+  }
+  if (doc.is_object() && doc.contains("actions")) doc = doc["actions"];
+  require(doc.is_array(), "socketsmith-gui: script '{}' must be a list of actions or {{\"actions\": [...]}}",
+          path.string());
+  std::vector<json> out;
+  for (const auto& a : doc) {
+    require(a.is_object() && a.contains("do") && a["do"].is_string(),
+            "socketsmith-gui: script '{}': every action is an object with \"do\": \"<action>\" (got {})",
+            path.string(), a.dump());
+    out.push_back(a);
+  }
+  return out;
+}
+
+HeadlessRunner::HeadlessRunner(App& app, std::vector<json> actions, HeadlessOptions options)
+    : app_(app), actions_(std::move(actions)), options_(std::move(options)) {}
+
+void HeadlessRunner::fail_run(const std::string& message) {
+  std::cerr << "socketsmith-gui: " << message << "\n";
+  failed_ = true;
+  finished_ = true;
+}
+
+namespace {
+
+/// CPU time of the whole process (all threads: UI, solver, llvmpipe) [s].
+double process_cpu_seconds() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return static_cast<double>(u.ru_utime.tv_sec + u.ru_stime.tv_sec) + 1e-6 * (u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+}
+
+/// The 1-minute load average of the machine (other processes compete for the cores).
+double load_average() {
+  std::ifstream in("/proc/loadavg");
+  double l = -1;
+  in >> l;
+  return l;
+}
+
+design::SpotType spot_type(const json& a) { return design::parse_spot_type(a.value("type", std::string("cos2"))); }
+
+}  // namespace
+
+void HeadlessRunner::run_action(const json& a, int width, int height) {
+  const std::string what = a["do"].get<std::string>();
+  const auto spot_of = [&](const json& s) {
+    if (s.is_number_integer()) return s.get<int>();
+    const int k = app_.spot_index(s.get<std::string>());
+    require(k >= 0, "no spot named '{}'", s.get<std::string>());
+    return k;
+  };
+  if (what == "add_spot") {
+    const double kpa = a.value("amplitude_kpa", 20.0);
+    if (a.contains("landmark")) {
+      app_.add_spot_at_landmark(a["landmark"].get<std::string>(), spot_type(a), kpa * 1e3);
+    } else {
+      const auto p = a.at("point_mm").get<std::vector<double>>();
+      require(p.size() == 3, "add_spot: point_mm needs 3 numbers");
+      app_.add_spot_at(Vec3(p[0], p[1], p[2]) * 1e-3, spot_type(a), kpa * 1e3);
+    }
+  } else if (what == "set") {
+    app_.set_spot_value(spot_of(a.at("spot")), a.at("field").get<std::string>(), a.at("value").get<double>());
+  } else if (what == "remove_spot") {
+    app_.remove_spot(spot_of(a.at("spot")));
+  } else if (what == "select_spot") {
+    app_.select_spot(spot_of(a.at("spot")));
+  } else if (what == "field") {
+    app_.set_field(parse_field(a.at("value").get<std::string>()));
+  } else if (what == "optimise") {
+    app_.optimise();
+  } else if (what == "cancel") {
+    app_.cancel_optimise();
+  } else if (what == "brim") {
+    app_.set_brim_template(design::parse_brim_template(a.at("template").get<std::string>()));
+  } else if (what == "brim_key_point") {
+    app_.move_brim_key_point(a.at("index").get<int>(), a.at("theta_deg").get<double>() * std::numbers::pi / 180,
+                             a.at("h_mm").get<double>() * 1e-3);
+  } else if (what == "thickness") {
+    app_.set_thickness(a.at("mm").get<double>() * 1e-3);
+  } else if (what == "undo") {
+    app_.undo();
+  } else if (what == "redo") {
+    app_.redo();
+  } else if (what == "save") {
+    app_.save_case(a.at("path").get<std::string>());
+  } else if (what == "export") {
+    app_.export_design(a.at("dir").get<std::string>());
+  } else if (what == "view") {
+    auto& cam = app_.camera();
+    if (a.contains("yaw_deg")) cam.yaw_rad = a["yaw_deg"].get<double>() * std::numbers::pi / 180;
+    if (a.contains("pitch_deg")) cam.pitch_rad = a["pitch_deg"].get<double>() * std::numbers::pi / 180;
+    if (a.contains("zoom")) cam.distance_m /= a["zoom"].get<double>();
+    app_.set_view_toggles(a.value("bones", true), a.value("landmarks", true), a.value("socket", true),
+                          static_cast<float>(a.value("stump_opacity", 1.0)));
+  } else if (what == "screenshot") {
+    require(!options_.screenshot_dir.empty(), "screenshot: give --screenshot-dir");
+    app_.screenshot(options_.screenshot_dir / a.at("name").get<std::string>(), width, height);
+  } else if (what == "write_state") {
+    // The live design as the window shows it (for tests: compare with `socketsmith design`).
+    require(app_.state().has_value(), "write_state: no design solved yet");
+    const auto& st = *app_.state();
+    json spots = json::array();
+    for (const auto& sp : app_.document().spots) spots.push_back(design::spot_to_json(sp));
+    const json j{{"radar",
+                  {{"fx_n", st.radar.force_n.x()},
+                   {"fy_n", st.radar.force_n.y()},
+                   {"fz_n", st.radar.force_n.z()},
+                   {"tx_nm", st.radar.torque_nm.x()},
+                   {"ty_nm", st.radar.torque_nm.y()},
+                   {"tz_nm", st.radar.torque_nm.z()},
+                   {"stability_n", st.radar.stability_n}}},
+                 {"constraints_met", st.status.all_ok()},
+                 {"max_pressure_ratio", st.max_requested_ratio},
+                 {"max_displacement_mm", st.max_displacement_m * 1e3},
+                 {"spots", spots}};
+    write_text_atomically(a.at("path").get<std::string>(), j.dump(2) + "\n");
+  } else if (what == "wait_frames") {
+    settle_ = std::max(settle_, a.at("count").get<int>());
+  } else {
+    fail("action '{}' is not known (add_spot, set, remove_spot, select_spot, field, optimise, cancel, brim, "
+         "brim_key_point, thickness, undo, redo, save, export, view, screenshot, write_state, wait_frames)",
+         what);
+  }
+}
+
+bool HeadlessRunner::after_frame(int width, int height) {
+  if (finished_) return true;
+  // An error shown by the application fails the run (the message is already on stderr).
+  if (app_.errors().size() > errors_seen_) {
+    errors_seen_ = app_.errors().size();
+    failed_ = true;
+  }
+  if (settle_ > 0) {
+    --settle_;
+    return false;
+  }
+  if (bench_ == Bench::Warmup || bench_ == Bench::Running) return bench_frame();
+  const bool waiting_for_optimise = next_ > 0 && actions_[next_ - 1]["do"] == "optimise" &&
+                                    actions_[next_ - 1].value("wait", true) == false;
+  if (!app_.is_idle() && !waiting_for_optimise) {
+    if (std::chrono::steady_clock::now() - step_start_ > std::chrono::duration<double>(options_.timeout_seconds))
+      fail_run(fmt::format("timed out after {:.0f} s waiting for the design", options_.timeout_seconds));
+    return finished_;
+  }
+  if (!loaded_) {
+    if (!app_.has_design() || !app_.has_state()) {
+      if (app_.is_idle()) fail_run("the case could not be opened (the error is above)");
+      return finished_;
+    }
+    loaded_ = true;
+    settle_ = 2;
+    return false;
+  }
+  if (next_ < actions_.size()) {
+    const json& a = actions_[next_++];
+    try {
+      run_action(a, width, height);
+    } catch (const std::exception& e) {
+      fail_run(fmt::format("action {} ({}): {}", next_, a.dump(), e.what()));
+      return true;
+    }
+    step_start_ = std::chrono::steady_clock::now();
+    settle_ = 2;
+    return false;
+  }
+  if (options_.bench_drag_seconds > 0 && bench_ != Bench::Done) return bench_frame();
+  if (final_frames_ < options_.frames) {
+    ++final_frames_;
+    return false;
+  }
+  if (!options_.screenshot_dir.empty()) {
+    try {
+      app_.screenshot(options_.screenshot_dir / "final.png", width, height);
+    } catch (const Error& e) {
+      fail_run(e.what());
+    }
+  }
+  finished_ = true;
+  return true;
+}
+
+bool HeadlessRunner::bench_frame() {
+  const auto now = std::chrono::steady_clock::now();
+  if (bench_ == Bench::Off) {
+    const auto& spots = app_.document().spots;
+    for (size_t k = 0; k < spots.size(); ++k)
+      if (spots[k].enabled && (options_.bench_spot.empty() || spots[k].name == options_.bench_spot)) {
+        bench_spot_ = static_cast<int>(k);
+        break;
+      }
+    if (bench_spot_ < 0) {
+      fail_run(fmt::format("--bench-drag: no enabled spot named '{}'", options_.bench_spot));
+      return true;
+    }
+    bench_base_kpa_ = std::max(5.0, spots[bench_spot_].amplitude_pa / 1e3);
+    app_.select_spot(bench_spot_);
+    app_.begin_edit();
+    bench_ = Bench::Warmup;
+    bench_t0_ = now;
+    return false;
+  }
+  const double t = std::chrono::duration<double>(now - bench_t0_).count();
+  if (bench_ == Bench::Warmup && t > 1.0) {
+    bench_ = Bench::Running;
+    bench_t0_ = now;
+    bench_frames_ = 0;
+    bench_solves0_ = app_.solves_done();
+    bench_cpu0_ = process_cpu_seconds();
+    bench_load0_ = load_average();
+    frame_ms_.clear();
+    last_frame_ = now;
+    return false;
+  }
+  // The drag: the amplitude swings ±30 % around its value, a new value every frame (as a mouse
+  // moving a slider), each one a solve request that the worker coalesces.
+  app_.set_spot_value(bench_spot_, "amplitude_kpa",
+                      bench_base_kpa_ * (1.0 + 0.3 * std::sin(2 * std::numbers::pi * t / 2.0)));
+  if (bench_ == Bench::Warmup) return false;
+  ++bench_frames_;
+  frame_ms_.push_back(std::chrono::duration<double, std::milli>(now - last_frame_).count());
+  last_frame_ = now;
+  if (t < options_.bench_drag_seconds) return false;
+  app_.end_edit();
+  bench_ = Bench::Done;
+  const long solves = app_.solves_done() - bench_solves0_;
+  const double cpu = process_cpu_seconds() - bench_cpu0_;
+  std::sort(frame_ms_.begin(), frame_ms_.end());
+  const double p95 = frame_ms_.empty() ? 0 : frame_ms_[static_cast<size_t>(0.95 * (frame_ms_.size() - 1))];
+  const json result{{"seconds", t},
+                    {"frames", bench_frames_},
+                    {"frames_per_s", bench_frames_ / t},
+                    {"frame_ms_p95", p95},
+                    {"solves", solves},
+                    {"solves_per_s", solves / t},
+                    {"cpu_ms_per_frame", 1e3 * cpu / std::max(1L, bench_frames_)},
+                    {"cpu_cores_used", cpu / t},
+                    {"load_average_1min", {bench_load0_, load_average()}},
+                    {"skin_nodes", app_.state() ? app_.state()->pressure_pa.size() : 0},
+                    {"nodes", app_.state() ? app_.state()->positions.size() / 3 : 0}};
+  std::cout << result.dump() << std::endl;
+  if (!options_.bench_json.empty()) write_text_atomically(options_.bench_json, result.dump(2) + "\n");
+  return false;
+}
+
+}  // namespace socketsmith::gui

@@ -1,0 +1,239 @@
+// socketsmith-gui in headless mode (label gui; run under xvfb-run): the demo case is loaded, a
+// spot is added and tuned, the optimiser runs, the case is saved and re-read, screenshots are
+// checked for a visible, coloured stump, a bad case file fails with its message, and a case
+// saved by the GUI replays through `socketsmith design` to the radar the window showed.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+#include <string>
+
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
+#include <nlohmann/json.hpp>
+#include <stb/stb_image.h>
+
+#include "socketsmith/design/case_file.h"
+
+namespace socketsmith {
+namespace {
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+const fs::path kBin = SOCKETSMITH_BINARY_DIR;
+constexpr double kDeg = 3.14159265358979323846 / 180.0;
+
+/// The GUI command, under its own Xvfb when there is no display (plain `ctest -L gui` works too).
+std::string gui_command() {
+  const std::string gui = (kBin / "socketsmith-gui").string();
+  if (std::getenv("DISPLAY") != nullptr) return gui;
+  return "xvfb-run -a -s \"-screen 0 1600x1000x24\" " + gui;
+}
+
+int run(const std::string& cmd, const fs::path& log) {
+  const int rc = std::system((cmd + " > " + log.string() + " 2>&1").c_str());
+  return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+}
+
+std::string read_text(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+json read_json(const fs::path& p) {
+  std::ifstream in(p);
+  return json::parse(in);
+}
+
+/// One headless session for the suite: demo at 2500 nodes, a spot added at the patellar tendon,
+/// its amplitude and height set, saved; then optimised and saved again; screenshots between.
+/// CTest runs each test in its own process: the first one runs the session (under a file lock),
+/// the others reuse it while its stamp (the script and the exit status) is newer than the GUI.
+class GuiSession : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = kBin / "tests" / "gui_session";
+    fs::create_directories(kBin / "tests");
+    const int lock = ::open((kBin / "tests" / "gui_session.lock").c_str(), O_CREAT | O_RDWR, 0644);
+    ASSERT_GE(lock, 0);
+    ::flock(lock, LOCK_EX);
+    const json script = {
+        {"actions",
+         {{{"do", "add_spot"}, {"landmark", "PT"}, {"type", "cos2"}, {"amplitude_kpa", 20}},
+          {{"do", "set"}, {"spot", "PT (added)"}, {"field", "amplitude_kpa"}, {"value", 27.5}},
+          {{"do", "set"}, {"spot", "PT (added)"}, {"field", "r_h_mm"}, {"value", 12}},
+          // Undo/redo: 99 kPa, undone, redone, undone again → 27.5 kPa and R_h 12 mm are saved
+          // (a redo that did nothing would let the second undo take R_h back to 15 mm).
+          {{"do", "set"}, {"spot", "PT (added)"}, {"field", "amplitude_kpa"}, {"value", 99}},
+          {{"do", "undo"}},
+          {{"do", "redo"}},
+          {{"do", "undo"}},
+          {{"do", "field"}, {"value", "pressure"}},
+          {{"do", "screenshot"}, {"name", "edited.png"}},
+          {{"do", "save"}, {"path", (dir_ / "edited.json").string()}},
+          {{"do", "write_state"}, {"path", (dir_ / "edited_state.json").string()}},
+          {{"do", "optimise"}},
+          {{"do", "field"}, {"value", "ratio"}},
+          {{"do", "screenshot"}, {"name", "optimised.png"}},
+          {{"do", "save"}, {"path", (dir_ / "optimised.json").string()}},
+          {{"do", "write_state"}, {"path", (dir_ / "optimised_state.json").string()}},
+          {{"do", "export"}, {"dir", (dir_ / "export").string()}}}}};
+    const fs::path gui = kBin / "socketsmith-gui", stamp = dir_ / "session.stamp";
+    if (fs::exists(stamp) && fs::last_write_time(stamp) > fs::last_write_time(gui)) {
+      const json st = read_json(stamp);
+      if (st["script"] == script) rc_ = st["status"].get<int>();
+    }
+    if (rc_ < 0) {
+      fs::remove_all(dir_);
+      fs::create_directories(dir_);
+      std::ofstream(dir_ / "script.json") << script.dump(2);
+      rc_ = run(gui_command() + " --headless --demo --target-nodes 2500 --script " + (dir_ / "script.json").string() +
+                    " --frames 2 --screenshot-dir " + dir_.string(),
+                dir_ / "gui.log");
+      std::ofstream(stamp) << json{{"script", script}, {"status", rc_}}.dump();
+    }
+    ::flock(lock, LOCK_UN);
+    ::close(lock);
+  }
+  static fs::path dir_;
+  static int rc_;
+};
+fs::path GuiSession::dir_;
+int GuiSession::rc_ = -1;
+
+TEST_F(GuiSession, loads_the_demo_and_runs_the_script_with_status_zero) {
+  EXPECT_EQ(rc_, 0) << read_text(dir_ / "gui.log");
+  EXPECT_TRUE(fs::exists(dir_ / "final.png"));
+}
+
+TEST_F(GuiSession, the_saved_case_holds_the_added_spot_in_file_units_after_undo_and_redo) {
+  ASSERT_EQ(rc_, 0) << read_text(dir_ / "gui.log");
+  const design::CaseFile c = design::read_case(dir_ / "edited.json");
+  const design::Spot* added = nullptr;
+  for (const auto& s : c.spots)
+    if (s.name == "PT (added)") added = &s;
+  ASSERT_NE(added, nullptr);
+  EXPECT_EQ(added->type, design::SpotType::Cos2);
+  EXPECT_NEAR(added->amplitude_pa, 27.5e3, 1e-6);
+  EXPECT_NEAR(added->r_h, 0.012, 1e-9);
+  EXPECT_LT(std::abs(added->theta0), 30 * kDeg);  // the patellar tendon is anterior (θ = 0)
+  EXPECT_GT(added->h0, 0.02);
+  // The default layout was made explicit (the replay must not depend on defaults) and kept.
+  EXPECT_GT(c.spots.size(), 20u);
+  // The raw file is in clinical units.
+  const json raw = read_json(dir_ / "edited.json");
+  bool found = false;
+  for (const auto& s : raw["design"]["spots"])
+    if (s["name"] == "PT (added)") {
+      found = true;
+      EXPECT_NEAR(s["amplitude_kpa"].get<double>(), 27.5, 1e-9);
+      EXPECT_NEAR(s["r_h_mm"].get<double>(), 12.0, 1e-9);
+    }
+  EXPECT_TRUE(found) << raw.dump(2);
+}
+
+TEST_F(GuiSession, the_optimiser_changed_the_amplitudes_and_met_the_constraints) {
+  ASSERT_EQ(rc_, 0) << read_text(dir_ / "gui.log");
+  const design::CaseFile before = design::read_case(dir_ / "edited.json");
+  const design::CaseFile after = design::read_case(dir_ / "optimised.json");
+  ASSERT_EQ(before.spots.size(), after.spots.size());
+  double change = 0;
+  for (size_t k = 0; k < after.spots.size(); ++k)
+    change += std::abs(after.spots[k].amplitude_pa - before.spots[k].amplitude_pa);
+  EXPECT_GT(change, 1e3);
+  const json st = read_json(dir_ / "optimised_state.json");
+  EXPECT_TRUE(st["constraints_met"].get<bool>()) << st.dump(2);
+  EXPECT_LE(st["max_pressure_ratio"].get<double>(), 1.0 + 1e-9);
+}
+
+/// Fraction of the view's centre that is not background, and the number of distinct colours.
+struct ImageStats {
+  double covered = 0;
+  size_t colours = 0;
+  int width = 0, height = 0;
+};
+ImageStats image_stats(const fs::path& png) {
+  int w = 0, h = 0, n = 0;
+  unsigned char* px = stbi_load(png.string().c_str(), &w, &h, &n, 3);
+  ImageStats s;
+  if (!px) return s;
+  s.width = w;
+  s.height = h;
+  // The 3D view lies between the panels (390 px left, 440 px right); its middle third.
+  const int x0 = 390 + (w - 830) / 3, x1 = 390 + 2 * (w - 830) / 3, y0 = h / 3, y1 = 2 * h / 3;
+  long covered = 0, total = 0;
+  std::set<int> colours;
+  for (int y = y0; y < y1; ++y)
+    for (int x = x0; x < x1; ++x) {
+      const unsigned char* p = px + 3 * (static_cast<size_t>(y) * w + x);
+      ++total;
+      // Background: (0.93, 0.94, 0.96) → (237, 240, 245).
+      if (std::abs(p[0] - 237) + std::abs(p[1] - 240) + std::abs(p[2] - 245) > 12) ++covered;
+      colours.insert((p[0] >> 3) << 10 | (p[1] >> 3) << 5 | (p[2] >> 3));
+    }
+  stbi_image_free(px);
+  s.covered = total ? static_cast<double>(covered) / total : 0;
+  s.colours = colours.size();
+  return s;
+}
+
+TEST_F(GuiSession, screenshots_show_a_coloured_stump) {
+  ASSERT_EQ(rc_, 0) << read_text(dir_ / "gui.log");
+  for (const char* name : {"edited.png", "optimised.png"}) {
+    const auto s = image_stats(dir_ / name);
+    EXPECT_EQ(s.width, 1600) << name;
+    EXPECT_EQ(s.height, 1000) << name;
+    EXPECT_GT(s.covered, 0.15) << name << ": the stump should fill the middle of the view";
+    EXPECT_GT(s.colours, 30u) << name << ": a pressure map has many colours";
+  }
+}
+
+TEST_F(GuiSession, a_saved_case_replays_headless_to_the_same_radar) {
+  ASSERT_EQ(rc_, 0) << read_text(dir_ / "gui.log");
+  const fs::path out = dir_ / "replay";
+  const int rc = run((kBin / "socketsmith").string() + " design " + (dir_ / "optimised.json").string() +
+                         " --no-optimise --json --out " + out.string(),
+                     dir_ / "replay.log");
+  ASSERT_EQ(rc, 0) << read_text(dir_ / "replay.log");
+  const json cli = read_json(out / "design.json");
+  const json gui = read_json(dir_ / "optimised_state.json");
+  const double fz = cli["targets"]["fz_n"].get<double>();
+  for (const char* k : {"fx_n", "fy_n", "fz_n", "stability_n"})
+    EXPECT_NEAR(cli["radar"][k].get<double>(), gui["radar"][k].get<double>(), 1e-3 * fz) << k;
+  for (const char* k : {"tx_nm", "ty_nm", "tz_nm"})
+    EXPECT_NEAR(cli["radar"][k].get<double>(), gui["radar"][k].get<double>(), 1e-3 * fz) << k;
+  EXPECT_NEAR(cli["max_pressure_ratio"].get<double>(), gui["max_pressure_ratio"].get<double>(), 1e-3);
+  EXPECT_TRUE(fs::exists(out / "socket.stl"));
+}
+
+TEST_F(GuiSession, export_writes_the_socket_and_the_report) {
+  ASSERT_EQ(rc_, 0) << read_text(dir_ / "gui.log");
+  EXPECT_GT(fs::file_size(dir_ / "export" / "socket.stl"), 10000u);
+  EXPECT_TRUE(fs::exists(dir_ / "export" / "report.html"));
+  const json summary = read_json(dir_ / "export" / "design.json");
+  EXPECT_TRUE(summary["constraints_met"].get<bool>());
+  EXPECT_FALSE(summary["optimised"].get<bool>());  // the spots as designed in the window
+}
+
+TEST(GuiErrors, a_bad_case_file_is_reported_and_the_exit_status_is_not_zero) {
+  const fs::path dir = kBin / "tests" / "gui_errors";
+  fs::create_directories(dir);
+  std::ofstream(dir / "bad.json") << R"({"patient": {"body_mass_kg": -70}})";
+  const int rc = run(gui_command() + " --headless --case " + (dir / "bad.json").string() +
+                         " --frames 1",
+                     dir / "gui.log");
+  const std::string log = read_text(dir / "gui.log");
+  EXPECT_EQ(rc, 1) << log;
+  EXPECT_NE(log.find("body mass must be positive"), std::string::npos) << log;
+}
+
+}  // namespace
+}  // namespace socketsmith
