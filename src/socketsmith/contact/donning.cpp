@@ -32,6 +32,7 @@ DonningSample sample(const ContactStep& st, const std::vector<NodeContact>& cont
   s.max_penetration_m = st.max_penetration_m;
   s.newton_iterations = st.newton_iterations;
   s.factorizations = st.factorizations;
+  s.friction_passes = st.friction_passes;
   s.seconds = st.seconds;
   double sum = 0;
   for (const auto& c : contacts) {

@@ -51,6 +51,7 @@ struct DonningSample {
   double mean_pressure_pa = 0.0;  ///< over the nodes in contact
   double max_penetration_m = 0.0;
   int newton_iterations = 0;
+  int friction_passes = 0;        ///< Newton solves with an updated friction lag in this step
   long factorizations = 0;        ///< tangent factorisations since the start of the path
   double seconds = 0.0;
 };
