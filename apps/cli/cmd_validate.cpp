@@ -5,6 +5,7 @@
 #include <filesystem>
 
 #include "cli_common.h"
+#include "socketsmith/contact/donning.h"
 #include "socketsmith/core/atomic_file.h"
 #include "socketsmith/core/errors.h"
 #include "socketsmith/core/log.h"
@@ -137,6 +138,7 @@ struct DesignFlags {
   double travel_mm = 30.0;
   double initial_increment = 0.05;
   bool neo_hookean = false;
+  bool against_donning = false;
   CcxFlags ccx;
 };
 
@@ -148,6 +150,7 @@ std::vector<double> scaled(const std::vector<double>& v, double s) {
 }
 
 void run_validate_design(const DesignFlags& f) {
+  require(!f.against_donning || f.mode == "donning", "validate design: --against-donning needs --mode donning");
   const fs::path out(f.out);
   ensure_directory(out);
   design::CaseFile c = f.demo ? pipeline::demo_case(f.target_nodes > 0 ? f.target_nodes : 3000)
@@ -164,7 +167,27 @@ void run_validate_design(const DesignFlags& f) {
   const auto& state = art.result.state;
   const auto& mesh = setup.mesh.mesh;
 
-  const fe::DesignedStump d = fe::designed_stump(art);
+  fe::DesignedStump d = fe::designed_stump(art);
+  if (f.against_donning) {
+    // The thesis's ch. 3 check: CalculiX's donning against socketsmith's own donning simulation of
+    // the same socket on the same stump, same travel and friction (not against the design).
+    require(art.result.socket.has_value(),
+            "validate design: the design does not meet its constraints, so it has no socket to don");
+    contact::DonningOptions dopt;
+    dopt.start_offset_m = f.travel_mm * 1e-3;
+    dopt.step_m = 0.002;
+    dopt.friction = f.friction >= 0 ? f.friction : c.patient.friction;
+    dopt.stand_force_n = 0;
+    dopt.progress = progress;
+    const auto& solver = *setup.solver;
+    log::info("validate design: socketsmith's donning ({:.0f} mm, μ = {:.2f})", f.travel_mm, dopt.friction);
+    const auto dr = contact::simulate_donning(solver.model(), solver.skin().nodes, solver.skin().area_m2,
+                                              art.result.socket->solid, setup.model.frame, dopt);
+    require<SolverError>(dr.completed, "validate design: {}", dr.message);
+    for (size_t i = 0; i < dr.contacts.size(); ++i) d.pressure_pa[i] = dr.contacts[i].pressure_pa;
+    log::info("validate design: socketsmith donning done in {:.1f} s, {} nodes in contact", dr.seconds,
+              dr.series.empty() ? 0 : dr.series.back().contact_nodes);
+  }
 
   fe::DesignCheckOptions o;
   o.mode = fe::parse_design_check_mode(f.mode);
@@ -363,6 +386,9 @@ void register_validate(CLI::App& app) {
       ->check(CLI::PositiveNumber);
   des->add_option("--travel-mm", df->travel_mm, "donning: start this far distally [mm] (default 30)")
       ->check(CLI::PositiveNumber);
+  des->add_flag("--against-donning", df->against_donning,
+                "with --mode donning: compare CalculiX's donning with socketsmith's own donning simulation "
+                "(contact solver, same travel and μ) instead of with the designed pressures (thesis ch. 3)");
   des->add_option("--initial-increment", df->initial_increment, "first ccx increment (fraction of the step, default 0.05)")
       ->check(CLI::Range(1e-4, 1.0));
   add_ccx_flags(*des, df->ccx);
