@@ -142,13 +142,6 @@ struct DesignFlags {
   CcxFlags ccx;
 };
 
-std::vector<double> scaled(const std::vector<double>& v, double s) {
-  std::vector<double> o;
-  o.reserve(v.size());
-  for (double x : v) o.push_back(x * s);
-  return o;
-}
-
 void run_validate_design(const DesignFlags& f) {
   require(!f.against_donning || f.mode == "donning", "validate design: --against-donning needs --mode donning");
   const fs::path out(f.out);
