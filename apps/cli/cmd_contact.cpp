@@ -12,6 +12,7 @@
 #include "socketsmith/core/log.h"
 #include "socketsmith/core/progress.h"
 #include "socketsmith/core/units.h"
+#include "socketsmith/fe/comparison.h"
 #include "socketsmith/geometry/mesh_checks.h"
 #include "socketsmith/geometry/mesh_io.h"
 #include "socketsmith/pipeline/design_pipeline.h"
@@ -39,15 +40,13 @@ struct DonningFlags {
   bool json = false;
 };
 
-nlohmann::json agreement_json(const contact::PressureAgreement& a) {
-  return {{"nodes", a.nodes},
-          {"mae_kpa", a.mae_pa / 1e3},
-          {"rmse_kpa", a.rmse_pa / 1e3},
-          {"pearson_r", std::isfinite(a.pearson_r) ? nlohmann::json(a.pearson_r) : nlohmann::json(nullptr)},
-          {"mean_designed_kpa", a.mean_a_pa / 1e3},
-          {"mean_contact_kpa", a.mean_b_pa / 1e3},
-          {"max_designed_kpa", a.max_a_pa / 1e3},
-          {"max_contact_kpa", a.max_b_pa / 1e3}};
+/// Contact (a) against designed (b) pressure on the skin nodes where @p mask is set, in kPa.
+nlohmann::json agreement_json(const std::vector<double>& contact_pa, const std::vector<double>& designed_pa,
+                              const std::vector<char>& mask) {
+  std::vector<int> subset;
+  for (size_t i = 0; i < mask.size(); ++i)
+    if (mask[i]) subset.push_back(static_cast<int>(i));
+  return fe::to_json(fe::compare_fields(contact_pa, designed_pa, subset), 1e-3, "_kpa");
 }
 
 int run_donning(const DonningFlags& f) {
@@ -222,14 +221,14 @@ int run_donning(const DonningFlags& f) {
   // Agreement with the design: below the brim, along the front line, back line, mid circumference.
   nlohmann::json agreement;
   if (designed) {
-    agreement["below_brim"] = agreement_json(contact::compare_pressures(pd, pc, below));
+    agreement["below_brim"] = agreement_json(pc, pd, below);
     for (const auto& path : pipeline::design_paths(*setup)) {
       std::vector<char> m(ns, 0);
       for (const auto& s : report::sample_path(skin.positions, {}, sframe, path.spec))
         if (below[s.index]) m[s.index] = 1;
       int count = 0;
       for (char v : m) count += v;
-      if (count >= 3) agreement[path.key] = agreement_json(contact::compare_pressures(pd, pc, m));
+      if (count >= 3) agreement[path.key] = agreement_json(pc, pd, m);
     }
   }
 
@@ -277,9 +276,10 @@ int run_donning(const DonningFlags& f) {
             last.max_pressure_pa / 1e3, last.max_penetration_m * 1e3);
   if (designed) {
     const auto& b = agreement["below_brim"];
-    log::info("donning: below the brim, contact vs designed: MAE {:.2f} kPa, R {}, mean {:.2f} vs {:.2f} kPa",
-              b["mae_kpa"].get<double>(), b["pearson_r"].is_null() ? "n/a" : fmt::format("{:.3f}", b["pearson_r"].get<double>()),
-              b["mean_contact_kpa"].get<double>(), b["mean_designed_kpa"].get<double>());
+    log::info("donning: below the brim, contact vs designed: MAE {:.2f} ± {:.2f} kPa, R {}, mean {:.2f} vs {:.2f} kPa",
+              b["mae_kpa"].get<double>(), b["sd_kpa"].get<double>(),
+              b["r"].is_null() ? "n/a" : fmt::format("{:.3f}", b["r"].get<double>()), b["mean_a_kpa"].get<double>(),
+              b["mean_b_kpa"].get<double>());
   }
   log::info("donning: outputs in {}", out.string());
   return 0;

@@ -10,17 +10,6 @@
 namespace socketsmith::contact {
 namespace {
 
-tissue::DofMap fixed_node_dofs(const volume::HexMesh& mesh) {
-  std::vector<int> fixed;
-  for (int n = 0; n < mesh.num_nodes(); ++n)
-    if (mesh.has_tag(n, volume::kNodeFixed)) fixed.push_back(n);
-  require(!fixed.empty(), "donning: the stump has no fixed node (bones or proximal cut): it would slide away with the "
-                          "socket; mesh it with its bones");
-  tissue::DofConstraints cons;
-  cons.fix_nodes(fixed);
-  return tissue::DofMap(3 * mesh.num_nodes(), cons);
-}
-
 DonningSample sample(const ContactStep& st, const std::vector<NodeContact>& contacts, const Vec3& axis,
                      double offset_m) {
   DonningSample s;
@@ -67,7 +56,7 @@ DonningResult simulate_donning(const tissue::MassSpringModel& model, const std::
   const auto t0 = std::chrono::steady_clock::now();
   const Vec3 axis = frame.axis.normalized();
   RigidSocket socket(socket_solid, frame, o.socket_density_kg_m3);
-  const tissue::DofMap dofs = fixed_node_dofs(model.mesh());
+  const tissue::DofMap dofs = tissue::fixed_node_dofs(model.mesh(), "donning");
   ContactOptions co = o.contact;
   co.friction = o.friction;
   socket.set_translation(-o.start_offset_m * axis);
@@ -130,37 +119,6 @@ DonningResult simulate_donning(const tissue::MassSpringModel& model, const std::
     report_progress(o.progress, 1.0, "donning: standing");
   }
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  return r;
-}
-
-PressureAgreement compare_pressures(const std::vector<double>& a, const std::vector<double>& b,
-                                    const std::vector<char>& mask) {
-  require(a.size() == b.size() && a.size() == mask.size(), "compare_pressures: {} / {} values for {} mask entries",
-          a.size(), b.size(), mask.size());
-  PressureAgreement r;
-  double sa = 0, sb = 0, saa = 0, sbb = 0, sab = 0, sae = 0, sse = 0;
-  for (size_t i = 0; i < a.size(); ++i) {
-    if (!mask[i]) continue;
-    ++r.nodes;
-    sa += a[i];
-    sb += b[i];
-    saa += a[i] * a[i];
-    sbb += b[i] * b[i];
-    sab += a[i] * b[i];
-    sae += std::abs(a[i] - b[i]);
-    sse += (a[i] - b[i]) * (a[i] - b[i]);
-    r.max_a_pa = std::max(r.max_a_pa, a[i]);
-    r.max_b_pa = std::max(r.max_b_pa, b[i]);
-  }
-  require(r.nodes > 0, "compare_pressures: no node selected");
-  const double n = r.nodes;
-  r.mean_a_pa = sa / n;
-  r.mean_b_pa = sb / n;
-  r.mae_pa = sae / n;
-  r.rmse_pa = std::sqrt(sse / n);
-  const double va = saa / n - r.mean_a_pa * r.mean_a_pa, vb = sbb / n - r.mean_b_pa * r.mean_b_pa;
-  const double cov = sab / n - r.mean_a_pa * r.mean_b_pa;
-  r.pearson_r = (va > 0 && vb > 0) ? cov / std::sqrt(va * vb) : std::numeric_limits<double>::quiet_NaN();
   return r;
 }
 

@@ -85,16 +85,4 @@ DonningResult simulate_donning(const tissue::MassSpringModel& model, const std::
                                const std::vector<double>& skin_areas, const geometry::TriMesh& socket_solid,
                                const geometry::LimbFrame& frame, const DonningOptions& options = {});
 
-/// Agreement of two pressure fields over the nodes where @p mask is set (e.g. below the brim).
-struct PressureAgreement {
-  int nodes = 0;
-  double mae_pa = 0.0;      ///< mean |a − b|
-  double rmse_pa = 0.0;
-  double pearson_r = 0.0;   ///< NaN when one field is constant
-  double mean_a_pa = 0.0, mean_b_pa = 0.0;
-  double max_a_pa = 0.0, max_b_pa = 0.0;
-};
-PressureAgreement compare_pressures(const std::vector<double>& a, const std::vector<double>& b,
-                                    const std::vector<char>& mask);
-
 }  // namespace socketsmith::contact

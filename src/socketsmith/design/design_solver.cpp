@@ -160,21 +160,12 @@ struct DesignSolver::Impl {
         length(len),
         targets(radar_targets(pl, len)),
         options(o),
-        dofs(make_dofs(mesh)) {
+        dofs(tissue::fixed_node_dofs(mesh, "design solve")) {
     solver = std::make_unique<tissue::StaticSolver>(model, dofs, options.solver);
     x = model.rest_positions();
     cyl.reserve(skin.nodes.size());
     for (const auto& p : skin.positions) cyl.push_back(frame.to_cylindrical(p));
     above.assign(skin.nodes.size(), 0);
-  }
-  tissue::DofMap make_dofs(const volume::HexMesh& mesh) const {
-    tissue::DofConstraints cons;
-    std::vector<int> fixed;
-    for (int n = 0; n < mesh.num_nodes(); ++n)
-      if (mesh.has_tag(n, volume::kNodeFixed)) fixed.push_back(n);
-    require(!fixed.empty(), "the stump mesh has no fixed node (bones or proximal cut): the design solve is singular");
-    cons.fix_nodes(fixed);
-    return tissue::DofMap(3 * mesh.num_nodes(), cons);
   }
 };
 

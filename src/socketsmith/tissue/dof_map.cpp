@@ -106,4 +106,17 @@ void DofMap::reduce_matrix(const SparseMatrix& full, SparseMatrix& reduced) cons
     if (value_map_[k] >= 0) rv[value_map_[k]] += fv[k];
 }
 
+DofMap fixed_node_dofs(const volume::HexMesh& mesh, std::string_view what) {
+  std::vector<int> fixed;
+  for (int n = 0; n < mesh.num_nodes(); ++n)
+    if (mesh.has_tag(n, volume::kNodeFixed)) fixed.push_back(n);
+  require(!fixed.empty(),
+          "{}: the stump mesh has no fixed node (bones or proximal cut), so it is free to move away: mesh the limb "
+          "with its bones",
+          what);
+  DofConstraints cons;
+  cons.fix_nodes(fixed);
+  return DofMap(3 * mesh.num_nodes(), cons);
+}
+
 }  // namespace socketsmith::tissue

@@ -5,10 +5,13 @@
 /// a tied group share one column (they move together, e.g. nodes under a rigid box).
 /// Reduced forces are Pᵀ f and reduced matrices Pᵀ A P.
 
+#include <string_view>
 #include <vector>
 
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
+
+#include "socketsmith/volume/hex_mesh.h"
 
 namespace socketsmith::tissue {
 
@@ -58,5 +61,9 @@ class DofMap {
   mutable std::vector<int> value_map_;  // full value index -> reduced value index or -1
   mutable SparseMatrix reduced_pattern_;
 };
+
+/// The DofMap of a meshed stump: every node tagged kNodeFixed (bones, proximal cut) held.
+/// @throws InvalidInputError naming @p what when no node is fixed (the problem would be singular).
+DofMap fixed_node_dofs(const volume::HexMesh& mesh, std::string_view what);
 
 }  // namespace socketsmith::tissue

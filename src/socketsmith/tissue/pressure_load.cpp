@@ -26,13 +26,7 @@ PressureLoadResult solve_uniform_pressure(const volume::HexMesh& mesh, double pr
   const auto t0 = std::chrono::steady_clock::now();
   PressureLoadResult res;
   const MassSpringModel model(mesh, material, options);
-  DofConstraints cons;
-  std::vector<int> fixed;
-  for (int n = 0; n < mesh.num_nodes(); ++n)
-    if (mesh.has_tag(n, volume::kNodeFixed)) fixed.push_back(n);
-  require(!fixed.empty(), "the limb mesh has no fixed node (bones or proximal cut): the static problem is singular");
-  cons.fix_nodes(fixed);
-  const DofMap dofs(model.num_dofs(), cons);
+  const DofMap dofs = fixed_node_dofs(mesh, "uniform pressure solve");
   StaticSolver solver(model, dofs, solver_options);
   const auto skin = volume::extract_skin_surface(mesh);
   const VectorXd f = pressure_forces(skin, std::vector<double>(skin.nodes.size(), pressure_pa), mesh.num_nodes());
