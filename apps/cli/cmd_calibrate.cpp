@@ -19,6 +19,7 @@ struct CalibrateFlags {
   unsigned seed = 1;
   bool fixed_springs = false;
   int divisions = 2;
+  double max_c = 0;
 };
 
 nlohmann::json candidate_json(const tissue::CalibrationCandidate& c) {
@@ -42,6 +43,7 @@ void run(const CalibrateFlags& f) {
   o.starts = f.starts;
   o.seed = f.seed;
   o.fit_spring_modulus_ratio = !f.fixed_springs;
+  if (f.max_c > 0) o.max_c = f.max_c;
   if (f.law == "symmetric") o.laws = {tissue::CorrectiveLaw::Symmetric};
   if (f.law == "compression-only") o.laws = {tissue::CorrectiveLaw::CompressionOnly};
   log::info("calibrating MSS-CS constants on the cube ({}^3 elements, {} start(s) x {} evaluations per law)",
@@ -84,6 +86,8 @@ void register_calibrate(CLI::App& app) {
   cube->add_option("--seed", flags->seed, "random seed of the extra starting points");
   cube->add_flag("--thesis-springs", flags->fixed_springs, "keep the Golec springs at E (fit A, alpha, C, beta only)");
   cube->add_option("--divisions", flags->divisions, "elements per cube edge")->check(CLI::Range(1, 20));
+  cube->add_option("--max-c", flags->max_c, "upper bound of the corrective constant C (default 2000)")
+      ->check(CLI::PositiveNumber);
   cube->callback([flags] { run(*flags); });
 }
 

@@ -338,6 +338,27 @@ void run_validate_design(const DesignFlags& f) {
                       (out / "summary.json").string());
 }
 
+/// Flags shared by `validate design` and `validate donning`.
+void add_case_flags(CLI::App& cmd, DesignFlags& f) {
+  cmd.add_option("case", f.case_file, "case file (JSON, docs/case_file.md)");
+  cmd.add_flag("--demo", f.demo, "use the embedded sample case (generated limb, 3k nodes) instead of a case file");
+  cmd.add_option("--out", f.out, "output folder (comparison.csv/.svg, profiles, stump_fe.vtu, summary.json, deck)")
+      ->required();
+  cmd.add_flag("--json", f.json, "print the summary as JSON on stdout");
+  cmd.add_flag("--no-optimise", f.no_optimise, "solve the case's spots as given");
+  cmd.add_option("--target-nodes", f.target_nodes, "stump size (default: the case's)")->check(CLI::Range(500, 100000));
+  cmd.add_option("--element", f.element, "c3d8 | c3d8i | c3d8r (default c3d8)");
+  cmd.add_option("--poisson", f.poisson, "tissue Poisson ratio in CalculiX (default 0.45, the thesis's)");
+  cmd.add_flag("--neo-hookean", f.neo_hookean, "neo-Hookean tissue instead of linear elastic");
+  cmd.add_option("--penalty", f.penalty, "contact penalty stiffness [Pa/m] (default 1e9)")->check(CLI::PositiveNumber);
+  cmd.add_option("--friction", f.friction, "friction coefficient (default: the case's μ)");
+  cmd.add_option("--travel-mm", f.travel_mm, "donning: start this far distally [mm] (default 30)")
+      ->check(CLI::PositiveNumber);
+  cmd.add_option("--initial-increment", f.initial_increment, "first ccx increment (fraction of the step, default 0.05)")
+      ->check(CLI::Range(1e-4, 1.0));
+  add_ccx_flags(cmd, f.ccx);
+}
+
 }  // namespace
 
 void register_validate(CLI::App& app) {
@@ -360,34 +381,30 @@ void register_validate(CLI::App& app) {
 
   auto df = std::make_shared<DesignFlags>();
   auto* des = v->add_subcommand("design", "design a case's socket, then check its pressures with CalculiX (thesis ch. 5)");
-  des->add_option("case", df->case_file, "case file (JSON, docs/case_file.md)");
-  des->add_flag("--demo", df->demo, "use the embedded sample case (generated limb, 3k nodes) instead of a case file");
-  des->add_option("--out", df->out, "output folder (comparison.csv/.svg, profiles, stump_fe.vtu, summary.json, deck)")
-      ->required();
-  des->add_flag("--json", df->json, "print the summary as JSON on stdout");
-  des->add_flag("--no-optimise", df->no_optimise, "solve the case's spots as given");
-  des->add_option("--target-nodes", df->target_nodes, "stump size (default: the case's)")->check(CLI::Range(500, 100000));
+  add_case_flags(*des, *df);
   des->add_option("--mode", df->mode, "contact (socket fitted, CPRESS vs designed pressure) | load (designed loads, "
                                        "displacements) | donning (rigid socket pushed up the axis)")
       ->check(CLI::IsMember({"contact", "load", "donning"}));
-  des->add_option("--element", df->element, "c3d8 | c3d8i | c3d8r (default c3d8)");
-  des->add_option("--poisson", df->poisson, "tissue Poisson ratio in CalculiX (default 0.45, the thesis's)");
-  des->add_flag("--neo-hookean", df->neo_hookean, "neo-Hookean tissue instead of linear elastic");
-  des->add_option("--penalty", df->penalty, "contact penalty stiffness [Pa/m] (default 1e9)")->check(CLI::PositiveNumber);
-  des->add_option("--friction", df->friction, "friction coefficient (default: the case's μ)");
   des->add_option("--clearance-mm", df->clearance_mm, "where the socket fit starts outside the skin [mm] (default 1)")
-      ->check(CLI::PositiveNumber);
-  des->add_option("--travel-mm", df->travel_mm, "donning: start this far distally [mm] (default 30)")
       ->check(CLI::PositiveNumber);
   des->add_flag("--against-donning", df->against_donning,
                 "with --mode donning: compare CalculiX's donning with socketsmith's own donning simulation "
                 "(contact solver, same travel and μ) instead of with the designed pressures (thesis ch. 3)");
-  des->add_option("--initial-increment", df->initial_increment, "first ccx increment (fraction of the step, default 0.05)")
-      ->check(CLI::Range(1e-4, 1.0));
-  add_ccx_flags(*des, df->ccx);
   des->callback([df] {
     if (df->case_file.empty() && !df->demo) fail("validate design: give a case file or --demo");
     run_validate_design(*df);
+  });
+
+  // The thesis's ch. 3 check as its own command: the same as design --mode donning --against-donning.
+  auto dn = std::make_shared<DesignFlags>();
+  auto* don = v->add_subcommand("donning", "design a case's socket, don it with socketsmith and with CalculiX, compare "
+                                           "the contact pressures (thesis ch. 3)");
+  add_case_flags(*don, *dn);
+  don->callback([dn] {
+    if (dn->case_file.empty() && !dn->demo) fail("validate donning: give a case file or --demo");
+    dn->mode = "donning";
+    dn->against_donning = true;
+    run_validate_design(*dn);
   });
 }
 

@@ -64,7 +64,10 @@ struct CorrectiveSpringConstants {
   /// The constants socketsmith recommends, found by `socketsmith calibrate cube`
   /// (docs/VALIDATION.md); the default of every command.
   static CorrectiveSpringConstants recommended();
-  /// "thesis" or "recommended". @throws InvalidInputError otherwise.
+  /// Constants that meet the cube targets (5 % / 2 %) on a stable lattice, found by
+  /// `socketsmith calibrate cube --max-c 100000`; not the default (docs/VALIDATION.md says why).
+  static CorrectiveSpringConstants cube_fit();
+  /// "thesis", "recommended" or "cube-fit". @throws InvalidInputError otherwise.
   static CorrectiveSpringConstants preset(const std::string& name);
 };
 
