@@ -85,26 +85,29 @@ void run_simulate(const SimulateFlags& f) {
           f.sensors);
   require(std::isfinite(f.noise_scale) && f.noise_scale >= 0.0,
           "scan simulate: --noise-scale {} must be >= 0 (0: noise free, 1: default Kinect v2 errors)", f.noise_scale);
-  geometry::TriMesh scene;
+  scan::Scene scene;
   std::string what;
   if (!f.mesh.empty()) {
     geometry::MeshReadOptions ro;
     if (!f.units.empty()) ro.unit = units::parse_length_unit(f.units);
-    scene = geometry::read_mesh(f.mesh, ro);
-    const geometry::Vec3 c = geometry::bounding_box(scene).center();
-    for (auto& v : scene.vertices) v -= c;  // the rig looks at the origin
+    scene.mesh = geometry::read_mesh(f.mesh, ro);
+    const geometry::Vec3 c = geometry::bounding_box(scene.mesh).center();
+    for (auto& v : scene.mesh.vertices) v -= c;  // the rig looks at the origin
     what = fmt::format("mesh '{}' centred at the rig's centre", f.mesh);
   } else if (f.cylinder_mm > 0) {
     require(std::isfinite(f.cylinder_mm) && f.cylinder_mm <= 1000 && f.cylinder_height_mm > 0,
             "scan simulate: --cylinder-mm {} is not a plausible diameter (expected 10 to 1000 mm)", f.cylinder_mm);
-    scene = scan::make_cylinder(f.cylinder_mm * units::mm, f.cylinder_height_mm * units::mm);
+    scene.mesh = scan::make_cylinder(f.cylinder_mm * units::mm, f.cylinder_height_mm * units::mm);
     what = fmt::format("cylinder of diameter {:g} mm, height {:g} mm, axis z", f.cylinder_mm, f.cylinder_height_mm);
   } else if (f.box) {
-    scene = scan::make_box(geometry::Vec3(0.30, 0.30, 0.70));
-    what = "box 300 x 300 x 700 mm";
+    scene = scan::make_box_scene();
+    what = "box 300 x 300 x 700 mm with a 4 x 11 inner-corner chessboard of 50 mm squares on each side";
   } else {
-    scene = scan::make_chessboard(9, 7, 0.08);
-    what = "chessboard 9 x 7 squares of 80 mm facing K1 (-y)";
+    // Board frame: x along world x, y down (−z), z into the board (+y, away from K1 on the −y side).
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    pose.linear() << 1, 0, 0, 0, 0, 1, 0, -1, 0;
+    scene = scan::make_chessboard_scene(scan::calibration_chessboard(pose));
+    what = "chessboard of 9 x 6 inner corners, 60 mm squares, facing K1 (-y)";
   }
   const auto sensors = scan::default_rig(f.sensors, f.radius_mm * units::mm, f.height_mm * units::mm,
                                          geometry::Vec3::Zero(), rig_intrinsics(f.calibration, f.sensors));
@@ -205,8 +208,8 @@ void register_scan(CLI::App& app) {
   sim->add_option("--units", sf->units, "units of --mesh: mm | m (default: guessed)");
   sim->add_option("--cylinder-mm", sf->cylinder_mm, "scene: a cylinder of this diameter [mm] (thesis: 100, 160, 210)");
   sim->add_option("--cylinder-height-mm", sf->cylinder_height_mm, "height of the cylinder [mm] (default 400)");
-  sim->add_flag("--box", sf->box, "scene: the 300 x 300 x 700 mm calibration box");
-  sim->add_flag("--chessboard", sf->chessboard, "scene: a 9 x 7 chessboard of 80 mm squares facing K1");
+  sim->add_flag("--box", sf->box, "scene: the 300 x 300 x 700 mm calibration box with a chessboard on each side");
+  sim->add_flag("--chessboard", sf->chessboard, "scene: the calibration chessboard (9 x 6 inner corners, 60 mm) facing K1");
   sim->add_option("--sensors", sf->sensors, "number of sensors on the ring (default 4)");
   sim->add_option("--radius-mm", sf->radius_mm, "ring radius [mm] (default 750, as the thesis)");
   sim->add_option("--height-mm", sf->height_mm, "sensor height above the scene centre [mm] (default 0)");

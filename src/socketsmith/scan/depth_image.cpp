@@ -17,44 +17,82 @@ int DepthImage::count_valid() const {
   return static_cast<int>(std::count_if(raw.begin(), raw.end(), [](std::uint16_t r) { return r != 0; }));
 }
 
-DepthImage read_depth_png(const fs::path& path, double scale_m) {
-  require(std::isfinite(scale_m) && scale_m > 0.0, "read_depth_png: depth scale {} m per unit is not positive",
-          scale_m);
-  if (!fs::exists(path)) fail<IoError>("read_depth_png: cannot open '{}' (file not found)", path.string());
+namespace {
+
+/// Loads a single-channel image of any bit depth; @p what names the caller in messages.
+cv::Mat read_gray_png(const fs::path& path, const char* what) {
+  if (!fs::exists(path)) fail<IoError>("{}: cannot open '{}' (file not found)", what, path.string());
   cv::Mat m;
   try {
     m = cv::imread(path.string(), cv::IMREAD_ANYDEPTH | cv::IMREAD_ANYCOLOR);
   } catch (const cv::Exception& e) {
-    fail<IoError>("read_depth_png: cannot decode '{}' ({})", path.string(), e.what());
+    fail<IoError>("{}: cannot decode '{}' ({})", what, path.string(), e.what());
   }
-  if (m.empty()) fail<IoError>("read_depth_png: cannot decode '{}' (not a PNG/PGM image)", path.string());
+  if (m.empty()) fail<IoError>("{}: cannot decode '{}' (not a PNG/PGM image)", what, path.string());
+  return m;
+}
+
+int bits_of(const cv::Mat& m) { return m.depth() == CV_8U || m.depth() == CV_8S ? 8 : m.depth() == CV_16U || m.depth() == CV_16S ? 16 : 32; }
+
+/// Writes a 16-bit single-channel PNG atomically.
+void write_u16_png(const fs::path& path, int width, int height, const std::vector<std::uint16_t>& data,
+                   const char* what) {
+  require(width > 0 && height > 0 && data.size() == static_cast<size_t>(width) * height,
+          "{}: image {}x{} has {} values (expected width·height)", what, width, height, data.size());
+  cv::Mat m(height, width, CV_16UC1, const_cast<std::uint16_t*>(data.data()));
+  std::vector<uchar> buffer;
+  if (!cv::imencode(".png", m, buffer)) fail<IoError>("{}: cannot encode '{}'", what, path.string());
+  write_file_atomically(
+      path, [&](std::ostream& os) { os.write(reinterpret_cast<const char*>(buffer.data()), buffer.size()); }, true);
+}
+
+void copy_u16(const cv::Mat& m, std::vector<std::uint16_t>& out) {
+  out.resize(static_cast<size_t>(m.cols) * m.rows);
+  for (int v = 0; v < m.rows; ++v) {
+    const auto* row = m.ptr<std::uint16_t>(v);
+    std::copy(row, row + m.cols, out.begin() + static_cast<std::ptrdiff_t>(v) * m.cols);
+  }
+}
+
+}  // namespace
+
+DepthImage read_depth_png(const fs::path& path, double scale_m) {
+  require(std::isfinite(scale_m) && scale_m > 0.0, "read_depth_png: depth scale {} m per unit is not positive",
+          scale_m);
+  const cv::Mat m = read_gray_png(path, "read_depth_png");
   require(m.channels() == 1, "read_depth_png: '{}' has {} channels (expected a single-channel 16-bit depth image)",
           path.string(), m.channels());
   require(m.depth() == CV_16U,
           "read_depth_png: '{}' is {}-bit (expected 16-bit depth, e.g. in mm; an 8-bit PNG is a picture, not depth)",
-          path.string(), m.depth() == CV_8U || m.depth() == CV_8S ? 8 : 32);
+          path.string(), bits_of(m));
   DepthImage d;
   d.width = m.cols;
   d.height = m.rows;
   d.scale_m = scale_m;
-  d.raw.resize(static_cast<size_t>(d.width) * d.height);
-  for (int v = 0; v < d.height; ++v) {
-    const auto* row = m.ptr<std::uint16_t>(v);
-    std::copy(row, row + d.width, d.raw.begin() + static_cast<std::ptrdiff_t>(v) * d.width);
-  }
+  copy_u16(m, d.raw);
   return d;
 }
 
 void write_depth_png(const fs::path& path, const DepthImage& image) {
-  require(image.width > 0 && image.height > 0 &&
-              image.raw.size() == static_cast<size_t>(image.width) * image.height,
-          "write_depth_png: image {}x{} has {} readings (expected width·height)", image.width, image.height,
-          image.raw.size());
-  cv::Mat m(image.height, image.width, CV_16UC1, const_cast<std::uint16_t*>(image.raw.data()));
-  std::vector<uchar> buffer;
-  if (!cv::imencode(".png", m, buffer)) fail<IoError>("write_depth_png: cannot encode '{}'", path.string());
-  write_file_atomically(
-      path, [&](std::ostream& os) { os.write(reinterpret_cast<const char*>(buffer.data()), buffer.size()); }, true);
+  write_u16_png(path, image.width, image.height, image.raw, "write_depth_png");
+}
+
+IrImage read_ir_png(const fs::path& path) {
+  cv::Mat m = read_gray_png(path, "read_ir_png");
+  require(m.channels() == 1, "read_ir_png: '{}' has {} channels (expected a single-channel 8- or 16-bit IR image)",
+          path.string(), m.channels());
+  require(m.depth() == CV_8U || m.depth() == CV_16U,
+          "read_ir_png: '{}' is not an unsigned 8- or 16-bit image (expected the sensor's IR amplitude)", path.string());
+  if (m.depth() == CV_8U) m.convertTo(m, CV_16U, 257.0);
+  IrImage ir;
+  ir.width = m.cols;
+  ir.height = m.rows;
+  copy_u16(m, ir.value);
+  return ir;
+}
+
+void write_ir_png(const fs::path& path, const IrImage& image) {
+  write_u16_png(path, image.width, image.height, image.value, "write_ir_png");
 }
 
 DepthImage median_of_frames(const std::vector<DepthImage>& frames) {

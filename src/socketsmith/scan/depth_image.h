@@ -29,6 +29,23 @@ DepthImage read_depth_png(const std::filesystem::path& path, double scale_m = 1e
 /// Writes @p image as a 16-bit single-channel PNG, atomically.
 void write_depth_png(const std::filesystem::path& path, const DepthImage& image);
 
+/// An infrared (amplitude) frame of a time-of-flight sensor, pixel-aligned with its depth frame
+/// (the Kinect v2 measures both with the same sensor): what chessboard corners are found on.
+struct IrImage {
+  int width = 0;                     ///< [px]
+  int height = 0;                    ///< [px]
+  std::vector<std::uint16_t> value;  ///< #width·height row-major intensities (16-bit; 8-bit files are ×257)
+
+  std::uint16_t at(int u, int v) const { return value[static_cast<size_t>(v) * width + u]; }
+};
+
+/// Reads a single-channel 8- or 16-bit PNG IR frame (8-bit values are scaled by 257 to 16 bits).
+/// @throws IoError when missing or unreadable; InvalidInputError for a colour or float image.
+IrImage read_ir_png(const std::filesystem::path& path);
+
+/// Writes @p image as a 16-bit single-channel PNG, atomically.
+void write_ir_png(const std::filesystem::path& path, const IrImage& image);
+
 /// Per-pixel median of the valid readings of several frames of one static scene (a pixel valid in
 /// fewer than half of the frames becomes invalid): a cheap temporal denoiser.
 /// @throws InvalidInputError for no frames or frames of different sizes or scales.

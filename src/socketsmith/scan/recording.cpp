@@ -37,6 +37,29 @@ Eigen::Isometry3d pose_from_rows(const std::vector<std::vector<double>>& rows, c
   return pose;
 }
 
+void validate_pattern(const ChessboardPattern& p, const std::string& what) {
+  require(p.inner_cols >= 2 && p.inner_rows >= 2 && p.inner_cols <= 100 && p.inner_rows <= 100,
+          "{}: chessboard of {}x{} inner corners (expected 2 to 100 each way)", what, p.inner_cols, p.inner_rows);
+  require(std::isfinite(p.square_m) && p.square_m > 0.0 && p.square_m < 1.0,
+          "{}: chessboard square {} m is not valid (expected metres, e.g. 0.06)", what, p.square_m);
+}
+
+namespace {
+
+/// Files of @p sub whose names start with @p prefix and end in .png, sorted.
+std::vector<fs::path> list_frames(const fs::path& sub, const std::string& prefix) {
+  std::vector<fs::path> files;
+  if (!fs::is_directory(sub)) return files;
+  for (const auto& e : fs::directory_iterator(sub)) {
+    const std::string n = e.path().filename().string();
+    if (n.rfind(prefix, 0) == 0 && e.path().extension() == ".png") files.push_back(e.path());
+  }
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
+}  // namespace
+
 Recording read_recording(const fs::path& folder) {
   if (!fs::is_directory(folder))
     fail<IoError>("read_recording: recording folder '{}' not found", folder.string());
@@ -53,6 +76,22 @@ Recording read_recording(const fs::path& folder) {
           "read_recording: '{}' has no \"sensors\" array (expected one entry per depth sensor)", rig_path.string());
   Recording rec;
   rec.description = rig.value("description", std::string());
+  if (rig.contains("chessboard")) {
+    const auto& c = rig["chessboard"];
+    const std::string what = fmt::format("read_recording: \"chessboard\" in '{}'", rig_path.string());
+    require(c.is_object() && c.contains("inner_cols") && c.contains("inner_rows") && c.contains("square_mm"),
+            "{}: expected {{\"inner_cols\", \"inner_rows\", \"square_mm\"}}", what);
+    try {
+      ChessboardPattern p;
+      p.inner_cols = c["inner_cols"].get<int>();
+      p.inner_rows = c["inner_rows"].get<int>();
+      p.square_m = c["square_mm"].get<double>() * 1e-3;
+      validate_pattern(p, what);
+      rec.chessboard = p;
+    } catch (const nlohmann::json::exception&) {
+      fail("{}: inner_cols, inner_rows must be integers and square_mm a number", what);
+    }
+  }
   std::set<std::string> names;
   for (const auto& s : rig["sensors"]) {
     require(s.is_object() && s.contains("name") && s["name"].is_string(),
@@ -62,10 +101,11 @@ Recording read_recording(const fs::path& folder) {
     const std::string what = fmt::format("read_recording: sensor '{}' in '{}'", sr.name, rig_path.string());
     require(names.insert(sr.name).second, "{}: the name is used twice", what);
     static const std::set<std::string> known = {"name", "intrinsics", "pose_world_from_sensor", "depth_scale_m",
-                                                "frames", "folder"};
+                                                "frames", "ir_frames", "folder"};
     for (const auto& [key, value] : s.items())
       require(known.count(key) > 0,
-              "{}: unknown key '{}' (expected name, intrinsics, pose_world_from_sensor, depth_scale_m, frames, folder)",
+              "{}: unknown key '{}' (expected name, intrinsics, pose_world_from_sensor, depth_scale_m, frames, ir_frames, "
+              "folder)",
               what, key);
     const fs::path sub = folder / s.value("folder", sr.name);
     // Intrinsics: a path relative to the recording; default <sensor>/intrinsics.json.
@@ -89,12 +129,8 @@ Recording read_recording(const fs::path& folder) {
     std::vector<fs::path> files;
     if (s.contains("frames")) {
       for (const auto& f : s["frames"]) files.push_back(sub / f.get<std::string>());
-    } else if (fs::is_directory(sub)) {
-      for (const auto& e : fs::directory_iterator(sub)) {
-        const std::string n = e.path().filename().string();
-        if (n.rfind("depth_", 0) == 0 && e.path().extension() == ".png") files.push_back(e.path());
-      }
-      std::sort(files.begin(), files.end());
+    } else {
+      files = list_frames(sub, "depth_");
     }
     require(!files.empty(), "{}: no depth frames (expected {}/depth_0000.png ...)", what, sub.string());
     for (const fs::path& f : files) {
@@ -104,6 +140,22 @@ Recording read_recording(const fs::path& folder) {
               f.string(), d.width, d.height, sr.intrinsics.width, sr.intrinsics.height);
       sr.frames.push_back(std::move(d));
       sr.frame_files.push_back(f.filename().string());
+    }
+    std::vector<fs::path> ir_files;
+    if (s.contains("ir_frames")) {
+      for (const auto& f : s["ir_frames"]) ir_files.push_back(sub / f.get<std::string>());
+    } else {
+      ir_files = list_frames(sub, "ir_");
+    }
+    require(ir_files.empty() || ir_files.size() == files.size(),
+            "{}: {} IR frames for {} depth frames (expected none or one ir_XXXX.png per depth_XXXX.png)", what,
+            ir_files.size(), files.size());
+    for (const fs::path& f : ir_files) {
+      IrImage ir = read_ir_png(f);
+      require(ir.width == sr.intrinsics.width && ir.height == sr.intrinsics.height,
+              "{}: IR frame '{}' is {}x{} px but the depth frames are {}x{} (IR must be pixel-aligned with depth)",
+              what, f.string(), ir.width, ir.height, sr.intrinsics.width, sr.intrinsics.height);
+      sr.ir_frames.push_back(std::move(ir));
     }
     rec.sensors.push_back(std::move(sr));
   }
@@ -117,11 +169,20 @@ void write_recording(const fs::path& folder, const Recording& rec) {
   rig["format"] = "socketsmith-scan-recording";
   rig["version"] = 1;
   if (!rec.description.empty()) rig["description"] = rec.description;
+  if (rec.chessboard) {
+    validate_pattern(*rec.chessboard, "write_recording");
+    rig["chessboard"] = {{"inner_cols", rec.chessboard->inner_cols},
+                         {"inner_rows", rec.chessboard->inner_rows},
+                         {"square_mm", rec.chessboard->square_m * 1e3}};
+  }
   rig["sensors"] = nlohmann::ordered_json::array();
   for (const SensorRecording& s : rec.sensors) {
     require(!s.name.empty() && s.name.find_first_of("/\\") == std::string::npos,
             "write_recording: sensor name '{}' is not a valid folder name", s.name);
     require(!s.frames.empty(), "write_recording: sensor '{}' has no frames", s.name);
+    require(s.ir_frames.empty() || s.ir_frames.size() == s.frames.size(),
+            "write_recording: sensor '{}' has {} IR frames for {} depth frames (expected none or one each)", s.name,
+            s.ir_frames.size(), s.frames.size());
     const fs::path sub = folder / s.name;
     ensure_directory(sub);
     write_intrinsics_json(sub / "intrinsics.json", s.intrinsics);
@@ -133,10 +194,8 @@ void write_recording(const fs::path& folder, const Recording& rec) {
     for (int i = 0; i < 4; ++i) rows.push_back({m(i, 0), m(i, 1), m(i, 2), m(i, 3)});
     j["pose_world_from_sensor"] = rows;
     j["depth_scale_m"] = s.depth_scale_m;
-    for (size_t f = 0; f < s.frames.size(); ++f) {
-      DepthImage d = s.frames[f];
-      write_depth_png(sub / fmt::format("depth_{:04d}.png", f), d);
-    }
+    for (size_t f = 0; f < s.frames.size(); ++f) write_depth_png(sub / fmt::format("depth_{:04d}.png", f), s.frames[f]);
+    for (size_t f = 0; f < s.ir_frames.size(); ++f) write_ir_png(sub / fmt::format("ir_{:04d}.png", f), s.ir_frames[f]);
     rig["sensors"].push_back(j);
   }
   write_text_atomically(folder / "rig.json", rig.dump(2) + "\n");

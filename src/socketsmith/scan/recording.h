@@ -2,9 +2,11 @@
 /// @file recording.h
 /// A scan session on disk (docs/scan.md): a folder with `rig.json` (the sensors, their
 /// intrinsics files, poses world←sensor in metres and depth scales) and one sub-folder per
-/// sensor with `intrinsics.json` and `depth_XXXX.png` frames (16-bit, mm by default).
+/// sensor with `intrinsics.json` and `depth_XXXX.png` frames (16-bit, mm by default), optionally
+/// the pixel-aligned IR frames `ir_XXXX.png` and the chessboard target's pattern.
 
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -25,24 +27,40 @@ struct SensorRecording {
   double depth_scale_m = 1e-3;         ///< metres per raw depth unit (1e-3: mm)
   std::vector<DepthImage> frames;      ///< at least one
   std::vector<std::string> frame_files;  ///< file names, same order (filled by read_recording)
+  /// IR (amplitude) frames aligned with the depth frames: empty, or one per depth frame.
+  std::vector<IrImage> ir_frames;
 };
+
+/// The printed pattern of a chessboard target: inner-corner grid and square size.
+struct ChessboardPattern {
+  int inner_cols = 9;      ///< inner corners along a row (squares per row − 1), ≥ 2
+  int inner_rows = 6;      ///< inner corners along a column, ≥ 2
+  double square_m = 0.06;  ///< side of a square [m], > 0
+};
+
+/// @throws InvalidInputError naming @p what when the pattern is not usable (fewer than 2×2 inner
+///         corners, more than 100 either way, or a non-positive square).
+void validate_pattern(const ChessboardPattern& pattern, const std::string& what);
 
 /// A whole session.
 struct Recording {
   std::vector<SensorRecording> sensors;
   std::string description;  ///< free text (e.g. what was simulated)
+  /// The chessboard target of a calibration/registration session (rig.json "chessboard"), if any.
+  std::optional<ChessboardPattern> chessboard;
 };
 
 /// Reads a recording folder: rig.json, every sensor's intrinsics (project JSON, iai_kinect2 YAML
 /// folder or Open3D JSON, path relative to the recording) and its `depth_*.png` frames (sorted
-/// by name) or the list "frames" of rig.json.
+/// by name) or the list "frames" of rig.json; the `ir_*.png` frames when present (or the list
+/// "ir_frames"), which must then match the depth frames in number and size.
 /// @throws IoError for a missing folder, rig.json, intrinsics or frame; InvalidInputError for a
 ///         malformed rig.json, a pose that is not a rigid transform, a frame of the wrong bit depth
 ///         or size, or a sensor without frames.
 Recording read_recording(const std::filesystem::path& folder);
 
 /// Writes @p recording to @p folder (created if needed): rig.json, <name>/intrinsics.json and
-/// <name>/depth_0000.png… (every file atomically).
+/// <name>/depth_0000.png… and <name>/ir_0000.png… when the sensor has IR frames (every file atomically).
 void write_recording(const std::filesystem::path& folder, const Recording& recording);
 
 /// Parses a row-major 4×4 rigid transform (array of 4 arrays of 4 numbers, last row 0 0 0 1).

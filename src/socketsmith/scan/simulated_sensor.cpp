@@ -23,7 +23,8 @@ void validate_model(const SensorErrorModel& m) {
   const double values[] = {m.scale, m.bias_m, m.bias_slope, m.sensor_offset_m, m.sensor_offset_sd_m, m.wiggle_amplitude_m, m.wiggle_period_m,
                            m.radial_bias_m, m.noise_sigma0_m, m.noise_sigma2_per_m, m.flying_pixel_probability,
                            m.edge_jump_m, m.flying_background_m, m.random_invalid_probability,
-                           m.grazing_limit_rad, m.min_range_m, m.max_range_m};
+                           m.grazing_limit_rad, m.min_range_m, m.max_range_m, m.dark_noise_factor, m.ray_scale_x,
+                           m.ray_scale_y, m.ray_scale_sd, m.ir_counts_at_1m, m.ir_noise_relative, m.ir_noise_floor};
   for (double v : values) require(std::isfinite(v), "SensorErrorModel: a parameter is not finite");
   require(m.scale >= 0.0, "SensorErrorModel: scale {} must be >= 0 (0: noise free)", m.scale);
   require(m.sensor_offset_sd_m >= 0.0, "SensorErrorModel: sensor_offset_sd_m {} must be >= 0", m.sensor_offset_sd_m);
@@ -32,6 +33,11 @@ void validate_model(const SensorErrorModel& m) {
   require(m.flying_pixel_probability >= 0.0 && m.flying_pixel_probability <= 1.0 &&
               m.random_invalid_probability >= 0.0 && m.random_invalid_probability <= 1.0,
           "SensorErrorModel: probabilities must lie in [0, 1]");
+  require(m.dark_noise_factor >= 1.0, "SensorErrorModel: dark_noise_factor {} must be >= 1", m.dark_noise_factor);
+  require(m.ray_scale_sd >= 0.0 && std::abs(m.ray_scale_x) < 0.5 && std::abs(m.ray_scale_y) < 0.5,
+          "SensorErrorModel: ray scale errors must be small relative values (|e| < 0.5, sd >= 0)");
+  require(m.ir_counts_at_1m > 0.0 && m.ir_noise_relative >= 0.0 && m.ir_noise_floor >= 0.0,
+          "SensorErrorModel: IR gain must be positive and IR noise >= 0");
   require(m.edge_jump_m > 0.0, "SensorErrorModel: edge_jump_m {} must be positive", m.edge_jump_m);
   require(m.min_range_m >= 0.0 && m.max_range_m > m.min_range_m, "SensorErrorModel: range [{}, {}] m is empty",
           m.min_range_m, m.max_range_m);
@@ -119,43 +125,104 @@ std::vector<SimulatedSensor> default_rig(int n, double radius_m, double height_m
   return rig;
 }
 
-DepthImage simulate_depth(const geometry::SurfaceQuery& scene, const SimulatedSensor& sensor,
-                          const SensorErrorModel& model, std::uint64_t seed, double depth_scale_m) {
+Vec3 ChessboardPatch::corner_in_board(int i, int j) const {
+  const double s = pattern.square_m;
+  return {(i + 1) * s - 0.5 * (pattern.inner_cols + 1) * s, (j + 1) * s - 0.5 * (pattern.inner_rows + 1) * s, 0.0};
+}
+
+Eigen::Vector2d ChessboardPatch::half_size() const {
+  return {0.5 * (pattern.inner_cols + 1) * pattern.square_m + margin_m,
+          0.5 * (pattern.inner_rows + 1) * pattern.square_m + margin_m};
+}
+
+double ChessboardPatch::albedo_at(double x, double y) const {
+  constexpr double kBlack = 0.05, kWhite = 0.9;
+  const Eigen::Vector2d h = half_size();
+  if (std::abs(x) > h.x() || std::abs(y) > h.y()) return -1.0;
+  const double s = pattern.square_m;
+  const double a = (x + 0.5 * (pattern.inner_cols + 1) * s) / s, b = (y + 0.5 * (pattern.inner_rows + 1) * s) / s;
+  if (a < 0.0 || b < 0.0 || a >= pattern.inner_cols + 1 || b >= pattern.inner_rows + 1) return kWhite;  // margin
+  return (static_cast<int>(a) + static_cast<int>(b)) % 2 == 0 ? kBlack : kWhite;
+}
+
+SimulatedFrame simulate_frame(const geometry::SurfaceQuery& query, const Scene& scene, const SimulatedSensor& sensor,
+                              const SensorErrorModel& model, std::uint64_t seed, double depth_scale_m) {
   validate_model(model);
   require(depth_scale_m > 0.0 && depth_scale_m < 1.0, "simulate_depth: depth scale {} m per unit is not valid",
           depth_scale_m);
+  require(scene.albedo > 0.0 && scene.albedo <= 1.0, "simulate_frame: scene albedo {} must lie in (0, 1]",
+          scene.albedo);
   const CameraIntrinsics& k = sensor.intrinsics;
   const RayTable rays = make_ray_table(k, 1);
   const int w = k.width, h = k.height;
-  const geometry::TriMesh& mesh = scene.mesh();
+  const geometry::TriMesh& mesh = query.mesh();
   const geometry::Aabb box = geometry::bounding_box(mesh);
   const Eigen::Matrix3d R = sensor.world_from_sensor.linear();
   const Vec3 origin = sensor.world_from_sensor.translation();
   const double cos_grazing = std::cos(model.grazing_limit_rad);
+  const double s = model.scale;
+  // The unit's true rays (lateral scale error): the calibration's (x, y) divided by 1 + s·e.
+  const double gx = 1.0 / (1.0 + s * model.ray_scale_x), gy = 1.0 / (1.0 + s * model.ray_scale_y);
+  auto world_ray = [&](const Eigen::Vector2d& xy) -> Vec3 { return R * Vec3(xy.x() * gx, xy.y() * gy, 1.0); };
+  // Bilinear interpolation of the ray table at a sub-pixel position (distortion is smooth).
+  auto ray_at = [&](double uf, double vf) -> Eigen::Vector2d {
+    const int u0 = std::clamp(static_cast<int>(std::floor(uf)), 0, w - 2), v0 = std::clamp(static_cast<int>(std::floor(vf)), 0, h - 2);
+    const double fu = uf - u0, fv = vf - v0;
+    return (1 - fv) * ((1 - fu) * rays.at(u0, v0) + fu * rays.at(u0 + 1, v0)) +
+           fv * ((1 - fu) * rays.at(u0, v0 + 1) + fu * rays.at(u0 + 1, v0 + 1));
+  };
+  const size_t n = static_cast<size_t>(w) * h;
 
-  // 1. Exact depth along the optical axis (0: no surface), −1 for a grazing return.
-  std::vector<double> truth(static_cast<size_t>(w) * h, 0.0);
+  // 1. Exact depth along the optical axis (0: no surface; negative: a grazing return), the cosine
+  //    of incidence, and the IR albedo (chessboard squares antialiased by 8×8 sub-pixel rays).
+  std::vector<double> truth(n, 0.0), cosine(n, 0.0), albedo(n, scene.albedo);
 #pragma omp parallel for schedule(dynamic, 4)
   for (int v = 0; v < h; ++v)
     for (int u = 0; u < w; ++u) {
       const Eigen::Vector2d& xy = rays.at(u, v);
       if (!std::isfinite(xy.x())) continue;  // outside the lens model's valid range
-      const Vec3 dir = R * Vec3(xy.x(), xy.y(), 1.0);
+      const Vec3 dir = world_ray(xy);
       if (!ray_meets_box(origin, dir, box)) continue;
-      const auto hit = scene.first_hit(origin, dir);
+      const auto hit = query.first_hit(origin, dir);
       if (!hit) continue;
+      const size_t i = static_cast<size_t>(v) * w + u;
       const double d = (R.transpose() * (hit->point - origin)).z();
-      const double c = std::abs(geometry::triangle_normal(mesh, hit->triangle).dot(dir.normalized()));
-      truth[static_cast<size_t>(v) * w + u] = c < cos_grazing ? -d : d;
+      const Vec3 normal = geometry::triangle_normal(mesh, hit->triangle);
+      const double c = std::abs(normal.dot(dir.normalized()));
+      truth[i] = c < cos_grazing ? -d : d;
+      cosine[i] = c;
+      for (const ChessboardPatch& b : scene.chessboards) {
+        const Vec3 bn = b.world_from_board.linear().col(2);  // into the board
+        const Vec3 local = b.world_from_board.inverse() * hit->point;
+        if (normal.dot(-bn) < 0.99 || std::abs(local.z()) > 1e-3 || b.albedo_at(local.x(), local.y()) < 0.0) continue;
+        double sum = 0.0;
+        int count = 0;
+        constexpr int kSub = 8;
+        for (int sv = 0; sv < kSub; ++sv)
+          for (int su = 0; su < kSub; ++su) {
+            const Eigen::Vector2d sxy = ray_at(u + (su + 0.5) / kSub - 0.5, v + (sv + 0.5) / kSub - 0.5);
+            if (!std::isfinite(sxy.x())) continue;
+            const Vec3 sd = world_ray(sxy);
+            const double denom = bn.dot(sd);
+            if (std::abs(denom) < 1e-12) continue;
+            const Vec3 p = origin + sd * (bn.dot(b.world_from_board.translation() - origin) / denom);
+            const Vec3 q = b.world_from_board.inverse() * p;
+            const double a = b.albedo_at(q.x(), q.y());
+            sum += a < 0.0 ? scene.albedo : a;
+            ++count;
+          }
+        if (count > 0) albedo[i] = sum / count;
+        break;
+      }
     }
 
-  // 2. Errors, flying pixels, losses; one random stream per row (deterministic under OpenMP).
-  DepthImage img;
+  // 2. Depth errors, flying pixels, losses; one random stream per row (deterministic under OpenMP).
+  SimulatedFrame frame;
+  DepthImage& img = frame.depth;
   img.width = w;
   img.height = h;
   img.scale_m = depth_scale_m;
-  img.raw.assign(truth.size(), 0);
-  const double s = model.scale;
+  img.raw.assign(n, 0);
   const double half_diag = std::hypot(w / 2.0, h / 2.0);
 #pragma omp parallel for schedule(static)
   for (int v = 0; v < h; ++v) {
@@ -163,7 +230,8 @@ DepthImage simulate_depth(const geometry::SurfaceQuery& scene, const SimulatedSe
     std::uniform_real_distribution<double> uni(0.0, 1.0);
     std::normal_distribution<double> gauss(0.0, 1.0);
     for (int u = 0; u < w; ++u) {
-      const double t = truth[static_cast<size_t>(v) * w + u];
+      const size_t i = static_cast<size_t>(v) * w + u;
+      const double t = truth[i];
       // Draw every random number for every pixel so the stream does not depend on the scene.
       const double r_fly = uni(rng), r_mix = uni(rng), r_lost = uni(rng), r_noise = gauss(rng);
       if (t <= 0.0) continue;
@@ -184,26 +252,69 @@ DepthImage simulate_depth(const geometry::SurfaceQuery& scene, const SimulatedSe
       const double systematic = model.bias_m + model.sensor_offset_m + model.bias_slope * (d - 1.0) +
                                 model.wiggle_amplitude_m * std::sin(2.0 * M_PI * d / model.wiggle_period_m) +
                                 model.radial_bias_m * rho * rho;
-      const double sigma = model.noise_sigma0_m + model.noise_sigma2_per_m * d * d;
+      const double darkness = std::clamp((0.7 - albedo[i]) / 0.65, 0.0, 1.0);
+      const double sigma = (model.noise_sigma0_m + model.noise_sigma2_per_m * d * d) *
+                           (1.0 + (model.dark_noise_factor - 1.0) * darkness);
       d += s * (systematic + sigma * r_noise);
       if (d < model.min_range_m || d > model.max_range_m) continue;
       const double raw = std::round((d - k.depth_shift_m) / depth_scale_m);
       if (raw < 1.0 || raw > 65535.0) continue;
-      img.raw[static_cast<size_t>(v) * w + u] = static_cast<std::uint16_t>(raw);
+      img.raw[i] = static_cast<std::uint16_t>(raw);
     }
   }
-  return img;
+
+  // 3. IR amplitude: albedo × cos(incidence) / range², with noise (its own random streams).
+  IrImage& ir = frame.ir;
+  ir.width = w;
+  ir.height = h;
+  ir.value.assign(n, 0);
+#pragma omp parallel for schedule(static)
+  for (int v = 0; v < h; ++v) {
+    std::mt19937_64 rng(splitmix64(seed ^ splitmix64(static_cast<std::uint64_t>(v) + 0x1f2e3dULL) ^ 0x7a11ULL));
+    std::normal_distribution<double> gauss(0.0, 1.0);
+    for (int u = 0; u < w; ++u) {
+      const size_t i = static_cast<size_t>(v) * w + u;
+      const double r_noise = gauss(rng);
+      const double t = std::abs(truth[i]);
+      double amplitude = 0.0;
+      if (t > 0.0) {
+        const Eigen::Vector2d& xy = rays.at(u, v);
+        const double range2 = t * t * (1.0 + xy.x() * xy.x() * gx * gx + xy.y() * xy.y() * gy * gy);
+        amplitude = model.ir_counts_at_1m * albedo[i] * cosine[i] / range2;
+      }
+      amplitude += s * (model.ir_noise_relative * amplitude + model.ir_noise_floor) * r_noise;
+      ir.value[i] = static_cast<std::uint16_t>(std::clamp(std::round(amplitude), 0.0, 65535.0));
+    }
+  }
+  return frame;
 }
 
-Recording simulate_recording(const geometry::TriMesh& scene, const std::vector<SimulatedSensor>& sensors,
+DepthImage simulate_depth(const geometry::SurfaceQuery& scene, const SimulatedSensor& sensor,
+                          const SensorErrorModel& model, std::uint64_t seed, double depth_scale_m) {
+  Scene plain;
+  return simulate_frame(scene, plain, sensor, model, seed, depth_scale_m).depth;
+}
+
+SensorErrorModel unit_error_model(const SensorErrorModel& base, std::uint64_t seed, size_t index) {
+  SensorErrorModel model = base;
+  std::mt19937_64 unit_rng(splitmix64(seed ^ (0xabcdefULL + index)));
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  model.sensor_offset_m += base.sensor_offset_sd_m * gauss(unit_rng);
+  model.ray_scale_x += base.ray_scale_sd * gauss(unit_rng);
+  model.ray_scale_y += base.ray_scale_sd * gauss(unit_rng);
+  return model;
+}
+
+Recording simulate_recording(const Scene& scene, const std::vector<SimulatedSensor>& sensors,
                              const SimulationOptions& o, const ProgressCallback& progress) {
-  require(!scene.empty(), "simulate_recording: the scene mesh has no triangles");
+  require(!scene.mesh.empty(), "simulate_recording: the scene mesh has no triangles");
   require(!sensors.empty(), "simulate_recording: no sensors");
   require(o.frames >= 1 && o.frames <= 100, "simulate_recording: {} frames per sensor (expected 1 to 100)",
           o.frames);
   validate_model(o.error);
-  const geometry::SurfaceQuery query(scene);
+  const geometry::SurfaceQuery query(scene.mesh);
   Recording rec;
+  if (!scene.chessboards.empty()) rec.chessboard = scene.chessboards.front().pattern;
   const int total = static_cast<int>(sensors.size()) * o.frames;
   int done = 0;
   for (size_t i = 0; i < sensors.size(); ++i) {
@@ -213,18 +324,25 @@ Recording simulate_recording(const geometry::TriMesh& scene, const std::vector<S
     sr.intrinsics = sensors[i].intrinsics;
     sr.world_from_sensor = sensors[i].world_from_sensor;
     sr.depth_scale_m = o.depth_scale_m;
-    SensorErrorModel model = o.error;
-    std::mt19937_64 unit_rng(splitmix64(o.seed ^ (0xabcdefULL + i)));
-    model.sensor_offset_m += o.error.sensor_offset_sd_m * std::normal_distribution<double>(0.0, 1.0)(unit_rng);
+    const SensorErrorModel model = unit_error_model(o.error, o.seed, i);
     for (int f = 0; f < o.frames; ++f) {
       const std::uint64_t seed = splitmix64(o.seed * 0x100000001b3ULL + i * 1000003ULL + static_cast<std::uint64_t>(f));
-      sr.frames.push_back(simulate_depth(query, sensors[i], model, seed, o.depth_scale_m));
+      SimulatedFrame frame = simulate_frame(query, scene, sensors[i], model, seed, o.depth_scale_m);
+      sr.frames.push_back(std::move(frame.depth));
+      sr.ir_frames.push_back(std::move(frame.ir));
       sr.frame_files.push_back(fmt::format("depth_{:04d}.png", f));
       if (!report_progress(progress, double(++done) / total, "simulating depth frames")) break;
     }
     rec.sensors.push_back(std::move(sr));
   }
   return rec;
+}
+
+Recording simulate_recording(const geometry::TriMesh& mesh, const std::vector<SimulatedSensor>& sensors,
+                             const SimulationOptions& o, const ProgressCallback& progress) {
+  Scene scene;
+  scene.mesh = mesh;
+  return simulate_recording(scene, sensors, o, progress);
 }
 
 geometry::TriMesh make_cylinder(double diameter_m, double height_m, const Vec3& center, int segments, int rings) {
@@ -269,6 +387,62 @@ geometry::TriMesh make_chessboard(int cols, int rows, double square_m, const Vec
           "make_chessboard: square {} m and thickness {} m must be positive", square_m, thickness_m);
   const Vec3 size(cols * square_m, thickness_m, rows * square_m);
   return make_box_cells(size, center + Vec3(0, thickness_m / 2, 0), Eigen::Vector3i(cols, 1, rows));
+}
+
+}  // namespace socketsmith::scan
+
+namespace socketsmith::scan {
+
+ChessboardPatch calibration_chessboard(const Eigen::Isometry3d& world_from_board) {
+  ChessboardPatch b;
+  b.pattern = ChessboardPattern{9, 6, 0.06};
+  b.margin_m = 0.06;
+  b.world_from_board = world_from_board;
+  return b;
+}
+
+Scene make_chessboard_scene(const ChessboardPatch& board, double thickness_m) {
+  validate_pattern(board.pattern, "make_chessboard_scene");
+  require(std::isfinite(board.margin_m) && board.margin_m >= 0.0 && std::isfinite(thickness_m) && thickness_m > 0.0,
+          "make_chessboard_scene: margin {} m must be >= 0 and thickness {} m positive", board.margin_m, thickness_m);
+  const Eigen::Vector2d h = board.half_size();
+  Scene scene;
+  // Board frame: the printed face at z = 0 faces −z; the slab extends to +z.
+  scene.mesh = make_box_cells(Vec3(2 * h.x(), 2 * h.y(), thickness_m), Vec3(0, 0, thickness_m / 2),
+                              Eigen::Vector3i(board.pattern.inner_cols + 1, board.pattern.inner_rows + 1, 1));
+  for (Vec3& v : scene.mesh.vertices) v = board.world_from_board * v;
+  scene.chessboards.push_back(board);
+  return scene;
+}
+
+Scene make_box_scene(const Vec3& size, const Eigen::Isometry3d& world_from_box, const ChessboardPattern& pattern,
+                     double margin_m) {
+  validate_pattern(pattern, "make_box_scene");
+  Scene scene;
+  scene.mesh = make_box(size);
+  for (Vec3& v : scene.mesh.vertices) v = world_from_box * v;
+  const Vec3 normals[4] = {Vec3::UnitX(), Vec3::UnitY(), -Vec3::UnitX(), -Vec3::UnitY()};
+  for (const Vec3& out : normals) {
+    ChessboardPatch b;
+    b.pattern = pattern;
+    b.margin_m = margin_m;
+    const Eigen::Vector2d h = b.half_size();
+    const double face_width = std::abs(out.x()) > 0.5 ? size.y() : size.x();
+    require(2 * h.x() <= face_width + 1e-9 && 2 * h.y() <= size.z() + 1e-9,
+            "make_box_scene: a {:.0f} x {:.0f} mm board does not fit a {:.0f} x {:.0f} mm face (smaller squares or "
+            "margin)",
+            2e3 * h.x(), 2e3 * h.y(), face_width * 1e3, size.z() * 1e3);
+    // Board axes: z into the box, y down the face, x = y × z (rows read left to right from outside).
+    const Vec3 z = -out, y = -Vec3::UnitZ(), x = y.cross(z);
+    Eigen::Isometry3d box_from_board = Eigen::Isometry3d::Identity();
+    box_from_board.linear().col(0) = x;
+    box_from_board.linear().col(1) = y;
+    box_from_board.linear().col(2) = z;
+    box_from_board.translation() = out * (0.5 * out.cwiseAbs().dot(size));
+    b.world_from_board = world_from_box * box_from_board;
+    scene.chessboards.push_back(b);
+  }
+  return scene;
 }
 
 }  // namespace socketsmith::scan

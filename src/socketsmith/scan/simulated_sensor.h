@@ -2,8 +2,10 @@
 /// @file simulated_sensor.h
 /// A simulated Kinect v2: ray-casts a triangle mesh from posed sensors with real intrinsics
 /// (one ray per pixel, undistorted, so the frames carry the lens distortion of the calibration)
-/// and a seeded time-of-flight error model. Scene helpers for the thesis's targets (cylinders,
-/// the 30×30×70 cm box, a chessboard board) and a ring rig.
+/// and a seeded time-of-flight error model, producing the depth frame and the pixel-aligned IR
+/// (amplitude) frame. Scenes may carry printed chessboards (seen in the IR image). Scene helpers
+/// for the thesis's targets (cylinders, the 30×30×70 cm box with a chessboard on each side, a
+/// chessboard board), a ring rig and a simulated calibration session.
 
 #include <cstdint>
 #include <string>
@@ -36,6 +38,18 @@ struct SensorErrorModel {
   double radial_bias_m = 3.0e-3;       ///< r: extra bias at the image corners (∝ ρ²) [m]
   double noise_sigma0_m = 0.8e-3;      ///< σ0 [m]
   double noise_sigma2_per_m = 1.0e-3;  ///< σ2 [1/m]: σ(0.75 m) ≈ 1.4 mm, σ(1.5 m) ≈ 3 mm
+  /// σ multiplier on black (IR albedo 0.05) relative to bright (≥ 0.7) surfaces, linear in between
+  /// (thesis §4.2.1: ≈ 1 mm on white, ≈ 3 mm on black), ≥ 1.
+  double dark_noise_factor = 2.5;
+  /// This unit's lateral scale errors: the true rays are the calibration's divided by (1 + s·e) per
+  /// axis, so a back-projected point lies a factor (1 + s·e_x, 1 + s·e_y) too far from the optical
+  /// axis (an imperfect factory/OpenCV intrinsic calibration; thesis §4.2.1: recalibration did
+  /// not remove the dimension errors). simulate_recording draws them per unit with ray_scale_sd.
+  double ray_scale_x = 0.0, ray_scale_y = 0.0;
+  double ray_scale_sd = 0.012;  ///< spread of ray_scale_x/y between units (relative)
+  double ir_counts_at_1m = 12000;      ///< IR amplitude of albedo 1 at 1 m, normal incidence [counts]
+  double ir_noise_relative = 0.03;     ///< IR noise σ relative to the amplitude (× scale)
+  double ir_noise_floor = 150;         ///< IR noise σ floor [counts] (× scale)
   /// Probability that a pixel at a depth edge (a 4-neighbour missing or > edge_jump_m away) is a
   /// flying pixel: depth mixed between its foreground and background, t ~ U(0.1, 0.9).
   double flying_pixel_probability = 0.5;
@@ -66,8 +80,50 @@ std::vector<SimulatedSensor> default_rig(int n, double radius_m = 0.75, double h
                                          const Vec3& target = Vec3::Zero(),
                                          const std::vector<CameraIntrinsics>& intrinsics = {});
 
-/// Renders one depth frame of @p scene (raw units of @p depth_scale_m, 0 = no return).
-/// Rows are ray-cast in parallel (OpenMP); noise comes from @p seed only (deterministic).
+/// A chessboard printed on a planar face of a scene. Board frame: origin at the centre of the
+/// squares, x along a row of the pattern (inner-corner index i), y along a column (index j), z into
+/// the board: the pattern is seen from the −z side (a camera whose axes equal the board's sees it
+/// head-on and unmirrored). Square (a, b) (a along x from 0 to inner_cols, b along y) is black when
+/// a + b is even, so inner corner (0, 0) touches the black corner square.
+struct ChessboardPatch {
+  ChessboardPattern pattern;
+  double margin_m = 0.06;  ///< white border around the squares [m], ≥ 0
+  Eigen::Isometry3d world_from_board = Eigen::Isometry3d::Identity();
+
+  /// Inner corner (i, j) in the board frame (z = 0) [m].
+  Vec3 corner_in_board(int i, int j) const;
+  /// Inner corner (i, j) in the world [m].
+  Vec3 corner(int i, int j) const { return world_from_board * corner_in_board(i, j); }
+  /// IR albedo at board coordinates (x, y) [m]: 0.05 on black squares, 0.9 on white squares and the
+  /// margin, −1 outside the board.
+  double albedo_at(double x, double y) const;
+  /// Half extents of the board (squares + margin) along x and y [m].
+  Eigen::Vector2d half_size() const;
+};
+
+/// A scene to scan: a closed mesh, chessboards printed on some of its planar faces, and the IR
+/// albedo of the rest of its surface.
+struct Scene {
+  geometry::TriMesh mesh;
+  std::vector<ChessboardPatch> chessboards;
+  double albedo = 0.7;  ///< IR albedo outside the boards, in (0, 1]
+};
+
+/// One simulated frame: depth and the pixel-aligned IR amplitude.
+struct SimulatedFrame {
+  DepthImage depth;
+  IrImage ir;
+};
+
+/// Renders one frame of @p scene as @p sensor sees it: depth in raw units of @p depth_scale_m
+/// (0 = no return) with the error model, and the IR amplitude (albedo × cos(incidence) / range²,
+/// chessboard squares antialiased by 8×8 sub-pixel rays, with noise). Rows are ray-cast in
+/// parallel (OpenMP); noise comes from @p seed only (deterministic). @p query must be built on
+/// scene.mesh.
+SimulatedFrame simulate_frame(const geometry::SurfaceQuery& query, const Scene& scene, const SimulatedSensor& sensor,
+                              const SensorErrorModel& model, std::uint64_t seed, double depth_scale_m = 1e-3);
+
+/// The depth frame of simulate_frame for a scene without chessboards.
 DepthImage simulate_depth(const geometry::SurfaceQuery& scene, const SimulatedSensor& sensor,
                           const SensorErrorModel& model, std::uint64_t seed, double depth_scale_m = 1e-3);
 
@@ -79,8 +135,17 @@ struct SimulationOptions {
   double depth_scale_m = 1e-3;  ///< raw unit of the PNGs [m]
 };
 
-/// Renders every sensor (each with its own seed stream) into a recording.
+/// The error model of unit @p index of a session seeded with @p seed: @p base with this unit's
+/// constant offset and lateral scale errors drawn from their spreads (what simulate_recording uses).
+SensorErrorModel unit_error_model(const SensorErrorModel& base, std::uint64_t seed, size_t index);
+
+/// Renders every sensor (each with its own seed stream and unit errors, unit_error_model) into a
+/// recording with depth and IR frames; the recording's chessboard pattern is that of the scene's
+/// first board, if any.
 /// @throws InvalidInputError for an empty scene, no sensors, or invalid model parameters.
+Recording simulate_recording(const Scene& scene, const std::vector<SimulatedSensor>& sensors,
+                             const SimulationOptions& options = {}, const ProgressCallback& progress = {});
+/// The same for a scene without chessboards (albedo 0.7).
 Recording simulate_recording(const geometry::TriMesh& scene, const std::vector<SimulatedSensor>& sensors,
                              const SimulationOptions& options = {}, const ProgressCallback& progress = {});
 
@@ -94,8 +159,27 @@ geometry::TriMesh make_box(const Vec3& size_m, const Vec3& center = Vec3::Zero()
 
 /// A flat chessboard target: a thin closed slab of cols × rows squares of @p square_m, front face
 /// facing −y (towards a sensor on the −y side), centred at @p center, @p thickness_m deep.
-/// Depth-only: the squares share one plane (the pattern matters for the IR image, part 2).
+/// The mesh only; chessboard_facing_minus_y gives the same board with its printed pattern.
 geometry::TriMesh make_chessboard(int cols, int rows, double square_m, const Vec3& center = Vec3::Zero(),
                                   double thickness_m = 0.01);
+
+/// The calibration target (thesis: an A0 chessboard at 50–100 cm): 10 × 7 squares of 60 mm (9 × 6
+/// inner corners) with a 60 mm white margin, 720 × 540 mm — a full A0 pattern would not fit the
+/// Kinect v2's 70 × 58 cm field of view at 50 cm. Posed by @p world_from_board (see ChessboardPatch).
+ChessboardPatch calibration_chessboard(const Eigen::Isometry3d& world_from_board = Eigen::Isometry3d::Identity());
+
+/// @p board as a scene: a closed slab spanning the board (squares + margin), its front face the
+/// printed plane, @p thickness_m deep behind it.
+/// @throws InvalidInputError for an invalid pattern, margin or thickness.
+Scene make_chessboard_scene(const ChessboardPatch& board, double thickness_m = 0.01);
+
+/// The registration box (thesis: 30 × 30 × 70 cm) with a chessboard centred on each of its four
+/// vertical faces (rows horizontal, columns down the face, seen from outside), posed by
+/// @p world_from_box (box centred at its origin, z up). Boards in the order +x, +y, −x, −y faces.
+/// Default pattern: 5 × 12 squares of 50 mm (4 × 11 inner corners), 25 mm margin, filling the
+/// 300 mm width. @throws InvalidInputError when the board does not fit a face.
+Scene make_box_scene(const Vec3& size_m = Vec3(0.30, 0.30, 0.70),
+                     const Eigen::Isometry3d& world_from_box = Eigen::Isometry3d::Identity(),
+                     const ChessboardPattern& pattern = ChessboardPattern{4, 11, 0.05}, double margin_m = 0.025);
 
 }  // namespace socketsmith::scan
