@@ -12,8 +12,11 @@
 #include "socketsmith/core/log.h"
 #include "socketsmith/core/progress.h"
 #include "socketsmith/geometry/mesh_io.h"
+#include "socketsmith/core/atomic_file.h"
+#include "socketsmith/scan/accuracy.h"
 #include "socketsmith/scan/reconstruction.h"
 #include "socketsmith/scan/simulated_sensor.h"
+#include "socketsmith/volume/limb_generator.h"
 
 namespace socketsmith::cli {
 namespace {
@@ -47,6 +50,26 @@ struct ReconstructFlags {
   double grid_mm = 2.5;
   int smooth = 0;
   double facet_mm = 8.0;
+  bool json = false;
+};
+
+struct LimbExperimentFlags {
+  std::string mesh;
+  std::string units;
+  std::string generated;
+  std::uint64_t limb_seed = 1;
+  int sensors = 4;
+  double radius_mm = 750;
+  double height_mm = 0;
+  std::uint64_t seed = 1;
+  double noise_scale = 1.0;
+  int frames = 1;
+  std::string calibration;
+  double grid_mm = 2.5;
+  double facet_mm = 8.0;
+  int smooth = 0;
+  double spacing_mm = 2.0;
+  std::string out;
   bool json = false;
 };
 
@@ -196,6 +219,96 @@ void run_reconstruct(const ReconstructFlags& f) {
             f.out, wall_s, r.total_s);
 }
 
+
+nlohmann::json deviation_json(const scan::Deviation& d) {
+  return {{"rms_mm", d.rms_m / units::mm}, {"mean_mm", d.mean_m / units::mm},
+          {"signed_mean_mm", d.signed_mean_m / units::mm}, {"p95_mm", d.p95_m / units::mm},
+          {"max_mm", d.max_m / units::mm}, {"area_cm2", d.area_m2 * 1e4}, {"samples", d.samples}};
+}
+
+void run_limb_experiment(const LimbExperimentFlags& f) {
+  const auto t0 = std::chrono::steady_clock::now();
+  require(f.mesh.empty() != f.generated.empty(),
+          "scan experiment limb: give exactly one limb: --mesh FILE or --generated transtibial|transfemoral");
+  require(std::isfinite(f.noise_scale) && f.noise_scale >= 0.0,
+          "scan experiment limb: --noise-scale {} must be >= 0 (0: noise free, 1: default Kinect v2 errors)",
+          f.noise_scale);
+  geometry::TriMesh limb;
+  std::string what;
+  if (!f.mesh.empty()) {
+    geometry::MeshReadOptions ro;
+    if (!f.units.empty()) ro.unit = units::parse_length_unit(f.units);
+    limb = geometry::read_mesh(f.mesh, ro);
+    what = fmt::format("mesh '{}'", f.mesh);
+  } else {
+    const volume::GeneratedLimb g =
+        volume::generate_limb(volume::default_params(geometry::parse_limb_type(f.generated), f.limb_seed));
+    limb = g.skin;
+    what = fmt::format("generated {} limb (seed {}), skin only", f.generated, f.limb_seed);
+  }
+  scan::LimbScanOptions o;
+  o.sensors = f.sensors;
+  o.radius_m = f.radius_mm * units::mm;
+  o.height_m = f.height_mm * units::mm;
+  o.intrinsics = rig_intrinsics(f.calibration, f.sensors);
+  o.simulation.seed = f.seed;
+  o.simulation.frames = f.frames;
+  o.simulation.error.scale = f.noise_scale;
+  o.reconstruction.grid_cell_m = f.grid_mm * units::mm;
+  o.reconstruction.max_facet_m = f.facet_mm * units::mm;
+  o.reconstruction.smoothing_iterations = f.smooth;
+  o.accuracy.sample_spacing_m = f.spacing_mm * units::mm;
+  const scan::LimbScanResult r =
+      scan::run_limb_scan_experiment(limb, o, f.json ? ProgressCallback{} : console_progress(1.0));
+
+  const fs::path dir(f.out);
+  ensure_directory(dir);
+  scan::Recording rec = r.recording;
+  rec.description = fmt::format("scan experiment limb: {} sensors around the {} (seed {}, noise scale {:g})",
+                                f.sensors, what, f.seed, f.noise_scale);
+  scan::write_recording(dir / "recording", rec);
+  geometry::write_mesh(dir / "reconstruction.stl", r.reconstruction.mesh, units::LengthUnit::Millimetre);
+  geometry::write_mesh(dir / "original_centred.stl", r.original, units::LengthUnit::Millimetre);
+  const scan::ScanAccuracy& a = r.accuracy;
+  const bool watertight = r.reconstruction.check.is_valid_closed_surface();
+  nlohmann::json j;
+  j["command"] = "socketsmith scan experiment limb";
+  j["limb"] = what;
+  j["offset_mm"] = {r.offset.x() / units::mm, r.offset.y() / units::mm, r.offset.z() / units::mm};
+  j["sensors"] = f.sensors;
+  j["calibration"] = f.calibration.empty() ? std::string("typical Kinect v2 intrinsics") : f.calibration;
+  j["seed"] = f.seed;
+  j["noise_scale"] = f.noise_scale;
+  j["watertight"] = watertight;
+  j["boundary_loops"] = r.reconstruction.check.boundary_loops;
+  j["triangles"] = r.reconstruction.mesh.num_triangles();
+  j["cut_height_mm"] = r.reconstruction.cut_height_m / units::mm;
+  j["measured"] =
+      "area-weighted samples every " + fmt::format("{:g}", f.spacing_mm) +
+      " mm below the reconstruction's proximal cut: reconstruction (cap excluded) -> original surface, and the "
+      "original's samples seen by a sensor -> reconstruction; 'symmetric' pools both";
+  j["symmetric"] = deviation_json(a.symmetric);
+  j["reconstructed_to_original"] = deviation_json(a.reconstructed_to_original);
+  j["seen_original_to_reconstructed"] = deviation_json(a.seen_original_to_reconstructed);
+  j["unseen_original_to_reconstructed"] = deviation_json(a.unseen_original_to_reconstructed);
+  j["seen_area_fraction"] = a.seen_area_fraction;
+  j["outputs"] = {(dir / "recording").string(), (dir / "reconstruction.stl").string(),
+                  (dir / "original_centred.stl").string(), (dir / "report.json").string()};
+  j["timing_s"] = {{"simulate", r.simulate_s}, {"reconstruct", r.reconstruction.total_s}, {"total", elapsed_s(t0)}};
+  write_text_atomically(dir / "report.json", j.dump(2) + "\n");
+  if (f.json) {
+    print_json(j);
+    return;
+  }
+  log::info("limb scan of the {}: {}, {} triangles; symmetric surface distance RMS {:.3f} mm (max {:.2f} mm); "
+            "reconstruction->original RMS {:.3f} mm, seen original->reconstruction RMS {:.3f} mm ({:.1f} % of the "
+            "area seen; unseen part RMS {:.3f} mm); wrote {} in {:.1f} s.",
+            what, watertight ? "watertight" : fmt::format("NOT watertight ({} boundary loops)", r.reconstruction.check.boundary_loops),
+            r.reconstruction.mesh.num_triangles(), a.symmetric.rms_m / units::mm, a.symmetric.max_m / units::mm,
+            a.reconstructed_to_original.rms_m / units::mm, a.seen_original_to_reconstructed.rms_m / units::mm,
+            100.0 * a.seen_area_fraction, a.unseen_original_to_reconstructed.rms_m / units::mm, f.out, elapsed_s(t0));
+}
+
 }  // namespace
 
 void register_scan(CLI::App& app) {
@@ -237,6 +350,30 @@ void register_scan(CLI::App& app) {
   rec->add_option("--smooth", rf->smooth, "Taubin smoothing iterations (default 0)");
   rec->add_flag("--json", rf->json, "print a JSON summary on stdout");
   rec->callback([rf] { run_reconstruct(*rf); });
+
+  auto* exp = scan_cmd->add_subcommand("experiment", "the thesis's scan experiments on simulated recordings");
+  exp->require_subcommand(1);
+  auto lf = std::make_shared<LimbExperimentFlags>();
+  auto* limb = exp->add_subcommand(
+      "limb", "simulate a rig around a limb, reconstruct it and measure the surface distance to the original");
+  limb->add_option("--mesh", lf->mesh, "limb surface (STL/OBJ/PLY), long axis along z, proximal end up");
+  limb->add_option("--units", lf->units, "units of --mesh: mm | m (default: guessed)");
+  limb->add_option("--generated", lf->generated, "use the generated limb's skin: transtibial | transfemoral");
+  limb->add_option("--limb-seed", lf->limb_seed, "seed of the generated limb (default 1)");
+  limb->add_option("--sensors", lf->sensors, "number of sensors on the ring (default 4)");
+  limb->add_option("--radius-mm", lf->radius_mm, "ring radius [mm] (default 750)");
+  limb->add_option("--height-mm", lf->height_mm, "sensor height above the limb's centre [mm] (default 0)");
+  limb->add_option("--seed", lf->seed, "seed of the error model (default 1)");
+  limb->add_option("--noise-scale", lf->noise_scale, "scale of every error term (0: noise free; default 1)");
+  limb->add_option("--frames", lf->frames, "frames per sensor (default 1)");
+  limb->add_option("--calibration", lf->calibration, "iai_kinect2 calibration folder(s), as for scan simulate");
+  limb->add_option("--grid-mm", lf->grid_mm, "voxel-grid simplification before Poisson [mm] (default 2.5)");
+  limb->add_option("--facet-mm", lf->facet_mm, "largest facet of the surface [mm] (default 8)");
+  limb->add_option("--smooth", lf->smooth, "Taubin smoothing iterations (default 0)");
+  limb->add_option("--spacing-mm", lf->spacing_mm, "sample spacing of the distance measure [mm] (default 2)");
+  limb->add_option("--out", lf->out, "folder for the recording, the surfaces and report.json")->required();
+  limb->add_flag("--json", lf->json, "print the report on stdout");
+  limb->callback([lf] { run_limb_experiment(*lf); });
 }
 
 }  // namespace socketsmith::cli

@@ -17,21 +17,11 @@ namespace {
 constexpr double kHeight = 0.4;  // cylinder height [m]
 constexpr double kBand = 0.14;   // errors measured for |z| <= kBand (away from the cut and the closure)
 
-/// Real Kinect v2 intrinsics when the shared data is present (else typical ones).
-std::vector<CameraIntrinsics> rig_intrinsics() {
-  const auto root = test::shared_data() / "kinect2_calibration";
-  std::vector<CameraIntrinsics> k;
-  for (const char* serial : {"001530565347", "002061565347", "004429261047", "017436750747"})
-    if (std::filesystem::exists(root / serial / "calib_ir.yaml")) k.push_back(read_kinect2_calibration(root / serial));
-  if (k.size() != 4) k.clear();
-  return k;
-}
-
 Recording cylinder_recording(double diameter, double noise_scale, std::uint64_t seed = 1) {
   SimulationOptions so;
   so.error.scale = noise_scale;
   so.seed = seed;
-  return simulate_recording(make_cylinder(diameter, kHeight), default_rig(4, 0.75, 0.0, Vec3::Zero(), rig_intrinsics()),
+  return simulate_recording(make_cylinder(diameter, kHeight), default_rig(4, 0.75, 0.0, Vec3::Zero(), test::rig_intrinsics()),
                             so);
 }
 

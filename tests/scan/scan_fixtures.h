@@ -7,14 +7,27 @@
 #include <cmath>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include "socketsmith/geometry/tri_mesh.h"
+#include "socketsmith/scan/intrinsics.h"
 
 namespace socketsmith::scan::test {
 
 using Vec3 = geometry::Vec3;
 
 inline std::filesystem::path shared_data() { return std::filesystem::path(SOCKETSMITH_SHARED_DATA_DIR); }
+
+/// The real Kinect v2 intrinsics of four iai_kinect2 units when the shared data is present (else
+/// empty: typical intrinsics).
+inline std::vector<CameraIntrinsics> rig_intrinsics() {
+  const auto root = shared_data() / "kinect2_calibration";
+  std::vector<CameraIntrinsics> k;
+  for (const char* serial : {"001530565347", "002061565347", "004429261047", "017436750747"})
+    if (std::filesystem::exists(root / serial / "calib_ir.yaml")) k.push_back(read_kinect2_calibration(root / serial));
+  if (k.size() != 4) k.clear();
+  return k;
+}
 
 /// A fresh folder under the build tree for one test.
 inline std::filesystem::path temp_dir(const std::string& name) {

@@ -180,6 +180,8 @@ ReconstructionResult reconstruct_surface(const PointCloud& input, const Reconstr
     const Vec3 plane_point = (top - o.proximal_trim_m) * o.up;
     const geometry::TrimResult cut = geometry::trim_and_cap(mesh, plane_point, o.up);
     mesh = o.open_proximal ? keep_triangles(cut.mesh, cut.first_cap_triangle) : cut.mesh;
+    r.cut_height_m = top - o.proximal_trim_m;
+    if (!o.open_proximal) r.first_cap_triangle = cut.first_cap_triangle;
   }
   taubin_smooth(mesh, o.smoothing_iterations);
   r.check = geometry::check_mesh(mesh);

@@ -4,6 +4,7 @@
 /// removal, voxel-grid simplification, CGAL Poisson reconstruction (thesis Fig. 42), the largest
 /// component, a planar cut at the proximal end (left open or capped) and optional Taubin smoothing.
 
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -51,6 +52,9 @@ struct ReconstructionResult {
   double average_spacing_m = 0.0;
   std::vector<int> points_per_sensor;
   std::vector<double> overlap_per_sensor;  ///< fraction of each sensor's points seen by another
+  /// Height of the proximal cut plane along options.up [m] (NaN without a cut).
+  double cut_height_m = std::numeric_limits<double>::quiet_NaN();
+  int first_cap_triangle = -1;          ///< mesh triangles from here on are the planar cap; −1: none
   double back_projection_s = 0.0, outliers_s = 0.0, poisson_s = 0.0, total_s = 0.0;  ///< wall times [s]
   bool converged = true;                ///< false when cancelled
   std::string message;
