@@ -42,6 +42,10 @@ struct SimulateFlags {
 
 struct ReconstructFlags {
   std::string recording;
+  std::vector<std::string> frames;
+  std::string intrinsics;
+  double depth_scale = 1e-3;
+  double max_depth_m = 4.5;
   std::string out;
   bool open = false;
   bool closed = false;
@@ -182,15 +186,29 @@ void run_reconstruct(const ReconstructFlags& f) {
   o.cut_proximal = !f.no_cut;
   const auto progress = f.json ? ProgressCallback{} : console_progress(1.0);
   report_progress(progress, 0.0, "reading the recording");
-  const scan::Recording rec = scan::read_recording(f.recording);
+  require(f.recording.empty() != f.frames.empty(),
+          "scan reconstruct: give a recording folder or --frame DEPTH.png --intrinsics FILE (not both, not neither)");
+  require(f.frames.empty() || !f.intrinsics.empty(),
+          "scan reconstruct: --frame needs --intrinsics (the camera's intrinsics.json, Open3D camera json or "
+          "calib_ir.yaml)");
+  require(f.intrinsics.empty() || !f.frames.empty(),
+          "scan reconstruct: --intrinsics is for --frame (a recording folder names its intrinsics in rig.json)");
+  std::vector<fs::path> frame_paths(f.frames.begin(), f.frames.end());
+  const scan::Recording rec = f.frames.empty() ? scan::read_recording(f.recording)
+                                               : scan::recording_from_frames(frame_paths, f.intrinsics, f.depth_scale);
+  // Loose frames of one camera are a scene, not a limb hanging along the rig's vertical: no cut.
+  if (!f.frames.empty()) o.cut_proximal = false;
+  o.back_projection.max_depth_m = f.max_depth_m;
   const double read_s = elapsed_s(t0);
   const scan::ReconstructionResult r = scan::reconstruct_recording(rec, o, progress);
+  const auto t_write = std::chrono::steady_clock::now();
   geometry::write_mesh(out, r.mesh, units::LengthUnit::Millimetre);
+  const double write_s = elapsed_s(t_write);
   const double wall_s = elapsed_s(t0);
   const bool watertight = r.check.is_valid_closed_surface();
   nlohmann::json j;
   j["command"] = "socketsmith scan reconstruct";
-  j["recording"] = f.recording;
+  j["recording"] = f.frames.empty() ? nlohmann::json(f.recording) : nlohmann::json(f.frames);
   j["output"] = f.out;
   j["sensors"] = rec.sensors.size();
   j["input_points"] = r.input_points;
@@ -204,8 +222,21 @@ void run_reconstruct(const ReconstructFlags& f) {
   j["boundary_loops"] = r.check.boundary_loops;
   j["watertight"] = watertight;
   j["volume_ml"] = watertight ? r.check.signed_volume_m3 * 1e6 : 0.0;
-  j["timing_s"] = {{"read", read_s},          {"back_projection", r.back_projection_s}, {"outliers", r.outliers_s},
-                   {"poisson", r.poisson_s}, {"reconstruct", r.total_s},              {"total", wall_s}};
+  j["timing_s"] = {{"read", read_s},
+                   {"back_projection", r.back_projection_s},
+                   {"overlap_check", r.overlap_s},
+                   {"outliers", r.outliers_s},
+                   {"simplification", r.simplify_s},
+                   {"spacing", r.spacing_s},
+                   {"poisson", r.poisson_s},
+                   {"poisson_implicit_function", r.poisson_implicit_s},
+                   {"poisson_surface_mesher", r.poisson_mesher_s},
+                   {"component_and_cut", r.cut_s},
+                   {"smoothing", r.smoothing_s},
+                   {"mesh_check", r.check_s},
+                   {"reconstruct", r.total_s},
+                   {"write", write_s},
+                   {"total", wall_s}};
   if (f.json) {
     print_json(j);
     return;
@@ -338,7 +369,15 @@ void register_scan(CLI::App& app) {
 
   auto rf = std::make_shared<ReconstructFlags>();
   auto* rec = scan_cmd->add_subcommand("reconstruct", "reconstruct a watertight limb surface from a recording folder");
-  rec->add_option("recording", rf->recording, "recording folder (rig.json + one folder per sensor)")->required();
+  rec->add_option("recording", rf->recording, "recording folder (rig.json + one folder per sensor)");
+  rec->add_option("--frame", rf->frames,
+                  "instead of a recording: a 16-bit depth PNG of one static camera (repeat for a temporal median); "
+                  "needs --intrinsics");
+  rec->add_option("--intrinsics", rf->intrinsics,
+                  "intrinsics of --frame: intrinsics.json, an Open3D camera json or an iai_kinect2 calib_ir.yaml");
+  rec->add_option("--depth-scale", rf->depth_scale,
+                  "metres per raw unit of --frame (default 0.001 = mm; TUM: 0.0002)");
+  rec->add_option("--max-depth-m", rf->max_depth_m, "readings farther than this are ignored [m] (default 4.5)");
   rec->add_option("--out", rf->out, "output surface: .stl, .obj or .ply, in mm")->required();
   auto* open = rec->add_flag("--open", rf->open, "leave the proximal cut open (one boundary loop)");
   auto* closed = rec->add_flag("--closed", rf->closed, "cap the proximal cut with a plane (default)");

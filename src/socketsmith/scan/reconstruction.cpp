@@ -8,7 +8,12 @@
 
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Surface_mesh.h>
-#include <CGAL/poisson_surface_reconstruction.h>
+#include <CGAL/Eigen_solver_traits.h>
+#include <CGAL/Implicit_surface_3.h>
+#include <CGAL/Poisson_reconstruction_function.h>
+#include <CGAL/Surface_mesh_default_triangulation_3.h>
+#include <CGAL/IO/facets_in_complex_2_to_triangle_mesh.h>
+#include <CGAL/make_surface_mesh.h>
 #include <CGAL/property_map.h>
 
 #include "socketsmith/core/errors.h"
@@ -25,23 +30,54 @@ using Clock = std::chrono::steady_clock;
 
 double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
-geometry::TriMesh poisson(const PointCloud& cloud, double spacing, const ReconstructionOptions& o) {
-  std::vector<std::pair<Point3, Vector3>> pwn;
+/// CGAL's Poisson reconstruction (what poisson_surface_reconstruction_delaunay does), in two timed
+/// steps: the implicit function (Delaunay refinement + sparse solve) and the surface mesher.
+geometry::TriMesh poisson(const PointCloud& cloud, double spacing, const ReconstructionOptions& o, double& implicit_s,
+                          double& mesher_s) {
+  using PoissonFunction = CGAL::Poisson_reconstruction_function<Kernel>;
+  using STr = CGAL::Surface_mesher::Surface_mesh_default_triangulation_3_generator<Kernel>::Type;
+  using C2t3 = CGAL::Surface_mesh_complex_2_in_triangulation_3<STr>;
+  using Surface3 = CGAL::Implicit_surface_3<Kernel, PoissonFunction>;
+  using Pwn = std::pair<Point3, Vector3>;
+  std::vector<Pwn> pwn;
   pwn.reserve(cloud.points.size());
   for (size_t i = 0; i < cloud.points.size(); ++i) {
     const Vec3& p = cloud.points[i];
     const Vec3& n = cloud.normals[i];
     pwn.emplace_back(Point3(p.x(), p.y(), p.z()), Vector3(n.x(), n.y(), n.z()));
   }
+  const auto fail_poisson = [&] {
+    fail("reconstruct_surface: Poisson reconstruction failed on {} points (the points do not enclose a volume: "
+         "are the sensors around the limb and the normals facing the sensors?)",
+         cloud.size());
+  };
+  auto tp = Clock::now();
+  PoissonFunction function(pwn.begin(), pwn.end(), CGAL::First_of_pair_property_map<Pwn>(),
+                           CGAL::Second_of_pair_property_map<Pwn>());
+  // Eigen's conjugate gradient defaults to a tolerance of machine epsilon; the level set moves by
+  // far less than the sensor noise beyond a relative residual of ~1e-6.
+  using Solver =
+      CGAL::Eigen_solver_traits<Eigen::ConjugateGradient<CGAL::Eigen_sparse_symmetric_matrix<double>::EigenType>>;
+  Solver solver;
+  solver.solver().setTolerance(o.poisson_solver_tolerance);
+  if (!function.compute_implicit_function(solver, false)) fail_poisson();
+  implicit_s = seconds_since(tp);
+  tp = Clock::now();
+  const Point3 inner = function.get_inner_point();
+  const double radius = std::sqrt(function.bounding_sphere().squared_radius());
+  const double sphere_radius = 5.0 * radius;
+  // Bisection along the mesher's segments down to this precision [m].
+  const double dichotomy_error = o.poisson_distance * spacing * o.poisson_bisection_fraction;
+  Surface3 surface(function, Kernel::Sphere_3(inner, sphere_radius * sphere_radius), dichotomy_error / sphere_radius);
+  CGAL::Surface_mesh_default_criteria_3<STr> criteria(o.poisson_angle_deg, o.max_facet_m, o.poisson_distance * spacing);
+  STr tr;
+  C2t3 c2t3(tr);
+  CGAL::make_surface_mesh(c2t3, surface, criteria, CGAL::Manifold_with_boundary_tag());
+  if (tr.number_of_vertices() == 0) fail_poisson();
   CGAL::Surface_mesh<Point3> sm;
-  const bool ok = CGAL::poisson_surface_reconstruction_delaunay(
-      pwn.begin(), pwn.end(), CGAL::First_of_pair_property_map<std::pair<Point3, Vector3>>(),
-      CGAL::Second_of_pair_property_map<std::pair<Point3, Vector3>>(), sm, spacing, o.poisson_angle_deg,
-      o.max_facet_m / spacing, o.poisson_distance);
-  require(ok && sm.number_of_faces() > 0,
-          "reconstruct_surface: Poisson reconstruction failed on {} points (the points do not enclose a volume: "
-          "are the sensors around the limb and the normals facing the sensors?)",
-          cloud.size());
+  CGAL::facets_in_complex_2_to_triangle_mesh(c2t3, sm);
+  mesher_s = seconds_since(tp);
+  if (sm.number_of_faces() == 0) fail_poisson();
   geometry::TriMesh m;
   std::map<CGAL::Surface_mesh<Point3>::Vertex_index, int> id;
   for (auto v : sm.vertices()) {
@@ -148,24 +184,29 @@ ReconstructionResult reconstruct_surface(const PointCloud& input, const Reconstr
   PointCloud cloud = input;
   if (o.use_outlier_removal) {
     report_progress(progress, 0.05, "removing outliers");
-    const auto t = Clock::now();
+    const auto to = Clock::now();
     r.outliers_removed = remove_statistical_outliers(cloud, o.outliers);
-    r.outliers_s = seconds_since(t);
+    r.outliers_s = seconds_since(to);
   }
+  auto t = Clock::now();
   if (o.grid_cell_m > 0.0) cloud = grid_simplify(cloud, o.grid_cell_m);
+  r.simplify_s = seconds_since(t);
   r.poisson_points = cloud.size();
   require(cloud.size() >= 100, "reconstruct_surface: only {} points left after filtering (expected thousands)",
           cloud.size());
+  t = Clock::now();
   r.average_spacing_m = average_spacing(cloud, 6);
+  r.spacing_s = seconds_since(t);
   if (!report_progress(progress, 0.2, "Poisson reconstruction")) {
     r.converged = false;
     r.message = "cancelled";
     return r;
   }
   const auto tp = Clock::now();
-  geometry::TriMesh mesh = poisson(cloud, r.average_spacing_m, o);
+  geometry::TriMesh mesh = poisson(cloud, r.average_spacing_m, o, r.poisson_implicit_s, r.poisson_mesher_s);
   r.poisson_s = seconds_since(tp);
   report_progress(progress, 0.85, "cropping and capping");
+  t = Clock::now();
 
   // Largest component, outward orientation.
   std::vector<geometry::TriMesh> parts = geometry::split_components(mesh);
@@ -183,8 +224,13 @@ ReconstructionResult reconstruct_surface(const PointCloud& input, const Reconstr
     r.cut_height_m = top - o.proximal_trim_m;
     if (!o.open_proximal) r.first_cap_triangle = cut.first_cap_triangle;
   }
+  r.cut_s = seconds_since(t);
+  t = Clock::now();
   taubin_smooth(mesh, o.smoothing_iterations);
+  r.smoothing_s = seconds_since(t);
+  t = Clock::now();
   r.check = geometry::check_mesh(mesh);
+  r.check_s = seconds_since(t);
   if (r.check.non_manifold_edges > 0 || r.check.non_finite_vertices > 0)
     fail<TopologyError>("reconstruct_surface: the reconstructed surface is not manifold ({}); try a larger grid_cell_m",
                         r.check.problems().empty() ? std::string("unknown") : r.check.problems().front());
@@ -229,6 +275,7 @@ ReconstructionResult reconstruct_recording(const Recording& rec, const Reconstru
   std::vector<int> counts(static_cast<size_t>(n), 0);
   for (int s : cloud.sensor) ++counts[static_cast<size_t>(s)];
   std::vector<double> overlap(static_cast<size_t>(n), 1.0);
+  const auto t_overlap = Clock::now();
   if (n >= 2) {
     overlap = sensor_overlap_fractions(cloud, n, o.overlap_radius_m);
     for (int s = 0; s < n; ++s)
@@ -238,7 +285,9 @@ ReconstructionResult reconstruct_recording(const Recording& rec, const Reconstru
               rec.sensors[static_cast<size_t>(s)].name, 100.0 * overlap[static_cast<size_t>(s)],
               o.overlap_radius_m * 1e3, 100.0 * o.min_overlap_fraction);
   }
+  const double overlap_s = seconds_since(t_overlap);
   ReconstructionResult r = reconstruct_surface(cloud, o, progress);
+  r.overlap_s = overlap_s;
   r.points_per_sensor = counts;
   r.overlap_per_sensor = overlap;
   r.back_projection_s = bp_s;

@@ -29,6 +29,13 @@ struct ReconstructionOptions {
   /// spacing (CGAL's sm_distance); smaller is more accurate and slower.
   double poisson_distance = 0.375;
   double poisson_angle_deg = 20.0;  ///< minimum facet angle of the mesher [deg]
+  /// The mesher finds the surface along its segments by bisection down to this fraction of the
+  /// distance bound (CGAL's poisson_surface_reconstruction_delaunay: 1/1000, far below the sensor
+  /// noise; each step evaluates the implicit function).
+  double poisson_bisection_fraction = 2e-2;
+  /// Relative residual at which the Poisson equation's conjugate gradient stops (CGAL's default
+  /// solver runs to machine precision).
+  double poisson_solver_tolerance = 1e-6;
   /// Cut the Poisson closure above the data at the proximal end: a plane normal to @p up,
   /// proximal_trim_m below the highest point.
   bool cut_proximal = true;
@@ -55,7 +62,12 @@ struct ReconstructionResult {
   /// Height of the proximal cut plane along options.up [m] (NaN without a cut).
   double cut_height_m = std::numeric_limits<double>::quiet_NaN();
   int first_cap_triangle = -1;          ///< mesh triangles from here on are the planar cap; −1: none
-  double back_projection_s = 0.0, outliers_s = 0.0, poisson_s = 0.0, total_s = 0.0;  ///< wall times [s]
+  /// Wall times of the stages [s]: back-projection (incl. ray tables and the temporal median),
+  /// the sensor-overlap check, outlier removal, voxel-grid simplification, the point spacing,
+  /// Poisson (Delaunay refinement, solve, surface meshing), largest component + proximal cut,
+  /// smoothing, the final mesh check; total.
+  double back_projection_s = 0.0, overlap_s = 0.0, outliers_s = 0.0, simplify_s = 0.0, spacing_s = 0.0,
+         poisson_s = 0.0, poisson_implicit_s = 0.0, poisson_mesher_s = 0.0, cut_s = 0.0, smoothing_s = 0.0, check_s = 0.0, total_s = 0.0;
   bool converged = true;                ///< false when cancelled
   std::string message;
 };

@@ -162,6 +162,39 @@ Recording read_recording(const fs::path& folder) {
   return rec;
 }
 
+Recording recording_from_frames(const std::vector<fs::path>& frames, const fs::path& intrinsics,
+                                double depth_scale_m) {
+  require(!frames.empty(), "recording_from_frames: no depth frames given");
+  require(std::isfinite(depth_scale_m) && depth_scale_m > 0.0 && depth_scale_m < 1.0,
+          "recording_from_frames: depth scale {} is not valid (expected metres per raw unit, e.g. 0.001 for mm, "
+          "0.0002 for TUM)",
+          depth_scale_m);
+  if (intrinsics.empty())
+    fail("recording_from_frames: no intrinsics given for the depth frames (pass the camera's intrinsics: the "
+         "project's intrinsics.json, an Open3D camera json or an iai_kinect2 calib_ir.yaml)");
+  if (!fs::exists(intrinsics))
+    fail<IoError>("recording_from_frames: intrinsics '{}' not found (expected the project's intrinsics.json, an Open3D "
+                  "camera json or an iai_kinect2 calib_ir.yaml)",
+                  intrinsics.string());
+  SensorRecording sr;
+  sr.name = "frame";
+  sr.intrinsics = read_intrinsics(intrinsics);
+  sr.depth_scale_m = depth_scale_m;
+  for (const fs::path& f : frames) {
+    DepthImage d = read_depth_png(f, depth_scale_m);
+    require(d.width == sr.intrinsics.width && d.height == sr.intrinsics.height,
+            "recording_from_frames: frame '{}' is {}x{} px but the intrinsics '{}' are for {}x{} (wrong intrinsics "
+            "file?)",
+            f.string(), d.width, d.height, intrinsics.string(), sr.intrinsics.width, sr.intrinsics.height);
+    sr.frames.push_back(std::move(d));
+    sr.frame_files.push_back(f.filename().string());
+  }
+  Recording rec;
+  rec.description = fmt::format("{} loose depth frame(s) of one camera", frames.size());
+  rec.sensors.push_back(std::move(sr));
+  return rec;
+}
+
 void write_recording(const fs::path& folder, const Recording& rec) {
   require(!rec.sensors.empty(), "write_recording: no sensors to write");
   ensure_directory(folder);

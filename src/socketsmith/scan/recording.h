@@ -59,6 +59,15 @@ struct Recording {
 ///         or size, or a sensor without frames.
 Recording read_recording(const std::filesystem::path& folder);
 
+/// A one-sensor recording of loose depth frames of a static scene from one camera (e.g. the
+/// open3d_sample frames): the sensor "frame" at the world origin (identity pose, OpenCV axes),
+/// intrinsics from @p intrinsics (any kind read_intrinsics reads), @p depth_scale_m metres per raw
+/// unit (0.001 for mm, 0.0002 for TUM's 5000 per metre).
+/// @throws IoError for a missing file; InvalidInputError for no frames, a frame of the wrong bit
+///         depth or size, or an invalid scale.
+Recording recording_from_frames(const std::vector<std::filesystem::path>& frames,
+                                const std::filesystem::path& intrinsics, double depth_scale_m = 1e-3);
+
 /// Writes @p recording to @p folder (created if needed): rig.json, <name>/intrinsics.json and
 /// <name>/depth_0000.png… and <name>/ir_0000.png… when the sensor has IR frames (every file atomically).
 void write_recording(const std::filesystem::path& folder, const Recording& recording);
