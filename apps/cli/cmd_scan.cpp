@@ -15,6 +15,7 @@
 #include "socketsmith/core/atomic_file.h"
 #include "socketsmith/scan/accuracy.h"
 #include "socketsmith/scan/reconstruction.h"
+#include "socketsmith/scan/registration.h"
 #include "socketsmith/scan/simulated_sensor.h"
 #include "socketsmith/volume/limb_generator.h"
 
@@ -28,6 +29,7 @@ struct SimulateFlags {
   double cylinder_mm = -1;
   double cylinder_height_mm = 400;
   bool box = false;
+  double box_yaw_deg = 45.0;
   bool chessboard = false;
   int sensors = 4;
   double radius_mm = 750;
@@ -46,6 +48,7 @@ struct ReconstructFlags {
   std::string intrinsics;
   double depth_scale = 1e-3;
   double max_depth_m = 4.5;
+  std::string rig;
   std::string out;
   bool open = false;
   bool closed = false;
@@ -73,6 +76,28 @@ struct LimbExperimentFlags {
   double facet_mm = 8.0;
   int smooth = 0;
   double spacing_mm = 2.0;
+  std::string out;
+  bool json = false;
+};
+
+struct RegisterFlags {
+  std::string recording;
+  std::string out;
+  bool sequential = false;
+  int upsample = 2;
+  bool json = false;
+};
+
+struct RegistrationExperimentFlags {
+  int sensors = 4;
+  std::uint64_t seed = 1;
+  double noise_scale = 1.0;
+  int frames = 1;
+  std::string calibration;
+  double box_yaw_deg = 45.0;
+  double pose_error_deg = 3.0;
+  double pose_error_mm = 20.0;
+  std::uint64_t pose_seed = 7;
   std::string out;
   bool json = false;
 };
@@ -127,8 +152,12 @@ void run_simulate(const SimulateFlags& f) {
     scene.mesh = scan::make_cylinder(f.cylinder_mm * units::mm, f.cylinder_height_mm * units::mm);
     what = fmt::format("cylinder of diameter {:g} mm, height {:g} mm, axis z", f.cylinder_mm, f.cylinder_height_mm);
   } else if (f.box) {
-    scene = scan::make_box_scene();
-    what = "box 300 x 300 x 700 mm with a 4 x 11 inner-corner chessboard of 50 mm squares on each side";
+    require(std::isfinite(f.box_yaw_deg), "scan simulate: --box-yaw-deg must be a number");
+    scene = scan::make_box_scene(geometry::Vec3(0.30, 0.30, 0.70),
+                                 Eigen::Isometry3d(Eigen::AngleAxisd(f.box_yaw_deg * M_PI / 180.0, geometry::Vec3::UnitZ())));
+    what = fmt::format("box 300 x 300 x 700 mm turned {:g} deg about the vertical, with a 4 x 11 inner-corner "
+                       "chessboard of 50 mm squares on each side",
+                       f.box_yaw_deg);
   } else {
     // Board frame: x along world x, y down (−z), z into the board (+y, away from K1 on the −y side).
     Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
@@ -194,8 +223,9 @@ void run_reconstruct(const ReconstructFlags& f) {
   require(f.intrinsics.empty() || !f.frames.empty(),
           "scan reconstruct: --intrinsics is for --frame (a recording folder names its intrinsics in rig.json)");
   std::vector<fs::path> frame_paths(f.frames.begin(), f.frames.end());
-  const scan::Recording rec = f.frames.empty() ? scan::read_recording(f.recording)
+  scan::Recording rec = f.frames.empty() ? scan::read_recording(f.recording)
                                                : scan::recording_from_frames(frame_paths, f.intrinsics, f.depth_scale);
+  if (!f.rig.empty()) scan::apply_rig_file(rec, f.rig);
   // Loose frames of one camera are a scene, not a limb hanging along the rig's vertical: no cut.
   if (!f.frames.empty()) o.cut_proximal = false;
   o.back_projection.max_depth_m = f.max_depth_m;
@@ -340,6 +370,133 @@ void run_limb_experiment(const LimbExperimentFlags& f) {
             100.0 * a.seen_area_fraction, a.unseen_original_to_reconstructed.rms_m / units::mm, f.out, elapsed_s(t0));
 }
 
+
+nlohmann::json pair_errors_json(const scan::PairErrors& e) {
+  return {{"mean_mm", e.mean_m / units::mm}, {"rms_mm", e.rms_m / units::mm}, {"min_mm", e.min_m / units::mm},
+          {"max_mm", e.max_m / units::mm}, {"pairs", e.pairs}};
+}
+
+nlohmann::json registration_json(const scan::RegistrationResult& r) {
+  return {{"method", r.method}, {"iterations", r.iterations}, {"converged", r.converged},
+          {"initial", pair_errors_json(r.initial)}, {"final", pair_errors_json(r.final)}};
+}
+
+void run_register(const RegisterFlags& f) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const auto progress = f.json ? ProgressCallback{} : console_progress(1.0);
+  report_progress(progress, 0.0, "reading the box recording");
+  const scan::Recording rec = scan::read_recording(f.recording);
+  std::vector<Eigen::Isometry3d> start;
+  for (const auto& s : rec.sensors) start.push_back(s.world_from_sensor);
+  report_progress(progress, 0.2, "finding the chessboard corners");
+  scan::BoxDetectionOptions bo;
+  bo.chessboard.upsample = f.upsample;
+  const scan::ReferenceSet refs = scan::box_reference_points(rec, start, bo);
+  report_progress(progress, 0.8, "registering");
+  const scan::RegistrationResult r =
+      f.sequential ? scan::register_sequential(refs, start) : scan::register_multiset(refs, start);
+  nlohmann::json j;
+  j["command"] = "socketsmith scan register";
+  j["recording"] = f.recording;
+  j["output"] = f.out;
+  j["reference_points"] = refs.point_names.size();
+  j["observations"] = refs.observations.size();
+  nlohmann::json shared = nlohmann::json::object();
+  for (int a = 0; a < refs.num_sensors(); ++a)
+    for (int b = a + 1; b < refs.num_sensors(); ++b)
+      if (const int n = refs.shared(a, b); n > 0) shared[refs.sensor_names[static_cast<size_t>(a)] + "-" + refs.sensor_names[static_cast<size_t>(b)]] = n;
+  j["shared_points"] = shared;
+  j["registration"] = registration_json(r);
+  nlohmann::json moved = nlohmann::json::array();
+  for (size_t s = 0; s < start.size(); ++s) {
+    const scan::PoseError e = scan::pose_error(r.world_from_sensor[s], start[s]);
+    moved.push_back({{"name", refs.sensor_names[s]}, {"moved_mm", e.translation_m / units::mm},
+                     {"turned_deg", e.rotation_rad * 180.0 / M_PI}});
+  }
+  j["pose_changes"] = moved;
+  scan::write_rig_file(f.out, refs.sensor_names, r.world_from_sensor, registration_json(r).dump());
+  j["wall_s"] = elapsed_s(t0);
+  if (f.json) {
+    print_json(j);
+    return;
+  }
+  log::info("registered {} sensors ({}) on {} reference points: pair error mean {:.3f} mm, max {:.3f} mm (from {:.2f} / "
+            "{:.2f} mm at the rig's poses) after {} iteration(s); wrote {} in {:.1f} s.",
+            refs.num_sensors(), r.method, refs.point_names.size(), r.final.mean_m / units::mm, r.final.max_m / units::mm,
+            r.initial.mean_m / units::mm, r.initial.max_m / units::mm, r.iterations, f.out, elapsed_s(t0));
+}
+
+void run_registration_experiment(const RegistrationExperimentFlags& f) {
+  const auto t0 = std::chrono::steady_clock::now();
+  require(std::isfinite(f.noise_scale) && f.noise_scale >= 0.0,
+          "scan experiment registration: --noise-scale {} must be >= 0", f.noise_scale);
+  scan::RegistrationExperimentOptions o;
+  o.sensors = f.sensors;
+  o.intrinsics = rig_intrinsics(f.calibration, f.sensors);
+  o.simulation.seed = f.seed;
+  o.simulation.frames = f.frames;
+  o.simulation.error.scale = f.noise_scale;
+  o.box_yaw_deg = f.box_yaw_deg;
+  o.pose_error_deg = f.pose_error_deg;
+  o.pose_error_m = f.pose_error_mm * units::mm;
+  o.pose_seed = f.pose_seed;
+  const scan::RegistrationExperimentResult r =
+      scan::run_registration_experiment(o, f.json ? ProgressCallback{} : console_progress(1.0));
+  const fs::path dir(f.out);
+  ensure_directory(dir);
+  scan::Recording rec = r.recording;
+  for (size_t s = 0; s < rec.sensors.size(); ++s) rec.sensors[s].world_from_sensor = r.measured[s];
+  rec.description = fmt::format("scan experiment registration: the box turned {:g} deg, seed {}, noise scale {:g}; "
+                                "poses in rig.json are the perturbed (hand-measured) ones",
+                                f.box_yaw_deg, f.seed, f.noise_scale);
+  scan::write_recording(dir / "box_recording", rec);
+  std::vector<std::string> names;
+  for (const auto& s : r.rig) names.push_back(s.name);
+  scan::write_rig_file(dir / "rig_true.json", names, r.truth);
+  scan::write_rig_file(dir / "rig_multiset.json", names, r.multiset.world_from_sensor, registration_json(r.multiset).dump());
+  scan::write_rig_file(dir / "rig_sequential.json", names, r.sequential.world_from_sensor,
+                       registration_json(r.sequential).dump());
+  auto poses_json = [&](const std::vector<scan::PoseError>& e) {
+    nlohmann::json a = nlohmann::json::array();
+    for (size_t s = 0; s < e.size(); ++s)
+      a.push_back({{"name", names[s]}, {"translation_mm", e[s].translation_m / units::mm},
+                   {"rotation_deg", e[s].rotation_rad * 180.0 / M_PI}});
+    return a;
+  };
+  nlohmann::json j;
+  j["command"] = "socketsmith scan experiment registration";
+  j["seed"] = f.seed;
+  j["noise_scale"] = f.noise_scale;
+  j["calibration"] = f.calibration.empty() ? std::string("typical Kinect v2 intrinsics") : f.calibration;
+  j["box_yaw_deg"] = f.box_yaw_deg;
+  j["start_pose_error"] = {{"deg", f.pose_error_deg}, {"mm", f.pose_error_mm}, {"seed", f.pose_seed}};
+  j["reference_points"] = r.refs.point_names.size();
+  j["observations"] = r.refs.observations.size();
+  j["measured"] = "Table 4: distances between the world positions two sensors give one chessboard corner, over every "
+                  "pair of sensors sharing a corner; pose errors against the poses the frames were rendered with";
+  j["at_hand_measured_poses"] = pair_errors_json(r.sequential.initial);
+  j["at_true_poses"] = pair_errors_json(r.truth_errors);
+  j["sequential"] = registration_json(r.sequential);
+  j["multiset"] = registration_json(r.multiset);
+  j["pose_errors"] = {{"hand_measured", poses_json(r.measured_pose_errors)},
+                      {"sequential", poses_json(r.sequential_pose_errors)},
+                      {"multiset", poses_json(r.multiset_pose_errors)}};
+  j["compensation"] = "not applied (no learned compensation model in this build)";
+  j["wall_s"] = elapsed_s(t0);
+  write_text_atomically(dir / "report.json", j.dump(2) + "\n");
+  if (f.json) {
+    print_json(j);
+    return;
+  }
+  log::info("registration on the box ({} reference points): pair error mean/max at the hand-measured poses {:.2f}/{:.2f} "
+            "mm; sequential {:.3f}/{:.3f} mm; multi-set {:.3f}/{:.3f} mm ({} iterations); at the true poses {:.3f}/{:.3f} "
+            "mm; wrote {} in {:.1f} s.",
+            r.refs.point_names.size(), r.sequential.initial.mean_m / units::mm, r.sequential.initial.max_m / units::mm,
+            r.sequential.final.mean_m / units::mm, r.sequential.final.max_m / units::mm,
+            r.multiset.final.mean_m / units::mm, r.multiset.final.max_m / units::mm, r.multiset.iterations,
+            r.truth_errors.mean_m / units::mm, r.truth_errors.max_m / units::mm, f.out, elapsed_s(t0));
+}
+
 }  // namespace
 
 void register_scan(CLI::App& app) {
@@ -353,6 +510,9 @@ void register_scan(CLI::App& app) {
   sim->add_option("--cylinder-mm", sf->cylinder_mm, "scene: a cylinder of this diameter [mm] (thesis: 100, 160, 210)");
   sim->add_option("--cylinder-height-mm", sf->cylinder_height_mm, "height of the cylinder [mm] (default 400)");
   sim->add_flag("--box", sf->box, "scene: the 300 x 300 x 700 mm calibration box with a chessboard on each side");
+  sim->add_option("--box-yaw-deg", sf->box_yaw_deg,
+                  "turn of the box about the vertical [deg] (default 45: each board faces two neighbouring sensors, "
+                  "as registration needs)");
   sim->add_flag("--chessboard", sf->chessboard, "scene: the calibration chessboard (9 x 6 inner corners, 60 mm) facing K1");
   sim->add_option("--sensors", sf->sensors, "number of sensors on the ring (default 4)");
   sim->add_option("--radius-mm", sf->radius_mm, "ring radius [mm] (default 750, as the thesis)");
@@ -378,6 +538,7 @@ void register_scan(CLI::App& app) {
   rec->add_option("--depth-scale", rf->depth_scale,
                   "metres per raw unit of --frame (default 0.001 = mm; TUM: 0.0002)");
   rec->add_option("--max-depth-m", rf->max_depth_m, "readings farther than this are ignored [m] (default 4.5)");
+  rec->add_option("--rig", rf->rig, "rig file of 'scan register': replaces the sensor poses of rig.json (by name)");
   rec->add_option("--out", rf->out, "output surface: .stl, .obj or .ply, in mm")->required();
   auto* open = rec->add_flag("--open", rf->open, "leave the proximal cut open (one boundary loop)");
   auto* closed = rec->add_flag("--closed", rf->closed, "cap the proximal cut with a plane (default)");
@@ -413,6 +574,33 @@ void register_scan(CLI::App& app) {
   limb->add_option("--out", lf->out, "folder for the recording, the surfaces and report.json")->required();
   limb->add_flag("--json", lf->json, "print the report on stdout");
   limb->callback([lf] { run_limb_experiment(*lf); });
+
+  auto gf = std::make_shared<RegisterFlags>();
+  auto* regc = scan_cmd->add_subcommand(
+      "register", "register the sensors of a rig from a recording of the chessboard box (multi-set, thesis Table 2)");
+  regc->add_option("recording", gf->recording, "recording of the registration box (IR + depth frames, rig.json with "
+                                               "the hand-measured poses and \"chessboard\")")->required();
+  regc->add_option("--out", gf->out, "rig file to write (use it with 'scan reconstruct --rig')")->required();
+  regc->add_flag("--sequential", gf->sequential, "chain pairwise fits K1 <- K2 <- K3 <- ... instead (the baseline)");
+  regc->add_option("--upsample", gf->upsample, "up-sampling of the IR frames for corner detection (default 2)");
+  regc->add_flag("--json", gf->json, "print a JSON summary on stdout");
+  regc->callback([gf] { run_register(*gf); });
+
+  auto xf = std::make_shared<RegistrationExperimentFlags>();
+  auto* xreg = exp->add_subcommand(
+      "registration", "Table 4: sequential vs multi-set registration on a simulated box session from perturbed poses");
+  xreg->add_option("--sensors", xf->sensors, "sensors on the ring (default 4)");
+  xreg->add_option("--seed", xf->seed, "seed of the error model (default 1)");
+  xreg->add_option("--noise-scale", xf->noise_scale, "scale of every error term (0: noise free; default 1)");
+  xreg->add_option("--frames", xf->frames, "frames per sensor (default 1)");
+  xreg->add_option("--calibration", xf->calibration, "iai_kinect2 calibration folder(s), as for scan simulate");
+  xreg->add_option("--box-yaw-deg", xf->box_yaw_deg, "turn of the box about the vertical [deg] (default 45)");
+  xreg->add_option("--pose-error-deg", xf->pose_error_deg, "rotation error of the starting poses [deg] (default 3)");
+  xreg->add_option("--pose-error-mm", xf->pose_error_mm, "translation error of the starting poses [mm] (default 20)");
+  xreg->add_option("--pose-seed", xf->pose_seed, "seed of the starting pose errors (default 7)");
+  xreg->add_option("--out", xf->out, "folder for the box recording, the rig files and report.json")->required();
+  xreg->add_flag("--json", xf->json, "print the report on stdout");
+  xreg->callback([xf] { run_registration_experiment(*xf); });
 }
 
 }  // namespace socketsmith::cli
