@@ -32,9 +32,9 @@ TEST(RealFrames, open3d_redwood_frame_loads_back_projects_and_reconstructs) {
   EXPECT_GT(rec.sensors[0].frames[0].count_valid(), 200000);
   // A room seen by one camera: scene-sized cells and facets, no proximal cut.
   ReconstructionOptions o;
-  o.back_projection.max_depth_m = 3.0;
-  o.grid_cell_m = 0.02;
-  o.max_facet_m = 0.05;
+  o.back_projection.max_depth_m = 2.5;
+  o.grid_cell_m = 0.03;
+  o.max_facet_m = 0.08;
   o.cut_proximal = false;
   const ReconstructionResult r = reconstruct_recording(rec, o);
   EXPECT_GT(r.input_points, 100000);
