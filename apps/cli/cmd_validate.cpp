@@ -10,6 +10,7 @@
 #include "socketsmith/core/errors.h"
 #include "socketsmith/core/log.h"
 #include "socketsmith/core/progress.h"
+#include "socketsmith/core/units.h"
 #include "socketsmith/fe/cube_validation.h"
 #include "socketsmith/fe/design_artifacts.h"
 #include "socketsmith/pipeline/design_pipeline.h"
@@ -139,6 +140,7 @@ struct DesignFlags {
   double initial_increment = 0.05;
   bool neo_hookean = false;
   bool against_donning = false;
+  bool stand = false;  // validate donning: then half the body weight on the socket (thesis step 2)
   CcxFlags ccx;
 };
 
@@ -161,6 +163,7 @@ void run_validate_design(const DesignFlags& f) {
   const auto& mesh = setup.mesh.mesh;
 
   fe::DesignedStump d = fe::designed_stump(art);
+  double stand_force_n = 0, donning_force_n = 0;
   if (f.against_donning) {
     // The thesis's ch. 3 check: CalculiX's donning against socketsmith's own donning simulation of
     // the same socket on the same stump, same travel and friction (not against the design).
@@ -170,13 +173,20 @@ void run_validate_design(const DesignFlags& f) {
     dopt.start_offset_m = f.travel_mm * 1e-3;
     dopt.step_m = 0.002;
     dopt.friction = f.friction >= 0 ? f.friction : c.patient.friction;
-    dopt.stand_force_n = 0;
+    dopt.stand_force_n = f.stand ? 0.5 * c.patient.body_mass_kg * units::kGravity : 0.0;
     dopt.progress = progress;
     const auto& solver = *setup.solver;
     log::info("validate design: socketsmith's donning ({:.0f} mm, μ = {:.2f})", f.travel_mm, dopt.friction);
     const auto dr = contact::simulate_donning(solver.model(), solver.skin().nodes, solver.skin().area_m2,
                                               art.result.socket->solid, setup.model.frame, dopt);
     require<SolverError>(dr.completed, "validate design: {}", dr.message);
+    require<SolverError>(!f.stand || dr.stood, "validate donning: socketsmith's standing load was not reached: {}",
+                         dr.message);
+    if (f.stand && dr.series.size() >= 2) {
+      // The FE's load step starts from the donning force at the designed pose (socketsmith's estimate).
+      stand_force_n = dopt.stand_force_n;
+      donning_force_n = std::max(0.0, dr.series[dr.series.size() - 2].axial_force_n);
+    }
     for (size_t i = 0; i < dr.contacts.size(); ++i) d.pressure_pa[i] = dr.contacts[i].pressure_pa;
     log::info("validate design: socketsmith donning done in {:.1f} s, {} nodes in contact", dr.seconds,
               dr.series.empty() ? 0 : dr.series.back().contact_nodes);
@@ -194,6 +204,11 @@ void run_validate_design(const DesignFlags& f) {
   o.clearance_m = f.clearance_mm * 1e-3;
   o.initial_increment = f.initial_increment;
   o.donning_travel_m = f.travel_mm * 1e-3;
+  o.stand_force_n = stand_force_n;
+  o.donning_force_n = donning_force_n;
+  if (stand_force_n > 0)
+    log::info("validate donning: CalculiX step 2 pushes the socket with {:.1f} N (from {:.1f} N, socketsmith's donning "
+              "force)", stand_force_n, donning_force_n);
   o.max_increment = std::max(0.1, f.initial_increment);
   o.ccx = ccx_options(f.ccx);
   log::info("validate design: CalculiX {} check ({} nodes, {} elements, {}, ν {})", fe::to_string(o.mode),
@@ -293,6 +308,9 @@ void run_validate_design(const DesignFlags& f) {
                    {"neo_hookean", f.neo_hookean},
                    {"penalty_pa_per_m", o.contact.penalty_pa_per_m},
                    {"friction", o.contact.friction},
+                   {"against_donning", f.against_donning},
+                   {"stand_force_n", stand_force_n},
+                   {"fe_load_step_starts_at_n", donning_force_n},
                    {"designed_force_n", r.designed_force_n},
                    {"fe_force_n", r.fe_force_n},
                    {"mean_designed_kpa", r.mean_designed_pa / 1e3},
@@ -400,6 +418,9 @@ void register_validate(CLI::App& app) {
   auto* don = v->add_subcommand("donning", "design a case's socket, don it with socketsmith and with CalculiX, compare "
                                            "the contact pressures (thesis ch. 3)");
   add_case_flags(*don, *dn);
+  don->add_flag("--stand", dn->stand,
+                "then push the socket with half the body weight in both (the thesis's second step; CalculiX's load "
+                "starts from socketsmith's donning force so the reaction does not drop)");
   don->callback([dn] {
     if (dn->case_file.empty() && !dn->demo) fail("validate donning: give a case file or --demo");
     dn->mode = "donning";

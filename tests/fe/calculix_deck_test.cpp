@@ -134,6 +134,31 @@ TEST(CalculixDeck, socket_contact_and_the_two_steps_follow_calculix_md) {
   EXPECT_EQ(deck.find("ENCASTRE"), std::string::npos);  // CALCULIX.md: fails in ccx
 }
 
+TEST(CalculixDeck, a_load_along_a_slanted_axis_gets_a_local_frame_on_the_reference_node) {
+  BoxAndPlate bp(0.02);
+  DeckSpec& s = bp.spec;
+  const Vec3 axis = Vec3(0.1, -0.2, 1.0).normalized();
+  s.steps.donning_travel_m = 0.03 * axis;
+  s.steps.axial_load_n = 300;
+  s.steps.donning_force_n = 150;
+  s.steps.load_direction = axis;
+  const std::string deck = write_deck(s);
+  const auto blocks = parse_blocks(deck);
+  const auto& tr = blocks.find("*TRANSFORM, NSET=REF, TYPE=R")->second;
+  ASSERT_EQ(tr.size(), 1u);
+  const auto ab = numbers(tr[0]);
+  ASSERT_EQ(ab.size(), 6u);
+  const Vec3 e1(ab[0], ab[1], ab[2]), e2(ab[3], ab[4], ab[5]);
+  EXPECT_NEAR(e1.norm(), 1.0, 1e-9);
+  EXPECT_NEAR(e1.dot(e2), 0.0, 1e-9);
+  EXPECT_LT((e1.cross(e2) - axis).norm(), 1e-9);  // ccx's local z = a × b is the axis
+  // Step 1 moves the socket 30 mm along local z; step 2 holds local x, y and pushes along z.
+  EXPECT_NE(deck.find("900001, 3, 3, 0.03\n"), std::string::npos);
+  EXPECT_NE(deck.find("900001, 1, 1, 0\n"), std::string::npos);
+  EXPECT_NE(deck.find("*CLOAD, AMPLITUDE=A2\n900001, 3, 300\n"), std::string::npos);
+  EXPECT_NE(deck.find("900002, 1, 3\n900001, 1, 1\n900001, 2, 2\n"), std::string::npos);
+}
+
 TEST(CalculixDeck, a_shell_with_prescribed_node_displacements_is_not_a_rigid_body) {
   BoxAndPlate bp(0.021);
   DeckSpec& s = bp.spec;

@@ -128,6 +128,20 @@ std::string write_deck(const DeckSpec& s) {
     out += fmt::format("{}, {:.12g}, {:.12g}, {:.12g}\n", i + 1, m.nodes[i].x(), m.nodes[i].y(), m.nodes[i].z());
   const int sock_node0 = nn + 1, sock_elem0 = ne + 1;
   const bool rigid = s.socket && s.socket_node_displacements.empty();
+  // A load step along a direction that is not a coordinate axis: the reference node gets a local
+  // frame (columns e1, e2, d with e1 × e2 = d) and its boundary conditions are written in it.
+  const Vec3 load_dir = s.steps.load_direction.normalized();
+  const bool ref_local = rigid && s.steps.axial_load_n > 0 && load_dir.cwiseAbs().maxCoeff() < 1.0 - 1e-12;
+  Eigen::Matrix3d ref_axes = Eigen::Matrix3d::Identity();
+  if (ref_local) {
+    Eigen::Index k = 0;
+    load_dir.cwiseAbs().minCoeff(&k);
+    Vec3 e1 = Vec3::Unit(k) - Vec3::Unit(k).dot(load_dir) * load_dir;
+    e1.normalize();
+    ref_axes.col(0) = e1;
+    ref_axes.col(1) = load_dir.cross(e1);
+    ref_axes.col(2) = load_dir;
+  }
   if (s.socket) {
     out += "*NODE, NSET=NSOCK\n";
     for (size_t i = 0; i < s.socket->nodes.size(); ++i) {
@@ -138,6 +152,13 @@ std::string write_deck(const DeckSpec& s) {
     if (rigid) {
       out += fmt::format("*NODE, NSET=REF\n{}, {:.12g}, {:.12g}, {:.12g}\n", kRefNode, r.x(), r.y(), r.z());
       out += fmt::format("*NODE, NSET=ROT\n{}, {:.12g}, {:.12g}, {:.12g}\n", kRotNode, r.x(), r.y(), r.z());
+      if (ref_local) {
+        // The reference node's degrees of freedom in a frame whose local z is the load direction,
+        // so that step 2 can hold the socket across the axis and push it along (CALCULIX.md).
+        out += fmt::format("*TRANSFORM, NSET=REF, TYPE=R\n{:.12g}, {:.12g}, {:.12g}, {:.12g}, {:.12g}, {:.12g}\n",
+                           ref_axes.col(0).x(), ref_axes.col(0).y(), ref_axes.col(0).z(), ref_axes.col(1).x(),
+                           ref_axes.col(1).y(), ref_axes.col(1).z());
+      }
     }
   }
   out += fmt::format("*ELEMENT, TYPE={}, ELSET=LIMB\n", to_string(s.element));
@@ -202,7 +223,10 @@ std::string write_deck(const DeckSpec& s) {
   if (!s.fixed_nodes.empty()) out += "BONE, 1, 3\n";
   for (const auto& [v, c] : s.fixed_components) out += fmt::format("{}, {}, {}\n", v + 1, c + 1, c + 1);
   if (rigid) {
-    for (int c = 0; c < 3; ++c) out += fmt::format("{}, {}, {}, {:.12g}\n", kRefNode, c + 1, c + 1, st.donning_travel_m[c]);
+    Vec3 travel = ref_axes.transpose() * st.donning_travel_m;  // in the reference node's frame
+    for (int c = 0; c < 3; ++c)
+      if (std::abs(travel[c]) < 1e-12 * st.donning_travel_m.norm()) travel[c] = 0.0;  // round-off across the axis
+    for (int c = 0; c < 3; ++c) out += fmt::format("{}, {}, {}, {:.12g}\n", kRefNode, c + 1, c + 1, travel[c]);
     out += fmt::format("{}, 1, 3\n", kRotNode);
   }
   for (size_t i = 0; i < s.socket_node_displacements.size(); ++i)
@@ -231,15 +255,17 @@ std::string write_deck(const DeckSpec& s) {
     FeSteps st2 = st;
     st2.initial_increment = std::min(st.initial_increment, 0.02);
     st2.max_increment = std::max(st2.initial_increment, std::min(st.max_increment, 0.05));
-    st2.min_increment = std::min(st.min_increment, st2.initial_increment);
+    // Not below 1e-3: when step 2 diverges (an ill-posed push, CALCULIX.md) it should say so in
+    // minutes, not after dozens of 60-iteration cutbacks.
+    st2.min_increment = std::min(std::max(st.min_increment, 1e-3), st2.initial_increment);
     out += static_card(st2);
     out += "*BOUNDARY, OP=NEW\n";
     if (!s.fixed_nodes.empty()) out += "BONE, 1, 3\n";
     for (const auto& [v, c] : s.fixed_components) out += fmt::format("{}, {}, {}\n", v + 1, c + 1, c + 1);
     out += fmt::format("{}, 1, 3\n", kRotNode);
-    // The reference node is free along the load; held in the other two directions when the load
-    // is along a coordinate axis (the usual case: the deck is written in the limb frame).
-    const Vec3 d = st.load_direction.normalized();
+    // The reference node is free along the load and held in the two directions across it (in its
+    // local frame when the load is not along a coordinate axis).
+    const Vec3 d = ref_axes.transpose() * load_dir;  // (0, 0, 1) in a local frame
     for (int c = 0; c < 3; ++c)
       if (std::abs(d[c]) < 1e-12) out += fmt::format("{}, {}, {}\n", kRefNode, c + 1, c + 1);
     out += "*CLOAD, AMPLITUDE=A2\n";

@@ -74,6 +74,10 @@ void check_input(const DesignedStump& d, const DesignCheckOptions& o) {
           d.skin_normals.size(), d.skin_areas_m2.size(), d.above_brim.size(), ns);
   require(o.clearance_m > 0, "check_design: clearance {} m (expected > 0)", o.clearance_m);
   require(o.socket_thickness_m > 0, "check_design: socket thickness {} m (expected > 0)", o.socket_thickness_m);
+  require(std::isfinite(o.stand_force_n) && o.stand_force_n >= 0 && std::isfinite(o.donning_force_n),
+          "check_design: standing force {} N (expected ≥ 0: half the body weight)", o.stand_force_n);
+  require(o.stand_force_n == 0 || o.mode == DesignCheckMode::Donning,
+          "check_design: a standing load needs the donning mode (the socket is pushed up after donning)");
   require(std::any_of(d.above_brim.begin(), d.above_brim.end(), [](char c) { return !c; }),
           "check_design: every skin node is above the brim (no socket to check)");
 }
@@ -151,6 +155,11 @@ DesignCheckResult check_design(const DesignedStump& d, const DesignCheckOptions&
       }
       shell = extrude_shell(inner, normal, socket_quads, o.socket_thickness_m);
       spec.steps.donning_travel_m = -down;
+      if (o.stand_force_n > 0) {
+        spec.steps.axial_load_n = o.stand_force_n;
+        spec.steps.load_direction = d.frame.axis.normalized();
+        spec.steps.donning_force_n = std::max(0.0, o.donning_force_n);
+      }
     } else {
       shell = extrude_shell(start, rest_normal, socket_quads, o.socket_thickness_m);
     }
@@ -175,7 +184,7 @@ DesignCheckResult check_design(const DesignedStump& d, const DesignCheckOptions&
   res.deck = dir / (job + ".inp");
   write_text_atomically(res.deck, write_deck(spec));
   CcxOptions co = o.ccx;
-  co.num_steps = 1;
+  co.num_steps = spec.steps.axial_load_n > 0 ? 2 : 1;
   res.ccx = run_ccx(dir, job, co);
   res.converged = res.ccx.converged;
   res.message = res.ccx.message;

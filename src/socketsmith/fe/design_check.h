@@ -59,6 +59,10 @@ struct DesignCheckOptions {
   double clearance_m = 1e-3;           ///< start of the fit outside the rest skin [m], > 0
   double socket_thickness_m = 3e-3;    ///< the rigid layer [m], > 0
   double donning_travel_m = 0.03;      ///< Donning: start this far distally along the axis [m], > 0
+  /// Donning: > 0 adds the thesis's second step, the socket pushed up the axis with this force [N]
+  /// (half the body weight), its amplitude starting at donning_force_n so the reaction does not drop.
+  double stand_force_n = 0.0;
+  double donning_force_n = 0.0;        ///< estimate of the step-1 axial reaction [N], ≥ 0
   double initial_increment = 0.05;
   double max_increment = 0.1;
   CcxOptions ccx;
