@@ -14,6 +14,8 @@
 #include "socketsmith/geometry/mesh_io.h"
 #include "socketsmith/core/atomic_file.h"
 #include "socketsmith/scan/accuracy.h"
+#include "socketsmith/scan/calibration.h"
+#include "socketsmith/scan/experiments.h"
 #include "socketsmith/scan/reconstruction.h"
 #include "socketsmith/scan/registration.h"
 #include "socketsmith/scan/simulated_sensor.h"
@@ -37,8 +39,34 @@ struct SimulateFlags {
   std::uint64_t seed = 1;
   double noise_scale = 1.0;
   int frames = 1;
+  double min_distance_mm = 550;
+  double max_distance_mm = 1000;
   std::string calibration;
   std::string out;
+  bool json = false;
+};
+
+struct CalibrateFlags {
+  std::string recording;
+  std::string out;
+  std::string pattern;
+  double square_mm = -1;
+  std::string truth = "pnp";
+  int upsample = 2;
+  int min_frames = 5;
+  bool json = false;
+};
+
+struct ExperimentFlags {
+  std::string which;
+  std::string out;
+  std::uint64_t seed = 1;
+  int sensors = 4;
+  int frames = 50;
+  int test_frames = 5;
+  double noise_scale = 1.0;
+  std::string truth = "pnp";
+  bool no_mesh = false;
   bool json = false;
 };
 
@@ -49,6 +77,7 @@ struct ReconstructFlags {
   double depth_scale = 1e-3;
   double max_depth_m = 4.5;
   std::string rig;
+  std::string compensation;
   std::string out;
   bool open = false;
   bool closed = false;
@@ -159,11 +188,9 @@ void run_simulate(const SimulateFlags& f) {
                        "chessboard of 50 mm squares on each side",
                        f.box_yaw_deg);
   } else {
-    // Board frame: x along world x, y down (−z), z into the board (+y, away from K1 on the −y side).
-    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-    pose.linear() << 1, 0, 0, 0, 0, 1, 0, -1, 0;
-    scene = scan::make_chessboard_scene(scan::calibration_chessboard(pose));
-    what = "chessboard of 9 x 6 inner corners, 60 mm squares, facing K1 (-y)";
+    what = fmt::format("calibration chessboard (9 x 6 inner corners, 60 mm squares) in a random pose per frame at "
+                       "{:g}-{:g} mm from each sensor",
+                       f.min_distance_mm, f.max_distance_mm);
   }
   const auto sensors = scan::default_rig(f.sensors, f.radius_mm * units::mm, f.height_mm * units::mm,
                                          geometry::Vec3::Zero(), rig_intrinsics(f.calibration, f.sensors));
@@ -171,7 +198,17 @@ void run_simulate(const SimulateFlags& f) {
   so.seed = f.seed;
   so.frames = f.frames;
   so.error.scale = f.noise_scale;
-  const scan::Recording rec = scan::simulate_recording(scene, sensors, so, f.json ? ProgressCallback{} : console_progress(1.0));
+  const auto progress = f.json ? ProgressCallback{} : console_progress(1.0);
+  scan::Recording rec;
+  if (f.chessboard) {
+    scan::CalibrationSessionOptions co;
+    co.simulation = so;
+    co.min_distance_m = f.min_distance_mm * units::mm;
+    co.max_distance_m = f.max_distance_mm * units::mm;
+    rec = scan::simulate_calibration_session(sensors, co, progress);
+  } else {
+    rec = scan::simulate_recording(scene, sensors, so, progress);
+  }
   scan::Recording named = rec;
   named.description = fmt::format("simulated Kinect v2 rig ({} sensors, radius {:g} mm, seed {}, noise scale {:g}): {}",
                                   f.sensors, f.radius_mm, f.seed, f.noise_scale, what);
@@ -223,9 +260,14 @@ void run_reconstruct(const ReconstructFlags& f) {
   require(f.intrinsics.empty() || !f.frames.empty(),
           "scan reconstruct: --intrinsics is for --frame (a recording folder names its intrinsics in rig.json)");
   std::vector<fs::path> frame_paths(f.frames.begin(), f.frames.end());
+  std::vector<scan::ErrorCompensation> models;
+  if (!f.compensation.empty()) models = scan::read_compensation_json(f.compensation);
   scan::Recording rec = f.frames.empty() ? scan::read_recording(f.recording)
                                                : scan::recording_from_frames(frame_paths, f.intrinsics, f.depth_scale);
   if (!f.rig.empty()) scan::apply_rig_file(rec, f.rig);
+  for (auto& s : rec.sensors)
+    if (!models.empty())
+      s.compensation = scan::compensation_for(models, s.name, s.intrinsics.width, s.intrinsics.height, f.compensation);
   // Loose frames of one camera are a scene, not a limb hanging along the rig's vertical: no cut.
   if (!f.frames.empty()) o.cut_proximal = false;
   o.back_projection.max_depth_m = f.max_depth_m;
@@ -241,6 +283,7 @@ void run_reconstruct(const ReconstructFlags& f) {
   j["recording"] = f.frames.empty() ? nlohmann::json(f.recording) : nlohmann::json(f.frames);
   j["output"] = f.out;
   j["sensors"] = rec.sensors.size();
+  j["compensated_sensors"] = std::count_if(rec.sensors.begin(), rec.sensors.end(), [](const auto& s) { return s.compensation.has_value(); });
   j["input_points"] = r.input_points;
   j["outliers_removed"] = r.outliers_removed;
   j["poisson_points"] = r.poisson_points;
@@ -497,6 +540,168 @@ void run_registration_experiment(const RegistrationExperimentFlags& f) {
             r.truth_errors.mean_m / units::mm, r.truth_errors.max_m / units::mm, f.out, elapsed_s(t0));
 }
 
+scan::TruthEstimate parse_truth(const std::string& t, const char* cmd) {
+  if (t == "pnp") return scan::TruthEstimate::Pnp;
+  if (t == "kabsch") return scan::TruthEstimate::Kabsch;
+  fail("{}: --truth '{}' is not known (expected pnp or kabsch)", cmd, t);
+}
+
+scan::ChessboardPattern calibration_pattern(const CalibrateFlags& f, const scan::Recording& rec) {
+  if (f.pattern.empty() && f.square_mm <= 0) {
+    require(rec.chessboard.has_value(),
+            "scan calibrate: the recording names no chessboard (rig.json \"chessboard\"): give --pattern COLSxROWS "
+            "(inner corners, e.g. 9x6) and --square-mm");
+    return *rec.chessboard;
+  }
+  scan::ChessboardPattern p = rec.chessboard.value_or(scan::ChessboardPattern{});
+  if (!f.pattern.empty()) {
+    int c = 0, r = 0;
+    char x = 0;
+    require(std::sscanf(f.pattern.c_str(), "%d%c%d", &c, &x, &r) == 3 && (x == 'x' || x == 'X'),
+            "scan calibrate: --pattern '{}' is not COLSxROWS (inner corners, e.g. 9x6)", f.pattern);
+    p.inner_cols = c;
+    p.inner_rows = r;
+  }
+  if (f.square_mm > 0) p.square_m = f.square_mm * units::mm;
+  scan::validate_pattern(p, "scan calibrate");
+  return p;
+}
+
+void run_calibrate(const CalibrateFlags& f) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const scan::Recording rec = scan::read_recording(f.recording);
+  const scan::ChessboardPattern pattern = calibration_pattern(f, rec);
+  scan::CalibrationOptions o;
+  o.truth = parse_truth(f.truth, "scan calibrate");
+  o.chessboard.upsample = f.upsample;
+  o.min_frames = f.min_frames;
+  const auto progress = f.json ? ProgressCallback{} : console_progress(1.0);
+  std::vector<scan::ErrorCompensation> models;
+  nlohmann::json js = nlohmann::json::array();
+  for (const auto& s : rec.sensors) {
+    const scan::CalibrationResult r = scan::calibrate_sensor(s, pattern, o, progress);
+    models.push_back(r.model);
+    scan::EdgeErrors before, after;
+    for (const auto& ob : r.observations) {
+      before.add(ob.detection, scan::compensated_corners(ob.detection, nullptr));
+      after.add(ob.detection, scan::compensated_corners(ob.detection, &r.model));
+    }
+    nlohmann::json e;
+    e["name"] = s.name;
+    e["frames"] = s.frames.size();
+    e["frames_used"] = r.observations.size();
+    e["skipped"] = r.skipped;
+    e["corners"] = r.model.corners;
+    e["fx_px"] = r.fx;
+    e["fy_px"] = r.fy;
+    e["corner_rms_mm"] = {{"before", r.rms_before_mm}, {"after", r.rms_after_mm}};
+    e["dimension_error_mm"] = {{"before", before.stats().mean_mm}, {"after", after.stats().mean_mm}};
+    const auto& c = r.model.coefficients;
+    e["e_x"] = {c(0, 0), c(0, 1), c(0, 2), c(0, 3)};
+    e["e_y"] = {c(1, 0), c(1, 1), c(1, 2), c(1, 3)};
+    e["e_z"] = {c(2, 0), c(2, 1), c(2, 2), c(2, 3)};
+    js.push_back(e);
+    if (!f.json)
+      log::info("{}: board in {}/{} frames, {} corners; corner error to truth {:.2f} -> {:.2f} mm RMS, dimension error "
+                "{:.2f} -> {:.2f} mm (training frames); f = {:.1f}, {:.1f} px",
+                s.name, r.observations.size(), s.frames.size(), r.model.corners, r.rms_before_mm, r.rms_after_mm,
+                before.stats().mean_mm, after.stats().mean_mm, r.fx, r.fy);
+  }
+  scan::write_compensation_json(f.out, models);
+  nlohmann::json j;
+  j["command"] = "socketsmith scan calibrate";
+  j["recording"] = f.recording;
+  j["output"] = f.out;
+  j["truth"] = f.truth;
+  j["pattern"] = {{"inner_cols", pattern.inner_cols}, {"inner_rows", pattern.inner_rows}, {"square_mm", pattern.square_m * 1e3}};
+  j["sensors"] = js;
+  j["wall_s"] = elapsed_s(t0);
+  if (f.json) {
+    print_json(j);
+    return;
+  }
+  log::info("wrote the error models of {} sensor(s) to '{}' in {:.1f} s (use: scan reconstruct --compensation {}).",
+            models.size(), f.out, elapsed_s(t0), f.out);
+}
+
+nlohmann::json stats_json(const scan::DimensionStats& s) {
+  return {{"mean_mm", s.mean_mm}, {"sd_mm", s.sd_mm}, {"border_mean_mm", s.border_mean_mm}, {"edges", s.count}};
+}
+
+nlohmann::json error_json(const scan::SurfaceError& e) {
+  return {{"rmse_mm", e.rmse_mm}, {"max_mm", e.max_mm}, {"mean_mm", e.mean_mm}, {"samples", e.count}};
+}
+
+void run_experiment(const ExperimentFlags& f) {
+  require(f.which == "chessboard" || f.which == "cylinders",
+          "scan experiment: '{}' is not an experiment (expected chessboard or cylinders)", f.which);
+  const auto t0 = std::chrono::steady_clock::now();
+  scan::ExperimentOptions o;
+  o.seed = f.seed;
+  o.sensors = f.sensors;
+  o.training_frames = f.frames;
+  o.test_frames_per_distance = f.test_frames;
+  o.noise_scale = f.noise_scale;
+  o.truth = parse_truth(f.truth, "scan experiment");
+  const auto progress = f.json ? ProgressCallback{} : console_progress(1.0);
+  ensure_directory(f.out);
+  const scan::ChessboardExperiment cb = scan::run_chessboard_experiment(o, progress);
+  std::vector<scan::ErrorCompensation> models;
+  for (const auto& c : cb.calibrations) models.push_back(c.model);
+  scan::write_compensation_json(fs::path(f.out) / "compensation.json", models);
+  nlohmann::json j;
+  j["command"] = fmt::format("socketsmith scan experiment {} --seed {} --sensors {} --frames {} --test-frames {} "
+                             "--noise-scale {:g} --truth {}{}",
+                             f.which, f.seed, f.sensors, f.frames, f.test_frames, f.noise_scale, f.truth,
+                             f.no_mesh ? " --no-mesh" : "");
+  j["seed"] = f.seed;
+  j["truth"] = f.truth;
+  j["noise_scale"] = f.noise_scale;
+  nlohmann::json rows = nlohmann::json::array();
+  for (const auto& r : cb.rows)
+    rows.push_back({{"sensor", r.sensor}, {"distance_m", r.distance_m}, {"raw", stats_json(r.raw)},
+                    {"compensated", stats_json(r.compensated)}});
+  j["chessboard"] = rows;
+  std::string table;
+  for (const auto& r : cb.rows)
+    if (r.distance_m == 0.0)
+      table += fmt::format("\n  {}: {:.2f} ± {:.2f} mm -> {:.2f} ± {:.2f} mm (border {:.2f} -> {:.2f} mm)", r.sensor,
+                           r.raw.mean_mm, r.raw.sd_mm, r.compensated.mean_mm, r.compensated.sd_mm, r.raw.border_mean_mm,
+                           r.compensated.border_mean_mm);
+  if (f.which == "cylinders") {
+    const scan::CylinderExperiment cy =
+        scan::run_cylinder_experiment(cb, o, {0.10, 0.16, 0.21}, !f.no_mesh, 0.3, progress);
+    nlohmann::json cr = nlohmann::json::array();
+    table += "\n  cylinders (RMSE / max, raw -> compensated):";
+    for (const auto& r : cy.rows) {
+      nlohmann::json e = {{"diameter_mm", r.diameter_m * 1e3},
+                          {"cloud_raw", error_json(r.cloud_raw)},
+                          {"cloud_compensated", error_json(r.cloud_compensated)}};
+      table += fmt::format("\n  {:.0f} mm: cloud {:.2f} / {:.2f} -> {:.2f} / {:.2f} mm", r.diameter_m * 1e3,
+                           r.cloud_raw.rmse_mm, r.cloud_raw.max_mm, r.cloud_compensated.rmse_mm,
+                           r.cloud_compensated.max_mm);
+      if (r.mesh_done) {
+        e["mesh_raw"] = error_json(r.mesh_raw);
+        e["mesh_compensated"] = error_json(r.mesh_compensated);
+        table += fmt::format("; mesh {:.2f} / {:.2f} -> {:.2f} / {:.2f} mm", r.mesh_raw.rmse_mm, r.mesh_raw.max_mm,
+                             r.mesh_compensated.rmse_mm, r.mesh_compensated.max_mm);
+      }
+      cr.push_back(e);
+    }
+    j["cylinders"] = cr;
+  }
+  j["wall_s"] = elapsed_s(t0);
+  write_text_atomically(fs::path(f.out) / (f.which + ".json"), j.dump(2) + "\n");
+  if (f.json) {
+    print_json(j);
+    return;
+  }
+  log::info("scan experiment {} (seed {}, {} sensors, {} training frames, noise scale {:g}, truth {}): chessboard "
+            "dimension errors on held-out frames, raw -> compensated:{}\nwrote {}/{}.json and {}/compensation.json in "
+            "{:.1f} s.",
+            f.which, f.seed, f.sensors, f.frames, f.noise_scale, f.truth, table, f.out, f.which, f.out, elapsed_s(t0));
+}
+
 }  // namespace
 
 void register_scan(CLI::App& app) {
@@ -513,7 +718,11 @@ void register_scan(CLI::App& app) {
   sim->add_option("--box-yaw-deg", sf->box_yaw_deg,
                   "turn of the box about the vertical [deg] (default 45: each board faces two neighbouring sensors, "
                   "as registration needs)");
-  sim->add_flag("--chessboard", sf->chessboard, "scene: the calibration chessboard (9 x 6 inner corners, 60 mm) facing K1");
+  sim->add_flag("--chessboard", sf->chessboard,
+                "a calibration session: each sensor sees the chessboard (9 x 6 inner corners, 60 mm) in a random pose "
+                "per frame (use --frames, thesis ~50)");
+  sim->add_option("--min-distance-mm", sf->min_distance_mm, "--chessboard: nearest board distance [mm] (default 550)");
+  sim->add_option("--max-distance-mm", sf->max_distance_mm, "--chessboard: farthest board distance [mm] (default 1000)");
   sim->add_option("--sensors", sf->sensors, "number of sensors on the ring (default 4)");
   sim->add_option("--radius-mm", sf->radius_mm, "ring radius [mm] (default 750, as the thesis)");
   sim->add_option("--height-mm", sf->height_mm, "sensor height above the scene centre [mm] (default 0)");
@@ -544,6 +753,8 @@ void register_scan(CLI::App& app) {
   auto* closed = rec->add_flag("--closed", rf->closed, "cap the proximal cut with a plane (default)");
   open->excludes(closed);
   rec->add_flag("--no-cut", rf->no_cut, "keep the whole Poisson surface (no proximal cut)");
+  rec->add_option("--compensation", rf->compensation,
+                  "learned error model (scan calibrate --out): applied to every sensor it names (overrides rig.json)");
   rec->add_option("--upsample", rf->upsample, "bilinear up-sampling of the depth frames, 1 to 8 (default 1)");
   rec->add_option("--grid-mm", rf->grid_mm, "voxel-grid simplification before Poisson [mm] (default 2.5; 0: off)");
   rec->add_option("--facet-mm", rf->facet_mm, "largest facet of the output surface [mm] (default 8)");
@@ -601,6 +812,42 @@ void register_scan(CLI::App& app) {
   xreg->add_option("--out", xf->out, "folder for the box recording, the rig files and report.json")->required();
   xreg->add_flag("--json", xf->json, "print the report on stdout");
   xreg->callback([xf] { run_registration_experiment(*xf); });
+
+  auto cf = std::make_shared<CalibrateFlags>();
+  auto* cal = scan_cmd->add_subcommand(
+      "calibrate", "learn each sensor's error compensation (linear regression on u, v, d) from chessboard frames");
+  cal->add_option("recording", cf->recording, "recording of board frames (IR + depth), e.g. scan simulate --chessboard")
+      ->required();
+  cal->add_option("--out", cf->out, "model file to write (JSON, one entry per sensor)")->required();
+  cal->add_option("--pattern", cf->pattern, "inner corners COLSxROWS (default: rig.json \"chessboard\")");
+  cal->add_option("--square-mm", cf->square_mm, "square side [mm] (default: rig.json \"chessboard\")");
+  cal->add_option("--truth", cf->truth,
+                  "true corners from: pnp (board pose from the IR image, default) | kabsch (thesis: rigid fit to the "
+                  "measured corners)");
+  cal->add_option("--upsample", cf->upsample, "IR up-sampling for corner detection, 1 to 8 (default 2)");
+  cal->add_option("--min-frames", cf->min_frames, "fewest usable board frames per sensor (default 5)");
+  cal->add_flag("--json", cf->json, "print a JSON summary on stdout");
+  cal->callback([cf] { run_calibrate(*cf); });
+
+  for (const char* which : {"chessboard", "cylinders"}) {
+    auto ef = std::make_shared<ExperimentFlags>();
+    ef->which = which;
+    auto* x = exp->add_subcommand(
+        which, std::string(which) == "chessboard"
+                   ? "Table 3: chessboard dimension errors on held-out frames without/with the learned compensation"
+                   : "cylinders of 10, 16, 21 cm: RMSE and max error without/with the learned compensation");
+    x->add_option("--out", ef->out, "folder for <which>.json and the learned compensation.json")->required();
+    x->add_option("--seed", ef->seed, "seed of the units' errors, poses and noise (default 1)");
+    x->add_option("--sensors", ef->sensors, "sensors K1..Kn (default 4)");
+    x->add_option("--frames", ef->frames, "training board frames per sensor (default 50, as the thesis)");
+    x->add_option("--test-frames", ef->test_frames, "held-out frames per sensor at each of 60, 75, 90 cm (default 5)");
+    x->add_option("--noise-scale", ef->noise_scale, "scale of every simulated error term (default 1)");
+    x->add_option("--truth", ef->truth, "pnp (default) | kabsch (thesis eqs. 31-35)");
+    if (std::string(which) == "cylinders")
+      x->add_flag("--no-mesh", ef->no_mesh, "point-cloud errors only (skip the reconstructions)");
+    x->add_flag("--json", ef->json, "print the results as JSON on stdout");
+    x->callback([ef] { run_experiment(*ef); });
+  }
 }
 
 }  // namespace socketsmith::cli

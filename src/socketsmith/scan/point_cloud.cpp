@@ -63,7 +63,8 @@ void PointCloud::append(const PointCloud& other) {
 }
 
 PointCloud back_project(const DepthImage& image, const CameraIntrinsics& k, const Eigen::Isometry3d& world_from_sensor,
-                        const BackProjectionOptions& o, int sensor_index, const RayTable* rays) {
+                        const BackProjectionOptions& o, int sensor_index, const RayTable* rays,
+                        const ErrorCompensation* compensation) {
   validate_intrinsics(k, "back_project");
   require(image.width == k.width && image.height == k.height,
           "back_project: depth frame is {}x{} px but the intrinsics are for {}x{} (wrong intrinsics file for this "
@@ -84,10 +85,13 @@ PointCloud back_project(const DepthImage& image, const CameraIntrinsics& k, cons
     const float d = dm.at(u, v);
     return d > 0.0f && d >= o.min_depth_m && d <= o.max_depth_m && std::isfinite(rays->at(u, v).x());
   };
+  const double up = o.upsample;
   auto point = [&](int u, int v) -> Vec3 {
     const double d = dm.at(u, v);
     const Eigen::Vector2d& xy = rays->at(u, v);
-    return {xy.x() * d, xy.y() * d, d};
+    const Vec3 p(xy.x() * d, xy.y() * d, d);
+    if (compensation == nullptr) return p;
+    return compensation->apply(p, (u + 0.5) / up - 0.5, (v + 0.5) / up - 0.5);
   };
   // Neighbour difference along one axis: central when both sides are valid and on the same
   // surface, one-sided otherwise.

@@ -10,6 +10,7 @@
 #include <Eigen/Geometry>
 
 #include "socketsmith/scan/depth_image.h"
+#include "socketsmith/scan/error_compensation.h"
 #include "socketsmith/scan/intrinsics.h"
 
 namespace socketsmith::scan {
@@ -43,10 +44,13 @@ struct BackProjectionOptions {
 /// Invalid (0) pixels are skipped; points without two valid neighbours for a normal are dropped.
 /// Points are mapped to the world by @p world_from_sensor (metres); normals face the sensor.
 /// @param rays optional pre-computed make_ray_table(intrinsics, options.upsample) (else built here).
+/// @param compensation optional learned error model: every sensor-frame point becomes
+///        (I − ε(u, v, d)) P (thesis eq. 27; u, v the sensor pixel) before normals and the pose.
 /// @throws InvalidInputError when the frame size differs from the intrinsics or options are invalid.
 PointCloud back_project(const DepthImage& image, const CameraIntrinsics& intrinsics,
                         const Eigen::Isometry3d& world_from_sensor, const BackProjectionOptions& options = {},
-                        int sensor_index = 0, const RayTable* rays = nullptr);
+                        int sensor_index = 0, const RayTable* rays = nullptr,
+                        const ErrorCompensation* compensation = nullptr);
 
 /// Settings of remove_statistical_outliers.
 struct OutlierOptions {

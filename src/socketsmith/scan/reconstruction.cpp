@@ -254,7 +254,8 @@ PointCloud recording_point_cloud(const Recording& rec, const BackProjectionOptio
             "it is aimed at the limb and 0.5-4.5 m away, or remove it from rig.json",
             sr.name, file);
     const RayTable rays = make_ray_table(sr.intrinsics, options.upsample);
-    const PointCloud c = back_project(frame, sr.intrinsics, sr.world_from_sensor, options, static_cast<int>(s), &rays);
+    const PointCloud c = back_project(frame, sr.intrinsics, sr.world_from_sensor, options, static_cast<int>(s), &rays,
+                                      sr.compensation ? &*sr.compensation : nullptr);
     require(c.size() > 0,
             "reconstruct: sensor '{}': no usable point in {} ({} valid pixels but none within {}-{} m with a surface "
             "normal); check the depth scale in rig.json",

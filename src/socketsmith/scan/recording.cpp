@@ -101,11 +101,11 @@ Recording read_recording(const fs::path& folder) {
     const std::string what = fmt::format("read_recording: sensor '{}' in '{}'", sr.name, rig_path.string());
     require(names.insert(sr.name).second, "{}: the name is used twice", what);
     static const std::set<std::string> known = {"name", "intrinsics", "pose_world_from_sensor", "depth_scale_m",
-                                                "frames", "ir_frames", "folder"};
+                                                "frames", "ir_frames", "folder", "compensation"};
     for (const auto& [key, value] : s.items())
       require(known.count(key) > 0,
               "{}: unknown key '{}' (expected name, intrinsics, pose_world_from_sensor, depth_scale_m, frames, ir_frames, "
-              "folder)",
+              "folder, compensation)",
               what, key);
     const fs::path sub = folder / s.value("folder", sr.name);
     // Intrinsics: a path relative to the recording; default <sensor>/intrinsics.json.
@@ -156,6 +156,11 @@ Recording read_recording(const fs::path& folder) {
               "{}: IR frame '{}' is {}x{} px but the depth frames are {}x{} (IR must be pixel-aligned with depth)",
               what, f.string(), ir.width, ir.height, sr.intrinsics.width, sr.intrinsics.height);
       sr.ir_frames.push_back(std::move(ir));
+    }
+    if (s.contains("compensation")) {
+      const fs::path model = folder / s["compensation"].get<std::string>();
+      sr.compensation = compensation_for(read_compensation_json(model), sr.name, sr.intrinsics.width,
+                                         sr.intrinsics.height, model.string());
     }
     rec.sensors.push_back(std::move(sr));
   }
@@ -227,6 +232,10 @@ void write_recording(const fs::path& folder, const Recording& rec) {
     for (int i = 0; i < 4; ++i) rows.push_back({m(i, 0), m(i, 1), m(i, 2), m(i, 3)});
     j["pose_world_from_sensor"] = rows;
     j["depth_scale_m"] = s.depth_scale_m;
+    if (s.compensation) {
+      write_compensation_json(sub / "compensation.json", {*s.compensation});
+      j["compensation"] = s.name + "/compensation.json";
+    }
     for (size_t f = 0; f < s.frames.size(); ++f) write_depth_png(sub / fmt::format("depth_{:04d}.png", f), s.frames[f]);
     for (size_t f = 0; f < s.ir_frames.size(); ++f) write_ir_png(sub / fmt::format("ir_{:04d}.png", f), s.ir_frames[f]);
     rig["sensors"].push_back(j);

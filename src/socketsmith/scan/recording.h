@@ -13,6 +13,7 @@
 #include <Eigen/Geometry>
 
 #include "socketsmith/scan/depth_image.h"
+#include "socketsmith/scan/error_compensation.h"
 #include "socketsmith/scan/intrinsics.h"
 
 namespace socketsmith::scan {
@@ -29,6 +30,9 @@ struct SensorRecording {
   std::vector<std::string> frame_files;  ///< file names, same order (filled by read_recording)
   /// IR (amplitude) frames aligned with the depth frames: empty, or one per depth frame.
   std::vector<IrImage> ir_frames;
+  /// Learned error compensation applied by the back-projection (rig.json "compensation": a model
+  /// file written by scan calibrate, path relative to the recording), if any.
+  std::optional<ErrorCompensation> compensation;
 };
 
 /// The printed pattern of a chessboard target: inner-corner grid and square size.

@@ -176,6 +176,8 @@ SimulatedFrame simulate_frame(const geometry::SurfaceQuery& query, const Scene& 
   // 1. Exact depth along the optical axis (0: no surface; negative: a grazing return), the cosine
   //    of incidence, and the IR albedo (chessboard squares antialiased by 8×8 sub-pixel rays).
   std::vector<double> truth(n, 0.0), cosine(n, 0.0), albedo(n, scene.albedo);
+  std::vector<Eigen::Isometry3d> board_from_world;
+  for (const ChessboardPatch& b : scene.chessboards) board_from_world.push_back(b.world_from_board.inverse());
 #pragma omp parallel for schedule(dynamic, 4)
   for (int v = 0; v < h; ++v)
     for (int u = 0; u < w; ++u) {
@@ -191,26 +193,41 @@ SimulatedFrame simulate_frame(const geometry::SurfaceQuery& query, const Scene& 
       const double c = std::abs(normal.dot(dir.normalized()));
       truth[i] = c < cos_grazing ? -d : d;
       cosine[i] = c;
-      for (const ChessboardPatch& b : scene.chessboards) {
+      for (size_t bi = 0; bi < scene.chessboards.size(); ++bi) {
+        const ChessboardPatch& b = scene.chessboards[bi];
+        const Eigen::Isometry3d& to_board = board_from_world[bi];
         const Vec3 bn = b.world_from_board.linear().col(2);  // into the board
-        const Vec3 local = b.world_from_board.inverse() * hit->point;
+        const Vec3 local = to_board * hit->point;
         if (normal.dot(-bn) < 0.99 || std::abs(local.z()) > 1e-3 || b.albedo_at(local.x(), local.y()) < 0.0) continue;
+        // Albedo seen along a sub-pixel ray (the scene's outside the board).
+        auto albedo_along = [&](double uf, double vf) {
+          const Eigen::Vector2d sxy = ray_at(uf, vf);
+          if (!std::isfinite(sxy.x())) return -1.0;
+          const Vec3 sd = world_ray(sxy);
+          const double denom = bn.dot(sd);
+          if (std::abs(denom) < 1e-12) return -1.0;
+          const Vec3 q = to_board * (origin + sd * (bn.dot(b.world_from_board.translation() - origin) / denom));
+          const double a = b.albedo_at(q.x(), q.y());
+          return a < 0.0 ? scene.albedo : a;
+        };
+        // Inside a square (the four pixel corners agree): one value; on an edge: 8×8 rays.
+        const double a00 = albedo_along(u - 0.5, v - 0.5), a10 = albedo_along(u + 0.5, v - 0.5),
+                     a01 = albedo_along(u - 0.5, v + 0.5), a11 = albedo_along(u + 0.5, v + 0.5);
         double sum = 0.0;
         int count = 0;
-        constexpr int kSub = 8;
-        for (int sv = 0; sv < kSub; ++sv)
-          for (int su = 0; su < kSub; ++su) {
-            const Eigen::Vector2d sxy = ray_at(u + (su + 0.5) / kSub - 0.5, v + (sv + 0.5) / kSub - 0.5);
-            if (!std::isfinite(sxy.x())) continue;
-            const Vec3 sd = world_ray(sxy);
-            const double denom = bn.dot(sd);
-            if (std::abs(denom) < 1e-12) continue;
-            const Vec3 p = origin + sd * (bn.dot(b.world_from_board.translation() - origin) / denom);
-            const Vec3 q = b.world_from_board.inverse() * p;
-            const double a = b.albedo_at(q.x(), q.y());
-            sum += a < 0.0 ? scene.albedo : a;
-            ++count;
-          }
+        if (a00 >= 0.0 && a00 == a10 && a00 == a01 && a00 == a11) {
+          sum = a00;
+          count = 1;
+        } else {
+          constexpr int kSub = 8;
+          for (int sv = 0; sv < kSub; ++sv)
+            for (int su = 0; su < kSub; ++su) {
+              const double a = albedo_along(u + (su + 0.5) / kSub - 0.5, v + (sv + 0.5) / kSub - 0.5);
+              if (a < 0.0) continue;
+              sum += a;
+              ++count;
+            }
+        }
         if (count > 0) albedo[i] = sum / count;
         break;
       }
@@ -443,6 +460,80 @@ Scene make_box_scene(const Vec3& size, const Eigen::Isometry3d& world_from_box, 
     scene.chessboards.push_back(b);
   }
   return scene;
+}
+
+}  // namespace socketsmith::scan
+
+namespace socketsmith::scan {
+
+Recording simulate_calibration_session(const std::vector<SimulatedSensor>& sensors,
+                                       const CalibrationSessionOptions& o, const ProgressCallback& progress) {
+  const SimulationOptions& so = o.simulation;
+  require(!sensors.empty(), "simulate_calibration_session: no sensors");
+  require(so.frames >= 1 && so.frames <= 100, "simulate_calibration_session: {} frames per sensor (expected 1 to 100)",
+          so.frames);
+  require(std::isfinite(o.min_distance_m) && o.min_distance_m >= 0.3 && o.max_distance_m >= o.min_distance_m &&
+              o.max_distance_m <= 4.5,
+          "simulate_calibration_session: distance range [{}, {}] m is not valid (expected within 0.3-4.5 m)",
+          o.min_distance_m, o.max_distance_m);
+  require(o.max_tilt_rad >= 0.0 && o.max_tilt_rad < 1.3, "simulate_calibration_session: max tilt {} rad is not valid",
+          o.max_tilt_rad);
+  validate_model(so.error);
+  Recording rec;
+  rec.chessboard = o.board.pattern;
+  const int total = static_cast<int>(sensors.size()) * so.frames;
+  int done = 0;
+  for (size_t i = 0; i < sensors.size(); ++i) {
+    const SimulatedSensor& sensor = sensors[i];
+    validate_intrinsics(sensor.intrinsics, "simulate_calibration_session: sensor " + sensor.name);
+    SensorRecording sr;
+    sr.name = sensor.name;
+    sr.intrinsics = sensor.intrinsics;
+    sr.world_from_sensor = sensor.world_from_sensor;
+    sr.depth_scale_m = so.depth_scale_m;
+    const SensorErrorModel model = unit_error_model(so.error, so.seed, i);
+    const std::uint64_t fseed = o.frame_seed != 0 ? o.frame_seed : so.seed;
+    std::mt19937_64 rng(splitmix64(fseed ^ splitmix64(0xb0a2dULL + i)));
+    std::uniform_real_distribution<double> uni(-1.0, 1.0);
+    const CameraIntrinsics& k = sensor.intrinsics;
+    for (int f = 0; f < so.frames; ++f) {
+      // A pose with every inner corner at least 12 px inside the image.
+      Eigen::Isometry3d sensor_from_board = Eigen::Isometry3d::Identity();
+      bool ok = false;
+      for (int attempt = 0; attempt < 400 && !ok; ++attempt) {
+        const double shrink = 1.0 - attempt / 400.0;
+        const double d = o.min_distance_m + (o.max_distance_m - o.min_distance_m) * 0.5 * (1.0 + uni(rng));
+        sensor_from_board.linear() = (Eigen::AngleAxisd(shrink * o.max_tilt_rad * uni(rng), Vec3::UnitY()) *
+                                      Eigen::AngleAxisd(shrink * o.max_tilt_rad * uni(rng), Vec3::UnitX()) *
+                                      Eigen::AngleAxisd(shrink * o.max_tilt_rad / 3 * uni(rng), Vec3::UnitZ()))
+                                         .matrix();
+        sensor_from_board.translation() = Vec3(shrink * 0.35 * d * uni(rng), shrink * 0.3 * d * uni(rng), d);
+        ok = true;
+        for (int j = 0; j < o.board.pattern.inner_rows && ok; ++j)
+          for (int c = 0; c < o.board.pattern.inner_cols && ok; ++c) {
+            const Vec3 p = sensor_from_board * o.board.corner_in_board(c, j);
+            if (p.z() < 0.3) { ok = false; break; }
+            const Eigen::Vector2d uv = project_normalised(k, p.head<2>() / p.z());
+            ok = uv.x() >= 12 && uv.y() >= 12 && uv.x() <= k.width - 13 && uv.y() <= k.height - 13;
+          }
+      }
+      require(ok, "simulate_calibration_session: the board does not fit sensor '{}''s view at {}-{} m (a smaller board or "
+              "a larger distance)", sensor.name, o.min_distance_m, o.max_distance_m);
+      ChessboardPatch board = o.board;
+      board.world_from_board = sensor.world_from_sensor * sensor_from_board;
+      const Scene scene = make_chessboard_scene(board);
+      const geometry::SurfaceQuery query(scene.mesh);
+      const std::uint64_t seed =
+          splitmix64(fseed * 0x100000001b3ULL + i * 1000003ULL + static_cast<std::uint64_t>(f) + 0xca11bULL);
+      SimulatedFrame frame = simulate_frame(query, scene, sensor, model, seed, so.depth_scale_m);
+      sr.frames.push_back(std::move(frame.depth));
+      sr.ir_frames.push_back(std::move(frame.ir));
+      sr.frame_files.push_back(fmt::format("depth_{:04d}.png", f));
+      if (!report_progress(progress, double(++done) / total, "simulating board frames")) break;
+    }
+    rec.sensors.push_back(std::move(sr));
+  }
+  return rec;
 }
 
 }  // namespace socketsmith::scan

@@ -149,6 +149,27 @@ Recording simulate_recording(const Scene& scene, const std::vector<SimulatedSens
 Recording simulate_recording(const geometry::TriMesh& scene, const std::vector<SimulatedSensor>& sensors,
                              const SimulationOptions& options = {}, const ProgressCallback& progress = {});
 
+/// Settings of simulate_calibration_session.
+struct CalibrationSessionOptions {
+  SimulationOptions simulation;   ///< seed, frames per sensor (thesis ≈ 50), error model
+  double min_distance_m = 0.55;   ///< board distance range along the optical axis [m] (thesis 50–100 cm)
+  double max_distance_m = 1.0;
+  double max_tilt_rad = 0.5;      ///< board yaw and pitch drawn in ±this [rad] (≈ 29°); roll in ±a third of it
+  ChessboardPatch board = ChessboardPatch{ChessboardPattern{9, 6, 0.06}, 0.06, Eigen::Isometry3d::Identity()};
+  /// Seed of the board poses and frame noise; 0: simulation.seed. The units' errors always come
+  /// from simulation.seed, so held-out frames of the same units take another frame_seed.
+  std::uint64_t frame_seed = 0;
+};
+
+/// A simulated calibration session: every sensor (its unit errors as in simulate_recording with
+/// the same seed, so a model learned here applies to that unit) records frames of the board in a
+/// random pose per frame — distance, tilt and offset drawn so that all inner corners are in view
+/// (≥ 12 px from the border). The recording's chessboard is the board's pattern.
+/// @throws InvalidInputError for an invalid range, no sensors, or a board that cannot fit the view.
+Recording simulate_calibration_session(const std::vector<SimulatedSensor>& sensors,
+                                       const CalibrationSessionOptions& options = {},
+                                       const ProgressCallback& progress = {});
+
 /// Closed cylinder along z (axis through @p center), @p segments around, outward normals.
 geometry::TriMesh make_cylinder(double diameter_m, double height_m, const Vec3& center = Vec3::Zero(),
                                 int segments = 256, int rings = 16);

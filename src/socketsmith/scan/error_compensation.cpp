@@ -1,0 +1,103 @@
+#include "socketsmith/scan/error_compensation.h"
+
+#include <cmath>
+#include <fstream>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "socketsmith/core/atomic_file.h"
+#include "socketsmith/core/errors.h"
+
+namespace socketsmith::scan {
+namespace fs = std::filesystem;
+
+void write_compensation_json(const fs::path& path, const std::vector<ErrorCompensation>& models) {
+  require(!models.empty(), "write_compensation_json: no sensor models to write");
+  nlohmann::ordered_json j;
+  j["format"] = "socketsmith-scan-compensation";
+  j["version"] = 1;
+  j["model"] = "linear-uvd";
+  j["comment"] = "P_corrected = (I - diag(e_x, e_y, e_z)) P; e_k = c0 + cu*u + cv*v + cd*d (u, v: sensor pixels, d: metres)";
+  j["sensors"] = nlohmann::ordered_json::array();
+  for (const ErrorCompensation& m : models) {
+    nlohmann::ordered_json s;
+    s["name"] = m.sensor;
+    s["width"] = m.width;
+    s["height"] = m.height;
+    const char* keys[3] = {"e_x", "e_y", "e_z"};
+    for (int k = 0; k < 3; ++k)
+      s[keys[k]] = {m.coefficients(k, 0), m.coefficients(k, 1), m.coefficients(k, 2), m.coefficients(k, 3)};
+    s["frames"] = m.frames;
+    s["corners"] = m.corners;
+    s["truth"] = m.truth;
+    j["sensors"].push_back(s);
+  }
+  write_text_atomically(path, j.dump(2) + "\n");
+}
+
+std::vector<ErrorCompensation> read_compensation_json(const fs::path& path) {
+  std::ifstream in(path);
+  if (!in) fail<IoError>("read_compensation_json: cannot open '{}' (write it with socketsmith scan calibrate)", path.string());
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(in);
+  } catch (const nlohmann::json::exception& e) {
+    fail("read_compensation_json: '{}' is not valid JSON ({})", path.string(), e.what());
+  }
+  require(j.is_object() && j.value("format", std::string()) == "socketsmith-scan-compensation",
+          "read_compensation_json: '{}' is not a compensation model (expected \"format\": "
+          "\"socketsmith-scan-compensation\", written by socketsmith scan calibrate)",
+          path.string());
+  require(j.contains("sensors") && j["sensors"].is_array() && !j["sensors"].empty(),
+          "read_compensation_json: '{}' has no \"sensors\" array", path.string());
+  std::vector<ErrorCompensation> out;
+  for (const auto& s : j["sensors"]) {
+    ErrorCompensation m;
+    try {
+      m.sensor = s.at("name").get<std::string>();
+      m.width = s.at("width").get<int>();
+      m.height = s.at("height").get<int>();
+      const char* keys[3] = {"e_x", "e_y", "e_z"};
+      for (int k = 0; k < 3; ++k) {
+        const auto c = s.at(keys[k]).get<std::vector<double>>();
+        require(c.size() == 4, "read_compensation_json: '{}': sensor '{}': {} has {} coefficients (expected 4: c0, cu, "
+                "cv, cd)", path.string(), m.sensor, keys[k], c.size());
+        for (int q = 0; q < 4; ++q) {
+          require(std::isfinite(c[static_cast<size_t>(q)]), "read_compensation_json: '{}': sensor '{}': {} is not finite",
+                  path.string(), m.sensor, keys[k]);
+          m.coefficients(k, q) = c[static_cast<size_t>(q)];
+        }
+      }
+      m.frames = s.value("frames", 0);
+      m.corners = s.value("corners", 0);
+      m.truth = s.value("truth", std::string());
+    } catch (const nlohmann::json::exception& e) {
+      fail("read_compensation_json: '{}': a sensor entry is malformed ({}; expected name, width, height, e_x, e_y, e_z)",
+           path.string(), e.what());
+    }
+    require(m.width > 0 && m.height > 0, "read_compensation_json: '{}': sensor '{}' has image size {}x{}", path.string(),
+            m.sensor, m.width, m.height);
+    out.push_back(m);
+  }
+  return out;
+}
+
+const ErrorCompensation& compensation_for(const std::vector<ErrorCompensation>& models, const std::string& sensor,
+                                          int width, int height, const std::string& source) {
+  std::string names;
+  for (const ErrorCompensation& m : models) {
+    if (m.sensor == sensor) {
+      require(m.width == width && m.height == height,
+              "compensation '{}' was learned on {}x{} frames but sensor '{}' has {}x{} frames (a model for another "
+              "sensor or resolution; run scan calibrate on this sensor's board frames)",
+              source, m.width, m.height, sensor, width, height);
+      return m;
+    }
+    names += (names.empty() ? "" : ", ") + m.sensor;
+  }
+  fail("compensation '{}' has no model for sensor '{}' (it has {}; run scan calibrate on this sensor's board frames)",
+       source, sensor, names);
+}
+
+}  // namespace socketsmith::scan
