@@ -660,6 +660,12 @@ void run_experiment(const ExperimentFlags& f) {
     rows.push_back({{"sensor", r.sensor}, {"distance_m", r.distance_m}, {"raw", stats_json(r.raw)},
                     {"compensated", stats_json(r.compensated)}});
   j["chessboard"] = rows;
+  j["test_frames_missed"] = cb.test_frames_missed;
+  nlohmann::json cal = nlohmann::json::array();
+  for (const auto& c : cb.calibrations)
+    cal.push_back({{"sensor", c.model.sensor}, {"frames_used", c.observations.size()}, {"skipped", c.skipped.size()},
+                   {"fx_px", c.fx}, {"fy_px", c.fy}, {"corner_rms_mm", {c.rms_before_mm, c.rms_after_mm}}});
+  j["calibration"] = cal;
   std::string table;
   for (const auto& r : cb.rows)
     if (r.distance_m == 0.0)
