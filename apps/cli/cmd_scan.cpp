@@ -105,6 +105,7 @@ struct LimbExperimentFlags {
   double facet_mm = 8.0;
   int smooth = 0;
   double spacing_mm = 2.0;
+  std::string compensation;
   std::string out;
   bool json = false;
 };
@@ -127,6 +128,7 @@ struct RegistrationExperimentFlags {
   double pose_error_deg = 3.0;
   double pose_error_mm = 20.0;
   std::uint64_t pose_seed = 7;
+  std::string compensation;
   std::string out;
   bool json = false;
 };
@@ -324,6 +326,21 @@ void run_reconstruct(const ReconstructFlags& f) {
 }
 
 
+/// The learned models of sensors K1…Kn of a simulated ring rig (scan calibrate / scan experiment
+/// chessboard output), or none when @p path is empty.
+std::vector<scan::ErrorCompensation> ring_compensation(const std::string& path, int sensors,
+                                                       const std::vector<scan::CameraIntrinsics>& intrinsics) {
+  std::vector<scan::ErrorCompensation> out;
+  if (path.empty()) return out;
+  const std::vector<scan::ErrorCompensation> models = scan::read_compensation_json(path);
+  for (int i = 0; i < sensors; ++i) {
+    const scan::CameraIntrinsics k = intrinsics.empty() ? scan::kinect_v2_typical_intrinsics()
+                                                        : intrinsics[intrinsics.size() == 1 ? 0 : static_cast<size_t>(i)];
+    out.push_back(scan::compensation_for(models, fmt::format("K{}", i + 1), k.width, k.height, path));
+  }
+  return out;
+}
+
 nlohmann::json deviation_json(const scan::Deviation& d) {
   return {{"rms_mm", d.rms_m / units::mm}, {"mean_mm", d.mean_m / units::mm},
           {"signed_mean_mm", d.signed_mean_m / units::mm}, {"p95_mm", d.p95_m / units::mm},
@@ -362,6 +379,7 @@ void run_limb_experiment(const LimbExperimentFlags& f) {
   o.reconstruction.max_facet_m = f.facet_mm * units::mm;
   o.reconstruction.smoothing_iterations = f.smooth;
   o.accuracy.sample_spacing_m = f.spacing_mm * units::mm;
+  o.compensation = ring_compensation(f.compensation, f.sensors, o.intrinsics);
   const scan::LimbScanResult r =
       scan::run_limb_scan_experiment(limb, o, f.json ? ProgressCallback{} : console_progress(1.0));
 
@@ -396,6 +414,7 @@ void run_limb_experiment(const LimbExperimentFlags& f) {
   j["seen_original_to_reconstructed"] = deviation_json(a.seen_original_to_reconstructed);
   j["unseen_original_to_reconstructed"] = deviation_json(a.unseen_original_to_reconstructed);
   j["seen_area_fraction"] = a.seen_area_fraction;
+  j["compensation"] = f.compensation.empty() ? std::string("none") : f.compensation;
   j["outputs"] = {(dir / "recording").string(), (dir / "reconstruction.stl").string(),
                   (dir / "original_centred.stl").string(), (dir / "report.json").string()};
   j["timing_s"] = {{"simulate", r.simulate_s}, {"reconstruct", r.reconstruction.total_s}, {"total", elapsed_s(t0)}};
@@ -483,6 +502,7 @@ void run_registration_experiment(const RegistrationExperimentFlags& f) {
   o.pose_error_deg = f.pose_error_deg;
   o.pose_error_m = f.pose_error_mm * units::mm;
   o.pose_seed = f.pose_seed;
+  o.compensation = ring_compensation(f.compensation, f.sensors, o.intrinsics);
   const scan::RegistrationExperimentResult r =
       scan::run_registration_experiment(o, f.json ? ProgressCallback{} : console_progress(1.0));
   const fs::path dir(f.out);
@@ -524,19 +544,31 @@ void run_registration_experiment(const RegistrationExperimentFlags& f) {
   j["pose_errors"] = {{"hand_measured", poses_json(r.measured_pose_errors)},
                       {"sequential", poses_json(r.sequential_pose_errors)},
                       {"multiset", poses_json(r.multiset_pose_errors)}};
-  j["compensation"] = "not applied (no learned compensation model in this build)";
+  if (f.compensation.empty()) {
+    j["compensation"] = "none (pass --compensation from 'scan experiment chessboard' with the same --seed and --calibration)";
+  } else {
+    j["compensation"] = f.compensation;
+    j["multiset_compensated"] = registration_json(r.multiset_compensated);
+    j["at_true_poses_compensated"] = pair_errors_json(r.truth_errors_compensated);
+    j["pose_errors"]["multiset_compensated"] = poses_json(r.multiset_compensated_pose_errors);
+  }
   j["wall_s"] = elapsed_s(t0);
   write_text_atomically(dir / "report.json", j.dump(2) + "\n");
   if (f.json) {
     print_json(j);
     return;
   }
+  const std::string compensated =
+      f.compensation.empty() ? std::string()
+                             : fmt::format("; multi-set + compensation {:.3f}/{:.3f} mm",
+                                           r.multiset_compensated.final.mean_m / units::mm,
+                                           r.multiset_compensated.final.max_m / units::mm);
   log::info("registration on the box ({} reference points): pair error mean/max at the hand-measured poses {:.2f}/{:.2f} "
-            "mm; sequential {:.3f}/{:.3f} mm; multi-set {:.3f}/{:.3f} mm ({} iterations); at the true poses {:.3f}/{:.3f} "
-            "mm; wrote {} in {:.1f} s.",
+            "mm; sequential {:.3f}/{:.3f} mm; multi-set {:.3f}/{:.3f} mm ({} iterations){}; at the true poses "
+            "{:.3f}/{:.3f} mm; wrote {} in {:.1f} s.",
             r.refs.point_names.size(), r.sequential.initial.mean_m / units::mm, r.sequential.initial.max_m / units::mm,
             r.sequential.final.mean_m / units::mm, r.sequential.final.max_m / units::mm,
-            r.multiset.final.mean_m / units::mm, r.multiset.final.max_m / units::mm, r.multiset.iterations,
+            r.multiset.final.mean_m / units::mm, r.multiset.final.max_m / units::mm, r.multiset.iterations, compensated,
             r.truth_errors.mean_m / units::mm, r.truth_errors.max_m / units::mm, f.out, elapsed_s(t0));
 }
 
@@ -786,6 +818,9 @@ void register_scan(CLI::App& app) {
   limb->add_option("--facet-mm", lf->facet_mm, "largest facet of the surface [mm] (default 8)");
   limb->add_option("--smooth", lf->smooth, "Taubin smoothing iterations (default 0)");
   limb->add_option("--spacing-mm", lf->spacing_mm, "sample spacing of the distance measure [mm] (default 2)");
+  limb->add_option("--compensation", lf->compensation,
+                   "learned models of K1..Kn (from 'scan experiment chessboard' or 'scan calibrate' with the same --seed "
+                   "and --calibration), applied by the back-projection");
   limb->add_option("--out", lf->out, "folder for the recording, the surfaces and report.json")->required();
   limb->add_flag("--json", lf->json, "print the report on stdout");
   limb->callback([lf] { run_limb_experiment(*lf); });
@@ -813,6 +848,9 @@ void register_scan(CLI::App& app) {
   xreg->add_option("--pose-error-deg", xf->pose_error_deg, "rotation error of the starting poses [deg] (default 3)");
   xreg->add_option("--pose-error-mm", xf->pose_error_mm, "translation error of the starting poses [mm] (default 20)");
   xreg->add_option("--pose-seed", xf->pose_seed, "seed of the starting pose errors (default 7)");
+  xreg->add_option("--compensation", xf->compensation,
+                   "learned models of K1..Kn (compensation.json of 'scan experiment chessboard' or 'scan calibrate' with "
+                   "the same --seed and --calibration): adds the multi-set + compensation row");
   xreg->add_option("--out", xf->out, "folder for the box recording, the rig files and report.json")->required();
   xreg->add_flag("--json", xf->json, "print the report on stdout");
   xreg->callback([xf] { run_registration_experiment(*xf); });

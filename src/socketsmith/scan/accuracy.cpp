@@ -190,6 +190,11 @@ LimbScanResult run_limb_scan_experiment(const geometry::TriMesh& limb, const Lim
   const auto t0 = Clock::now();
   r.recording = simulate_recording(r.original, r.rig, o.simulation, sub_progress(progress, 0.0, 0.3));
   r.simulate_s = std::chrono::duration<double>(Clock::now() - t0).count();
+  if (!o.compensation.empty()) {
+    require(o.compensation.size() == r.recording.sensors.size(), "limb scan experiment: {} compensation models for {} "
+            "sensors", o.compensation.size(), r.recording.sensors.size());
+    for (size_t s = 0; s < r.recording.sensors.size(); ++s) r.recording.sensors[s].compensation = o.compensation[s];
+  }
   ReconstructionOptions ro = o.reconstruction;
   r.reconstruction = reconstruct_recording(r.recording, ro, sub_progress(progress, 0.3, 0.9));
   report_progress(progress, 0.9, "measuring the surface distance");

@@ -91,6 +91,9 @@ struct LimbScanOptions {
   SimulationOptions simulation;            ///< error model, seed, frames
   ReconstructionOptions reconstruction;
   AccuracyOptions accuracy;                ///< region_top is set from the reconstruction's cut
+  /// Learned error compensation of each unit (same seed and intrinsics as the calibration): empty,
+  /// or one per sensor, applied by the back-projection.
+  std::vector<ErrorCompensation> compensation;
 };
 
 /// One limb scan: the simulated recording, its reconstruction and the accuracy.

@@ -14,6 +14,7 @@
 
 #include "socketsmith/core/atomic_file.h"
 #include "socketsmith/core/errors.h"
+#include "socketsmith/scan/calibration.h"
 
 namespace socketsmith::scan {
 namespace {
@@ -235,6 +236,11 @@ ReferenceSet box_reference_points(const Recording& rec, const std::vector<Eigen:
     for (const auto& uv : boards) {
       Detection d{static_cast<int>(s), corners_to_3d(uv, depth, sr.intrinsics, pattern, o.chessboard.max_depth_jump_m),
                   Vec3::Zero()};
+      // The sensor's learned error compensation, when it has one: (I − ε(u, v, d)) P per corner.
+      if (sr.compensation) {
+        const std::vector<Vec3> fixed = compensated_corners(d.det, &*sr.compensation);
+        for (size_t c = 0; c < fixed.size(); ++c) d.det.corners[c].point = fixed[c];
+      }
       int count = 0;
       for (const auto& c : d.det.corners)
         if (c.has_depth()) {
@@ -367,6 +373,18 @@ RegistrationExperimentResult run_registration_experiment(const RegistrationExper
   r.refs = box_reference_points(r.recording, r.measured, o.detection);
   r.sequential = register_sequential(r.refs, r.measured, o.registration);
   r.multiset = register_multiset(r.refs, r.measured, o.registration);
+  if (!o.compensation.empty()) {
+    require(o.compensation.size() == r.recording.sensors.size(),
+            "registration experiment: {} compensation models for {} sensors", o.compensation.size(),
+            r.recording.sensors.size());
+    Recording compensated = r.recording;
+    for (size_t s = 0; s < compensated.sensors.size(); ++s) compensated.sensors[s].compensation = o.compensation[s];
+    r.refs_compensated = box_reference_points(compensated, r.measured, o.detection);
+    r.multiset_compensated = register_multiset(r.refs_compensated, r.measured, o.registration);
+    r.truth_errors_compensated = pair_errors(r.refs_compensated, r.truth);
+    for (size_t s = 0; s < r.rig.size(); ++s)
+      r.multiset_compensated_pose_errors.push_back(pose_error(r.multiset_compensated.world_from_sensor[s], r.truth[s]));
+  }
   for (size_t s = 0; s < r.rig.size(); ++s) {
     r.measured_pose_errors.push_back(pose_error(r.measured[s], r.truth[s]));
     r.sequential_pose_errors.push_back(pose_error(r.sequential.world_from_sensor[s], r.truth[s]));

@@ -128,6 +128,9 @@ struct RegistrationExperimentOptions {
   std::uint64_t pose_seed = 7;    ///< directions of those errors
   RegistrationOptions registration;
   BoxDetectionOptions detection;
+  /// Learned error compensation of each unit (scan calibrate / scan experiment chessboard with the
+  /// same seed and intrinsics): empty, or one per sensor; adds the "multi-set + compensation" row.
+  std::vector<ErrorCompensation> compensation;
 };
 
 /// The thesis's Table 4 on a simulated session: the box recorded by a ring rig, the rig's poses
@@ -141,6 +144,11 @@ struct RegistrationExperimentResult {
   RegistrationResult sequential, multiset;
   std::vector<PoseError> measured_pose_errors, sequential_pose_errors, multiset_pose_errors;
   PairErrors truth_errors;  ///< pair errors at the true poses: what depth errors alone leave
+  /// With options.compensation: the corners corrected by each unit's model, multi-set again.
+  ReferenceSet refs_compensated;
+  RegistrationResult multiset_compensated;
+  std::vector<PoseError> multiset_compensated_pose_errors;
+  PairErrors truth_errors_compensated;
 };
 RegistrationExperimentResult run_registration_experiment(const RegistrationExperimentOptions& options = {},
                                                          const ProgressCallback& progress = {});
