@@ -3,6 +3,7 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <limits>
 
 #include "cli_common.h"
 #include "socketsmith/contact/donning.h"
@@ -15,6 +16,8 @@
 #include "socketsmith/fe/design_artifacts.h"
 #include "socketsmith/pipeline/design_pipeline.h"
 #include "socketsmith/report/csv.h"
+#include "socketsmith/report/design_report.h"
+#include "socketsmith/report/raster.h"
 #include "socketsmith/report/svg_plot.h"
 #include "socketsmith/report/vtk_writer.h"
 
@@ -294,6 +297,40 @@ void run_validate_design(const DesignFlags& f) {
                        report::make_vector_field("displacement_calculix_m", r.fe_displacement_m),
                        {"socketsmith_" + tag, 1, v_ss}, {"calculix_" + tag, 1, v_fe}, {"error_" + tag, 1, err}});
   }
+  {
+    // Colour maps on the designed skin: socketsmith and CalculiX on one scale, one above the other,
+    // then the absolute error on its own scale (above the brim: no data).
+    geometry::TriMesh def_tri = skin.triangles();
+    for (size_t i = 0; i < skin.nodes.size(); ++i) def_tri.vertices[i] = d.designed_positions[skin.nodes[i]];
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    std::vector<double> v_ss(skin.nodes.size()), v_fe(skin.nodes.size()), v_err(skin.nodes.size());
+    double vmax = 0, emax = 0;
+    for (size_t i = 0; i < skin.nodes.size(); ++i) {
+      const bool in = r.brim_ring[i] >= 1;
+      v_ss[i] = in ? r.socketsmith_value[i] * scale : nan;
+      v_fe[i] = in ? r.fe_value[i] * scale : nan;
+      v_err[i] = in ? std::abs(r.fe_value[i] - r.socketsmith_value[i]) * scale : nan;
+      if (in) {
+        vmax = std::max({vmax, v_ss[i], v_fe[i]});
+        emax = std::max(emax, v_err[i]);
+      }
+    }
+    const auto map = [&](const std::vector<double>& v, const std::string& title, double hi) {
+      report::PressureMapData m;
+      m.surface = &def_tri;
+      m.values = v;
+      m.value_label = unit;
+      m.title = title;
+      m.value_min = 0;
+      m.value_max = std::max(hi, 1e-6);
+      m.frame = report::surface_frame(d.frame);
+      return report::render_pressure_map(m);
+    };
+    const std::string ours = f.against_donning ? "socketsmith donning" : "socketsmith (designed)";
+    report::write_png(out / "comparison_map.png",
+                      report::stack_images({map(v_ss, ours + ": " + what, vmax), map(v_fe, "CalculiX: " + what, vmax),
+                                            map(v_err, "|CalculiX - socketsmith|", emax)}));
+  }
   nlohmann::json j{{"case", f.demo ? std::string("demo") : f.case_file},
                    {"mode", fe::to_string(o.mode)},
                    {"compared", what + " [" + unit + "]"},
@@ -329,7 +366,7 @@ void run_validate_design(const DesignFlags& f) {
                    {"deck", "design_fe.inp"},
                    {"outputs",
                     {"design_fe.inp", "design_fe.frd", "design_fe.dat", "design_fe.log", "comparison.csv", "comparison.svg",
-                     "profile_front.svg", "profile_back.svg", "profile_mid.svg", "scatter.svg", "stump_fe.vtu",
+                     "profile_front.svg", "profile_back.svg", "profile_mid.svg", "scatter.svg", "stump_fe.vtu", "comparison_map.png",
                      "summary.json", "design/"}},
                    {"out", out.string()}};
   write_text_atomically(out / "summary.json", j.dump(2) + "\n");

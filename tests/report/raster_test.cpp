@@ -107,6 +107,17 @@ TEST(Raster,
     EXPECT_EQ(img.at(x, y), kWhite) << x << ", " << y;
 }
 
+TEST(Raster, stack_images_puts_them_one_below_the_other_on_the_background) {
+  const Image a(4, 2, {255, 0, 0}), b(6, 3, {0, 0, 255});
+  const Image s = stack_images({a, b}, {9, 9, 9});
+  ASSERT_EQ(s.width, 6);
+  ASSERT_EQ(s.height, 5);
+  EXPECT_EQ(s.at(3, 1).r, 255);  // a
+  EXPECT_EQ(s.at(5, 1).r, 9);    // right of a: background
+  EXPECT_EQ(s.at(5, 4).b, 255);  // b
+  EXPECT_THROW(stack_images({}), InvalidInputError);
+}
+
 TEST(Raster, near_triangle_hides_far_one_in_either_draw_order) {
   const TriMesh near = triangle(0.1), far = triangle(-0.1);
   for (bool near_first : {true, false}) {

@@ -586,6 +586,24 @@ void draw_colour_bar(Image& img, int x, int y, int w, int h, Colormap colormap, 
   draw_text_clipped(img, x, y - kUnitLabelRows * kScale, unit_label, kInk, kScale, all);
 }
 
+Image stack_images(const std::vector<Image>& images, Rgb background) {
+  require(!images.empty(), "stack_images: no image");
+  int w = 0, h = 0;
+  for (const auto& im : images) {
+    require_consistent(im, "stack_images");
+    w = std::max(w, im.width);
+    h += im.height;
+  }
+  Image out(w, h, background);  // checks the sides
+  int y0 = 0;
+  for (const auto& im : images) {
+    for (int y = 0; y < im.height; ++y)
+      for (int x = 0; x < im.width; ++x) out.at(x, y0 + y) = im.at(x, y);
+    y0 += im.height;
+  }
+  return out;
+}
+
 void write_png(const std::filesystem::path& path, const Image& img) {
   require_consistent(img, "write_png");
   std::string bytes;

@@ -163,6 +163,11 @@ void draw_colour_bar(Image& img, int x, int y, int w, int h, Colormap colormap, 
 ///         1..kMaxImageSide; IoError when the file cannot be written.
 void write_png(const std::filesystem::path& path, const Image& img);
 
+/// The images one below the other, left-aligned on @p background (e.g. two colour maps on the
+/// same scale for a side-by-side comparison).
+/// @throws InvalidInputError when there is no image or the result exceeds kMaxImageSide.
+Image stack_images(const std::vector<Image>& images, Rgb background = {255, 255, 255});
+
 /// Lays out one view per entry of @p views, each @p view_px square, side by side on white:
 /// @p title on top, the view's caption under each, and, when a layer has values, one colour
 /// bar at the right for the first such layer. Every view is centred on the bounding box of all

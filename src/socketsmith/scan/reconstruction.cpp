@@ -218,6 +218,11 @@ ReconstructionResult reconstruct_surface(const PointCloud& input, const Reconstr
   auto largest = std::max_element(parts.begin(), parts.end(),
                                   [](const auto& a, const auto& b) { return a.num_triangles() < b.num_triangles(); });
   mesh = std::move(*largest);
+  // The surface mesher can leave a few tiny holes (a missing triangle or two where its
+  // manifold-with-boundary criterion gave up): close those, never anything larger.
+  geometry::RepairOptions ro;
+  ro.max_hole_edges = 12;
+  const geometry::RepairReport repaired = geometry::repair_surface(mesh, ro);
   if (geometry::signed_volume(mesh) < 0.0) geometry::flip_orientation(mesh);
 
   if (o.cut_proximal) {
@@ -241,7 +246,10 @@ ReconstructionResult reconstruct_surface(const PointCloud& input, const Reconstr
                         r.check.problems().empty() ? std::string("unknown") : r.check.problems().front());
   r.mesh = std::move(mesh);
   r.total_s = seconds_since(t0);
-  r.message = fmt::format("{} triangles, {} boundary loop(s)", r.check.num_triangles, r.check.boundary_loops);
+  r.message = fmt::format("{} triangles, {} boundary loop(s){}", r.check.num_triangles, r.check.boundary_loops,
+                          repaired.filled_holes > 0
+                              ? fmt::format(" ({} small hole(s) of the Poisson mesh closed)", repaired.filled_holes)
+                              : std::string());
   report_progress(progress, 1.0, "reconstruction done");
   return r;
 }
