@@ -89,23 +89,36 @@ struct ReconstructFlags {
   bool json = false;
 };
 
-struct LimbExperimentFlags {
-  std::string mesh;
-  std::string units;
-  std::string generated;
-  std::uint64_t limb_seed = 1;
+/// The simulated session of an experiment: the ring's sensors and their error model.
+struct SessionFlags {
   int sensors = 4;
-  double radius_mm = 750;
-  double height_mm = 0;
   std::uint64_t seed = 1;
   double noise_scale = 1.0;
   int frames = 1;
   std::string calibration;
+  std::string compensation;
+};
+
+void add_session_flags(CLI::App& cmd, SessionFlags& f, const std::string& compensation_help) {
+  cmd.add_option("--sensors", f.sensors, "number of sensors on the ring (default 4)");
+  cmd.add_option("--seed", f.seed, "seed of the error model (default 1)");
+  cmd.add_option("--noise-scale", f.noise_scale, "scale of every error term (0: noise free; default 1)");
+  cmd.add_option("--frames", f.frames, "frames per sensor (default 1)");
+  cmd.add_option("--calibration", f.calibration, "iai_kinect2 calibration folder(s), as for scan simulate");
+  cmd.add_option("--compensation", f.compensation, compensation_help);
+}
+
+struct LimbExperimentFlags : SessionFlags {
+  std::string mesh;
+  std::string units;
+  std::string generated;
+  std::uint64_t limb_seed = 1;
+  double radius_mm = 750;
+  double height_mm = 0;
   double grid_mm = 2.5;
   double facet_mm = 8.0;
   int smooth = 0;
   double spacing_mm = 2.0;
-  std::string compensation;
   std::string out;
   bool json = false;
 };
@@ -118,17 +131,11 @@ struct RegisterFlags {
   bool json = false;
 };
 
-struct RegistrationExperimentFlags {
-  int sensors = 4;
-  std::uint64_t seed = 1;
-  double noise_scale = 1.0;
-  int frames = 1;
-  std::string calibration;
+struct RegistrationExperimentFlags : SessionFlags {
   double box_yaw_deg = 45.0;
   double pose_error_deg = 3.0;
   double pose_error_mm = 20.0;
   std::uint64_t pose_seed = 7;
-  std::string compensation;
   std::string out;
   bool json = false;
 };
@@ -807,20 +814,15 @@ void register_scan(CLI::App& app) {
   limb->add_option("--units", lf->units, "units of --mesh: mm | m (default: guessed)");
   limb->add_option("--generated", lf->generated, "use the generated limb's skin: transtibial | transfemoral");
   limb->add_option("--limb-seed", lf->limb_seed, "seed of the generated limb (default 1)");
-  limb->add_option("--sensors", lf->sensors, "number of sensors on the ring (default 4)");
+  add_session_flags(*limb, *lf,
+                    "learned models of K1..Kn (from 'scan experiment chessboard' or 'scan calibrate' with the same "
+                    "--seed and --calibration), applied by the back-projection");
   limb->add_option("--radius-mm", lf->radius_mm, "ring radius [mm] (default 750)");
   limb->add_option("--height-mm", lf->height_mm, "sensor height above the limb's centre [mm] (default 0)");
-  limb->add_option("--seed", lf->seed, "seed of the error model (default 1)");
-  limb->add_option("--noise-scale", lf->noise_scale, "scale of every error term (0: noise free; default 1)");
-  limb->add_option("--frames", lf->frames, "frames per sensor (default 1)");
-  limb->add_option("--calibration", lf->calibration, "iai_kinect2 calibration folder(s), as for scan simulate");
   limb->add_option("--grid-mm", lf->grid_mm, "voxel-grid simplification before Poisson [mm] (default 2.5)");
   limb->add_option("--facet-mm", lf->facet_mm, "largest facet of the surface [mm] (default 8)");
   limb->add_option("--smooth", lf->smooth, "Taubin smoothing iterations (default 0)");
   limb->add_option("--spacing-mm", lf->spacing_mm, "sample spacing of the distance measure [mm] (default 2)");
-  limb->add_option("--compensation", lf->compensation,
-                   "learned models of K1..Kn (from 'scan experiment chessboard' or 'scan calibrate' with the same --seed "
-                   "and --calibration), applied by the back-projection");
   limb->add_option("--out", lf->out, "folder for the recording, the surfaces and report.json")->required();
   limb->add_flag("--json", lf->json, "print the report on stdout");
   limb->callback([lf] { run_limb_experiment(*lf); });
@@ -839,18 +841,13 @@ void register_scan(CLI::App& app) {
   auto xf = std::make_shared<RegistrationExperimentFlags>();
   auto* xreg = exp->add_subcommand(
       "registration", "Table 4: sequential vs multi-set registration on a simulated box session from perturbed poses");
-  xreg->add_option("--sensors", xf->sensors, "sensors on the ring (default 4)");
-  xreg->add_option("--seed", xf->seed, "seed of the error model (default 1)");
-  xreg->add_option("--noise-scale", xf->noise_scale, "scale of every error term (0: noise free; default 1)");
-  xreg->add_option("--frames", xf->frames, "frames per sensor (default 1)");
-  xreg->add_option("--calibration", xf->calibration, "iai_kinect2 calibration folder(s), as for scan simulate");
+  add_session_flags(*xreg, *xf,
+                    "learned models of K1..Kn (compensation.json of 'scan experiment chessboard' or 'scan calibrate' "
+                    "with the same --seed and --calibration): adds the multi-set + compensation row");
   xreg->add_option("--box-yaw-deg", xf->box_yaw_deg, "turn of the box about the vertical [deg] (default 45)");
   xreg->add_option("--pose-error-deg", xf->pose_error_deg, "rotation error of the starting poses [deg] (default 3)");
   xreg->add_option("--pose-error-mm", xf->pose_error_mm, "translation error of the starting poses [mm] (default 20)");
   xreg->add_option("--pose-seed", xf->pose_seed, "seed of the starting pose errors (default 7)");
-  xreg->add_option("--compensation", xf->compensation,
-                   "learned models of K1..Kn (compensation.json of 'scan experiment chessboard' or 'scan calibrate' with "
-                   "the same --seed and --calibration): adds the multi-set + compensation row");
   xreg->add_option("--out", xf->out, "folder for the box recording, the rig files and report.json")->required();
   xreg->add_flag("--json", xf->json, "print the report on stdout");
   xreg->callback([xf] { run_registration_experiment(*xf); });

@@ -60,14 +60,7 @@ TEST(RealFrames, tum_frame_at_5000_units_per_metre_back_projects_to_room_depths)
 
 TEST(RealFrames, bad_loose_frame_input_gives_one_line_messages) {
   const auto dir = test::temp_dir("real_frames_bad");
-  auto message = [](auto&& fn) -> std::string {
-    try {
-      fn();
-    } catch (const Error& e) {
-      return e.what();
-    }
-    return "no error";
-  };
+  const auto message = [](auto&& fn) { return test::error_message(fn); };
   cv::imwrite((dir / "eight_bit.png").string(), cv::Mat(424, 512, CV_8UC1, cv::Scalar(100)));
   cv::imwrite((dir / "depth16.png").string(), cv::Mat(424, 512, CV_16UC1, cv::Scalar(800)));
   write_intrinsics_json(dir / "intrinsics.json", kinect_v2_typical_intrinsics());

@@ -9,7 +9,9 @@
 #include <string>
 #include <vector>
 
+#include "socketsmith/core/errors.h"
 #include "socketsmith/geometry/tri_mesh.h"
+#include "socketsmith/scan/experiments.h"
 #include "socketsmith/scan/intrinsics.h"
 
 namespace socketsmith::scan::test {
@@ -29,6 +31,17 @@ inline std::vector<CameraIntrinsics> rig_intrinsics() {
   return k;
 }
 
+/// What @p fn throws as a socketsmith::Error, or "no error".
+template <class Fn>
+std::string error_message(Fn&& fn) {
+  try {
+    fn();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
 /// A fresh folder under the build tree for one test.
 inline std::filesystem::path temp_dir(const std::string& name) {
   const auto dir = std::filesystem::path(SOCKETSMITH_BINARY_DIR) / "test_tmp" / "scan" / name;
@@ -44,25 +57,8 @@ struct RadialError {
   int count = 0;
 };
 inline RadialError cylinder_radial_error(const geometry::TriMesh& mesh, double radius_m, double half_band_m) {
-  RadialError e;
-  double sum2 = 0.0, sum = 0.0;
-  std::vector<Vec3> samples = mesh.vertices;
-  for (const auto& t : mesh.triangles)
-    samples.push_back((mesh.vertices[static_cast<size_t>(t[0])] + mesh.vertices[static_cast<size_t>(t[1])] +
-                       mesh.vertices[static_cast<size_t>(t[2])]) / 3.0);
-  for (const auto& v : samples) {
-    if (std::abs(v.z()) > half_band_m) continue;
-    const double d = std::hypot(v.x(), v.y()) - radius_m;
-    sum2 += d * d;
-    sum += d;
-    e.max_m = std::max(e.max_m, std::abs(d));
-    ++e.count;
-  }
-  if (e.count > 0) {
-    e.rms_m = std::sqrt(sum2 / e.count);
-    e.mean_m = sum / e.count;
-  }
-  return e;
+  const SurfaceError e = cylinder_error(mesh, radius_m, half_band_m);  // scan/experiments.h, in mm
+  return {e.rmse_mm * 1e-3, e.max_mm * 1e-3, e.mean_mm * 1e-3, e.count};
 }
 
 }  // namespace socketsmith::scan::test

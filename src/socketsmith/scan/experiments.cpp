@@ -39,6 +39,14 @@ SurfaceError cylinder_error(const std::vector<Eigen::Vector3d>& points, double r
   return e;
 }
 
+SurfaceError cylinder_error(const geometry::TriMesh& mesh, double radius_m, double half_band_m) {
+  std::vector<Eigen::Vector3d> samples = mesh.vertices;
+  for (const auto& t : mesh.triangles)
+    samples.push_back((mesh.vertices[static_cast<size_t>(t[0])] + mesh.vertices[static_cast<size_t>(t[1])] +
+                       mesh.vertices[static_cast<size_t>(t[2])]) / 3.0);
+  return cylinder_error(samples, radius_m, half_band_m);
+}
+
 ChessboardExperiment run_chessboard_experiment(const ExperimentOptions& o, const ProgressCallback& progress) {
   require(o.sensors >= 1 && o.sensors <= 8, "chessboard experiment: {} sensors (expected 1 to 8)", o.sensors);
   require(o.test_frames_per_distance >= 1 && o.test_frames_per_distance <= 30,
@@ -128,11 +136,7 @@ CylinderExperiment run_cylinder_experiment(const ChessboardExperiment& cb, const
       (c == 0 ? row.cloud_raw : row.cloud_compensated) = cylinder_error(cloud.points, dia / 2, band_m / 2);
       if (meshes) {
         const ReconstructionResult r = reconstruct_recording(rec, ro);
-        std::vector<Eigen::Vector3d> samples = r.mesh.vertices;
-        for (const auto& t : r.mesh.triangles)
-          samples.push_back((r.mesh.vertices[static_cast<size_t>(t[0])] + r.mesh.vertices[static_cast<size_t>(t[1])] +
-                             r.mesh.vertices[static_cast<size_t>(t[2])]) / 3.0);
-        (c == 0 ? row.mesh_raw : row.mesh_compensated) = cylinder_error(samples, dia / 2, band_m / 2);
+        (c == 0 ? row.mesh_raw : row.mesh_compensated) = cylinder_error(r.mesh, dia / 2, band_m / 2);
         report_progress(progress, double(++step) / steps,
                         fmt::format("cylinder {:.0f} mm: reconstructed {}", dia * 1e3, c == 0 ? "raw" : "compensated"));
       }

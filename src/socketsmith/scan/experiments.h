@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "socketsmith/core/progress.h"
+#include "socketsmith/geometry/tri_mesh.h"
 #include "socketsmith/scan/calibration.h"
 #include "socketsmith/scan/simulated_sensor.h"
 
@@ -73,5 +74,8 @@ CylinderExperiment run_cylinder_experiment(const ChessboardExperiment& chessboar
 
 /// Radial error of @p points against the z-axis cylinder of @p radius_m within |z| ≤ half_band_m.
 SurfaceError cylinder_error(const std::vector<Eigen::Vector3d>& points, double radius_m, double half_band_m);
+/// The same for a surface, sampled at its vertices and its triangles' centroids (so that coarse
+/// facets count too).
+SurfaceError cylinder_error(const geometry::TriMesh& mesh, double radius_m, double half_band_m);
 
 }  // namespace socketsmith::scan
