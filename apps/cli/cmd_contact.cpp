@@ -305,7 +305,7 @@ void register_contact(CLI::App& app) {
   don->add_option("--penalty-factor", f->penalty_factor,
                   "contact penalty k = factor · E / h (default 20: 15 kPa penetrates ~45 µm at E = 100 kPa, h = 6 mm)");
   don->add_option("--reuse-cg", f->reuse_cg,
-                  "CG iterations on the last factorisation before refactorising (default 12; 0: always factorise)")
+                  "CG iterations on the last factorisation before refactorising (default 0: always factorise)")
       ->check(CLI::Range(0, 1000));
   don->add_flag("--no-stand", f->no_stand, "stop at the designed pose (no half-body-weight load)");
   don->add_option("--out", f->out, "output directory")->required();

@@ -4,6 +4,7 @@
 // ones below the brim.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 
@@ -23,6 +24,20 @@ class Donning : public ::testing::Test {
     c_ = pipeline::demo_case(1800);
     pipeline::run_design(c_, fs::path(SOCKETSMITH_BINARY_DIR) / "tests" / "donning_design", true, {}, &art_);
   }
+  /// The designed socket from @p offset_m below in @p steps, then standing with M g / 2.
+  static DonningOptions standing_path(int steps, double offset_m) {
+    DonningOptions o;
+    o.steps = steps;
+    o.start_offset_m = offset_m;
+    o.friction = c_.patient.friction;
+    o.stand_force_n = 0.5 * c_.patient.body_mass_kg * units::kGravity;
+    return o;
+  }
+  static DonningResult don(const DonningOptions& o) {
+    const auto& solver = *art_.setup->solver;
+    return simulate_donning(solver.model(), solver.skin().nodes, solver.skin().area_m2, art_.result.socket->solid,
+                            art_.setup->model.frame, o);
+  }
   static design::CaseFile c_;
   static pipeline::DesignArtifacts art_;
 };
@@ -30,17 +45,11 @@ design::CaseFile Donning::c_;
 pipeline::DesignArtifacts Donning::art_;
 
 TEST_F(Donning, the_designed_socket_reproduces_the_designed_pressures_on_its_own_stump) {
-  const auto& c = c_;
   const auto& art = art_;
   ASSERT_TRUE(art.result.socket.has_value()) << "the demo design must meet its constraints";
   const auto& solver = *art.setup->solver;
-  DonningOptions o;
-  o.steps = 20;
-  o.start_offset_m = 0.06;
-  o.friction = c.patient.friction;
-  o.stand_force_n = 0.5 * c.patient.body_mass_kg * units::kGravity;
-  const auto r = simulate_donning(solver.model(), solver.skin().nodes, solver.skin().area_m2,
-                                  art.result.socket->solid, art.setup->model.frame, o);
+  const DonningOptions o = standing_path(20, 0.06);
+  const auto r = don(o);
   ASSERT_TRUE(r.completed) << r.message;
   ASSERT_TRUE(r.stood) << r.message;
   ASSERT_EQ(r.series.size(), 21u);
@@ -71,6 +80,42 @@ TEST_F(Donning, the_designed_socket_reproduces_the_designed_pressures_on_its_own
   EXPECT_GT(a.r, 0.6);
   EXPECT_LT(a.mae, 0.35 * a.mean_b);
   EXPECT_NEAR(a.mean_a, a.mean_b, 0.25 * a.mean_b);
+}
+
+// The fast path (minimising line search, friction lag refreshed inside Newton, the standing push
+// started from its bracket's interpolation) must land on the solution of the reference path
+// (halving line search, lag refreshed only between Newton solves, last solution as the start).
+TEST_F(Donning, the_fast_newton_path_reaches_the_same_state_as_the_reference_path) {
+  ASSERT_TRUE(art_.result.socket.has_value());
+  const DonningOptions o = standing_path(11, 0.033);
+  DonningOptions ref = o;
+  ref.contact.exact_line_search = false;
+  ref.contact.friction_in_newton = false;
+  ref.contact.interpolate_bracket = false;
+  const auto a = don(o), b = don(ref);
+  ASSERT_TRUE(a.completed && a.stood) << a.message;
+  ASSERT_TRUE(b.completed && b.stood) << b.message;
+  ASSERT_EQ(a.series.size(), b.series.size());
+  for (size_t k = 0; k < a.series.size(); ++k) {
+    EXPECT_NEAR(a.series[k].axial_force_n, b.series[k].axial_force_n, 5e-3 * b.series[k].axial_force_n + 1e-3)
+        << "step " << k;
+    EXPECT_NEAR(a.series[k].contact_nodes, b.series[k].contact_nodes, 0.02 * b.series[k].contact_nodes + 1)
+        << "step " << k;
+  }
+  EXPECT_NEAR(a.final_offset_m, b.final_offset_m, 1e-5);
+  double pmax = 0, dmax = 0, dsum = 0, psum = 0;
+  for (size_t i = 0; i < a.contacts.size(); ++i) {
+    const double pa = a.contacts[i].pressure_pa, pb = b.contacts[i].pressure_pa;
+    pmax = std::max(pmax, pb);
+    psum += pb;
+    dmax = std::max(dmax, std::abs(pa - pb));
+    dsum += std::abs(pa - pb);
+  }
+  ASSERT_GT(pmax, 0.0);
+  EXPECT_LT(dmax, 0.05 * pmax) << "largest nodal pressure difference";
+  EXPECT_LT(dsum, 0.01 * psum) << "mean nodal pressure difference";
+  // The point of the fast path: fewer Newton iterations for the same state.
+  EXPECT_LT(a.newton_iterations, b.newton_iterations);
 }
 
 TEST_F(Donning, rejects_a_socket_that_grips_at_the_start_and_bad_options) {

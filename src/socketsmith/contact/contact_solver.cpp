@@ -17,6 +17,8 @@ namespace socketsmith::contact {
 using tissue::SparseMatrix;
 using tissue::VectorXd;
 
+constexpr double kRelagResidual = 100.0;  // friction lag refreshed in Newton once ‖r‖ ≤ this × tol
+
 struct ContactSolver::Impl {
   const tissue::MassSpringModel& model;
   const tissue::DofMap& dofs;
@@ -41,6 +43,8 @@ struct ContactSolver::Impl {
   std::vector<Vec3> conv_n, lag_n;      // wall normal at the last converged step / friction lag
   double force_floor = 1e-3;            // [N] scale of the residual tolerance when forces are small
   SparseMatrix K0;         // linear body: reduced stiffness at rest
+  SparseMatrix K0c;        // K₀ with every candidate node's 3×3 block in its pattern
+  std::vector<Eigen::Index> block_at;  // per candidate node, entry (a, b) at 9 i + 3 b + a: index in K0c's values, −1 fixed
   Eigen::CholmodSupernodalLLT<SparseMatrix> llt;
   Eigen::Index analysed_nnz = -1;
   bool factor_valid = false;
@@ -50,19 +54,20 @@ struct ContactSolver::Impl {
        Obstacle& o, const ContactOptions& op)
       : model(m), dofs(d), nodes(std::move(n)), areas(std::move(a)), obstacle(o), opt(op) {}
 
-  /// Residual (reduced), the incremental potential Π (when the body has an energy) and, when @p K
-  /// is given, the tangent K = −∂r/∂x = ∇²Π (reduced) at x. Friction uses the lagged normal forces
+  /// Residual (reduced), the incremental potential Π (when the body has an energy) and, when
+  /// @p blocks is given, each candidate node's 3×3 contact and friction stiffness (tangent()
+  /// assembles K = −∂r/∂x = ∇²Π from them). Linear body: @p Ku, when given, is K₀ u at xs (a line
+  /// search knows it as K₀u + a K₀δ without a product). Friction uses the lagged normal forces
   /// and normals (lag_fn, lag_n): with them fixed, the step is the minimum of a convex potential
   /// (elastic energy + ½ k A g² for each penetration + a Huber slip potential per node), so Newton
   /// with a line search on Π converges from any start.
   VectorXd evaluate(const VectorXd& xs, const Vec3& t, std::vector<NodeContact>& st, std::vector<Vec3>& trial_hist,
-                    SparseMatrix* K, double* energy) {
+                    std::vector<Eigen::Matrix3d>* blocks, double* energy, const VectorXd* Ku = nullptr) {
     obstacle.set_translation(t);
     const bool conservative = opt.linear_body || model.has_energy();
     VectorXd f_full = opt.linear_body ? VectorXd::Zero(xs.size()) : model.elastic_forces(xs);
     double pi = 0.0;
-    std::vector<Eigen::Triplet<double>> trip;
-    const auto& ri = dofs.reduced_index();
+    if (blocks) blocks->assign(nodes.size(), Eigen::Matrix3d::Zero());
     st.assign(nodes.size(), NodeContact{});
     trial_hist.assign(nodes.size(), Vec3::Zero());
     // Gaps, in parallel. A node whose last query found it in the cavity with a clearance larger
@@ -129,46 +134,51 @@ struct ContactSolver::Impl {
       }
       if (f.squaredNorm() == 0.0 && B.isZero()) continue;
       f_full.segment<3>(3 * nd) += f;
-      if (K) {
-        for (int a = 0; a < 3; ++a)
-          for (int b = 0; b < 3; ++b) {
-            const int ra = ri[3 * nd + a], rb = ri[3 * nd + b];
-            if (ra >= 0 && rb >= 0 && B(a, b) != 0.0) trip.emplace_back(ra, rb, B(a, b));
-          }
-      }
+      if (blocks) (*blocks)[i] = B;
     }
     VectorXd r = dofs.restrict_vector(f_full);
     if (opt.linear_body) {
       const VectorXd u = dofs.restrict_vector(xs - model.rest_positions());
-      const VectorXd Ku = K0 * u;
-      r -= Ku;
-      pi += 0.5 * u.dot(Ku);
+      const VectorXd K0u = Ku ? *Ku : VectorXd(K0 * u);
+      r -= K0u;
+      pi += 0.5 * u.dot(K0u);
     } else if (conservative) {
       pi += model.energy(xs);
     }
     if (energy) *energy = conservative ? pi : std::numeric_limits<double>::quiet_NaN();
-    if (K) {
-      // Every candidate node's 3×3 block is in the pattern (explicit zeros where it is not in
-      // contact), so the tangent's pattern never changes and CHOLMOD orders it once.
-      for (const int nd : nodes)
-        for (int a = 0; a < 3; ++a)
-          for (int b = 0; b < 3; ++b) {
-            const int ra = ri[3 * nd + a], rb = ri[3 * nd + b];
-            if (ra >= 0 && rb >= 0) trip.emplace_back(ra, rb, 0.0);
-          }
-      SparseMatrix C(dofs.num_reduced(), dofs.num_reduced());
-      C.setFromTriplets(trip.begin(), trip.end());
-      if (opt.linear_body) {
-        *K = K0 + C;
-      } else {
-        SparseMatrix J, Kel;
-        model.jacobian(xs, tissue::JacobianKind::Exact, J);
-        dofs.reduce_matrix(J, Kel);
-        *K = -Kel + C;
-      }
-      K->makeCompressed();
-    }
     return r;
+  }
+
+  /// The tangent K = K_body + Σ the candidate nodes' 3×3 @p blocks (reduced). Every candidate
+  /// node's block is in the pattern (explicit zeros where it is not in contact), so the pattern
+  /// never changes and CHOLMOD orders it once. Linear body: K₀'s values are copied into that fixed
+  /// pattern and the blocks added in place (block_at: where each block entry lives).
+  void tangent(const VectorXd& xs, const std::vector<Eigen::Matrix3d>& blocks, SparseMatrix& K) {
+    const auto& ri = dofs.reduced_index();
+    if (opt.linear_body) {
+      if (K.nonZeros() != K0c.nonZeros()) K = K0c;
+      std::copy(K0c.valuePtr(), K0c.valuePtr() + K0c.nonZeros(), K.valuePtr());
+      double* v = K.valuePtr();
+      for (size_t i = 0; i < nodes.size(); ++i)
+        for (int a = 0; a < 3; ++a)
+          for (int b = 0; b < 3; ++b)
+            if (block_at[9 * i + 3 * b + a] >= 0) v[block_at[9 * i + 3 * b + a]] += blocks[i](a, b);
+      return;
+    }
+    std::vector<Eigen::Triplet<double>> trip;
+    for (size_t i = 0; i < nodes.size(); ++i)
+      for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b) {
+          const int ra = ri[3 * nodes[i] + a], rb = ri[3 * nodes[i] + b];
+          if (ra >= 0 && rb >= 0) trip.emplace_back(ra, rb, blocks[i](a, b));
+        }
+    SparseMatrix C(dofs.num_reduced(), dofs.num_reduced());
+    C.setFromTriplets(trip.begin(), trip.end());
+    SparseMatrix J, Kel;
+    model.jacobian(xs, tissue::JacobianKind::Exact, J);
+    dofs.reduce_matrix(J, Kel);
+    K = -Kel + C;
+    K.makeCompressed();
   }
 
   /// Gap against the wall. A node in contact at the last converged step keeps a wider acceptance
@@ -218,15 +228,135 @@ struct ContactSolver::Impl {
     return opt.kink_rel_tol / opt.rel_tol * tolerance(st);
   }
 
+  /// Largest change of the normal forces of @p st from the friction lag, / the largest of them.
+  double lag_change(const std::vector<NodeContact>& st) const {
+    double change = 0, fmax = 0;
+    for (size_t i = 0; i < st.size(); ++i) {
+      change = std::max(change, std::abs(st[i].normal_force_n - lag_fn[i]));
+      fmax = std::max(fmax, st[i].normal_force_n);
+    }
+    return fmax > 0 ? change / fmax : (change > 0 ? 1.0 : 0.0);
+  }
+  void update_lag(const std::vector<NodeContact>& st) {
+    for (size_t i = 0; i < st.size(); ++i) {
+      lag_fn[i] = st[i].normal_force_n;
+      if (st[i].active) lag_n[i] = st[i].normal;
+    }
+  }
+
+  /// A trial point x + a·delta of the line search, with its residual, potential and slope.
+  struct Trial {
+    VectorXd x, r;
+    double pi = 0, rn = 0;
+    double slope = 0;  // dΠ/da = −r(x + a·delta)·delta
+    std::vector<NodeContact> st;
+    std::vector<Vec3> th;
+    std::vector<Eigen::Matrix3d> B;
+  };
+  /// Linear body: K₀u at the line search's start and K₀δ (then K₀u at x + a·δ = Ku0 + a·Kd).
+  VectorXd Ku0, Kd;
+  bool try_step(const VectorXd& xs, const Vec3& t, const VectorXd& delta, double a, Trial& tr) {
+    tr.x = xs;
+    dofs.add_expanded(a * delta, tr.x);
+    if (!opt.linear_body && model.min_corner_jacobian(tr.x) <= 0) return false;
+    VectorXd Ku;
+    if (opt.linear_body) Ku = Ku0 + a * Kd;
+    tr.r = evaluate(tr.x, t, tr.st, tr.th, &tr.B, &tr.pi, opt.linear_body ? &Ku : nullptr);
+    tr.rn = tr.r.norm();
+    tr.slope = -tr.r.dot(delta);
+    return std::isfinite(tr.rn);
+  }
+
+  /// Line search along the Newton direction @p delta from xs (residual r, potential pi); on
+  /// success moves xs and its state to the accepted point and returns true.
+  ///
+  /// With a potential Π the search first tries the full step; when Π still decreases there
+  /// (Armijo) and its slope has fallen to at most half the initial one (curvature), it is taken.
+  /// Otherwise, when Π turns upwards before the full step (the usual case: a node crossed an
+  /// edge of the faceted wall, where the quadratic model ends), the minimum of Π along delta is
+  /// bracketed and found by regula falsi on the slope Π'(a) = −r(x + a·delta)·delta — each trial
+  /// costs a residual (gap queries and K₀u), not a factorisation. Backtracking (halving; Armijo
+  /// on Π, else on ‖r‖) is the fall-back. Near convergence Π's decrease drowns in round-off: a
+  /// step that lowers ‖r‖ is then accepted too.
+  bool line_search(VectorXd& xs, const Vec3& t, const VectorXd& delta, VectorXd& r, double& rn, double& pi,
+                   std::vector<NodeContact>& st, std::vector<Vec3>& th, std::vector<Eigen::Matrix3d>& B,
+                   bool conservative, double& step) {
+    const double slope0 = -r.dot(delta);
+    if (opt.linear_body) {
+      Ku0 = K0 * dofs.restrict_vector(xs - model.rest_positions());
+      Kd = K0 * delta;
+    }
+    const auto sufficient = [&](const Trial& tr, double a) {
+      return conservative ? (tr.pi <= pi + 1e-4 * a * slope0 ||
+                             (std::abs(tr.pi - pi) <= 1e-12 * std::max(std::abs(pi), 1e-30) && tr.rn < rn))
+                          : tr.rn < (1 - 1e-4 * a) * rn;
+    };
+    const auto take = [&](Trial& tr, double a) {
+      xs = std::move(tr.x);
+      r = std::move(tr.r);
+      rn = tr.rn;
+      pi = tr.pi;
+      st = std::move(tr.st);
+      th = std::move(tr.th);
+      B = std::move(tr.B);
+      step = a;
+      return true;
+    };
+    Trial tr;
+    if (conservative && opt.exact_line_search && slope0 < 0 && try_step(xs, t, delta, 1.0, tr)) {
+      if (sufficient(tr, 1.0) && tr.slope <= 0.5 * std::abs(slope0)) return take(tr, 1.0);
+      if (tr.slope > 0) {
+        // Π'(0) < 0 < Π'(1): a minimum in between. Illinois regula falsi on Π'.
+        double lo = 0, s_lo = slope0, hi = 1, s_hi = tr.slope;
+        int side = 0;
+        Trial best;
+        double a_best = -1;
+        for (int trial = 0; trial < 12; ++trial) {
+          double a = lo - s_lo * (hi - lo) / (s_hi - s_lo);
+          a = std::clamp(a, lo + 0.02 * (hi - lo), hi - 0.02 * (hi - lo));
+          Trial tm;
+          if (!try_step(xs, t, delta, a, tm)) break;
+          const bool ok = sufficient(tm, a);
+          if (ok && std::abs(tm.slope) <= opt.line_search_slope * std::abs(slope0)) return take(tm, a);
+          if (tm.slope < 0) {
+            lo = a;
+            s_lo = tm.slope;
+            if (side == -1) s_hi *= 0.5;
+            side = -1;
+          } else {
+            hi = a;
+            s_hi = tm.slope;
+            if (side == 1) s_lo *= 0.5;
+            side = 1;
+          }
+          if (ok && (a_best < 0 || tm.pi < best.pi)) {
+            best = std::move(tm);
+            a_best = a;
+          }
+        }
+        if (a_best > 0) return take(best, a_best);
+      }
+    }
+    // Backtracking.
+    double a = 1.0;
+    for (int ls = 0; ls < 30; ++ls, a *= 0.5) {
+      if (!try_step(xs, t, delta, a, tr)) continue;
+      if (sufficient(tr, a)) return take(tr, a);
+    }
+    return false;
+  }
+
   /// Newton on the equilibrium at translation t with the friction lag fixed; updates xs.
   bool newton(VectorXd& xs, const Vec3& t, std::vector<NodeContact>& st, std::vector<Vec3>& th, int& iterations,
               double& rn, bool& at_kink) {
     at_kink = false;
     tissue::limit_solver_threads();
     SparseMatrix K;
+    std::vector<Eigen::Matrix3d> B;
     std::vector<double> pi_history;
     double pi = 0;
-    VectorXd r = evaluate(xs, t, st, th, &K, &pi);
+    VectorXd r = evaluate(xs, t, st, th, &B, &pi);
+    tangent(xs, B, K);
     rn = r.norm();
     const bool conservative = std::isfinite(pi);
     for (int it = 0; it <= opt.max_newton; ++it) {
@@ -264,36 +394,8 @@ struct ContactSolver::Impl {
         delta = lu.solve(r);
       }
       ++iterations;
-      // Backtracking: Armijo on the potential Π when there is one (∇Π = −r, so the slope along
-      // delta is −rᵀdelta < 0), else on ‖r‖. Near convergence Π's decrease drowns in round-off:
-      // a step that lowers ‖r‖ is then accepted too.
-      const double slope = -r.dot(delta);
-      double step = 1.0;
-      bool accepted = false;
-      for (int ls = 0; ls < 30; ++ls, step *= 0.5) {
-        VectorXd xt = xs;
-        dofs.add_expanded(step * delta, xt);
-        if (!opt.linear_body && model.min_corner_jacobian(xt) <= 0) continue;
-        std::vector<NodeContact> st2;
-        std::vector<Vec3> th2;
-        double pi2 = 0;
-        VectorXd r2 = evaluate(xt, t, st2, th2, nullptr, &pi2);
-        const double rn2 = r2.norm();
-        const bool ok = conservative
-                            ? (pi2 <= pi + 1e-4 * step * slope ||
-                               (std::abs(pi2 - pi) <= 1e-12 * std::max(std::abs(pi), 1e-30) && rn2 < rn))
-                            : rn2 < (1 - 1e-4 * step) * rn;
-        if (ok) {
-          xs = std::move(xt);
-          r = std::move(r2);
-          rn = rn2;
-          pi = pi2;
-          st = std::move(st2);
-          th = std::move(th2);
-          accepted = true;
-          break;
-        }
-      }
+      double step = 0;
+      const bool accepted = line_search(xs, t, delta, r, rn, pi, st, th, B, conservative, step);
       if (!accepted) {
         log::debug("contact: line search failed at Newton {} (residual {:.3g} N)", it, rn);
         at_kink = rn <= kink_tolerance(st);
@@ -302,6 +404,7 @@ struct ContactSolver::Impl {
       // A node on a kink of the wall (an edge or vertex where the closest face switches) has no
       // point of zero residual: Newton then crawls with tiny steps while Π stops decreasing. Its
       // residual is bounded by the force jump across the kink; accept it when it is small.
+      log::debug("contact: step {:.3g} of the Newton step", step);
       pi_history.push_back(pi);
       const double moved = step * delta.cwiseAbs().maxCoeff();
       const size_t nh = pi_history.size();
@@ -311,11 +414,22 @@ struct ContactSolver::Impl {
         at_kink = true;
         return true;
       }
-      if (rn > tolerance(st)) {
-        std::vector<NodeContact> st3;
-        std::vector<Vec3> th3;
-        evaluate(xs, t, st3, th3, &K, nullptr);
+      // Friction lag inside Newton: near convergence, when the normal forces have moved away from
+      // the lag by more than the friction-pass tolerance, take them as the new lag now (the
+      // potential changes, so its history restarts) instead of only after this Newton solve has
+      // converged. Refreshing it far from convergence (any residual) doubled the iterations.
+      bool relagged = false;
+      if (opt.friction > 0 && opt.friction_in_newton && rn <= kRelagResidual * tolerance(st) &&
+          lag_change(st) > opt.friction_lag_tol) {
+        update_lag(st);
+        pi_history.clear();
+        relagged = true;
       }
+      if (relagged) {
+        r = evaluate(xs, t, st, th, &B, &pi);
+        rn = r.norm();
+      }
+      if (rn > tolerance(st)) tangent(xs, B, K);
     }
     return false;
   }
@@ -359,18 +473,10 @@ struct ContactSolver::Impl {
       ok = newton(xs, t, st, th, out.newton_iterations, rn, kink);
       out.at_kink = kink;
       if (!ok || opt.friction == 0) break;
-      double change = 0, fmax = 0;
-      for (size_t i = 0; i < st.size(); ++i) {
-        change = std::max(change, std::abs(st[i].normal_force_n - lag_fn[i]));
-        fmax = std::max(fmax, st[i].normal_force_n);
-      }
-      out.friction_lag_change = fmax > 0 ? change / fmax : 0.0;
-      if (change <= opt.friction_lag_tol * std::max(fmax, 1e-12)) break;
+      out.friction_lag_change = lag_change(st);
+      if (out.friction_lag_change <= opt.friction_lag_tol) break;
       if (pass + 1 == opt.max_friction_passes) break;  // keep the lag of the solved pass
-      for (size_t i = 0; i < st.size(); ++i) {
-        lag_fn[i] = st[i].normal_force_n;
-        if (st[i].active) lag_n[i] = st[i].normal;
-      }
+      update_lag(st);
     }
     out.converged = ok;
     out.residual_n = rn;
@@ -416,6 +522,19 @@ struct ContactSolver::Impl {
                                 out.newton_iterations, rn);
     }
     return out;
+  }
+
+  /// Starts the next solve at translation t from @p guess instead of the last solution when its
+  /// potential there is lower (same friction lag as solve() starts with).
+  void warm_start(const VectorXd& guess, const Vec3& t) {
+    lag_fn = conv_fn;
+    lag_n = conv_n;
+    std::vector<NodeContact> s1, s2;
+    std::vector<Vec3> h1, h2;
+    double p0 = 0, p1 = 0;
+    const VectorXd r0 = evaluate(x, t, s1, h1, nullptr, &p0);
+    const VectorXd r1 = evaluate(guess, t, s2, h2, nullptr, &p1);
+    if (std::isfinite(p0) ? p1 < p0 : r1.norm() < r0.norm()) x = guess;
   }
 
   /// solve(t), and when it fails, path continuation: reach t through 2, 4, … 64 equal sub-steps
@@ -478,6 +597,27 @@ ContactSolver::ContactSolver(const tissue::MassSpringModel& model, const tissue:
     s.K0 *= -1.0;
     s.K0 = 0.5 * (SparseMatrix(s.K0.transpose()) + s.K0);
     s.K0.makeCompressed();
+    // The tangent's fixed pattern: K₀ plus every candidate node's 3×3 block.
+    const auto& ri = dofs.reduced_index();
+    std::vector<Eigen::Triplet<double>> trip;
+    for (const int nd : s.nodes)
+      for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b)
+          if (ri[3 * nd + a] >= 0 && ri[3 * nd + b] >= 0) trip.emplace_back(ri[3 * nd + a], ri[3 * nd + b], 0.0);
+    SparseMatrix Z(s.K0.rows(), s.K0.cols());
+    Z.setFromTriplets(trip.begin(), trip.end());
+    s.K0c = s.K0 + Z;
+    s.K0c.makeCompressed();
+    s.block_at.assign(9 * s.nodes.size(), -1);
+    for (size_t i = 0; i < s.nodes.size(); ++i)
+      for (int b = 0; b < 3; ++b) {
+        const int col = ri[3 * s.nodes[i] + b];
+        if (col < 0) continue;
+        for (Eigen::Index q = s.K0c.outerIndexPtr()[col]; q < s.K0c.outerIndexPtr()[col + 1]; ++q)
+          for (int a = 0; a < 3; ++a)
+            if (s.K0c.innerIndexPtr()[q] == ri[3 * s.nodes[i] + a] && ri[3 * s.nodes[i] + a] >= 0)
+              s.block_at[9 * i + 3 * b + a] = q;
+      }
   }
 }
 
@@ -496,6 +636,9 @@ ContactStep ContactSolver::push_with_force(const Vec3& direction, double force_n
   require<SolverError>(cur.converged, "contact: {}", cur.message);
   double s_lo = 0, r_lo = reaction(cur), s_hi = 0, r_hi = 0;
   bool bracket = r_lo >= force_n;
+  // The solutions at the bracket's ends: the solve inside it starts from their interpolation
+  // (the reaction and the tissue follow the socket's position nearly linearly over one step).
+  VectorXd x_lo = s.x, x_hi = s.x;
   if (bracket) {
     s_hi = 0;
     r_hi = r_lo;
@@ -504,9 +647,11 @@ ContactStep ContactSolver::push_with_force(const Vec3& direction, double force_n
       cur = s.solve_path(base + s_lo * d, false);
       require<SolverError>(cur.converged, "contact: {}", cur.message);
       r_lo = reaction(cur);
+      x_lo = s.x;
       if (r_lo < force_n) break;
       s_hi = s_lo;
       r_hi = r_lo;
+      x_hi = x_lo;
       s_lo -= max_step_m;
     }
   } else {
@@ -516,6 +661,7 @@ ContactStep ContactSolver::push_with_force(const Vec3& direction, double force_n
       double step = max_step_m;
       if (stiff > 0) step = std::clamp((force_n - r_lo) / stiff * 1.2, 1e-6, max_step_m);
       const double s_new = s_lo + step;
+      x_lo = s.x;
       cur = s.solve_path(base + s_new * d, true);
       require<SolverError>(cur.converged, "contact: while pushing with {:.1f} N: {}", force_n, cur.message);
       const double r_new = reaction(cur);
@@ -523,6 +669,7 @@ ContactStep ContactSolver::push_with_force(const Vec3& direction, double force_n
       if (r_new >= force_n) {
         s_hi = s_new;
         r_hi = r_new;
+        x_hi = s.x;
         bracket = true;
       } else {
         s_lo = s_new;
@@ -536,6 +683,10 @@ ContactStep ContactSolver::push_with_force(const Vec3& direction, double force_n
   int side = 0;
   for (int k = 0; k < 60; ++k) {
     const double sm = (r_hi - r_lo) > 0 ? s_lo + (force_n - r_lo) * (s_hi - s_lo) / (r_hi - r_lo) : 0.5 * (s_lo + s_hi);
+    if (s.opt.interpolate_bracket && s_hi > s_lo) {
+      const double w = (sm - s_lo) / (s_hi - s_lo);
+      s.warm_start((1 - w) * x_lo + w * x_hi, base + sm * d);
+    }
     cur = s.solve_path(base + sm * d, false);
     require<SolverError>(cur.converged, "contact: {}", cur.message);
     const double rm = reaction(cur);
@@ -546,11 +697,13 @@ ContactStep ContactSolver::push_with_force(const Vec3& direction, double force_n
     if (rm < force_n) {
       s_lo = sm;
       r_lo = rm;
+      x_lo = s.x;
       if (side == -1) r_hi = force_n + 0.5 * (r_hi - force_n);
       side = -1;
     } else {
       s_hi = sm;
       r_hi = rm;
+      x_hi = s.x;
       if (side == 1) r_lo = force_n + 0.5 * (r_lo - force_n);
       side = 1;
     }

@@ -42,6 +42,10 @@ struct ContactOptions {
   /// max_friction_passes times.
   int max_friction_passes = 6;
   double friction_lag_tol = 0.01;
+  /// Also refresh the friction lag inside Newton: once the residual is within 100× the tolerance
+  /// and the normal forces have moved from the lag by more than friction_lag_tol, they become the
+  /// lag at once, instead of only after a converged Newton solve (false: the earlier passes).
+  bool friction_in_newton = true;
   /// A node resting on a kink of the socket wall (an edge or vertex of its triangles where the
   /// closest face switches) has no position of zero residual; Newton then crawls. When its steps
   /// have become shorter than kink_step_tol_m (or the potential has stopped decreasing), a residual
@@ -51,6 +55,14 @@ struct ContactOptions {
   /// Linear body: Newton's linear systems are solved by CG preconditioned with the last
   /// factorisation of the tangent, refactorised only when CG needs more than this many iterations.
   int max_reuse_cg = 12;
+  /// Line search: when Π turns upwards before the full Newton step, find its minimum along the
+  /// step (regula falsi on the slope, until |Π'| ≤ line_search_slope · |Π'(0)|) instead of halving
+  /// the step until Π decreases enough (false: halving only, the earlier behaviour).
+  bool exact_line_search = true;
+  double line_search_slope = 0.1;  ///< (0, 1)
+  /// push_with_force: start each solve inside the bracket from the interpolation of the solutions
+  /// at its ends (false: from the last solution).
+  bool interpolate_bracket = true;
 };
 
 /// Contact state of one candidate node.
