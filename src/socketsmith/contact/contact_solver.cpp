@@ -31,6 +31,8 @@ struct ContactSolver::Impl {
   Vec3 t_conv = Vec3::Zero(), t_prev = Vec3::Zero();
   bool have_prev = false;
   std::vector<Vec3> hist;  // tangential spring force of the last converged step (opposes slip)
+  Vec3 last_t = Vec3::Zero();     // translation of the last converged solve (committed or not)
+  std::vector<Vec3> last_hist;    // its tangential spring forces (hist once committed)
   std::vector<NodeContact> state;
   std::vector<char> was_active;  // active at the last converged step
   struct QueryCache {
@@ -502,26 +504,32 @@ struct ContactSolver::Impl {
                                 out.at_kink ? fmt::format(", residual {:.3g} N left at a kink of the wall", rn) : "");
       x = xs;
       state = st;
-      if (commit) {
-        if ((t - t_conv).squaredNorm() > 0) {
-          x_prev = x_conv;
-          t_prev = t_conv;
-          have_prev = true;
-        }
-        x_conv = xs;
-        t_conv = t;
-        hist = th;
-        for (size_t i = 0; i < st.size(); ++i) {
-          was_active[i] = st[i].active ? 1 : 0;
-          conv_fn[i] = st[i].normal_force_n;
-          if (st[i].active) conv_n[i] = st[i].normal;
-        }
-      }
+      last_t = t;
+      last_hist = std::move(th);
+      if (commit) commit_last();
     } else {
       out.message = fmt::format("contact solve did not converge after {} Newton iterations (residual {:.3g} N)",
                                 out.newton_iterations, rn);
     }
     return out;
+  }
+
+  /// Makes the last converged solve (x, state at last_t) the converged step: the friction
+  /// history, the lag and the predictor's states move on to it.
+  void commit_last() {
+    if ((last_t - t_conv).squaredNorm() > 0) {
+      x_prev = x_conv;
+      t_prev = t_conv;
+      have_prev = true;
+    }
+    x_conv = x;
+    t_conv = last_t;
+    hist = last_hist;
+    for (size_t i = 0; i < state.size(); ++i) {
+      was_active[i] = state[i].active ? 1 : 0;
+      conv_fn[i] = state[i].normal_force_n;
+      if (state[i].active) conv_n[i] = state[i].normal;
+    }
   }
 
   /// Starts the next solve at translation t from @p guess instead of the last solution when its
@@ -691,7 +699,8 @@ ContactStep ContactSolver::push_with_force(const Vec3& direction, double force_n
     require<SolverError>(cur.converged, "contact: {}", cur.message);
     const double rm = reaction(cur);
     if (std::abs(rm - force_n) <= rel_tol * std::max(force_n, 1e-3)) {
-      cur = s.solve_path(base + sm * d, true);
+      // The solve that reached the force is the step: commit it rather than solve it again.
+      s.commit_last();
       return cur;
     }
     if (rm < force_n) {

@@ -53,7 +53,8 @@ struct ContactOptions {
   double kink_rel_tol = 2e-3;
   double kink_step_tol_m = 1e-6;
   /// Linear body: Newton's linear systems are solved by CG preconditioned with the last
-  /// factorisation of the tangent, refactorised only when CG needs more than this many iterations.
+  /// factorisation of the tangent, refactorised only when CG needs more than this many iterations
+  /// (0: factorise every Newton iteration, what the donning does: DonningOptions).
   int max_reuse_cg = 12;
   /// Line search: when Π turns upwards before the full Newton step, find its minimum along the
   /// step (regula falsi on the slope, until |Π'| ≤ line_search_slope · |Π'(0)|) instead of halving
