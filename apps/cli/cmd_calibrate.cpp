@@ -20,6 +20,11 @@ struct CalibrateFlags {
   bool fixed_springs = false;
   int divisions = 2;
   double max_c = 0;
+  double min_beta = 0;
+  bool no_shear_check = false;
+  std::string keep_linearisation;
+  double shear_compression_kpa = 7.5;
+  double shear_kpa = 1.5;
 };
 
 nlohmann::json candidate_json(const tissue::CalibrationCandidate& c) {
@@ -33,6 +38,13 @@ nlohmann::json candidate_json(const tissue::CalibrationCandidate& c) {
           {"max_volume_error_to_40pct", c.errors.max_volume_error},
           {"unstable_before_60pct", c.errors.unstable},
           {"first_unstable_strain", std::isinf(c.errors.first_unstable_strain) ? nlohmann::json() : nlohmann::json(c.errors.first_unstable_strain)},
+          {"sheared_cube",
+           c.shear_checked ? nlohmann::json{{"carried", c.sheared.converged},
+                                            {"load_fraction", c.sheared.load_fraction},
+                                            {"top_sink_ratio", c.sheared.top_sink_ratio},
+                                            {"top_shift_ratio", c.sheared.top_shift_ratio},
+                                            {"message", c.sheared.message}}
+                           : nlohmann::json()},
           {"objective", c.objective}};
 }
 
@@ -44,6 +56,14 @@ void run(const CalibrateFlags& f) {
   o.seed = f.seed;
   o.fit_spring_modulus_ratio = !f.fixed_springs;
   if (f.max_c > 0) o.max_c = f.max_c;
+  if (f.min_beta > 0) o.min_beta = f.min_beta;
+  o.shear_check = !f.no_shear_check;
+  if (!f.keep_linearisation.empty()) {
+    o.keep_linearisation_of = tissue::CorrectiveSpringConstants::preset(f.keep_linearisation);
+    o.min_beta = std::max(o.min_beta, 1.05);
+  }
+  o.sheared.compression_pa = 1e3 * f.shear_compression_kpa;
+  o.sheared.shear_pa = 1e3 * f.shear_kpa;
   if (f.law == "symmetric") o.laws = {tissue::CorrectiveLaw::Symmetric};
   if (f.law == "compression-only") o.laws = {tissue::CorrectiveLaw::CompressionOnly};
   log::info("calibrating MSS-CS constants on the cube ({}^3 elements, {} start(s) x {} evaluations per law)",
@@ -54,6 +74,10 @@ void run(const CalibrateFlags& f) {
   j["seed"] = f.seed;
   j["evaluations"] = r.evaluations;
   j["targets"] = {{"displacement_error", o.target_displacement_error}, {"volume_error", o.target_volume_error}};
+  j["sheared_cube"] = o.shear_check ? nlohmann::json{{"divisions", o.sheared.divisions},
+                                                     {"compression_kpa", f.shear_compression_kpa},
+                                                     {"shear_kpa", f.shear_kpa}}
+                                    : nlohmann::json();
   j["thesis"] = candidate_json(r.thesis);
   j["best"] = candidate_json(r.best);
   for (const auto& c : r.per_law) j["per_law"].push_back(candidate_json(c));
@@ -81,13 +105,27 @@ void register_calibrate(CLI::App& app) {
   cube->add_option("--law", flags->law, "corrective law to fit: symmetric | compression-only | both")
       ->check(CLI::IsMember({"symmetric", "compression-only", "both"}));
   cube->add_option("--evaluations", flags->evaluations, "objective evaluations per start")->check(CLI::Range(10, 100000));
-  cube->add_option("--starts", flags->starts, "starting points per law (the thesis's constants first)")
+  cube->add_option("--starts", flags->starts, "starting points per law: the thesis, recommended and cube-fit constants, then random ones")
       ->check(CLI::Range(1, 1000));
   cube->add_option("--seed", flags->seed, "random seed of the extra starting points");
   cube->add_flag("--thesis-springs", flags->fixed_springs, "keep the Golec springs at E (fit A, alpha, C, beta only)");
   cube->add_option("--divisions", flags->divisions, "elements per cube edge")->check(CLI::Range(1, 20));
   cube->add_option("--max-c", flags->max_c, "upper bound of the corrective constant C (default 2000)")
       ->check(CLI::PositiveNumber);
+  cube->add_option("--min-beta", flags->min_beta,
+                   "lower bound of the corrective exponent beta (default 0.5; >= 2.5 keeps the corrective springs "
+                   "negligible at small strain, where the linearised design model must hold)")
+      ->check(CLI::Range(0.5, 4.0));
+  cube->add_option("--keep-linearisation", flags->keep_linearisation,
+                   "keep A and the spring modulus ratio of this preset (fit alpha, C, beta only): the linearised model, "
+                   "and every linear design, stays the same")
+      ->check(CLI::IsMember({"thesis", "recommended", "cube-fit"}));
+  cube->add_flag("--no-shear-check", flags->no_shear_check,
+                 "do not require the constants to carry the sheared cube (base held, compression + shear on the top)");
+  cube->add_option("--shear-compression-kpa", flags->shear_compression_kpa, "sheared cube: compression on the top [kPa]")
+      ->check(CLI::NonNegativeNumber);
+  cube->add_option("--shear-kpa", flags->shear_kpa, "sheared cube: shear traction on the top [kPa]")
+      ->check(CLI::NonNegativeNumber);
   cube->callback([flags] { run(*flags); });
 }
 

@@ -6,6 +6,7 @@
 
 #include "socketsmith/core/errors.h"
 #include "socketsmith/tissue/calibration.h"
+#include "socketsmith/volume/box_mesher.h"
 
 namespace socketsmith::tissue {
 namespace {
@@ -107,10 +108,63 @@ TEST(Calibration, improves_on_the_thesis_constants_from_their_own_starting_point
   o.laws = {CorrectiveLaw::CompressionOnly};
   o.starts = 1;
   o.max_evaluations = 120;
+  o.shear_check = false;  // tested below; keeps this test short
   const auto r = calibrate_corrective_springs(o);
   EXPECT_LT(r.best.objective, r.thesis.objective);
   EXPECT_LT(r.best.errors.max_displacement_error, r.thesis.errors.max_displacement_error);
   EXPECT_GT(r.evaluations, 10);
+}
+
+TEST(Calibration, the_sheared_cube_requirement_rejects_constants_that_collapse_under_it) {
+  CalibrationOptions o;
+  o.shear_check = false;
+  const auto free = evaluate_constants(o, CorrectiveSpringConstants::cube_fit());
+  EXPECT_FALSE(free.shear_checked);
+  o.shear_check = true;
+  o.sheared.compression_pa = 5e3;  // carried
+  o.sheared.shear_pa = 1e3;
+  const auto carried = evaluate_constants(o, CorrectiveSpringConstants::cube_fit());
+  ASSERT_TRUE(carried.shear_checked);
+  EXPECT_TRUE(carried.sheared.converged) << carried.sheared.message;
+  EXPECT_DOUBLE_EQ(carried.objective, free.objective);
+  o.sheared.compression_pa = 10e3;  // collapses at ≈ 75 % of it
+  o.sheared.shear_pa = 2e3;
+  const auto collapsed = evaluate_constants(o, CorrectiveSpringConstants::cube_fit());
+  ASSERT_TRUE(collapsed.shear_checked);
+  EXPECT_FALSE(collapsed.sheared.converged);
+  EXPECT_GT(collapsed.objective, free.objective + 10.0);
+}
+
+TEST(Calibration, keeping_the_linearisation_leaves_the_tangent_at_rest_unchanged) {
+  CalibrationOptions o;
+  o.laws = {CorrectiveLaw::CompressionOnly};
+  o.starts = 1;
+  o.max_evaluations = 20;
+  o.shear_check = false;
+  o.min_beta = 1.05;
+  o.keep_linearisation_of = CorrectiveSpringConstants::recommended();
+  const auto r = calibrate_corrective_springs(o);
+  const auto& k = r.per_law.at(0).constants;
+  EXPECT_DOUBLE_EQ(k.golec_a, o.keep_linearisation_of->golec_a);
+  EXPECT_DOUBLE_EQ(k.spring_modulus_ratio, o.keep_linearisation_of->spring_modulus_ratio);
+  EXPECT_NE(k.alpha, o.keep_linearisation_of->alpha);  // the corrective springs were fitted
+  // The tangents at rest of the two models agree (the corrective springs add none there).
+  const volume::HexMesh mesh = [] {
+    volume::BoxMeshOptions b;
+    b.size = volume::Vec3::Constant(0.02);
+    b.divisions = {2, 2, 2};
+    return volume::mesh_box(b);
+  }();
+  MassSpringOptions a, b;
+  a.corrective = *o.keep_linearisation_of;
+  b.corrective = k;
+  const MassSpringModel ma(mesh, {50e3, 1060}, a), mb(mesh, {50e3, 1060}, b);
+  SparseMatrix ja, jb;
+  ma.jacobian(ma.rest_positions(), JacobianKind::Exact, ja);
+  mb.jacobian(mb.rest_positions(), JacobianKind::Exact, jb);
+  EXPECT_LT((Eigen::MatrixXd(ja) - Eigen::MatrixXd(jb)).norm(), 1e-9 * Eigen::MatrixXd(ja).norm());
+  o.min_beta = 0.5;
+  EXPECT_THROW(calibrate_corrective_springs(o), InvalidInputError);
 }
 
 }  // namespace

@@ -79,4 +79,34 @@ struct CubeErrors {
 CubeErrors cube_errors(const CubeExperimentResult& result, double displacement_strain_limit = 0.6,
                        double volume_strain_limit = 0.4);
 
+/// The sheared cube: a cube of edge L on a base held fixed, its top loaded by a uniform traction
+/// of compression p_z and shear p_x (nodal forces from tributary areas), solved from rest. Unlike
+/// the frictionless cube it exercises lattice shear with the base constrained (elements near the
+/// base compressed in volume), where MSS-CS constants that fit the frictionless cube can lose
+/// stability (docs/VALIDATION.md).
+struct ShearedCubeOptions {
+  double edge_m = 0.05;                   ///< L [m], > 0
+  int divisions = 4;                      ///< elements per edge, ≥ 1
+  TissueMaterial material{50e3, 1060.0};
+  double compression_pa = 5e3;            ///< p_z, downward on the top [Pa], ≥ 0
+  double shear_pa = 1e3;                  ///< p_x, along +x on the top [Pa], ≥ 0
+  MassSpringOptions model;
+  StaticSolverOptions solver;
+};
+
+struct ShearedCubeResult {
+  bool converged = false;
+  std::string message;          ///< the solver's message (why it stopped)
+  int load_steps = 0;           ///< load-continuation steps (0: direct Newton converged)
+  int newton_iterations = 0;
+  double load_fraction = 0;     ///< fraction of the load the returned state balances [-]
+  bool residual_within_tolerance = false;  ///< the returned state is an equilibrium (checked independently)
+  double min_corner_jacobian = 1;  ///< smallest scaled corner Jacobian of the returned state (≤ 0: inverted)
+  double top_sink_ratio = 0;    ///< mean downward displacement of the top / L [-]
+  double top_shift_ratio = 0;   ///< mean +x displacement of the top / L [-]
+};
+
+/// Solves the sheared cube. Throws nothing for a model that cannot carry the load (converged = false).
+ShearedCubeResult run_sheared_cube(const ShearedCubeOptions& options);
+
 }  // namespace socketsmith::tissue
