@@ -38,6 +38,7 @@ struct SimulateFlags {
   double height_mm = 0;
   std::uint64_t seed = 1;
   double noise_scale = 1.0;
+  double systematic_scale = 1.0;
   int frames = 1;
   double min_distance_mm = 550;
   double max_distance_mm = 1000;
@@ -54,6 +55,8 @@ struct CalibrateFlags {
   std::string truth = "pnp";
   int upsample = 2;
   int min_frames = 5;
+  std::string corner_depth = "bilinear";
+  std::string model = "linear";
   bool json = false;
 };
 
@@ -65,6 +68,10 @@ struct ExperimentFlags {
   int frames = 50;
   int test_frames = 5;
   double noise_scale = 1.0;
+  double systematic_scale = 1.0;
+  std::string calibration;
+  std::string corner_depth = "bilinear";
+  std::string model = "linear";
   std::string truth = "pnp";
   bool no_mesh = false;
   bool json = false;
@@ -94,15 +101,32 @@ struct SessionFlags {
   int sensors = 4;
   std::uint64_t seed = 1;
   double noise_scale = 1.0;
+  double systematic_scale = 1.0;
   int frames = 1;
   std::string calibration;
   std::string compensation;
 };
 
+constexpr const char* kSystematicScaleHelp =
+    "scale of the systematic error terms only (bias, unit offsets, wiggling, radial bias, lateral scale errors), on top "
+    "of --noise-scale (default 1; 0: random errors only)";
+
+/// The simulated units' error model of --noise-scale and --systematic-scale.
+scan::SensorErrorModel error_model(double noise_scale, double systematic_scale, const char* cmd) {
+  require(std::isfinite(noise_scale) && noise_scale >= 0.0,
+          "{}: --noise-scale {} must be >= 0 (0: noise free, 1: default Kinect v2 errors)", cmd, noise_scale);
+  require(std::isfinite(systematic_scale) && systematic_scale >= 0.0,
+          "{}: --systematic-scale {} must be >= 0 (0: random errors only)", cmd, systematic_scale);
+  scan::SensorErrorModel m = scan::scale_systematic_errors(scan::SensorErrorModel{}, systematic_scale);
+  m.scale = noise_scale;
+  return m;
+}
+
 void add_session_flags(CLI::App& cmd, SessionFlags& f, const std::string& compensation_help) {
   cmd.add_option("--sensors", f.sensors, "number of sensors on the ring (default 4)");
   cmd.add_option("--seed", f.seed, "seed of the error model (default 1)");
   cmd.add_option("--noise-scale", f.noise_scale, "scale of every error term (0: noise free; default 1)");
+  cmd.add_option("--systematic-scale", f.systematic_scale, kSystematicScaleHelp);
   cmd.add_option("--frames", f.frames, "frames per sensor (default 1)");
   cmd.add_option("--calibration", f.calibration, "iai_kinect2 calibration folder(s), as for scan simulate");
   cmd.add_option("--compensation", f.compensation, compensation_help);
@@ -128,10 +152,12 @@ struct RegisterFlags {
   std::string out;
   bool sequential = false;
   int upsample = 2;
+  std::string corner_depth = "plane";
   bool json = false;
 };
 
 struct RegistrationExperimentFlags : SessionFlags {
+  std::string corner_depth = "plane";
   double box_yaw_deg = 45.0;
   double pose_error_deg = 3.0;
   double pose_error_mm = 20.0;
@@ -173,8 +199,7 @@ void run_simulate(const SimulateFlags& f) {
           scenes);
   require(f.sensors >= 1 && f.sensors <= 32, "scan simulate: --sensors {} is out of range (expected 1 to 32)",
           f.sensors);
-  require(std::isfinite(f.noise_scale) && f.noise_scale >= 0.0,
-          "scan simulate: --noise-scale {} must be >= 0 (0: noise free, 1: default Kinect v2 errors)", f.noise_scale);
+  const scan::SensorErrorModel error = error_model(f.noise_scale, f.systematic_scale, "scan simulate");
   scan::Scene scene;
   std::string what;
   if (!f.mesh.empty()) {
@@ -206,7 +231,7 @@ void run_simulate(const SimulateFlags& f) {
   scan::SimulationOptions so;
   so.seed = f.seed;
   so.frames = f.frames;
-  so.error.scale = f.noise_scale;
+  so.error = error;
   const auto progress = f.json ? ProgressCallback{} : console_progress(1.0);
   scan::Recording rec;
   if (f.chessboard) {
@@ -358,9 +383,7 @@ void run_limb_experiment(const LimbExperimentFlags& f) {
   const auto t0 = std::chrono::steady_clock::now();
   require(f.mesh.empty() != f.generated.empty(),
           "scan experiment limb: give exactly one limb: --mesh FILE or --generated transtibial|transfemoral");
-  require(std::isfinite(f.noise_scale) && f.noise_scale >= 0.0,
-          "scan experiment limb: --noise-scale {} must be >= 0 (0: noise free, 1: default Kinect v2 errors)",
-          f.noise_scale);
+  const scan::SensorErrorModel error = error_model(f.noise_scale, f.systematic_scale, "scan experiment limb");
   geometry::TriMesh limb;
   std::string what;
   if (!f.mesh.empty()) {
@@ -381,7 +404,7 @@ void run_limb_experiment(const LimbExperimentFlags& f) {
   o.intrinsics = rig_intrinsics(f.calibration, f.sensors);
   o.simulation.seed = f.seed;
   o.simulation.frames = f.frames;
-  o.simulation.error.scale = f.noise_scale;
+  o.simulation.error = error;
   o.reconstruction.grid_cell_m = f.grid_mm * units::mm;
   o.reconstruction.max_facet_m = f.facet_mm * units::mm;
   o.reconstruction.smoothing_iterations = f.smooth;
@@ -450,6 +473,26 @@ nlohmann::json registration_json(const scan::RegistrationResult& r) {
           {"initial", pair_errors_json(r.initial)}, {"final", pair_errors_json(r.final)}};
 }
 
+scan::CompensationForm parse_model(const std::string& name, const char* cmd) {
+  if (name == "linear") return scan::CompensationForm::LinearUvd;
+  if (name == "ray-poly") return scan::CompensationForm::RayPolynomial;
+  fail("{}: --model '{}' is not known (expected linear or ray-poly)", cmd, name);
+}
+
+constexpr const char* kModelHelp =
+    "error model learned: linear (the thesis: rates linear in u, v, d, default) | ray-poly (depth along the ray "
+    "corrected by a polynomial in the ray's x, y and d, lateral rates linear in x, y, d)";
+
+scan::CornerDepth parse_corner_depth(const std::string& name, const char* cmd) {
+  if (name == "plane") return scan::CornerDepth::LocalPlane;
+  if (name == "bilinear") return scan::CornerDepth::Bilinear;
+  fail("{}: --corner-depth '{}' is not known (expected plane or bilinear)", cmd, name);
+}
+
+constexpr const char* kCornerDepthHelp =
+    "depth at each chessboard corner: plane (a robust local plane fit of the pixels within 6 px, default) | bilinear "
+    "(the thesis: its 4 neighbouring pixels)";
+
 void run_register(const RegisterFlags& f) {
   const auto t0 = std::chrono::steady_clock::now();
   const auto progress = f.json ? ProgressCallback{} : console_progress(1.0);
@@ -460,6 +503,7 @@ void run_register(const RegisterFlags& f) {
   report_progress(progress, 0.2, "finding the chessboard corners");
   scan::BoxDetectionOptions bo;
   bo.chessboard.upsample = f.upsample;
+  bo.chessboard.corner_depth = parse_corner_depth(f.corner_depth, "scan register");
   const scan::ReferenceSet refs = scan::box_reference_points(rec, start, bo);
   report_progress(progress, 0.8, "registering");
   const scan::RegistrationResult r =
@@ -497,18 +541,17 @@ void run_register(const RegisterFlags& f) {
 
 void run_registration_experiment(const RegistrationExperimentFlags& f) {
   const auto t0 = std::chrono::steady_clock::now();
-  require(std::isfinite(f.noise_scale) && f.noise_scale >= 0.0,
-          "scan experiment registration: --noise-scale {} must be >= 0", f.noise_scale);
   scan::RegistrationExperimentOptions o;
+  o.simulation.error = error_model(f.noise_scale, f.systematic_scale, "scan experiment registration");
   o.sensors = f.sensors;
   o.intrinsics = rig_intrinsics(f.calibration, f.sensors);
   o.simulation.seed = f.seed;
   o.simulation.frames = f.frames;
-  o.simulation.error.scale = f.noise_scale;
   o.box_yaw_deg = f.box_yaw_deg;
   o.pose_error_deg = f.pose_error_deg;
   o.pose_error_m = f.pose_error_mm * units::mm;
   o.pose_seed = f.pose_seed;
+  o.detection.chessboard.corner_depth = parse_corner_depth(f.corner_depth, "scan experiment registration");
   o.compensation = ring_compensation(f.compensation, f.sensors, o.intrinsics);
   const scan::RegistrationExperimentResult r =
       scan::run_registration_experiment(o, f.json ? ProgressCallback{} : console_progress(1.0));
@@ -544,6 +587,16 @@ void run_registration_experiment(const RegistrationExperimentFlags& f) {
   j["observations"] = r.refs.observations.size();
   j["measured"] = "Table 4: distances between the world positions two sensors give one chessboard corner, over every "
                   "pair of sensors sharing a corner; pose errors against the poses the frames were rendered with";
+  j["corner_depth"] = f.corner_depth;
+  auto accuracy_json = [](const std::vector<scan::ReferenceAccuracy>& acc) {
+    nlohmann::json a = nlohmann::json::array();
+    for (const auto& e : acc)
+      a.push_back({{"name", e.sensor}, {"points", e.points}, {"along_ray_mean_mm", e.along_mean_m / units::mm},
+                   {"along_ray_rms_mm", e.along_rms_m / units::mm}, {"across_ray_rms_mm", e.across_rms_m / units::mm},
+                   {"rms_mm", e.rms_m / units::mm}});
+    return a;
+  };
+  j["reference_point_errors"] = accuracy_json(r.accuracy);
   j["at_hand_measured_poses"] = pair_errors_json(r.sequential.initial);
   j["at_true_poses"] = pair_errors_json(r.truth_errors);
   j["sequential"] = registration_json(r.sequential);
@@ -557,6 +610,7 @@ void run_registration_experiment(const RegistrationExperimentFlags& f) {
     j["compensation"] = f.compensation;
     j["multiset_compensated"] = registration_json(r.multiset_compensated);
     j["at_true_poses_compensated"] = pair_errors_json(r.truth_errors_compensated);
+    j["reference_point_errors_compensated"] = accuracy_json(r.accuracy_compensated);
     j["pose_errors"]["multiset_compensated"] = poses_json(r.multiset_compensated_pose_errors);
   }
   j["wall_s"] = elapsed_s(t0);
@@ -613,6 +667,8 @@ void run_calibrate(const CalibrateFlags& f) {
   scan::CalibrationOptions o;
   o.truth = parse_truth(f.truth, "scan calibrate");
   o.chessboard.upsample = f.upsample;
+  o.chessboard.corner_depth = parse_corner_depth(f.corner_depth, "scan calibrate");
+  o.form = parse_model(f.model, "scan calibrate");
   o.min_frames = f.min_frames;
   const auto progress = f.json ? ProgressCallback{} : console_progress(1.0);
   std::vector<scan::ErrorCompensation> models;
@@ -635,10 +691,7 @@ void run_calibrate(const CalibrateFlags& f) {
     e["fy_px"] = r.fy;
     e["corner_rms_mm"] = {{"before", r.rms_before_mm}, {"after", r.rms_after_mm}};
     e["dimension_error_mm"] = {{"before", before.stats().mean_mm}, {"after", after.stats().mean_mm}};
-    const auto& c = r.model.coefficients;
-    e["e_x"] = {c(0, 0), c(0, 1), c(0, 2), c(0, 3)};
-    e["e_y"] = {c(1, 0), c(1, 1), c(1, 2), c(1, 3)};
-    e["e_z"] = {c(2, 0), c(2, 1), c(2, 2), c(2, 3)};
+    e["model"] = f.model;
     js.push_back(e);
     if (!f.json)
       log::info("{}: board in {}/{} frames, {} corners; corner error to truth {:.2f} -> {:.2f} mm RMS, dimension error "
@@ -679,7 +732,12 @@ void run_experiment(const ExperimentFlags& f) {
   o.training_frames = f.frames;
   o.test_frames_per_distance = f.test_frames;
   o.noise_scale = f.noise_scale;
+  o.systematic_scale = f.systematic_scale;
+  error_model(f.noise_scale, f.systematic_scale, "scan experiment");  // checks the scales
+  o.intrinsics = rig_intrinsics(f.calibration, f.sensors);
   o.truth = parse_truth(f.truth, "scan experiment");
+  o.training_corner_depth = parse_corner_depth(f.corner_depth, "scan experiment");
+  o.form = parse_model(f.model, "scan experiment");
   const auto progress = f.json ? ProgressCallback{} : console_progress(1.0);
   ensure_directory(f.out);
   const scan::ChessboardExperiment cb = scan::run_chessboard_experiment(o, progress);
@@ -688,12 +746,15 @@ void run_experiment(const ExperimentFlags& f) {
   scan::write_compensation_json(fs::path(f.out) / "compensation.json", models);
   nlohmann::json j;
   j["command"] = fmt::format("socketsmith scan experiment {} --seed {} --sensors {} --frames {} --test-frames {} "
-                             "--noise-scale {:g} --truth {}{}",
-                             f.which, f.seed, f.sensors, f.frames, f.test_frames, f.noise_scale, f.truth,
+                             "--noise-scale {:g} --systematic-scale {:g} --truth {} --corner-depth {} --model {}{}{}",
+                             f.which, f.seed, f.sensors, f.frames, f.test_frames, f.noise_scale, f.systematic_scale,
+                             f.truth, f.corner_depth, f.model, f.calibration.empty() ? "" : " --calibration " + f.calibration,
                              f.no_mesh ? " --no-mesh" : "");
   j["seed"] = f.seed;
   j["truth"] = f.truth;
   j["noise_scale"] = f.noise_scale;
+  j["systematic_scale"] = f.systematic_scale;
+  j["intrinsics"] = f.calibration.empty() ? std::string("typical Kinect v2 intrinsics") : f.calibration;
   nlohmann::json rows = nlohmann::json::array();
   for (const auto& r : cb.rows)
     rows.push_back({{"sensor", r.sensor}, {"distance_m", r.distance_m}, {"raw", stats_json(r.raw)},
@@ -771,6 +832,7 @@ void register_scan(CLI::App& app) {
   sim->add_option("--height-mm", sf->height_mm, "sensor height above the scene centre [mm] (default 0)");
   sim->add_option("--seed", sf->seed, "seed of the error model (default 1)");
   sim->add_option("--noise-scale", sf->noise_scale, "scale of every error term (0: noise free; default 1)");
+  sim->add_option("--systematic-scale", sf->systematic_scale, kSystematicScaleHelp);
   sim->add_option("--frames", sf->frames, "frames per sensor (default 1)");
   sim->add_option("--calibration", sf->calibration,
                   "iai_kinect2 calibration: a folder of <serial> folders (one per sensor), a <serial> folder or a "
@@ -835,6 +897,7 @@ void register_scan(CLI::App& app) {
   regc->add_option("--out", gf->out, "rig file to write (use it with 'scan reconstruct --rig')")->required();
   regc->add_flag("--sequential", gf->sequential, "chain pairwise fits K1 <- K2 <- K3 <- ... instead (the baseline)");
   regc->add_option("--upsample", gf->upsample, "up-sampling of the IR frames for corner detection (default 2)");
+  regc->add_option("--corner-depth", gf->corner_depth, kCornerDepthHelp);
   regc->add_flag("--json", gf->json, "print a JSON summary on stdout");
   regc->callback([gf] { run_register(*gf); });
 
@@ -844,6 +907,7 @@ void register_scan(CLI::App& app) {
   add_session_flags(*xreg, *xf,
                     "learned models of K1..Kn (compensation.json of 'scan experiment chessboard' or 'scan calibrate' "
                     "with the same --seed and --calibration): adds the multi-set + compensation row");
+  xreg->add_option("--corner-depth", xf->corner_depth, kCornerDepthHelp);
   xreg->add_option("--box-yaw-deg", xf->box_yaw_deg, "turn of the box about the vertical [deg] (default 45)");
   xreg->add_option("--pose-error-deg", xf->pose_error_deg, "rotation error of the starting poses [deg] (default 3)");
   xreg->add_option("--pose-error-mm", xf->pose_error_mm, "translation error of the starting poses [mm] (default 20)");
@@ -864,6 +928,10 @@ void register_scan(CLI::App& app) {
                   "true corners from: pnp (board pose from the IR image, default) | kabsch (thesis: rigid fit to the "
                   "measured corners)");
   cal->add_option("--upsample", cf->upsample, "IR up-sampling for corner detection, 1 to 8 (default 2)");
+  cal->add_option("--model", cf->model, kModelHelp);
+  cal->add_option("--corner-depth", cf->corner_depth,
+                  "depth at each corner of the training frames: bilinear (the thesis, default) | plane (a robust local "
+                  "plane fit of the pixels within 6 px)");
   cal->add_option("--min-frames", cf->min_frames, "fewest usable board frames per sensor (default 5)");
   cal->add_flag("--json", cf->json, "print a JSON summary on stdout");
   cal->callback([cf] { run_calibrate(*cf); });
@@ -881,7 +949,15 @@ void register_scan(CLI::App& app) {
     x->add_option("--frames", ef->frames, "training board frames per sensor (default 50, as the thesis)");
     x->add_option("--test-frames", ef->test_frames, "held-out frames per sensor at each of 60, 75, 90 cm (default 5)");
     x->add_option("--noise-scale", ef->noise_scale, "scale of every simulated error term (default 1)");
+    x->add_option("--systematic-scale", ef->systematic_scale, kSystematicScaleHelp);
+    x->add_option("--calibration", ef->calibration,
+                  "iai_kinect2 calibration folder(s) for the simulated units' intrinsics and distortion, as for scan "
+                  "simulate (default: typical Kinect v2 intrinsics)");
     x->add_option("--truth", ef->truth, "pnp (default) | kabsch (thesis eqs. 31-35)");
+    x->add_option("--model", ef->model, kModelHelp);
+    x->add_option("--corner-depth", ef->corner_depth,
+                  "depth at the corners of the training frames: bilinear (the thesis, default) | plane (local plane "
+                  "fit); the held-out frames are always measured the thesis's way (bilinear)");
     if (std::string(which) == "cylinders")
       x->add_flag("--no-mesh", ef->no_mesh, "point-cloud errors only (skip the reconstructions)");
     x->add_flag("--json", ef->json, "print the results as JSON on stdout");

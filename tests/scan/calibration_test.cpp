@@ -68,6 +68,40 @@ TEST(Calibration, learned_compensation_reduces_held_out_chessboard_errors) {
   }
 }
 
+TEST(Calibration, ray_polynomial_model_follows_the_radial_and_wiggling_depth_errors_better_than_linear_rates) {
+  // The session's unit has the default radial bias (3 mm × ρ²) and wiggling (1.5 mm, period 0.5 m):
+  // neither is linear in (u, v, d).
+  // Corner depths by the local plane fit, so that the noise does not hide the model's misfit.
+  const Session& x = session();
+  CalibrationOptions linear, ray;
+  linear.chessboard.corner_depth = ray.chessboard.corner_depth = CornerDepth::LocalPlane;
+  ray.form = CompensationForm::RayPolynomial;
+  const CalibrationResult a = calibrate_sensor(x.training.sensors[0], *x.training.chessboard, linear);
+  const CalibrationResult b = calibrate_sensor(x.training.sensors[0], *x.training.chessboard, ray);
+  EXPECT_EQ(b.model.form, CompensationForm::RayPolynomial);
+  EXPECT_LT(b.rms_after_mm, 0.8 * a.rms_after_mm) << "linear " << a.rms_after_mm << " ray-poly " << b.rms_after_mm;
+  // Its lateral rates at the image centre are the unit's lateral scale errors (+2.5 %, −1.5 %).
+  EXPECT_NEAR(b.model.lateral(0, 0) + 0.75 * b.model.lateral(0, 3), 0.025, 0.006);
+  EXPECT_NEAR(b.model.lateral(1, 0) + 0.75 * b.model.lateral(1, 3), -0.015, 0.006);
+  const auto dir = temp_dir("calibration_ray_poly");
+  write_compensation_json(dir / "model.json", {b.model});
+  const auto back = read_compensation_json(dir / "model.json");
+  ASSERT_EQ(back.size(), 1u);
+  EXPECT_EQ(back[0].form, CompensationForm::RayPolynomial);
+  const Vec3 p(0.12, -0.05, 0.8);
+  EXPECT_LT((back[0].apply(p, 300, 180) - b.model.apply(p, 300, 180)).norm(), 1e-12);
+}
+
+TEST(Calibration, ray_polynomial_correction_moves_the_depth_along_the_ray_and_scales_the_ray) {
+  ErrorCompensation m;
+  m.form = CompensationForm::RayPolynomial;
+  m.depth_polynomial(0) = 0.002;  // 2 mm too far everywhere
+  m.lateral(0, 0) = 0.01;         // rays 1 % too wide in x
+  const Vec3 p(0.2, 0.1, 0.8);
+  const double d = 0.798;
+  EXPECT_LT((m.apply(p, 0, 0) - Vec3(0.25 * 0.99 * d, 0.125 * d, d)).norm(), 1e-12);
+}
+
 TEST(Calibration, back_project_applies_the_model) {
   // ε = (1 %, −2 %, 0.3 %) everywhere: every point becomes (0.99 X, 1.02 Y, 0.997 Z).
   ErrorCompensation m;

@@ -107,6 +107,50 @@ TEST(Chessboard, both_visible_faces_of_the_registration_box_are_found) {
   }
 }
 
+TEST(Chessboard, local_plane_corner_depth_is_closer_to_the_truth_than_the_four_pixel_interpolation) {
+  // The box's boards are seen at ~45°: random noise only (no systematic terms), so what is left is
+  // how well each estimate averages the noise of the corner's (partly dark) pixels.
+  const BoardView v = board_view(0.75, 0.75, 0.1);
+  const geometry::SurfaceQuery query(v.scene.mesh);
+  const SimulatedFrame f =
+      simulate_frame(query, v.scene, v.sensor, scale_systematic_errors(SensorErrorModel{}, 0.0), 21);
+  const auto uv = find_chessboard_corners(f.ir, v.board.pattern);
+  ASSERT_TRUE(uv.has_value());
+  ChessboardOptions plane;
+  plane.corner_depth = CornerDepth::LocalPlane;
+  const ChessboardDetection a = corners_to_3d(*uv, f.depth, v.sensor.intrinsics, v.board.pattern);
+  const ChessboardDetection b = corners_to_3d(*uv, f.depth, v.sensor.intrinsics, v.board.pattern, plane);
+  double sum_a = 0.0, sum_b = 0.0;
+  int n = 0;
+  for (size_t c = 0; c < a.corners.size(); ++c) {
+    if (!a.corners[c].has_depth() || !b.corners[c].has_depth()) continue;
+    const double truth = v.board.corner(a.corners[c].i, a.corners[c].j).z();
+    sum_a += std::pow(a.corners[c].depth_m - truth, 2);
+    sum_b += std::pow(b.corners[c].depth_m - truth, 2);
+    ++n;
+  }
+  ASSERT_GT(n, 45);
+  EXPECT_EQ(b.count_with_depth(), 54);
+  const double rms_a = std::sqrt(sum_a / n) * 1e3, rms_b = std::sqrt(sum_b / n) * 1e3;
+  EXPECT_LT(rms_b, 0.4 * rms_a) << "bilinear " << rms_a << " mm, local plane " << rms_b << " mm";
+  EXPECT_LT(rms_b, 0.5);
+}
+
+TEST(Chessboard, local_plane_depth_ignores_a_depth_edge_and_needs_enough_valid_pixels) {
+  DepthImage d;
+  d.width = 40;
+  d.height = 30;
+  d.scale_m = 1e-3;
+  d.raw.assign(static_cast<size_t>(d.width) * d.height, 800);
+  for (int v = 0; v < d.height; ++v)
+    for (int u = 24; u < d.width; ++u) d.raw[static_cast<size_t>(v) * d.width + u] = 1400;  // background
+  EXPECT_NEAR(local_plane_depth(d, 0.0, Eigen::Vector2d(20.3, 15.0), 6.0, 0.01), 0.8, 1e-9);
+  for (int v = 0; v < d.height; ++v)
+    for (int u = 0; u < 24; ++u)
+      if ((u + v) % 4 != 0) d.raw[static_cast<size_t>(v) * d.width + u] = 0;
+  EXPECT_EQ(local_plane_depth(d, 0.0, Eigen::Vector2d(12.0, 15.0), 6.0, 0.01), 0.0);
+}
+
 TEST(Chessboard, a_frame_without_a_board_gives_a_one_line_error_naming_it) {
   const geometry::TriMesh cyl = make_cylinder(0.16, 0.4);
   const auto rig = default_rig(1, 0.75);

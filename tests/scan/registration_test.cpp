@@ -134,6 +134,32 @@ TEST(Registration, multiset_beats_sequential_on_a_noisy_box) {
   EXPECT_LT(r.multiset.final.mean_m, 3e-3);
 }
 
+TEST(Registration, local_plane_reference_points_are_closer_to_the_true_corners_than_bilinear_ones) {
+  // Random errors only (no bias to learn): what separates the two corner depths is the noise of the
+  // corners' pixels, seen at 45° on the box.
+  RegistrationExperimentOptions o;
+  o.intrinsics = test::rig_intrinsics();
+  o.simulation.error = scale_systematic_errors(SensorErrorModel{}, 0.0);
+  o.pose_error_deg = 0.0;
+  o.pose_error_m = 0.0;
+  double along[2] = {0.0, 0.0};
+  PairErrors at_truth[2];
+  for (const int plane : {0, 1}) {
+    o.detection.chessboard.corner_depth = plane ? CornerDepth::LocalPlane : CornerDepth::Bilinear;
+    const RegistrationExperimentResult r = run_registration_experiment(o);
+    ASSERT_EQ(r.accuracy.size(), 4u);
+    for (const ReferenceAccuracy& a : r.accuracy) {
+      EXPECT_GT(a.points, 60) << a.sensor;
+      along[plane] += a.along_rms_m / 4;
+    }
+    at_truth[plane] = r.truth_errors;
+  }
+  log::info("reference points along the ray: bilinear {:.2f} mm RMS, local plane {:.2f} mm; pairs at the true poses "
+            "{:.2f} -> {:.2f} mm", along[0] * 1e3, along[1] * 1e3, at_truth[0].mean_m * 1e3, at_truth[1].mean_m * 1e3);
+  EXPECT_LT(along[1], 0.5 * along[0]);
+  EXPECT_LT(at_truth[1].mean_m, 0.6 * at_truth[0].mean_m);
+}
+
 TEST(Registration, sensors_that_share_no_board_give_a_clear_error) {
   RegistrationExperimentOptions o;
   o.intrinsics = test::rig_intrinsics();

@@ -102,6 +102,13 @@ double rms_distance(const std::vector<BoardObservation>& obs, const ErrorCompens
   return n > 0 ? std::sqrt(sum / n) * 1e3 : 0.0;
 }
 
+/// Least squares A x ≈ b with the columns scaled to unit norm (u, v are hundreds of pixels, d ≈ 1 m).
+Eigen::VectorXd solve_scaled(const Eigen::MatrixXd& A, const Eigen::VectorXd& b) {
+  const Eigen::VectorXd scale = A.colwise().norm().transpose().cwiseMax(1e-12);
+  const Eigen::VectorXd x = (A * scale.cwiseInverse().asDiagonal()).colPivHouseholderQr().solve(b);
+  return x.cwiseQuotient(scale);
+}
+
 /// Least squares of r_k = (c_k · [1, u, v, d]) P_k per axis over the samples kept by @p keep.
 Eigen::Matrix<double, 3, 4> fit_rates(const std::vector<Eigen::Vector4d>& features, const std::vector<Vec3>& measured,
                                       const std::vector<Vec3>& truth, const std::vector<char>& keep) {
@@ -117,12 +124,38 @@ Eigen::Matrix<double, 3, 4> fit_rates(const std::vector<Eigen::Vector4d>& featur
       b(row) = measured[s][k] - truth[s][k];
       ++row;
     }
-    // Column scaling for conditioning (u, v are hundreds of pixels, d ≈ 1 m).
-    const Eigen::Vector4d scale = A.colwise().norm().transpose().cwiseMax(1e-12);
-    const Eigen::Vector4d x = (A * scale.cwiseInverse().asDiagonal()).colPivHouseholderQr().solve(b);
-    c.row(k) = x.cwiseQuotient(scale).transpose();
+    c.row(k) = solve_scaled(A, b).transpose();
   }
   return c;
+}
+
+/// CompensationForm::RayPolynomial by least squares over the samples kept by @p keep: the depth
+/// error d − T_z on δ's features, and each ray coordinate's error x − T_x / T_z = a_x x on
+/// (1, x, y, d)·x (the depth correction moves a point along its ray, so the two are separate).
+void fit_ray_polynomial(const std::vector<Vec3>& measured, const std::vector<Vec3>& truth, const std::vector<char>& keep,
+                        ErrorCompensation& m) {
+  const long n = std::count(keep.begin(), keep.end(), 1);
+  Eigen::MatrixXd A(n, 9), Lx(n, 4), Ly(n, 4);
+  Eigen::VectorXd b(n), bx(n), by(n);
+  long row = 0;
+  for (size_t s = 0; s < measured.size(); ++s) {
+    if (!keep[s]) continue;
+    const Vec3& p = measured[s];
+    const Vec3& t = truth[s];
+    const double x = p.x() / p.z(), y = p.y() / p.z(), d = p.z();
+    A.row(row) = ErrorCompensation::depth_features(x, y, d).transpose();
+    b(row) = d - t.z();
+    const Eigen::Vector4d g(1.0, x, y, d);
+    Lx.row(row) = g.transpose() * x;
+    bx(row) = x - t.x() / t.z();
+    Ly.row(row) = g.transpose() * y;
+    by(row) = y - t.y() / t.z();
+    ++row;
+  }
+  m.form = CompensationForm::RayPolynomial;
+  m.depth_polynomial = solve_scaled(A, b);
+  m.lateral.row(0) = solve_scaled(Lx, bx).transpose();
+  m.lateral.row(1) = solve_scaled(Ly, by).transpose();
 }
 
 }  // namespace
@@ -236,14 +269,18 @@ CalibrationResult calibrate_sensor(const SensorRecording& sensor, const Chessboa
     }
   require(features.size() >= 20, "calibrate_sensor: sensor '{}': only {} corners with depth (expected at least 20)",
           sensor.name, features.size());
+  auto fit = [&](const std::vector<char>& keep) {
+    ErrorCompensation m;
+    if (o.form == CompensationForm::RayPolynomial) fit_ray_polynomial(measured, truth, keep, m);
+    else m.coefficients = fit_rates(features, measured, truth, keep);
+    return m;
+  };
   std::vector<char> keep(features.size(), 1);
-  Eigen::Matrix<double, 3, 4> c = fit_rates(features, measured, truth, keep);
+  ErrorCompensation model = fit(keep);
   // Refit without gross outliers (residual norm beyond median + 5 MAD).
   std::vector<double> res(features.size());
-  for (size_t s = 0; s < features.size(); ++s) {
-    const Vec3 e = c * features[s];
-    res[s] = (measured[s] - measured[s].cwiseProduct(e) - truth[s]).norm();
-  }
+  for (size_t s = 0; s < features.size(); ++s)
+    res[s] = (model.apply(measured[s], features[s](1), features[s](2)) - truth[s]).norm();
   std::vector<double> sorted = res;
   std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2), sorted.end());
   const double med = sorted[sorted.size() / 2];
@@ -251,11 +288,11 @@ CalibrationResult calibrate_sensor(const SensorRecording& sensor, const Chessboa
   std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2), sorted.end());
   const double mad = sorted[sorted.size() / 2];
   for (size_t s = 0; s < res.size(); ++s) keep[s] = res[s] <= med + 5.0 * 1.4826 * mad + 1e-9 ? 1 : 0;
-  if (std::count(keep.begin(), keep.end(), 1) >= 20) c = fit_rates(features, measured, truth, keep);
+  if (std::count(keep.begin(), keep.end(), 1) >= 20) model = fit(keep);
+  r.model = model;
   r.model.sensor = sensor.name;
   r.model.width = k.width;
   r.model.height = k.height;
-  r.model.coefficients = c;
   r.model.frames = static_cast<int>(r.observations.size());
   r.model.corners = static_cast<int>(std::count(keep.begin(), keep.end(), 1));
   r.model.truth = o.truth == TruthEstimate::Pnp ? "pnp" : "kabsch";

@@ -32,6 +32,7 @@ enum class TruthEstimate {
 struct CalibrationOptions {
   ChessboardOptions chessboard;
   TruthEstimate truth = TruthEstimate::Pnp;
+  CompensationForm form = CompensationForm::LinearUvd;  ///< the model fitted
   int min_frames = 5;  ///< fewer usable board frames is an error (the thesis used ≈ 50)
 };
 

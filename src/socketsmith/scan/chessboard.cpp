@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include <Eigen/Dense>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
@@ -145,13 +146,70 @@ double bilinear_depth(const DepthImage& depth, double depth_shift_m, const Eigen
   return raw * depth.scale_m + depth_shift_m;
 }
 
+double local_plane_depth(const DepthImage& depth, double depth_shift_m, const Eigen::Vector2d& uv, double radius_px,
+                         double max_jump_m) {
+  const int r = static_cast<int>(std::ceil(radius_px));
+  const int u_lo = static_cast<int>(std::floor(uv.x())) - r, v_lo = static_cast<int>(std::floor(uv.y())) - r;
+  struct Px {
+    double du, dv, d;
+  };
+  std::vector<Px> px;
+  int window = 0;
+  for (int v = v_lo; v <= v_lo + 2 * r + 1; ++v)
+    for (int u = u_lo; u <= u_lo + 2 * r + 1; ++u) {
+      const double du = u - uv.x(), dv = v - uv.y();
+      if (du * du + dv * dv > radius_px * radius_px) continue;
+      ++window;
+      if (u < 0 || v < 0 || u >= depth.width || v >= depth.height || depth.at(u, v) == 0) continue;
+      px.push_back({du, dv, depth.at(u, v) * depth.scale_m + depth_shift_m});
+    }
+  const size_t min_pixels = std::max<size_t>(12, static_cast<size_t>(window / 2));
+  if (px.size() < min_pixels) return 0.0;
+  // Pixels far from the window's median depth (flying pixels, another surface) are not the board.
+  std::vector<double> ds;
+  for (const Px& p : px) ds.push_back(p.d);
+  std::nth_element(ds.begin(), ds.begin() + static_cast<std::ptrdiff_t>(ds.size() / 2), ds.end());
+  const double median = ds[ds.size() / 2];
+  std::vector<char> keep(px.size());
+  for (size_t q = 0; q < px.size(); ++q) keep[q] = std::abs(px[q].d - median) <= max_jump_m ? 1 : 0;
+  // 1/d = a + b du + c dv (a plane seen through a pinhole), refitted without residuals beyond 3.5 σ.
+  Eigen::Vector3d abc = Eigen::Vector3d::Zero();
+  for (int pass = 0; pass < 3; ++pass) {
+    Eigen::Matrix3d AtA = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d Atb = Eigen::Vector3d::Zero();
+    size_t n = 0;
+    for (size_t q = 0; q < px.size(); ++q) {
+      if (!keep[q]) continue;
+      const Eigen::Vector3d row(1.0, px[q].du, px[q].dv);
+      AtA += row * row.transpose();
+      Atb += row / px[q].d;
+      ++n;
+    }
+    if (n < min_pixels) return 0.0;
+    abc = AtA.ldlt().solve(Atb);
+    if (!(abc.x() > 0.0)) return 0.0;
+    // Residuals in depth: d − 1/(a + b du + c dv); σ from their median absolute value.
+    std::vector<double> res(px.size()), kept;
+    for (size_t q = 0; q < px.size(); ++q) {
+      res[q] = px[q].d - 1.0 / (abc.x() + abc.y() * px[q].du + abc.z() * px[q].dv);
+      if (keep[q]) kept.push_back(std::abs(res[q]));
+    }
+    std::nth_element(kept.begin(), kept.begin() + static_cast<std::ptrdiff_t>(kept.size() / 2), kept.end());
+    const double sigma = std::max(1.4826 * kept[kept.size() / 2], 0.5 * depth.scale_m);
+    for (size_t q = 0; q < px.size(); ++q) keep[q] = std::abs(res[q]) <= 3.5 * sigma ? 1 : 0;
+  }
+  return 1.0 / abc.x();
+}
+
 ChessboardDetection corners_to_3d(const std::vector<Eigen::Vector2d>& uv, const DepthImage& depth,
                                   const CameraIntrinsics& k, const ChessboardPattern& pattern,
-                                  double max_depth_jump_m) {
+                                  const ChessboardOptions& o) {
   validate_pattern(pattern, "corners_to_3d");
   require(uv.size() == static_cast<size_t>(pattern.inner_cols * pattern.inner_rows),
           "corners_to_3d: {} corners for a {}x{} pattern", uv.size(), pattern.inner_cols, pattern.inner_rows);
-  require(max_depth_jump_m > 0.0, "corners_to_3d: max_depth_jump_m {} must be positive", max_depth_jump_m);
+  require(o.max_depth_jump_m > 0.0, "corners_to_3d: max_depth_jump_m {} must be positive", o.max_depth_jump_m);
+  require(o.plane_radius_px >= 2.0 && o.plane_radius_px <= 30.0,
+          "corners_to_3d: plane_radius_px {} is out of range (expected 2 to 30 pixels)", o.plane_radius_px);
   ChessboardDetection det;
   det.pattern = pattern;
   for (int j = 0; j < pattern.inner_rows; ++j)
@@ -160,7 +218,9 @@ ChessboardDetection corners_to_3d(const std::vector<Eigen::Vector2d>& uv, const 
       c.i = i;
       c.j = j;
       c.uv = uv[static_cast<size_t>(j * pattern.inner_cols + i)];
-      c.depth_m = bilinear_depth(depth, k.depth_shift_m, c.uv, max_depth_jump_m);
+      c.depth_m = o.corner_depth == CornerDepth::LocalPlane
+                      ? local_plane_depth(depth, k.depth_shift_m, c.uv, o.plane_radius_px, o.max_depth_jump_m)
+                      : bilinear_depth(depth, k.depth_shift_m, c.uv, o.max_depth_jump_m);
       if (c.has_depth()) {
         const Eigen::Vector2d xy = unproject_pixel(k, c.uv);
         if (std::isfinite(xy.x())) c.point = Eigen::Vector3d(xy.x() * c.depth_m, xy.y() * c.depth_m, c.depth_m);
@@ -184,7 +244,7 @@ ChessboardDetection detect_chessboard(const IrImage& ir, const DepthImage& depth
     fail("chessboard not found in {} (expected {}x{} inner corners: check --pattern, that the whole board and its white "
          "margin are in view, and the exposure)",
          what, pattern.inner_cols, pattern.inner_rows);
-  return corners_to_3d(*uv, depth, k, pattern, o.max_depth_jump_m);
+  return corners_to_3d(*uv, depth, k, pattern, o);
 }
 
 }  // namespace socketsmith::scan

@@ -17,17 +17,27 @@ void write_compensation_json(const fs::path& path, const std::vector<ErrorCompen
   nlohmann::ordered_json j;
   j["format"] = "socketsmith-scan-compensation";
   j["version"] = 1;
-  j["model"] = "linear-uvd";
-  j["comment"] = "P_corrected = (I - diag(e_x, e_y, e_z)) P; e_k = c0 + cu*u + cv*v + cd*d (u, v: sensor pixels, d: metres)";
+  j["model"] = models.front().form == CompensationForm::RayPolynomial ? "ray-poly" : "linear-uvd";
+  j["comment"] = "linear-uvd: P_corrected = (I - diag(e_x, e_y, e_z)) P; e_k = c0 + cu*u + cv*v + cd*d (u, v: sensor "
+                 "pixels, d: metres). ray-poly (per sensor): d' = d - depth_poly . (1, x, y, x^2, xy, y^2, d, d^2, d^3), "
+                 "a = lateral . (1, x, y, d), P' = (x (1 - a_x) d', y (1 - a_y) d', d') with x = X/Z, y = Y/Z";
   j["sensors"] = nlohmann::ordered_json::array();
   for (const ErrorCompensation& m : models) {
     nlohmann::ordered_json s;
     s["name"] = m.sensor;
     s["width"] = m.width;
     s["height"] = m.height;
-    const char* keys[3] = {"e_x", "e_y", "e_z"};
-    for (int k = 0; k < 3; ++k)
-      s[keys[k]] = {m.coefficients(k, 0), m.coefficients(k, 1), m.coefficients(k, 2), m.coefficients(k, 3)};
+    if (m.form == CompensationForm::RayPolynomial) {
+      s["model"] = "ray-poly";
+      s["depth_poly"] = std::vector<double>(m.depth_polynomial.data(), m.depth_polynomial.data() + 9);
+      s["lateral_x"] = {m.lateral(0, 0), m.lateral(0, 1), m.lateral(0, 2), m.lateral(0, 3)};
+      s["lateral_y"] = {m.lateral(1, 0), m.lateral(1, 1), m.lateral(1, 2), m.lateral(1, 3)};
+    } else {
+      s["model"] = "linear-uvd";
+      const char* keys[3] = {"e_x", "e_y", "e_z"};
+      for (int k = 0; k < 3; ++k)
+        s[keys[k]] = {m.coefficients(k, 0), m.coefficients(k, 1), m.coefficients(k, 2), m.coefficients(k, 3)};
+    }
     s["frames"] = m.frames;
     s["corners"] = m.corners;
     s["truth"] = m.truth;
@@ -58,15 +68,33 @@ std::vector<ErrorCompensation> read_compensation_json(const fs::path& path) {
       m.sensor = s.at("name").get<std::string>();
       m.width = s.at("width").get<int>();
       m.height = s.at("height").get<int>();
-      const char* keys[3] = {"e_x", "e_y", "e_z"};
-      for (int k = 0; k < 3; ++k) {
-        const auto c = s.at(keys[k]).get<std::vector<double>>();
-        require(c.size() == 4, "read_compensation_json: '{}': sensor '{}': {} has {} coefficients (expected 4: c0, cu, "
-                "cv, cd)", path.string(), m.sensor, keys[k], c.size());
+      // Coefficient array @p key of @p n finite numbers.
+      auto numbers = [&](const char* key, size_t n) {
+        const auto c = s.at(key).get<std::vector<double>>();
+        require(c.size() == n, "read_compensation_json: '{}': sensor '{}': {} has {} coefficients (expected {})",
+                path.string(), m.sensor, key, c.size(), n);
+        for (double x : c)
+          require(std::isfinite(x), "read_compensation_json: '{}': sensor '{}': {} is not finite", path.string(),
+                  m.sensor, key);
+        return c;
+      };
+      const std::string form = s.value("model", j.value("model", std::string("linear-uvd")));
+      require(form == "linear-uvd" || form == "ray-poly",
+              "read_compensation_json: '{}': sensor '{}': model '{}' is not known (expected linear-uvd or ray-poly)",
+              path.string(), m.sensor, form);
+      if (form == "ray-poly") {
+        m.form = CompensationForm::RayPolynomial;
+        const auto dp = numbers("depth_poly", 9), lx = numbers("lateral_x", 4), ly = numbers("lateral_y", 4);
+        for (int q = 0; q < 9; ++q) m.depth_polynomial(q) = dp[static_cast<size_t>(q)];
         for (int q = 0; q < 4; ++q) {
-          require(std::isfinite(c[static_cast<size_t>(q)]), "read_compensation_json: '{}': sensor '{}': {} is not finite",
-                  path.string(), m.sensor, keys[k]);
-          m.coefficients(k, q) = c[static_cast<size_t>(q)];
+          m.lateral(0, q) = lx[static_cast<size_t>(q)];
+          m.lateral(1, q) = ly[static_cast<size_t>(q)];
+        }
+      } else {
+        const char* keys[3] = {"e_x", "e_y", "e_z"};
+        for (int k = 0; k < 3; ++k) {
+          const auto c = numbers(keys[k], 4);
+          for (int q = 0; q < 4; ++q) m.coefficients(k, q) = c[static_cast<size_t>(q)];
         }
       }
       m.frames = s.value("frames", 0);

@@ -13,13 +13,37 @@
 
 namespace socketsmith::scan {
 
+/// The form of a sensor's error model.
+enum class CompensationForm {
+  /// The thesis's (eqs. 26–30): P̂ = (I − ε) P, ε = diag(e_x, e_y, e_z), each rate linear in (u, v, d).
+  LinearUvd,
+  /// Ours ("ray-poly"): the depth corrected along the ray, d̂ = d − δ(x, y, d) with δ a polynomial
+  /// in the undistorted ray coordinates (x, y) = (X/Z, Y/Z) and d — 1, x, y, x², x y, y², d, d², d³:
+  /// a radial (vignetting-like) bias and a distance-dependent ("wiggling") one are quadratic in x, y
+  /// and smooth in d, which rates linear in (u, v, d) cannot follow — and the ray's lateral scale by
+  /// rates a_x, a_y linear in (1, x, y, d): P̂ = (x (1 − a_x) d̂, y (1 − a_y) d̂, d̂).
+  RayPolynomial,
+};
+
 /// One sensor's learned error rates.
 struct ErrorCompensation {
+  CompensationForm form = CompensationForm::LinearUvd;
   std::string sensor;  ///< name of the sensor it was learned for (rig.json name)
   int width = 0;       ///< image size it was learned on [px]
   int height = 0;
-  /// Rows e_x, e_y, e_z; columns: constant, per pixel of u, per pixel of v, per metre of d.
+  /// LinearUvd: rows e_x, e_y, e_z; columns: constant, per pixel of u, per pixel of v, per metre of d.
   Eigen::Matrix<double, 3, 4> coefficients = Eigen::Matrix<double, 3, 4>::Zero();
+  /// RayPolynomial: δ's coefficients of 1, x, y, x², x y, y², d, d², d³ [m, d in m].
+  Eigen::Matrix<double, 9, 1> depth_polynomial = Eigen::Matrix<double, 9, 1>::Zero();
+  /// RayPolynomial: rows a_x, a_y; columns: 1, x, y, d.
+  Eigen::Matrix<double, 2, 4> lateral = Eigen::Matrix<double, 2, 4>::Zero();
+
+  /// RayPolynomial's depth features at ray (x, y) and depth d.
+  static Eigen::Matrix<double, 9, 1> depth_features(double x, double y, double d) {
+    Eigen::Matrix<double, 9, 1> f;
+    f << 1.0, x, y, x * x, x * y, y * y, d, d * d, d * d * d;
+    return f;
+  }
   // What it was learned from (informative).
   int frames = 0;
   int corners = 0;
@@ -29,16 +53,22 @@ struct ErrorCompensation {
   Eigen::Vector3d rates(double u, double v, double d) const {
     return coefficients * Eigen::Vector4d(1.0, u, v, d);
   }
-  /// P̂ = (I − ε(u, v, P.z)) P for a sensor-frame point P seen at pixel (u, v).
+  /// The corrected point for a sensor-frame point P seen at pixel (u, v): (I − ε(u, v, P.z)) P, or
+  /// RayPolynomial's correction.
   Eigen::Vector3d apply(const Eigen::Vector3d& p, double u, double v) const {
-    return p.cwiseProduct(Eigen::Vector3d::Ones() - rates(u, v, p.z()));
+    if (form == CompensationForm::LinearUvd) return p.cwiseProduct(Eigen::Vector3d::Ones() - rates(u, v, p.z()));
+    const double x = p.x() / p.z(), y = p.y() / p.z(), d = p.z();
+    const double dc = d - depth_polynomial.dot(depth_features(x, y, d));
+    const Eigen::Vector2d a = lateral * Eigen::Vector4d(1.0, x, y, d);
+    return {x * (1.0 - a.x()) * dc, y * (1.0 - a.y()) * dc, dc};
   }
 };
 
 /// Writes the models of one or more sensors, atomically:
 /// {"format": "socketsmith-scan-compensation", "version": 1, "model": "linear-uvd",
 ///  "sensors": [{"name", "width", "height", "e_x": [c0, cu, cv, cd], "e_y": […], "e_z": […],
-///  "frames", "corners", "truth"}]}.
+///  "frames", "corners", "truth"}]}; a RayPolynomial sensor has "model": "ray-poly",
+///  "depth_poly": [9 values], "lateral_x": [4], "lateral_y": [4] instead of e_x, e_y, e_z.
 void write_compensation_json(const std::filesystem::path& path, const std::vector<ErrorCompensation>& models);
 
 /// Reads a file written by write_compensation_json.

@@ -14,7 +14,7 @@ namespace {
 using Clock = std::chrono::steady_clock;
 
 SensorErrorModel base_model(const ExperimentOptions& o) {
-  SensorErrorModel m;
+  SensorErrorModel m = scale_systematic_errors(SensorErrorModel{}, o.systematic_scale);
   m.scale = o.noise_scale;
   return m;
 }
@@ -53,7 +53,7 @@ ChessboardExperiment run_chessboard_experiment(const ExperimentOptions& o, const
           "chessboard experiment: {} test frames per distance (expected 1 to 30)", o.test_frames_per_distance);
   const auto t0 = Clock::now();
   ChessboardExperiment x;
-  x.rig = default_rig(o.sensors);
+  x.rig = default_rig(o.sensors, 0.75, 0.0, Vec3::Zero(), o.intrinsics);
   x.base_error = base_model(o);
   CalibrationSessionOptions train;
   train.simulation.seed = o.seed;
@@ -65,6 +65,8 @@ ChessboardExperiment run_chessboard_experiment(const ExperimentOptions& o, const
   const Recording training = simulate_calibration_session(x.rig, train, simulating);
   CalibrationOptions co;
   co.truth = o.truth;
+  co.chessboard.corner_depth = o.training_corner_depth;
+  co.form = o.form;
   for (size_t s = 0; s < training.sensors.size(); ++s) {
     x.calibrations.push_back(calibrate_sensor(training.sensors[s], *training.chessboard, co));
     report_progress(progress, 0.35 + 0.3 * (s + 1) / training.sensors.size(), "learning the error models");

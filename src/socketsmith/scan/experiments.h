@@ -22,8 +22,14 @@ struct ExperimentOptions {
   int sensors = 4;                 ///< K1…Kn (the thesis: 4)
   int training_frames = 50;        ///< board frames per sensor for learning (thesis ≈ 50, 50–100 cm)
   int test_frames_per_distance = 5;  ///< held-out frames at each of 60, 75, 90 cm (thesis: one each)
-  double noise_scale = 1.0;        ///< SensorErrorModel::scale
+  double noise_scale = 1.0;        ///< SensorErrorModel::scale (every term)
+  double systematic_scale = 1.0;   ///< and the systematic terms once more (scale_systematic_errors)
+  std::vector<CameraIntrinsics> intrinsics;  ///< of the rig: none (typical), one, or one per sensor
   TruthEstimate truth = TruthEstimate::Pnp;
+  /// Depth at the corners of the training frames (the held-out frames are measured the thesis's
+  /// way, CornerDepth::Bilinear).
+  CornerDepth training_corner_depth = CornerDepth::Bilinear;
+  CompensationForm form = CompensationForm::LinearUvd;  ///< the model learned
 };
 
 /// Table 3 row: one sensor, one test distance (or all).

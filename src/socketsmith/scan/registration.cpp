@@ -234,7 +234,7 @@ ReferenceSet box_reference_points(const Recording& rec, const std::vector<Eigen:
             sr.name, "ir_0000.png",
             pattern.inner_cols, pattern.inner_rows);
     for (const auto& uv : boards) {
-      Detection d{static_cast<int>(s), corners_to_3d(uv, depth, sr.intrinsics, pattern, o.chessboard.max_depth_jump_m),
+      Detection d{static_cast<int>(s), corners_to_3d(uv, depth, sr.intrinsics, pattern, o.chessboard),
                   Vec3::Zero()};
       // The sensor's learned error compensation, when it has one: (I − ε(u, v, d)) P per corner.
       if (sr.compensation) {
@@ -340,6 +340,47 @@ void apply_rig_file(Recording& rec, const std::filesystem::path& path) {
 
 namespace socketsmith::scan {
 
+std::vector<ReferenceAccuracy> reference_accuracy(const ReferenceSet& refs, const Scene& scene,
+                                                  const std::vector<Eigen::Isometry3d>& truth) {
+  require(static_cast<int>(truth.size()) == refs.num_sensors(), "reference_accuracy: {} poses for {} sensors",
+          truth.size(), refs.num_sensors());
+  std::vector<Vec3> corners;
+  for (const ChessboardPatch& b : scene.chessboards)
+    for (int j = 0; j < b.pattern.inner_rows; ++j)
+      for (int i = 0; i < b.pattern.inner_cols; ++i) corners.push_back(b.corner(i, j));
+  std::vector<ReferenceAccuracy> out(static_cast<size_t>(refs.num_sensors()));
+  for (int s = 0; s < refs.num_sensors(); ++s) out[static_cast<size_t>(s)].sensor = refs.sensor_names[static_cast<size_t>(s)];
+  for (const ReferenceObservation& o : refs.observations) {
+    const Eigen::Isometry3d& pose = truth[static_cast<size_t>(o.sensor)];
+    const Vec3 world = pose * o.p;
+    double best = 0.03;
+    const Vec3* nearest = nullptr;
+    for (const Vec3& c : corners)
+      if ((c - world).norm() < best) {
+        best = (c - world).norm();
+        nearest = &c;
+      }
+    if (nearest == nullptr) continue;
+    const Vec3 err = o.p - pose.inverse() * *nearest;
+    const Vec3 ray = o.p.normalized();
+    const double along = err.dot(ray);
+    ReferenceAccuracy& a = out[static_cast<size_t>(o.sensor)];
+    a.along_mean_m += along;
+    a.along_rms_m += along * along;
+    a.across_rms_m += (err - along * ray).squaredNorm();
+    a.rms_m += err.squaredNorm();
+    ++a.points;
+  }
+  for (ReferenceAccuracy& a : out) {
+    if (a.points == 0) continue;
+    a.along_mean_m /= a.points;
+    a.along_rms_m = std::sqrt(a.along_rms_m / a.points);
+    a.across_rms_m = std::sqrt(a.across_rms_m / a.points);
+    a.rms_m = std::sqrt(a.rms_m / a.points);
+  }
+  return out;
+}
+
 RegistrationExperimentResult run_registration_experiment(const RegistrationExperimentOptions& o,
                                                          const ProgressCallback& progress) {
   require(o.sensors >= 2 && o.sensors <= 8, "registration experiment: {} sensors (expected 2 to 8)", o.sensors);
@@ -382,6 +423,7 @@ RegistrationExperimentResult run_registration_experiment(const RegistrationExper
     r.refs_compensated = box_reference_points(compensated, r.measured, o.detection);
     r.multiset_compensated = register_multiset(r.refs_compensated, r.measured, o.registration);
     r.truth_errors_compensated = pair_errors(r.refs_compensated, r.truth);
+    r.accuracy_compensated = reference_accuracy(r.refs_compensated, scene, r.truth);
     for (size_t s = 0; s < r.rig.size(); ++s)
       r.multiset_compensated_pose_errors.push_back(pose_error(r.multiset_compensated.world_from_sensor[s], r.truth[s]));
   }
@@ -391,6 +433,7 @@ RegistrationExperimentResult run_registration_experiment(const RegistrationExper
     r.multiset_pose_errors.push_back(pose_error(r.multiset.world_from_sensor[s], r.truth[s]));
   }
   r.truth_errors = pair_errors(r.refs, r.truth);
+  r.accuracy = reference_accuracy(r.refs, scene, r.truth);
   return r;
 }
 

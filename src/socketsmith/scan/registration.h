@@ -80,7 +80,9 @@ RegistrationResult register_sequential(const ReferenceSet& refs, const std::vect
 
 /// Settings of box_reference_points.
 struct BoxDetectionOptions {
-  ChessboardOptions chessboard;
+  /// Corner depth by a local plane fit (our estimate; the thesis's 4-pixel bilinear depth leaves
+  /// the corners' full depth noise in the reference points: docs/VALIDATION.md, "Registration").
+  ChessboardOptions chessboard{2, 0.01, CornerDepth::LocalPlane, 6.0};
   int max_boards_per_sensor = 2;  ///< boards looked for in each IR frame
   /// Detections of two sensors are the same board when their centroids, mapped to the world by the
   /// approximate poses, are closer than this [m] (boards on neighbouring faces are ≥ 20 cm apart).
@@ -114,6 +116,23 @@ void write_rig_file(const std::filesystem::path& path, const std::vector<std::st
 /// @throws IoError for a missing file; InvalidInputError when a sensor of the recording is not in it.
 void apply_rig_file(Recording& recording, const std::filesystem::path& path);
 
+/// How far one sensor's reference points lie from the true corners of a simulated scene, in the
+/// sensor frame: the error along the sensor's ray to the point (depth) and across it (lateral).
+struct ReferenceAccuracy {
+  std::string sensor;
+  int points = 0;
+  double along_mean_m = 0.0;  ///< signed mean along the ray (> 0: measured too far)
+  double along_rms_m = 0.0;   ///< RMS along the ray (bias included)
+  double across_rms_m = 0.0;  ///< RMS across the ray
+  double rms_m = 0.0;         ///< RMS 3-D distance
+};
+
+/// Per sensor of @p refs: every observation mapped to the world by @p truth (the rendering poses)
+/// is matched to the nearest inner corner of @p scene's boards (within 3 cm) and its error split
+/// along / across the ray.
+std::vector<ReferenceAccuracy> reference_accuracy(const ReferenceSet& refs, const Scene& scene,
+                                                  const std::vector<Eigen::Isometry3d>& truth);
+
 /// Settings of run_registration_experiment.
 struct RegistrationExperimentOptions {
   int sensors = 4;
@@ -144,6 +163,7 @@ struct RegistrationExperimentResult {
   RegistrationResult sequential, multiset;
   std::vector<PoseError> measured_pose_errors, sequential_pose_errors, multiset_pose_errors;
   PairErrors truth_errors;  ///< pair errors at the true poses: what depth errors alone leave
+  std::vector<ReferenceAccuracy> accuracy, accuracy_compensated;  ///< reference points against the true corners
   /// With options.compensation: the corners corrected by each unit's model, multi-set again.
   ReferenceSet refs_compensated;
   RegistrationResult multiset_compensated;

@@ -312,6 +312,15 @@ DepthImage simulate_depth(const geometry::SurfaceQuery& scene, const SimulatedSe
   return simulate_frame(scene, plain, sensor, model, seed, depth_scale_m).depth;
 }
 
+SensorErrorModel scale_systematic_errors(SensorErrorModel m, double factor) {
+  require(std::isfinite(factor) && factor >= 0.0, "systematic error scale {} must be >= 0 (0: random errors only)",
+          factor);
+  for (double* x : {&m.bias_m, &m.bias_slope, &m.sensor_offset_m, &m.sensor_offset_sd_m, &m.wiggle_amplitude_m,
+                    &m.radial_bias_m, &m.ray_scale_x, &m.ray_scale_y, &m.ray_scale_sd})
+    *x *= factor;
+  return m;
+}
+
 SensorErrorModel unit_error_model(const SensorErrorModel& base, std::uint64_t seed, size_t index) {
   SensorErrorModel model = base;
   std::mt19937_64 unit_rng(splitmix64(seed ^ (0xabcdefULL + index)));

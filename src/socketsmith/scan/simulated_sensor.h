@@ -61,6 +61,13 @@ struct SensorErrorModel {
   double max_range_m = 4.5;                ///< Kinect v2 far limit [m]
 };
 
+/// @p model with its systematic terms — depth bias b0 and slope b1, the spread of the units'
+/// offsets, wiggling, radial bias, the spread of the units' lateral scale errors — multiplied by
+/// @p factor (≥ 0), the random ones (noise σ, IR noise, flying pixels, losses) kept: a unit whose
+/// learnable errors are larger (factor > 1) or absent (0: only what no compensation can remove).
+/// @throws InvalidInputError for a negative or non-finite factor.
+SensorErrorModel scale_systematic_errors(SensorErrorModel model, double factor);
+
 /// A posed simulated sensor.
 struct SimulatedSensor {
   std::string name = "K1";
