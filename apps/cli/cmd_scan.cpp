@@ -72,6 +72,7 @@ struct ExperimentFlags {
   std::string calibration;
   std::string corner_depth = "bilinear";
   std::string model = "linear";
+  int scan_frames = 1;
   std::string truth = "pnp";
   bool no_mesh = false;
   bool json = false;
@@ -738,6 +739,7 @@ void run_experiment(const ExperimentFlags& f) {
   o.truth = parse_truth(f.truth, "scan experiment");
   o.training_corner_depth = parse_corner_depth(f.corner_depth, "scan experiment");
   o.form = parse_model(f.model, "scan experiment");
+  o.scan_frames = f.scan_frames;
   const auto progress = f.json ? ProgressCallback{} : console_progress(1.0);
   ensure_directory(f.out);
   const scan::ChessboardExperiment cb = scan::run_chessboard_experiment(o, progress);
@@ -746,9 +748,10 @@ void run_experiment(const ExperimentFlags& f) {
   scan::write_compensation_json(fs::path(f.out) / "compensation.json", models);
   nlohmann::json j;
   j["command"] = fmt::format("socketsmith scan experiment {} --seed {} --sensors {} --frames {} --test-frames {} "
-                             "--noise-scale {:g} --systematic-scale {:g} --truth {} --corner-depth {} --model {}{}{}",
+                             "--noise-scale {:g} --systematic-scale {:g} --truth {} --corner-depth {} --model {}{}{}{}",
                              f.which, f.seed, f.sensors, f.frames, f.test_frames, f.noise_scale, f.systematic_scale,
-                             f.truth, f.corner_depth, f.model, f.calibration.empty() ? "" : " --calibration " + f.calibration,
+                             f.truth, f.corner_depth, f.model,
+                             f.which == "cylinders" ? fmt::format(" --scan-frames {}", f.scan_frames) : "", f.calibration.empty() ? "" : " --calibration " + f.calibration,
                              f.no_mesh ? " --no-mesh" : "");
   j["seed"] = f.seed;
   j["truth"] = f.truth;
@@ -958,8 +961,11 @@ void register_scan(CLI::App& app) {
     x->add_option("--corner-depth", ef->corner_depth,
                   "depth at the corners of the training frames: bilinear (the thesis, default) | plane (local plane "
                   "fit); the held-out frames are always measured the thesis's way (bilinear)");
-    if (std::string(which) == "cylinders")
+    if (std::string(which) == "cylinders") {
       x->add_flag("--no-mesh", ef->no_mesh, "point-cloud errors only (skip the reconstructions)");
+      x->add_option("--scan-frames", ef->scan_frames,
+                    "frames per sensor of each cylinder scan, fused by a per-pixel median (default 1)");
+    }
     x->add_flag("--json", ef->json, "print the results as JSON on stdout");
     x->callback([ef] { run_experiment(*ef); });
   }

@@ -120,6 +120,7 @@ CylinderExperiment run_cylinder_experiment(const ChessboardExperiment& cb, const
   CylinderExperiment x;
   SimulationOptions so;
   so.seed = o.seed;  // the same units as the calibration session
+  so.frames = o.scan_frames;
   so.error = cb.base_error;
   int step = 0;
   const int steps = static_cast<int>(diameters.size()) * (meshes ? 3 : 1);
