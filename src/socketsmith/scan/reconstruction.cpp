@@ -52,6 +52,11 @@ geometry::TriMesh poisson(const PointCloud& cloud, double spacing, const Reconst
          "are the sensors around the limb and the normals facing the sensors?)",
          cloud.size());
   };
+  // CGAL's default random generator (seeded from the clock) drives the spatial sort of the Poisson
+  // function's Delaunay refinement and the surface mesher's initial points: both are seeded here, so
+  // a reconstruction is repeatable (the mesher alone was seeded before, and two reconstructions in
+  // one process still differed about one run in three).
+  CGAL::get_default_random() = CGAL::Random(0);
   auto tp = Clock::now();
   PoissonFunction function(pwn.begin(), pwn.end(), CGAL::First_of_pair_property_map<Pwn>(),
                            CGAL::Second_of_pair_property_map<Pwn>());
@@ -73,9 +78,7 @@ geometry::TriMesh poisson(const PointCloud& cloud, double spacing, const Reconst
   CGAL::Surface_mesh_default_criteria_3<STr> criteria(o.poisson_angle_deg, o.max_facet_m, o.poisson_distance * spacing);
   STr tr;
   C2t3 c2t3(tr);
-  // The mesher seeds its initial points from CGAL's default random generator, which is seeded from
-  // the clock: without a fixed seed the same recording gave a different mesh on every run (and a
-  // test failed once under load). A reconstruction must be repeatable.
+  // The mesher's initial points: from the default generator, reseeded (see above).
   CGAL::get_default_random() = CGAL::Random(0);
   CGAL::make_surface_mesh(c2t3, surface, criteria, CGAL::Manifold_with_boundary_tag());
   if (tr.number_of_vertices() == 0) fail_poisson();
