@@ -36,6 +36,7 @@ struct DonningFlags {
   double friction = -1;
   double penalty_factor = 20;
   int reuse_cg = -1;
+  std::string wall;  // "" = the default (DonningOptions::smooth_wall)
   bool no_stand = false;
   bool json = false;
 };
@@ -112,6 +113,7 @@ int run_donning(const DonningFlags& f) {
   o.progress = stage(0.3, 0.95);
   o.contact.penalty_factor = f.penalty_factor;
   if (f.reuse_cg >= 0) o.contact.max_reuse_cg = f.reuse_cg;
+  if (!f.wall.empty()) o.smooth_wall = f.wall == "smooth";
   log::info("donning: {} onto a {}-node stump ({} skin nodes), from {} in {}, μ = {:.2f}{}",
             socket_label, setup->mesh.mesh.num_nodes(), skin.nodes.size(),
             f.offset_mm > 0 ? fmt::format("{:.0f} mm below", f.offset_mm) : std::string("below the stump"),
@@ -307,6 +309,8 @@ void register_contact(CLI::App& app) {
   don->add_option("--reuse-cg", f->reuse_cg,
                   "CG iterations on the last factorisation before refactorising (default 0: always factorise)")
       ->check(CLI::Range(0, 1000));
+  don->add_option("--wall", f->wall, "socket wall for contact: smooth (default; a smooth surface fitted to its facets) | faceted")
+      ->check(CLI::IsMember({"smooth", "faceted"}));
   don->add_flag("--no-stand", f->no_stand, "stop at the designed pose (no half-body-weight load)");
   don->add_option("--out", f->out, "output directory")->required();
   don->add_flag("--json", f->json, "print the summary as JSON on stdout");

@@ -41,6 +41,36 @@ geometry::TriMesh pipe(double ri, double ro, double H, int seg = 96) {
   return m;
 }
 
+/// The same pipe with its walls cut into @p rings rows of quads (a socket's wall is meshed finely
+/// both ways; the plain pipe's walls are single 0.2 m slivers).
+geometry::TriMesh ringed_pipe(double ri, double ro, double H, int seg, int rings) {
+  geometry::TriMesh m;
+  const auto in = [&](int r, int k) { return 2 * ((r * seg) + (k % seg)); };
+  for (int r = 0; r <= rings; ++r)
+    for (int k = 0; k < seg; ++k) {
+      const double a = 2 * std::numbers::pi * k / seg;
+      const Vec3 d(std::cos(a), std::sin(a), 0), z(0, 0, H * r / rings);
+      m.vertices.push_back(ri * d + z);  // in(r, k)
+      m.vertices.push_back(ro * d + z);  // in(r, k) + 1: outer
+    }
+  for (int k = 0; k < seg; ++k) {
+    for (int r = 0; r < rings; ++r) {
+      const int a = in(r, k), b = in(r, k + 1), c = in(r + 1, k + 1), e = in(r + 1, k);
+      m.triangles.push_back({a, e, c});  // inner wall (normal towards the axis)
+      m.triangles.push_back({a, c, b});
+      m.triangles.push_back({a + 1, b + 1, c + 1});  // outer wall
+      m.triangles.push_back({a + 1, c + 1, e + 1});
+    }
+    const int a = in(rings, k), b = in(rings, k + 1);  // top annulus
+    m.triangles.push_back({a, a + 1, b + 1});
+    m.triangles.push_back({a, b + 1, b});
+    const int a0 = in(0, k), b0 = in(0, k + 1);  // bottom annulus
+    m.triangles.push_back({a0, b0, b0 + 1});
+    m.triangles.push_back({a0, b0 + 1, a0 + 1});
+  }
+  return m;
+}
+
 geometry::LimbFrame z_frame() {
   geometry::LimbFrame f;
   f.origin = Vec3::Zero();
@@ -82,6 +112,59 @@ TEST(RigidSocket, gaps_against_the_inner_wall_even_beyond_the_outer_wall) {
   g = s.gap(0.03 * d + Vec3(0, 0, 0.3));
   EXPECT_TRUE(g.valid);
   EXPECT_NEAR(g.gap_m, inner - 0.03, 1e-9);
+}
+
+// The smoothed wall: within a fraction of the facets' sagitta of them on average, its normal turns
+// smoothly where the facets' normals jump, and its force is the gradient of its penalty energy.
+TEST(RigidSocket, smoothed_wall_follows_the_facets_and_turns_smoothly_across_their_edges) {
+  const double ri = 0.05, H = 0.2;
+  const int seg = 48;
+  RigidSocket s(ringed_pipe(ri, 0.055, H, seg, 40), z_frame());
+  ASSERT_FALSE(s.smooth_wall());
+  const double dphi = 2 * std::numbers::pi / seg, sagitta = ri * (1 - std::cos(dphi / 2));
+  const auto at = [&](double r, double phi, double z) { return Vec3(r * std::cos(phi), r * std::sin(phi), z); };
+  // Gaps of points 0.1 mm beyond the wall at many angles, faceted and smoothed.
+  double mean_diff = 0, max_diff = 0, max_turn = 0;
+  for (int k = 0; k < 4 * seg; ++k) {
+    const double phi = dphi * k / 4.0 + 0.01;
+    for (double z : {0.06, 0.1, 0.14}) {
+      const Vec3 p = at(ri + 1e-4, phi, z);
+      s.set_smooth_wall(false);
+      const Gap gf = s.gap(p);
+      s.set_smooth_wall(true);
+      const Gap gs = s.gap(p);
+      ASSERT_TRUE(gf.valid && gs.valid);
+      mean_diff += (gs.gap_m - gf.gap_m) / (4 * seg * 3);
+      max_diff = std::max(max_diff, std::abs(gs.gap_m - gf.gap_m));
+      EXPECT_GT(gs.normal.dot(-Vec3(std::cos(phi), std::sin(phi), 0)), 0.99995);  // radial (facets: ≤ 0.9979)
+    }
+  }
+  EXPECT_LT(std::abs(mean_diff), 0.2 * sagitta) << "sagitta " << sagitta;
+  EXPECT_LT(max_diff, 1.5 * sagitta) << "sagitta " << sagitta;
+  for (double eps : {1e-4, 1e-3}) {
+    const Vec3 a = at(ri + 1e-4, -eps, 0.1), b = at(ri + 1e-4, eps, 0.1);
+    s.set_smooth_wall(true);
+    const double turn = std::acos(std::min(1.0, s.gap(a).normal.dot(s.gap(b).normal)));
+    max_turn = std::max(max_turn, turn / (2 * eps));  // [rad per rad of phi]
+  }
+  // Across the facets' edge at phi = 0 the smooth normal turns with the wall (1 rad per rad of
+  // phi); the faceted one turns by the whole kink dphi within the point's depth (0.1 mm) of it.
+  EXPECT_LT(max_turn, 1.5);
+  s.set_smooth_wall(false);
+  const double facet_turn = std::acos(std::min(1.0, s.gap(at(ri + 1e-4, -1e-4, 0.1)).normal.dot(
+                                                        s.gap(at(ri + 1e-4, 1e-4, 0.1)).normal))) / 2e-4;
+  EXPECT_GT(facet_turn, 100.0);
+  // ½ g² is the penalty energy per k A: its gradient g |∇g| n is the force direction used.
+  s.set_smooth_wall(true);
+  const Vec3 p = at(ri + 2e-4, 0.3, 0.1);
+  const Gap g = s.gap(p);
+  for (const Vec3& dir : {Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1), Vec3(0.6, -0.8, 0)}) {
+    const double h = 1e-7;
+    const double fd = (s.gap(p + h * dir).gap_m - s.gap(p - h * dir).gap_m) / (2 * h);
+    EXPECT_NEAR(fd, g.gradient_norm * g.normal.dot(dir), 1e-5) << dir.transpose();
+    EXPECT_NEAR(dir.dot(g.stiffness_shape * dir), std::pow(g.gradient_norm * g.normal.dot(dir), 2), 1e-9);
+  }
+  EXPECT_NEAR(g.gradient_norm, 1.0, 0.05);
 }
 
 TEST(RigidSocket, rejects_open_and_misplaced_sockets) {

@@ -88,7 +88,8 @@ struct ContactSolver::Impl {
       gaps[i] = wall_gap(i, p);
       c.p = p;
       c.t = t;
-      c.clearance = gaps[i].valid && gaps[i].gap_m > 0 ? gaps[i].gap_m : -1.0;
+      // (The smoothed wall's gap is not an exact distance: its slope |∇gap| may exceed 1 a little.)
+      c.clearance = gaps[i].valid && gaps[i].gap_m > 0 ? gaps[i].gap_m / (1.5 * std::max(gaps[i].gradient_norm, 1.0)) : -1.0;
     }
     for (size_t i = 0; i < nodes.size(); ++i) {
       const int nd = nodes[i];
@@ -103,7 +104,7 @@ struct ContactSolver::Impl {
         s.active = true;
         s.gap_m = g.gap_m;
         s.normal = g.normal;
-        s.normal_force_n = kA * (-g.gap_m);
+        s.normal_force_n = kA * (-g.gap_m) * g.gradient_norm;
         s.pressure_pa = s.normal_force_n / areas[i];
         pi += 0.5 * kA * g.gap_m * g.gap_m;
         f += s.normal_force_n * g.normal;
@@ -663,16 +664,21 @@ ContactStep ContactSolver::push_with_force(const Vec3& direction, double force_n
       s_lo -= max_step_m;
     }
   } else {
-    // March forward in steps (secant-predicted, at most max_step) until the reaction exceeds the force.
+    // March forward in steps (secant-predicted, at most max_step) until the reaction exceeds the
+    // force. A step that stays below the force is committed (the load grows monotonically); the
+    // one that overshoots is not: the solves inside the bracket start from the last step below the
+    // force, as a standing patient loads the socket once (committing the overshoot made the
+    // bracket's solves pull the socket back against friction that had already slid the other way).
     double stiff = 0;
     for (int k = 0; k < 2000 && !bracket; ++k) {
       double step = max_step_m;
       if (stiff > 0) step = std::clamp((force_n - r_lo) / stiff * 1.2, 1e-6, max_step_m);
       const double s_new = s_lo + step;
       x_lo = s.x;
-      cur = s.solve_path(base + s_new * d, true);
+      cur = s.solve_path(base + s_new * d, false);
       require<SolverError>(cur.converged, "contact: while pushing with {:.1f} N: {}", force_n, cur.message);
       const double r_new = reaction(cur);
+      if (r_new < force_n) s.commit_last();
       if (r_new > r_lo) stiff = (r_new - r_lo) / step;
       if (r_new >= force_n) {
         s_hi = s_new;

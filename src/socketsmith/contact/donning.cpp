@@ -56,6 +56,7 @@ DonningResult simulate_donning(const tissue::MassSpringModel& model, const std::
   const auto t0 = std::chrono::steady_clock::now();
   const Vec3 axis = frame.axis.normalized();
   RigidSocket socket(socket_solid, frame, o.socket_density_kg_m3);
+  socket.set_smooth_wall(o.smooth_wall);
   const tissue::DofMap dofs = tissue::fixed_node_dofs(model.mesh(), "donning");
   ContactOptions co = o.contact;
   co.friction = o.friction;

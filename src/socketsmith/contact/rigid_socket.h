@@ -34,6 +34,10 @@ struct Gap {
   /// ∂(gap · normal)/∂x: n nᵀ inside a face, I − e eᵀ on an edge of direction e, I at a vertex —
   /// the penalty force's stiffness per unit penalty k A.
   Eigen::Matrix3d stiffness_shape = Eigen::Matrix3d::Zero();
+  /// |∇gap| (1 for the distance to a faceted wall; ≈ 1 on the smoothed wall, whose gap is not an
+  /// exact distance): the penalty force is k A (−gap) |∇gap| along the normal, the gradient of
+  /// ½ k A gap² (stiffness_shape is then ∇gap ∇gapᵀ).
+  double gradient_norm = 1.0;
 };
 
 /// A rigid obstacle the stump's nodes may touch, at a translation from its rest pose.
@@ -93,10 +97,33 @@ class RigidSocket : public Obstacle {
   /// the socket along the axis; rotations are not needed by the scenarios).
   Gap gap(const Vec3& p) const override;
 
+  /// Smoothed wall (off by default): near the wall (within 3 mm of its facets) the gap is a smooth
+  /// implicit surface through the inner wall's vertices instead of the distance to its facets —
+  /// g(p) = Σ w_j (p − v_j)·n_j / Σ w_j over the wall's vertices v_j with their (angle-weighted)
+  /// normals n_j and weights w_j = (1 − |p − v_j|²/ρ_j²)⁴ (ρ_j twice the mean length of the edges
+  /// at v_j). Planar parts of the wall are reproduced exactly, curved ones within a fraction of
+  /// their facets' sagitta; the gap's gradient turns smoothly where the facets' normals jump, so a
+  /// node sliding along the wall does not cross kinks (Newton stalled at them: docs/contact.md).
+  /// Whether a point faces the wall (Gap::valid) is still decided on the facets.
+  void set_smooth_wall(bool on) { smooth_ = on; }
+  bool smooth_wall() const { return smooth_; }
+
  private:
+  Gap smooth_gap(const Vec3& q, Gap g) const;
+
   geometry::TriMesh solid_, inner_;
   std::vector<Vec3> inner_normals_;  // outward normals of the solid = into the cavity
   std::unique_ptr<geometry::SurfaceQuery> query_;
+  bool smooth_ = false;
+  // The smoothed wall: the inner wall's vertices, their normals and squared support radii, and a
+  // uniform grid of them (cell = the largest radius; a query looks at its 27 cells).
+  std::vector<Vec3> wall_v_, wall_n_;
+  std::vector<double> wall_rho2_, wall_c_;  // squared support radii; offsets of the vertex surfaces
+  std::vector<Eigen::Matrix3d> wall_h_;     // curvature of each vertex's quadric (tangential)
+  double cell_ = 1.0;
+  Vec3 grid_lo_ = Vec3::Zero();
+  Eigen::Vector3i grid_dim_ = Eigen::Vector3i::Zero();
+  std::vector<int> cell_start_, cell_items_;
   double mass_ = 0.0;
   Vec3 com_ = Vec3::Zero();
   Eigen::Matrix3d inertia_ = Eigen::Matrix3d::Zero();
