@@ -634,7 +634,8 @@ ContactSolver::~ContactSolver() = default;
 
 ContactStep ContactSolver::move_to(const Vec3& translation) { return impl_->solve_path(translation, true); }
 
-ContactStep ContactSolver::push_with_force(const Vec3& direction, double force_n, double rel_tol, double max_step_m) {
+ContactStep ContactSolver::push_with_force(const Vec3& direction, double force_n, double rel_tol, double max_step_m,
+                                           double first_step_m) {
   require(std::isfinite(force_n) && force_n >= 0, "contact: push force {} N must be ≥ 0", force_n);
   const Vec3 d = direction.normalized();
   auto& s = *impl_;
@@ -671,7 +672,7 @@ ContactStep ContactSolver::push_with_force(const Vec3& direction, double force_n
     // bracket's solves pull the socket back against friction that had already slid the other way).
     double stiff = 0;
     for (int k = 0; k < 2000 && !bracket; ++k) {
-      double step = max_step_m;
+      double step = k == 0 && first_step_m > 0 ? std::min(first_step_m, max_step_m) : max_step_m;
       if (stiff > 0) step = std::clamp((force_n - r_lo) / stiff * 1.2, 1e-6, max_step_m);
       const double s_new = s_lo + step;
       x_lo = s.x;

@@ -111,8 +111,10 @@ class ContactSolver {
   /// Moves the obstacle along unit @p direction (from its current translation) until the force
   /// the body exerts on it along −direction equals @p force_n [N] (the obstacle pushed with
   /// that force), within @p rel_tol. Displacement steps of at most @p max_step_m.
+  /// @p first_step_m > 0: the first displacement step (e.g. predicted from the reaction's slope
+  /// along the path so far; ≤ max_step_m), else max_step_m.
   ContactStep push_with_force(const Vec3& direction, double force_n, double rel_tol = 1e-3,
-                              double max_step_m = 0.002);
+                              double max_step_m = 0.002, double first_step_m = 0.0);
 
   const tissue::VectorXd& positions() const;
   const std::vector<NodeContact>& contacts() const;

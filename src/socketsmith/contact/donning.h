@@ -29,6 +29,9 @@ struct DonningOptions {
   /// (half the body weight for a standing patient); 0: stop at the designed pose.
   double stand_force_n = 0.0;
   double socket_density_kg_m3 = 1250.0;
+  /// The standing push's first step predicted from the reaction's slope over the last donning step
+  /// (false: one full step, which overshoots the load).
+  bool predict_stand_step = true;
   /// Contact against the smoothed inner wall (RigidSocket::set_smooth_wall) instead of its facets:
   /// nodes sliding along the wall no longer cross its kinks (7.5k nodes: 203 instead of 390
   /// factorisations; below the brim R 0.742 / MAE 1.91 kPa against the design vs 0.750 / 1.84 on the
