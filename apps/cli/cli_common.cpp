@@ -16,6 +16,7 @@ void add_model_flags(CLI::App& app, ModelFlags& f) {
   app.add_option("--beta", f.beta, "override the corrective exponent beta (eq. 8), > 0");
   app.add_option("--spring-ratio", f.spring_ratio, "override the MSS-CS spring modulus ratio E_s/E, > 0");
   app.add_option("--law", f.law, "override the corrective law: symmetric | compression-only");
+  app.add_option("--dead-zone", f.dead_zone, "override the corrective dead zone d (volume fraction), in [0, 0.5)");
   app.add_option("--youngs-kpa", f.youngs_modulus_kpa, "tissue Young's modulus E [kPa]");
   app.add_option("--density", f.density, "tissue density rho [kg/m^3]");
   app.add_option("--cf-poisson", f.cf_poisson, "MSS-CF target Poisson ratio, in [0.25, 0.5)");
@@ -32,6 +33,7 @@ tissue::MassSpringOptions make_model_options(const ModelFlags& f) {
   if (f.c >= 0) o.corrective.c = f.c;
   if (f.beta >= 0) o.corrective.beta = f.beta;
   if (f.spring_ratio >= 0) o.corrective.spring_modulus_ratio = f.spring_ratio;
+  if (f.dead_zone >= 0) o.corrective.dead_zone = f.dead_zone;
   if (!f.law.empty()) o.corrective.law = tissue::parse_corrective_law(f.law);
   o.cf_poisson_ratio = f.cf_poisson;
   return o;
@@ -47,7 +49,8 @@ nlohmann::json to_json(const tissue::MassSpringOptions& o, const tissue::TissueM
   if (o.kind == tissue::TissueModelKind::MssCs)
     j["corrective"] = {{"golec_a", o.corrective.golec_a}, {"alpha", o.corrective.alpha}, {"c", o.corrective.c},
                        {"beta", o.corrective.beta}, {"law", tissue::to_string(o.corrective.law)},
-                       {"spring_modulus_ratio", o.corrective.spring_modulus_ratio}};
+                       {"spring_modulus_ratio", o.corrective.spring_modulus_ratio},
+                       {"dead_zone", o.corrective.dead_zone}};
   else
     j["golec_a"] = o.corrective.golec_a;
   if (o.kind == tissue::TissueModelKind::MssCf) j["cf_poisson_ratio"] = o.cf_poisson_ratio;

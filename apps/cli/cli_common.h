@@ -14,7 +14,7 @@ namespace socketsmith::cli {
 struct ModelFlags {
   std::string model = "mss-cs";
   std::string constants = "recommended";  // thesis | recommended
-  double golec_a = -1, alpha = -1, c = -1, beta = -1, spring_ratio = -1;  // < 0: from the preset
+  double golec_a = -1, alpha = -1, c = -1, beta = -1, spring_ratio = -1, dead_zone = -1;  // < 0: from the preset
   std::string law;                                     // empty: from the preset
   double youngs_modulus_kpa = 50.0;
   double density = 1060.0;

@@ -4,6 +4,7 @@
 
 #include "cli_common.h"
 #include "socketsmith/core/atomic_file.h"
+#include "socketsmith/core/errors.h"
 #include "socketsmith/core/log.h"
 #include "socketsmith/tissue/calibration.h"
 
@@ -25,6 +26,8 @@ struct CalibrateFlags {
   std::string keep_linearisation;
   double shear_compression_kpa = 7.5;
   double shear_kpa = 1.5;
+  double min_dead_zone = 0;
+  double max_dead_zone = 0;
 };
 
 nlohmann::json candidate_json(const tissue::CalibrationCandidate& c) {
@@ -34,6 +37,7 @@ nlohmann::json candidate_json(const tissue::CalibrationCandidate& c) {
           {"beta", c.constants.beta},
           {"law", tissue::to_string(c.constants.law)},
           {"spring_modulus_ratio", c.constants.spring_modulus_ratio},
+          {"dead_zone", c.constants.dead_zone},
           {"max_displacement_error_to_60pct", c.errors.max_displacement_error},
           {"max_volume_error_to_40pct", c.errors.max_volume_error},
           {"unstable_before_60pct", c.errors.unstable},
@@ -58,6 +62,10 @@ void run(const CalibrateFlags& f) {
   if (f.max_c > 0) o.max_c = f.max_c;
   if (f.min_beta > 0) o.min_beta = f.min_beta;
   o.shear_check = !f.no_shear_check;
+  require(f.max_dead_zone == 0 || f.max_dead_zone >= f.min_dead_zone,
+          "calibrate: --max-dead-zone {} is below --min-dead-zone {}", f.max_dead_zone, f.min_dead_zone);
+  o.min_dead_zone = f.min_dead_zone;
+  o.max_dead_zone = std::max(f.min_dead_zone, f.max_dead_zone);
   if (!f.keep_linearisation.empty()) {
     o.keep_linearisation_of = tissue::CorrectiveSpringConstants::preset(f.keep_linearisation);
     o.min_beta = std::max(o.min_beta, 1.05);
@@ -120,6 +128,13 @@ void register_calibrate(CLI::App& app) {
                    "keep A and the spring modulus ratio of this preset (fit alpha, C, beta only): the linearised model, "
                    "and every linear design, stays the same")
       ->check(CLI::IsMember({"thesis", "recommended", "cube-fit"}));
+  cube->add_option("--min-dead-zone", flags->min_dead_zone,
+                   "lower bound of the corrective dead zone d, a volume fraction (default 0; > 0 makes the nonlinear "
+                   "model exactly its linearisation for volume changes up to d)")
+      ->check(CLI::Range(0.0, 0.2));
+  cube->add_option("--max-dead-zone", flags->max_dead_zone,
+                   "upper bound of the dead zone d (fitted when above --min-dead-zone; default: held at --min-dead-zone)")
+      ->check(CLI::Range(0.0, 0.2));
   cube->add_flag("--no-shear-check", flags->no_shear_check,
                  "do not require the constants to carry the sheared cube (base held, compression + shear on the top)");
   cube->add_option("--shear-compression-kpa", flags->shear_compression_kpa, "sheared cube: compression on the top [kPa]")

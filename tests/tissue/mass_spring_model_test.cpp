@@ -217,6 +217,57 @@ TEST(MassSpringModel, single_hexahedron_under_uniaxial_stretch_gives_the_analyti
   }
 }
 
+TEST(MassSpringModel, corrective_dead_zone_is_silent_below_d_and_exact_beyond) {
+  // One element compressed uniformly: δv = s³ − 1. With a dead zone d the corrective springs carry
+  // nothing while −δv ≤ d (forces equal the Golec lattice's, C = 0), and beyond it the model is
+  // the law shifted by d, with a Jacobian that matches finite differences.
+  const auto mesh = small_lattice(1);
+  for (CorrectiveLaw law : {CorrectiveLaw::CompressionOnly, CorrectiveLaw::Symmetric}) {
+    MassSpringOptions zoned = options_for(TissueModelKind::MssCs, CorrectiveLaw::CompressionOnly);
+    zoned.corrective.law = law;
+    zoned.corrective.beta = 1.5;  // a tangent that would be felt at once without the zone
+    zoned.corrective.dead_zone = 0.02;
+    MassSpringOptions golec = zoned;
+    golec.corrective.c = 0;
+    MassSpringOptions shifted = zoned;  // same law without the zone, for the force comparison
+    shifted.corrective.dead_zone = 0;
+    const MassSpringModel m(mesh, {50e3, 1060}, zoned), g(mesh, {50e3, 1060}, golec), n(mesh, {50e3, 1060}, shifted);
+    auto scaled = [&](double dv) {
+      const double s = std::cbrt(1 + dv);
+      VectorXd x = m.rest_positions();
+      for (Eigen::Index i = 0; i < x.size(); ++i) x[i] *= s;
+      x[0] += 1e-6;  // break the symmetry a little: not a pure scaling
+      return x;
+    };
+    for (double dv : {-0.005, -0.018, 0.015}) {
+      const VectorXd x = scaled(dv);
+      EXPECT_LT((m.elastic_forces(x) - g.elastic_forces(x)).norm(), 1e-12 * g.elastic_forces(x).norm() + 1e-15)
+          << to_string(law) << " dv " << dv;
+      if (dv < 0 || law == CorrectiveLaw::Symmetric)
+        EXPECT_GT((n.elastic_forces(x) - g.elastic_forces(x)).norm(), 1e-6 * g.elastic_forces(x).norm())
+            << "without the zone the corrective springs act at dv " << dv;
+    }
+    const VectorXd x = scaled(-0.06);
+    EXPECT_GT((m.elastic_forces(x) - g.elastic_forces(x)).norm(), 1e-3 * g.elastic_forces(x).norm()) << to_string(law);
+    SparseMatrix J;
+    m.jacobian(x, JacobianKind::Exact, J);
+    const Eigen::MatrixXd Jd(J);
+    Eigen::MatrixXd fd(m.num_dofs(), m.num_dofs());
+    for (int c = 0; c < m.num_dofs(); ++c) {
+      VectorXd p = x, q = x;
+      p[c] += 1e-9;
+      q[c] -= 1e-9;
+      fd.col(c) = (m.elastic_forces(p) - m.elastic_forces(q)) / 2e-9;
+    }
+    EXPECT_LT((fd - Jd).norm(), 1e-6 * Jd.norm()) << to_string(law);
+  }
+  MassSpringOptions bad;
+  bad.corrective.dead_zone = -0.01;
+  EXPECT_THROW(MassSpringModel(mesh, {50e3, 1060}, bad), InvalidInputError);
+  bad.corrective.dead_zone = 0.5;
+  EXPECT_THROW(MassSpringModel(mesh, {50e3, 1060}, bad), InvalidInputError);
+}
+
 TEST(MassSpringModel, masses_sum_to_rho_times_volume) {
   const auto mesh = small_lattice(3, 0.03);
   MassSpringModel m(mesh, {50e3, 1060}, {});

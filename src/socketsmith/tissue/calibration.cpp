@@ -54,13 +54,15 @@ CalibrationResult calibrate_corrective_springs(const CalibrationOptions& o, cons
   res.best = res.thesis;
   std::mt19937 rng(o.seed);
   // Search in (log A, α, log(1 + C), β) for a better-conditioned simplex.
+  require(o.min_dead_zone >= 0 && o.max_dead_zone < 0.5, "calibrate: dead zone bounds [{}, {}] (expected within [0, 0.5))",
+          o.min_dead_zone, o.max_dead_zone);
   const std::vector<double> lb = {std::log(o.min_golec_a), o.min_alpha, std::log1p(o.min_c), o.min_beta,
-                                  o.min_spring_modulus_ratio};
+                                  o.min_spring_modulus_ratio, o.min_dead_zone};
   const std::vector<double> ub = {std::log(o.max_golec_a), o.max_alpha, std::log1p(o.max_c), o.max_beta,
-                                  o.max_spring_modulus_ratio};
-  // Free coordinates of z = (log A, α, log(1 + C), β, ratio); the others keep `fixed`.
+                                  o.max_spring_modulus_ratio, std::max(o.min_dead_zone, o.max_dead_zone)};
+  // Free coordinates of z = (log A, α, log(1 + C), β, ratio, dead zone); the others keep `fixed`.
   std::vector<int> free = {0, 1, 2, 3, 4};
-  std::vector<double> fixed = {0, 0, 0, 0, 1.0};
+  std::vector<double> fixed = {0, 0, 0, 0, 1.0, o.min_dead_zone};
   if (o.keep_linearisation_of) {
     require(o.min_beta > 1, "calibrate: keeping the linearisation needs β > 1 (min_beta {})", o.min_beta);
     fixed[0] = std::log(o.keep_linearisation_of->golec_a);
@@ -69,6 +71,7 @@ CalibrationResult calibrate_corrective_springs(const CalibrationOptions& o, cons
   } else if (!o.fit_spring_modulus_ratio) {
     free = {0, 1, 2, 3};
   }
+  if (o.max_dead_zone > o.min_dead_zone) free.push_back(5);
   const int dim = static_cast<int>(free.size());
   const int total = static_cast<int>(o.laws.size()) * o.starts;
   int done = 0;
@@ -84,7 +87,8 @@ CalibrationResult calibrate_corrective_springs(const CalibrationOptions& o, cons
       std::vector<double> z(dim);
       if (s < 3) {
         const auto& t = presets[s];
-        const std::vector<double> zp = {std::log(t.golec_a), t.alpha, std::log1p(t.c), t.beta, t.spring_modulus_ratio};
+        const std::vector<double> zp = {std::log(t.golec_a), t.alpha, std::log1p(t.c), t.beta, t.spring_modulus_ratio,
+                                        std::max(t.dead_zone, 0.5 * (lb[5] + ub[5]))};
         for (int i = 0; i < dim; ++i) z[i] = std::clamp(zp[free[i]], lb[free[i]], ub[free[i]]);
       } else {
         for (int i = 0; i < dim; ++i) z[i] = std::uniform_real_distribution<double>(lb[free[i]], ub[free[i]])(rng);
@@ -92,9 +96,9 @@ CalibrationResult calibrate_corrective_springs(const CalibrationOptions& o, cons
       auto decode = [&](const std::vector<double>& zz) {
         std::vector<double> full = fixed;
         for (int i = 0; i < dim; ++i) full[free[i]] = zz[i];
-        return CorrectiveSpringConstants{std::exp(full[0]), full[1], std::expm1(full[2]), full[3], law, full[4]};
+        return CorrectiveSpringConstants{std::exp(full[0]), full[1], std::expm1(full[2]), full[3], law, full[4], full[5]};
       };
-      const std::vector<double> step_all = {0.5, 0.1, 0.5, 0.3, 0.05};
+      const std::vector<double> step_all = {0.5, 0.1, 0.5, 0.3, 0.05, 0.25 * (ub[5] - lb[5])};
       std::vector<double> lower(dim), upper(dim), step(dim);
       for (int i = 0; i < dim; ++i) {
         lower[i] = lb[free[i]];
@@ -141,10 +145,10 @@ CalibrationResult calibrate_corrective_springs(const CalibrationOptions& o, cons
                     res.best.errors.max_displacement_error <= o.target_displacement_error &&
                     res.best.errors.max_volume_error <= o.target_volume_error && res.best.objective < 1e2;
   res.message = fmt::format(
-      "best: A={:.4g} alpha={:.4g} C={:.4g} beta={:.4g} ({}): displacement error {:.2f}% (target {:.1f}%), volume "
+      "best: A={:.4g} alpha={:.4g} C={:.4g} beta={:.4g} dead zone={:.4g} ({}): displacement error {:.2f}% (target {:.1f}%), volume "
       "error {:.2f}% (target {:.1f}%){}",
       res.best.constants.golec_a, res.best.constants.alpha, res.best.constants.c, res.best.constants.beta,
-      to_string(res.best.constants.law), 100 * res.best.errors.max_displacement_error,
+      res.best.constants.dead_zone, to_string(res.best.constants.law), 100 * res.best.errors.max_displacement_error,
       100 * o.target_displacement_error, 100 * res.best.errors.max_volume_error, 100 * o.target_volume_error,
       res.targets_met ? "" : " — targets NOT met");
   if (res.best.shear_checked)

@@ -1,6 +1,7 @@
 #pragma once
 /// @file calibration.h
-/// Repeatable calibration of the MSS-CS constants (A, α, C, β and the spring modulus ratio) on the cube experiment, replacing
+/// Repeatable calibration of the MSS-CS constants (A, α, C, β, the spring modulus ratio and optionally the
+/// corrective dead zone) on the cube experiment, replacing
 /// the thesis's hand tuning. Objective (to minimise):
 ///   J = max(e_disp / target_disp, e_vol / target_vol) + 0.05 · (e_disp / target_disp + e_vol / target_vol)
 ///     + 50 · max(0, 0.6 − ε_buckle) + [sheared cube fails] · (10 + 10 · (1 − λ_sheared))   (checked when the rest is < 5)
@@ -59,6 +60,9 @@ struct CalibrationOptions {
   /// linearised model (the linear design solve, donning, FE comparisons) stays exactly as it was.
   std::optional<CorrectiveSpringConstants> keep_linearisation_of;
   double min_spring_modulus_ratio = 0.6, max_spring_modulus_ratio = 1.2;
+  /// Bounds of the corrective dead zone d (CorrectiveSpringConstants::dead_zone); fitted when
+  /// max_dead_zone > min_dead_zone, else held at min_dead_zone.
+  double min_dead_zone = 0.0, max_dead_zone = 0.0;
 };
 
 struct CalibrationCandidate {

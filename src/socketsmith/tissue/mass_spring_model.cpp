@@ -94,6 +94,8 @@ MassSpringModel::MassSpringModel(const volume::HexMesh& mesh, const TissueMateri
   require(std::isfinite(cs.beta) && cs.beta > 0, "MassSpringModel: beta = {} (expected > 0)", cs.beta);
   require(std::isfinite(cs.spring_modulus_ratio) && cs.spring_modulus_ratio > 0,
           "MassSpringModel: spring modulus ratio {} (expected > 0)", cs.spring_modulus_ratio);
+  require(std::isfinite(cs.dead_zone) && cs.dead_zone >= 0 && cs.dead_zone < 0.5,
+          "MassSpringModel: corrective dead zone {} (expected in [0, 0.5), a fraction of the volume)", cs.dead_zone);
   require(options.cf_poisson_ratio >= 0.25 && options.cf_poisson_ratio < 0.5,
           "MassSpringModel: MSS-CF Poisson ratio {} (expected in [0.25, 0.5))", options.cf_poisson_ratio);
   require(options.damping_ratio >= 0, "MassSpringModel: damping ratio {} (expected ≥ 0)", options.damping_ratio);
@@ -226,12 +228,15 @@ double MassSpringModel::corrective_stiffness(double dv, double edge_length, doub
   const double scale = cs.c * material_.youngs_modulus_pa * edge_length;
   double g = 0.0, dg = 0.0;
   if (cs.law == CorrectiveLaw::Symmetric) {
-    const double a = std::abs(dv);
+    const double a = std::abs(dv) - cs.dead_zone;
+    if (a > 0) {
+      g = std::pow(a, cs.beta);
+      dg = cs.beta * std::pow(a, cs.beta - 1.0) * (dv > 0 ? 1.0 : -1.0);
+    }
+  } else if (-dv > cs.dead_zone) {
+    const double a = -dv - cs.dead_zone;
     g = std::pow(a, cs.beta);
-    dg = a > 0 ? cs.beta * std::pow(a, cs.beta - 1.0) * (dv > 0 ? 1.0 : -1.0) : 0.0;
-  } else if (dv < 0) {
-    g = std::pow(-dv, cs.beta);
-    dg = -cs.beta * std::pow(-dv, cs.beta - 1.0);
+    dg = -cs.beta * std::pow(a, cs.beta - 1.0);
   }
   if (dk_ddv) *dk_ddv = scale * dg;
   return scale * g;

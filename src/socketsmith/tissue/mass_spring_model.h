@@ -38,10 +38,10 @@ TissueModelKind parse_tissue_model(const std::string& name);
 
 /// How the corrective-spring stiffness depends on the relative volume change δv = (V−V0)/V0.
 enum class CorrectiveLaw {
-  /// k' = C E l_e |δv|^β: the thesis's eq. 8 as printed. With β = 2 it stiffens (pushes the
-  /// diagonals apart) for compression and expansion alike.
+  /// k' = C E l_e max(|δv| − d, 0)^β: the thesis's eq. 8 as printed (d = 0). With β = 2 it
+  /// stiffens (pushes the diagonals apart) for compression and expansion alike.
   Symmetric,
-  /// k' = C E l_e max(−δv, 0)^β: acts in compression only, never inflates an expanding element.
+  /// k' = C E l_e max(−δv − d, 0)^β: acts in compression only, never inflates an expanding element.
   CompressionOnly,
 };
 std::string to_string(CorrectiveLaw law);
@@ -58,6 +58,11 @@ struct CorrectiveSpringConstants {
   /// a value below 1 offsets the stiffness the corrective springs add in compression (as
   /// Golec's hybrid model lowers its springs to the shear modulus).
   double spring_modulus_ratio = 1.0;
+  /// Dead zone d of the corrective law [-], in [0, 0.5): the corrective springs carry nothing
+  /// until an element has lost (gained, symmetric law) more than d of its volume. With d > 0 and
+  /// β > 1 the model is exactly the Golec lattice — its linearisation — for |δv| ≤ d, however
+  /// large C is, so a linear design and the nonlinear model agree at small loads. 0 in the thesis.
+  double dead_zone = 0.0;
 
   /// The thesis's hand-tuned constants: A = 0.5, α = 1.4, C = 25, β = 2 (symmetric law).
   static CorrectiveSpringConstants thesis();
