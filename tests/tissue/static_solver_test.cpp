@@ -245,6 +245,11 @@ TEST(StaticSolver, element_stability_range_of_the_presets) {
   const auto recommended = range(TissueModelKind::MssCs, CorrectiveLaw::CompressionOnly);
   EXPECT_NEAR(recommended.min_volume_change, -0.0297, 1e-3);
   EXPECT_EQ(recommended.max_volume_change, 0.5);  // compression-only: never inflates
+  // cube-targets switches on late and hard (beyond 1.33 %, C = 1e5): its edge comes earlier.
+  MassSpringOptions targets = options_for(TissueModelKind::MssCs, CorrectiveLaw::CompressionOnly);
+  targets.corrective = CorrectiveSpringConstants::cube_targets();
+  EXPECT_NEAR(element_stability_range(MassSpringModel(small_lattice(1), {50e3, 1060}, targets)).min_volume_change, -0.0185,
+              1e-3);
   const auto thesis = range(TissueModelKind::MssCs, CorrectiveLaw::Symmetric);
   EXPECT_NEAR(thesis.min_volume_change, -0.068, 2e-3);
   EXPECT_NEAR(thesis.max_volume_change, 0.0028, 5e-4);

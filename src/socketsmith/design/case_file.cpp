@@ -181,8 +181,9 @@ CaseFile parse_case(const json& doc, const std::filesystem::path& folder) {
     require(c.model == "mss-cs" || c.model == "mss-cf" || c.model == "mss",
             "case file: tissue.model '{}' is not known (mss-cs, mss-cf or mss)", c.model);
     c.constants = text(j, "constants", "tissue", c.constants);
-    require(c.constants == "recommended" || c.constants == "thesis" || c.constants == "cube-fit",
-            "case file: tissue.constants '{}' is not known (recommended, thesis or cube-fit)", c.constants);
+    require(c.constants == "recommended" || c.constants == "thesis" || c.constants == "cube-fit" ||
+                c.constants == "cube-targets",
+            "case file: tissue.constants '{}' is not known (recommended, thesis, cube-fit or cube-targets)", c.constants);
     c.youngs_modulus_pa = number(j, "youngs_kpa", "tissue", c.youngs_modulus_pa / 1e3) * 1e3;
     c.density_kg_m3 = number(j, "density_kg_m3", "tissue", c.density_kg_m3);
     c.solve_mode = parse_design_solve_mode(text(j, "solve", "tissue", to_string(c.solve_mode)));

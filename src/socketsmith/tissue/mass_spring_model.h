@@ -72,7 +72,10 @@ struct CorrectiveSpringConstants {
   /// Constants that meet the cube targets (5 % / 2 %) on a stable lattice, found by
   /// `socketsmith calibrate cube --max-c 100000`; not the default (docs/VALIDATION.md says why).
   static CorrectiveSpringConstants cube_fit();
-  /// "thesis", "recommended" or "cube-fit". @throws InvalidInputError otherwise.
+  /// Recommended's A and spring ratio (same linearisation) with a dead zone and a steep law: meets
+  /// the cube targets and carries the sheared cube; not the default (docs/VALIDATION.md says why).
+  static CorrectiveSpringConstants cube_targets();
+  /// "thesis", "recommended", "cube-fit" or "cube-targets". @throws InvalidInputError otherwise.
   static CorrectiveSpringConstants preset(const std::string& name);
 };
 
