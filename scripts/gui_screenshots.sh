@@ -27,7 +27,7 @@ cat > "$tmp/script.json" <<'JSON'
   {"do": "screenshot", "name": "gui_threshold_kbm.png"}
 ]}
 JSON
-xvfb-run -a -s "-screen 0 1600x1000x24" build/socketsmith-gui --headless --demo --target-nodes 8000 \
+xvfb-run -a -s "-noreset -screen 0 1600x1000x24" build/socketsmith-gui --headless --demo --target-nodes 8000 \
   --script "$tmp/script.json" --frames 1 --screenshot-dir "$tmp"
 mkdir -p docs/images
 cp "$tmp"/gui_*.png docs/images/

@@ -29,16 +29,29 @@ using nlohmann::json;
 const fs::path kBin = SOCKETSMITH_BINARY_DIR;
 constexpr double kDeg = 3.14159265358979323846 / 180.0;
 
-/// The GUI command, under its own Xvfb when there is no display (plain `ctest -L gui` works too).
-std::string gui_command() {
-  const std::string gui = (kBin / "socketsmith-gui").string();
-  if (std::getenv("DISPLAY") != nullptr) return gui;
-  return "xvfb-run -a -s \"-screen 0 1600x1000x24\" " + gui;
-}
-
 int run(const std::string& cmd, const fs::path& log) {
   const int rc = std::system((cmd + " > " + log.string() + " 2>&1").c_str());
   return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+}
+
+/// Runs socketsmith-gui with @p args, its output in @p log, under its own Xvfb when there is no
+/// display (plain `ctest -L gui` works too), and returns the GUI's own exit status. Under Xvfb the
+/// status is written by a shell around the GUI to `<log>.status` and read from there: xvfb-run's
+/// own status is not the program's when its clean-up fails ("problem while cleaning up temporary
+/// directory", status 5 — seen in CI once while the GUI had returned 1). `-noreset` keeps the
+/// server from resetting (and signalling xvfb-run) when the GUI disconnects.
+int run_gui(const std::string& args, const fs::path& log) {
+  const std::string gui = (kBin / "socketsmith-gui").string();
+  if (std::getenv("DISPLAY") != nullptr) return run(gui + " " + args, log);
+  const fs::path status = log.string() + ".status";
+  fs::remove(status);
+  const int rc = run("xvfb-run -a -s \"-noreset -screen 0 1600x1000x24\" sh -c '" + gui + " " + args + "; echo $? > " +
+                         status.string() + "'",
+                     log);
+  std::ifstream in(status);
+  int gui_rc = -1;
+  if (in >> gui_rc) return gui_rc;
+  return rc == 0 ? -1 : rc;  // the GUI never ran (Xvfb failed to start): xvfb-run's status
 }
 
 std::string read_text(const fs::path& p) {
@@ -95,7 +108,7 @@ class GuiSession : public ::testing::Test {
       fs::remove_all(dir_);
       fs::create_directories(dir_);
       std::ofstream(dir_ / "script.json") << script.dump(2);
-      rc_ = run(gui_command() + " --headless --demo --target-nodes 2500 --script " + (dir_ / "script.json").string() +
+      rc_ = run_gui("--headless --demo --target-nodes 2500 --script " + (dir_ / "script.json").string() +
                     " --frames 2 --screenshot-dir " + dir_.string(),
                 dir_ / "gui.log");
       std::ofstream(stamp) << json{{"script", script}, {"status", rc_}}.dump();
@@ -227,7 +240,7 @@ TEST(GuiErrors, a_bad_case_file_is_reported_and_the_exit_status_is_not_zero) {
   const fs::path dir = kBin / "tests" / "gui_errors";
   fs::create_directories(dir);
   std::ofstream(dir / "bad.json") << R"({"patient": {"body_mass_kg": -70}})";
-  const int rc = run(gui_command() + " --headless --case " + (dir / "bad.json").string() +
+  const int rc = run_gui("--headless --case " + (dir / "bad.json").string() +
                          " --frames 1",
                      dir / "gui.log");
   const std::string log = read_text(dir / "gui.log");
