@@ -40,6 +40,7 @@ struct SimulateFlags {
   double noise_scale = 1.0;
   double systematic_scale = 1.0;
   int frames = 1;
+  int frames_per_pose = 1;
   double min_distance_mm = 550;
   double max_distance_mm = 1000;
   std::string calibration;
@@ -57,6 +58,8 @@ struct CalibrateFlags {
   int min_frames = 5;
   std::string corner_depth = "bilinear";
   std::string model = "linear";
+  int frames_per_pose = 0;
+  std::string fusion = "trimmed-mean";
   bool json = false;
 };
 
@@ -73,6 +76,8 @@ struct ExperimentFlags {
   std::string corner_depth = "bilinear";
   std::string model = "linear";
   int scan_frames = 1;
+  std::string fusion = "median";
+  int board_frames_per_pose = 1;
   std::string truth = "pnp";
   bool no_mesh = false;
   bool json = false;
@@ -94,6 +99,7 @@ struct ReconstructFlags {
   double grid_mm = 2.5;
   int smooth = 0;
   double facet_mm = 8.0;
+  std::string fusion = "median";
   bool json = false;
 };
 
@@ -144,6 +150,7 @@ struct LimbExperimentFlags : SessionFlags {
   double facet_mm = 8.0;
   int smooth = 0;
   double spacing_mm = 2.0;
+  std::string fusion = "median";
   std::string out;
   bool json = false;
 };
@@ -240,8 +247,11 @@ void run_simulate(const SimulateFlags& f) {
     co.simulation = so;
     co.min_distance_m = f.min_distance_mm * units::mm;
     co.max_distance_m = f.max_distance_mm * units::mm;
+    co.frames_per_pose = f.frames_per_pose;
     rec = scan::simulate_calibration_session(sensors, co, progress);
   } else {
+    require(f.frames_per_pose == 1, "scan simulate: --frames-per-pose is for --chessboard sessions (a static scene's "
+                                    "frames are all of one pose: use --frames)");
     rec = scan::simulate_recording(scene, sensors, so, progress);
   }
   scan::Recording named = rec;
@@ -280,6 +290,7 @@ void run_reconstruct(const ReconstructFlags& f) {
           "scan reconstruct: --out '{}' has extension '{}' (expected .stl, .obj or .ply)", f.out, ext);
   scan::ReconstructionOptions o;
   o.back_projection.upsample = f.upsample;
+  o.back_projection.fusion = scan::parse_frame_fusion(f.fusion, "scan reconstruct: --fusion");
   o.grid_cell_m = f.grid_mm * units::mm;
   o.smoothing_iterations = f.smooth;
   o.max_facet_m = f.facet_mm * units::mm;
@@ -409,6 +420,7 @@ void run_limb_experiment(const LimbExperimentFlags& f) {
   o.reconstruction.grid_cell_m = f.grid_mm * units::mm;
   o.reconstruction.max_facet_m = f.facet_mm * units::mm;
   o.reconstruction.smoothing_iterations = f.smooth;
+  o.reconstruction.back_projection.fusion = scan::parse_frame_fusion(f.fusion, "scan experiment limb: --fusion");
   o.accuracy.sample_spacing_m = f.spacing_mm * units::mm;
   o.compensation = ring_compensation(f.compensation, f.sensors, o.intrinsics);
   const scan::LimbScanResult r =
@@ -671,6 +683,8 @@ void run_calibrate(const CalibrateFlags& f) {
   o.chessboard.corner_depth = parse_corner_depth(f.corner_depth, "scan calibrate");
   o.form = parse_model(f.model, "scan calibrate");
   o.min_frames = f.min_frames;
+  o.frames_per_pose = f.frames_per_pose > 0 ? f.frames_per_pose : rec.frames_per_pose;
+  o.fusion = scan::parse_frame_fusion(f.fusion, "scan calibrate: --fusion");
   const auto progress = f.json ? ProgressCallback{} : console_progress(1.0);
   std::vector<scan::ErrorCompensation> models;
   nlohmann::json js = nlohmann::json::array();
@@ -685,7 +699,8 @@ void run_calibrate(const CalibrateFlags& f) {
     nlohmann::json e;
     e["name"] = s.name;
     e["frames"] = s.frames.size();
-    e["frames_used"] = r.observations.size();
+    e["frames_per_pose"] = o.frames_per_pose;
+    e["poses_used"] = r.observations.size();
     e["skipped"] = r.skipped;
     e["corners"] = r.model.corners;
     e["fx_px"] = r.fx;
@@ -695,9 +710,11 @@ void run_calibrate(const CalibrateFlags& f) {
     e["model"] = f.model;
     js.push_back(e);
     if (!f.json)
-      log::info("{}: board in {}/{} frames, {} corners; corner error to truth {:.2f} -> {:.2f} mm RMS, dimension error "
+      log::info("{}: board in {}/{} {}, {} corners; corner error to truth {:.2f} -> {:.2f} mm RMS, dimension error "
                 "{:.2f} -> {:.2f} mm (training frames); f = {:.1f}, {:.1f} px",
-                s.name, r.observations.size(), s.frames.size(), r.model.corners, r.rms_before_mm, r.rms_after_mm,
+                s.name, r.observations.size(), s.frames.size() / static_cast<size_t>(o.frames_per_pose),
+                o.frames_per_pose == 1 ? "frames" : fmt::format("poses of {} frames", o.frames_per_pose),
+                r.model.corners, r.rms_before_mm, r.rms_after_mm,
                 before.stats().mean_mm, after.stats().mean_mm, r.fx, r.fy);
   }
   scan::write_compensation_json(f.out, models);
@@ -740,6 +757,8 @@ void run_experiment(const ExperimentFlags& f) {
   o.training_corner_depth = parse_corner_depth(f.corner_depth, "scan experiment");
   o.form = parse_model(f.model, "scan experiment");
   o.scan_frames = f.scan_frames;
+  o.scan_fusion = scan::parse_frame_fusion(f.fusion, "scan experiment: --fusion");
+  o.board_frames_per_pose = f.board_frames_per_pose;
   const auto progress = f.json ? ProgressCallback{} : console_progress(1.0);
   ensure_directory(f.out);
   const scan::ChessboardExperiment cb = scan::run_chessboard_experiment(o, progress);
@@ -747,12 +766,15 @@ void run_experiment(const ExperimentFlags& f) {
   for (const auto& c : cb.calibrations) models.push_back(c.model);
   scan::write_compensation_json(fs::path(f.out) / "compensation.json", models);
   nlohmann::json j;
-  j["command"] = fmt::format("socketsmith scan experiment {} --seed {} --sensors {} --frames {} --test-frames {} "
-                             "--noise-scale {:g} --systematic-scale {:g} --truth {} --corner-depth {} --model {}{}{}{}",
-                             f.which, f.seed, f.sensors, f.frames, f.test_frames, f.noise_scale, f.systematic_scale,
-                             f.truth, f.corner_depth, f.model,
-                             f.which == "cylinders" ? fmt::format(" --scan-frames {}", f.scan_frames) : "", f.calibration.empty() ? "" : " --calibration " + f.calibration,
-                             f.no_mesh ? " --no-mesh" : "");
+  j["command"] = fmt::format("socketsmith scan experiment {} --seed {} --sensors {} --frames {} --board-frames-per-pose "
+                             "{} --test-frames {} --noise-scale {:g} --systematic-scale {:g} --truth {} --corner-depth "
+                             "{} --model {}{}{}{}",
+                             f.which, f.seed, f.sensors, f.frames, f.board_frames_per_pose, f.test_frames,
+                             f.noise_scale, f.systematic_scale, f.truth, f.corner_depth, f.model,
+                             f.which == "cylinders"
+                                 ? fmt::format(" --scan-frames {} --fusion {}", f.scan_frames, f.fusion)
+                                 : "",
+                             f.calibration.empty() ? "" : " --calibration " + f.calibration, f.no_mesh ? " --no-mesh" : "");
   j["seed"] = f.seed;
   j["truth"] = f.truth;
   j["noise_scale"] = f.noise_scale;
@@ -766,7 +788,8 @@ void run_experiment(const ExperimentFlags& f) {
   j["test_frames_missed"] = cb.test_frames_missed;
   nlohmann::json cal = nlohmann::json::array();
   for (const auto& c : cb.calibrations)
-    cal.push_back({{"sensor", c.model.sensor}, {"frames_used", c.observations.size()}, {"skipped", c.skipped.size()},
+    cal.push_back({{"sensor", c.model.sensor}, {"poses_used", c.observations.size()}, {"skipped", c.skipped.size()},
+                   {"corners", c.model.corners},
                    {"fx_px", c.fx}, {"fy_px", c.fy}, {"corner_rms_mm", {c.rms_before_mm, c.rms_after_mm}}});
   j["calibration"] = cal;
   std::string table;
@@ -828,6 +851,9 @@ void register_scan(CLI::App& app) {
   sim->add_flag("--chessboard", sf->chessboard,
                 "a calibration session: each sensor sees the chessboard (9 x 6 inner corners, 60 mm) in a random pose "
                 "per frame (use --frames, thesis ~50)");
+  sim->add_option("--frames-per-pose", sf->frames_per_pose,
+                  "--chessboard: frames recorded of each board pose (independent noise; --frames poses x this many "
+                  "frames, 1 to 30, default 1); scan calibrate fuses them");
   sim->add_option("--min-distance-mm", sf->min_distance_mm, "--chessboard: nearest board distance [mm] (default 550)");
   sim->add_option("--max-distance-mm", sf->max_distance_mm, "--chessboard: farthest board distance [mm] (default 1000)");
   sim->add_option("--sensors", sf->sensors, "number of sensors on the ring (default 4)");
@@ -863,6 +889,9 @@ void register_scan(CLI::App& app) {
   rec->add_flag("--no-cut", rf->no_cut, "keep the whole Poisson surface (no proximal cut)");
   rec->add_option("--compensation", rf->compensation,
                   "learned error model (scan calibrate --out): applied to every sensor it names (overrides rig.json)");
+  rec->add_option("--fusion", rf->fusion,
+                  "per-pixel fusion of a sensor's several frames: median (default) | trimmed-mean (mean of the middle "
+                  "half, kept at 0.1 mm)");
   rec->add_option("--upsample", rf->upsample, "bilinear up-sampling of the depth frames, 1 to 8 (default 1)");
   rec->add_option("--grid-mm", rf->grid_mm, "voxel-grid simplification before Poisson [mm] (default 2.5; 0: off)");
   rec->add_option("--facet-mm", rf->facet_mm, "largest facet of the output surface [mm] (default 8)");
@@ -887,6 +916,8 @@ void register_scan(CLI::App& app) {
   limb->add_option("--grid-mm", lf->grid_mm, "voxel-grid simplification before Poisson [mm] (default 2.5)");
   limb->add_option("--facet-mm", lf->facet_mm, "largest facet of the surface [mm] (default 8)");
   limb->add_option("--smooth", lf->smooth, "Taubin smoothing iterations (default 0)");
+  limb->add_option("--fusion", lf->fusion,
+                   "per-pixel fusion of each sensor's --frames: median (default) | trimmed-mean");
   limb->add_option("--spacing-mm", lf->spacing_mm, "sample spacing of the distance measure [mm] (default 2)");
   limb->add_option("--out", lf->out, "folder for the recording, the surfaces and report.json")->required();
   limb->add_flag("--json", lf->json, "print the report on stdout");
@@ -935,7 +966,12 @@ void register_scan(CLI::App& app) {
   cal->add_option("--corner-depth", cf->corner_depth,
                   "depth at each corner of the training frames: bilinear (the thesis, default) | plane (a robust local "
                   "plane fit of the pixels within 6 px)");
-  cal->add_option("--min-frames", cf->min_frames, "fewest usable board frames per sensor (default 5)");
+  cal->add_option("--min-frames", cf->min_frames, "fewest usable board frames (poses) per sensor (default 5)");
+  cal->add_option("--frames-per-pose", cf->frames_per_pose,
+                  "consecutive frames of one board pose, fused into one observation (default: rig.json "
+                  "\"frames_per_pose\", else 1)");
+  cal->add_option("--fusion", cf->fusion,
+                  "depth fusion of a pose's frames: trimmed-mean (default) | median; IR frames are averaged");
   cal->add_flag("--json", cf->json, "print a JSON summary on stdout");
   cal->callback([cf] { run_calibrate(*cf); });
 
@@ -949,7 +985,10 @@ void register_scan(CLI::App& app) {
     x->add_option("--out", ef->out, "folder for <which>.json and the learned compensation.json")->required();
     x->add_option("--seed", ef->seed, "seed of the units' errors, poses and noise (default 1)");
     x->add_option("--sensors", ef->sensors, "sensors K1..Kn (default 4)");
-    x->add_option("--frames", ef->frames, "training board frames per sensor (default 50, as the thesis)");
+    x->add_option("--frames", ef->frames, "training board poses per sensor (default 50, as the thesis)");
+    x->add_option("--board-frames-per-pose", ef->board_frames_per_pose,
+                  "frames recorded of each training board pose and fused (IR mean, depth trimmed mean; default 1); "
+                  "the held-out frames stay single frames");
     x->add_option("--test-frames", ef->test_frames, "held-out frames per sensor at each of 60, 75, 90 cm (default 5)");
     x->add_option("--noise-scale", ef->noise_scale, "scale of every simulated error term (default 1)");
     x->add_option("--systematic-scale", ef->systematic_scale, kSystematicScaleHelp);
@@ -964,7 +1003,9 @@ void register_scan(CLI::App& app) {
     if (std::string(which) == "cylinders") {
       x->add_flag("--no-mesh", ef->no_mesh, "point-cloud errors only (skip the reconstructions)");
       x->add_option("--scan-frames", ef->scan_frames,
-                    "frames per sensor of each cylinder scan, fused by a per-pixel median (default 1)");
+                    "frames per sensor of each cylinder scan, fused per pixel (default 1)");
+      x->add_option("--fusion", ef->fusion,
+                    "per-pixel fusion of the --scan-frames: median (default) | trimmed-mean");
     }
     x->add_flag("--json", ef->json, "print the results as JSON on stdout");
     x->callback([ef] { run_experiment(*ef); });

@@ -108,5 +108,23 @@ TEST(SimulatedSensor, flying_pixels_appear_at_silhouettes_and_grazing_rays_retur
   EXPECT_LT(max_abs_x, 0.08 * std::sin(62 * M_PI / 180));
 }
 
+TEST(SimulatedSensor, several_frames_of_one_cast_equal_single_frames_of_the_same_seeds) {
+  const SimulatedSensor sensor = default_rig(1).front();
+  const Scene scene = make_chessboard_scene(
+      calibration_chessboard(sensor.world_from_sensor * Eigen::Isometry3d(Eigen::Translation3d(0.0, 0.0, 0.8))));
+  const geometry::SurfaceQuery query(scene.mesh);
+  const SensorErrorModel model;
+  const std::vector<std::uint64_t> seeds{17, 99};
+  const std::vector<SimulatedFrame> frames = simulate_frames(query, scene, sensor, model, seeds);
+  ASSERT_EQ(frames.size(), 2u);
+  for (size_t q = 0; q < 2; ++q) {
+    const SimulatedFrame one = simulate_frame(query, scene, sensor, model, seeds[q]);
+    EXPECT_EQ(frames[q].depth.raw, one.depth.raw);
+    EXPECT_EQ(frames[q].ir.value, one.ir.value);
+  }
+  EXPECT_NE(frames[0].depth.raw, frames[1].depth.raw);
+  EXPECT_GT(frames[0].depth.count_valid(), 50000);  // the board fills a third of the view
+}
+
 }  // namespace
 }  // namespace socketsmith::scan

@@ -207,18 +207,30 @@ CalibrationResult calibrate_sensor(const SensorRecording& sensor, const Chessboa
           sensor.name, sensor.name);
   require(sensor.ir_frames.size() == sensor.frames.size(), "calibrate_sensor: sensor '{}' has {} IR and {} depth frames",
           sensor.name, sensor.ir_frames.size(), sensor.frames.size());
+  const int per_pose = o.frames_per_pose;
+  require(per_pose >= 1, "calibrate_sensor: {} frames per board pose (expected at least 1)", per_pose);
+  require(sensor.frames.size() % static_cast<size_t>(per_pose) == 0,
+          "calibrate_sensor: sensor '{}' has {} frames, not a whole number of board poses of {} frames each (check "
+          "frames_per_pose in rig.json or --frames-per-pose)",
+          sensor.name, sensor.frames.size(), per_pose);
   CalibrationResult r;
-  const int n = static_cast<int>(sensor.frames.size());
-  for (int f = 0; f < n; ++f) {
-    const std::string file = fmt::format("{}/{}", sensor.name,
-                                         f < static_cast<int>(sensor.frame_files.size())
-                                             ? "ir_" + sensor.frame_files[static_cast<size_t>(f)].substr(6)
-                                             : fmt::format("ir_{:04d}.png", f));
+  const int n = static_cast<int>(sensor.frames.size()) / per_pose;
+  for (int pose = 0; pose < n; ++pose) {
+    const int f = pose * per_pose;
+    const auto name_of = [&](int q) {
+      return fmt::format("{}/{}", sensor.name,
+                         q < static_cast<int>(sensor.frame_files.size())
+                             ? "ir_" + sensor.frame_files[static_cast<size_t>(q)].substr(6)
+                             : fmt::format("ir_{:04d}.png", q));
+    };
+    const std::string file = per_pose == 1 ? name_of(f) : name_of(f) + " to " + name_of(f + per_pose - 1);
     try {
       BoardObservation ob;
       ob.frame = f;
-      ob.detection = detect_chessboard(sensor.ir_frames[static_cast<size_t>(f)], sensor.frames[static_cast<size_t>(f)],
-                                       sensor.intrinsics, pattern, o.chessboard, file);
+      const auto first = static_cast<std::ptrdiff_t>(f), last = first + per_pose;
+      const IrImage ir = mean_of_ir_frames({sensor.ir_frames.begin() + first, sensor.ir_frames.begin() + last});
+      const DepthImage depth = fuse_frames({sensor.frames.begin() + first, sensor.frames.begin() + last}, o.fusion);
+      ob.detection = detect_chessboard(ir, depth, sensor.intrinsics, pattern, o.chessboard, file);
       if (ob.detection.count_with_depth() < 6) {
         r.skipped.push_back(fmt::format("{}: only {} corners have depth", file, ob.detection.count_with_depth()));
       } else {
@@ -227,12 +239,12 @@ CalibrationResult calibrate_sensor(const SensorRecording& sensor, const Chessboa
     } catch (const InvalidInputError& e) {
       r.skipped.push_back(e.what());
     }
-    if (!report_progress(progress, 0.8 * (f + 1) / n, "finding chessboard corners")) break;
+    if (!report_progress(progress, 0.8 * (pose + 1) / n, "finding chessboard corners")) break;
   }
   require(static_cast<int>(r.observations.size()) >= o.min_frames,
-          "calibrate_sensor: sensor '{}': the board was found in {} of {} frames (expected at least {}; the thesis used "
+          "calibrate_sensor: sensor '{}': the board was found in {} of {} {} (expected at least {}; the thesis used "
           "about 50 frames at 50-100 cm){}",
-          sensor.name, r.observations.size(), n, o.min_frames,
+          sensor.name, r.observations.size(), n, per_pose == 1 ? "frames" : "board poses", o.min_frames,
           r.skipped.empty() ? std::string() : "; first problem: " + r.skipped.front());
   const CameraIntrinsics& k = sensor.intrinsics;
   r.fx = k.fx;

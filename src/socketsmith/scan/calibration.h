@@ -33,12 +33,18 @@ struct CalibrationOptions {
   ChessboardOptions chessboard;
   TruthEstimate truth = TruthEstimate::Pnp;
   CompensationForm form = CompensationForm::LinearUvd;  ///< the model fitted
-  int min_frames = 5;  ///< fewer usable board frames is an error (the thesis used ≈ 50)
+  int min_frames = 5;  ///< fewer usable board frames (poses) is an error (the thesis used ≈ 50)
+  /// Consecutive frames of one static board pose fused into one observation (a recording's
+  /// frames_per_pose): depth by #fusion, IR by the per-pixel mean — less noise on the corners and
+  /// their depth, and boards found in IR frames too noisy one by one. The sensor's frame count
+  /// must be a multiple of it.
+  int frames_per_pose = 1;
+  FrameFusion fusion = FrameFusion::TrimmedMean;  ///< depth fusion of a pose's frames
 };
 
 /// One frame's detected corners and their estimated truth (sensor frame).
 struct BoardObservation {
-  int frame = 0;  ///< index into the sensor's frames
+  int frame = 0;  ///< index into the sensor's frames (the first of its pose's frames)
   ChessboardDetection detection;
   std::vector<Eigen::Vector3d> truth;  ///< per corner, same order as detection.corners [m]
 };
@@ -53,7 +59,8 @@ struct CalibrationResult {
   double rms_after_mm = 0.0;         ///< … after compensation (training data)
 };
 
-/// Detects the board in every frame of @p sensor (IR + depth), estimates the true corners and
+/// Detects the board in every frame of @p sensor (IR + depth; or in every pose's fused frames,
+/// options.frames_per_pose), estimates the true corners and
 /// fits ε = LR(u, v, d) by least squares on P − P_true = ε P (eq. 29 multiplied out by P, so points
 /// near the optical axis do not divide by ≈ 0), then once more without residuals beyond 5 MADs.
 /// @throws InvalidInputError when the sensor has no IR frames, fewer than options.min_frames

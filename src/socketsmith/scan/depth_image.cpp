@@ -95,15 +95,37 @@ void write_ir_png(const fs::path& path, const IrImage& image) {
   write_u16_png(path, image.width, image.height, image.value, "write_ir_png");
 }
 
-DepthImage median_of_frames(const std::vector<DepthImage>& frames) {
-  require(!frames.empty(), "median_of_frames: no frames");
+FrameFusion parse_frame_fusion(const std::string& name, const std::string& what) {
+  if (name == "median") return FrameFusion::Median;
+  if (name == "trimmed-mean") return FrameFusion::TrimmedMean;
+  fail("{}: frame fusion '{}' is not known (expected median or trimmed-mean)", what, name);
+}
+
+const char* frame_fusion_name(FrameFusion fusion) {
+  return fusion == FrameFusion::Median ? "median" : "trimmed-mean";
+}
+
+DepthImage fuse_frames(const std::vector<DepthImage>& frames, FrameFusion fusion) {
+  require(!frames.empty(), "fuse_frames: no frames");
   const DepthImage& f0 = frames.front();
   for (const DepthImage& f : frames)
-    require(f.width == f0.width && f.height == f0.height && f.scale_m == f0.scale_m,
-            "median_of_frames: frames differ in size or scale ({}x{} vs {}x{}); a sensor's frames must match",
-            f.width, f.height, f0.width, f0.height);
+    require(f.width == f0.width && f.height == f0.height && f.scale_m == f0.scale_m && f.raw.size() == f0.raw.size(),
+            "fuse_frames: frames differ in size or scale ({}x{} vs {}x{}); a sensor's frames must match", f.width,
+            f.height, f0.width, f0.height);
   if (frames.size() == 1) return f0;
   DepthImage out = f0;
+  // The trimmed mean is kept on a finer grid: a tenth of the raw unit when the readings fit.
+  int finer = 1;
+  if (fusion == FrameFusion::TrimmedMean) {
+    std::uint16_t top = 0;
+    for (const DepthImage& f : frames) top = std::max(top, *std::max_element(f.raw.begin(), f.raw.end()));
+    for (int k : {10, 5, 2})
+      if (static_cast<long>(top) * k <= 65535) {
+        finer = k;
+        break;
+      }
+    out.scale_m = f0.scale_m / finer;
+  }
   std::vector<std::uint16_t> values;
   for (size_t i = 0; i < out.raw.size(); ++i) {
     values.clear();
@@ -113,9 +135,34 @@ DepthImage median_of_frames(const std::vector<DepthImage>& frames) {
       out.raw[i] = 0;
       continue;
     }
-    auto mid = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
-    std::nth_element(values.begin(), mid, values.end());
-    out.raw[i] = *mid;
+    if (fusion == FrameFusion::Median) {
+      auto mid = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
+      std::nth_element(values.begin(), mid, values.end());
+      out.raw[i] = *mid;
+      continue;
+    }
+    std::sort(values.begin(), values.end());
+    const size_t cut = values.size() / 4;
+    double sum = 0.0;
+    for (size_t q = cut; q < values.size() - cut; ++q) sum += values[q];
+    const double mean = sum / static_cast<double>(values.size() - 2 * cut);
+    out.raw[i] = static_cast<std::uint16_t>(std::clamp(std::round(mean * finer), 1.0, 65535.0));
+  }
+  return out;
+}
+
+IrImage mean_of_ir_frames(const std::vector<IrImage>& frames) {
+  require(!frames.empty(), "mean_of_ir_frames: no frames");
+  const IrImage& f0 = frames.front();
+  for (const IrImage& f : frames)
+    require(f.width == f0.width && f.height == f0.height && f.value.size() == f0.value.size(),
+            "mean_of_ir_frames: frames differ in size ({}x{} vs {}x{})", f.width, f.height, f0.width, f0.height);
+  if (frames.size() == 1) return f0;
+  IrImage out = f0;
+  for (size_t i = 0; i < out.value.size(); ++i) {
+    double sum = 0.0;
+    for (const IrImage& f : frames) sum += f.value[i];
+    out.value[i] = static_cast<std::uint16_t>(std::round(sum / static_cast<double>(frames.size())));
   }
   return out;
 }

@@ -59,6 +59,7 @@ ChessboardExperiment run_chessboard_experiment(const ExperimentOptions& o, const
   train.simulation.seed = o.seed;
   train.simulation.frames = o.training_frames;
   train.simulation.error = x.base_error;
+  train.frames_per_pose = o.board_frames_per_pose;
   const ProgressCallback simulating = [&progress](double f, std::string_view what) {
     return report_progress(progress, 0.35 * f, what);
   };
@@ -67,6 +68,7 @@ ChessboardExperiment run_chessboard_experiment(const ExperimentOptions& o, const
   co.truth = o.truth;
   co.chessboard.corner_depth = o.training_corner_depth;
   co.form = o.form;
+  co.frames_per_pose = o.board_frames_per_pose;
   for (size_t s = 0; s < training.sensors.size(); ++s) {
     x.calibrations.push_back(calibrate_sensor(training.sensors[s], *training.chessboard, co));
     report_progress(progress, 0.35 + 0.3 * (s + 1) / training.sensors.size(), "learning the error models");
@@ -78,6 +80,7 @@ ChessboardExperiment run_chessboard_experiment(const ExperimentOptions& o, const
   for (int q = 0; q < 3; ++q) {
     CalibrationSessionOptions test = train;
     test.simulation.frames = o.test_frames_per_distance;
+    test.frames_per_pose = 1;
     test.min_distance_m = test.max_distance_m = distances[q];
     test.frame_seed = o.seed * 7919 + 101 + static_cast<std::uint64_t>(q);
     const Recording held = simulate_calibration_session(x.rig, test);
@@ -132,6 +135,7 @@ CylinderExperiment run_cylinder_experiment(const ChessboardExperiment& cb, const
     for (size_t s = 0; s < compensated.sensors.size(); ++s) compensated.sensors[s].compensation = cb.calibrations[s].model;
     report_progress(progress, double(++step) / steps, fmt::format("cylinder {:.0f} mm: simulated", dia * 1e3));
     ReconstructionOptions ro;
+    ro.back_projection.fusion = o.scan_fusion;
     for (int c = 0; c < 2; ++c) {
       const Recording& rec = c == 0 ? plain : compensated;
       PointCloud cloud = recording_point_cloud(rec, ro.back_projection);

@@ -22,7 +22,11 @@ struct ExperimentOptions {
   int sensors = 4;                 ///< K1…Kn (the thesis: 4)
   int training_frames = 50;        ///< board frames per sensor for learning (thesis ≈ 50, 50–100 cm)
   int test_frames_per_distance = 5;  ///< held-out frames at each of 60, 75, 90 cm (thesis: one each)
-  int scan_frames = 1;             ///< cylinder experiment: frames per sensor, fused by a per-pixel median
+  int scan_frames = 1;             ///< cylinder experiment: frames per sensor, fused per pixel by scan_fusion
+  FrameFusion scan_fusion = FrameFusion::Median;  ///< how the cylinder scans' frames are fused
+  /// Frames of each training board pose, fused (CalibrationOptions::frames_per_pose); the
+  /// held-out frames stay single frames, measured the thesis's way.
+  int board_frames_per_pose = 1;
   double noise_scale = 1.0;        ///< SensorErrorModel::scale (every term)
   double systematic_scale = 1.0;   ///< and the systematic terms once more (scale_systematic_errors)
   std::vector<CameraIntrinsics> intrinsics;  ///< of the rig: none (typical), one, or one per sensor

@@ -37,6 +37,8 @@ struct BackProjectionOptions {
   /// Points whose normal makes more than this angle with the viewing ray are dropped (grazing
   /// measurements are the least reliable) [rad]; π/2 keeps all.
   double max_view_angle_rad = 1.3;
+  /// How a sensor's several frames are fused per pixel before back-projection (recording_point_cloud).
+  FrameFusion fusion = FrameFusion::Median;
 };
 
 /// Back-projects a depth frame (thesis eq. 22 with undistortion): P = (x d, y d, d) in the sensor

@@ -263,7 +263,7 @@ PointCloud recording_point_cloud(const Recording& rec, const BackProjectionOptio
   for (size_t s = 0; s < rec.sensors.size(); ++s) {
     const SensorRecording& sr = rec.sensors[s];
     require(!sr.frames.empty(), "reconstruct: sensor '{}' has no depth frames", sr.name);
-    const DepthImage frame = median_of_frames(sr.frames);
+    const DepthImage frame = fuse_frames(sr.frames, options.fusion);
     const std::string file = sr.frame_files.empty() ? std::string("frame 0") : sr.frame_files.front();
     require(frame.count_valid() > 0,
             "reconstruct: sensor '{}': every pixel of {} is invalid (0) — the sensor saw nothing in range; check that "

@@ -79,7 +79,7 @@ struct ReconstructionResult {
 ReconstructionResult reconstruct_surface(const PointCloud& cloud, const ReconstructionOptions& options = {},
                                          const ProgressCallback& progress = {});
 
-/// Back-projects every sensor of @p recording (the temporal median of its frames; with the
+/// Back-projects every sensor of @p recording (its frames fused per pixel, options.back_projection.fusion; with the
 /// sensor's learned error compensation when it has one), checks that
 /// each frame has valid pixels and that the sensors overlap, then reconstruct_surface.
 /// @throws InvalidInputError for an all-invalid frame ("sensor K2: no valid depth pixel") or a

@@ -92,6 +92,14 @@ Recording read_recording(const fs::path& folder) {
       fail("{}: inner_cols, inner_rows must be integers and square_mm a number", what);
     }
   }
+  if (rig.contains("frames_per_pose")) {
+    const auto& n = rig["frames_per_pose"];
+    require(n.is_number_integer() && n.get<int>() >= 1 && n.get<int>() <= 1000,
+            "read_recording: \"frames_per_pose\" in '{}' must be an integer from 1 to 1000 (consecutive frames of one "
+            "board pose)",
+            rig_path.string());
+    rec.frames_per_pose = n.get<int>();
+  }
   std::set<std::string> names;
   for (const auto& s : rig["sensors"]) {
     require(s.is_object() && s.contains("name") && s["name"].is_string(),
@@ -212,6 +220,10 @@ void write_recording(const fs::path& folder, const Recording& rec) {
     rig["chessboard"] = {{"inner_cols", rec.chessboard->inner_cols},
                          {"inner_rows", rec.chessboard->inner_rows},
                          {"square_mm", rec.chessboard->square_m * 1e3}};
+  }
+  if (rec.frames_per_pose != 1) {
+    require(rec.frames_per_pose >= 1, "write_recording: frames_per_pose {} must be at least 1", rec.frames_per_pose);
+    rig["frames_per_pose"] = rec.frames_per_pose;
   }
   rig["sensors"] = nlohmann::ordered_json::array();
   for (const SensorRecording& s : rec.sensors) {

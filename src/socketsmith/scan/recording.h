@@ -52,6 +52,9 @@ struct Recording {
   std::string description;  ///< free text (e.g. what was simulated)
   /// The chessboard target of a calibration/registration session (rig.json "chessboard"), if any.
   std::optional<ChessboardPattern> chessboard;
+  /// Consecutive frames of each sensor that show the same static board pose (rig.json
+  /// "frames_per_pose", default 1): scan calibrate fuses each group into one observation.
+  int frames_per_pose = 1;
 };
 
 /// Reads a recording folder: rig.json, every sensor's intrinsics (project JSON, iai_kinect2 YAML

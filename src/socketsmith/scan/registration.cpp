@@ -225,7 +225,7 @@ ReferenceSet box_reference_points(const Recording& rec, const std::vector<Eigen:
             "scan register: sensor '{}' has no IR frames (ir_0000.png …): the chessboard corners are found in the IR "
             "image",
             sr.name);
-    const DepthImage depth = median_of_frames(sr.frames);
+    const DepthImage depth = fuse_frames(sr.frames, FrameFusion::Median);
     const auto boards = find_all_chessboard_corners(sr.ir_frames.front(), pattern, o.chessboard.upsample,
                                                     o.max_boards_per_sensor);
     require(!boards.empty(),

@@ -145,8 +145,9 @@ double ChessboardPatch::albedo_at(double x, double y) const {
   return (static_cast<int>(a) + static_cast<int>(b)) % 2 == 0 ? kBlack : kWhite;
 }
 
-SimulatedFrame simulate_frame(const geometry::SurfaceQuery& query, const Scene& scene, const SimulatedSensor& sensor,
-                              const SensorErrorModel& model, std::uint64_t seed, double depth_scale_m) {
+std::vector<SimulatedFrame> simulate_frames(const geometry::SurfaceQuery& query, const Scene& scene,
+                                            const SimulatedSensor& sensor, const SensorErrorModel& model,
+                                            const std::vector<std::uint64_t>& seeds, double depth_scale_m) {
   validate_model(model);
   require(depth_scale_m > 0.0 && depth_scale_m < 1.0, "simulate_depth: depth scale {} m per unit is not valid",
           depth_scale_m);
@@ -233,77 +234,89 @@ SimulatedFrame simulate_frame(const geometry::SurfaceQuery& query, const Scene& 
       }
     }
 
-  // 2. Depth errors, flying pixels, losses; one random stream per row (deterministic under OpenMP).
-  SimulatedFrame frame;
-  DepthImage& img = frame.depth;
-  img.width = w;
-  img.height = h;
-  img.scale_m = depth_scale_m;
-  img.raw.assign(n, 0);
-  const double half_diag = std::hypot(w / 2.0, h / 2.0);
+  // 2. and 3. for every frame: the scene's geometry and albedo above are the same, the errors are
+  //    drawn from each frame's seed.
+  std::vector<SimulatedFrame> frames;
+  frames.reserve(seeds.size());
+  for (const std::uint64_t seed : seeds) {
+    // 2. Depth errors, flying pixels, losses; one random stream per row (deterministic under OpenMP).
+    SimulatedFrame frame;
+    DepthImage& img = frame.depth;
+    img.width = w;
+    img.height = h;
+    img.scale_m = depth_scale_m;
+    img.raw.assign(n, 0);
+    const double half_diag = std::hypot(w / 2.0, h / 2.0);
 #pragma omp parallel for schedule(static)
-  for (int v = 0; v < h; ++v) {
-    std::mt19937_64 rng(splitmix64(seed ^ splitmix64(static_cast<std::uint64_t>(v) + 0x51ed27ULL)));
-    std::uniform_real_distribution<double> uni(0.0, 1.0);
-    std::normal_distribution<double> gauss(0.0, 1.0);
-    for (int u = 0; u < w; ++u) {
-      const size_t i = static_cast<size_t>(v) * w + u;
-      const double t = truth[i];
-      // Draw every random number for every pixel so the stream does not depend on the scene.
-      const double r_fly = uni(rng), r_mix = uni(rng), r_lost = uni(rng), r_noise = gauss(rng);
-      if (t <= 0.0) continue;
-      double d = t;
-      // Flying pixels: mix with the neighbour across the strongest depth edge.
-      double far_step = 0.0;
-      const int du[4] = {1, -1, 0, 0}, dv[4] = {0, 0, 1, -1};
-      for (int q = 0; q < 4; ++q) {
-        const int un = u + du[q], vn = v + dv[q];
-        if (un < 0 || un >= w || vn < 0 || vn >= h) continue;
-        const double tn = std::abs(truth[static_cast<size_t>(vn) * w + un]);
-        const double step = tn == 0.0 ? model.flying_background_m : tn - t;
-        if (std::abs(step) > model.edge_jump_m && std::abs(step) > std::abs(far_step)) far_step = step;
+    for (int v = 0; v < h; ++v) {
+      std::mt19937_64 rng(splitmix64(seed ^ splitmix64(static_cast<std::uint64_t>(v) + 0x51ed27ULL)));
+      std::uniform_real_distribution<double> uni(0.0, 1.0);
+      std::normal_distribution<double> gauss(0.0, 1.0);
+      for (int u = 0; u < w; ++u) {
+        const size_t i = static_cast<size_t>(v) * w + u;
+        const double t = truth[i];
+        // Draw every random number for every pixel so the stream does not depend on the scene.
+        const double r_fly = uni(rng), r_mix = uni(rng), r_lost = uni(rng), r_noise = gauss(rng);
+        if (t <= 0.0) continue;
+        double d = t;
+        // Flying pixels: mix with the neighbour across the strongest depth edge.
+        double far_step = 0.0;
+        const int du[4] = {1, -1, 0, 0}, dv[4] = {0, 0, 1, -1};
+        for (int q = 0; q < 4; ++q) {
+          const int un = u + du[q], vn = v + dv[q];
+          if (un < 0 || un >= w || vn < 0 || vn >= h) continue;
+          const double tn = std::abs(truth[static_cast<size_t>(vn) * w + un]);
+          const double step = tn == 0.0 ? model.flying_background_m : tn - t;
+          if (std::abs(step) > model.edge_jump_m && std::abs(step) > std::abs(far_step)) far_step = step;
+        }
+        if (far_step != 0.0 && r_fly < s * model.flying_pixel_probability) d += (0.1 + 0.8 * r_mix) * far_step;
+        if (r_lost < s * model.random_invalid_probability) continue;
+        const double rho = std::hypot(u - k.cx, v - k.cy) / half_diag;
+        const double systematic = model.bias_m + model.sensor_offset_m + model.bias_slope * (d - 1.0) +
+                                  model.wiggle_amplitude_m * std::sin(2.0 * M_PI * d / model.wiggle_period_m) +
+                                  model.radial_bias_m * rho * rho;
+        const double darkness = std::clamp((0.7 - albedo[i]) / 0.65, 0.0, 1.0);
+        const double sigma = (model.noise_sigma0_m + model.noise_sigma2_per_m * d * d) *
+                             (1.0 + (model.dark_noise_factor - 1.0) * darkness);
+        d += s * (systematic + sigma * r_noise);
+        if (d < model.min_range_m || d > model.max_range_m) continue;
+        const double raw = std::round((d - k.depth_shift_m) / depth_scale_m);
+        if (raw < 1.0 || raw > 65535.0) continue;
+        img.raw[i] = static_cast<std::uint16_t>(raw);
       }
-      if (far_step != 0.0 && r_fly < s * model.flying_pixel_probability) d += (0.1 + 0.8 * r_mix) * far_step;
-      if (r_lost < s * model.random_invalid_probability) continue;
-      const double rho = std::hypot(u - k.cx, v - k.cy) / half_diag;
-      const double systematic = model.bias_m + model.sensor_offset_m + model.bias_slope * (d - 1.0) +
-                                model.wiggle_amplitude_m * std::sin(2.0 * M_PI * d / model.wiggle_period_m) +
-                                model.radial_bias_m * rho * rho;
-      const double darkness = std::clamp((0.7 - albedo[i]) / 0.65, 0.0, 1.0);
-      const double sigma = (model.noise_sigma0_m + model.noise_sigma2_per_m * d * d) *
-                           (1.0 + (model.dark_noise_factor - 1.0) * darkness);
-      d += s * (systematic + sigma * r_noise);
-      if (d < model.min_range_m || d > model.max_range_m) continue;
-      const double raw = std::round((d - k.depth_shift_m) / depth_scale_m);
-      if (raw < 1.0 || raw > 65535.0) continue;
-      img.raw[i] = static_cast<std::uint16_t>(raw);
     }
-  }
 
-  // 3. IR amplitude: albedo × cos(incidence) / range², with noise (its own random streams).
-  IrImage& ir = frame.ir;
-  ir.width = w;
-  ir.height = h;
-  ir.value.assign(n, 0);
+    // 3. IR amplitude: albedo × cos(incidence) / range², with noise (its own random streams).
+    IrImage& ir = frame.ir;
+    ir.width = w;
+    ir.height = h;
+    ir.value.assign(n, 0);
 #pragma omp parallel for schedule(static)
-  for (int v = 0; v < h; ++v) {
-    std::mt19937_64 rng(splitmix64(seed ^ splitmix64(static_cast<std::uint64_t>(v) + 0x1f2e3dULL) ^ 0x7a11ULL));
-    std::normal_distribution<double> gauss(0.0, 1.0);
-    for (int u = 0; u < w; ++u) {
-      const size_t i = static_cast<size_t>(v) * w + u;
-      const double r_noise = gauss(rng);
-      const double t = std::abs(truth[i]);
-      double amplitude = 0.0;
-      if (t > 0.0) {
-        const Eigen::Vector2d& xy = rays.at(u, v);
-        const double range2 = t * t * (1.0 + xy.x() * xy.x() * gx * gx + xy.y() * xy.y() * gy * gy);
-        amplitude = model.ir_counts_at_1m * albedo[i] * cosine[i] / range2;
+    for (int v = 0; v < h; ++v) {
+      std::mt19937_64 rng(splitmix64(seed ^ splitmix64(static_cast<std::uint64_t>(v) + 0x1f2e3dULL) ^ 0x7a11ULL));
+      std::normal_distribution<double> gauss(0.0, 1.0);
+      for (int u = 0; u < w; ++u) {
+        const size_t i = static_cast<size_t>(v) * w + u;
+        const double r_noise = gauss(rng);
+        const double t = std::abs(truth[i]);
+        double amplitude = 0.0;
+        if (t > 0.0) {
+          const Eigen::Vector2d& xy = rays.at(u, v);
+          const double range2 = t * t * (1.0 + xy.x() * xy.x() * gx * gx + xy.y() * xy.y() * gy * gy);
+          amplitude = model.ir_counts_at_1m * albedo[i] * cosine[i] / range2;
+        }
+        amplitude += s * (model.ir_noise_relative * amplitude + model.ir_noise_floor) * r_noise;
+        ir.value[i] = static_cast<std::uint16_t>(std::clamp(std::round(amplitude), 0.0, 65535.0));
       }
-      amplitude += s * (model.ir_noise_relative * amplitude + model.ir_noise_floor) * r_noise;
-      ir.value[i] = static_cast<std::uint16_t>(std::clamp(std::round(amplitude), 0.0, 65535.0));
     }
+    frames.push_back(std::move(frame));
   }
-  return frame;
+  return frames;
+}
+
+SimulatedFrame simulate_frame(const geometry::SurfaceQuery& query, const Scene& scene, const SimulatedSensor& sensor,
+                              const SensorErrorModel& model, std::uint64_t seed, double depth_scale_m) {
+  return std::move(simulate_frames(query, scene, sensor, model, {seed}, depth_scale_m).front());
 }
 
 DepthImage simulate_depth(const geometry::SurfaceQuery& scene, const SimulatedSensor& sensor,
@@ -351,15 +364,18 @@ Recording simulate_recording(const Scene& scene, const std::vector<SimulatedSens
     sr.world_from_sensor = sensors[i].world_from_sensor;
     sr.depth_scale_m = o.depth_scale_m;
     const SensorErrorModel model = unit_error_model(o.error, o.seed, i);
+    std::vector<std::uint64_t> seeds;
+    for (int f = 0; f < o.frames; ++f)
+      seeds.push_back(splitmix64(o.seed * 0x100000001b3ULL + i * 1000003ULL + static_cast<std::uint64_t>(f)));
+    std::vector<SimulatedFrame> frames = simulate_frames(query, scene, sensors[i], model, seeds, o.depth_scale_m);
     for (int f = 0; f < o.frames; ++f) {
-      const std::uint64_t seed = splitmix64(o.seed * 0x100000001b3ULL + i * 1000003ULL + static_cast<std::uint64_t>(f));
-      SimulatedFrame frame = simulate_frame(query, scene, sensors[i], model, seed, o.depth_scale_m);
-      sr.frames.push_back(std::move(frame.depth));
-      sr.ir_frames.push_back(std::move(frame.ir));
+      sr.frames.push_back(std::move(frames[static_cast<size_t>(f)].depth));
+      sr.ir_frames.push_back(std::move(frames[static_cast<size_t>(f)].ir));
       sr.frame_files.push_back(fmt::format("depth_{:04d}.png", f));
-      if (!report_progress(progress, double(++done) / total, "simulating depth frames")) break;
     }
+    done += o.frames;
     rec.sensors.push_back(std::move(sr));
+    if (!report_progress(progress, double(done) / total, "simulating depth frames")) break;
   }
   return rec;
 }
@@ -487,9 +503,12 @@ Recording simulate_calibration_session(const std::vector<SimulatedSensor>& senso
           o.min_distance_m, o.max_distance_m);
   require(o.max_tilt_rad >= 0.0 && o.max_tilt_rad < 1.3, "simulate_calibration_session: max tilt {} rad is not valid",
           o.max_tilt_rad);
+  require(o.frames_per_pose >= 1 && o.frames_per_pose <= 30,
+          "simulate_calibration_session: {} frames per board pose (expected 1 to 30)", o.frames_per_pose);
   validate_model(so.error);
   Recording rec;
   rec.chessboard = o.board.pattern;
+  rec.frames_per_pose = o.frames_per_pose;
   const int total = static_cast<int>(sensors.size()) * so.frames;
   int done = 0;
   for (size_t i = 0; i < sensors.size(); ++i) {
@@ -534,10 +553,13 @@ Recording simulate_calibration_session(const std::vector<SimulatedSensor>& senso
       const geometry::SurfaceQuery query(scene.mesh);
       const std::uint64_t seed =
           splitmix64(fseed * 0x100000001b3ULL + i * 1000003ULL + static_cast<std::uint64_t>(f) + 0xca11bULL);
-      SimulatedFrame frame = simulate_frame(query, scene, sensor, model, seed, so.depth_scale_m);
-      sr.frames.push_back(std::move(frame.depth));
-      sr.ir_frames.push_back(std::move(frame.ir));
-      sr.frame_files.push_back(fmt::format("depth_{:04d}.png", f));
+      std::vector<std::uint64_t> seeds{seed};  // the first frame of a pose as with one frame per pose
+      for (int r = 1; r < o.frames_per_pose; ++r) seeds.push_back(splitmix64(seed ^ splitmix64(0xf0a5eULL + r)));
+      for (SimulatedFrame& frame : simulate_frames(query, scene, sensor, model, seeds, so.depth_scale_m)) {
+        sr.frames.push_back(std::move(frame.depth));
+        sr.ir_frames.push_back(std::move(frame.ir));
+        sr.frame_files.push_back(fmt::format("depth_{:04d}.png", sr.frame_files.size()));
+      }
       if (!report_progress(progress, double(++done) / total, "simulating board frames")) break;
     }
     rec.sensors.push_back(std::move(sr));

@@ -130,6 +130,12 @@ struct SimulatedFrame {
 SimulatedFrame simulate_frame(const geometry::SurfaceQuery& query, const Scene& scene, const SimulatedSensor& sensor,
                               const SensorErrorModel& model, std::uint64_t seed, double depth_scale_m = 1e-3);
 
+/// Several frames of the static @p scene, one per seed: the ray casting and the albedo are done
+/// once, the errors drawn per frame (frame q equals simulate_frame with seeds[q]).
+std::vector<SimulatedFrame> simulate_frames(const geometry::SurfaceQuery& query, const Scene& scene,
+                                            const SimulatedSensor& sensor, const SensorErrorModel& model,
+                                            const std::vector<std::uint64_t>& seeds, double depth_scale_m = 1e-3);
+
 /// The depth frame of simulate_frame for a scene without chessboards.
 DepthImage simulate_depth(const geometry::SurfaceQuery& scene, const SimulatedSensor& sensor,
                           const SensorErrorModel& model, std::uint64_t seed, double depth_scale_m = 1e-3);
@@ -166,11 +172,15 @@ struct CalibrationSessionOptions {
   /// Seed of the board poses and frame noise; 0: simulation.seed. The units' errors always come
   /// from simulation.seed, so held-out frames of the same units take another frame_seed.
   std::uint64_t frame_seed = 0;
+  /// Frames recorded of each board pose (independent noise), 1 to 30: simulation.frames poses ×
+  /// this many frames, stored pose by pose (a real session holds the board still for a moment at
+  /// 30 fps); the recording's frames_per_pose tells scan calibrate to fuse them.
+  int frames_per_pose = 1;
 };
 
 /// A simulated calibration session: every sensor (its unit errors as in simulate_recording with
 /// the same seed, so a model learned here applies to that unit) records frames of the board in a
-/// random pose per frame — distance, tilt and offset drawn so that all inner corners are in view
+/// random pose per frame (or per options.frames_per_pose frames) — distance, tilt and offset drawn so that all inner corners are in view
 /// (≥ 12 px from the border). The recording's chessboard is the board's pattern.
 /// @throws InvalidInputError for an invalid range, no sensors, or a board that cannot fit the view.
 Recording simulate_calibration_session(const std::vector<SimulatedSensor>& sensors,
