@@ -58,6 +58,8 @@ struct CalibrateFlags {
   int min_frames = 5;
   std::string corner_depth = "bilinear";
   std::string model = "linear";
+  int depth_degree = 3;
+  bool refine_distortion = false;
   int frames_per_pose = 0;
   std::string fusion = "trimmed-mean";
   bool json = false;
@@ -75,6 +77,8 @@ struct ExperimentFlags {
   std::string calibration;
   std::string corner_depth = "bilinear";
   std::string model = "linear";
+  int depth_degree = 3;
+  bool refine_distortion = false;
   int scan_frames = 1;
   std::string fusion = "median";
   int board_frames_per_pose = 1;
@@ -496,6 +500,14 @@ constexpr const char* kModelHelp =
     "error model learned: linear (the thesis: rates linear in u, v, d, default) | ray-poly (depth along the ray "
     "corrected by a polynomial in the ray's x, y and d, lateral rates linear in x, y, d)";
 
+constexpr const char* kRefineDistortionHelp =
+    "--truth pnp: refine the radial distortion k1, k2 with the focal lengths over the session's board frames (default: "
+    "focal lengths only)";
+
+constexpr const char* kDepthDegreeHelp =
+    "ray-poly: highest power of d in the depth correction, 1 to 9 (default 3; 7 follows the periodic 'wiggling' error "
+    "over a 0.4-1.2 m board session)";
+
 scan::CornerDepth parse_corner_depth(const std::string& name, const char* cmd) {
   if (name == "plane") return scan::CornerDepth::LocalPlane;
   if (name == "bilinear") return scan::CornerDepth::Bilinear;
@@ -682,6 +694,8 @@ void run_calibrate(const CalibrateFlags& f) {
   o.chessboard.upsample = f.upsample;
   o.chessboard.corner_depth = parse_corner_depth(f.corner_depth, "scan calibrate");
   o.form = parse_model(f.model, "scan calibrate");
+  o.depth_degree = f.depth_degree;
+  o.refine_distortion = f.refine_distortion;
   o.min_frames = f.min_frames;
   o.frames_per_pose = f.frames_per_pose > 0 ? f.frames_per_pose : rec.frames_per_pose;
   o.fusion = scan::parse_frame_fusion(f.fusion, "scan calibrate: --fusion");
@@ -756,6 +770,8 @@ void run_experiment(const ExperimentFlags& f) {
   o.truth = parse_truth(f.truth, "scan experiment");
   o.training_corner_depth = parse_corner_depth(f.corner_depth, "scan experiment");
   o.form = parse_model(f.model, "scan experiment");
+  o.depth_degree = f.depth_degree;
+  o.refine_distortion = f.refine_distortion;
   o.scan_frames = f.scan_frames;
   o.scan_fusion = scan::parse_frame_fusion(f.fusion, "scan experiment: --fusion");
   o.board_frames_per_pose = f.board_frames_per_pose;
@@ -768,9 +784,10 @@ void run_experiment(const ExperimentFlags& f) {
   nlohmann::json j;
   j["command"] = fmt::format("socketsmith scan experiment {} --seed {} --sensors {} --frames {} --board-frames-per-pose "
                              "{} --test-frames {} --noise-scale {:g} --systematic-scale {:g} --truth {} --corner-depth "
-                             "{} --model {}{}{}{}",
+                             "{} --model {} --depth-degree {}{}{}{}{}",
                              f.which, f.seed, f.sensors, f.frames, f.board_frames_per_pose, f.test_frames,
-                             f.noise_scale, f.systematic_scale, f.truth, f.corner_depth, f.model,
+                             f.noise_scale, f.systematic_scale, f.truth, f.corner_depth, f.model, f.depth_degree,
+                             f.refine_distortion ? " --refine-distortion" : "",
                              f.which == "cylinders"
                                  ? fmt::format(" --scan-frames {} --fusion {}", f.scan_frames, f.fusion)
                                  : "",
@@ -963,6 +980,8 @@ void register_scan(CLI::App& app) {
                   "measured corners)");
   cal->add_option("--upsample", cf->upsample, "IR up-sampling for corner detection, 1 to 8 (default 2)");
   cal->add_option("--model", cf->model, kModelHelp);
+  cal->add_option("--depth-degree", cf->depth_degree, kDepthDegreeHelp);
+  cal->add_flag("--refine-distortion", cf->refine_distortion, kRefineDistortionHelp);
   cal->add_option("--corner-depth", cf->corner_depth,
                   "depth at each corner of the training frames: bilinear (the thesis, default) | plane (a robust local "
                   "plane fit of the pixels within 6 px)");
@@ -997,6 +1016,8 @@ void register_scan(CLI::App& app) {
                   "simulate (default: typical Kinect v2 intrinsics)");
     x->add_option("--truth", ef->truth, "pnp (default) | kabsch (thesis eqs. 31-35)");
     x->add_option("--model", ef->model, kModelHelp);
+    x->add_option("--depth-degree", ef->depth_degree, kDepthDegreeHelp);
+    x->add_flag("--refine-distortion", ef->refine_distortion, kRefineDistortionHelp);
     x->add_option("--corner-depth", ef->corner_depth,
                   "depth at the corners of the training frames: bilinear (the thesis, default) | plane (local plane "
                   "fit); the held-out frames are always measured the thesis's way (bilinear)");

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <fstream>
+
 #include "scan_fixtures.h"
 #include "socketsmith/core/errors.h"
 #include "socketsmith/scan/point_cloud.h"
@@ -90,6 +92,81 @@ TEST(Calibration, ray_polynomial_model_follows_the_radial_and_wiggling_depth_err
   EXPECT_EQ(back[0].form, CompensationForm::RayPolynomial);
   const Vec3 p(0.12, -0.05, 0.8);
   EXPECT_LT((back[0].apply(p, 300, 180) - b.model.apply(p, 300, 180)).norm(), 1e-12);
+}
+
+/// A unit without systematic errors and little noise (0.3 mm σ, also on black squares).
+SensorErrorModel quiet_unit() {
+  SensorErrorModel e = scale_systematic_errors(SensorErrorModel{}, 0.0);
+  e.noise_sigma0_m = 0.3e-3;
+  e.noise_sigma2_per_m = 0.0;
+  e.dark_noise_factor = 1.0;
+  return e;
+}
+
+/// 12 board frames at 0.55-1.0 m of one unit with error model @p e.
+Recording one_unit_session(const SensorErrorModel& e, std::uint64_t seed) {
+  CalibrationSessionOptions o;
+  o.simulation.seed = seed;
+  o.simulation.frames = 12;
+  o.simulation.error = e;
+  return simulate_calibration_session(default_rig(1), o);
+}
+
+CalibrationOptions ray_poly_plane() {
+  CalibrationOptions o;
+  o.form = CompensationForm::RayPolynomial;
+  o.chessboard.corner_depth = CornerDepth::LocalPlane;
+  return o;
+}
+
+TEST(Calibration, a_higher_depth_degree_follows_a_wiggling_error_over_the_board_distances) {
+  // A unit whose depth error is the periodic "wiggling" (4.5 mm, period 0.5 m: three times the
+  // default, as at --noise-scale 3) with little noise; boards at 0.55-1.0 m. A cubic in d leaves a
+  // part of the sine (0.45 mm of 3-D corner residual); degree 7 follows it (4 more coefficients
+  // cannot halve the residual of ~600 corners by fitting noise).
+  SensorErrorModel e = quiet_unit();
+  e.wiggle_amplitude_m = 4.5e-3;
+  const Recording rec = one_unit_session(e, 4);
+  CalibrationOptions cubic = ray_poly_plane(), seventh = ray_poly_plane();
+  seventh.depth_degree = 7;
+  const CalibrationResult a = calibrate_sensor(rec.sensors[0], *rec.chessboard, cubic);
+  const CalibrationResult b = calibrate_sensor(rec.sensors[0], *rec.chessboard, seventh);
+  EXPECT_EQ(b.model.depth_degree, 7);
+  ASSERT_EQ(b.model.depth_polynomial.size(), 13);
+  EXPECT_GT(a.rms_after_mm, 0.3) << "the cubic followed the sine: no test (degree 7: " << b.rms_after_mm << " mm)";
+  EXPECT_LT(b.rms_after_mm, 0.5 * a.rms_after_mm) << "cubic " << a.rms_after_mm << " degree 7 " << b.rms_after_mm;
+  // The file keeps the degree; a file without one is a cubic.
+  const auto dir = temp_dir("calibration_depth_degree");
+  write_compensation_json(dir / "model.json", {b.model});
+  const auto back = read_compensation_json(dir / "model.json");
+  ASSERT_EQ(back.size(), 1u);
+  EXPECT_EQ(back[0].depth_degree, 7);
+  const Vec3 p(0.12, -0.05, 0.8);
+  EXPECT_LT((back[0].apply(p, 300, 180) - b.model.apply(p, 300, 180)).norm(), 1e-12);
+  std::ofstream(dir / "old.json") << R"({"format": "socketsmith-scan-compensation", "sensors": [{"name": "K1", "width": 512,
+    "height": 424, "model": "ray-poly", "depth_poly": [0.001, 0, 0, 0, 0, 0, 0, 0, 0], "lateral_x": [0, 0, 0, 0],
+    "lateral_y": [0, 0, 0, 0]}]})";
+  const auto old = read_compensation_json(dir / "old.json");
+  EXPECT_EQ(old[0].depth_degree, 3);
+  EXPECT_NEAR(old[0].apply(p, 0, 0).z(), 0.799, 1e-12);
+}
+
+TEST(Calibration, refining_the_distortion_gives_a_truth_consistent_with_a_unit_whose_rays_are_scaled) {
+  // A unit whose rays are 3.5 % wider than its calibration says (as a unit of --noise-scale 3 may
+  // be), no other systematic error, little noise. Refined focal lengths alone cannot express the
+  // distortion seen at a 3.5 % larger radius; with k1..k3 refined too the board poses, and so the
+  // learned model's residual on its own corners, are consistent.
+  SensorErrorModel e = quiet_unit();
+  e.ray_scale_x = e.ray_scale_y = 0.035;
+  const Recording rec = one_unit_session(e, 6);
+  CalibrationOptions focal = ray_poly_plane(), full = ray_poly_plane();
+  full.refine_distortion = true;
+  const CalibrationResult a = calibrate_sensor(rec.sensors[0], *rec.chessboard, focal);
+  const CalibrationResult b = calibrate_sensor(rec.sensors[0], *rec.chessboard, full);
+  const double f = rec.sensors[0].intrinsics.fx;
+  EXPECT_NEAR(b.fx / f, 1.035, 0.004);
+  EXPECT_LT(b.rms_after_mm, 0.7 * a.rms_after_mm) << "focal lengths only " << a.rms_after_mm << " mm (f "
+                                                  << a.fx / f << " f0), with the distortion " << b.rms_after_mm;
 }
 
 TEST(Calibration, ray_polynomial_correction_moves_the_depth_along_the_ray_and_scales_the_ray) {

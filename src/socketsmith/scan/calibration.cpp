@@ -133,9 +133,9 @@ Eigen::Matrix<double, 3, 4> fit_rates(const std::vector<Eigen::Vector4d>& featur
 /// error d − T_z on δ's features, and each ray coordinate's error x − T_x / T_z = a_x x on
 /// (1, x, y, d)·x (the depth correction moves a point along its ray, so the two are separate).
 void fit_ray_polynomial(const std::vector<Vec3>& measured, const std::vector<Vec3>& truth, const std::vector<char>& keep,
-                        ErrorCompensation& m) {
+                        int depth_degree, ErrorCompensation& m) {
   const long n = std::count(keep.begin(), keep.end(), 1);
-  Eigen::MatrixXd A(n, 9), Lx(n, 4), Ly(n, 4);
+  Eigen::MatrixXd A(n, 6 + depth_degree), Lx(n, 4), Ly(n, 4);
   Eigen::VectorXd b(n), bx(n), by(n);
   long row = 0;
   for (size_t s = 0; s < measured.size(); ++s) {
@@ -143,7 +143,7 @@ void fit_ray_polynomial(const std::vector<Vec3>& measured, const std::vector<Vec
     const Vec3& p = measured[s];
     const Vec3& t = truth[s];
     const double x = p.x() / p.z(), y = p.y() / p.z(), d = p.z();
-    A.row(row) = ErrorCompensation::depth_features(x, y, d).transpose();
+    A.row(row) = ErrorCompensation::depth_features(x, y, d, depth_degree).transpose();
     b(row) = d - t.z();
     const Eigen::Vector4d g(1.0, x, y, d);
     Lx.row(row) = g.transpose() * x;
@@ -153,6 +153,7 @@ void fit_ray_polynomial(const std::vector<Vec3>& measured, const std::vector<Vec
     ++row;
   }
   m.form = CompensationForm::RayPolynomial;
+  m.depth_degree = depth_degree;
   m.depth_polynomial = solve_scaled(A, b);
   m.lateral.row(0) = solve_scaled(Lx, bx).transpose();
   m.lateral.row(1) = solve_scaled(Ly, by).transpose();
@@ -201,6 +202,8 @@ CalibrationResult calibrate_sensor(const SensorRecording& sensor, const Chessboa
                                    const CalibrationOptions& o, const ProgressCallback& progress) {
   validate_pattern(pattern, "calibrate_sensor");
   require(o.min_frames >= 1, "calibrate_sensor: min_frames {} must be at least 1", o.min_frames);
+  require(o.depth_degree >= 1 && o.depth_degree <= ErrorCompensation::kMaxDepthDegree,
+          "calibrate_sensor: depth degree {} (expected 1 to {})", o.depth_degree, ErrorCompensation::kMaxDepthDegree);
   require(!sensor.ir_frames.empty(),
           "calibrate_sensor: sensor '{}' has no IR frames (expected {}/ir_0000.png ... beside the depth frames: the "
           "chessboard is found in the IR image)",
@@ -255,8 +258,8 @@ CalibrationResult calibrate_sensor(const SensorRecording& sensor, const Chessboa
     for (const BoardObservation& ob : r.observations) img.push_back(image_points(ob.detection));
     cv::Mat K = camera_matrix(k.fx, k.fy, k), dist = distortion(k);
     std::vector<cv::Mat> rvecs, tvecs;
-    const int flags = cv::CALIB_USE_INTRINSIC_GUESS | cv::CALIB_FIX_PRINCIPAL_POINT | cv::CALIB_FIX_K1 |
-                      cv::CALIB_FIX_K2 | cv::CALIB_FIX_K3 | cv::CALIB_FIX_TANGENT_DIST;
+    const int flags = cv::CALIB_USE_INTRINSIC_GUESS | cv::CALIB_FIX_PRINCIPAL_POINT | cv::CALIB_FIX_TANGENT_DIST |
+                      (o.refine_distortion ? 0 : cv::CALIB_FIX_K1 | cv::CALIB_FIX_K2 | cv::CALIB_FIX_K3);
     cv::calibrateCamera(obj, img, cv::Size(k.width, k.height), K, dist, rvecs, tvecs, flags);
     r.fx = K.at<double>(0, 0);
     r.fy = K.at<double>(1, 1);
@@ -283,7 +286,7 @@ CalibrationResult calibrate_sensor(const SensorRecording& sensor, const Chessboa
           sensor.name, features.size());
   auto fit = [&](const std::vector<char>& keep) {
     ErrorCompensation m;
-    if (o.form == CompensationForm::RayPolynomial) fit_ray_polynomial(measured, truth, keep, m);
+    if (o.form == CompensationForm::RayPolynomial) fit_ray_polynomial(measured, truth, keep, o.depth_degree, m);
     else m.coefficients = fit_rates(features, measured, truth, keep);
     return m;
   };

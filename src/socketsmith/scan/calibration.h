@@ -33,6 +33,13 @@ struct CalibrationOptions {
   ChessboardOptions chessboard;
   TruthEstimate truth = TruthEstimate::Pnp;
   CompensationForm form = CompensationForm::LinearUvd;  ///< the model fitted
+  int depth_degree = 3;  ///< RayPolynomial: highest power of d in the depth correction
+  /// TruthEstimate::Pnp: also refine the radial distortion k1, k2, k3 over the session (not only
+  /// f_x, f_y). A unit whose rays are scaled by 1 + e relative to its calibration sees the lens
+  /// distortion at a radius scaled by 1 + e too, which refined focal lengths alone cannot express
+  /// (the k_n r^2n term changes by ≈ 2n e k_n r^2n: ≈ 0.6 % of x at the image corner of a real
+  /// Kinect v2 calibration for e = 3.5 %).
+  bool refine_distortion = false;
   int min_frames = 5;  ///< fewer usable board frames (poses) is an error (the thesis used ≈ 50)
   /// Consecutive frames of one static board pose fused into one observation (a recording's
   /// frames_per_pose): depth by #fusion, IR by the per-pixel mean — less noise on the corners and

@@ -19,7 +19,8 @@ void write_compensation_json(const fs::path& path, const std::vector<ErrorCompen
   j["version"] = 1;
   j["model"] = models.front().form == CompensationForm::RayPolynomial ? "ray-poly" : "linear-uvd";
   j["comment"] = "linear-uvd: P_corrected = (I - diag(e_x, e_y, e_z)) P; e_k = c0 + cu*u + cv*v + cd*d (u, v: sensor "
-                 "pixels, d: metres). ray-poly (per sensor): d' = d - depth_poly . (1, x, y, x^2, xy, y^2, d, d^2, d^3), "
+                 "pixels, d: metres). ray-poly (per sensor): d' = d - depth_poly . (1, x, y, x^2, xy, y^2, d, d^2, ..., "
+                 "d^depth_degree), "
                  "a = lateral . (1, x, y, d), P' = (x (1 - a_x) d', y (1 - a_y) d', d') with x = X/Z, y = Y/Z";
   j["sensors"] = nlohmann::ordered_json::array();
   for (const ErrorCompensation& m : models) {
@@ -29,7 +30,11 @@ void write_compensation_json(const fs::path& path, const std::vector<ErrorCompen
     s["height"] = m.height;
     if (m.form == CompensationForm::RayPolynomial) {
       s["model"] = "ray-poly";
-      s["depth_poly"] = std::vector<double>(m.depth_polynomial.data(), m.depth_polynomial.data() + 9);
+      require(m.depth_polynomial.size() == 6 + m.depth_degree,
+              "write_compensation_json: sensor '{}': {} depth coefficients for degree {} (expected {})", m.sensor,
+              m.depth_polynomial.size(), m.depth_degree, 6 + m.depth_degree);
+      s["depth_degree"] = m.depth_degree;
+      s["depth_poly"] = std::vector<double>(m.depth_polynomial.data(), m.depth_polynomial.data() + m.depth_polynomial.size());
       s["lateral_x"] = {m.lateral(0, 0), m.lateral(0, 1), m.lateral(0, 2), m.lateral(0, 3)};
       s["lateral_y"] = {m.lateral(1, 0), m.lateral(1, 1), m.lateral(1, 2), m.lateral(1, 3)};
     } else {
@@ -84,8 +89,13 @@ std::vector<ErrorCompensation> read_compensation_json(const fs::path& path) {
               path.string(), m.sensor, form);
       if (form == "ray-poly") {
         m.form = CompensationForm::RayPolynomial;
-        const auto dp = numbers("depth_poly", 9), lx = numbers("lateral_x", 4), ly = numbers("lateral_y", 4);
-        for (int q = 0; q < 9; ++q) m.depth_polynomial(q) = dp[static_cast<size_t>(q)];
+        m.depth_degree = s.value("depth_degree", 3);
+        require(m.depth_degree >= 1 && m.depth_degree <= ErrorCompensation::kMaxDepthDegree,
+                "read_compensation_json: '{}': sensor '{}': depth_degree {} (expected 1 to {})", path.string(),
+                m.sensor, m.depth_degree, ErrorCompensation::kMaxDepthDegree);
+        const auto dp = numbers("depth_poly", static_cast<size_t>(6 + m.depth_degree)), lx = numbers("lateral_x", 4),
+                   ly = numbers("lateral_y", 4);
+        m.depth_polynomial = Eigen::Map<const Eigen::VectorXd>(dp.data(), static_cast<long>(dp.size()));
         for (int q = 0; q < 4; ++q) {
           m.lateral(0, q) = lx[static_cast<size_t>(q)];
           m.lateral(1, q) = ly[static_cast<size_t>(q)];

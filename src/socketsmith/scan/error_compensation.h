@@ -18,7 +18,8 @@ enum class CompensationForm {
   /// The thesis's (eqs. 26–30): P̂ = (I − ε) P, ε = diag(e_x, e_y, e_z), each rate linear in (u, v, d).
   LinearUvd,
   /// Ours ("ray-poly"): the depth corrected along the ray, d̂ = d − δ(x, y, d) with δ a polynomial
-  /// in the undistorted ray coordinates (x, y) = (X/Z, Y/Z) and d — 1, x, y, x², x y, y², d, d², d³:
+  /// in the undistorted ray coordinates (x, y) = (X/Z, Y/Z) and d — 1, x, y, x², x y, y², d, d², d³
+  /// (d up to the model's depth_degree, 3 by default):
   /// a radial (vignetting-like) bias and a distance-dependent ("wiggling") one are quadratic in x, y
   /// and smooth in d, which rates linear in (u, v, d) cannot follow — and the ray's lateral scale by
   /// rates a_x, a_y linear in (1, x, y, d): P̂ = (x (1 − a_x) d̂, y (1 − a_y) d̂, d̂).
@@ -33,16 +34,30 @@ struct ErrorCompensation {
   int height = 0;
   /// LinearUvd: rows e_x, e_y, e_z; columns: constant, per pixel of u, per pixel of v, per metre of d.
   Eigen::Matrix<double, 3, 4> coefficients = Eigen::Matrix<double, 3, 4>::Zero();
-  /// RayPolynomial: δ's coefficients of 1, x, y, x², x y, y², d, d², d³ [m, d in m].
-  Eigen::Matrix<double, 9, 1> depth_polynomial = Eigen::Matrix<double, 9, 1>::Zero();
+  /// RayPolynomial: the highest power of d in δ, 1 to kMaxDepthDegree. The ToF "wiggling" error is
+  /// periodic in distance (≈ 0.5 m); over a board session's 0.4–1.2 m a cubic leaves a third of its
+  /// amplitude, degree 7 a hundredth (docs/scan.md).
+  int depth_degree = 3;
+  static constexpr int kMaxDepthDegree = 9;
+  /// RayPolynomial: δ's coefficients of 1, x, y, x², x y, y², d, d², …, d^depth_degree [m, d in m].
+  Eigen::VectorXd depth_polynomial = Eigen::VectorXd::Zero(9);
   /// RayPolynomial: rows a_x, a_y; columns: 1, x, y, d.
   Eigen::Matrix<double, 2, 4> lateral = Eigen::Matrix<double, 2, 4>::Zero();
 
-  /// RayPolynomial's depth features at ray (x, y) and depth d.
-  static Eigen::Matrix<double, 9, 1> depth_features(double x, double y, double d) {
-    Eigen::Matrix<double, 9, 1> f;
-    f << 1.0, x, y, x * x, x * y, y * y, d, d * d, d * d * d;
+  /// RayPolynomial's depth features at ray (x, y) and depth d, powers of d up to @p degree.
+  static Eigen::VectorXd depth_features(double x, double y, double d, int degree) {
+    Eigen::VectorXd f(6 + degree);
+    f.head<6>() << 1.0, x, y, x * x, x * y, y * y;
+    double dk = 1.0;
+    for (int k = 1; k <= degree; ++k) f(5 + k) = dk *= d;
     return f;
+  }
+  /// δ(x, y, d) = depth_polynomial · depth_features(x, y, d, depth_degree) [m].
+  double depth_error(double x, double y, double d) const {
+    const auto& c = depth_polynomial;
+    double delta = c(0) + c(1) * x + c(2) * y + c(3) * x * x + c(4) * x * y + c(5) * y * y, dk = 1.0;
+    for (int k = 1; k <= depth_degree; ++k) delta += c(5 + k) * (dk *= d);
+    return delta;
   }
   // What it was learned from (informative).
   int frames = 0;
@@ -58,7 +73,7 @@ struct ErrorCompensation {
   Eigen::Vector3d apply(const Eigen::Vector3d& p, double u, double v) const {
     if (form == CompensationForm::LinearUvd) return p.cwiseProduct(Eigen::Vector3d::Ones() - rates(u, v, p.z()));
     const double x = p.x() / p.z(), y = p.y() / p.z(), d = p.z();
-    const double dc = d - depth_polynomial.dot(depth_features(x, y, d));
+    const double dc = d - depth_error(x, y, d);
     const Eigen::Vector2d a = lateral * Eigen::Vector4d(1.0, x, y, d);
     return {x * (1.0 - a.x()) * dc, y * (1.0 - a.y()) * dc, dc};
   }
@@ -68,7 +83,8 @@ struct ErrorCompensation {
 /// {"format": "socketsmith-scan-compensation", "version": 1, "model": "linear-uvd",
 ///  "sensors": [{"name", "width", "height", "e_x": [c0, cu, cv, cd], "e_y": […], "e_z": […],
 ///  "frames", "corners", "truth"}]}; a RayPolynomial sensor has "model": "ray-poly",
-///  "depth_poly": [9 values], "lateral_x": [4], "lateral_y": [4] instead of e_x, e_y, e_z.
+///  "depth_degree": n, "depth_poly": [6 + n values], "lateral_x": [4], "lateral_y": [4] instead of
+///  e_x, e_y, e_z (a file without "depth_degree" has n = 3).
 void write_compensation_json(const std::filesystem::path& path, const std::vector<ErrorCompensation>& models);
 
 /// Reads a file written by write_compensation_json.

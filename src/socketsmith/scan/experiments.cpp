@@ -69,6 +69,8 @@ ChessboardExperiment run_chessboard_experiment(const ExperimentOptions& o, const
   co.chessboard.corner_depth = o.training_corner_depth;
   co.form = o.form;
   co.frames_per_pose = o.board_frames_per_pose;
+  co.depth_degree = o.depth_degree;
+  co.refine_distortion = o.refine_distortion;
   for (size_t s = 0; s < training.sensors.size(); ++s) {
     x.calibrations.push_back(calibrate_sensor(training.sensors[s], *training.chessboard, co));
     report_progress(progress, 0.35 + 0.3 * (s + 1) / training.sensors.size(), "learning the error models");

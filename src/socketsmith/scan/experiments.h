@@ -35,6 +35,8 @@ struct ExperimentOptions {
   /// way, CornerDepth::Bilinear).
   CornerDepth training_corner_depth = CornerDepth::Bilinear;
   CompensationForm form = CompensationForm::LinearUvd;  ///< the model learned
+  int depth_degree = 3;  ///< of a RayPolynomial model
+  bool refine_distortion = false;  ///< CalibrationOptions::refine_distortion
 };
 
 /// Table 3 row: one sensor, one test distance (or all).
