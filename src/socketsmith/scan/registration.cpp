@@ -225,13 +225,15 @@ ReferenceSet box_reference_points(const Recording& rec, const std::vector<Eigen:
             "scan register: sensor '{}' has no IR frames (ir_0000.png …): the chessboard corners are found in the IR "
             "image",
             sr.name);
+    // The box is static: the depth frames' median and the IR frames' mean (less IR noise).
     const DepthImage depth = fuse_frames(sr.frames, FrameFusion::Median);
-    const auto boards = find_all_chessboard_corners(sr.ir_frames.front(), pattern, o.chessboard.upsample,
+    const auto boards = find_all_chessboard_corners(mean_of_ir_frames(sr.ir_frames), pattern, o.chessboard.upsample,
                                                     o.max_boards_per_sensor);
     require(!boards.empty(),
-            "chessboard not found in {}/{} (expected {}x{} inner corners on the box: check that the boards are in view "
+            "chessboard not found in {}/{}{} (expected {}x{} inner corners on the box: check that the boards are in view "
             "and rig.json's \"chessboard\")",
             sr.name, "ir_0000.png",
+            sr.ir_frames.size() > 1 ? fmt::format(" and the mean of its {} IR frames", sr.ir_frames.size()) : "",
             pattern.inner_cols, pattern.inner_rows);
     for (const auto& uv : boards) {
       Detection d{static_cast<int>(s), corners_to_3d(uv, depth, sr.intrinsics, pattern, o.chessboard),

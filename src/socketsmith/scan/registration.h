@@ -90,7 +90,7 @@ struct BoxDetectionOptions {
 };
 
 /// Finds the boards of a registration-box recording (IR + depth frames, rig.json "chessboard"):
-/// every board in each sensor's first IR frame (depth: median of its frames), corners with depth
+/// every board in the mean of each sensor's IR frames (depth: median of its frames), corners with depth
 /// back-projected; detections of different sensors matched into physical boards by their world
 /// centroids under @p approx_world_from_sensor (e.g. the rig's hand-measured poses).
 /// @throws InvalidInputError when the recording has no chessboard pattern or IR frames, or a sensor
