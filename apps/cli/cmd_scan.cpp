@@ -697,6 +697,7 @@ void run_calibrate(const CalibrateFlags& f) {
   o.depth_degree = f.depth_degree;
   o.refine_distortion = f.refine_distortion;
   o.min_frames = f.min_frames;
+  require(f.frames_per_pose >= 0, "scan calibrate: --frames-per-pose {} must be at least 1", f.frames_per_pose);
   o.frames_per_pose = f.frames_per_pose > 0 ? f.frames_per_pose : rec.frames_per_pose;
   o.fusion = scan::parse_frame_fusion(f.fusion, "scan calibrate: --fusion");
   const auto progress = f.json ? ProgressCallback{} : console_progress(1.0);
