@@ -71,6 +71,8 @@ void BM_Donning(benchmark::State& state) {
   state.counters["nodes"] = d.setup->mesh.mesh.num_nodes();
   state.counters["steps"] = static_cast<double>(r.series.size());
   state.counters["newton"] = r.newton_iterations;
+  state.counters["factorizations"] = r.series.empty() ? 0.0 : static_cast<double>(r.series.back().factorizations);
+  state.counters["rejected_steps"] = r.rejected_steps;
   state.counters["completed"] = r.completed && r.stood ? 1 : 0;
 }
 

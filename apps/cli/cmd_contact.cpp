@@ -31,7 +31,8 @@ struct DonningFlags {
   std::string case_file, limb, socket, units, out;
   double offset_mm = 0;  // 0: automatic
   int steps = 0;         // 0: one per step_mm
-  double step_mm = 2;
+  double step_mm = contact::DonningOptions{}.step_m * 1e3;
+  double stick_stiffness = contact::DonningOptions{}.contact.stick_stiffness_ratio;
   int target_nodes = 0;
   double friction = -1;
   double penalty_factor = 20;
@@ -112,12 +113,15 @@ int run_donning(const DonningFlags& f) {
   o.stand_force_n = f.no_stand ? 0.0 : 0.5 * c.patient.body_mass_kg * units::kGravity;
   o.progress = stage(0.3, 0.95);
   o.contact.penalty_factor = f.penalty_factor;
+  o.contact.stick_stiffness_ratio = f.stick_stiffness;
   if (f.reuse_cg >= 0) o.contact.max_reuse_cg = f.reuse_cg;
   if (!f.wall.empty()) o.smooth_wall = f.wall == "smooth";
   log::info("donning: {} onto a {}-node stump ({} skin nodes), from {} in {}, μ = {:.2f}{}",
             socket_label, setup->mesh.mesh.num_nodes(), skin.nodes.size(),
             f.offset_mm > 0 ? fmt::format("{:.0f} mm below", f.offset_mm) : std::string("below the stump"),
-            f.steps > 0 ? fmt::format("{} steps", f.steps) : fmt::format("steps of {:.1f} mm", f.step_mm), mu,
+            f.steps > 0 ? fmt::format("{} steps", f.steps)
+                        : fmt::format("adaptive steps of {:.1f} mm at most", f.step_mm),
+            mu,
             o.stand_force_n > 0 ? fmt::format(", then standing ({:.0f} N)", o.stand_force_n) : "");
   const contact::DonningResult r =
       contact::simulate_donning(solver.model(), skin.nodes, skin.area_m2, socket_solid, setup->model.frame, o);
@@ -242,6 +246,9 @@ int run_donning(const DonningFlags& f) {
                    {"nodes", setup->mesh.mesh.num_nodes()},
                    {"skin_nodes", ns},
                    {"steps", r.series.size()},
+                   {"rejected_steps", r.rejected_steps},
+                   {"max_step_mm", o.step_m * 1e3},
+                   {"stick_stiffness_ratio", o.contact.stick_stiffness_ratio},
                    {"start_offset_mm", r.start_offset_m * 1e3},
                    {"friction", mu},
                    {"stand_force_n", o.stand_force_n},
@@ -299,13 +306,19 @@ void register_contact(CLI::App& app) {
   don->add_option("--units", f->units, "units of --limb and --socket: mm | m (default: guessed from the size)");
   don->add_option("--offset-mm", f->offset_mm,
                   "start this far below the designed pose [mm] (default: the socket's top 5 mm below the stump)");
-  don->add_option("--steps", f->steps, "displacement steps (default: one per --step-mm)")->check(CLI::Range(1, 100000));
-  don->add_option("--step-mm", f->step_mm, "step length when --steps is not given [mm] (default 2)")
+  don->add_option("--steps", f->steps, "this many equal displacement steps (default: adaptive, see --step-mm)")
+      ->check(CLI::Range(1, 100000));
+  don->add_option("--step-mm", f->step_mm,
+                  "longest adaptive step [mm] (default 4; 2 mm where a node starts sticking)")
       ->check(CLI::PositiveNumber);
   don->add_option("--target-nodes", f->target_nodes, "stump size (default: the case's, 8000)")->check(CLI::Range(500, 100000));
   don->add_option("--friction", f->friction, "Coulomb μ (default: the case's)");
   don->add_option("--penalty-factor", f->penalty_factor,
                   "contact penalty k = factor · E / h (default 20: 15 kPa penetrates ~45 µm at E = 100 kPa, h = 6 mm)");
+  don->add_option("--stick-stiffness", f->stick_stiffness,
+                  "friction's elastic stick as a fraction of the contact penalty (default 0.2: ~75 µm of elastic slip "
+                  "at 10 kPa; 1: as stiff as the penalty)")
+      ->check(CLI::PositiveNumber);
   don->add_option("--reuse-cg", f->reuse_cg,
                   "CG iterations on the last factorisation before refactorising (default 0: always factorise)")
       ->check(CLI::Range(0, 1000));

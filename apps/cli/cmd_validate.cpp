@@ -174,7 +174,6 @@ void run_validate_design(const DesignFlags& f) {
             "validate design: the design does not meet its constraints, so it has no socket to don");
     contact::DonningOptions dopt;
     dopt.start_offset_m = f.travel_mm * 1e-3;
-    dopt.step_m = 0.002;
     dopt.friction = f.friction >= 0 ? f.friction : c.patient.friction;
     dopt.stand_force_n = f.stand ? 0.5 * c.patient.body_mass_kg * units::kGravity : 0.0;
     dopt.progress = progress;

@@ -7,6 +7,9 @@
 
 #include <Eigen/CholmodSupport>
 #include <Eigen/SparseLU>
+#ifdef _OPENMP
+#include <omp.h>
+#endif
 
 #include "socketsmith/core/errors.h"
 #include "socketsmith/core/log.h"
@@ -18,6 +21,31 @@ using tissue::SparseMatrix;
 using tissue::VectorXd;
 
 constexpr double kRelagResidual = 100.0;  // friction lag refreshed in Newton once ‖r‖ ≤ this × tol
+
+/// While alive, every OpenMP parallel region runs on the calling thread alone. CHOLMOD's supernodal
+/// factorisation opens a region per supernode asking for 4 threads; with dynamic teams
+/// (tissue::limit_solver_threads) each region still asks the kernel for the load and the affinity
+/// and wakes the pool: a 7.5k-node donning made 209k sysinfo + sched_getaffinity and 814k futex
+/// calls (≈ 10 % of its CPU in the kernel, strace -c / perf), for assembly loops too small to share.
+class SerialParallelRegions {
+ public:
+  SerialParallelRegions() {
+#ifdef _OPENMP
+    levels_ = omp_get_max_active_levels();
+    omp_set_max_active_levels(0);
+#endif
+  }
+  ~SerialParallelRegions() {
+#ifdef _OPENMP
+    omp_set_max_active_levels(levels_);
+#endif
+  }
+  SerialParallelRegions(const SerialParallelRegions&) = delete;
+  SerialParallelRegions& operator=(const SerialParallelRegions&) = delete;
+
+ private:
+  int levels_ = 1;
+};
 
 struct ContactSolver::Impl {
   const tissue::MassSpringModel& model;
@@ -34,6 +62,7 @@ struct ContactSolver::Impl {
   Vec3 last_t = Vec3::Zero();     // translation of the last converged solve (committed or not)
   std::vector<Vec3> last_hist;    // its tangential spring forces (hist once committed)
   std::vector<NodeContact> state;
+  std::vector<NodeContact> conv_state;  // state of the last committed step
   std::vector<char> was_active;  // active at the last converged step
   struct QueryCache {
     Vec3 p = Vec3::Zero(), t = Vec3::Zero();
@@ -47,7 +76,8 @@ struct ContactSolver::Impl {
   SparseMatrix K0;         // linear body: reduced stiffness at rest
   SparseMatrix K0c;        // K₀ with every candidate node's 3×3 block in its pattern
   std::vector<Eigen::Index> block_at;  // per candidate node, entry (a, b) at 9 i + 3 b + a: index in K0c's values, −1 fixed
-  Eigen::CholmodSupernodalLLT<SparseMatrix> llt;
+  // Upper: CHOLMOD permutes an upper-stored matrix with one transpose, a lower-stored one with two.
+  Eigen::CholmodSupernodalLLT<SparseMatrix, Eigen::Upper> llt;
   Eigen::Index analysed_nnz = -1;
   bool factor_valid = false;
   long factorizations = 0, cg_iterations = 0;  // counters for ContactStep
@@ -113,24 +143,25 @@ struct ContactSolver::Impl {
         B += kA * g.stiffness_shape;
       }
       // Friction: nodes that carried a normal force at the lag (μ f̄ > 0) resist slip relative to
-      // the wall with an elastic stick (stiffness kA) capped at μ f̄ (return mapping).
+      // the wall with an elastic stick (stiffness kT) capped at μ f̄ (return mapping).
+      const double kT = opt.stick_stiffness_ratio * kA;
       const double limit = opt.friction * lag_fn[i];
       if (limit > 0) {
         const Vec3& nl = lag_n[i];
         const Eigen::Matrix3d Pt = Eigen::Matrix3d::Identity() - nl * nl.transpose();
         const Vec3 slip = Pt * ((p - x_conv.segment<3>(3 * nd)) - (t - t_conv));
-        const Vec3 trial = Pt * hist[i] + kA * slip;
+        const Vec3 trial = Pt * hist[i] + kT * slip;
         const double mag = trial.norm();
         if (mag > limit) {
           st[i].sliding = true;
           trial_hist[i] = trial * (limit / mag);
           const Vec3 that = trial / mag;
-          B += (limit / mag) * kA * (Pt - that * that.transpose());
-          pi += limit * mag / kA - 0.5 * limit * limit / kA;
+          B += (limit / mag) * kT * (Pt - that * that.transpose());
+          pi += limit * mag / kT - 0.5 * limit * limit / kT;
         } else {
           trial_hist[i] = trial;
-          B += kA * Pt;
-          pi += 0.5 * mag * mag / kA;
+          B += kT * Pt;
+          pi += 0.5 * mag * mag / kT;
         }
         st[i].tangential_n = -trial_hist[i];
         f -= trial_hist[i];
@@ -197,6 +228,7 @@ struct ContactSolver::Impl {
   /// CG on K d = b preconditioned by the last factorisation; false when it needs more than
   /// opt.max_reuse_cg iterations for a relative residual of 1e-8.
   bool pcg(const SparseMatrix& K, const VectorXd& b, VectorXd& d) {
+    const SerialParallelRegions serial;
     const double bn = b.norm();
     d = llt.solve(b);
     VectorXd res = b - K * d;
@@ -380,6 +412,7 @@ struct ContactSolver::Impl {
         // The last factorisation (of a nearby contact state) preconditions CG on the new tangent;
         // a fresh factorisation only when CG does not converge quickly.
         if (!(factor_valid && pcg(K, r, delta))) {
+          const SerialParallelRegions serial;
           if (K.nonZeros() != analysed_nnz) {
             llt.analyzePattern(K);
             analysed_nnz = K.nonZeros();
@@ -526,6 +559,7 @@ struct ContactSolver::Impl {
     x_conv = x;
     t_conv = last_t;
     hist = last_hist;
+    conv_state = state;
     for (size_t i = 0; i < state.size(); ++i) {
       was_active[i] = state[i].active ? 1 : 0;
       conv_fn[i] = state[i].normal_force_n;
@@ -577,6 +611,8 @@ ContactSolver::ContactSolver(const tissue::MassSpringModel& model, const tissue:
           options.friction);
   require(std::isfinite(options.penalty_factor) && options.penalty_factor > 0 && options.penalty_pa_per_m >= 0,
           "contact: penalty factor {} must be positive", options.penalty_factor);
+  require(std::isfinite(options.stick_stiffness_ratio) && options.stick_stiffness_ratio > 0,
+          "contact: stick stiffness ratio {} must be positive", options.stick_stiffness_ratio);
   impl_ = std::make_unique<Impl>(model, dofs, std::move(nodes), std::move(areas), obstacle, options);
   auto& s = *impl_;
   double spacing = 0;
@@ -596,6 +632,7 @@ ContactSolver::ContactSolver(const tissue::MassSpringModel& model, const tissue:
   // of rel_tol of it is far below anything a pressure map shows.
   s.force_floor = model.material().youngs_modulus_pa * spacing * spacing;
   s.state.assign(s.nodes.size(), NodeContact{});
+  s.conv_state = s.state;
   s.qcache.assign(s.nodes.size(), Impl::QueryCache{});
   // One query before any parallel one (CGAL builds its distance-query structures lazily).
   (void)obstacle.gap(model.rest_positions().segment<3>(3 * s.nodes.front()));
@@ -633,6 +670,16 @@ ContactSolver::ContactSolver(const tissue::MassSpringModel& model, const tissue:
 ContactSolver::~ContactSolver() = default;
 
 ContactStep ContactSolver::move_to(const Vec3& translation) { return impl_->solve_path(translation, true); }
+ContactStep ContactSolver::try_move_to(const Vec3& translation) { return impl_->solve_path(translation, false); }
+void ContactSolver::commit() { impl_->commit_last(); }
+void ContactSolver::discard(double keep) {
+  auto& s = *impl_;
+  s.x = s.x_conv + std::clamp(keep, 0.0, 1.0) * (s.x - s.x_conv);
+  s.state = s.conv_state;
+  s.last_t = s.t_conv;
+  s.last_hist = s.hist;
+  s.obstacle.set_translation(s.t_conv);
+}
 
 ContactStep ContactSolver::push_with_force(const Vec3& direction, double force_n, double rel_tol, double max_step_m,
                                            double first_step_m) {

@@ -34,6 +34,12 @@ struct ContactOptions {
   /// (15 kPa at E = 100 kPa, h = 6 mm: 5 µm at 200, 45 µm at 20).
   double penalty_factor = 200.0;
   double friction = 0.5;          ///< Coulomb μ [-], ≥ 0
+  /// Stiffness of the elastic stick, k_t = stick_stiffness_ratio · k per unit area: a node sticks
+  /// until it has slipped μ p / k_t, then slides (the regularisation of Coulomb's law every penalty
+  /// code has; Abaqus's default elastic slip is 0.5 % of the element length). 1: k_t = k (15 kPa,
+  /// μ 0.5 at E = 100 kPa, h = 6 mm, factor 20: 23 µm of elastic slip). A softer stick makes the
+  /// stick/slip switches milder for Newton (the donning's default is 0.05: docs/contact.md).
+  double stick_stiffness_ratio = 1.0;
   bool linear_body = true;        ///< linearised body (K₀ at rest) or the nonlinear model
   int max_newton = 60;
   double rel_tol = 1e-5;          ///< ‖r‖ ≤ rel_tol · max(Σ |f_contact|, E h²), h the mean node spacing
@@ -107,6 +113,15 @@ class ContactSolver {
   /// Moves the obstacle to @p translation and solves the equilibrium (warm start from the last
   /// converged state; friction history updated when converged).
   ContactStep move_to(const Vec3& translation);
+
+  /// move_to without committing: the solved state is what positions() and contacts() show, but
+  /// the friction history stays at the last committed step until commit(); discard() goes back
+  /// to that step (an adaptive path tries a step and keeps or refines it).
+  ContactStep try_move_to(const Vec3& translation);
+  void commit();
+  /// Back to the last committed step; the next solve starts from the committed positions plus
+  /// @p keep (0–1) of the discarded step's motion (e.g. the ratio of a shorter retry to it).
+  void discard(double keep = 0.0);
 
   /// Moves the obstacle along unit @p direction (from its current translation) until the force
   /// the body exerts on it along −direction equals @p force_n [N] (the obstacle pushed with

@@ -43,6 +43,9 @@ DonningResult simulate_donning(const tissue::MassSpringModel& model, const std::
           "donning: start offset {} mm must be positive (the socket starts below the stump)", o.start_offset_m * 1e3);
   require(o.steps >= 0 && std::isfinite(o.step_m) && o.step_m > 0, "donning: {} steps of {} mm: use positive values",
           o.steps, o.step_m * 1e3);
+  require(std::isfinite(o.min_step_m) && o.min_step_m > 0, "donning: the shortest step {} mm must be positive",
+          o.min_step_m * 1e3);
+  o.min_step_m = std::min(o.min_step_m, o.step_m);
   require(std::isfinite(o.stand_force_n) && o.stand_force_n >= 0, "donning: standing force {} N must be ≥ 0",
           o.stand_force_n);
   if (o.start_offset_m == 0) {
@@ -52,7 +55,7 @@ DonningResult simulate_donning(const tissue::MassSpringModel& model, const std::
     for (int n : skin_nodes) bottom = std::min(bottom, (model.rest_positions().segment<3>(3 * n) - frame.origin).dot(frame.axis));
     o.start_offset_m = std::max(top - bottom + 0.005, o.step_m);
   }
-  if (o.steps == 0) o.steps = static_cast<int>(std::ceil(o.start_offset_m / o.step_m - 1e-9));
+  const bool adaptive = o.steps == 0;
   const auto t0 = std::chrono::steady_clock::now();
   const Vec3 axis = frame.axis.normalized();
   RigidSocket socket(socket_solid, frame, o.socket_density_kg_m3);
@@ -65,7 +68,6 @@ DonningResult simulate_donning(const tissue::MassSpringModel& model, const std::
 
   DonningResult r;
   r.start_offset_m = o.start_offset_m;
-  r.steps = o.steps;
   r.nodes = skin_nodes;
   r.socket_mass_kg = socket.mass_kg();
   // Where the path starts, nothing may be gripped already: a node inside the wall at the start
@@ -78,22 +80,53 @@ DonningResult simulate_donning(const tissue::MassSpringModel& model, const std::
             st.contact_nodes, o.start_offset_m * 1e3, o.start_offset_m * 1e3);
   }
   r.completed = true;
-  for (int k = 1; k <= o.steps; ++k) {
-    const double offset = -o.start_offset_m * (1.0 - static_cast<double>(k) / o.steps);
-    const ContactStep st = solver.move_to(offset * axis);
+  // The path: fixed steps, or adaptive ones (DonningOptions::steps). A trial step is kept unless a
+  // node that was sliding or free sticks at its end; then it is tried again at half the length.
+  const double fixed_step = adaptive ? 0.0 : o.start_offset_m / o.steps;
+  double offset = -o.start_offset_m, step = adaptive ? o.step_m : fixed_step, last_step = step;
+  const double stand_share = o.stand_force_n > 0 ? 1.0 / (o.steps > 0 ? o.steps + 1 : 20) : 0.0;
+  while (offset < -1e-12) {
+    const double next = std::min(offset + step, 0.0);
+    const double target = adaptive && next > -0.25 * o.min_step_m ? 0.0 : next;  // no sliver of a last step
+    const std::vector<NodeContact> before = solver.contacts();
+    const ContactStep st = solver.try_move_to(target * axis);
+    const bool refinable = adaptive && step > o.min_step_m * (1 + 1e-9);
     if (!st.converged) {
+      solver.discard();
+      if (refinable) {
+        step = std::max(0.5 * step, o.min_step_m);
+        ++r.rejected_steps;
+        continue;
+      }
       r.completed = false;
-      r.message = fmt::format("donning stalled at {:.1f} mm below the designed pose (step {} of {}): {}; try more "
+      r.message = fmt::format("donning stalled at {:.1f} mm below the designed pose (step of {:.2f} mm): {}; try more "
                               "--steps or a smaller --offset-mm",
-                              -offset * 1e3, k, o.steps, st.message);
+                              -target * 1e3, (target - offset) * 1e3, st.message);
       break;
     }
+    int new_sticks = 0;
+    for (size_t i = 0; i < before.size(); ++i) {
+      const NodeContact& now = solver.contacts()[i];
+      if (now.active && !now.sliding && now.tangential_n.squaredNorm() > 0 && (!before[i].active || before[i].sliding))
+        ++new_sticks;
+    }
+    if (new_sticks > 0 && refinable) {
+      log::debug("donning: {} node(s) started sticking in the step to {:.2f} mm: refined", new_sticks, -target * 1e3);
+      solver.discard(o.min_step_m / (target - offset));  // the retry starts along the trial's motion
+      step = o.min_step_m;
+      ++r.rejected_steps;
+      continue;
+    }
+    solver.commit();
+    last_step = target - offset;
+    offset = target;
+    ++r.steps;
+    if (adaptive && new_sticks == 0) step = std::min(2.0 * step, o.step_m);
     r.series.push_back(sample(st, solver.contacts(), axis, offset));
     r.newton_iterations += st.newton_iterations;
     r.force_on_socket_n = st.force_on_obstacle_n;
     r.final_offset_m = offset;
-    if (!report_progress(o.progress, static_cast<double>(k) / (o.steps + (o.stand_force_n > 0 ? 1 : 0)),
-                         "donning")) {
+    if (!report_progress(o.progress, (1.0 - stand_share) * (1.0 + offset / o.start_offset_m), "donning")) {
       r.completed = false;
       r.message = fmt::format("donning cancelled at {:.1f} mm below the designed pose", -offset * 1e3);
       break;
@@ -113,12 +146,12 @@ DonningResult simulate_donning(const tissue::MassSpringModel& model, const std::
         const double slope = (b.axial_force_n - a.axial_force_n) / (b.offset_m - a.offset_m);
         if (slope > 0 && o.stand_force_n > b.axial_force_n) first = 1.1 * (o.stand_force_n - b.axial_force_n) / slope;
       }
-      const ContactStep st = solver.push_with_force(axis, o.stand_force_n, 1e-3, o.start_offset_m / o.steps, first);
-      const double offset = socket.translation().dot(axis);
-      r.series.push_back(sample(st, solver.contacts(), axis, offset));
+      const ContactStep st = solver.push_with_force(axis, o.stand_force_n, 1e-3, last_step, first);
+      const double stood_at = socket.translation().dot(axis);
+      r.series.push_back(sample(st, solver.contacts(), axis, stood_at));
       r.newton_iterations += st.newton_iterations;
       r.force_on_socket_n = st.force_on_obstacle_n;
-      r.final_offset_m = offset;
+      r.final_offset_m = stood_at;
       r.stood = true;
       r.contacts = solver.contacts();
       r.positions = solver.positions();
