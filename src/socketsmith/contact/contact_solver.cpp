@@ -63,6 +63,7 @@ struct ContactSolver::Impl {
   std::vector<Vec3> last_hist;    // its tangential spring forces (hist once committed)
   std::vector<NodeContact> state;
   std::vector<NodeContact> conv_state;  // state of the last committed step
+  bool stop_on_new_stick = false, stopped_on_stick = false;  // try_move_to(…, true)
   std::vector<char> was_active;  // active at the last converged step
   struct QueryCache {
     Vec3 p = Vec3::Zero(), t = Vec3::Zero();
@@ -261,6 +262,17 @@ struct ContactSolver::Impl {
   /// The residual accepted at a kink of the wall (see ContactOptions::kink_rel_tol).
   double kink_tolerance(const std::vector<NodeContact>& st) const {
     return opt.kink_rel_tol / opt.rel_tol * tolerance(st);
+  }
+
+  /// Nodes of @p st sticking (in contact, friction below its limit and not zero) that were sliding
+  /// or free at the last committed step.
+  int count_new_sticks(const std::vector<NodeContact>& st) const {
+    int n = 0;
+    for (size_t i = 0; i < st.size(); ++i)
+      if (st[i].active && !st[i].sliding && st[i].tangential_n.squaredNorm() > 0 &&
+          (!conv_state[i].active || conv_state[i].sliding))
+        ++n;
+    return n;
   }
 
   /// Largest change of the normal forces of @p st from the friction lag, / the largest of them.
@@ -465,6 +477,10 @@ struct ContactSolver::Impl {
         r = evaluate(xs, t, st, th, &B, &pi);
         rn = r.norm();
       }
+      if (stop_on_new_stick && rn <= kRelagResidual * tolerance(st) && count_new_sticks(st) > 0) {
+        stopped_on_stick = true;
+        return false;
+      }
       if (rn > tolerance(st)) tangent(xs, B, K);
     }
     return false;
@@ -541,6 +557,9 @@ struct ContactSolver::Impl {
       last_t = t;
       last_hist = std::move(th);
       if (commit) commit_last();
+    } else if (stopped_on_stick) {
+      out.stopped_on_new_stick = true;
+      out.message = fmt::format("stopped after {} Newton iterations: a node started sticking", out.newton_iterations);
     } else {
       out.message = fmt::format("contact solve did not converge after {} Newton iterations (residual {:.3g} N)",
                                 out.newton_iterations, rn);
@@ -584,8 +603,9 @@ struct ContactSolver::Impl {
   /// from the last converged translation (a stick–slip switch or a new contact front can be too
   /// much for one Newton solve). Sub-steps are committed only when @p commit.
   ContactStep solve_path(const Vec3& t, bool commit) {
+    stopped_on_stick = false;
     ContactStep st = solve(t, commit);
-    if (st.converged) return st;
+    if (st.converged || st.stopped_on_new_stick) return st;
     int pieces = 2;
     int total_newton = st.newton_iterations;
     for (int depth = 0; depth < 6 && !st.converged; ++depth, pieces *= 2) {
@@ -670,11 +690,17 @@ ContactSolver::ContactSolver(const tissue::MassSpringModel& model, const tissue:
 ContactSolver::~ContactSolver() = default;
 
 ContactStep ContactSolver::move_to(const Vec3& translation) { return impl_->solve_path(translation, true); }
-ContactStep ContactSolver::try_move_to(const Vec3& translation) { return impl_->solve_path(translation, false); }
+ContactStep ContactSolver::try_move_to(const Vec3& translation, bool stop_on_new_stick) {
+  impl_->stop_on_new_stick = stop_on_new_stick;
+  ContactStep st = impl_->solve_path(translation, false);
+  impl_->stop_on_new_stick = false;
+  return st;
+}
+int ContactSolver::new_sticks() const { return impl_->count_new_sticks(impl_->state); }
 void ContactSolver::commit() { impl_->commit_last(); }
-void ContactSolver::discard(double keep) {
+void ContactSolver::discard() {
   auto& s = *impl_;
-  s.x = s.x_conv + std::clamp(keep, 0.0, 1.0) * (s.x - s.x_conv);
+  s.x = s.x_conv;
   s.state = s.conv_state;
   s.last_t = s.t_conv;
   s.last_hist = s.hist;

@@ -94,6 +94,7 @@ struct ContactStep {
   double max_penetration_m = 0.0;
   int friction_passes = 0;
   bool at_kink = false;
+  bool stopped_on_new_stick = false;  ///< try_move_to(…, true) gave up: a node started sticking
   long factorizations = 0;           ///< tangent factorisations so far (whole solver life)
   long cg_iterations = 0;            ///< CG iterations on a reused factorisation so far              ///< converged to the kink tolerance (ContactOptions::kink_rel_tol)
   double friction_lag_change = 0.0;  ///< last change of the normal forces between friction passes / max
@@ -117,11 +118,14 @@ class ContactSolver {
   /// move_to without committing: the solved state is what positions() and contacts() show, but
   /// the friction history stays at the last committed step until commit(); discard() goes back
   /// to that step (an adaptive path tries a step and keeps or refines it).
-  ContactStep try_move_to(const Vec3& translation);
+  /// @p stop_on_new_stick: give up (not converged, ContactStep::stopped_on_new_stick) as soon as,
+  /// near convergence, a node that was sliding or free at the last committed step sticks — the
+  /// caller is going to refine such a step anyway.
+  ContactStep try_move_to(const Vec3& translation, bool stop_on_new_stick = false);
+  /// Nodes sticking in the current state that were sliding or free at the last committed step.
+  int new_sticks() const;
   void commit();
-  /// Back to the last committed step; the next solve starts from the committed positions plus
-  /// @p keep (0–1) of the discarded step's motion (e.g. the ratio of a shorter retry to it).
-  void discard(double keep = 0.0);
+  void discard();
 
   /// Moves the obstacle along unit @p direction (from its current translation) until the force
   /// the body exerts on it along −direction equals @p force_n [N] (the obstacle pushed with

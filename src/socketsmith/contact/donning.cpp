@@ -81,20 +81,21 @@ DonningResult simulate_donning(const tissue::MassSpringModel& model, const std::
   }
   r.completed = true;
   // The path: fixed steps, or adaptive ones (DonningOptions::steps). A trial step is kept unless a
-  // node that was sliding or free sticks at its end; then it is tried again at half the length.
+  // node that was sliding or free sticks in it; then it is tried again at the shortest step (and at
+  // half the length when it does not converge).
   const double fixed_step = adaptive ? 0.0 : o.start_offset_m / o.steps;
   double offset = -o.start_offset_m, step = adaptive ? o.step_m : fixed_step, last_step = step;
   const double stand_share = o.stand_force_n > 0 ? 1.0 / (o.steps > 0 ? o.steps + 1 : 20) : 0.0;
   while (offset < -1e-12) {
     const double next = std::min(offset + step, 0.0);
     const double target = adaptive && next > -0.25 * o.min_step_m ? 0.0 : next;  // no sliver of a last step
-    const std::vector<NodeContact> before = solver.contacts();
-    const ContactStep st = solver.try_move_to(target * axis);
     const bool refinable = adaptive && step > o.min_step_m * (1 + 1e-9);
+    const ContactStep st = solver.try_move_to(target * axis, refinable);
     if (!st.converged) {
       solver.discard();
-      if (refinable) {
-        step = std::max(0.5 * step, o.min_step_m);
+      if (refinable) {  // a node started sticking: the shortest step; no convergence: half the step
+        if (st.stopped_on_new_stick) log::debug("donning: a node started sticking on the way to {:.2f} mm: refined", -target * 1e3);
+        step = st.stopped_on_new_stick ? o.min_step_m : std::max(0.5 * step, o.min_step_m);
         ++r.rejected_steps;
         continue;
       }
@@ -104,15 +105,10 @@ DonningResult simulate_donning(const tissue::MassSpringModel& model, const std::
                               -target * 1e3, (target - offset) * 1e3, st.message);
       break;
     }
-    int new_sticks = 0;
-    for (size_t i = 0; i < before.size(); ++i) {
-      const NodeContact& now = solver.contacts()[i];
-      if (now.active && !now.sliding && now.tangential_n.squaredNorm() > 0 && (!before[i].active || before[i].sliding))
-        ++new_sticks;
-    }
+    const int new_sticks = solver.new_sticks();
     if (new_sticks > 0 && refinable) {
       log::debug("donning: {} node(s) started sticking in the step to {:.2f} mm: refined", new_sticks, -target * 1e3);
-      solver.discard(o.min_step_m / (target - offset));  // the retry starts along the trial's motion
+      solver.discard();
       step = o.min_step_m;
       ++r.rejected_steps;
       continue;
