@@ -201,7 +201,7 @@ TEST_F(Donning, the_default_path_gives_the_fine_stiff_stick_path_pressures_in_fe
   std::cout << "default: " << a.series.back().factorizations << " factorisations; fine, stiff stick: "
             << b.series.back().factorizations << "; largest nodal difference " << d.dmax << " Pa of " << d.pmax
             << ", mean " << d.dsum / a.contacts.size() << " Pa\n";
-  EXPECT_LT(a.series.back().factorizations, 0.6 * b.series.back().factorizations);  // 153 vs 321 (2026-11-25)
+  EXPECT_LT(a.series.back().factorizations, 0.6 * b.series.back().factorizations);  // 125 vs 251 (2026-11-25)
 }
 
 TEST_F(Donning, rejects_a_socket_that_grips_at_the_start_and_bad_options) {

@@ -71,7 +71,7 @@ struct ContactSolver::Impl {
   };
   std::vector<QueryCache> qcache;  // per candidate node
   std::vector<Gap> gaps;           // scratch of evaluate()
-  std::vector<double> conv_fn, lag_fn;  // normal force at the last converged step / friction lag
+  std::vector<double> conv_fn, lag_fn, prev_fn;  // normal force at the last converged step / friction lag
   std::vector<Vec3> conv_n, lag_n;      // wall normal at the last converged step / friction lag
   double force_floor = 1e-3;            // [N] scale of the residual tolerance when forces are small
   SparseMatrix K0;         // linear body: reduced stiffness at rest
@@ -284,12 +284,19 @@ struct ContactSolver::Impl {
     }
     return fmax > 0 ? change / fmax : (change > 0 ? 1.0 : 0.0);
   }
+  /// The friction lag takes the normal forces of @p st — half-way only when the last refresh did
+  /// not shrink the change (a node at the socket's rim can otherwise flip in and out of contact
+  /// with every refresh, its friction pushing it out and its absence letting it back: a 2-cycle).
   void update_lag(const std::vector<NodeContact>& st) {
+    const double change = lag_change(st);
+    const double w = last_lag_change > 0 && change > 0.8 * last_lag_change ? 0.5 : 1.0;
+    last_lag_change = change;
     for (size_t i = 0; i < st.size(); ++i) {
-      lag_fn[i] = st[i].normal_force_n;
+      lag_fn[i] += w * (st[i].normal_force_n - lag_fn[i]);
       if (st[i].active) lag_n[i] = st[i].normal;
     }
   }
+  double last_lag_change = 0;  // of the last refresh in this solve
 
   /// A trial point x + a·delta of the line search, with its residual, potential and slope.
   struct Trial {
@@ -517,6 +524,17 @@ struct ContactSolver::Impl {
     // until they agree with the solution's (a fixed point; usually 1–3 passes).
     lag_fn = conv_fn;
     lag_n = conv_n;
+    last_lag_change = 0;
+    // The friction lag of the nodes that touched at the last two steps is extrapolated like the
+    // positions (the normal forces grow steadily along a donning path), so that fewer refreshes
+    // are needed (7.5k demo: 118 → 104 factorisations, the same state).
+    if (opt.extrapolate_friction_lag && have_prev && prev_fn.size() == conv_fn.size()) {
+      const Vec3 dprev = t_conv - t_prev;
+      const double len2 = dprev.squaredNorm();
+      const double ratio = len2 > 0 ? std::clamp((t - t_conv).dot(dprev) / len2, 0.0, 2.0) : 0.0;
+      for (size_t i = 0; i < lag_fn.size(); ++i)
+        if (conv_fn[i] > 0 && prev_fn[i] > 0) lag_fn[i] = std::max(0.0, conv_fn[i] + ratio * (conv_fn[i] - prev_fn[i]));
+    }
     double rn = 0;
     bool ok = false;
     for (int pass = 0; pass < opt.max_friction_passes; ++pass) {
@@ -579,6 +597,7 @@ struct ContactSolver::Impl {
     t_conv = last_t;
     hist = last_hist;
     conv_state = state;
+    prev_fn = conv_fn;
     for (size_t i = 0; i < state.size(); ++i) {
       was_active[i] = state[i].active ? 1 : 0;
       conv_fn[i] = state[i].normal_force_n;

@@ -52,6 +52,9 @@ struct ContactOptions {
   /// and the normal forces have moved from the lag by more than friction_lag_tol, they become the
   /// lag at once, instead of only after a converged Newton solve (false: the earlier passes).
   bool friction_in_newton = true;
+  /// Start each step's friction lag from the normal forces of the last two committed steps
+  /// extrapolated to the new obstacle position (nodes that touched at both), not from the last's.
+  bool extrapolate_friction_lag = true;
   /// A node resting on a kink of the socket wall (an edge or vertex of its triangles where the
   /// closest face switches) has no position of zero residual; Newton then crawls. When its steps
   /// have become shorter than kink_step_tol_m (or the potential has stopped decreasing), a residual
