@@ -4,17 +4,23 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
+#include <filesystem>
 #include <fstream>
+#include <iterator>
+#include <string>
 
 #include "scan_fixtures.h"
 #include "socketsmith/core/errors.h"
 #include "socketsmith/core/log.h"
 #include "socketsmith/geometry/mesh_checks.h"
 #include "socketsmith/scan/experiments.h"
+#include "socketsmith/scan/recording.h"
 #include "socketsmith/scan/simulated_sensor.h"
 
 namespace socketsmith::scan {
 namespace {
+namespace fs = std::filesystem;
 
 constexpr double kHeight = 0.4;  // cylinder height [m]
 constexpr double kBand = 0.14;   // errors measured for |z| <= kBand (away from the cut and the closure)
@@ -62,22 +68,27 @@ TEST(Reconstruction, cylinder_error_is_the_radial_distance_within_the_band) {
 
 TEST(Reconstruction, the_same_recording_gives_the_same_mesh) {
   // CGAL's surface mesher draws its initial points from a clock-seeded generator unless told
-  // otherwise; a reconstruction must be repeatable.
-  const auto rec = cylinder_recording(0.10, 0.0);
-  const ReconstructionResult a = reconstruct_recording(rec), b = reconstruct_recording(rec);
-  ASSERT_EQ(a.mesh.vertices.size(), b.mesh.vertices.size());
-  ASSERT_EQ(a.mesh.triangles.size(), b.mesh.triangles.size());
-  // The same vertices (CGAL may number them differently: its handles are ordered by address).
-  auto sorted = [](std::vector<Vec3> v) {
-    std::sort(v.begin(), v.end(), [](const Vec3& p, const Vec3& q) {
-      return std::lexicographical_compare(p.data(), p.data() + 3, q.data(), q.data() + 3);
-    });
-    return v;
-  };
-  const auto va = sorted(a.mesh.vertices), vb = sorted(b.mesh.vertices);
-  double worst = 0;
-  for (size_t i = 0; i < va.size(); ++i) worst = std::max(worst, (va[i] - vb[i]).norm());
-  EXPECT_LT(worst, 1e-12) << "vertices differ by up to " << worst << " m between two runs";
+  // otherwise; `scan reconstruct` must give the same mesh for the same recording. Compared across
+  // two processes, as a user reruns it: two reconstructions in one process can differ within the
+  // mesher's bisection tolerance (≈ 20 µm here; seen: 12 µm, and 1587 vs 1589 vertices on a
+  // noise-free cylinder), because CGAL orders cells and facets by their heap addresses, and the
+  // heap is not in the same state the second time; a fresh process is (10 of 10 identical files
+  // under load, 2026-11-25).
+  const fs::path dir = fs::path(SOCKETSMITH_BINARY_DIR) / "tests" / "reconstruction_repeat";
+  fs::remove_all(dir);
+  write_recording(dir / "recording", cylinder_recording(0.10, 1.0));
+  std::string meshes[2];
+  for (int k = 0; k < 2; ++k) {
+    const fs::path out = dir / fmt::format("run{}.stl", k);
+    const std::string cmd = (fs::path(SOCKETSMITH_BINARY_DIR) / "socketsmith").string() + " scan reconstruct " +
+                            (dir / "recording").string() + " --out " + out.string() + " > " +
+                            (dir / fmt::format("run{}.log", k)).string() + " 2>&1";
+    ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+    std::ifstream in(out, std::ios::binary);
+    meshes[k].assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  EXPECT_GT(meshes[0].size(), 10000u);
+  EXPECT_TRUE(meshes[0] == meshes[1]) << "two runs of `scan reconstruct` wrote different meshes";
 }
 
 TEST(Reconstruction, default_noise_16_cm_cylinder_within_2_mm_rms_and_watertight) {

@@ -54,8 +54,9 @@ geometry::TriMesh poisson(const PointCloud& cloud, double spacing, const Reconst
   };
   // CGAL's default random generator (seeded from the clock) drives the spatial sort of the Poisson
   // function's Delaunay refinement and the surface mesher's initial points: both are seeded here, so
-  // a reconstruction is repeatable (the mesher alone was seeded before, and two reconstructions in
-  // one process still differed about one run in three).
+  // a reconstruction is repeatable from one run of the program to the next. (Two reconstructions in
+  // one process can still differ within the bisection tolerance: CGAL orders cells and facets by
+  // their heap addresses, and the heap is not in the same state the second time.)
   CGAL::get_default_random() = CGAL::Random(0);
   auto tp = Clock::now();
   PoissonFunction function(pwn.begin(), pwn.end(), CGAL::First_of_pair_property_map<Pwn>(),
