@@ -179,7 +179,7 @@ TEST_F(Donning, the_smoothed_wall_gives_the_facets_pressures_in_fewer_newton_ite
 TEST_F(Donning, the_default_path_gives_the_fine_stiff_stick_path_pressures_in_fewer_factorisations) {
   ASSERT_TRUE(art_.result.socket.has_value());
   DonningOptions o = standing_path(0, 0.032);
-  ASSERT_DOUBLE_EQ(o.step_m, 0.004);
+  ASSERT_DOUBLE_EQ(o.step_m, 0.006);
   ASSERT_DOUBLE_EQ(o.contact.stick_stiffness_ratio, 0.2);
 
   DonningOptions fine = o;

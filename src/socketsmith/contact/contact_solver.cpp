@@ -430,7 +430,7 @@ struct ContactSolver::Impl {
       if (opt.linear_body) {
         // The last factorisation (of a nearby contact state) preconditions CG on the new tangent;
         // a fresh factorisation only when CG does not converge quickly.
-        if (!(factor_valid && pcg(K, r, delta))) {
+        if (!(factor_valid && opt.max_reuse_cg > 0 && pcg(K, r, delta))) {
           const SerialParallelRegions serial;
           if (K.nonZeros() != analysed_nnz) {
             llt.analyzePattern(K);
@@ -570,6 +570,7 @@ struct ContactSolver::Impl {
       out.message = fmt::format("converged in {} Newton iterations ({} friction passes), {} nodes in contact{}",
                                 out.newton_iterations, out.friction_passes, out.contact_nodes,
                                 out.at_kink ? fmt::format(", residual {:.3g} N left at a kink of the wall", rn) : "");
+      out.new_sticks = count_new_sticks(st);
       x = xs;
       state = st;
       last_t = t;
@@ -715,7 +716,6 @@ ContactStep ContactSolver::try_move_to(const Vec3& translation, bool stop_on_new
   impl_->stop_on_new_stick = false;
   return st;
 }
-int ContactSolver::new_sticks() const { return impl_->count_new_sticks(impl_->state); }
 void ContactSolver::commit() { impl_->commit_last(); }
 void ContactSolver::discard() {
   auto& s = *impl_;

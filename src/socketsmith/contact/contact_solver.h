@@ -98,6 +98,7 @@ struct ContactStep {
   int friction_passes = 0;
   bool at_kink = false;
   bool stopped_on_new_stick = false;  ///< try_move_to(…, true) gave up: a node started sticking
+  int new_sticks = 0;  ///< nodes sticking at the end that were sliding or free at the previous committed step
   long factorizations = 0;           ///< tangent factorisations so far (whole solver life)
   long cg_iterations = 0;            ///< CG iterations on a reused factorisation so far              ///< converged to the kink tolerance (ContactOptions::kink_rel_tol)
   double friction_lag_change = 0.0;  ///< last change of the normal forces between friction passes / max
@@ -125,8 +126,6 @@ class ContactSolver {
   /// near convergence, a node that was sliding or free at the last committed step sticks — the
   /// caller is going to refine such a step anyway.
   ContactStep try_move_to(const Vec3& translation, bool stop_on_new_stick = false);
-  /// Nodes sticking in the current state that were sliding or free at the last committed step.
-  int new_sticks() const;
   void commit();
   void discard();
 

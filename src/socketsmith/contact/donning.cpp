@@ -90,7 +90,9 @@ DonningResult simulate_donning(const tissue::MassSpringModel& model, const std::
     const double next = std::min(offset + step, 0.0);
     const double target = adaptive && next > -0.25 * o.min_step_m ? 0.0 : next;  // no sliver of a last step
     const bool refinable = adaptive && step > o.min_step_m * (1 + 1e-9);
-    const ContactStep st = solver.try_move_to(target * axis, refinable);
+    // A step that can be refined is tried and kept or refined; one that cannot is solved and
+    // committed at once (move_to, whose sub-steps when it fails are committed: a path refinement).
+    const ContactStep st = refinable ? solver.try_move_to(target * axis, true) : solver.move_to(target * axis);
     if (!st.converged) {
       solver.discard();
       if (refinable) {  // a node started sticking: the shortest step; no convergence: half the step
@@ -105,7 +107,7 @@ DonningResult simulate_donning(const tissue::MassSpringModel& model, const std::
                               -target * 1e3, (target - offset) * 1e3, st.message);
       break;
     }
-    const int new_sticks = solver.new_sticks();
+    const int new_sticks = st.new_sticks;
     if (new_sticks > 0 && refinable) {
       log::debug("donning: {} node(s) started sticking in the step to {:.2f} mm: refined", new_sticks, -target * 1e3);
       solver.discard();
@@ -113,7 +115,7 @@ DonningResult simulate_donning(const tissue::MassSpringModel& model, const std::
       ++r.rejected_steps;
       continue;
     }
-    solver.commit();
+    if (refinable) solver.commit();
     last_step = target - offset;
     offset = target;
     ++r.steps;

@@ -27,9 +27,10 @@ struct DonningOptions {
   /// sticks at the end of a trial step — the path is then refined where friction's history needs
   /// it (the distal end, where the socket's bottom drags the skin along) and long elsewhere.
   int steps = 0;
-  /// The longest step [m], > 0. 4 mm: the 7.5k demo's pressures are within 0.5 % (mean) and 2 %
-  /// (largest difference, of the peak) of a 1 mm path's (docs/contact.md, "Speed").
-  double step_m = 0.004;
+  /// The longest step [m], > 0. 6 mm, refined near the end: the nodal pressures of the 7.5k demo,
+  /// the 1.8k demo and the OpenLimb limb are within 40 Pa on average and 1–2 % of the peak at most
+  /// of a 1 mm path's (docs/contact.md, "Speed").
+  double step_m = 0.006;
   double min_step_m = 0.002;  ///< the shortest adaptive step [m], > 0 (at most step_m: a longer one is step_m)
   double friction = 0.5;         ///< Coulomb μ skin–socket
   /// > 0: after donning, push the socket along the axis until its axial reaction is this force [N]

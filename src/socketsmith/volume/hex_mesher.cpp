@@ -841,10 +841,13 @@ int estimated_nodes(const Build& b, const std::vector<geometry::TriMesh>& bones,
                     const std::vector<SurfaceQuery>& bone_queries) {
   if (bones.empty()) return b.mesh.num_nodes();
   std::vector<std::uint8_t> in_bone(b.mesh.nodes.size(), 0);
+  std::vector<geometry::Aabb> boxes;
+  for (const auto& q : bone_queries) boxes.push_back(geometry::bounding_box(q.mesh()));
 #pragma omp parallel for schedule(dynamic, 256)
   for (int n = 0; n < b.mesh.num_nodes(); ++n)
-    for (const auto& q : bone_queries) {
-      const auto box = geometry::bounding_box(q.mesh());
+    for (size_t k = 0; k < bone_queries.size(); ++k) {
+      const auto& q = bone_queries[k];
+      const auto& box = boxes[k];
       const Vec3& p = b.mesh.nodes[n];
       if ((p.array() < box.min.array()).any() || (p.array() > box.max.array()).any()) continue;
       if (q.is_inside(p)) {
