@@ -58,15 +58,17 @@ void BM_ImplicitEulerStep(benchmark::State& state, const char* constants) {
   // h = 1 ms, the thesis's time step.
   ImplicitEuler euler(s.model, s.dofs, {1e-3, 1e-6, 500});
   DynamicState st = rest_state(s.model);
-  int cg = 0, steps = 0;
+  int cg = 0, steps = 0, redone = 0;
   for (auto _ : state) {
     const auto r = euler.step(st, s.f);
     cg += r.cg_iterations;
+    redone += r.law_retried;
     ++steps;
     if (!r.ok) state.SkipWithError(r.message.c_str());
   }
   state.counters["nodes"] = s.model.num_nodes();
   state.counters["cg_iter"] = static_cast<double>(cg) / steps;
+  state.counters["redone_per_step"] = static_cast<double>(redone) / steps;
 }
 
 /// range(1): untimed steps before timing (1: only the first factorisation; 80: the sudden load's

@@ -268,6 +268,50 @@ TEST(MassSpringModel, corrective_dead_zone_is_silent_below_d_and_exact_beyond) {
   EXPECT_THROW(MassSpringModel(mesh, {50e3, 1060}, bad), InvalidInputError);
 }
 
+TEST(MassSpringModel, corrective_slopes_given_to_the_jacobian_replace_the_laws_own) {
+  // The law's own slopes reproduce the Jacobian; a steeper slope adds a positive semi-definite
+  // volumetric stiffness to K_psd (what the solvers hold for an element about to enter the law),
+  // also for elements still inside the dead zone (k' = 0 there).
+  MassSpringOptions o;
+  o.corrective = CorrectiveSpringConstants::cube_targets();
+  const MassSpringModel m(small_lattice(2, 0.02), {50e3, 1060}, o);
+  VectorXd mild = m.rest_positions() * 0.997;  // δv ≈ −0.9 %: inside the dead zone
+  mild[3] += 1e-5;
+  for (const VectorXd& x : {deformed(m, 7, 0.02), mild}) {
+    const VectorXd dv = m.element_volume_changes(x);
+    EXPECT_NEAR(dv[0], m.element_volumes(x)[0] / m.element_volumes(m.rest_positions())[0] - 1, 1e-12);
+    VectorXd own(m.num_elements()), steeper(m.num_elements());
+    int in_law = 0;
+    for (int e = 0; e < m.num_elements(); ++e) {
+      in_law += m.corrective_stiffness(e, dv[e], &own[e]) > 0;
+      double ahead = 0.0;
+      m.corrective_stiffness(e, dv[e] - 0.01, &ahead);
+      steeper[e] = std::min(own[e], ahead);
+      EXPECT_LT(steeper[e], own[e]);
+    }
+    EXPECT_EQ(in_law, dv.maxCoeff() < -0.0133 ? m.num_elements() : 0);
+    for (JacobianKind kind : {JacobianKind::Exact, JacobianKind::SymmetricPsd}) {
+      SparseMatrix a, b;
+      m.jacobian(x, kind, a);
+      m.jacobian(x, kind, b, &own);
+      EXPECT_LT(Eigen::MatrixXd(a - b).norm(), 1e-12 * Eigen::MatrixXd(a).norm());
+    }
+    SparseMatrix a, b;
+    m.jacobian(x, JacobianKind::SymmetricPsd, a);
+    m.jacobian(x, JacobianKind::SymmetricPsd, b, &steeper);
+    const Eigen::MatrixXd extra = Eigen::MatrixXd(a - b);  // K(steeper) − K(own), K = −J
+    EXPECT_LT((extra - extra.transpose()).norm(), 1e-10 * extra.norm());
+    EXPECT_GT(extra.norm(), 1e-3 * Eigen::MatrixXd(a).norm());
+    EXPECT_GT(Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(extra).eigenvalues().minCoeff(), -1e-9 * extra.norm());
+  }
+  SparseMatrix a;
+  const VectorXd x = m.rest_positions();
+  VectorXd wrong(1);
+  EXPECT_THROW(m.jacobian(x, JacobianKind::Exact, a, &wrong), InvalidInputError);
+  EXPECT_EQ(MassSpringModel(small_lattice(1), {50e3, 1060}, options_for(TissueModelKind::MssCf)).corrective_stiffness(0, -0.1),
+            0.0);
+}
+
 TEST(MassSpringModel, masses_sum_to_rho_times_volume) {
   const auto mesh = small_lattice(3, 0.03);
   MassSpringModel m(mesh, {50e3, 1060}, {});

@@ -5,8 +5,9 @@
 ///   (M + h D + h² K) Δv = h (f(x₀, v₀) + f_ext − h K v₀),  v₁ = v₀ + Δv,  x₁ = x₀ + h v₁,
 /// with K the symmetric positive semi-definite part of the stiffness and D the damping matrix,
 /// solved by conjugate gradient (Eigen, Jacobi preconditioner, warm-started with the previous
-/// Δv). As in the thesis, the MSS-CS corrective springs' volume coupling is explicit (their
-/// spring part is implicit). Fixed DOFs keep zero velocity; tied DOFs share one.
+/// Δv). The MSS-CS corrective springs' volume coupling enters K through its symmetric PSD
+/// surrogate (MassSpringModel::jacobian; the thesis integrated it explicitly). Fixed DOFs keep
+/// zero velocity; tied DOFs share one.
 ///
 /// With `frozen_matrix`, A = M + h D + h² K is assembled and factorised (CHOLMOD) once, at the
 /// state of the first step, and every later step is one back-substitution with it: the forces
@@ -15,7 +16,17 @@
 /// from where A was factorised that its stiffness outgrew it — A is refactorised at the current
 /// state and the step retried, so a frozen run is never less robust than the default; it is also
 /// refactorised once the tissue has moved a fraction of an element since (`refactor_move_in_edges`).
-
+///
+/// MSS-CS's corrective law with a dead zone (cube-targets) is flat up to a volume loss d and steep
+/// beyond (k' = C E l_e (−δv − d)^β, C = 1e5): an element that crosses d after the factorisation
+/// gains a volumetric stiffness the frozen A does not have, and the lagged remainder then grows
+/// (measured: divergence within 2–9 steps). So A holds, per element, the law's slope a little
+/// further on — after `corrective_lookahead` more volume loss — and is refactorised before a step
+/// when an element's law has become steeper than that (by `refactor_corrective_slope`), or after a
+/// step that took an element there, which is then redone (A then holds the law where it went). The per-step scheme takes the law's slope
+/// at the state; when the law got much steeper within a step (`redo_corrective_slope`; a sudden
+/// load on a fine lattice), the step is redone with the law's slope where it went.
+///
 #include <memory>
 #include <string>
 
@@ -39,6 +50,19 @@ struct ImplicitEulerOptions {
   bool frozen_matrix = false;
   double refactor_move_in_edges = 0.25;
   int refactor_every_steps = 0;
+  /// frozen_matrix, MSS-CS: the volume loss ahead of each element's state at which its corrective
+  /// law's slope dk'/dδv is taken for A [-], in [0, 0.5) (0: the slope at the state).
+  double corrective_lookahead = 0.002;
+  /// frozen_matrix, MSS-CS: A is refactorised (before a step) or the step redone (after it) when an
+  /// element's law slope is steeper than the one A holds by more than this, in E l_e per unit
+  /// volume change [-], > 0. Small: refactorised for every change of the law; large: the law's
+  /// stiffness may outgrow A (see the file comment).
+  double refactor_corrective_slope = 1.0;
+  /// Per-step scheme, MSS-CS: a step is redone with each element's law slope where the step went
+  /// when that slope is steeper than the one at the state (which the matrix holds) by more than
+  /// this, in E l_e per unit volume change [-], > 0. Measured on the bench's sudden load: 100
+  /// carries 4k and 8k nodes, 300 does not; 10–100 cost the same at 1k.
+  double redo_corrective_slope = 30.0;
 };
 
 /// Positions and velocities (3N each) and time.
@@ -52,6 +76,7 @@ struct StepResult {
   bool ok = false;          ///< false: diverged (state left unchanged)
   int cg_iterations = 0;     ///< 0 with frozen_matrix
   bool refactorised = false; ///< frozen_matrix: the matrix was (re)factorised in this step
+  bool law_retried = false;  ///< per-step scheme: redone with the corrective law where the step went
   double cg_error = 0.0;    ///< CG's final relative residual
   std::string message;
 };
@@ -75,11 +100,21 @@ class ImplicitEuler {
 
  private:
   struct Frozen;
-  /// Assembles A = M + h D + h² K at x into A_ (K_red_ keeps −K).
-  void assemble_system(const VectorXd& x);
+  /// Assembles A = M + h D + h² K at x into A_ (K_red_ keeps −K); @p corrective_slopes as in
+  /// MassSpringModel::jacobian.
+  void assemble_system(const VectorXd& x, const VectorXd* corrective_slopes = nullptr);
+  /// MSS-CS: per element, the corrective law's slope for the system matrix: the steepest of its
+  /// slope at @p dv_now and at (the lesser of dv_now and @p dv_reached) − @p lookahead.
+  VectorXd law_slopes(const VectorXd& dv_now, const VectorXd* dv_reached, double lookahead) const;
+  /// True when some element's law slope at volume changes @p dv is steeper than @p held by more
+  /// than @p tolerance E l_e.
+  bool law_steeper_than(const VectorXd& dv, const VectorXd& held, double tolerance) const;
   StepResult frozen_step(DynamicState& state, const VectorXd& f_ext);
+  /// The state a velocity update leads to: v₁ = v₀ + Δv (expanded), x₁ = x₀ + h v₁.
+  void advance(const DynamicState& state, const VectorXd& v_red, const VectorXd& dv, VectorXd& x_new,
+               VectorXd& v_new) const;
   /// Checks the update and, when it is sound, applies it (res.ok) or says why not.
-  void accept(DynamicState& state, const VectorXd& v_red, const VectorXd& dv, StepResult& res);
+  void accept(DynamicState& state, const VectorXd& dv, VectorXd& x_new, VectorXd& v_new, StepResult& res);
   const MassSpringModel& model_;
   const DofMap& dofs_;
   ImplicitEulerOptions options_;

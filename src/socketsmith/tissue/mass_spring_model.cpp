@@ -233,7 +233,7 @@ VectorXd MassSpringModel::dof_masses() const {
   return m;
 }
 
-double MassSpringModel::corrective_stiffness(double dv, double edge_length, double* dk_ddv) const {
+double MassSpringModel::corrective_law(double dv, double edge_length, double* dk_ddv) const {
   const auto& cs = options_.corrective;
   const double scale = cs.c * material_.youngs_modulus_pa * edge_length;
   double g = 0.0, dg = 0.0;
@@ -273,7 +273,7 @@ VectorXd MassSpringModel::elastic_forces(const VectorXd& x) const {
       for (int k = 0; k < 8; ++k) f.segment<3>(3 * el.nodes[k]) -= cf_bulk_increment_pa_ * dv * grad[k];
     } else {
       const double v = volume::hex_volume(xe);
-      const double kp = corrective_stiffness((v - el.rest_volume) / el.rest_volume, el.edge_length, nullptr);
+      const double kp = corrective_law((v - el.rest_volume) / el.rest_volume, el.edge_length, nullptr);
       if (kp == 0.0) continue;
       for (int s = 0; s < 16; ++s) {
         const auto& c = corrective_[e * 16 + s];
@@ -313,8 +313,12 @@ double MassSpringModel::energy(const VectorXd& x) const {
   return w;
 }
 
-void MassSpringModel::jacobian(const VectorXd& x, JacobianKind kind, SparseMatrix& J) const {
+void MassSpringModel::jacobian(const VectorXd& x, JacobianKind kind, SparseMatrix& J,
+                               const VectorXd* corrective_slopes) const {
   require(x.size() == num_dofs(), "jacobian: x has {} entries (expected 3N = {})", x.size(), num_dofs());
+  require(!corrective_slopes || corrective_slopes->size() == num_elements(),
+          "jacobian: {} corrective slopes (expected one per element, {})",
+          corrective_slopes ? corrective_slopes->size() : 0, num_elements());
   if (J.rows() != pattern_.rows() || J.nonZeros() != pattern_.nonZeros()) J = pattern_;
   double* val = J.valuePtr();
   std::fill(val, val + J.nonZeros(), 0.0);
@@ -353,7 +357,8 @@ void MassSpringModel::jacobian(const VectorXd& x, JacobianKind kind, SparseMatri
         continue;
       }
       double dk = 0.0;
-      const double kp = corrective_stiffness(dv, el.edge_length, &dk);
+      const double kp = corrective_law(dv, el.edge_length, &dk);
+      if (corrective_slopes) dk = (*corrective_slopes)[static_cast<Eigen::Index>(e)];
       Eigen::Matrix<double, 24, 1> r = Eigen::Matrix<double, 24, 1>::Zero();  // force per unit k'
       for (int s = 0; s < 16; ++s) {
         const auto& c = corrective_[e * 16 + s];
@@ -418,6 +423,21 @@ VectorXd MassSpringModel::element_volumes(const VectorXd& x) const {
 }
 
 double MassSpringModel::total_volume(const VectorXd& x) const { return element_volumes(x).sum(); }
+
+VectorXd MassSpringModel::element_volume_changes(const VectorXd& x) const {
+  VectorXd dv = element_volumes(x);
+  for (int e = 0; e < num_elements(); ++e) dv[e] = dv[e] / elements_[e].rest_volume - 1.0;
+  return dv;
+}
+
+double MassSpringModel::corrective_stiffness(int e, double dv, double* slope) const {
+  require(e >= 0 && e < num_elements(), "corrective_stiffness: element {} (expected 0..{})", e, num_elements() - 1);
+  if (options_.kind != TissueModelKind::MssCs) {
+    if (slope) *slope = 0.0;
+    return 0.0;
+  }
+  return corrective_law(dv, elements_[e].edge_length, slope);
+}
 
 double MassSpringModel::min_corner_jacobian(const VectorXd& x) const {
   double m = std::numeric_limits<double>::infinity();

@@ -141,12 +141,26 @@ class MassSpringModel {
   double energy(const VectorXd& x) const;
 
   /// Jacobian J = ∂f/∂x (3N × 3N) of the elastic forces, written into @p J (pattern reused).
-  void jacobian(const VectorXd& x, JacobianKind kind, SparseMatrix& J) const;
+  /// @param corrective_slopes MSS-CS only, optional (num_elements()): the slope dk'/dδv [N/m] of
+  ///        each element's corrective law to use in the volume coupling instead of the law's own
+  ///        slope at x — a secant or look-ahead slope, so that solvers can put into the matrix the
+  ///        stiffness the law will have where the step goes (the dead-zone law is flat at x, steep
+  ///        a little further). The corrective springs' own stiffness k'(δv) stays the one at x.
+  void jacobian(const VectorXd& x, JacobianKind kind, SparseMatrix& J,
+                const VectorXd* corrective_slopes = nullptr) const;
   /// Damping matrix D = −∂f_damp/∂v (symmetric PSD) at positions @p x.
   void damping_matrix(const VectorXd& x, SparseMatrix& D) const;
 
   /// Volume of every element at @p x [m^3].
   VectorXd element_volumes(const VectorXd& x) const;
+  /// Relative volume change δv = (V − V0)/V0 of every element at @p x [-].
+  VectorXd element_volume_changes(const VectorXd& x) const;
+  /// Edge length l_e = V0^(1/3) of element @p e [m] (eq. 7).
+  double element_edge_length(int e) const { return elements_.at(static_cast<size_t>(e)).edge_length; }
+  /// Corrective-spring stiffness k'(δv) = C E l_e g(δv) of element @p e at volume change @p dv
+  /// [N/m] (eq. 8 with the dead zone), and its slope dk'/dδv [N/m] in @p slope when given. 0
+  /// for MSS and MSS-CF.
+  double corrective_stiffness(int e, double dv, double* slope = nullptr) const;
   /// Sum of element volumes [m^3].
   double total_volume(const VectorXd& x) const;
   /// Smallest corner Jacobian over all elements (≤ 0: some element inverted) [m^3].
@@ -172,7 +186,7 @@ class MassSpringModel {
 
   void build_pattern();
   int block_offset(int row_node, int col_node) const;
-  double corrective_stiffness(double dv, double edge_length, double* dk_ddv) const;
+  double corrective_law(double dv, double edge_length, double* dk_ddv) const;
   void add_block(double* values, int offset, int col_node, const Eigen::Matrix3d& b) const;
 
   volume::HexMesh mesh_;
