@@ -100,32 +100,6 @@ TEST(ImplicitEuler, a_frozen_matrix_follows_the_same_trajectory_and_refactorises
   EXPECT_EQ(b.x, before.x);
 }
 
-/// The bench's lattice (bench/tissue_bench.cpp): a 50 mm cube of n³ elements, E 50 kPa, base held,
-/// 2 kPa down + 0.4 kPa sideways on the top nodes, with the cube-targets constants (corrective
-/// springs silent below 1.33 % volume loss, then C = 1e5).
-struct BenchLattice {
-  explicit BenchLattice(int n) : model(small_lattice(n, 0.05), {50e3, 1060}, cube_targets()) {
-    const std::array<int, 3> div = {n, n, n};
-    f = VectorXd::Zero(model.num_dofs());
-    const double a = 0.05 / n;
-    for (int j = 0; j <= n; ++j)
-      for (int i = 0; i <= n; ++i) {
-        constraints.fix_nodes({volume::box_node_index(div, i, j, 0)});
-        const int top = volume::box_node_index(div, i, j, n);
-        f[dof(top, 2)] = -2e3 * a * a;
-        f[dof(top, 0)] = 0.4e3 * a * a;
-      }
-  }
-  static MassSpringOptions cube_targets() {
-    MassSpringOptions o;
-    o.corrective = CorrectiveSpringConstants::cube_targets();
-    return o;
-  }
-  MassSpringModel model;
-  DofConstraints constraints;
-  VectorXd f;
-};
-
 TEST(ImplicitEuler, a_frozen_matrix_carries_the_dead_zone_law_under_a_sudden_load) {
   // Loaded suddenly, elements cross the dead zone after the factorisation; without the law's slope
   // in the frozen matrix the lagged stiffness grows unstable (measured: divergence at step 8).

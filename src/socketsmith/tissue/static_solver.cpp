@@ -89,6 +89,7 @@ StaticSolver::StaticSolver(const MassSpringModel& model, const DofMap& dofs, con
   limit_solver_threads();
   require(dofs.num_full() == model.num_dofs(), "StaticSolver: DofMap has {} DOFs, model has {}", dofs.num_full(),
           model.num_dofs());
+  require(options.stall_iterations >= 0, "StaticSolver: stall_iterations {} (expected ≥ 0)", options.stall_iterations);
   require(options.rel_tol > 0 && options.max_iterations >= 1 && options.max_line_search >= 1,
           "StaticSolver: invalid options (rel_tol {} > 0, max_iterations {} ≥ 1, max_line_search {} ≥ 1)",
           options.rel_tol, options.max_iterations, options.max_line_search);
@@ -317,7 +318,8 @@ std::string StaticSolver::stall_diagnosis(const VectorXd& x, StaticResult& res, 
 
 /// One Newton solve toward @p f_ext from @p x, at most @p max_iterations iterations, to
 /// residual @p tol. Accumulates statistics into @p res; on failure @p x holds the last iterate.
-bool StaticSolver::newton(const VectorXd& f_ext, VectorXd& x, int max_iterations, double tol, StaticResult& res) {
+bool StaticSolver::newton(const VectorXd& f_ext, VectorXd& x, int max_iterations, double tol, StaticResult& res,
+                          int stall_iterations) {
   Impl& s = *impl_;
   VectorXd r = static_residual(model_, dofs_, f_ext, x);
   double rnorm = r.norm();
@@ -350,6 +352,7 @@ bool StaticSolver::newton(const VectorXd& f_ext, VectorXd& x, int max_iterations
     return s.krylov_after_factor >= 0 &&
            s.last_krylov_iterations > std::max(options_.refactor_krylov_iterations, 2 * s.krylov_after_factor);
   };
+  std::vector<double> history;  // ‖r‖ at the start of each iteration
   for (int it = 0; it < max_iterations; ++it, ++res.iterations) {
     if (!std::isfinite(rnorm)) {
       res.message = "diverged: residual is not finite";
@@ -358,6 +361,14 @@ bool StaticSolver::newton(const VectorXd& f_ext, VectorXd& x, int max_iterations
     if (rnorm <= tol) {
       res.residual_n = rnorm;
       return true;
+    }
+    history.push_back(rnorm);
+    const int k = stall_iterations;
+    if (k > 0 && static_cast<int>(history.size()) > k && rnorm > 0.5 * history[history.size() - 1 - k]) {
+      res.residual_n = rnorm;
+      res.message = fmt::format("stalled: the residual fell from {:.3g} to {:.3g} N in the last {} iterations (less than "
+                                "half)", history[history.size() - 1 - k], rnorm, k);
+      return false;
     }
     const bool fresh = !s.factor_valid || stale();
     if (fresh) {
@@ -463,7 +474,7 @@ StaticResult StaticSolver::solve(const VectorXd& f_ext, VectorXd& x) {
   impl_->failed_searches = impl_->failed_searches_inverting = 0;
   const VectorXd x0 = x;
   // 1. Plain Newton from the warm start (the common case: a small load change).
-  res.converged = newton(f_ext, x, options_.continuation_newton_iterations, tol, res);
+  res.converged = newton(f_ext, x, options_.continuation_newton_iterations, tol, res, options_.stall_iterations);
   if (res.converged) res.load_fraction = 1.0;
   // 2. Otherwise, load continuation from the load the initial state already balances,
   //    f(λ) = f₀ + λ (f_ext − f₀) with f₀ = −f_int(x₀), λ: 0 → 1 in adaptive steps.
