@@ -90,6 +90,8 @@ StaticSolver::StaticSolver(const MassSpringModel& model, const DofMap& dofs, con
   require(dofs.num_full() == model.num_dofs(), "StaticSolver: DofMap has {} DOFs, model has {}", dofs.num_full(),
           model.num_dofs());
   require(options.stall_iterations >= 0, "StaticSolver: stall_iterations {} (expected ≥ 0)", options.stall_iterations);
+  require(options.stall_reduction > 0 && options.stall_reduction < 1,
+          "StaticSolver: stall_reduction {} (expected in (0, 1))", options.stall_reduction);
   require(options.rel_tol > 0 && options.max_iterations >= 1 && options.max_line_search >= 1,
           "StaticSolver: invalid options (rel_tol {} > 0, max_iterations {} ≥ 1, max_line_search {} ≥ 1)",
           options.rel_tol, options.max_iterations, options.max_line_search);
@@ -364,10 +366,11 @@ bool StaticSolver::newton(const VectorXd& f_ext, VectorXd& x, int max_iterations
     }
     history.push_back(rnorm);
     const int k = stall_iterations;
-    if (k > 0 && static_cast<int>(history.size()) > k && rnorm > 0.5 * history[history.size() - 1 - k]) {
+    if (k > 0 && static_cast<int>(history.size()) > k &&
+        rnorm > (1.0 - options_.stall_reduction) * history[history.size() - 1 - k]) {
       res.residual_n = rnorm;
-      res.message = fmt::format("stalled: the residual fell from {:.3g} to {:.3g} N in the last {} iterations (less than "
-                                "half)", history[history.size() - 1 - k], rnorm, k);
+      res.message = fmt::format("stalled: the residual fell from {:.3g} to {:.3g} N in the last {} iterations (by less "
+                                "than {:.0f} %)", history[history.size() - 1 - k], rnorm, k, 100 * options_.stall_reduction);
       return false;
     }
     const bool fresh = !s.factor_valid || stale();
