@@ -333,7 +333,16 @@ TEST(StaticSolver, falls_back_to_a_direct_solve_when_bicgstab_fails) {
   const auto r = solver.solve(f, x);
   ASSERT_TRUE(r.converged) << r.message;
   EXPECT_GT(r.direct_solves, 0);
-  EXPECT_LE(r.iterations, 15);
+  // The same Newton iterations as with a working BiCGSTAB (14 here): the exact direction, not the
+  // crawl of preconditioner-only steps, and the retry of the first failed Krylov solve with a fresh
+  // factorisation counts neither against the budget nor towards the stall test (it did: the direct
+  // attempt was handed over to load continuation and took 30 iterations).
+  VectorXd x_ref = m.rest_positions();
+  const auto ref = StaticSolver(m, dofs).solve(f, x_ref);
+  ASSERT_TRUE(ref.converged) << ref.message;
+  std::printf("[ info ] BiCGSTAB capped: %d Newton iterations, %d direct solves; default: %d\n", r.iterations,
+              r.direct_solves, ref.iterations);
+  EXPECT_LE(r.iterations, ref.iterations + 1);
   EXPECT_LE(static_residual(m, dofs, f, x).norm(), o.rel_tol * r.reference_force_n + o.abs_tol_n);
 }
 

@@ -355,7 +355,15 @@ bool StaticSolver::newton(const VectorXd& f_ext, VectorXd& x, int max_iterations
            s.last_krylov_iterations > std::max(options_.refactor_krylov_iterations, 2 * s.krylov_after_factor);
   };
   std::vector<double> history;  // ‖r‖ at the start of each iteration
-  for (int it = 0; it < max_iterations; ++it, ++res.iterations) {
+  int it = 0;
+  // A retry of the same iterate with a fresh factorisation (at most one per iterate: the retry is
+  // fresh) is neither an iteration of the budget nor a point of the stall test.
+  auto retry_iterate = [&] {
+    history.pop_back();
+    --it;
+    --res.iterations;
+  };
+  for (; it < max_iterations; ++it, ++res.iterations) {
     if (!std::isfinite(rnorm)) {
       res.message = "diverged: residual is not finite";
       return false;
@@ -396,6 +404,7 @@ bool StaticSolver::newton(const VectorXd& f_ext, VectorXd& x, int max_iterations
     const bool krylov_ok = krylov.info() == Eigen::Success && delta.allFinite();
     if (!krylov_ok && !fresh) {
       s.factor_valid = false;  // retry this iterate with a fresh preconditioner
+      retry_iterate();
       continue;
     }
     if (!krylov_ok) {
@@ -446,6 +455,7 @@ bool StaticSolver::newton(const VectorXd& f_ext, VectorXd& x, int max_iterations
     if (!accepted) {
       if (!fresh) {
         s.factor_valid = false;  // retry with a fresh factorisation at this iterate
+        retry_iterate();
         continue;
       }
       ++s.failed_searches;
@@ -456,6 +466,7 @@ bool StaticSolver::newton(const VectorXd& f_ext, VectorXd& x, int max_iterations
     }
   }
   res.residual_n = rnorm;
+  if (rnorm <= tol) return true;  // the last iteration's step converged
   res.message = fmt::format("not converged after {} iterations (residual {:.3g} N, tolerance {:.3g} N)", max_iterations,
                             rnorm, tol);
   return false;
