@@ -7,8 +7,8 @@ namespace socketsmith::cli {
 void add_model_flags(CLI::App& app, ModelFlags& f) {
   app.add_option("--model", f.model, "tissue model: mss-cs (thesis), mss-cf (Golec hybrid), mss (springs only)")
       ->check(CLI::IsMember({"mss", "mss-cs", "mss-cf"}));
-  app.add_option("--constants", f.constants, "MSS-CS constants preset: recommended (calibrated, default), thesis, cube-fit or cube-targets (both "
-                 "meet the cube's 5 %/2 %; cube-targets keeps recommended's linearisation); see docs/VALIDATION.md")
+  app.add_option("--constants", f.constants, "MSS-CS constants preset: cube-targets (default: meets the cube's 5 %/2 %, carries the "
+                 "sheared cube), recommended (same linearisation, no dead zone: 6.4 %/2.6 %), thesis or cube-fit; see docs/VALIDATION.md")
       ->check(CLI::IsMember({"thesis", "recommended", "cube-fit", "cube-targets"}));
   app.add_option("--golec-a", f.golec_a, "override Golec's A (eq. 2), > 0");
   app.add_option("--alpha", f.alpha, "override the corrective rest-length ratio alpha (eq. 4), > 1");

@@ -13,7 +13,7 @@ namespace socketsmith::cli {
 /// Model flags shared by every command that builds a tissue model.
 struct ModelFlags {
   std::string model = "mss-cs";
-  std::string constants = "recommended";  // thesis | recommended
+  std::string constants = "cube-targets";  // cube-targets | recommended | thesis | cube-fit
   double golec_a = -1, alpha = -1, c = -1, beta = -1, spring_ratio = -1, dead_zone = -1;  // < 0: from the preset
   std::string law;                                     // empty: from the preset
   double youngs_modulus_kpa = 50.0;

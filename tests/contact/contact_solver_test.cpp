@@ -43,7 +43,7 @@ struct ContactCube {
 
 TEST(ContactCube, matches_the_constrained_cube_at_every_weight) {
   const ContactCube c;
-  tissue::MassSpringOptions mo;  // MSS-CS, recommended constants
+  tissue::MassSpringOptions mo;  // MSS-CS, default (cube-targets) constants
   const tissue::TissueMaterial mat{50e3, 1060};
   const tissue::MassSpringModel model(c.mesh, mat, mo);
   const tissue::DofMap dofs(model.num_dofs(), c.cons);

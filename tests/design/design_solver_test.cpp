@@ -628,7 +628,7 @@ ModelComparison compare_models(const std::vector<Spot>& spots, const tissue::Mas
 
 TEST(DesignSolverStump, linear_and_nonlinear_models_agree_in_the_small_load_limit) {
   const double L = stump().model.length_m;
-  // Uniform pressure at 1e-4 E and 1e-3 E (MSS-CS, recommended constants), and at 1e-2 E for the
+  // Uniform pressure at 1e-4 E and 1e-3 E (MSS-CS, default cube-targets constants), and at 1e-2 E for the
   // plain MSS lattice (no corrective springs).
   const auto c10 = compare_models({uniform_grad(10.0, L)});
   const auto c100 = compare_models({uniform_grad(100.0, L)});
@@ -648,15 +648,17 @@ TEST(DesignSolverStump, linear_and_nonlinear_models_agree_in_the_small_load_limi
 }
 
 TEST(DesignSolverStump, mss_cs_stiffens_well_before_design_pressures) {
-  // At 1 kPa = 1 % of E (a tenth of a design pressure) the MSS-CS corrective springs already make
-  // the nonlinear stump much stiffer than its linearisation (measured on this stump: max |u|
+  // At 1 kPa = 1 % of E (a tenth of a design pressure) the recommended constants' corrective
+  // springs (no dead zone) already make the nonlinear stump much stiffer than its linearisation (measured on this stump: max |u|
   // 0.385 vs 0.214 mm). A regression guard on a model property the design mode choice relies on.
   const double L = stump().model.length_m;
   Spot pt = layout()[0];
   ASSERT_EQ(pt.name, "PT");
   pt.amplitude_pa = 1.5 * kKPa;
-  const auto c = compare_models({uniform_grad(1 * kKPa, L), pt});
-  std::printf("[ info ] MSS-CS 1 kPa + 1.5 kPa PT: max |u| linear %.4f mm, nonlinear %.4f mm (%.1f %%); skin L2 "
+  tissue::MassSpringOptions recommended;
+  recommended.corrective = tissue::CorrectiveSpringConstants::recommended();
+  const auto c = compare_models({uniform_grad(1 * kKPa, L), pt}, recommended);
+  std::printf("[ info ] MSS-CS recommended, 1 kPa + 1.5 kPa PT: max |u| linear %.4f mm, nonlinear %.4f mm (%.1f %%); skin L2 "
               "difference %.1f %%\n",
               c.linear_mm, c.nonlinear_mm, 100 * c.rel_max, 100 * c.rel_field);
   EXPECT_GT(c.linear_mm, 1.2 * c.nonlinear_mm);

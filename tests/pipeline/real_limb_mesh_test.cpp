@@ -75,7 +75,7 @@ TEST_P(RealLimbMesh, MeetsTheStumpModelCriteria) {
     if (r.mesh.has_tag(n, volume::kNodeSurface)) worst = std::max(worst, skin.closest_point(r.mesh.nodes[n]).distance);
   EXPECT_LT(worst, 0.5e-3);
 
-  // Static MSS-CS solve (recommended constants, E = 50 kPa) under a uniform 3 kPa skin pressure.
+  // Static MSS-CS solve (default constants, E = 50 kPa) under a uniform 3 kPa skin pressure.
   tissue::TissueMaterial mat;
   tissue::MassSpringOptions opt;
   const auto load = tissue::solve_uniform_pressure(r.mesh, 3.0 * units::kPa, mat, opt);

@@ -183,7 +183,7 @@ CaseFile parse_case(const json& doc, const std::filesystem::path& folder) {
     c.constants = text(j, "constants", "tissue", c.constants);
     require(c.constants == "recommended" || c.constants == "thesis" || c.constants == "cube-fit" ||
                 c.constants == "cube-targets",
-            "case file: tissue.constants '{}' is not known (recommended, thesis, cube-fit or cube-targets)", c.constants);
+            "case file: tissue.constants '{}' is not known (cube-targets, recommended, thesis or cube-fit)", c.constants);
     c.youngs_modulus_pa = number(j, "youngs_kpa", "tissue", c.youngs_modulus_pa / 1e3) * 1e3;
     c.density_kg_m3 = number(j, "density_kg_m3", "tissue", c.density_kg_m3);
     c.solve_mode = parse_design_solve_mode(text(j, "solve", "tissue", to_string(c.solve_mode)));

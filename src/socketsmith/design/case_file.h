@@ -45,7 +45,7 @@ struct CaseFile {
   ThresholdTable thresholds;               ///< [Pa]; empty = the limb type's defaults
   // Tissue model
   std::string model = "mss-cs";            ///< mss-cs | mss-cf | mss
-  std::string constants = "recommended";   ///< recommended | thesis
+  std::string constants = "cube-targets";  ///< cube-targets | recommended | thesis | cube-fit
   double youngs_modulus_pa = 100e3;
   double density_kg_m3 = 1060.0;
   DesignSolveMode solve_mode = DesignSolveMode::Linear;
