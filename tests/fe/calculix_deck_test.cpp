@@ -132,6 +132,11 @@ TEST(CalculixDeck, socket_contact_and_the_two_steps_follow_calculix_md) {
   EXPECT_NE(deck.find("*BOUNDARY, OP=NEW\nBONE, 1, 3\n900002, 1, 3\n900001, 1, 1\n900001, 2, 2\n"), std::string::npos);
   EXPECT_NE(deck.find("*RIGID BODY, NSET=NSOCK, REF NODE=900001, ROT NODE=900002"), std::string::npos);
   EXPECT_EQ(deck.find("ENCASTRE"), std::string::npos);  // CALCULIX.md: fails in ccx
+  // Every step writes the stump's stress: the contact pressure is −n·σ·n (surface_pressure.h), since
+  // nodal CPRESS depended on where the donning started (30 vs 60 mm: R 0.68 between the two).
+  const auto el_file = blocks.equal_range("*EL FILE");
+  ASSERT_EQ(std::distance(el_file.first, el_file.second), 2);
+  for (auto it = el_file.first; it != el_file.second; ++it) EXPECT_EQ(it->second, std::vector<std::string>{"S"});
 }
 
 TEST(CalculixDeck, a_load_along_a_slanted_axis_gets_a_local_frame_on_the_reference_node) {

@@ -242,6 +242,9 @@ std::string write_deck(const DeckSpec& s) {
   const auto outputs = [&] {
     std::string o = "*NODE FILE\nU\n";
     if (s.socket) {
+      // The tissue's stress: the contact pressure is read as −n·σ·n at the skin (surface_pressure.h),
+      // not from CPRESS, which follows where a node sits on the socket's facets.
+      o += "*EL FILE\nS\n";
       o += "*CONTACT FILE\nCDIS, CSTR\n";
       if (rigid) o += "*NODE PRINT, NSET=REF\nU, RF\n";
       o += "*CONTACT PRINT, SLAVE=SLIMB, MASTER=SSOCK\nCF\n";

@@ -103,7 +103,9 @@ struct DeckSpec {
   FeSteps steps;
 };
 
-/// The deck as text (SI units).
+/// The deck as text (SI units). Outputs: U; with a socket also the stump's stress S (*EL FILE, nodal
+/// values in the .frd) for the contact pressure −n·σ·n, contact CDIS/CSTR, the reference node's U and
+/// RF and the contact force CF.
 /// @throws InvalidInputError naming the field: no stump, a node/element/face index out of range,
 ///         a non-finite coordinate or force, a material or step value out of range, a socket
 ///         without contact faces or a stump without skin faces when there is a socket, no load
