@@ -143,6 +143,7 @@ struct DesignFlags {
   double initial_increment = 0.05;
   bool neo_hookean = false;
   bool against_donning = false;
+  std::string fe_pressure = "auto";
   bool stand = false;  // validate donning: then half the body weight on the socket (thesis step 2)
   CcxFlags ccx;
 };
@@ -212,6 +213,7 @@ void run_validate_design(const DesignFlags& f) {
     log::info("validate donning: CalculiX step 2 pushes the socket with {:.1f} N (from {:.1f} N, socketsmith's donning "
               "force)", stand_force_n, donning_force_n);
   o.max_increment = std::max(0.1, f.initial_increment);
+  o.fe_pressure = fe::parse_fe_pressure(f.fe_pressure);
   o.ccx = ccx_options(f.ccx);
   log::info("validate design: CalculiX {} check ({} nodes, {} elements, {}, ν {})", fe::to_string(o.mode),
             mesh.num_nodes(), mesh.num_hexahedra(), fe::to_string(o.element), f.poisson);
@@ -231,12 +233,15 @@ void run_validate_design(const DesignFlags& f) {
                       static_cast<double>(std::min(r.brim_ring[i], 999)), r.socketsmith_value[i] * scale,
                       r.fe_value[i] * scale, (r.fe_value[i] - r.socketsmith_value[i]) * scale,
                       r.fe_penetration_m[i] * 1e3, r.socketsmith_value_smoothed[i] * scale,
-                      r.fe_value_smoothed[i] * scale});
+                      r.fe_value_smoothed[i] * scale,
+                      r.fe_cpress_pa.empty() ? 0.0 : r.fe_cpress_pa[i] * scale,
+                      r.fe_stress_pressure_pa.empty() ? 0.0 : r.fe_stress_pressure_pa[i] * scale});
     }
     report::write_csv(out / "comparison.csv",
                       {"skin_index", "ccx_node", "x_m", "y_m", "z_m", "rings_from_brim", "socketsmith_" + unit,
                        "calculix_" + unit, "error_" + unit, "penetration_mm",
-                       "socketsmith_one_ring_" + unit, "calculix_one_ring_" + unit},
+                       "socketsmith_one_ring_" + unit, "calculix_one_ring_" + unit, "calculix_cpress_" + unit,
+                       "calculix_stress_" + unit},
                       rows);
   }
   std::vector<report::Plot> panels;
@@ -351,6 +356,9 @@ void run_validate_design(const DesignFlags& f) {
                    {"fe_force_n", r.fe_force_n},
                    {"mean_designed_kpa", r.mean_designed_pa / 1e3},
                    {"mean_fe_kpa", r.mean_fe_pa / 1e3},
+                   {"fe_pressure", contact ? fe::to_string(r.fe_pressure) : "none"},
+                   {"mean_fe_cpress_kpa", r.mean_fe_cpress_pa / 1e3},
+                   {"all_cpress", fe::to_json(r.all_cpress, scale, suffix)},
                    {"max_penetration_mm", r.max_penetration_m * 1e3},
                    {"all", fe::to_json(r.all, scale, suffix)},
                    {"one_ring_away", fe::to_json(r.one_ring_away, scale, suffix)},
@@ -379,6 +387,11 @@ void run_validate_design(const DesignFlags& f) {
       log::info("validate design: {:<26} n {:4d}  MAE {:.2f} ± {:.2f} {}  R {:.2f}  max {:.2f}", name, st.count,
                 st.mae * scale, st.sd * scale, unit, st.r, st.max_error * scale);
     };
+    if (contact)
+      log::info("validate design: CalculiX pressure compared: {} (CPRESS: mean {:.2f} kPa, every socket node MAE "
+                "{:.2f} kPa, R {:.2f})",
+                r.fe_pressure == fe::FePressure::SurfaceStress ? "-n.sigma.n of the stump's stress" : "nodal CPRESS",
+                r.all_cpress.mean_a * scale, r.all_cpress.mae * scale, r.all_cpress.r);
     line("every socket node", r.all);
     line("one ring from the brim", r.one_ring_away);
     line("away from the brim (≥ 4)", r.away_from_brim);
@@ -410,6 +423,10 @@ void add_case_flags(CLI::App& cmd, DesignFlags& f) {
       ->check(CLI::PositiveNumber);
   cmd.add_option("--initial-increment", f.initial_increment, "first ccx increment (fraction of the step, default 0.05)")
       ->check(CLI::Range(1e-4, 1.0));
+  cmd.add_option("--fe-pressure", f.fe_pressure,
+                 "CalculiX's contact pressure: stress (-n.sigma.n of the stump's stress at the skin) | cpress (nodal "
+                 "CPRESS) | auto (stress for donning, cpress for contact; default)")
+      ->check(CLI::IsMember({"auto", "stress", "cpress"}));
   add_ccx_flags(cmd, f.ccx);
 }
 

@@ -9,6 +9,7 @@
 #include "socketsmith/core/errors.h"
 #include "socketsmith/fe/dat_reader.h"
 #include "socketsmith/fe/frd_reader.h"
+#include "socketsmith/fe/surface_pressure.h"
 #include "socketsmith/report/design_report.h"
 
 namespace socketsmith::fe {
@@ -98,6 +99,22 @@ DesignCheckMode parse_design_check_mode(const std::string& text) {
   if (text == "load") return DesignCheckMode::Load;
   if (text == "donning") return DesignCheckMode::Donning;
   fail("FE check mode '{}' is not known (expected contact, load or donning)", text);
+}
+
+std::string to_string(FePressure what) {
+  switch (what) {
+    case FePressure::Auto: return "auto";
+    case FePressure::SurfaceStress: return "stress";
+    case FePressure::Cpress: return "cpress";
+  }
+  return "auto";
+}
+
+FePressure parse_fe_pressure(const std::string& text) {
+  if (text == "auto") return FePressure::Auto;
+  if (text == "stress") return FePressure::SurfaceStress;
+  if (text == "cpress") return FePressure::Cpress;
+  fail("FE pressure '{}' is not known (expected auto, stress or cpress)", text);
 }
 
 DesignCheckResult check_design(const DesignedStump& d, const DesignCheckOptions& o, const std::filesystem::path& dir,
@@ -210,10 +227,29 @@ DesignCheckResult check_design(const DesignedStump& d, const DesignCheckOptions&
   std::vector<DatBlock> dat;
   if (std::filesystem::exists(res.ccx.dat)) dat = read_dat(res.ccx.dat);
   if (contact) {
+    res.fe_pressure = o.fe_pressure != FePressure::Auto ? o.fe_pressure
+                      : o.mode == DesignCheckMode::Donning ? FePressure::SurfaceStress
+                                                           : FePressure::Cpress;
     const auto cp = cont->dense("CPRESS", nn), copen = cont->dense("COPEN", nn);
+    res.fe_cpress_pa.assign(ns, 0.0);
+    for (int i = 0; i < ns; ++i) res.fe_cpress_pa[i] = cp[skin.nodes[i]];
+    // −n·σ·n on the deformed skin, from the stress of the same increment as the displacements.
+    const FrdBlock* stress = nullptr;
+    for (const auto& b : frd.blocks)
+      if (b.name == "STRESS" && b.step == disp->step && b.increment == disp->increment) stress = &b;
+    if (stress) {
+      std::vector<Vec3> deformed(nn);
+      for (int k = 0; k < nn; ++k) deformed[k] = mesh.nodes[k] + res.fe_displacement_m[k];
+      const auto normals = deformed_surface_normals(mesh, deformed, spec.skin_faces, skin.nodes);
+      res.fe_stress_pressure_pa = normal_surface_pressure(*stress, skin.nodes, normals, nn);
+    }
+    require<SolverError>(res.fe_pressure != FePressure::SurfaceStress || !res.fe_stress_pressure_pa.empty(),
+                         "validate design: the .frd has no stress (S) for the last increment, so the contact "
+                         "pressure −n·σ·n cannot be computed");
+    const auto& fe_p = res.fe_pressure == FePressure::SurfaceStress ? res.fe_stress_pressure_pa : res.fe_cpress_pa;
     for (int i = 0; i < ns; ++i) {
       res.socketsmith_value[i] = d.pressure_pa[i];
-      res.fe_value[i] = cp[skin.nodes[i]];
+      res.fe_value[i] = fe_p[i];
       res.fe_penetration_m[i] = std::max(0.0, -copen[skin.nodes[i]]);
       res.max_penetration_m = std::max(res.max_penetration_m, res.fe_penetration_m[i]);
     }
@@ -236,6 +272,10 @@ DesignCheckResult check_design(const DesignedStump& d, const DesignCheckOptions&
     if (res.brim_ring[i] >= 4) ring4.push_back(i);
   }
   res.all = compare_fields(res.fe_value, res.socketsmith_value, all);
+  if (contact) {
+    res.all_cpress = compare_fields(res.fe_cpress_pa, res.socketsmith_value, all);
+    res.mean_fe_cpress_pa = res.all_cpress.mean_a;
+  }
   res.one_ring_away = compare_fields(res.fe_value, res.socketsmith_value, ring2);
   res.away_from_brim = compare_fields(res.fe_value, res.socketsmith_value, ring4);
   res.fe_value_smoothed = smooth_one_ring(res.fe_value, adj, skin.area_m2);

@@ -10,7 +10,7 @@
 /// - Contact (the thesis's check): the socket is the designed (deformed) skin below the brim,
 ///   one layer of C3D8; each socket node starts `clearance_m` outside the rest skin along its
 ///   normal and is moved onto its designed position (a prescribed fit, step 1, NLGEOM), with
-///   surface-to-surface penalty contact and friction μ. Compared: nodal CPRESS vs designed p.
+///   surface-to-surface penalty contact and friction μ. Compared: nodal CPRESS (or −n·σ·n) vs designed p.
 /// - Donning (the thesis's procedure, step 1 only): the designed socket as a rigid body (one
 ///   layer of C3D8 outside the designed skin, tied to a reference node) starts
 ///   `donning_travel_m` distally along the limb axis and is pushed up by that travel under
@@ -47,6 +47,18 @@ struct DesignedStump {
 };
 
 enum class DesignCheckMode { Contact, Load, Donning };
+
+/// Which FE quantity is the contact pressure (Contact and Donning modes).
+/// - SurfaceStress: −n·σ·n of the stump's nodal stress on the deformed skin (surface_pressure.h);
+///   the donning's answer does not depend on where it started (demo, 1.8k nodes, frictionless,
+///   30 vs 60 mm: R 0.997, means 9.03 / 9.06 kPa).
+/// - Cpress: CalculiX's nodal CPRESS (K × extrapolated penetration): follows where a skin node sits
+///   on the socket's facets (the same two donnings: R 0.68, means 11.7 / 16.0 kPa).
+/// - Auto: SurfaceStress for Donning, Cpress for Contact (whose documented results used CPRESS).
+enum class FePressure { Auto, SurfaceStress, Cpress };
+std::string to_string(FePressure what);
+/// "auto" | "stress" | "cpress". @throws InvalidInputError otherwise.
+FePressure parse_fe_pressure(const std::string& text);
 std::string to_string(DesignCheckMode mode);
 /// "contact" | "load" | "donning". @throws InvalidInputError otherwise.
 DesignCheckMode parse_design_check_mode(const std::string& text);
@@ -65,6 +77,7 @@ struct DesignCheckOptions {
   double donning_force_n = 0.0;        ///< estimate of the step-1 axial reaction [N], ≥ 0
   double initial_increment = 0.05;
   double max_increment = 0.1;
+  FePressure fe_pressure = FePressure::Auto;
   CcxOptions ccx;
 };
 
@@ -84,6 +97,11 @@ struct DesignCheckResult {
   /// Compared field per skin node: pressure [Pa] (Contact) or displacement magnitude [m] (Load).
   std::vector<double> socketsmith_value, fe_value;
   std::vector<double> fe_penetration_m;   ///< −COPEN where > 0 (Contact), per skin node
+  /// Contact and Donning: both FE pressures per skin node [Pa]; fe_value is one of them (fe_pressure).
+  std::vector<double> fe_cpress_pa, fe_stress_pressure_pa;
+  FePressure fe_pressure = FePressure::Cpress;  ///< the one compared (never Auto)
+  ErrorStats all_cpress;                  ///< socket nodes, CPRESS against socketsmith (whichever is compared)
+  double mean_fe_cpress_pa = 0;
   std::vector<Vec3> fe_displacement_m;    ///< per mesh node (last increment)
   std::vector<int> brim_ring;             ///< per skin node: rings of quads from the brim (0 = above)
   ErrorStats all;                         ///< socket nodes (ring ≥ 1)
