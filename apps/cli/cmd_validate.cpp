@@ -143,7 +143,7 @@ struct DesignFlags {
   double initial_increment = 0.05;
   bool neo_hookean = false;
   bool against_donning = false;
-  std::string fe_pressure = "auto";
+  std::string fe_pressure = "stress";
   bool stand = false;  // validate donning: then half the body weight on the socket (thesis step 2)
   CcxFlags ccx;
 };
@@ -171,26 +171,19 @@ void run_validate_design(const DesignFlags& f) {
   if (f.against_donning) {
     // The thesis's ch. 3 check: CalculiX's donning against socketsmith's own donning simulation of
     // the same socket on the same stump, same travel and friction (not against the design).
-    require(art.result.socket.has_value(),
-            "validate design: the design does not meet its constraints, so it has no socket to don");
     contact::DonningOptions dopt;
     dopt.start_offset_m = f.travel_mm * 1e-3;
     dopt.friction = f.friction >= 0 ? f.friction : c.patient.friction;
     dopt.stand_force_n = f.stand ? 0.5 * c.patient.body_mass_kg * units::kGravity : 0.0;
     dopt.progress = progress;
-    const auto& solver = *setup.solver;
     log::info("validate design: socketsmith's donning ({:.0f} mm, μ = {:.2f})", f.travel_mm, dopt.friction);
-    const auto dr = contact::simulate_donning(solver.model(), solver.skin().nodes, solver.skin().area_m2,
-                                              art.result.socket->solid, setup.model.frame, dopt);
-    require<SolverError>(dr.completed, "validate design: {}", dr.message);
-    require<SolverError>(!f.stand || dr.stood, "validate donning: socketsmith's standing load was not reached: {}",
-                         dr.message);
+    const auto dr = fe::don_designed_socket(art, dopt);
     if (f.stand && dr.series.size() >= 2) {
       // The FE's load step starts from the donning force at the designed pose (socketsmith's estimate).
       stand_force_n = dopt.stand_force_n;
       donning_force_n = std::max(0.0, dr.series[dr.series.size() - 2].axial_force_n);
     }
-    for (size_t i = 0; i < dr.contacts.size(); ++i) d.pressure_pa[i] = dr.contacts[i].pressure_pa;
+    fe::use_donning_pressures(dr, d);
     log::info("validate design: socketsmith donning done in {:.1f} s, {} nodes in contact", dr.seconds,
               dr.series.empty() ? 0 : dr.series.back().contact_nodes);
   }
@@ -424,9 +417,9 @@ void add_case_flags(CLI::App& cmd, DesignFlags& f) {
   cmd.add_option("--initial-increment", f.initial_increment, "first ccx increment (fraction of the step, default 0.05)")
       ->check(CLI::Range(1e-4, 1.0));
   cmd.add_option("--fe-pressure", f.fe_pressure,
-                 "CalculiX's contact pressure: stress (-n.sigma.n of the stump's stress at the skin) | cpress (nodal "
-                 "CPRESS) | auto (stress for donning, cpress for contact; default)")
-      ->check(CLI::IsMember({"auto", "stress", "cpress"}));
+                 "CalculiX's contact pressure: stress (-n.sigma.n of the stump's stress at the skin; default) | cpress "
+                 "(nodal CPRESS, which depends on where a skin node sits on the socket's facets)")
+      ->check(CLI::IsMember({"stress", "cpress"}));
   add_ccx_flags(cmd, f.ccx);
 }
 

@@ -1,5 +1,6 @@
 // CalculiX on a designed socket (the embedded sample at ~3k nodes; ccx runs ~2 min per check on
 // 2 cores): labelled `validation`. Both checks of docs/validation_fe.md, with the bars they meet.
+#include <cstdio>
 #include <filesystem>
 
 #include <gtest/gtest.h>
@@ -57,7 +58,44 @@ TEST(DesignCheckValidation, calculix_contact_pressure_in_the_designed_socket) {
   EXPECT_LT(r.max_penetration_m, 0.5e-3);
   ASSERT_EQ(r.paths.size(), 3u);
   EXPECT_GT(r.paths[0].stats.count, 10);
-  EXPECT_GT(r.paths[0].stats.r, 0.5);  // front line
+  // −n·σ·n of CalculiX's stump against the designed pressure (measured 2026-11-25: every socket
+  // node R 0.84, MAE 2.0 kPa; front line R 0.73; with nodal CPRESS R 0.48, MAE 2.8 kPa).
+  ASSERT_EQ(r.fe_pressure, FePressure::SurfaceStress);
+  EXPECT_GT(r.all.r, 0.75);
+  EXPECT_LT(r.all.mae, 2.5e3);
+  EXPECT_GT(r.paths[0].stats.r, 0.6);  // front line
+  EXPECT_GT(r.all.r, r.all_cpress.r);
+}
+
+TEST(DesignCheckValidation, calculix_donning_agrees_with_socketsmiths_donning) {
+  // The thesis's ch. 3 check (its R 0.77 on the whole surface): the designed socket donned from 60 mm
+  // below, frictionless, in CalculiX and in socketsmith's contact solver, on the same 1.8k-node stump
+  // (measured 2026-11-25: R 0.84, MAE 1.7 kPa; 3k nodes R 0.83). CalculiX's pressure is −n·σ·n;
+  // its nodal CPRESS gave R 0.14 here and depended on where the donning started.
+  const fs::path out = fs::path(SOCKETSMITH_BINARY_DIR) / "fe_test_runs" / "donning_1800";
+  const auto c = pipeline::demo_case(1800);
+  pipeline::DesignArtifacts art;
+  pipeline::run_design(c, out / "design", true, {}, &art);
+  DesignedStump d = designed_stump(art);
+  contact::DonningOptions don;
+  don.start_offset_m = 0.06;
+  don.friction = 0.0;
+  const auto ours = don_designed_socket(art, don);
+  use_donning_pressures(ours, d);
+  DesignCheckOptions o;
+  o.mode = DesignCheckMode::Donning;
+  o.material.youngs_modulus_pa = c.youngs_modulus_pa;
+  o.material.density_kg_m3 = c.density_kg_m3;
+  o.material.poisson_ratio = 0.25;
+  o.contact.friction = 0.0;
+  o.donning_travel_m = 0.06;
+  const auto r = check_design(d, o, run_dir("donning_1800_fe"));
+  ASSERT_TRUE(r.converged) << r.message;
+  std::printf("[ info ] donning vs CalculiX donning, 1.8k nodes: MAE %.2f kPa, R %.3f (CPRESS R %.3f)\n", r.all.mae / 1e3,
+              r.all.r, r.all_cpress.r);
+  EXPECT_GT(r.all.r, 0.77);
+  EXPECT_LT(r.all.mae, 2.5e3);
+  EXPECT_LT(r.max_penetration_m, 0.5e-3);
 }
 
 }  // namespace

@@ -30,4 +30,26 @@ DesignedStump designed_stump(const pipeline::DesignArtifacts& artifacts) {
   return d;
 }
 
+contact::DonningResult don_designed_socket(const pipeline::DesignArtifacts& artifacts,
+                                           const contact::DonningOptions& options) {
+  require(artifacts.setup != nullptr && artifacts.setup->solver != nullptr,
+          "don_designed_socket: the design artifacts are empty (run pipeline::run_design with artifacts first)");
+  require(artifacts.result.socket.has_value(),
+          "validate design: the design does not meet its constraints, so it has no socket to don");
+  const auto& setup = *artifacts.setup;
+  const auto& solver = *setup.solver;
+  auto r = contact::simulate_donning(solver.model(), solver.skin().nodes, solver.skin().area_m2,
+                                     artifacts.result.socket->solid, setup.model.frame, options);
+  require<SolverError>(r.completed, "validate design: {}", r.message);
+  require<SolverError>(options.stand_force_n <= 0 || r.stood,
+                       "validate donning: socketsmith's standing load was not reached: {}", r.message);
+  return r;
+}
+
+void use_donning_pressures(const contact::DonningResult& donning, DesignedStump& stump) {
+  require(donning.contacts.size() == stump.pressure_pa.size(),
+          "use_donning_pressures: {} contact nodes for {} skin nodes", donning.contacts.size(), stump.pressure_pa.size());
+  for (size_t i = 0; i < donning.contacts.size(); ++i) stump.pressure_pa[i] = donning.contacts[i].pressure_pa;
+}
+
 }  // namespace socketsmith::fe

@@ -2,6 +2,7 @@
 /// @file design_artifacts.h
 /// The designed state of a pipeline run as the FE check's input.
 
+#include "socketsmith/contact/donning.h"
 #include "socketsmith/fe/design_check.h"
 #include "socketsmith/pipeline/design_pipeline.h"
 
@@ -12,5 +13,18 @@ namespace socketsmith::fe {
 /// The result refers to @p artifacts' mesh and skin: keep them alive.
 /// @throws InvalidInputError when the artifacts hold no setup.
 DesignedStump designed_stump(const pipeline::DesignArtifacts& artifacts);
+
+/// socketsmith's own donning of a design run's socket onto its stump (the thesis's ch. 3 check:
+/// the side that CalculiX's donning is compared with): the contact solver on the run's linearised
+/// stump, the socket started @p options.start_offset_m below its designed pose.
+/// @throws InvalidInputError when the run has no socket (its constraints were not met);
+///         SolverError when the donning does not complete, or when a standing load was asked
+///         (options.stand_force_n > 0) and not reached.
+contact::DonningResult don_designed_socket(const pipeline::DesignArtifacts& artifacts,
+                                           const contact::DonningOptions& options);
+
+/// @p stump with its pressures replaced by @p donning's final contact pressures (same skin nodes).
+/// @throws InvalidInputError when the sizes differ.
+void use_donning_pressures(const contact::DonningResult& donning, DesignedStump& stump);
 
 }  // namespace socketsmith::fe

@@ -103,18 +103,16 @@ DesignCheckMode parse_design_check_mode(const std::string& text) {
 
 std::string to_string(FePressure what) {
   switch (what) {
-    case FePressure::Auto: return "auto";
     case FePressure::SurfaceStress: return "stress";
     case FePressure::Cpress: return "cpress";
   }
-  return "auto";
+  return "stress";
 }
 
 FePressure parse_fe_pressure(const std::string& text) {
-  if (text == "auto") return FePressure::Auto;
   if (text == "stress") return FePressure::SurfaceStress;
   if (text == "cpress") return FePressure::Cpress;
-  fail("FE pressure '{}' is not known (expected auto, stress or cpress)", text);
+  fail("FE pressure '{}' is not known (expected stress or cpress)", text);
 }
 
 DesignCheckResult check_design(const DesignedStump& d, const DesignCheckOptions& o, const std::filesystem::path& dir,
@@ -227,9 +225,7 @@ DesignCheckResult check_design(const DesignedStump& d, const DesignCheckOptions&
   std::vector<DatBlock> dat;
   if (std::filesystem::exists(res.ccx.dat)) dat = read_dat(res.ccx.dat);
   if (contact) {
-    res.fe_pressure = o.fe_pressure != FePressure::Auto ? o.fe_pressure
-                      : o.mode == DesignCheckMode::Donning ? FePressure::SurfaceStress
-                                                           : FePressure::Cpress;
+    res.fe_pressure = o.fe_pressure;
     const auto cp = cont->dense("CPRESS", nn), copen = cont->dense("COPEN", nn);
     res.fe_cpress_pa.assign(ns, 0.0);
     for (int i = 0; i < ns; ++i) res.fe_cpress_pa[i] = cp[skin.nodes[i]];

@@ -54,10 +54,11 @@ enum class DesignCheckMode { Contact, Load, Donning };
 ///   30 vs 60 mm: R 0.997, means 9.03 / 9.06 kPa).
 /// - Cpress: CalculiX's nodal CPRESS (K × extrapolated penetration): follows where a skin node sits
 ///   on the socket's facets (the same two donnings: R 0.68, means 11.7 / 16.0 kPa).
-/// - Auto: SurfaceStress for Donning, Cpress for Contact (whose documented results used CPRESS).
-enum class FePressure { Auto, SurfaceStress, Cpress };
+///   Both pressures are written to comparison.csv; SurfaceStress is compared by default since
+///   2026-11-25 (the contact mode's results before that date compared Cpress, docs/validation_fe.md).
+enum class FePressure { SurfaceStress, Cpress };
 std::string to_string(FePressure what);
-/// "auto" | "stress" | "cpress". @throws InvalidInputError otherwise.
+/// "stress" | "cpress". @throws InvalidInputError otherwise.
 FePressure parse_fe_pressure(const std::string& text);
 std::string to_string(DesignCheckMode mode);
 /// "contact" | "load" | "donning". @throws InvalidInputError otherwise.
@@ -77,7 +78,7 @@ struct DesignCheckOptions {
   double donning_force_n = 0.0;        ///< estimate of the step-1 axial reaction [N], ≥ 0
   double initial_increment = 0.05;
   double max_increment = 0.1;
-  FePressure fe_pressure = FePressure::Auto;
+  FePressure fe_pressure = FePressure::SurfaceStress;
   CcxOptions ccx;
 };
 
@@ -99,7 +100,7 @@ struct DesignCheckResult {
   std::vector<double> fe_penetration_m;   ///< −COPEN where > 0 (Contact), per skin node
   /// Contact and Donning: both FE pressures per skin node [Pa]; fe_value is one of them (fe_pressure).
   std::vector<double> fe_cpress_pa, fe_stress_pressure_pa;
-  FePressure fe_pressure = FePressure::Cpress;  ///< the one compared (never Auto)
+  FePressure fe_pressure = FePressure::SurfaceStress;  ///< the one compared
   ErrorStats all_cpress;                  ///< socket nodes, CPRESS against socketsmith (whichever is compared)
   double mean_fe_cpress_pa = 0;
   std::vector<Vec3> fe_displacement_m;    ///< per mesh node (last increment)
