@@ -372,9 +372,4 @@ std::string base64_encode(std::string_view bytes);
 /// @throws InvalidInputError when the pixel count is not width × height.
 std::string encode_png(const Image& img);
 
-/// @p text with common UTF-8 symbols spelled in ASCII for the raster font ("·" → ".",
-/// "μ" → "u", "θ" → "theta", "°" → "deg", "≥" → ">=", "≤" → "<=", "²" → "^2", "×" → "x",
-/// "−" → "-"); any other non-ASCII character becomes one '?'.
-std::string to_ascii(std::string_view text);
-
 }  // namespace socketsmith::report

@@ -8,6 +8,7 @@
 #include <optional>
 #include <ostream>
 #include <span>
+#include <string_view>
 
 #include <fmt/format.h>
 
@@ -546,6 +547,36 @@ void render(Image& img, const Camera& cam, const std::vector<MeshLayer>& layers,
       draw_label(img, x, int(std::lround(q.y())) - 4 * kScale, marker.label, kScale, viewport);
     }
   }
+}
+
+std::string to_ascii(std::string_view text) {
+  static const std::pair<std::string_view, std::string_view> kMap[] = {
+      {"·", "."}, {"μ", "u"}, {"µ", "u"}, {"θ", "theta"}, {"°", "deg"}, {"≥", ">="},
+      {"≤", "<="}, {"²", "^2"}, {"³", "^3"}, {"×", "x"}, {"−", "-"}, {"Δ", "d"},
+      {"ρ", "rho"}, {"λ", "lambda"}, {"±", "+/-"}, {"…", "..."}, {"–", "-"}, {"—", "-"}, {"ν", "nu"}, {"ε", "eps"},
+      {"σ", "sigma"}, {"≈", "~"}};
+  std::string out;
+  for (std::size_t i = 0; i < text.size();) {
+    const auto c = static_cast<unsigned char>(text[i]);
+    if (c < 0x80) {
+      out += text[i++];
+      continue;
+    }
+    bool mapped = false;
+    for (const auto& [from, to] : kMap)
+      if (text.substr(i, from.size()) == from) {
+        out += to;
+        i += from.size();
+        mapped = true;
+        break;
+      }
+    if (mapped) continue;
+    // Skip one UTF-8 sequence (lead byte + continuation bytes).
+    ++i;
+    while (i < text.size() && (static_cast<unsigned char>(text[i]) & 0xC0) == 0x80) ++i;
+    out += '?';
+  }
+  return out;
 }
 
 int text_width(const std::string& text, int scale) {

@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -138,6 +139,12 @@ struct RenderOptions {
 void render(Image& img, const Camera& cam, const std::vector<MeshLayer>& layers,
             const std::vector<Marker>& markers, int x0, int y0, int w, int h,
             const geometry::Aabb& frame_box, const RenderOptions& options = {});
+
+/// @p text with common UTF-8 symbols spelled in ASCII for the raster font ("·" → ".",
+/// "μ" → "u", "θ" → "theta", "°" → "deg", "≥" → ">=", "≤" → "<=", "²" → "^2", "×" → "x",
+/// "−" → "-", "±" → "+/-", "ν" → "nu", "ε" → "eps", …); any other non-ASCII character becomes
+/// one '?'.
+std::string to_ascii(std::string_view text);
 
 /// Width [px] of @p text drawn with draw_text() at @p scale (the longest line).
 int text_width(const std::string& text, int scale = 2);
