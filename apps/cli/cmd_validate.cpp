@@ -17,6 +17,7 @@
 #include "socketsmith/pipeline/design_pipeline.h"
 #include "socketsmith/report/csv.h"
 #include "socketsmith/report/design_report.h"
+#include "socketsmith/report/plot_raster.h"
 #include "socketsmith/report/raster.h"
 #include "socketsmith/report/svg_plot.h"
 #include "socketsmith/report/vtk_writer.h"
@@ -97,6 +98,7 @@ void run_validate_cube(const CubeFlags& f) {
   pp.series = {{"CalculiX (mean nodal CPRESS)", r.force_n, scaled(r.fe_pressure_pa, 1e-3), "", false, true, 2},
                {"analytic F / (A (1 + ν ε)²)", r.force_n, scaled(r.analytic_pressure_pa, 1e-3), "", true, false, 2}};
   report::write_svg_grid(out / "cube_fe.svg", {pd, pp}, 2);
+  report::write_plot_grid_png(out / "cube_fe.png", {pd, pp}, 2);
   nlohmann::json j{{"nodes", r.nodes},
                    {"elements", r.elements},
                    {"element", fe::to_string(o.element)},
@@ -111,7 +113,7 @@ void run_validate_cube(const CubeFlags& f) {
                    {"ccx_wall_s", r.ccx.wall_s},
                    {"ccx_increments", r.ccx.increments},
                    {"deck", "cube.inp"},
-                   {"outputs", {"cube.inp", "cube.frd", "cube.dat", "cube.log", "cube_fe.csv", "cube_fe.svg", "summary.json"}},
+                   {"outputs", {"cube.inp", "cube.frd", "cube.dat", "cube.log", "cube_fe.csv", "cube_fe.svg", "cube_fe.png", "summary.json"}},
                    {"out", out.string()}};
   write_text_atomically(out / "summary.json", j.dump(2) + "\n");
   if (f.json) {
@@ -253,6 +255,7 @@ void run_validate_design(const DesignFlags& f) {
     p.series = {{"socketsmith (designed)", pc.s, a, "#0072B2", false, true, 2},
                 {"CalculiX", pc.s, b, "#D55E00", false, true, 2}};
     report::write_svg(out / fmt::format("profile_{}.svg", pc.name), p);
+    report::write_plot_png(out / fmt::format("profile_{}.png", pc.name), p);
     panels.push_back(p);
     auto pj = fe::to_json(pc.stats, scale, suffix);
     pj["label"] = pc.label;
@@ -275,9 +278,11 @@ void run_validate_design(const DesignFlags& f) {
     p.y_label = fmt::format("CalculiX {} [{}]", what, unit);
     p.series = {{"nodes", a, b, "#0072B2", false, true, 0}, {"y = x", {0, hi}, {0, hi}, "#999999", true, false, 1}};
     report::write_svg(out / "scatter.svg", p);
+    report::write_plot_png(out / "scatter.png", p);
     panels.push_back(p);
   }
   report::write_svg_grid(out / "comparison.svg", panels, 2);
+  report::write_plot_grid_png(out / "comparison.png", panels, 2);
   {
     const int nn = mesh.num_nodes();
     std::vector<Vec3> u_ss(nn);
@@ -366,7 +371,8 @@ void run_validate_design(const DesignFlags& f) {
                    {"deck", "design_fe.inp"},
                    {"outputs",
                     {"design_fe.inp", "design_fe.frd", "design_fe.dat", "design_fe.log", "comparison.csv", "comparison.svg",
-                     "profile_front.svg", "profile_back.svg", "profile_mid.svg", "scatter.svg", "stump_fe.vtu", "comparison_map.png",
+                     "comparison.png", "profile_front.svg", "profile_back.svg", "profile_mid.svg", "profile_front.png",
+                     "profile_back.png", "profile_mid.png", "scatter.svg", "scatter.png", "stump_fe.vtu", "comparison_map.png",
                      "summary.json", "design/"}},
                    {"out", out.string()}};
   write_text_atomically(out / "summary.json", j.dump(2) + "\n");
@@ -431,7 +437,7 @@ void register_validate(CLI::App& app) {
 
   auto cf = std::make_shared<CubeFlags>();
   auto* cube = v->add_subcommand("cube", "the thesis's cube in CalculiX against the analytic solution (checks the FE chain)");
-  cube->add_option("--out", cf->out, "output folder (cube.inp, cube_fe.csv, cube_fe.svg, summary.json)")->required();
+  cube->add_option("--out", cf->out, "output folder (cube.inp, cube_fe.csv, cube_fe.svg, cube_fe.png, summary.json)")->required();
   cube->add_flag("--json", cf->json, "print the summary as JSON on stdout");
   cube->add_option("--divisions", cf->divisions, "elements per edge (default 4)")->check(CLI::Range(1, 40));
   cube->add_option("--youngs-kpa", cf->youngs_kpa, "Young's modulus [kPa] (default 50)");
