@@ -225,6 +225,23 @@ TEST(PlotRaster, full_plot_has_grid_ticks_text_and_legend) {
   EXPECT_GT(legend_blue, 5);
 }
 
+TEST(PlotRaster, a_title_wider_than_the_plot_stays_inside_the_image) {
+  // validate's front-line title ("front line (through the patellar tendon): MAE … R …") is wider
+  // than its 720 px panel at the large font; it was cut at the left edge.
+  Plot plot;
+  plot.width_px = 360;
+  plot.title = "front line (through the patellar tendon): MAE 2.05 +/- 1.40 kPa, R 0.73";
+  plot.series = {{"a", {0, 1}, {0, 1}, "#ff0000", false, false, 2}};
+  const Image img = render_plot_image(plot);
+  const PlotLayout l = plot_image_layout(plot);
+  int inside = 0, outside = 0;
+  for (int y = 0; y < static_cast<int>(l.top) - 2; ++y)
+    for (int x = 0; x < img.width; ++x)
+      if (img.at(x, y) == (Rgb{0, 0, 0})) ++(x < 4 || x >= img.width - 4 ? outside : inside);
+  EXPECT_GT(inside, 100);
+  EXPECT_EQ(outside, 0);
+}
+
 TEST(PlotRaster, grid_image_is_columns_by_rows_cells_with_each_panel_at_its_cell) {
   Plot a = bare_plot({"", {0, 10}, {5, 5}, "#FF0000", false, false, 3});
   Plot b = a;

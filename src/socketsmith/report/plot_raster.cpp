@@ -347,8 +347,17 @@ void draw_plot(Image& img, const Plot& plot, const PlotLayout& l, const std::vec
   if (!plot.y_label.empty())
     draw_text_upward(img, 10 + 0.5 * metrics.label_px, top + 0.5 * l.plot_h,
                      to_ascii(plot.y_label), font_scale(PlotText::Label));
-  if (!plot.title.empty())
-    draw_plot_text(img, left + 0.5 * l.plot_w, 14, plot.title, PlotText::Title, 0.5);
+  if (!plot.title.empty()) {
+    // Centred over the plot area; a title wider than that area is kept inside the image: centred
+    // on the image, and at the small font when even the image is too narrow for the large one.
+    const std::string ascii = to_ascii(plot.title);
+    const int big = font_scale(PlotText::Title);
+    const int scale = text_width(ascii, big) <= img.width - 8 ? big : font_scale(PlotText::Tick);
+    const double w = text_width(ascii, scale);
+    double x = left + 0.5 * l.plot_w - 0.5 * w;
+    if (x < 4 || x + w > img.width - 4) x = std::max(4.0, 0.5 * (img.width - w));
+    draw_text(img, static_cast<int>(std::lround(x)), 14, ascii, kInk, scale);
+  }
 
   // Legend.
   if (l.legend_entries.empty()) return;
