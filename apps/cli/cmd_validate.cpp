@@ -139,6 +139,7 @@ struct DesignFlags {
   std::string element = "c3d8";
   double poisson = 0.45;
   double penalty = 1e9;
+  double stick_slope = 5e7;
   double friction = -1;  // < 0: the case's μ
   double clearance_mm = 1.0;
   double travel_mm = 30.0;
@@ -198,6 +199,7 @@ void run_validate_design(const DesignFlags& f) {
   o.material.is_neo_hookean = f.neo_hookean;
   o.element = fe::parse_element_type(f.element);
   o.contact.penalty_pa_per_m = f.penalty;
+  o.contact.stick_slope_pa_per_m = f.stick_slope;
   o.contact.friction = f.friction >= 0 ? f.friction : c.patient.friction;
   o.clearance_m = f.clearance_mm * 1e-3;
   o.initial_increment = f.initial_increment;
@@ -346,6 +348,7 @@ void run_validate_design(const DesignFlags& f) {
                    {"youngs_modulus_kpa", c.youngs_modulus_pa / 1e3},
                    {"neo_hookean", f.neo_hookean},
                    {"penalty_pa_per_m", o.contact.penalty_pa_per_m},
+                   {"stick_slope_pa_per_m", o.contact.stick_slope_pa_per_m},
                    {"friction", o.contact.friction},
                    {"against_donning", f.against_donning},
                    {"stand_force_n", stand_force_n},
@@ -417,6 +420,9 @@ void add_case_flags(CLI::App& cmd, DesignFlags& f) {
   cmd.add_option("--poisson", f.poisson, "tissue Poisson ratio in CalculiX (default 0.45, the thesis's)");
   cmd.add_flag("--neo-hookean", f.neo_hookean, "neo-Hookean tissue instead of linear elastic");
   cmd.add_option("--penalty", f.penalty, "contact penalty stiffness [Pa/m] (default 1e9)")->check(CLI::PositiveNumber);
+  cmd.add_option("--stick-slope", f.stick_slope,
+                 "CalculiX's friction stick slope [Pa/m] (default 5e7, CALCULIX.md; socketsmith's stick is 0.2 x its penalty)")
+      ->check(CLI::PositiveNumber);
   cmd.add_option("--friction", f.friction, "friction coefficient (default: the case's μ)");
   cmd.add_option("--travel-mm", f.travel_mm, "donning: start this far distally [mm] (default 30)")
       ->check(CLI::PositiveNumber);
