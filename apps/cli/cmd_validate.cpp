@@ -358,7 +358,7 @@ void run_validate_design(const DesignFlags& f) {
                    {"mean_designed_kpa", r.mean_designed_pa / 1e3},
                    {"mean_fe_kpa", r.mean_fe_pa / 1e3},
                    {"fe_pressure", contact ? fe::to_string(r.fe_pressure) : "none"},
-                   {"mean_fe_cpress_kpa", r.mean_fe_cpress_pa / 1e3},
+                   {"mean_fe_cpress_kpa", r.all_cpress.mean_a / 1e3},
                    {"all_cpress", fe::to_json(r.all_cpress, scale, suffix)},
                    {"max_penetration_mm", r.max_penetration_m * 1e3},
                    {"all", fe::to_json(r.all, scale, suffix)},

@@ -8,6 +8,7 @@
 
 #include "socketsmith/core/errors.h"
 #include "socketsmith/volume/box_mesher.h"
+#include "box_with_top.h"
 
 namespace socketsmith::fe {
 namespace {
@@ -40,23 +41,7 @@ std::vector<double> numbers(const std::string& line) {
   return v;
 }
 
-struct Box {
-  volume::HexMesh mesh;
-  std::vector<HexFace> top;
-  std::vector<std::array<int, 4>> top_quads;
-  Box() {
-    volume::BoxMeshOptions o;
-    o.size = Vec3(0.02, 0.02, 0.02);
-    o.divisions = {2, 2, 2};
-    mesh = volume::mesh_box(o);
-    for (int j = 0; j < 2; ++j)
-      for (int i = 0; i < 2; ++i)
-        top_quads.push_back({volume::box_node_index(o.divisions, i, j, 2), volume::box_node_index(o.divisions, i + 1, j, 2),
-                             volume::box_node_index(o.divisions, i + 1, j + 1, 2),
-                             volume::box_node_index(o.divisions, i, j + 1, 2)});
-    top = faces_of_quads(mesh, top_quads);
-  }
-};
+using Box = testing::BoxWithTop;
 
 /// A plate (one shell element) over the box's top at height @p z, and a deck with the box and it.
 struct BoxAndPlate {

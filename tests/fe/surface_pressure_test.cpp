@@ -9,30 +9,12 @@
 
 #include "socketsmith/core/errors.h"
 #include "socketsmith/volume/box_mesher.h"
+#include "box_with_top.h"
 
 namespace socketsmith::fe {
 namespace {
 
-struct Box {
-  volume::BoxMeshOptions o;
-  volume::HexMesh mesh;
-  std::vector<HexFace> top;
-  std::vector<int> top_nodes;
-  Box() {
-    o.size = Vec3(0.02, 0.02, 0.02);
-    o.divisions = {2, 2, 2};
-    mesh = volume::mesh_box(o);
-    std::vector<std::array<int, 4>> quads;
-    for (int j = 0; j < 2; ++j)
-      for (int i = 0; i < 2; ++i)
-        quads.push_back({volume::box_node_index(o.divisions, i, j, 2), volume::box_node_index(o.divisions, i + 1, j, 2),
-                         volume::box_node_index(o.divisions, i + 1, j + 1, 2),
-                         volume::box_node_index(o.divisions, i, j + 1, 2)});
-    top = faces_of_quads(mesh, quads);
-    for (int j = 0; j <= 2; ++j)
-      for (int i = 0; i <= 2; ++i) top_nodes.push_back(volume::box_node_index(o.divisions, i, j, 2));
-  }
-};
+using Box = testing::BoxWithTop;
 
 /// An frd STRESS block with the same stress tensor at every node.
 FrdBlock uniform_stress(int num_nodes, const Eigen::Matrix3d& s) {
@@ -55,7 +37,7 @@ TEST(SurfacePressure, top_of_a_box_has_the_outward_normal_and_reads_minus_szz) {
   const auto p = normal_surface_pressure(uniform_stress(b.mesh.num_nodes(), s), b.top_nodes, n, b.mesh.num_nodes());
   for (double v : p) EXPECT_NEAR(v, 15000.0, 1e-9);  // compression positive
   // A node on none of the faces (the bottom centre) gets a zero normal and no pressure.
-  const int bottom = volume::box_node_index(b.o.divisions, 1, 1, 0);
+  const int bottom = volume::box_node_index(b.options.divisions, 1, 1, 0);
   EXPECT_EQ(deformed_surface_normals(b.mesh, b.mesh.nodes, b.top, {bottom})[0], Vec3::Zero());
 }
 

@@ -268,10 +268,7 @@ DesignCheckResult check_design(const DesignedStump& d, const DesignCheckOptions&
     if (res.brim_ring[i] >= 4) ring4.push_back(i);
   }
   res.all = compare_fields(res.fe_value, res.socketsmith_value, all);
-  if (contact) {
-    res.all_cpress = compare_fields(res.fe_cpress_pa, res.socketsmith_value, all);
-    res.mean_fe_cpress_pa = res.all_cpress.mean_a;
-  }
+  if (contact) res.all_cpress = compare_fields(res.fe_cpress_pa, res.socketsmith_value, all);
   res.one_ring_away = compare_fields(res.fe_value, res.socketsmith_value, ring2);
   res.away_from_brim = compare_fields(res.fe_value, res.socketsmith_value, ring4);
   res.fe_value_smoothed = smooth_one_ring(res.fe_value, adj, skin.area_m2);

@@ -10,7 +10,7 @@
 /// - Contact (the thesis's check): the socket is the designed (deformed) skin below the brim,
 ///   one layer of C3D8; each socket node starts `clearance_m` outside the rest skin along its
 ///   normal and is moved onto its designed position (a prescribed fit, step 1, NLGEOM), with
-///   surface-to-surface penalty contact and friction μ. Compared: nodal CPRESS (or −n·σ·n) vs designed p.
+///   surface-to-surface penalty contact and friction μ. Compared: −n·σ·n of the stump's stress (or nodal CPRESS) vs designed p.
 /// - Donning (the thesis's procedure, step 1 only): the designed socket as a rigid body (one
 ///   layer of C3D8 outside the designed skin, tied to a reference node) starts
 ///   `donning_travel_m` distally along the limb axis and is pushed up by that travel under
@@ -102,7 +102,6 @@ struct DesignCheckResult {
   std::vector<double> fe_cpress_pa, fe_stress_pressure_pa;
   FePressure fe_pressure = FePressure::SurfaceStress;  ///< the one compared
   ErrorStats all_cpress;                  ///< socket nodes, CPRESS against socketsmith (whichever is compared)
-  double mean_fe_cpress_pa = 0;
   std::vector<Vec3> fe_displacement_m;    ///< per mesh node (last increment)
   std::vector<int> brim_ring;             ///< per skin node: rings of quads from the brim (0 = above)
   ErrorStats all;                         ///< socket nodes (ring ≥ 1)
