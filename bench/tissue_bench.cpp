@@ -3,8 +3,11 @@
 // warm-started re-solve after a 5 % load change (the design loop's case). Each benchmark runs with
 // the cube-targets constants (the default) and with the recommended ones, named after the preset:
 // BM_StaticSolveFromRest/cube_targets/1000, BM_StaticSolveFromRest/recommended/1000, ...
+// BM_ForcesAndJacobian also runs with the fe tissue model (BM_ForcesAndJacobian/fe/N).
 // Run: build/socketsmith_bench --benchmark_min_time=2 [--benchmark_filter=cube_targets]
 #include <benchmark/benchmark.h>
+
+#include <string>
 
 #include "socketsmith/tissue/implicit_euler.h"
 #include "socketsmith/tissue/static_solver.h"
@@ -34,8 +37,13 @@ struct Setup {
     o.divisions = {n, n, n};
     return volume::mesh_box(o);
   }
+  /// A preset of the MSS-CS constants, or "fe": the finite-element tissue model (ν 0.45).
   static MassSpringOptions options(const char* constants) {
     MassSpringOptions o;
+    if (std::string(constants) == "fe") {
+      o.kind = TissueModelKind::Fe;
+      return o;
+    }
     o.corrective = CorrectiveSpringConstants::preset(constants);
     return o;
   }
@@ -159,4 +167,6 @@ TISSUE_BENCHMARK(BM_ImplicitEulerStepFrozen);
 TISSUE_BENCHMARK(BM_StaticSolveFromRest);
 TISSUE_BENCHMARK(BM_StaticResolveWarm);
 TISSUE_BENCHMARK(BM_ForcesAndJacobian);
+// The finite-element tissue model (St Venant–Kirchhoff hexahedra, 8 Gauss points): assembly cost.
+BENCHMARK_CAPTURE(BM_ForcesAndJacobian, fe, "fe")->Apply(args_BM_ForcesAndJacobian);
 BENCHMARK_MAIN();

@@ -19,6 +19,7 @@ struct ModelFlags {
   double youngs_modulus_kpa = 50.0;
   double density = 1060.0;
   double cf_poisson = 0.49;
+  double fe_poisson = 0.45;
 };
 
 void add_model_flags(CLI::App& app, ModelFlags& flags);

@@ -19,7 +19,8 @@ json full_case() {
              "anterior": [0, 1, 0], "cut_height_mm": 180},
     "patient": {"id": "P-7", "note": "a <note>", "body_mass_kg": 80, "prosthesis_mass_kg": 2.5, "friction": 0.4,
                 "thresholds_kpa": {"MF": 50, "PT": 190, "FH": 45, "POP": 60, "AD": 98, "TC": 30}},
-    "tissue": {"model": "mss-cf", "constants": "thesis", "youngs_kpa": 200, "density_kg_m3": 1000, "solve": "auto"},
+    "tissue": {"model": "mss-cf", "constants": "thesis", "youngs_kpa": 200, "density_kg_m3": 1000, "poisson": 0.47,
+               "solve": "auto"},
     "mesh": {"target_nodes": 12000},
     "landmarks": {"PT": [1, 2, 3]},
     "design": {"optimise": false, "objective": "ratio", "model_pressure_limit": 0.3,
@@ -48,6 +49,8 @@ TEST(CaseFile, file_units_become_si) {
   EXPECT_NEAR(c.thresholds.at("TC"), 30e3, 1e-6);
   EXPECT_NEAR(c.youngs_modulus_pa, 200e3, 1e-6);
   EXPECT_EQ(c.solve_mode, DesignSolveMode::Auto);
+  ASSERT_TRUE(c.poisson_ratio.has_value());
+  EXPECT_DOUBLE_EQ(*c.poisson_ratio, 0.47);
   EXPECT_EQ(c.target_nodes, 12000);
   EXPECT_NEAR(c.landmarks.at("PT").z(), 0.003, 1e-12);
   EXPECT_FALSE(c.optimise);
@@ -124,6 +127,9 @@ TEST(CaseFile, bad_input_is_one_line_naming_the_key) {
   expect_error(R"({"tissue": {"youngs_kpa": -1}})", "youngs_kpa");
   expect_error(R"({"tissue": {"model": "fem"}})", "tissue.model 'fem' is not known");
   expect_error(R"({"tissue": {"solve": "fast"}})", "design solve mode 'fast' is not known");
+  expect_error(R"({"tissue": {"poisson": 0.45}})", "tissue.model 'mss-cs' has no Poisson ratio of its own");
+  expect_error(R"({"tissue": {"model": "fe", "poisson": 0.5}})", "tissue.poisson = 0.5 is outside [0, 0.5)");
+  expect_error(R"({"tissue": {"model": "mss-cf", "poisson": 0.2}})", "tissue.poisson = 0.2 is outside [0.25, 0.5)");
   expect_error(R"({"mesh": {"target_nodes": 10}})", "target_nodes = 10");
   expect_error(R"({"limb": {"units": "inch"}})", "inch");
   expect_error(R"({"limb": {"type": "banana"}})", "banana");

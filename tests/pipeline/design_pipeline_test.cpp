@@ -10,7 +10,9 @@
 
 #include <nlohmann/json.hpp>
 
+#include "socketsmith/design/case_file.h"
 #include "socketsmith/geometry/mesh_checks.h"
+#include "socketsmith/pipeline/design_pipeline.h"
 #include "socketsmith/geometry/mesh_io.h"
 #include "socketsmith/geometry/surface_query.h"
 #include "socketsmith/report/csv.h"
@@ -97,6 +99,17 @@ TEST_F(DemoRun, RadarRecomputedFromSurfaceNodesEqualsTheReportAndTheSocketIsASol
   }
   EXPECT_LT(max_d, 0.005 + 0.006);  // nodes are ~6 mm apart on a 3k stump
   EXPECT_GT(max_d, 0.004);          // and the wall is really there
+}
+
+TEST(ModelOptions, a_case_files_tissue_model_and_poisson_ratio_reach_the_model) {
+  auto c = design::parse_case(nlohmann::json::parse(R"({"tissue": {"model": "fe", "poisson": 0.48}})"));
+  auto o = pipeline::model_options(c);
+  EXPECT_EQ(o.kind, tissue::TissueModelKind::Fe);
+  EXPECT_DOUBLE_EQ(o.fe_poisson_ratio, 0.48);
+  c = design::parse_case(nlohmann::json::parse(R"({"tissue": {"model": "fe"}})"));
+  EXPECT_DOUBLE_EQ(pipeline::model_options(c).fe_poisson_ratio, 0.45);
+  c = design::parse_case(nlohmann::json::parse(R"({"tissue": {"model": "mss-cf", "poisson": 0.3}})"));
+  EXPECT_DOUBLE_EQ(pipeline::model_options(c).cf_poisson_ratio, 0.3);
 }
 
 }  // namespace

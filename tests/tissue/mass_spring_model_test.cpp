@@ -101,7 +101,8 @@ struct Variant {
 const Variant kVariants[] = {{TissueModelKind::Mss, CorrectiveLaw::Symmetric, "mss"},
                              {TissueModelKind::MssCs, CorrectiveLaw::Symmetric, "mss-cs thesis"},
                              {TissueModelKind::MssCs, CorrectiveLaw::CompressionOnly, "mss-cs recommended"},
-                             {TissueModelKind::MssCf, CorrectiveLaw::Symmetric, "mss-cf"}};
+                             {TissueModelKind::MssCf, CorrectiveLaw::Symmetric, "mss-cf"},
+                             {TissueModelKind::Fe, CorrectiveLaw::Symmetric, "fe"}};
 
 TEST(MassSpringModel, jacobian_matches_finite_differences_of_the_forces_for_every_variant) {
   const auto mesh = small_lattice(2);
@@ -342,6 +343,7 @@ TEST(MassSpringModel, rejects_bad_material_constants_nan_nodes_and_inverted_elem
 TEST(MassSpringModel, parses_names_and_presets) {
   EXPECT_EQ(parse_tissue_model("mss-cs"), TissueModelKind::MssCs);
   EXPECT_EQ(to_string(parse_tissue_model("mss-cf")), "mss-cf");
+  EXPECT_EQ(parse_tissue_model("fe"), TissueModelKind::Fe);
   EXPECT_THROW(parse_tissue_model("fem"), InvalidInputError);
   EXPECT_EQ(CorrectiveSpringConstants::preset("thesis").c, 25.0);
   EXPECT_THROW(CorrectiveSpringConstants::preset("best"), InvalidInputError);

@@ -176,10 +176,21 @@ CaseFile parse_case(const json& doc, const std::filesystem::path& folder) {
   (void)radar_targets(c.patient, 0.1);
   if (doc.contains("tissue")) {
     const auto& j = doc.at("tissue");
-    check_keys(j, "tissue", {"model", "constants", "youngs_kpa", "density_kg_m3", "solve"});
+    check_keys(j, "tissue", {"model", "constants", "youngs_kpa", "density_kg_m3", "poisson", "solve"});
     c.model = text(j, "model", "tissue", c.model);
-    require(c.model == "mss-cs" || c.model == "mss-cf" || c.model == "mss",
-            "case file: tissue.model '{}' is not known (mss-cs, mss-cf or mss)", c.model);
+    require(c.model == "mss-cs" || c.model == "mss-cf" || c.model == "mss" || c.model == "fe",
+            "case file: tissue.model '{}' is not known (mss-cs, mss-cf, mss or fe)", c.model);
+    if (j.contains("poisson")) {
+      const double nu = number(j, "poisson", "tissue", 0.45);
+      require(c.model == "fe" || c.model == "mss-cf",
+              "case file: tissue.poisson is given but tissue.model '{}' has no Poisson ratio of its own (the MSS lattice's "
+              "is 1/4); use model fe or mss-cf, or remove tissue.poisson",
+              c.model);
+      require(nu >= (c.model == "fe" ? 0.0 : 0.25) && nu < 0.5,
+              "case file: tissue.poisson = {} is outside [{}, 0.5) (soft tissue: 0.45-0.49)", nu,
+              c.model == "fe" ? 0.0 : 0.25);
+      c.poisson_ratio = nu;
+    }
     c.constants = text(j, "constants", "tissue", c.constants);
     require(c.constants == "recommended" || c.constants == "thesis" || c.constants == "cube-fit" ||
                 c.constants == "cube-targets",
@@ -326,6 +337,7 @@ json case_to_json(const CaseFile& c) {
              {"round_brim", c.socket.round_brim},
              {"subdivisions", c.socket.subdivisions}}}};
   if (!lms.empty()) doc["landmarks"] = lms;
+  if (c.poisson_ratio) doc["tissue"]["poisson"] = *c.poisson_ratio;
   return doc;
 }
 

@@ -30,6 +30,7 @@ std::string to_string(TissueModelKind kind) {
     case TissueModelKind::Mss: return "mss";
     case TissueModelKind::MssCs: return "mss-cs";
     case TissueModelKind::MssCf: return "mss-cf";
+    case TissueModelKind::Fe: return "fe";
   }
   return "?";
 }
@@ -38,7 +39,8 @@ TissueModelKind parse_tissue_model(const std::string& name) {
   if (name == "mss") return TissueModelKind::Mss;
   if (name == "mss-cs") return TissueModelKind::MssCs;
   if (name == "mss-cf") return TissueModelKind::MssCf;
-  fail("unknown tissue model '{}' (expected mss, mss-cs or mss-cf)", name);
+  if (name == "fe") return TissueModelKind::Fe;
+  fail("unknown tissue model '{}' (expected mss-cs, mss-cf, mss or fe)", name);
 }
 
 std::string to_string(CorrectiveLaw law) {
@@ -108,6 +110,8 @@ MassSpringModel::MassSpringModel(const volume::HexMesh& mesh, const TissueMateri
           "MassSpringModel: corrective dead zone {} (expected in [0, 0.5), a fraction of the volume)", cs.dead_zone);
   require(options.cf_poisson_ratio >= 0.25 && options.cf_poisson_ratio < 0.5,
           "MassSpringModel: MSS-CF Poisson ratio {} (expected in [0.25, 0.5))", options.cf_poisson_ratio);
+  require(std::isfinite(options.fe_poisson_ratio) && options.fe_poisson_ratio >= 0 && options.fe_poisson_ratio < 0.5,
+          "MassSpringModel: FE Poisson ratio {} (expected in [0, 0.5); soft tissue: 0.45-0.49)", options.fe_poisson_ratio);
   require(options.damping_ratio >= 0, "MassSpringModel: damping ratio {} (expected ≥ 0)", options.damping_ratio);
   if (mesh_.node_tags.size() != mesh_.nodes.size()) mesh_.node_tags.resize(mesh_.nodes.size(), volume::kNodeNone);
   volume::validate(mesh_);
@@ -167,6 +171,7 @@ MassSpringModel::MassSpringModel(const volume::HexMesh& mesh, const TissueMateri
                                                                    : 2.0 * std::sqrt(s.k * m1 * m2 / (m1 + m2));
     s.damping = options.damping_ratio * c;
   }
+  if (options.kind == TissueModelKind::Fe) fe_ = std::make_shared<const HexFeElements>(mesh_, E, options.fe_poisson_ratio);
   build_pattern();
 }
 
@@ -255,6 +260,10 @@ double MassSpringModel::corrective_law(double dv, double edge_length, double* dk
 VectorXd MassSpringModel::elastic_forces(const VectorXd& x) const {
   require(x.size() == num_dofs(), "elastic_forces: x has {} entries (expected 3N = {})", x.size(), num_dofs());
   VectorXd f = VectorXd::Zero(num_dofs());
+  if (fe_) {
+    fe_->add_forces(x, f);
+    return f;
+  }
   for (const auto& s : springs_) {
     const Vec3 fi = spring_force(node(x, s.i), node(x, s.j), s.k, s.rest);
     f.segment<3>(3 * s.i) += fi;
@@ -298,6 +307,7 @@ void MassSpringModel::add_damping_forces(const VectorXd& x, const VectorXd& v, V
 
 double MassSpringModel::energy(const VectorXd& x) const {
   require<Error>(has_energy(), "energy: the MSS-CS corrective springs are not conservative (no energy exists)");
+  if (fe_) return fe_->energy(x);
   double w = 0.0;
   for (const auto& s : springs_) {
     const double l = (node(x, s.j) - node(x, s.i)).norm();
@@ -330,8 +340,18 @@ void MassSpringModel::jacobian(const VectorXd& x, JacobianKind kind, SparseMatri
     add_block(val, blocks[2], i, -H);
     add_block(val, blocks[3], j, H);
   };
-  for (const auto& s : springs_) {
-    add_pair(s.blocks, s.i, s.j, spring_hessian(node(x, s.i), node(x, s.j), s.k, s.rest, psd));
+  if (fe_) {
+    HexFeElements::ElementMatrix Ke;
+    for (int e = 0; e < num_elements(); ++e) {
+      fe_->element_stiffness(e, x, psd, Ke);
+      const int* eb = &element_blocks_[static_cast<size_t>(e) * 64];
+      const auto& nodes = elements_[static_cast<size_t>(e)].nodes;
+      for (int p = 0; p < 8; ++p)
+        for (int q = 0; q < 8; ++q) add_block(val, eb[p * 8 + q], nodes[q], Ke.block<3, 3>(3 * p, 3 * q));
+    }
+  } else {
+    for (const auto& s : springs_)
+      add_pair(s.blocks, s.i, s.j, spring_hessian(node(x, s.i), node(x, s.j), s.k, s.rest, psd));
   }
   const bool cs = options_.kind == TissueModelKind::MssCs;
   const bool cf = options_.kind == TissueModelKind::MssCf;

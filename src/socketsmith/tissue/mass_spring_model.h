@@ -4,7 +4,10 @@
 ///  - MSS:    Golec springs only (eq. 2) — isotropic, Young's modulus E, Poisson ratio 1/4;
 ///  - MSS-CS: the thesis model, MSS + volume-dependent corrective springs (eqs. 4–8);
 ///  - MSS-CF: Golec's hybrid model (Golec et al. 2020, Visual Computer 36:809), MSS springs
-///            matched to the shear modulus + an energy depending on the element volume only.
+///            matched to the shear modulus + an energy depending on the element volume only;
+///  - FE:     not a lattice — hexahedral finite elements (St Venant–Kirchhoff, 2×2×2 Gauss; the
+///            element CalculiX calls C3D8, hex_fe.h) on the same mesh, with E and ν. The Golec
+///            springs are kept for their dampers only (the dynamic simulation's damping).
 ///
 /// State vectors are flattened node-major: x = (x0, y0, z0, x1, ...), size 3N, metres.
 /// Forces are internal forces on the nodes [N]; the Jacobian is J = ∂f/∂x [N/m] and the
@@ -16,6 +19,9 @@
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
 
+#include <memory>
+
+#include "socketsmith/tissue/hex_fe.h"
 #include "socketsmith/volume/hex_mesh.h"
 
 namespace socketsmith::tissue {
@@ -29,9 +35,9 @@ struct TissueMaterial {
   double density_kg_m3 = 1060.0;    ///< ρ [kg/m^3], > 0 (thesis: 1060)
 };
 
-enum class TissueModelKind { Mss, MssCs, MssCf };
+enum class TissueModelKind { Mss, MssCs, MssCf, Fe };
 
-/// "mss", "mss-cs", "mss-cf".
+/// "mss", "mss-cs", "mss-cf", "fe".
 std::string to_string(TissueModelKind kind);
 /// @throws InvalidInputError for an unknown name.
 TissueModelKind parse_tissue_model(const std::string& name);
@@ -99,6 +105,7 @@ struct MassSpringOptions {
   TissueModelKind kind = TissueModelKind::MssCs;
   CorrectiveSpringConstants corrective = CorrectiveSpringConstants::cube_targets();
   double cf_poisson_ratio = 0.49;  ///< MSS-CF target Poisson ratio ν [-], in [0.25, 0.5)
+  double fe_poisson_ratio = 0.45;  ///< FE Poisson ratio ν [-], in [0, 0.5) (the thesis's Abaqus check: 0.45)
   DampingLaw damping_law = DampingLaw::Critical;
   double damping_ratio = 1.0;      ///< ζ multiplying the damping law [-], ≥ 0
 };
@@ -139,7 +146,7 @@ class MassSpringModel {
   /// Adds the damper forces at (x, v) to @p f.
   void add_damping_forces(const VectorXd& x, const VectorXd& v, VectorXd& f) const;
 
-  /// True when the elastic forces derive from an energy (MSS, MSS-CF; not MSS-CS).
+  /// True when the elastic forces derive from an energy (MSS, MSS-CF, FE; not MSS-CS).
   bool has_energy() const { return options_.kind != TissueModelKind::MssCs; }
   /// Elastic energy [J]. @throws Error when has_energy() is false.
   double energy(const VectorXd& x) const;
@@ -202,6 +209,7 @@ class MassSpringModel {
   std::vector<Element> elements_;
   std::vector<Corrective> corrective_;  // rest lengths per element: 16 × num_elements
   double cf_bulk_increment_pa_ = 0.0;   // ΔK of MSS-CF [Pa]
+  std::shared_ptr<const HexFeElements> fe_;  // FE only (shared: immutable, the model stays copyable)
 
   // Block-sparse pattern of all node pairs sharing an element (3×3 blocks).
   SparseMatrix pattern_;

@@ -35,6 +35,8 @@ Eigen::Matrix3d jacobian(const HexNodes& x, const std::array<Vec3, 8>& dN) {
 
 }  // namespace
 
+const std::array<std::array<Vec3, 8>, 8>& hex_gauss_shape_derivatives() { return gauss().dN; }
+
 double hex_volume(const HexNodes& x) {
   double v = 0.0;
   for (const auto& dN : gauss().dN) v += jacobian(x, dN).determinant();

@@ -20,6 +20,10 @@ using HexNodes = std::array<Vec3, 8>;
 using HexGradient = std::array<Vec3, 8>;
 using HexHessian = Eigen::Matrix<double, 24, 24>;
 
+/// Gradients ∂N_k/∂(ξ, η, ζ) of the 8 trilinear shape functions at the 8 Gauss points of the
+/// 2×2×2 rule (ξ = ±1/√3 in the order of kHexCorners, unit weights): [gauss point][node].
+const std::array<std::array<Vec3, 8>, 8>& hex_gauss_shape_derivatives();
+
 /// Gathers the 8 node positions of element @p hex from @p positions.
 template <class Positions>
 HexNodes gather(const Positions& positions, const Hex& hex) {
