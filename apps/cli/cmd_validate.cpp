@@ -137,7 +137,7 @@ struct DesignFlags {
   int target_nodes = 0;  // 0: the case's
   std::string mode = "contact";
   std::string element = "c3d8";
-  double poisson = 0.45;
+  double poisson = -1;  // < 0: the case's fe model's ν, else 0.45 (the thesis's)
   double penalty = 1e9;
   double stick_slope = 5e7;
   double friction = -1;  // < 0: the case's μ
@@ -145,8 +145,9 @@ struct DesignFlags {
   double travel_mm = 30.0;
   double initial_increment = 0.05;
   bool neo_hookean = false;
+  bool small_strain = false;
   bool against_donning = false;
-  std::string fe_pressure = "stress";
+  std::string fe_pressure = "force";
   bool stand = false;  // validate donning: then half the body weight on the socket (thesis step 2)
   CcxFlags ccx;
 };
@@ -159,6 +160,11 @@ void run_validate_design(const DesignFlags& f) {
                               : design::read_case(f.case_file);
   if (f.target_nodes > 0) c.target_nodes = f.target_nodes;
   if (f.demo) design::write_case(out / "case.json", c);
+  // CalculiX's ν: the user's, else the fe tissue model's own (same material on both sides), else
+  // the thesis's 0.45 (the MSS lattices have none to give).
+  const double poisson = f.poisson >= 0 ? f.poisson
+                         : c.model == "fe" ? pipeline::model_options(c).fe_poisson_ratio
+                                           : 0.45;
   const auto t0 = std::chrono::steady_clock::now();
   pipeline::DesignArtifacts art;
   const auto progress = console_progress(1.0);
@@ -194,7 +200,7 @@ void run_validate_design(const DesignFlags& f) {
   fe::DesignCheckOptions o;
   o.mode = fe::parse_design_check_mode(f.mode);
   o.material.youngs_modulus_pa = c.youngs_modulus_pa;
-  o.material.poisson_ratio = f.poisson;
+  o.material.poisson_ratio = poisson;
   o.material.density_kg_m3 = c.density_kg_m3;
   o.material.is_neo_hookean = f.neo_hookean;
   o.element = fe::parse_element_type(f.element);
@@ -211,9 +217,10 @@ void run_validate_design(const DesignFlags& f) {
               "force)", stand_force_n, donning_force_n);
   o.max_increment = std::max(0.1, f.initial_increment);
   o.fe_pressure = fe::parse_fe_pressure(f.fe_pressure);
+  o.nonlinear_geometry = !f.small_strain;
   o.ccx = ccx_options(f.ccx);
   log::info("validate design: CalculiX {} check ({} nodes, {} elements, {}, ν {})", fe::to_string(o.mode),
-            mesh.num_nodes(), mesh.num_hexahedra(), fe::to_string(o.element), f.poisson);
+            mesh.num_nodes(), mesh.num_hexahedra(), fe::to_string(o.element), poisson);
   const auto r = fe::check_design(d, o, out, "design_fe");
 
   // Outputs: per-node CSV, path profiles and a scatter (SVG), stump VTU, summary JSON.
@@ -232,13 +239,14 @@ void run_validate_design(const DesignFlags& f) {
                       r.fe_penetration_m[i] * 1e3, r.socketsmith_value_smoothed[i] * scale,
                       r.fe_value_smoothed[i] * scale,
                       r.fe_cpress_pa.empty() ? 0.0 : r.fe_cpress_pa[i] * scale,
-                      r.fe_stress_pressure_pa.empty() ? 0.0 : r.fe_stress_pressure_pa[i] * scale});
+                      r.fe_stress_pressure_pa.empty() ? 0.0 : r.fe_stress_pressure_pa[i] * scale,
+                      r.fe_force_pressure_pa.empty() ? 0.0 : r.fe_force_pressure_pa[i] * scale});
     }
     report::write_csv(out / "comparison.csv",
                       {"skin_index", "ccx_node", "x_m", "y_m", "z_m", "rings_from_brim", "socketsmith_" + unit,
                        "calculix_" + unit, "error_" + unit, "penetration_mm",
                        "socketsmith_one_ring_" + unit, "calculix_one_ring_" + unit, "calculix_cpress_" + unit,
-                       "calculix_stress_" + unit},
+                       "calculix_stress_" + unit, "calculix_force_" + unit},
                       rows);
   }
   std::vector<report::Plot> panels;
@@ -344,7 +352,8 @@ void run_validate_design(const DesignFlags& f) {
                    {"elements", r.elements},
                    {"socket_elements", r.socket_elements},
                    {"element", fe::to_string(o.element)},
-                   {"poisson_ratio", f.poisson},
+                   {"poisson_ratio", poisson},
+                   {"nlgeom", !f.small_strain},
                    {"youngs_modulus_kpa", c.youngs_modulus_pa / 1e3},
                    {"neo_hookean", f.neo_hookean},
                    {"penalty_pa_per_m", o.contact.penalty_pa_per_m},
@@ -360,6 +369,8 @@ void run_validate_design(const DesignFlags& f) {
                    {"fe_pressure", contact ? fe::to_string(r.fe_pressure) : "none"},
                    {"mean_fe_cpress_kpa", r.all_cpress.mean_a / 1e3},
                    {"all_cpress", fe::to_json(r.all_cpress, scale, suffix)},
+                   {"all_stress", fe::to_json(r.all_stress, scale, suffix)},
+                   {"all_force", fe::to_json(r.all_force, scale, suffix)},
                    {"max_penetration_mm", r.max_penetration_m * 1e3},
                    {"all", fe::to_json(r.all, scale, suffix)},
                    {"one_ring_away", fe::to_json(r.one_ring_away, scale, suffix)},
@@ -389,11 +400,15 @@ void run_validate_design(const DesignFlags& f) {
       log::info("validate design: {:<26} n {:4d}  MAE {:.2f} ± {:.2f} {}  R {:.2f}  max {:.2f}", name, st.count,
                 st.mae * scale, st.sd * scale, unit, st.r, st.max_error * scale);
     };
-    if (contact)
-      log::info("validate design: CalculiX pressure compared: {} (CPRESS: mean {:.2f} kPa, every socket node MAE "
-                "{:.2f} kPa, R {:.2f})",
-                r.fe_pressure == fe::FePressure::SurfaceStress ? "-n.sigma.n of the stump's stress" : "nodal CPRESS",
-                r.all_cpress.mean_a * scale, r.all_cpress.mae * scale, r.all_cpress.r);
+    if (contact) {
+      log::info("validate design: CalculiX pressure compared: {}",
+                r.fe_pressure == fe::FePressure::SurfaceStress ? "-n.sigma.n of the stump's stress"
+                : r.fe_pressure == fe::FePressure::NodalForce  ? "the stump's nodal force over the nodal area"
+                                                               : "nodal CPRESS");
+      line("every node, nodal force", r.all_force);
+      line("every node, -n.sigma.n", r.all_stress);
+      line("every node, CPRESS", r.all_cpress);
+    }
     line("every socket node", r.all);
     line("one ring from the brim", r.one_ring_away);
     line("away from the brim (≥ 4)", r.away_from_brim);
@@ -417,8 +432,13 @@ void add_case_flags(CLI::App& cmd, DesignFlags& f) {
   cmd.add_flag("--no-optimise", f.no_optimise, "solve the case's spots as given");
   cmd.add_option("--target-nodes", f.target_nodes, "stump size (default: the case's)")->check(CLI::Range(500, 100000));
   cmd.add_option("--element", f.element, "c3d8 | c3d8i | c3d8r (default c3d8)");
-  cmd.add_option("--poisson", f.poisson, "tissue Poisson ratio in CalculiX (default 0.45, the thesis's)");
+  cmd.add_option("--poisson", f.poisson,
+                 "tissue Poisson ratio in CalculiX (default: the case's fe model's, else 0.45, the thesis's)")
+      ->check(CLI::Range(0.0, 0.4999));
   cmd.add_flag("--neo-hookean", f.neo_hookean, "neo-Hookean tissue instead of linear elastic");
+  cmd.add_flag("--small-strain", f.small_strain,
+               "CalculiX without NLGEOM: the problem of socketsmith's linear design solve (with --mode load and the fe "
+               "tissue model, the two displacement fields agree to round-off)");
   cmd.add_option("--penalty", f.penalty, "contact penalty stiffness [Pa/m] (default 1e9)")->check(CLI::PositiveNumber);
   cmd.add_option("--stick-slope", f.stick_slope,
                  "CalculiX's friction stick slope [Pa/m] (default 5e7, CALCULIX.md; socketsmith's stick is 0.2 x its penalty)")
@@ -429,9 +449,10 @@ void add_case_flags(CLI::App& cmd, DesignFlags& f) {
   cmd.add_option("--initial-increment", f.initial_increment, "first ccx increment (fraction of the step, default 0.05)")
       ->check(CLI::Range(1e-4, 1.0));
   cmd.add_option("--fe-pressure", f.fe_pressure,
-                 "CalculiX's contact pressure: stress (-n.sigma.n of the stump's stress at the skin; default) | cpress "
-                 "(nodal CPRESS, which depends on where a skin node sits on the socket's facets)")
-      ->check(CLI::IsMember({"stress", "cpress"}));
+                 "CalculiX's contact pressure: force (the stump's nodal force from its integration-point stresses over "
+                 "the nodal area, as a designed pressure; default) | stress (-n.sigma.n of the extrapolated nodal "
+                 "stress at the skin) | cpress (nodal CPRESS, which depends on where a skin node sits on the socket's facets)")
+      ->check(CLI::IsMember({"force", "stress", "cpress"}));
   add_ccx_flags(cmd, f.ccx);
 }
 

@@ -122,6 +122,12 @@ TEST(CalculixDeck, socket_contact_and_the_two_steps_follow_calculix_md) {
   const auto el_file = blocks.equal_range("*EL FILE");
   ASSERT_EQ(std::distance(el_file.first, el_file.second), 2);
   for (auto it = el_file.first; it != el_file.second; ++it) EXPECT_EQ(it->second, std::vector<std::string>{"S"});
+  // ... and prints the integration-point stresses of the elements touching the skin (the top
+  // layer of the 2×2×2 box, elements 5–8) for the nodal-force pressure.
+  EXPECT_EQ(numbers(blocks.find("*ELSET, ELSET=SKINEL")->second.at(0)), (std::vector<double>{5, 6, 7, 8}));
+  const auto el_print = blocks.equal_range("*EL PRINT, ELSET=SKINEL");
+  ASSERT_EQ(std::distance(el_print.first, el_print.second), 2);
+  for (auto it = el_print.first; it != el_print.second; ++it) EXPECT_EQ(it->second, std::vector<std::string>{"S"});
 }
 
 TEST(CalculixDeck, a_load_along_a_slanted_axis_gets_a_local_frame_on_the_reference_node) {

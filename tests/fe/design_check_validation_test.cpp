@@ -58,13 +58,75 @@ TEST(DesignCheckValidation, calculix_contact_pressure_in_the_designed_socket) {
   EXPECT_LT(r.max_penetration_m, 0.5e-3);
   ASSERT_EQ(r.paths.size(), 3u);
   EXPECT_GT(r.paths[0].stats.count, 10);
-  // −n·σ·n of CalculiX's stump against the designed pressure (measured 2026-11-25: every socket
-  // node R 0.84, MAE 2.0 kPa; front line R 0.73; with nodal CPRESS R 0.48, MAE 2.8 kPa).
-  ASSERT_EQ(r.fe_pressure, FePressure::SurfaceStress);
+  // The MSS-CS design (the thesis's model) against CalculiX's continuum, nodal-force pressure
+  // (measured 2026-11-25 with −n·σ·n: every socket node R 0.84, MAE 2.0 kPa; front line R 0.73;
+  // with nodal CPRESS R 0.48, MAE 2.8 kPa).
+  ASSERT_EQ(r.fe_pressure, FePressure::NodalForce);
+  std::printf("[ info ] MSS-CS design vs CalculiX: every node MAE %.2f kPa, R %.3f; front line R %.3f "
+              "(-n.sigma.n MAE %.2f kPa, R %.3f; CPRESS R %.3f)\n",
+              r.all.mae / 1e3, r.all.r, r.paths[0].stats.r, r.all_stress.mae / 1e3, r.all_stress.r, r.all_cpress.r);
+  // Measured 2026-11-25: nodal force MAE 2.47 kPa, R 0.81; −n·σ·n 2.00 kPa, R 0.84. The lattice and
+  // the continuum differ, and the nodal force (a difference of neighbouring displacements) shows it.
   EXPECT_GT(r.all.r, 0.75);
-  EXPECT_LT(r.all.mae, 2.5e3);
+  EXPECT_LT(r.all.mae, 3.0e3);
+  EXPECT_GT(r.all_stress.r, 0.8);
+  EXPECT_LT(r.all_stress.mae, 2.5e3);
   EXPECT_GT(r.paths[0].stats.r, 0.6);  // front line
   EXPECT_GT(r.all.r, r.all_cpress.r);
+}
+
+/// The embedded sample designed with the fe tissue model (socketsmith's St Venant–Kirchhoff
+/// hexahedra, CalculiX's C3D8 with the same E and ν 0.45).
+struct DesignedFe {
+  pipeline::DesignArtifacts art;
+  DesignedStump stump;
+  design::CaseFile c = pipeline::demo_case(3000);
+  DesignedFe() {
+    c.model = "fe";
+    const fs::path out = fs::path(SOCKETSMITH_BINARY_DIR) / "fe_test_runs" / "design_fe_3k";
+    pipeline::run_design(c, out / "design", true, {}, &art);
+    stump = designed_stump(art);
+  }
+};
+
+TEST(DesignCheckValidation, an_fe_model_design_meets_the_thesis_bar_on_every_path) {
+  // The thesis's ch. 5 check (its Abaqus: MAE 2.5 ± 2.75 kPa, R 0.90–0.95 on the paths), with the
+  // tissue model that is CalculiX's own element: the designed socket, fitted in CalculiX (NLGEOM,
+  // penalty contact, μ 0.5), gives back the designed pressures. Measured 2026-11-25 on OpenLimb's four
+  // cases: every path R 0.97–1.00, MAE 0.40–0.91 kPa. And the designed loads alone, in a
+  // small-strain CalculiX step, deform CalculiX's stump as they deformed socketsmith's: same
+  // element, same material, same linear problem (measured: R 1.0000, 0.03 mm at most; under NLGEOM
+  // the St Venant–Kirchhoff stump yields more, mean 0.56 vs 0.44 mm, R 0.97).
+  static DesignedFe d;
+  DesignCheckOptions o;
+  o.material.youngs_modulus_pa = d.c.youngs_modulus_pa;
+  o.material.poisson_ratio = 0.45;
+  const auto r = check_design(d.stump, o, run_dir("design_fe_3k_contact"));
+  ASSERT_TRUE(r.converged) << r.message;
+  ASSERT_EQ(r.fe_pressure, FePressure::NodalForce);
+  std::printf("[ info ] fe-model design vs CalculiX: every node MAE %.2f kPa, R %.3f; paths R %.3f / %.3f / %.3f "
+              "(-n.sigma.n R %.3f, CPRESS R %.3f)\n",
+              r.all.mae / 1e3, r.all.r, r.paths[0].stats.r, r.paths[1].stats.r, r.paths[2].stats.r, r.all_stress.r,
+              r.all_cpress.r);
+  EXPECT_GT(r.all.r, 0.95);
+  EXPECT_LT(r.all.mae, 1.5e3);
+  ASSERT_EQ(r.paths.size(), 3u);
+  for (const auto& p : r.paths) {
+    EXPECT_GT(p.stats.count, 10) << p.name;
+    EXPECT_GT(p.stats.r, 0.90) << p.name;
+    EXPECT_LT(p.stats.mae, 1.5e3) << p.name;
+  }
+  EXPECT_GT(r.all.r, r.all_stress.r);  // the nodal force needs no stress extrapolation
+
+  o.mode = DesignCheckMode::Load;
+  o.nonlinear_geometry = false;
+  const auto l = check_design(d.stump, o, run_dir("design_fe_3k_load"));
+  ASSERT_TRUE(l.converged) << l.message;
+  EXPECT_NEAR(l.fe_force_n, l.designed_force_n, 0.01 * l.designed_force_n);
+  std::printf("[ info ] fe-model design, loads alone, small strain: displacement MAE %.4f mm of mean %.3f mm, R %.5f\n",
+              l.all.mae * 1e3, l.all.mean_b * 1e3, l.all.r);
+  EXPECT_GT(l.all.r, 0.999);
+  EXPECT_LT(l.all.mae, 0.01 * l.all.mean_b);
 }
 
 TEST(DesignCheckValidation, calculix_donning_agrees_with_socketsmiths_donning) {

@@ -1,6 +1,7 @@
 #include "socketsmith/fe/surface_pressure.h"
 
 #include <cmath>
+#include <functional>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -58,6 +59,73 @@ TEST(SurfacePressure, the_deformed_normal_is_used_not_the_rest_one) {
   const auto p_rest = normal_surface_pressure(uniform_stress(b.mesh.num_nodes(), s), b.top_nodes,
                                               std::vector<Vec3>(b.top_nodes.size(), Vec3::UnitZ()), b.mesh.num_nodes());
   EXPECT_NEAR(p_rest[0], 9e3, 1e-9);
+}
+
+/// The .dat block CalculiX prints for the stump's elements: the stress σ(x) at each integration
+/// point, points in CalculiX's order (ξ fastest, then η, then ζ), at positions @p x.
+DatBlock gauss_stresses(const volume::HexMesh& mesh, const std::vector<Vec3>& x,
+                        const std::function<Eigen::Matrix3d(const Vec3&)>& sigma, bool reduced = false) {
+  DatBlock b;
+  b.title = "stresses (elem, integ.pnt.,sxx,syy,szz,sxy,sxz,syz)";
+  b.set = "SKINEL";
+  const double g = 1.0 / std::sqrt(3.0);
+  for (int e = 0; e < mesh.num_hexahedra(); ++e)
+    for (int k = 0; k < (reduced ? 1 : 8); ++k) {
+      const Vec3 xi = reduced ? Vec3::Zero() : Vec3((k & 1) ? g : -g, (k & 2) ? g : -g, (k & 4) ? g : -g);
+      Vec3 p = Vec3::Zero();
+      for (int a = 0; a < 8; ++a) {
+        double n = 0.125;
+        for (int d = 0; d < 3; ++d) n *= 1 + xi[d] * volume::kHexCorners[a][d];
+        p += n * x[mesh.hexahedra[e][a]];
+      }
+      const Eigen::Matrix3d s = sigma(p);
+      b.rows.push_back({double(e + 1), double(k + 1), s(0, 0), s(1, 1), s(2, 2), s(0, 1), s(0, 2), s(1, 2)});
+    }
+  return b;
+}
+
+TEST(SurfacePressure, nodal_force_pressure_integrates_the_traction_a_node_carries) {
+  // σ_zz = a + b x (divergence-free): the top face's traction. A node's force is ∫ N σ_zz dA over
+  // its quads: at the centre (x = 10 mm) the mean of the field over a symmetric hat, a + b·10 mm;
+  // on the x = 0 edge the hat is one-sided, its mean x is h/3 (h = 10 mm). A mix-up of
+  // CalculiX's point order moves the field between points and misses both.
+  Box b;
+  const double a = -10e3, slope = -200e3;  // Pa, Pa/m
+  const auto st = gauss_stresses(b.mesh, b.mesh.nodes, [&](const Vec3& p) {
+    Eigen::Matrix3d s = Eigen::Matrix3d::Zero();
+    s(2, 2) = a + slope * p.x();
+    return s;
+  });
+  std::vector<double> areas;
+  const auto n = deformed_surface_normals(b.mesh, b.mesh.nodes, b.top, b.top_nodes, &areas);
+  const double h = 0.01;
+  EXPECT_NEAR(areas[4], h * h, 1e-15);  // the centre node of the 3×3 top
+  EXPECT_NEAR(areas[0], 0.25 * h * h, 1e-15);
+  const auto p = nodal_force_pressure(b.mesh, b.mesh.nodes, st, b.top_nodes, n, areas);
+  const int centre = 4, edge = 3;  // (i, j) = (1, 1) and (0, 1)
+  EXPECT_NEAR(p[centre], -(a + slope * 0.01), 1e-6);
+  EXPECT_NEAR(p[edge], -(a + slope * h / 3), 1e-6);
+}
+
+TEST(SurfacePressure, nodal_force_pressure_of_a_uniform_stress_on_a_rotated_box_and_reduced_integration) {
+  Box b;
+  const Eigen::Matrix3d rot = Eigen::AngleAxisd(M_PI / 6, Vec3::UnitX()).toRotationMatrix();
+  std::vector<Vec3> deformed;
+  for (const auto& x : b.mesh.nodes) deformed.push_back(rot * x + Vec3(0.001, 0.002, 0.003));
+  const Vec3 normal = rot * Vec3::UnitZ();
+  const Eigen::Matrix3d s = -12e3 * normal * normal.transpose();
+  std::vector<double> areas;
+  const auto n = deformed_surface_normals(b.mesh, deformed, b.top, b.top_nodes, &areas);
+  for (bool reduced : {false, true}) {
+    const auto st = gauss_stresses(b.mesh, deformed, [&](const Vec3&) { return s; }, reduced);
+    const auto p = nodal_force_pressure(b.mesh, deformed, st, b.top_nodes, n, areas);
+    for (double v : p) EXPECT_NEAR(v, 12e3, 1e-6) << (reduced ? "C3D8R" : "C3D8");
+  }
+  // An element at the surface without its rows is an error that says what the deck lacks.
+  auto st = gauss_stresses(b.mesh, deformed, [&](const Vec3&) { return s; });
+  st.rows.resize(st.rows.size() - 3);
+  EXPECT_THROW(nodal_force_pressure(b.mesh, deformed, st, b.top_nodes, n, areas), InvalidInputError);
+  EXPECT_THROW(nodal_force_pressure(b.mesh, deformed, st, b.top_nodes, n, {1.0}), InvalidInputError);
 }
 
 TEST(SurfacePressure, missing_components_and_bad_sizes_are_errors) {

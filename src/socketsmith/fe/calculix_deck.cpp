@@ -182,6 +182,18 @@ std::string write_deck(const DeckSpec& s) {
     for (int v : s.fixed_nodes) ids.push_back(v + 1);
     write_id_lines(out, ids);
   }
+  if (s.socket && !s.skin_faces.empty()) {
+    // Every element with a node on the skin: their stresses give the skin nodes' forces.
+    std::vector<char> on_skin(m.nodes.size(), 0);
+    for (const auto& f : s.skin_faces)
+      for (int k = 0; k < 4; ++k) on_skin[m.hexahedra[f.hexahedron][volume::kHexFaces[f.local_face][k]]] = 1;
+    std::vector<int> ids;
+    for (int e = 0; e < ne; ++e)
+      if (std::any_of(m.hexahedra[e].begin(), m.hexahedra[e].end(), [&](int v) { return on_skin[v] != 0; }))
+        ids.push_back(e + 1);
+    out += "*ELSET, ELSET=SKINEL\n";
+    write_id_lines(out, ids);
+  }
   if (!s.skin_faces.empty()) {
     out += "*SURFACE, NAME=SLIMB, TYPE=ELEMENT\n";
     for (const auto& f : s.skin_faces) out += fmt::format("{}, S{}\n", f.hexahedron + 1, f.local_face + 1);
@@ -245,6 +257,7 @@ std::string write_deck(const DeckSpec& s) {
       // The tissue's stress: the contact pressure is read as −n·σ·n at the skin (surface_pressure.h),
       // not from CPRESS, which follows where a node sits on the socket's facets.
       o += "*EL FILE\nS\n";
+      if (!s.skin_faces.empty()) o += "*EL PRINT, ELSET=SKINEL\nS\n";
       o += "*CONTACT FILE\nCDIS, CSTR\n";
       if (rigid) o += "*NODE PRINT, NSET=REF\nU, RF\n";
       o += "*CONTACT PRINT, SLAVE=SLIMB, MASTER=SSOCK\nCF\n";

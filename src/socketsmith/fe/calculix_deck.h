@@ -104,8 +104,9 @@ struct DeckSpec {
 };
 
 /// The deck as text (SI units). Outputs: U; with a socket also the stump's stress S (*EL FILE, nodal
-/// values in the .frd) for the contact pressure −n·σ·n, contact CDIS/CSTR, the reference node's U and
-/// RF and the contact force CF.
+/// values in the .frd) for the contact pressure −n·σ·n, the integration-point stresses of the
+/// elements touching the skin faces (*EL PRINT, ELSET SKINEL, in the .dat) for the nodal-force
+/// pressure, contact CDIS/CSTR, the reference node's U and RF and the contact force CF.
 /// @throws InvalidInputError naming the field: no stump, a node/element/face index out of range,
 ///         a non-finite coordinate or force, a material or step value out of range, a socket
 ///         without contact faces or a stump without skin faces when there is a socket, no load

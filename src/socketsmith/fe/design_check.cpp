@@ -103,16 +103,18 @@ DesignCheckMode parse_design_check_mode(const std::string& text) {
 
 std::string to_string(FePressure what) {
   switch (what) {
+    case FePressure::NodalForce: return "force";
     case FePressure::SurfaceStress: return "stress";
     case FePressure::Cpress: return "cpress";
   }
-  return "stress";
+  return "force";
 }
 
 FePressure parse_fe_pressure(const std::string& text) {
+  if (text == "force") return FePressure::NodalForce;
   if (text == "stress") return FePressure::SurfaceStress;
   if (text == "cpress") return FePressure::Cpress;
-  fail("FE pressure '{}' is not known (expected stress or cpress)", text);
+  fail("FE pressure '{}' is not known (expected force, stress or cpress)", text);
 }
 
 DesignCheckResult check_design(const DesignedStump& d, const DesignCheckOptions& o, const std::filesystem::path& dir,
@@ -142,6 +144,7 @@ DesignCheckResult check_design(const DesignedStump& d, const DesignCheckOptions&
   spec.material = o.material;
   spec.element = o.element;
   spec.contact = o.contact;
+  spec.steps.is_nonlinear_geometry = o.nonlinear_geometry;
   spec.steps.initial_increment = o.initial_increment;
   spec.steps.max_increment = std::max(o.max_increment, o.initial_increment);
   spec.steps.min_increment = std::min(1e-5, o.initial_increment);
@@ -229,20 +232,29 @@ DesignCheckResult check_design(const DesignedStump& d, const DesignCheckOptions&
     const auto cp = cont->dense("CPRESS", nn), copen = cont->dense("COPEN", nn);
     res.fe_cpress_pa.assign(ns, 0.0);
     for (int i = 0; i < ns; ++i) res.fe_cpress_pa[i] = cp[skin.nodes[i]];
-    // −n·σ·n on the deformed skin, from the stress of the same increment as the displacements.
+    // −n·σ·n on the deformed skin, from the stress of the same increment as the displacements,
+    // and the nodal-force pressure from the integration-point stresses of the last printed one.
     const FrdBlock* stress = nullptr;
     for (const auto& b : frd.blocks)
       if (b.name == "STRESS" && b.step == disp->step && b.increment == disp->increment) stress = &b;
-    if (stress) {
-      std::vector<Vec3> deformed(nn);
-      for (int k = 0; k < nn; ++k) deformed[k] = mesh.nodes[k] + res.fe_displacement_m[k];
-      const auto normals = deformed_surface_normals(mesh, deformed, spec.skin_faces, skin.nodes);
-      res.fe_stress_pressure_pa = normal_surface_pressure(*stress, skin.nodes, normals, nn);
-    }
+    std::vector<Vec3> deformed(nn);
+    for (int k = 0; k < nn; ++k) deformed[k] = mesh.nodes[k] + res.fe_displacement_m[k];
+    std::vector<double> areas;
+    const auto normals = deformed_surface_normals(mesh, deformed, spec.skin_faces, skin.nodes, &areas);
+    if (stress) res.fe_stress_pressure_pa = normal_surface_pressure(*stress, skin.nodes, normals, nn);
+    const DatBlock* gauss = last_block(dat, "stresses", "SKINEL");
+    // The .dat's time is the total time; each of our steps lasts 1.
+    if (gauss && std::abs(gauss->time - (disp->step - 1 + disp->time)) < 1e-6)
+      res.fe_force_pressure_pa = nodal_force_pressure(mesh, deformed, *gauss, skin.nodes, normals, areas);
     require<SolverError>(res.fe_pressure != FePressure::SurfaceStress || !res.fe_stress_pressure_pa.empty(),
                          "validate design: the .frd has no stress (S) for the last increment, so the contact "
                          "pressure −n·σ·n cannot be computed");
-    const auto& fe_p = res.fe_pressure == FePressure::SurfaceStress ? res.fe_stress_pressure_pa : res.fe_cpress_pa;
+    require<SolverError>(res.fe_pressure != FePressure::NodalForce || !res.fe_force_pressure_pa.empty(),
+                         "validate design: the .dat has no integration-point stresses (set SKINEL) for the last "
+                         "increment, so the nodal-force pressure cannot be computed (use --fe-pressure stress)");
+    const auto& fe_p = res.fe_pressure == FePressure::SurfaceStress ? res.fe_stress_pressure_pa
+                       : res.fe_pressure == FePressure::NodalForce  ? res.fe_force_pressure_pa
+                                                                    : res.fe_cpress_pa;
     for (int i = 0; i < ns; ++i) {
       res.socketsmith_value[i] = d.pressure_pa[i];
       res.fe_value[i] = fe_p[i];
@@ -268,7 +280,13 @@ DesignCheckResult check_design(const DesignedStump& d, const DesignCheckOptions&
     if (res.brim_ring[i] >= 4) ring4.push_back(i);
   }
   res.all = compare_fields(res.fe_value, res.socketsmith_value, all);
-  if (contact) res.all_cpress = compare_fields(res.fe_cpress_pa, res.socketsmith_value, all);
+  if (contact) {
+    res.all_cpress = compare_fields(res.fe_cpress_pa, res.socketsmith_value, all);
+    if (!res.fe_stress_pressure_pa.empty())
+      res.all_stress = compare_fields(res.fe_stress_pressure_pa, res.socketsmith_value, all);
+    if (!res.fe_force_pressure_pa.empty())
+      res.all_force = compare_fields(res.fe_force_pressure_pa, res.socketsmith_value, all);
+  }
   res.one_ring_away = compare_fields(res.fe_value, res.socketsmith_value, ring2);
   res.away_from_brim = compare_fields(res.fe_value, res.socketsmith_value, ring4);
   res.fe_value_smoothed = smooth_one_ring(res.fe_value, adj, skin.area_m2);
