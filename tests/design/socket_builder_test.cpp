@@ -23,18 +23,20 @@ using geometry::Vec3;
 constexpr double kPi = std::numbers::pi, kMm = units::mm;
 
 /// Closed capsule along +z: hemisphere of radius R centred at z = R (distal end at z = 0), a
-/// cylinder up to z = H, a flat top cap. Outward triangles.
-TriMesh capsule(double R, double H, int seg = 96, int lat = 24, int rings = 60) {
+/// cylinder up to z = H, a flat top cap. Outward triangles. @p cone_half_angle > 0: a pointed
+/// distal end instead of the hemisphere, a cone of that half-angle with its apex at z = 0.
+TriMesh capsule(double R, double H, int seg = 96, int lat = 24, int rings = 60, double cone_half_angle = 0) {
   TriMesh m;
   m.vertices.push_back({0, 0, 0});
   std::vector<double> zs, rs;
+  const double z_cyl = cone_half_angle > 0 ? R / std::tan(cone_half_angle) : R;
   for (int i = 1; i <= lat; ++i) {
     const double a = 0.5 * kPi * i / lat;  // from the pole
-    zs.push_back(R - R * std::cos(a));
-    rs.push_back(R * std::sin(a));
+    zs.push_back(cone_half_angle > 0 ? z_cyl * i / lat : R - R * std::cos(a));
+    rs.push_back(cone_half_angle > 0 ? R * i / lat : R * std::sin(a));
   }
   for (int i = 1; i <= rings; ++i) {
-    zs.push_back(R + (H - R) * i / rings);
+    zs.push_back(z_cyl + (H - z_cyl) * i / rings);
     rs.push_back(R);
   }
   for (std::size_t r = 0; r < zs.size(); ++r)
@@ -174,6 +176,24 @@ TEST(SocketBuilder, capsule_with_a_wavy_brim_a_flat_lip_and_a_distal_pad) {
   }
   EXPECT_NEAR(rmax, 0.015, 3 * kMm);
   EXPECT_NEAR(r.pad_plane_h_m, -t + (R + t) - std::sqrt((R + t) * (R + t) - 0.015 * 0.015), 1 * kMm);
+}
+
+TEST(SocketBuilder, a_pointed_distal_end_gets_a_narrower_pad_below_the_cavity_not_a_broken_solid) {
+  // A 30° cone: the outer wall reaches the pad's 15 mm radius 20 mm above the apex, where a plane
+  // would cut through the inner wall (the fe model's design of the 1.8k-node sample hit this).
+  const double R = 0.04, H = 0.2, t = 0.005;
+  const TriMesh inner = capsule(R, H, 64, 16, 40, 30 * kPi / 180);
+  SocketOptions o;
+  o.thickness_m = t;
+  o.distal_pad = true;
+  o.distal_pad_diameter_m = 0.03;
+  const SocketResult r = build_socket(inner, z_frame(), flat_brim(0.15), o);
+  EXPECT_TRUE(geometry::check_mesh(r.solid).is_valid_closed_surface());
+  EXPECT_NEAR(r.pad_plane_h_m, -0.5 * t, 1e-9);  // half a wall below the apex
+  EXPECT_GT(r.pad_vertices, 0);
+  const bool noted = std::any_of(r.notes.begin(), r.notes.end(),
+                                 [](const std::string& n) { return n.find("narrower than 30 mm") != std::string::npos; });
+  EXPECT_TRUE(noted);
 }
 
 TEST(SocketBuilder, generated_limb_with_a_ptb_brim_gives_a_valid_solid_of_even_thickness) {

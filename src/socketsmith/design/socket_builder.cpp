@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <limits>
 #include <numbers>
 #include <numeric>
 #include <unordered_map>
@@ -217,6 +218,7 @@ struct Attempt {
   int outer_offset = 0;         // first outer-wall vertex in solid
   std::vector<char> pad;        // per kept vertex: outer copy moved onto the pad plane
   double pad_plane_h = 0.0;
+  bool pad_lowered = false;     // the plane was capped below the cavity's lowest point
 };
 
 Attempt assemble(const CutSurface& cut, const geometry::LimbFrame& frame, const SocketOptions& o) {
@@ -245,6 +247,15 @@ Attempt assemble(const CutSurface& cut, const geometry::LimbFrame& frame, const 
       if (cut.on_rim[i]) break;
       plane = h[i];
       if (frame.to_cylindrical(s.vertices[nv + i]).rho >= 0.5 * o.distal_pad_diameter_m) break;
+    }
+    // Never above the cavity: on a pointed distal end the cap reaches the pad's radius only above
+    // the inner wall's lowest point, and a plane there would cut through the inner wall. Keep it
+    // half a wall below the lowest inner vertex (the pad is then narrower than asked).
+    double lowest_inner = std::numeric_limits<double>::infinity();
+    for (int i = 0; i < nv; ++i) lowest_inner = std::min(lowest_inner, frame.to_cylindrical(cut.mesh.vertices[i]).h);
+    if (plane > lowest_inner - 0.5 * t) {
+      plane = lowest_inner - 0.5 * t;
+      a.pad_lowered = true;
     }
     a.pad_plane_h = plane;
     for (int i : order) {
@@ -398,6 +409,10 @@ SocketResult build_socket_once(const TriMesh& inner_in, const geometry::LimbFram
     }
     if (dropped > 0)
       r.notes.push_back(fmt::format("dropped {} triangles of islands below the brim not connected to the socket", dropped));
+    if (a.pad_lowered)
+      r.notes.push_back(fmt::format("the distal pad's plane was kept half a wall below the cavity's lowest point (a "
+                                    "pointed distal end), so the pad is narrower than {:.0f} mm",
+                                    options.distal_pad_diameter_m / kMm));
     if (attempt > 0)
       r.notes.push_back(fmt::format("the offset needed {} normal-smoothing passes (concave skin with a radius below "
                                     "the {:.1f} mm wall); the wall is thinner there, see min_thickness_m",
