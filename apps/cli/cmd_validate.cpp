@@ -146,6 +146,7 @@ struct DesignFlags {
   double initial_increment = 0.05;
   bool neo_hookean = false;
   bool small_strain = false;
+  bool nonlinear_body = false;  // validate donning: socketsmith's donning with the nonlinear tissue model
   bool against_donning = false;
   std::string fe_pressure = "force";
   bool stand = false;  // validate donning: then half the body weight on the socket (thesis step 2)
@@ -185,7 +186,9 @@ void run_validate_design(const DesignFlags& f) {
     dopt.friction = f.friction >= 0 ? f.friction : c.patient.friction;
     dopt.stand_force_n = f.stand ? 0.5 * c.patient.body_mass_kg * units::kGravity : 0.0;
     dopt.progress = progress;
-    log::info("validate design: socketsmith's donning ({:.0f} mm, μ = {:.2f})", f.travel_mm, dopt.friction);
+    dopt.contact.linear_body = !f.nonlinear_body;
+    log::info("validate design: socketsmith's donning ({:.0f} mm, μ = {:.2f}, {} body)", f.travel_mm, dopt.friction,
+              f.nonlinear_body ? "nonlinear" : "linearised");
     const auto dr = fe::don_designed_socket(art, dopt);
     if (f.stand && dr.series.size() >= 2) {
       // The FE's load step starts from the donning force at the designed pose (socketsmith's estimate).
@@ -360,6 +363,7 @@ void run_validate_design(const DesignFlags& f) {
                    {"stick_slope_pa_per_m", o.contact.stick_slope_pa_per_m},
                    {"friction", o.contact.friction},
                    {"against_donning", f.against_donning},
+                   {"socketsmith_body", f.nonlinear_body ? "nonlinear" : "linearised"},
                    {"stand_force_n", stand_force_n},
                    {"fe_load_step_starts_at_n", donning_force_n},
                    {"designed_force_n", r.designed_force_n},
@@ -436,6 +440,9 @@ void add_case_flags(CLI::App& cmd, DesignFlags& f) {
                  "tissue Poisson ratio in CalculiX (default: the case's fe model's, else 0.45, the thesis's)")
       ->check(CLI::Range(0.0, 0.4999));
   cmd.add_flag("--neo-hookean", f.neo_hookean, "neo-Hookean tissue instead of linear elastic");
+  cmd.add_flag("--nonlinear-body", f.nonlinear_body,
+               "validate donning: socketsmith's donning with the nonlinear tissue model instead of its linearisation at "
+               "rest (slower; with the fe model, the large-displacement problem CalculiX solves under NLGEOM)");
   cmd.add_flag("--small-strain", f.small_strain,
                "CalculiX without NLGEOM: the problem of socketsmith's linear design solve (with --mode load and the fe "
                "tissue model, the two displacement fields agree to round-off)");

@@ -160,5 +160,38 @@ TEST(DesignCheckValidation, calculix_donning_agrees_with_socketsmiths_donning) {
   EXPECT_LT(r.max_penetration_m, 0.5e-3);
 }
 
+TEST(DesignCheckValidation, with_the_fe_model_the_frictional_donnings_agree) {
+  // The thesis's ch. 3 check with friction (its R 0.77; MSS-CS here: R 0.74 at 3k nodes): the fe
+  // model's design of the 1.8k-node sample donned from 60 mm below with μ 0.5 by socketsmith
+  // (nonlinear St Venant–Kirchhoff body) and by CalculiX (NLGEOM, the same material). Measured
+  // 2026-11-25: 1.8k nodes R 0.886, MAE 1.44 kPa (means 7.53 / 6.34 kPa); 3k nodes R 0.93, MAE
+  // 0.97 kPa. socketsmith's linearised body (its donning default) against NLGEOM: R 0.85, MAE 5.3 kPa
+  // at 1.8k (R 0.94, 2.4 kPa at 3k): with friction the geometric nonlinearity sets the level.
+  const fs::path out = fs::path(SOCKETSMITH_BINARY_DIR) / "fe_test_runs" / "donning_fe_1800";
+  auto c = pipeline::demo_case(1800);
+  c.model = "fe";
+  pipeline::DesignArtifacts art;
+  pipeline::run_design(c, out / "design", true, {}, &art);
+  DesignedStump d = designed_stump(art);
+  contact::DonningOptions don;
+  don.start_offset_m = 0.06;
+  don.friction = 0.5;
+  don.contact.linear_body = false;
+  const auto ours = don_designed_socket(art, don);
+  use_donning_pressures(ours, d);
+  DesignCheckOptions o;
+  o.mode = DesignCheckMode::Donning;
+  o.material.youngs_modulus_pa = c.youngs_modulus_pa;
+  o.material.poisson_ratio = 0.45;
+  o.contact.friction = 0.5;
+  o.donning_travel_m = 0.06;
+  const auto r = check_design(d, o, run_dir("donning_fe_1800_fe"));
+  ASSERT_TRUE(r.converged) << r.message;
+  std::printf("[ info ] fe model, donning mu 0.5 vs CalculiX, 1.8k nodes: MAE %.2f kPa, R %.3f, means %.2f / %.2f kPa\n",
+              r.all.mae / 1e3, r.all.r, r.all.mean_b / 1e3, r.all.mean_a / 1e3);
+  EXPECT_GT(r.all.r, 0.85);
+  EXPECT_LT(r.all.mae, 2.0e3);
+}
+
 }  // namespace
 }  // namespace socketsmith::fe

@@ -214,7 +214,8 @@ DesignCheckResult check_design(const DesignedStump& d, const DesignCheckOptions&
   if (!disp || (contact && !cont))
     fail<SolverError>("validate design: CalculiX produced no converged increment: {}", res.ccx.message);
   if (!res.converged)
-    res.message = fmt::format("PARTIAL results (step time {:.3f} of 1): {}", disp->time, res.ccx.message);
+    res.message = fmt::format("PARTIAL results (step {}, time {:.3f} of {}): {}", disp->step, disp->time, co.num_steps,
+                              res.ccx.message);
   const int nn = mesh.num_nodes();
   {
     const auto u1 = disp->dense("D1", nn), u2 = disp->dense("D2", nn), u3 = disp->dense("D3", nn);
@@ -243,8 +244,8 @@ DesignCheckResult check_design(const DesignedStump& d, const DesignCheckOptions&
     const auto normals = deformed_surface_normals(mesh, deformed, spec.skin_faces, skin.nodes, &areas);
     if (stress) res.fe_stress_pressure_pa = normal_surface_pressure(*stress, skin.nodes, normals, nn);
     const DatBlock* gauss = last_block(dat, "stresses", "SKINEL");
-    // The .dat's time is the total time; each of our steps lasts 1.
-    if (gauss && std::abs(gauss->time - (disp->step - 1 + disp->time)) < 1e-6)
+    // Both files give the total time of an increment.
+    if (gauss && std::abs(gauss->time - disp->time) < 1e-6)
       res.fe_force_pressure_pa = nodal_force_pressure(mesh, deformed, *gauss, skin.nodes, normals, areas);
     require<SolverError>(res.fe_pressure != FePressure::SurfaceStress || !res.fe_stress_pressure_pa.empty(),
                          "validate design: the .frd has no stress (S) for the last increment, so the contact "

@@ -110,7 +110,8 @@ FrdResults parse_frd(std::string_view text, const std::string& source) {
       continue;
     }
     if (t.starts_with("100C")) {
-      // "  100CL  101 2.50000E-01  ..." — the step time at columns 13..24.
+      // "  100CL  101 2.50000E-01  ..." — the total time at columns 13..24 (2.0 at the end of a
+      // second step of length 1).
       time = field<double>(line, 12, 12, source, line_no);
       continue;
     }

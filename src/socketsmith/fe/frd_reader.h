@@ -20,7 +20,7 @@ struct FrdBlock {
   std::vector<std::string> components;  ///< "D1", "D2", "D3" / "COPEN", ..., "CPRESS", ...
   int step = 0;                         ///< analysis step (1-based)
   int increment = 0;                    ///< increment within the step (1-based)
-  double time = 0;                      ///< step time of the increment
+  double time = 0;                      ///< total time of the increment (steps of length 1: step − 1 + step time)
   std::vector<int> node_ids;            ///< CalculiX node ids (1-based)
   std::vector<double> values;           ///< node_ids.size() × components.size(), row-major
 
