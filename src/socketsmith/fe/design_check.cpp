@@ -209,8 +209,23 @@ DesignCheckResult check_design(const DesignedStump& d, const DesignCheckOptions&
 
   FrdResults frd;
   if (std::filesystem::exists(res.ccx.frd)) frd = read_frd(res.ccx.frd);
+  std::vector<DatBlock> dat;
+  if (std::filesystem::exists(res.ccx.dat)) dat = read_dat(res.ccx.dat);
+  // The increment compared: the .frd's last, unless the .dat's element stresses (printed at
+  // converged increments only) end earlier — when ccx gives up it writes its last, unconverged
+  // state to the .frd — then the last increment both files have.
+  const DatBlock* gauss = contact ? last_block(dat, "stresses", "SKINEL") : nullptr;
   const FrdBlock* disp = frd.last("DISP");
-  const FrdBlock* cont = contact ? frd.last("CONTACT") : nullptr;
+  if (gauss && disp && std::abs(disp->time - gauss->time) > 1e-6)
+    for (auto it = frd.blocks.rbegin(); it != frd.blocks.rend(); ++it)
+      if (it->name == "DISP" && std::abs(it->time - gauss->time) < 1e-6) {
+        disp = &*it;
+        break;
+      }
+  const FrdBlock* cont = nullptr;
+  if (contact && disp)
+    for (const auto& b : frd.blocks)
+      if (b.name == "CONTACT" && b.step == disp->step && b.increment == disp->increment) cont = &b;
   if (!disp || (contact && !cont))
     fail<SolverError>("validate design: CalculiX produced no converged increment: {}", res.ccx.message);
   if (!res.converged)
@@ -225,9 +240,6 @@ DesignCheckResult check_design(const DesignedStump& d, const DesignCheckOptions&
   res.socketsmith_value.assign(ns, 0.0);
   res.fe_value.assign(ns, 0.0);
   res.fe_penetration_m.assign(ns, 0.0);
-  std::vector<double> dat_time;
-  std::vector<DatBlock> dat;
-  if (std::filesystem::exists(res.ccx.dat)) dat = read_dat(res.ccx.dat);
   if (contact) {
     res.fe_pressure = o.fe_pressure;
     const auto cp = cont->dense("CPRESS", nn), copen = cont->dense("COPEN", nn);
@@ -243,7 +255,6 @@ DesignCheckResult check_design(const DesignedStump& d, const DesignCheckOptions&
     std::vector<double> areas;
     const auto normals = deformed_surface_normals(mesh, deformed, spec.skin_faces, skin.nodes, &areas);
     if (stress) res.fe_stress_pressure_pa = normal_surface_pressure(*stress, skin.nodes, normals, nn);
-    const DatBlock* gauss = last_block(dat, "stresses", "SKINEL");
     // Both files give the total time of an increment.
     if (gauss && std::abs(gauss->time - disp->time) < 1e-6)
       res.fe_force_pressure_pa = nodal_force_pressure(mesh, deformed, *gauss, skin.nodes, normals, areas);
