@@ -2,7 +2,7 @@
 // ../shared/data is present, else the generated sample limb (seed 1). 60 kg patient, E = 100 kPa,
 // Table 7 pain thresholds, linearised stump model (the design solver's default), flat brim 15 mm
 // above the patellar tendon.
-//  - BM_DesignUpdate/N: one design update on an N-node stump — one spot amplitude changed by ±2 %,
+//  - BM_DesignUpdate/N/M: one design update on an N-node stump (M = 1: the fe tissue model) — one spot amplitude changed by ±2 %,
 //    then DesignSolver::solve (field, saturation, follower passes with back-substitutions, radar).
 //    Set-up (meshing, model, K₀ factorisation, one optimisation) is outside the timed loop.
 //    Counters: median_ms / max_ms of the per-update solve time, follower passes per update.
@@ -67,7 +67,7 @@ double brim_height(const volume::LimbModel& m) {
   return 0.8 * m.length_m;
 }
 
-std::unique_ptr<design::DesignSolver> make_solver(int target_nodes) {
+std::unique_ptr<design::DesignSolver> make_solver(int target_nodes, bool fe = false) {
   const auto& m = design_limb();
   const auto& mesh = design_mesh(target_nodes);
   const auto skin = volume::extract_skin_surface(mesh);
@@ -76,7 +76,9 @@ std::unique_ptr<design::DesignSolver> make_solver(int target_nodes) {
   mat.youngs_modulus_pa = 100e3;
   design::PatientLoad pl;
   pl.body_mass_kg = 60;
-  auto solver = std::make_unique<design::DesignSolver>(mesh, mat, tissue::MassSpringOptions{}, m.frame, std::move(thr),
+  tissue::MassSpringOptions mo;
+  if (fe) mo.kind = tissue::TissueModelKind::Fe;
+  auto solver = std::make_unique<design::DesignSolver>(mesh, mat, mo, m.frame, std::move(thr),
                                                        pl, m.length_m);
   const double h = brim_height(m);
   solver->set_brim([h](double) { return h; });
@@ -91,7 +93,7 @@ void BM_DesignUpdate(benchmark::State& state) {
   bool real = false;
   const auto& m = design_limb(&real);
   const auto t0 = std::chrono::steady_clock::now();
-  auto solver = make_solver(static_cast<int>(state.range(0)));
+  auto solver = make_solver(static_cast<int>(state.range(0)), state.range(1) != 0);
   const auto opt = design::optimise_design(*solver, design::default_spots(m.type, m.landmarks, m.length_m));
   const double setup_s = seconds_since(t0);
   auto spots = opt.spots;
@@ -149,5 +151,6 @@ void BM_Optimise(benchmark::State& state) {
 
 }  // namespace
 
-BENCHMARK(BM_DesignUpdate)->Arg(8000)->Arg(20000)->Unit(benchmark::kMillisecond)->Iterations(30);
+// Second argument: 0 = MSS-CS (the default), 1 = the fe tissue model.
+BENCHMARK(BM_DesignUpdate)->ArgsProduct({{8000, 20000}, {0, 1}})->Unit(benchmark::kMillisecond)->Iterations(30);
 BENCHMARK(BM_Optimise)->Arg(8000)->Arg(20000)->Unit(benchmark::kMillisecond)->Iterations(1);
