@@ -355,7 +355,7 @@ DesignState DesignSolver::solve(const std::vector<Spot>& spots) {
     st.message += fmt::format(" (follower iteration stopped after {} passes with a force change of {:.2g}, above {:.2g})",
                               s.options.max_follower_passes, st.follower_change, s.options.follower_tolerance);
   if (st.linearised && s.options.mode == DesignSolveMode::Auto)
-    st.message += " (shape from the linearised stump model: the nonlinear lattice lost stability under this field)";
+    st.message += " (shape from the linearised stump model: the nonlinear tissue model lost stability under this field)";
   return st;
 }
 

@@ -310,8 +310,8 @@ std::string StaticSolver::stall_diagnosis(const VectorXd& x, StaticResult& res, 
     verdict = "no sign of a loss of stability was found";
   } else {
     if (!indication.empty()) signs.push_back(indication);
-    verdict = signs.size() == 1 && !indication.empty() ? "the lattice model likely loses stability here ("
-                                                       : "the lattice model loses stability here (";
+    verdict = signs.size() == 1 && !indication.empty() ? "the tissue model likely loses stability here ("
+                                                       : "the tissue model loses stability here (";
     for (size_t i = 0; i < signs.size(); ++i) verdict += (i ? ", " : "") + signs[i];
     verdict += "): a property of the model under this load, not an inaccurate linear solve (docs/tissue.md)";
   }
@@ -548,7 +548,7 @@ StaticResult StaticSolver::solve(const VectorXd& f_ext, VectorXd& x) {
       res.message = fmt::format(
           "unstable: converged to an equilibrium (residual {:.3g} N) whose tangent has a negative eigenvalue "
           "(det < 0; softest eigenvalue {:.3g} N/m, largest at node {}; element volume changes {:+.1f}% to {:+.1f}%): "
-          "the lattice model cannot hold this state (docs/tissue.md)",
+          "the tissue model cannot hold this state (docs/tissue.md)",
           res.residual_n, res.stability.softest_eigenvalue, res.stability.softest_mode_node,
           100 * res.min_volume_change, 100 * res.max_volume_change);
     }
