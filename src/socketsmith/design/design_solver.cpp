@@ -144,9 +144,9 @@ struct DesignSolver::Impl {
   }
   tissue::VectorXd linear_solve(const tissue::VectorXd& f) {
     factor_linear();
-    tissue::VectorXd x = model.rest_positions();
-    dofs.add_expanded(k0->solve(dofs.restrict_vector(f)), x);
-    return x;
+    tissue::VectorXd positions = model.rest_positions();
+    dofs.add_expanded(k0->solve(dofs.restrict_vector(f)), positions);
+    return positions;
   }
 
   Impl(const volume::HexMesh& mesh, const tissue::TissueMaterial& material, const tissue::MassSpringOptions& mo,
