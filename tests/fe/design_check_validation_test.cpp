@@ -184,15 +184,16 @@ TEST(DesignCheckValidation, with_the_fe_model_the_frictional_donnings_agree) {
   // The thesis's ch. 3 check with friction (its R 0.77; MSS-CS here: R 0.74 at 3k nodes): the fe
   // model's design of the 1.8k-node sample donned from 60 mm below with μ 0.5 by socketsmith
   // (nonlinear St Venant–Kirchhoff body) and by CalculiX (NLGEOM, the same material). Measured
-  // 2026-11-25: 1.8k nodes R 0.886, MAE 1.44 kPa (means 7.53 / 6.34 kPa); 3k nodes R 0.93, MAE
-  // 0.97 kPa. socketsmith's linearised body (its donning default) against NLGEOM: R 0.85, MAE 5.3 kPa
-  // at 1.8k (R 0.94, 2.4 kPa at 3k): with friction the geometric nonlinearity sets the level.
+  // 2026-11-25: 1.8k nodes R 0.936, MAE 0.61 kPa (means 6.41 / 6.34 kPa; with the socket
+  // unsubdivided, before the sample asked for one subdivision: R 0.886, MAE 1.44); 3k nodes R 0.93,
+  // MAE 0.97 kPa. socketsmith's linearised body (its donning default) against NLGEOM at 3k: R 0.94,
+  // MAE 2.4 kPa, 27 % above CalculiX's level: with friction the geometric nonlinearity sets it.
   const auto r = donning_against_calculix("donning_fe_1800", 1800, "fe", 0.5, false, 0.45);
   ASSERT_TRUE(r.converged) << r.message;
   std::printf("[ info ] fe model, donning mu 0.5 vs CalculiX, 1.8k nodes: MAE %.2f kPa, R %.3f, means %.2f / %.2f kPa\n",
               r.all.mae / 1e3, r.all.r, r.all.mean_b / 1e3, r.all.mean_a / 1e3);
-  EXPECT_GT(r.all.r, 0.85);
-  EXPECT_LT(r.all.mae, 2.0e3);
+  EXPECT_GT(r.all.r, 0.90);
+  EXPECT_LT(r.all.mae, 1.5e3);
 }
 
 // Not in CI's reduced run (its pattern is DesignCheckValidation.*): ccx takes ~4 min here.
