@@ -155,6 +155,8 @@ struct DesignFlags {
 
 void run_validate_design(const DesignFlags& f) {
   require(!f.against_donning || f.mode == "donning", "validate design: --against-donning needs --mode donning");
+  require(!f.nonlinear_body || f.against_donning,
+          "validate design: --nonlinear-body sets socketsmith's donning body: use it with validate donning");
   const fs::path out(f.out);
   ensure_directory(out);
   design::CaseFile c = f.demo ? pipeline::demo_case(f.target_nodes > 0 ? f.target_nodes : 3000)

@@ -115,23 +115,23 @@ std::vector<double> nodal_force_pressure(const volume::HexMesh& mesh, const std:
             "nodal_force_pressure: element {} (at the surface) has {} stress rows (expected 8, or 1 for reduced "
             "integration); the deck must print them (*EL PRINT)",
             e + 1, points[e]);
+    // f_a += w det J σ J⁻ᵀ ∂N_a/∂ξ at each point: the 2×2×2 rule (unit weights), or one point at the
+    // centre with weight 8 for reduced integration.
     const auto x = volume::gather(positions, h);
-    if (points[e] == 1) {  // one point at the centre, weight 8
+    const auto add_point = [&](const std::array<Vec3, 8>& d, double weight, const Eigen::Matrix3d& s) {
+      Eigen::Matrix3d J = Eigen::Matrix3d::Zero();  // ∂x/∂ξ
+      for (int a = 0; a < 8; ++a) J += x[a] * d[a].transpose();
+      const Eigen::Matrix3d Jit = J.inverse().transpose();
+      const double w = weight * J.determinant();
+      for (int a = 0; a < 8; ++a) force[h[a]] += w * (s * (Jit * d[a]));
+    };
+    if (points[e] == 8) {
+      for (int g = 0; g < 8; ++g) add_point(dN[g], 1.0, sigma[index[e]][g]);
+    } else {
       std::array<Vec3, 8> d0;
       for (int a = 0; a < 8; ++a)
         d0[a] = 0.125 * Vec3(volume::kHexCorners[a][0], volume::kHexCorners[a][1], volume::kHexCorners[a][2]);
-      Eigen::Matrix3d J = Eigen::Matrix3d::Zero();
-      for (int a = 0; a < 8; ++a) J += x[a] * d0[a].transpose();
-      const Eigen::Matrix3d Jit = J.inverse().transpose();
-      for (int a = 0; a < 8; ++a) force[h[a]] += 8.0 * J.determinant() * (sigma[index[e]][0] * (Jit * d0[a]));
-      continue;
-    }
-    for (int g = 0; g < 8; ++g) {
-      Eigen::Matrix3d J = Eigen::Matrix3d::Zero();  // ∂x/∂ξ
-      for (int a = 0; a < 8; ++a) J += x[a] * dN[g][a].transpose();
-      const Eigen::Matrix3d Jit = J.inverse().transpose();
-      const double w = J.determinant();
-      for (int a = 0; a < 8; ++a) force[h[a]] += w * (sigma[index[e]][g] * (Jit * dN[g][a]));
+      add_point(d0, 8.0, sigma[index[e]][0]);
     }
   }
   std::vector<double> p(nodes.size(), 0.0);

@@ -36,7 +36,6 @@ class HexFeElements {
   HexFeElements(const volume::HexMesh& mesh, double youngs_modulus_pa, double poisson_ratio);
 
   int num_elements() const { return static_cast<int>(hexes_.size()); }
-  const Lame& lame() const { return lame_; }
 
   /// Adds the internal forces −∂W/∂x at node positions @p x (3N, node-major) to @p f.
   void add_forces(const Eigen::VectorXd& x, Eigen::VectorXd& f) const;
