@@ -107,9 +107,9 @@ void run_validate_cube(const CubeFlags& f) {
                    {"max_force_n", r.force_n.back()},
                    {"max_displacement_rel_error", r.max_displacement_rel_error},
                    {"max_pressure_rel_error", r.max_pressure_rel_error},
-                   {"displacement", fe::to_json(r.displacement, 1e3, "_mm")},
-                   {"pressure", fe::to_json(r.pressure, 1e-3, "_kpa")},
-                   {"pressure_without_edges", fe::to_json(r.interior_pressure, 1e-3, "_kpa")},
+                   {"displacement", report::to_json(r.displacement, 1e3, "_mm")},
+                   {"pressure", report::to_json(r.pressure, 1e-3, "_kpa")},
+                   {"pressure_without_edges", report::to_json(r.interior_pressure, 1e-3, "_kpa")},
                    {"ccx_wall_s", r.ccx.wall_s},
                    {"ccx_increments", r.ccx.increments},
                    {"deck", "cube.inp"},
@@ -272,9 +272,9 @@ void run_validate_design(const DesignFlags& f) {
     report::write_svg(out / fmt::format("profile_{}.svg", pc.name), p);
     report::write_plot_png(out / fmt::format("profile_{}.png", pc.name), p);
     panels.push_back(p);
-    auto pj = fe::to_json(pc.stats, scale, suffix);
+    auto pj = report::to_json(pc.stats, scale, suffix);
     pj["label"] = pc.label;
-    pj["smoothed"] = fe::to_json(pc.smoothed, scale, suffix);
+    pj["smoothed"] = report::to_json(pc.smoothed, scale, suffix);
     paths_json[pc.name] = pj;
   }
   {
@@ -374,15 +374,15 @@ void run_validate_design(const DesignFlags& f) {
                    {"mean_fe_kpa", r.mean_fe_pa / 1e3},
                    {"fe_pressure", contact ? fe::to_string(r.fe_pressure) : "none"},
                    {"mean_fe_cpress_kpa", r.all_cpress.mean_a / 1e3},
-                   {"all_cpress", fe::to_json(r.all_cpress, scale, suffix)},
-                   {"all_stress", fe::to_json(r.all_stress, scale, suffix)},
-                   {"all_force", fe::to_json(r.all_force, scale, suffix)},
+                   {"all_cpress", report::to_json(r.all_cpress, scale, suffix)},
+                   {"all_stress", report::to_json(r.all_stress, scale, suffix)},
+                   {"all_force", report::to_json(r.all_force, scale, suffix)},
                    {"max_penetration_mm", r.max_penetration_m * 1e3},
-                   {"all", fe::to_json(r.all, scale, suffix)},
-                   {"one_ring_away", fe::to_json(r.one_ring_away, scale, suffix)},
-                   {"away_from_brim", fe::to_json(r.away_from_brim, scale, suffix)},
-                   {"all_smoothed", fe::to_json(r.all_smoothed, scale, suffix)},
-                   {"away_from_brim_smoothed", fe::to_json(r.away_from_brim_smoothed, scale, suffix)},
+                   {"all", report::to_json(r.all, scale, suffix)},
+                   {"one_ring_away", report::to_json(r.one_ring_away, scale, suffix)},
+                   {"away_from_brim", report::to_json(r.away_from_brim, scale, suffix)},
+                   {"all_smoothed", report::to_json(r.all_smoothed, scale, suffix)},
+                   {"away_from_brim_smoothed", report::to_json(r.away_from_brim_smoothed, scale, suffix)},
                    {"paths", paths_json},
                    {"ccx_wall_s", r.ccx.wall_s},
                    {"ccx_increments", r.ccx.increments},
@@ -402,7 +402,7 @@ void run_validate_design(const DesignFlags& f) {
               r.converged ? "" : "PARTIAL ", what, r.ccx.wall_s, ss_wall, state.seconds);
     log::info("validate design: force designed {:.1f} N, CalculiX {:.1f} N; mean designed {:.2f}, CalculiX {:.2f}",
               r.designed_force_n, r.fe_force_n, r.all.mean_b * scale, r.all.mean_a * scale);
-    const auto line = [&](const std::string& name, const fe::ErrorStats& st) {
+    const auto line = [&](const std::string& name, const report::ErrorStats& st) {
       log::info("validate design: {:<26} n {:4d}  MAE {:.2f} ± {:.2f} {}  R {:.2f}  max {:.2f}", name, st.count,
                 st.mae * scale, st.sd * scale, unit, st.r, st.max_error * scale);
     };

@@ -12,8 +12,8 @@
 #include "socketsmith/contact/donning.h"
 #include "socketsmith/core/errors.h"
 #include "socketsmith/core/units.h"
-#include "socketsmith/fe/comparison.h"
 #include "socketsmith/pipeline/design_pipeline.h"
+#include "socketsmith/report/field_comparison.h"
 
 namespace socketsmith::contact {
 namespace {
@@ -104,7 +104,7 @@ TEST_F(Donning, the_designed_socket_reproduces_the_designed_pressures_on_its_own
   std::vector<int> subset;
   for (size_t i = 0; i < below.size(); ++i)
     if (below[i]) subset.push_back(static_cast<int>(i));
-  const auto a = fe::compare_fields(pc, art.result.state.pressure_pa, subset);  // a: contact, b: designed
+  const auto a = report::compare_fields(pc, art.result.state.pressure_pa, subset);  // a: contact, b: designed
   EXPECT_GT(a.r, 0.6);
   EXPECT_LT(a.mae, 0.35 * a.mean_b);
   EXPECT_NEAR(a.mean_a, a.mean_b, 0.25 * a.mean_b);
@@ -164,7 +164,7 @@ TEST_F(Donning, the_smoothed_wall_gives_the_facets_pressures_in_fewer_newton_ite
   }
   std::vector<int> all(pa.size());
   for (size_t i = 0; i < all.size(); ++i) all[i] = static_cast<int>(i);
-  const auto c = fe::compare_fields(pa, pb, all);
+  const auto c = report::compare_fields(pa, pb, all);
   EXPECT_GT(c.r, 0.9);
   EXPECT_NEAR(c.mean_a, c.mean_b, 0.06 * c.mean_b);
   for (const auto& sm : a.series) EXPECT_LE(sm.max_penetration_m, 0.5e-3);
