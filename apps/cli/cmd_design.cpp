@@ -20,6 +20,7 @@ struct DesignFlags {
   std::string out;
   bool no_optimise = false;
   bool json = false;
+  int closed_loop = -1;  ///< donnings of the closed loop (0: open loop; −1: as the case says)
   int target_nodes = 8000;
 };
 
@@ -39,6 +40,16 @@ void print_summary(const nlohmann::json& j) {
               j["socket"]["triangles"].get<int>(), j["socket"]["min_thickness_mm"].get<double>(),
               j["socket"]["max_thickness_mm"].get<double>(), j["socket"]["cavity_volume_cm3"].get<double>(),
               j["socket"]["volume_reduction_percent"].get<double>());
+  if (j.contains("closed_loop")) {
+    const auto& cl = j["closed_loop"];
+    const auto& o = cl["regions"]["below_brim"]["open_loop"];
+    const auto& c = cl["regions"]["below_brim"]["closed_loop"];
+    log::info("design: delivered below the brim (donned, then stood on): open loop MAE {:.2f} kPa, 99th percentile "
+              "{:.2f} kPa, R {:.3f}; closed loop MAE {:.2f} kPa, 99th percentile {:.2f} kPa, R {:.3f} ({} donnings, {:.1f} s)",
+              o["mae_kpa"].get<double>(), o["p99_kpa"].get<double>(), o["r"].is_null() ? 0.0 : o["r"].get<double>(),
+              c["mae_kpa"].get<double>(), c["p99_kpa"].get<double>(), c["r"].is_null() ? 0.0 : c["r"].get<double>(),
+              cl["donnings"].get<int>(), cl["seconds"].get<double>());
+  }
   log::info("design: report {}", (std::filesystem::path(j["out"].get<std::string>()) / "report.html").string());
 }
 
@@ -61,8 +72,16 @@ void register_design(CLI::App& app) {
   cmd->add_option("--out", f->out, "output directory")->required();
   cmd->add_flag("--no-optimise", f->no_optimise, "solve the case's spots as given (no optimiser)");
   cmd->add_flag("--json", f->json, "print the summary as JSON on stdout");
+  cmd->add_option("--closed-loop", f->closed_loop,
+                  "don and stand on the socket, correct its wall in up to N donnings (0: open loop; default: the case's "
+                  "design.closed_loop)")
+      ->check(CLI::Range(0, 20));
   cmd->callback([f] {
-    const auto c = design::read_case(f->case_file);
+    auto c = design::read_case(f->case_file);
+    if (f->closed_loop >= 0) {
+      c.closed_loop = f->closed_loop > 0;
+      if (f->closed_loop > 0) c.closed_loop_donnings = f->closed_loop;
+    }
     finish(pipeline::run_design(c, f->out, c.optimise && !f->no_optimise, console_progress(1.0)), f->json);
   });
 

@@ -217,13 +217,19 @@ CaseFile parse_case(const json& doc, const std::filesystem::path& folder) {
   }
   if (doc.contains("design")) {
     const auto& j = doc.at("design");
-    check_keys(j, "design", {"spots", "optimise", "objective", "model_pressure_limit"});
+    check_keys(j, "design", {"spots", "optimise", "objective", "model_pressure_limit", "closed_loop", "closed_loop_donnings"});
     c.optimise = flag(j, "optimise", "design", true);
     const std::string obj = text(j, "objective", "design", "pressure");
     require(obj == "pressure" || obj == "ratio", "case file: design.objective '{}' is not known (pressure or ratio)", obj);
     c.objective = obj == "ratio" ? OptimizerOptions::Objective::Ratio : OptimizerOptions::Objective::Pressure;
     c.model_pressure_limit = number(j, "model_pressure_limit", "design", c.model_pressure_limit);
     require(c.model_pressure_limit >= 0, "case file: design.model_pressure_limit must be ≥ 0 (a fraction of E; 0 = none)");
+    c.closed_loop = flag(j, "closed_loop", "design", c.closed_loop);
+    const double donnings = number(j, "closed_loop_donnings", "design", c.closed_loop_donnings);
+    require(donnings >= 1 && donnings <= 20 && donnings == std::floor(donnings),
+            "case file: design.closed_loop_donnings {} must be a whole number in 1-20 (the open-loop socket's donning counts)",
+            donnings);
+    c.closed_loop_donnings = static_cast<int>(donnings);
     if (j.contains("spots")) {
       const auto& s = j.at("spots");
       if (s.is_string()) {
@@ -303,7 +309,8 @@ json case_to_json(const CaseFile& c) {
   json spots = json::array();
   for (const auto& s : c.spots) spots.push_back(spot_to_json(s));
   json design{{"optimise", c.optimise}, {"objective", objective_name(c.objective)},
-              {"model_pressure_limit", c.model_pressure_limit}};
+              {"model_pressure_limit", c.model_pressure_limit}, {"closed_loop", c.closed_loop},
+              {"closed_loop_donnings", c.closed_loop_donnings}};
   if (c.spots.empty()) design["spots"] = "default";
   else design["spots"] = spots;
   json brim{{"template", to_string(c.brim)}};

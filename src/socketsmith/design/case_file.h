@@ -60,6 +60,10 @@ struct CaseFile {
   bool optimise = true;
   OptimizerOptions::Objective objective = OptimizerOptions::Objective::Pressure;
   double model_pressure_limit = 0.25;      ///< × E (see OptimizerOptions)
+  /// Closed-loop design (pipeline/closed_loop.h): don and stand on the socket, correct its wall
+  /// until it delivers the designed pressures, write the corrected socket.
+  bool closed_loop = false;
+  int closed_loop_donnings = 4;            ///< donnings at most, the open-loop socket's included, 1–20
   BrimTemplate brim = BrimTemplate::Ptb;
   std::vector<BrimKeyPoint> brim_key_points;  ///< non-empty = the user's brim (overrides the template)
   SocketOptions socket;

@@ -239,6 +239,23 @@ void DesignSolver::skin_geometry(const tissue::VectorXd& x, std::vector<Vec3>& p
     if (v.squaredNorm() > 0) v.normalize();
 }
 
+std::vector<double> DesignSolver::normal_displacement(const std::vector<double>& pressure_pa, const DesignState& state) {
+  auto& s = *impl_;
+  const size_t n = s.skin.nodes.size();
+  require(pressure_pa.size() == n && state.skin_normals.size() == n && state.skin_areas.size() == n,
+          "normal_displacement: {} pressures and a state with {} normals for {} skin nodes", pressure_pa.size(),
+          state.skin_normals.size(), n);
+  tissue::VectorXd f = tissue::VectorXd::Zero(s.model.num_dofs());
+  for (size_t i = 0; i < n; ++i) {
+    require(std::isfinite(pressure_pa[i]), "normal_displacement: the pressure at skin node {} is not a number", i);
+    f.segment<3>(3 * s.skin.nodes[i]) = -pressure_pa[i] * state.skin_areas[i] * state.skin_normals[i];
+  }
+  const tissue::VectorXd u = s.linear_solve(f) - s.model.rest_positions();
+  std::vector<double> un(n);
+  for (size_t i = 0; i < n; ++i) un[i] = u.segment<3>(3 * s.skin.nodes[i]).dot(state.skin_normals[i]);
+  return un;
+}
+
 DesignState DesignSolver::solve(const std::vector<Spot>& spots) {
   auto& s = *impl_;
   const auto t0 = std::chrono::steady_clock::now();

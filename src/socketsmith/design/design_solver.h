@@ -168,6 +168,15 @@ class DesignSolver {
   void skin_geometry(const tissue::VectorXd& x, std::vector<Vec3>& pos, std::vector<Vec3>& normal,
                      std::vector<double>& area) const;
 
+  /// Normal displacement of every skin node (along the outward normal, [m]) when pressures
+  /// @p pressure_pa [Pa, one per skin node] push on the skin with the nodal areas and normals of
+  /// @p state, on the stump linearised at rest (K₀, factorised once and shared with the linear
+  /// design solve). A pressure pushes inwards, so a positive pressure gives negative values. This
+  /// is the stump's compliance seen from its skin: the closed-loop design moves a socket wall by
+  /// it to take away a pressure the wall delivers in excess.
+  /// @throws InvalidInputError for a field of the wrong size or with non-finite values.
+  std::vector<double> normal_displacement(const std::vector<double>& pressure_pa, const DesignState& state);
+
   /// Forgets the warm start (next solve starts from rest).
   void reset();
 

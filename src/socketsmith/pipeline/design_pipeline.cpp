@@ -181,6 +181,14 @@ DesignResult solve_design(DesignSetup& setup, bool optimise, const ProgressCallb
     } catch (const Error&) {
       r.limb_volume_below_brim_m3 = 0;
     }
+    if (c.closed_loop) {
+      ClosedLoopOptions lo;
+      lo.max_donnings = c.closed_loop_donnings;
+      lo.progress = [&](double f, std::string_view stage) { return report_progress(progress, 0.93 + 0.07 * f, stage); };
+      r.closed_loop = close_design_loop(setup, r, lo);
+      log::info("design: closed loop: {}", r.closed_loop->message);
+      r.socket = r.closed_loop->socket;
+    }
   }
   report_progress(progress, 1.0, "design: solved");
   return r;
@@ -416,6 +424,8 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
   rd.max_pressure_pa = *std::max_element(state.pressure_pa.begin(), state.pressure_pa.end());
   rd.landmarks = marks;
   rd.socket = rs;
+  nlohmann::json closed_loop_json;
+  if (result.closed_loop) closed_loop_json = write_closed_loop_outputs(setup, result, out, rd.delivery);
   rd.optimiser.has_run = optimise;
   rd.optimiser.converged = opt.constraints_met;
   rd.optimiser.iterations = opt.rounds;
@@ -499,6 +509,10 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
       {"out", out.string()},
       {"outputs", outputs}};
   if (!socket_json.is_null()) j["socket"] = socket_json;
+  if (!closed_loop_json.is_null()) {
+    j["closed_loop"] = closed_loop_json;
+    for (const auto& o : closed_loop_json["outputs"]) j["outputs"].push_back(o);
+  }
   write_text_atomically(out / "design.json", j.dump(2) + "\n");
   return j;
 }

@@ -943,6 +943,43 @@ std::string render_design_report_html(const DesignReportData& d) {
     }
   }
 
+  // Delivered pressures.
+  const ReportDelivery& dl = d.delivery;
+  if (dl.has_delivery) {
+    h.raw("<h2>Delivered pressures (the socket donned and stood on)</h2>\n<p>");
+    h.text(dl.summary);
+    h.raw("</p>\n<table>\n");
+    h.row({"region", "socket", "nodes", "designed mean [kPa]", "delivered mean [kPa]", "MAE [kPa]",
+           "99th pct. error [kPa]", "max error [kPa]", "R", "designed SD [kPa]"},
+          true);
+    for (const auto& a : dl.rows)
+      h.row({a.region, a.stage, std::to_string(a.count), kpa(a.target_mean_pa), kpa(a.delivered_mean_pa),
+             kpa(a.mae_pa), kpa(a.p99_pa), kpa(a.max_error_pa), std::isfinite(a.r) ? num(a.r, 3) : "—",
+             kpa(a.target_sd_pa)});
+    h.raw("</table>\n");
+    if (!dl.details.empty()) {
+      h.raw("<table>\n");
+      for (const auto& [k, v] : dl.details) h.kv(k, v);
+      h.raw("</table>\n");
+    }
+    for (const auto& m : dl.maps) {
+      h.raw("<h3>");
+      h.text(m.title);
+      h.raw("</h3>\n<img alt=\"");
+      h.text(m.title);
+      h.raw("\" src=\"");
+      h.raw(png_uri(render_pressure_map(m)));
+      h.raw("\">\n");
+    }
+    for (const auto& pl : dl.plots) {
+      h.raw("<img alt=\"");
+      h.text(pl.title);
+      h.raw("\" src=\"data:image/svg+xml;base64,");
+      h.raw(base64_encode(render_svg(pl)));
+      h.raw("\">\n");
+    }
+  }
+
   // Runs.
   auto run_section = [&](const char* heading, const ReportRun& r) {
     h.raw(fmt::format("<h2>{}</h2>\n", heading));
