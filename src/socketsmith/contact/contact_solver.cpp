@@ -819,6 +819,13 @@ ContactStep ContactSolver::push_with_force(const Vec3& direction, double force_n
   fail<SolverError>("contact: the push force {:.1f} N was not reached within tolerance", force_n);
 }
 
+void ContactSolver::obstacle_changed() {
+  auto& s = *impl_;
+  s.qcache.assign(s.nodes.size(), Impl::QueryCache{});
+  // One query before any parallel one (CGAL builds its distance-query structures lazily).
+  (void)s.obstacle.gap(s.x.segment<3>(3 * s.nodes.front()));
+}
+
 const VectorXd& ContactSolver::positions() const { return impl_->x; }
 const std::vector<NodeContact>& ContactSolver::contacts() const { return impl_->state; }
 const std::vector<int>& ContactSolver::nodes() const { return impl_->nodes; }

@@ -21,8 +21,15 @@ RigidSocket::~RigidSocket() = default;
 RigidSocket::RigidSocket(RigidSocket&&) noexcept = default;
 RigidSocket& RigidSocket::operator=(RigidSocket&&) noexcept = default;
 
+void RigidSocket::replace_solid(geometry::TriMesh solid) {
+  RigidSocket fresh(std::move(solid), frame_, density_);
+  fresh.set_translation(translation());
+  fresh.smooth_ = smooth_;
+  *this = std::move(fresh);
+}
+
 RigidSocket::RigidSocket(geometry::TriMesh solid, const geometry::LimbFrame& frame, double density)
-    : solid_(std::move(solid)) {
+    : frame_(frame), density_(density), solid_(std::move(solid)) {
   require(std::isfinite(density) && density > 0, "socket density {} kg/m^3 must be positive", density);
   const auto rep = geometry::check_mesh(solid_);
   require(rep.non_finite_vertices == 0, "the socket has {} vertices with NaN/inf coordinates", rep.non_finite_vertices);

@@ -27,6 +27,9 @@ void check_options(const ClosedLoopOptions& o) {
   require(std::isfinite(o.mae_tolerance_pa) && o.mae_tolerance_pa > 0 && std::isfinite(o.p99_tolerance_pa) &&
               o.p99_tolerance_pa > 0,
           "closed loop: tolerances {} / {} kPa must be positive", o.mae_tolerance_pa / 1e3, o.p99_tolerance_pa / 1e3);
+  require(o.refits_per_donning >= 0 && o.refits_per_donning <= 20,
+          "closed loop: {} refits per donning (expected 0-20; 0 dons every corrected socket from scratch)",
+          o.refits_per_donning);
   require(o.smoothing_passes >= 0 && o.smoothing_passes <= 50, "closed loop: {} smoothing passes (expected 0-50)",
           o.smoothing_passes);
   require(std::isfinite(o.max_offset_m) && o.max_offset_m > 0 && o.max_offset_m <= 0.02,
@@ -130,46 +133,55 @@ ClosedLoopResult close_design_loop(DesignSetup& setup, const DesignResult& resul
     }
   }
   require(compared.size() >= 3, "closed loop: only {} skin nodes lie below the brim; lower the brim", compared.size());
-
-  std::vector<double> offset(n, 0.0);  // δ of the socket being donned
-  double spacing = 0;                  // mean skin node spacing [m]
+  double spacing = 0;  // mean skin node spacing [m]
   for (int i : compared) spacing += std::sqrt(skin.area_m2[i]) / static_cast<double>(compared.size());
+
+  std::vector<double> offset(n, 0.0);  // δ of the socket worn now
+  double socket_seconds = 0;
   design::SocketResult socket = *result.socket;
-  // The socket kept is the one closest to the tolerances: the smallest max(MAE / tol, p99 / tol).
+  std::unique_ptr<contact::DonningSimulation> sim;
+  int full_donnings = 0, refits = 0;
+  // A full donning of the socket as it is now (the path from below, then standing).
+  const auto don_from_scratch = [&]() {
+    const double lo = static_cast<double>(full_donnings) / options.max_donnings;
+    const double hi = static_cast<double>(full_donnings + 1) / options.max_donnings;
+    don.progress = [&options, lo, hi, first = full_donnings == 0](double f, std::string_view) {
+      return report_progress(options.progress, lo + (hi - lo) * f,
+                             first ? "closed loop: donning the open-loop socket" : "closed loop: donning the corrected socket");
+    };
+    ++full_donnings;
+    refits = 0;
+    sim = std::make_unique<contact::DonningSimulation>(solver.model(), skin.nodes, skin.area_m2, socket.solid,
+                                                       setup.model.frame, don);
+    return sim->run();
+  };
+  contact::DonningResult d = don_from_scratch();
+  bool refitted = false;
+  // The socket kept is the one closest to the tolerances among those donned from scratch: the
+  // smallest max(MAE / tol, p99 / tol).
   double best_score = std::numeric_limits<double>::infinity();
-  for (int k = 0; k < options.max_donnings; ++k) {
-    ClosedLoopIteration it;
-    if (k > 0) {
-      // The corrected wall: the designed skin moved by δ along its normals.
-      const auto ts = Clock::now();
-      geometry::TriMesh inner = result.deformed_skin;
-      for (size_t i = 0; i < n; ++i) inner.vertices[i] += offset[i] * state.skin_normals[i];
-      try {
-        socket = design::build_socket(inner, setup.model.frame, setup.brim, sopt);
-      } catch (const Error& e) {
-        r.message = fmt::format("stopped after {} donnings: the corrected socket could not be built ({})", k, e.what());
-        break;
+  for (;;) {
+    if (!d.completed || !d.stood) {
+      const std::string why = d.message.empty() ? "the standing load was not reached" : d.message;
+      require<SolverError>(!r.iterations.empty(), "closed loop: the open-loop socket could not be donned and stood on: {}", why);
+      if (refitted) {  // the refit lost its way: don the same socket from scratch instead
+        if (full_donnings >= options.max_donnings) {
+          r.message = fmt::format("stopped: the corrected socket's refit failed ({}) and no donning is left", why);
+          break;
+        }
+        d = don_from_scratch();
+        refitted = false;
+        continue;
       }
-      it.socket_seconds = since(ts);
+      r.message = fmt::format("stopped after {} donnings: the corrected socket could not be donned and stood on ({})",
+                              full_donnings, why);
+      break;
     }
+    ClosedLoopIteration it;
+    it.refit = refitted;
     for (size_t i = 0; i < n; ++i) {
       it.max_offset_m = std::max(it.max_offset_m, std::abs(offset[i]));
       if (r.below_brim[i]) it.mean_offset_m += offset[i] / static_cast<double>(compared.size());
-    }
-    const double lo = static_cast<double>(k) / options.max_donnings, hi = static_cast<double>(k + 1) / options.max_donnings;
-    don.progress = [&options, lo, hi, k](double f, std::string_view) {
-      return report_progress(options.progress, lo + (hi - lo) * f,
-                             k == 0 ? "closed loop: donning the open-loop socket"
-                                    : "closed loop: donning the corrected socket");
-    };
-    const contact::DonningResult d =
-        contact::simulate_donning(solver.model(), skin.nodes, skin.area_m2, socket.solid, setup.model.frame, don);
-    if (!d.completed || !d.stood) {
-      const std::string why = d.message.empty() ? "the standing load was not reached" : d.message;
-      require<SolverError>(k > 0, "closed loop: the open-loop socket could not be donned and stood on: {}", why);
-      r.message = fmt::format("stopped after {} donnings: the corrected socket could not be donned and stood on ({})", k,
-                              why);
-      break;
     }
     std::vector<double> delivered(n);
     for (size_t i = 0; i < n; ++i) delivered[i] = d.contacts[i].pressure_pa;
@@ -177,53 +189,91 @@ ClosedLoopResult close_design_loop(DesignSetup& setup, const DesignResult& resul
     it.stood_offset_m = d.final_offset_m;
     it.factorizations = d.series.empty() ? 0 : static_cast<int>(d.series.back().factorizations);
     it.donning_seconds = d.seconds;
-    log::info("closed loop: donning {} — below the brim MAE {:.2f} kPa, 99th percentile {:.2f} kPa, R {:.3f}, mean {:.2f} "
-              "vs {:.2f} kPa designed; wall moved up to {:.2f} mm; {:.1f} s",
-              k + 1, it.below_brim.mae / 1e3, it.below_brim.p99 / 1e3, it.below_brim.r, it.below_brim.mean_a / 1e3,
-              it.below_brim.mean_b / 1e3, it.max_offset_m * 1e3, d.seconds);
+    it.socket_seconds = socket_seconds;
+    log::info("closed loop: {} {} — below the brim MAE {:.2f} kPa, 99th percentile {:.2f} kPa, R {:.3f}, mean {:.2f} vs "
+              "{:.2f} kPa designed; wall moved up to {:.2f} mm; {:.1f} s",
+              refitted ? "refit" : "donning", refitted ? refits : full_donnings,
+              it.below_brim.mae / 1e3,
+              it.below_brim.p99 / 1e3, it.below_brim.r, it.below_brim.mean_a / 1e3, it.below_brim.mean_b / 1e3,
+              it.max_offset_m * 1e3, d.seconds);
     r.delivered_by_iteration.push_back(delivered);
     r.offset_by_iteration.push_back(offset);
-    if (k == 0) r.open_loop_pa = delivered;
+    if (r.iterations.empty()) r.open_loop_pa = delivered;
     r.iterations.push_back(it);
-    const double score =
-        std::max(it.below_brim.mae / options.mae_tolerance_pa, it.below_brim.p99 / options.p99_tolerance_pa);
-    if (score < best_score) {
-      best_score = score;
-      r.best = k;
-      r.closed_loop_pa = delivered;
-      r.wall_offset_m = offset;
-      r.socket = socket;
-      r.donning = d;
+    const bool within = it.below_brim.mae <= options.mae_tolerance_pa && it.below_brim.p99 <= options.p99_tolerance_pa;
+    if (!refitted) {
+      const double score =
+          std::max(it.below_brim.mae / options.mae_tolerance_pa, it.below_brim.p99 / options.p99_tolerance_pa);
+      if (score < best_score) {
+        best_score = score;
+        r.best = static_cast<int>(r.iterations.size()) - 1;
+        r.closed_loop_pa = delivered;
+        r.wall_offset_m = offset;
+        r.socket = socket;
+        r.donning = d;
+      }
+      if (within) {
+        r.converged = true;
+        r.message = fmt::format("converged after {} donnings and {} refits: below the brim MAE {:.2f} kPa, 99th "
+                                "percentile {:.2f} kPa",
+                                full_donnings, r.iterations.size() - full_donnings, it.below_brim.mae / 1e3,
+                                it.below_brim.p99 / 1e3);
+        break;
+      }
     }
-    if (it.below_brim.mae <= options.mae_tolerance_pa && it.below_brim.p99 <= options.p99_tolerance_pa) {
-      r.converged = true;
-      r.message = fmt::format("converged after {} donnings: below the brim MAE {:.2f} kPa, 99th percentile {:.2f} kPa",
-                              k + 1, it.below_brim.mae / 1e3, it.below_brim.p99 / 1e3);
-      break;
+    // A refit within the tolerances, or the last refit of a round: check it by a full donning.
+    if (refitted && (within || refits >= options.refits_per_donning)) {
+      if (full_donnings >= options.max_donnings) break;
+      d = don_from_scratch();
+      refitted = false;
+      continue;
     }
-    if (k + 1 == options.max_donnings) break;
-    // The correction: move the wall by the skin's normal displacement under the excess pressure.
+    if (!refitted && full_donnings >= options.max_donnings) break;
+    // The correction: move the wall by the skin's normal displacement under the excess pressure,
+    // where each node touches the wall now.
     std::vector<double> excess(n, 0.0);
     for (int i : compared) excess[i] = delivered[i] - r.target_pa[i];
     excess = smooth_on_skin(skin, r.below_brim, std::move(excess), options.smoothing_passes);
     const std::vector<double> un = solver.normal_displacement(excess, state);
-    std::vector<double> c(n);
+    std::vector<double> corr(n);
     std::vector<Vec3> wall(n), donned(n);
     const Vec3 stood = d.final_offset_m * setup.model.frame.axis.normalized();
     for (size_t i = 0; i < n; ++i) {
-      c[i] = -options.relaxation * un[i];
+      corr[i] = -options.relaxation * un[i];
       wall[i] = state.skin_positions[i] + offset[i] * state.skin_normals[i];
       donned[i] = d.positions.segment<3>(3 * skin.nodes[i]) - stood;
     }
-    const std::vector<double> cw = corrections_on_wall(wall, donned, c, compared, 0.5 * spacing);
-    for (size_t i = 0; i < n; ++i) offset[i] = std::clamp(offset[i] + cw[i], -options.max_offset_m, options.max_offset_m);
+    const std::vector<double> on_wall = corrections_on_wall(wall, donned, corr, compared, 0.5 * spacing);
+    for (size_t i = 0; i < n; ++i)
+      offset[i] = std::clamp(offset[i] + on_wall[i], -options.max_offset_m, options.max_offset_m);
+    // The corrected wall: the designed skin moved by δ along its normals.
+    const auto ts = Clock::now();
+    geometry::TriMesh inner = result.deformed_skin;
+    for (size_t i = 0; i < n; ++i) inner.vertices[i] += offset[i] * state.skin_normals[i];
+    try {
+      socket = design::build_socket(inner, setup.model.frame, setup.brim, sopt);
+    } catch (const Error& e) {
+      r.message = fmt::format("stopped after {} donnings: the corrected socket could not be built ({})", full_donnings,
+                              e.what());
+      break;
+    }
+    socket_seconds = since(ts);
+    if (options.refits_per_donning > 0) {
+      ++refits;
+      d = sim->refit(socket.solid);
+      refitted = true;
+    } else {
+      d = don_from_scratch();
+      refitted = false;
+    }
   }
+  for (int k = 0; k <= r.best; ++k) r.kept_donning += r.iterations[k].refit ? 0 : 1;
   if (r.message.empty()) {
     const auto& b = r.iterations[r.best].below_brim;
     r.message = fmt::format("{} donnings without meeting the tolerances ({:.2f} / {:.2f} kPa); kept donning {}: MAE "
                             "{:.2f} kPa, 99th percentile {:.2f} kPa",
-                            r.iterations.size(), options.mae_tolerance_pa / 1e3, options.p99_tolerance_pa / 1e3,
-                            r.best + 1, b.mae / 1e3, b.p99 / 1e3);
+                            full_donnings, options.mae_tolerance_pa / 1e3, options.p99_tolerance_pa / 1e3, r.kept_donning,
+                            b.mae / 1e3, b.p99 / 1e3);
   }
   r.seconds = since(t0);
   report_progress(options.progress, 1.0, "closed loop: done");
@@ -355,14 +405,15 @@ nlohmann::json write_closed_loop_outputs(const DesignSetup& setup, const DesignR
   nlohmann::json iterations = nlohmann::json::array();
   for (size_t k = 0; k < loop.iterations.size(); ++k) {
     const auto& it = loop.iterations[k];
-    iterations.push_back({{"below_brim", stats_json(it.below_brim)},
+    iterations.push_back({{"refit", it.refit},
+                          {"below_brim", stats_json(it.below_brim)},
                           {"max_wall_offset_mm", it.max_offset_m * 1e3},
                           {"mean_wall_offset_mm", it.mean_offset_m * 1e3},
                           {"stood_at_mm", it.stood_offset_m * 1e3},
                           {"factorizations", it.factorizations},
                           {"donning_seconds", it.donning_seconds},
                           {"socket_seconds", it.socket_seconds}});
-    delivery.details.push_back({fmt::format("donning {}", k + 1),
+    delivery.details.push_back({fmt::format("{} {}", it.refit ? "refit" : "donning", k + 1),
                                 fmt::format("MAE {:.2f} kPa, 99th percentile {:.2f} kPa, R {:.3f}; wall moved up to "
                                             "{:.2f} mm; stood {:+.2f} mm from the designed pose; {:.1f} s{}",
                                             it.below_brim.mae / 1e3, it.below_brim.p99 / 1e3, it.below_brim.r,
@@ -436,8 +487,9 @@ nlohmann::json write_closed_loop_outputs(const DesignSetup& setup, const DesignR
   }
   return {{"converged", loop.converged},
           {"message", loop.message},
-          {"donnings", loop.iterations.size()},
-          {"kept_donning", loop.best + 1},
+          {"donnings", std::count_if(loop.iterations.begin(), loop.iterations.end(), [](const auto& it) { return !it.refit; })},
+          {"refits", std::count_if(loop.iterations.begin(), loop.iterations.end(), [](const auto& it) { return it.refit; })},
+          {"kept_donning", loop.kept_donning},
           {"seconds", loop.seconds},
           {"friction", setup.case_file.patient.friction},
           {"stand_force_n", 0.5 * setup.case_file.patient.body_mass_kg * units::kGravity},

@@ -45,9 +45,17 @@ struct DesignResult;
 
 /// Settings of the closed loop.
 struct ClosedLoopOptions {
-  /// Donning-and-standing simulations at most, the open-loop socket's included, in [1, 20]. 1
-  /// measures the open-loop socket only (no correction).
-  int max_donnings = 4;
+  /// Donnings from scratch at most, the open-loop socket's included, in [1, 20]. 1 measures the
+  /// open-loop socket only (no correction).
+  int max_donnings = 3;
+  /// Corrections between two donnings from scratch, each tried by a refit (the worn socket's wall
+  /// replaced, contact and standing solved again from the worn state, friction history kept:
+  /// contact::DonningSimulation::refit), in [0, 20]. A refit within the tolerances, or the last of
+  /// a round, is checked by a donning from scratch. (Correcting a refit's pressures by how the last
+  /// full donning differed from the refit of the same socket made the demo overshoot: the
+  /// difference is not stable from one socket to the next.) 0: every correction is donned from
+  /// scratch.
+  int refits_per_donning = 3;
   double relaxation = 1.0;        ///< ω, the share of the computed correction applied, in (0, 1.5]
   /// Stop once the MAE below the brim is at most this [Pa], > 0, and the 99th percentile at most
   /// p99_tolerance_pa.
@@ -71,12 +79,13 @@ struct ClosedLoopOptions {
 
 /// One donning of the loop.
 struct ClosedLoopIteration {
+  bool refit = false;              ///< a refit of the worn socket, else a donning from scratch
   report::ErrorStats below_brim;   ///< delivered (a) vs target (b), skin nodes below the brim [Pa]
   double max_offset_m = 0.0;       ///< max |δ| of the socket donned [m]
   double mean_offset_m = 0.0;      ///< mean δ below the brim [m] (> 0: the wall moved outwards)
   double stood_offset_m = 0.0;     ///< where the socket stood, relative to its designed pose along the axis [m]
   int factorizations = 0;
-  double donning_seconds = 0.0;
+  double donning_seconds = 0.0;    ///< the donning or the refit
   double socket_seconds = 0.0;     ///< building the socket solid
 };
 
@@ -84,10 +93,11 @@ struct ClosedLoopIteration {
 struct ClosedLoopResult {
   bool converged = false;          ///< the tolerances were met
   std::string message;             ///< how it ended, one line
-  std::vector<ClosedLoopIteration> iterations;  ///< [0] is the open-loop socket
-  /// The iteration whose socket is kept: the one closest to the tolerances, the smallest
-  /// max(MAE / mae_tolerance, p99 / p99_tolerance) below the brim.
+  std::vector<ClosedLoopIteration> iterations;  ///< donnings and refits in order; [0] is the open-loop socket
+  /// The iteration whose socket is kept: of those donned from scratch, the one closest to the
+  /// tolerances, the smallest max(MAE / mae_tolerance, p99 / p99_tolerance) below the brim.
   int best = 0;
+  int kept_donning = 0;            ///< which donning from scratch that is (1: the open-loop socket's)
   std::vector<double> target_pa;   ///< designed pressure per skin node (0 above the brim) [Pa]
   std::vector<double> open_loop_pa;    ///< delivered by the open-loop socket [Pa]
   std::vector<double> closed_loop_pa;  ///< delivered by the kept socket [Pa]
