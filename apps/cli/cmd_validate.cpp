@@ -155,6 +155,7 @@ struct DesignFlags {
 
 void run_validate_design(const DesignFlags& f) {
   require(!f.against_donning || f.mode == "donning", "validate design: --against-donning needs --mode donning");
+  require(!f.stand || f.mode == "donning", "validate design: --stand needs --mode donning (the socket is donned, then stood on)");
   require(!f.nonlinear_body || f.against_donning,
           "validate design: --nonlinear-body sets socketsmith's donning body: use it with validate donning");
   const fs::path out(f.out);
@@ -180,26 +181,39 @@ void run_validate_design(const DesignFlags& f) {
 
   fe::DesignedStump d = fe::designed_stump(art);
   double stand_force_n = 0, donning_force_n = 0;
-  if (f.against_donning) {
-    // The thesis's ch. 3 check: CalculiX's donning against socketsmith's own donning simulation of
-    // the same socket on the same stump, same travel and friction (not against the design).
-    contact::DonningOptions dopt;
-    dopt.start_offset_m = f.travel_mm * 1e-3;
-    dopt.friction = f.friction >= 0 ? f.friction : c.patient.friction;
-    dopt.stand_force_n = f.stand ? 0.5 * c.patient.body_mass_kg * units::kGravity : 0.0;
-    dopt.progress = progress;
-    dopt.contact.linear_body = !f.nonlinear_body;
-    log::info("validate design: socketsmith's donning ({:.0f} mm, μ = {:.2f}, {} body)", f.travel_mm, dopt.friction,
-              f.nonlinear_body ? "nonlinear" : "linearised");
-    const auto dr = fe::don_designed_socket(art, dopt);
-    if (f.stand && dr.series.size() >= 2) {
-      // The FE's load step starts from the donning force at the designed pose (socketsmith's estimate).
-      stand_force_n = dopt.stand_force_n;
-      donning_force_n = std::max(0.0, dr.series[dr.series.size() - 2].axial_force_n);
+  // socketsmith's own donning of the socket written (the closed loop's kept donning when the design
+  // ran one, else a donning here): what CalculiX's donning is compared with (--against-donning), or
+  // beside the design (--stand: the delivered pressures three ways). Its force at the designed pose
+  // starts CalculiX's load step, so the reaction does not drop when the displacement is released.
+  std::optional<contact::DonningResult> ours;
+  bool ours_from_loop = false;
+  if (f.against_donning || f.stand) {
+    const double mu = f.friction >= 0 ? f.friction : c.patient.friction;
+    const auto& loop = art.result.closed_loop;
+    if (loop && !f.nonlinear_body && f.stand && std::abs(mu - c.patient.friction) < 1e-12) {
+      ours = loop->donning;
+      ours_from_loop = true;
+      log::info("validate design: socketsmith's donning and standing of the socket: the closed loop's (donning {})",
+                loop->kept_donning);
+    } else {
+      contact::DonningOptions dopt;
+      dopt.start_offset_m = f.travel_mm * 1e-3;
+      dopt.friction = mu;
+      dopt.stand_force_n = f.stand ? 0.5 * c.patient.body_mass_kg * units::kGravity : 0.0;
+      dopt.progress = progress;
+      dopt.contact.linear_body = !f.nonlinear_body;
+      log::info("validate design: socketsmith's donning ({:.0f} mm, μ = {:.2f}, {} body)", f.travel_mm, dopt.friction,
+                f.nonlinear_body ? "nonlinear" : "linearised");
+      ours = fe::don_designed_socket(art, dopt);
+      log::info("validate design: socketsmith donning done in {:.1f} s, {} nodes in contact", ours->seconds,
+                ours->series.empty() ? 0 : ours->series.back().contact_nodes);
     }
-    fe::use_donning_pressures(dr, d);
-    log::info("validate design: socketsmith donning done in {:.1f} s, {} nodes in contact", dr.seconds,
-              dr.series.empty() ? 0 : dr.series.back().contact_nodes);
+    if (f.stand && ours->series.size() >= 2) {
+      // The FE's load step starts from the donning force at the designed pose (socketsmith's estimate).
+      stand_force_n = 0.5 * c.patient.body_mass_kg * units::kGravity;
+      donning_force_n = std::max(0.0, ours->series[ours->series.size() - 2].axial_force_n);
+    }
+    if (f.against_donning) fe::use_donning_pressures(*ours, d);
   }
 
   fe::DesignCheckOptions o;
@@ -395,6 +409,28 @@ void run_validate_design(const DesignFlags& f) {
                      "profile_back.png", "profile_mid.png", "scatter.svg", "scatter.png", "stump_fe.vtu", "comparison_map.png",
                      "summary.json", "design/"}},
                    {"out", out.string()}};
+  if (ours && !f.against_donning) {
+    // Delivered three ways on the socket nodes: CalculiX and socketsmith against the design, and
+    // against each other.
+    std::vector<int> socket_nodes;
+    std::vector<double> delivered(skin.nodes.size());
+    for (size_t i = 0; i < skin.nodes.size(); ++i) {
+      delivered[i] = ours->contacts[i].pressure_pa;
+      if (r.brim_ring[i] >= 1) socket_nodes.push_back(static_cast<int>(i));
+    }
+    j["socketsmith_delivered_vs_design"] = report::to_json(report::compare_fields(delivered, r.socketsmith_value, socket_nodes), scale, suffix);
+    j["calculix_vs_socketsmith_delivered"] = report::to_json(report::compare_fields(r.fe_value, delivered, socket_nodes), scale, suffix);
+    j["socketsmith_delivered_from"] = ours_from_loop ? "the closed loop's kept donning" : "a donning in this run";
+    if (!f.json) {
+      const auto& a = j["socketsmith_delivered_vs_design"];
+      const auto& b = j["calculix_vs_socketsmith_delivered"];
+      log::info("validate design: socketsmith delivered vs design: MAE {:.2f} {}, p99 {:.2f}, R {:.3f}; CalculiX vs "
+                "socketsmith delivered: MAE {:.2f}, p99 {:.2f}, R {:.3f}",
+                a["mae" + suffix].get<double>(), unit, a["p99" + suffix].get<double>(),
+                a["r"].is_null() ? 0.0 : a["r"].get<double>(), b["mae" + suffix].get<double>(),
+                b["p99" + suffix].get<double>(), b["r"].is_null() ? 0.0 : b["r"].get<double>());
+    }
+  }
   write_text_atomically(out / "summary.json", j.dump(2) + "\n");
   if (f.json) print_json(j);
   else {
@@ -493,6 +529,10 @@ void register_validate(CLI::App& app) {
       ->check(CLI::IsMember({"contact", "load", "donning"}));
   des->add_option("--clearance-mm", df->clearance_mm, "where the socket fit starts outside the skin [mm] (default 1)")
       ->check(CLI::PositiveNumber);
+  des->add_flag("--stand", df->stand,
+                "with --mode donning: then push the socket with half the body weight (the thesis's second step) in "
+                "CalculiX, and compare socketsmith's own donned-and-stood pressures too (the closed loop's when the "
+                "case runs one)");
   des->add_flag("--against-donning", df->against_donning,
                 "with --mode donning: compare CalculiX's donning with socketsmith's own donning simulation "
                 "(contact solver, same travel and μ) instead of with the designed pressures (thesis ch. 3)");

@@ -24,6 +24,7 @@ DonningSample sample(const ContactStep& st, const std::vector<NodeContact>& cont
   s.friction_passes = st.friction_passes;
   s.seconds = st.seconds;
   double sum = 0;
+  for (const auto& c : contacts) s.axial_friction_n += c.tangential_n.dot(axis);
   for (const auto& c : contacts) {
     if (!c.active) continue;
     s.max_pressure_pa = std::max(s.max_pressure_pa, c.pressure_pa);

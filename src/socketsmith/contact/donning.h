@@ -75,6 +75,9 @@ struct DonningSample {
   double offset_m = 0.0;          ///< socket position along the axis relative to the designed pose (< 0: below)
   double axial_force_n = 0.0;     ///< force of the stump on the socket along −axis (what holds the socket)
   double lateral_force_n = 0.0;   ///< its component across the axis
+  /// The part of axial_force_n that friction carries (Σ of the friction forces on the nodes along
+  /// the axis) [N]; the rest is the normal pressures'. The design assumes μ Σ p A cos θ (eq. 42).
+  double axial_friction_n = 0.0;
   int contact_nodes = 0;
   int sliding_nodes = 0;
   double max_pressure_pa = 0.0;

@@ -27,6 +27,11 @@ DesignedStump designed_stump(const pipeline::DesignArtifacts& artifacts) {
   for (const auto& l : setup.model.landmarks)
     if (l.code == "PT") d.front_theta_rad = l.cylindrical.theta;
   d.stump_length_m = setup.model.length_m;
+  if (const auto& loop = artifacts.result.closed_loop) {
+    // The closed loop's socket: the designed skin moved by its wall corrections.
+    for (size_t i = 0; i < state.skin_positions.size(); ++i)
+      d.wall_positions.push_back(state.skin_positions[i] + loop->wall_offset_m[i] * state.skin_normals[i]);
+  }
   return d;
 }
 

@@ -9,7 +9,8 @@
 namespace socketsmith::fe {
 
 /// The stump, its fixed (bone and cut) nodes, frame, designed positions, pressures, deformed
-/// normals and areas, brim flags, front-line angle (PT landmark) and length of a design run.
+/// normals and areas, brim flags, front-line angle (PT landmark) and length of a design run, and
+/// the socket's wall when the closed loop corrected it.
 /// The result refers to @p artifacts' mesh and skin: keep them alive.
 /// @throws InvalidInputError when the artifacts hold no setup.
 DesignedStump designed_stump(const pipeline::DesignArtifacts& artifacts);

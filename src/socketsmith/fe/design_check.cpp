@@ -167,8 +167,10 @@ DesignCheckResult check_design(const DesignedStump& d, const DesignCheckOptions&
       // The designed socket, rigid, moved distally; pushed back up by the reference node.
       std::vector<Vec3> inner(ns), normal(ns);
       const Vec3 down = -o.donning_travel_m * d.frame.axis.normalized();
+      require(d.wall_positions.empty() || static_cast<int>(d.wall_positions.size()) == ns,
+              "check_design: {} wall positions for {} skin nodes", d.wall_positions.size(), ns);
       for (int i = 0; i < ns; ++i) {
-        inner[i] = d.designed_positions[skin.nodes[i]] + down;
+        inner[i] = (d.wall_positions.empty() ? d.designed_positions[skin.nodes[i]] : d.wall_positions[i]) + down;
         normal[i] = d.skin_normals[i].normalized();
       }
       shell = extrude_shell(inner, normal, socket_quads, o.socket_thickness_m);

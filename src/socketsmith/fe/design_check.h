@@ -42,6 +42,10 @@ struct DesignedStump {
   std::vector<Vec3> skin_normals;              ///< deformed outward normals per skin node
   std::vector<double> skin_areas_m2;           ///< deformed nodal areas per skin node [m²]
   std::vector<char> above_brim;                ///< per skin node: above the brim (no socket)
+  /// The socket's inner wall at each skin node [m] when it is not the designed skin (the closed
+  /// loop moved it by δ along the designed normals); empty: the designed skin is the wall. The
+  /// donning check's rigid socket is built on it.
+  std::vector<Vec3> wall_positions;
   double front_theta_rad = 0;                  ///< angle of the front line (through PT)
   double stump_length_m = 0;                   ///< for the mid-stump circumference
 };

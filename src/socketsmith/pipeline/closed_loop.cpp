@@ -30,6 +30,8 @@ void check_options(const ClosedLoopOptions& o) {
   require(o.refits_per_donning >= 0 && o.refits_per_donning <= 20,
           "closed loop: {} refits per donning (expected 0-20; 0 dons every corrected socket from scratch)",
           o.refits_per_donning);
+  require(o.anderson_depth >= 0 && o.anderson_depth <= 10, "closed loop: Anderson depth {} (expected 0-10)",
+          o.anderson_depth);
   require(o.smoothing_passes >= 0 && o.smoothing_passes <= 50, "closed loop: {} smoothing passes (expected 0-50)",
           o.smoothing_passes);
   require(std::isfinite(o.max_offset_m) && o.max_offset_m > 0 && o.max_offset_m <= 0.02,
@@ -99,6 +101,50 @@ std::vector<double> corrections_on_wall(const std::vector<Vec3>& wall, const std
   return out;
 }
 
+/// Anderson acceleration of the fixed point δ ← δ + c(δ) (type II, Walker & Ni 2011): from the last
+/// few iterates and their corrections it finds the combination whose correction is smallest, so a
+/// correction whose scale is wrong in some mode (confined, nearly incompressible tissue at the
+/// distal end answers 2–3× stiffer than the compliance says; the plain iteration then oscillated
+/// there) is rescaled from what the iterations measured.
+class AndersonMixing {
+ public:
+  explicit AndersonMixing(int depth) : depth_(depth) {}
+  void clear() {
+    x_.clear();
+    f_.clear();
+  }
+  /// The next iterate from @p x and its correction @p f (the plain step is x + f).
+  std::vector<double> next(const std::vector<double>& x, const std::vector<double>& f) {
+    const size_t n = x.size();
+    x_.push_back(x);
+    f_.push_back(f);
+    if (static_cast<int>(x_.size()) > depth_ + 1) {
+      x_.erase(x_.begin());
+      f_.erase(f_.begin());
+    }
+    std::vector<double> out(n);
+    for (size_t i = 0; i < n; ++i) out[i] = x[i] + f[i];
+    const int m = static_cast<int>(x_.size()) - 1;
+    if (m < 1) return out;
+    Eigen::MatrixXd dF(n, m), dX(n, m);
+    Eigen::VectorXd fk = Eigen::Map<const Eigen::VectorXd>(f.data(), static_cast<Eigen::Index>(n));
+    for (int j = 0; j < m; ++j)
+      for (size_t i = 0; i < n; ++i) {
+        dF(static_cast<Eigen::Index>(i), j) = f[i] - f_[j][i];
+        dX(static_cast<Eigen::Index>(i), j) = x[i] - x_[j][i];
+      }
+    const Eigen::VectorXd theta = dF.colPivHouseholderQr().solve(fk);
+    if (!theta.allFinite()) return out;
+    const Eigen::VectorXd step = (dX + dF) * theta;
+    for (size_t i = 0; i < n; ++i) out[i] -= step[static_cast<Eigen::Index>(i)];
+    return out;
+  }
+
+ private:
+  int depth_;
+  std::vector<std::vector<double>> x_, f_;
+};
+
 }  // namespace
 
 ClosedLoopResult close_design_loop(DesignSetup& setup, const DesignResult& result, const ClosedLoopOptions& options) {
@@ -138,6 +184,7 @@ ClosedLoopResult close_design_loop(DesignSetup& setup, const DesignResult& resul
 
   std::vector<double> offset(n, 0.0);  // δ of the socket worn now
   double socket_seconds = 0;
+  AndersonMixing history(options.anderson_depth);
   design::SocketResult socket = *result.socket;
   std::unique_ptr<contact::DonningSimulation> sim;
   int full_donnings = 0, refits = 0;
@@ -187,15 +234,16 @@ ClosedLoopResult close_design_loop(DesignSetup& setup, const DesignResult& resul
     for (size_t i = 0; i < n; ++i) delivered[i] = d.contacts[i].pressure_pa;
     it.below_brim = report::compare_fields(delivered, r.target_pa, compared);
     it.stood_offset_m = d.final_offset_m;
+    it.axial_friction_n = d.series.empty() ? 0.0 : d.series.back().axial_friction_n;
     it.factorizations = d.series.empty() ? 0 : static_cast<int>(d.series.back().factorizations);
     it.donning_seconds = d.seconds;
     it.socket_seconds = socket_seconds;
     log::info("closed loop: {} {} — below the brim MAE {:.2f} kPa, 99th percentile {:.2f} kPa, R {:.3f}, mean {:.2f} vs "
-              "{:.2f} kPa designed; wall moved up to {:.2f} mm; {:.1f} s",
+              "{:.2f} kPa designed; friction carries {:.0f} N ({:.0f} N designed); wall moved up to {:.2f} mm; {:.1f} s",
               refitted ? "refit" : "donning", refitted ? refits : full_donnings,
               it.below_brim.mae / 1e3,
               it.below_brim.p99 / 1e3, it.below_brim.r, it.below_brim.mean_a / 1e3, it.below_brim.mean_b / 1e3,
-              it.max_offset_m * 1e3, d.seconds);
+              it.axial_friction_n, state.radar.stability_n, it.max_offset_m * 1e3, d.seconds);
     r.delivered_by_iteration.push_back(delivered);
     r.offset_by_iteration.push_back(offset);
     if (r.iterations.empty()) r.open_loop_pa = delivered;
@@ -244,8 +292,9 @@ ClosedLoopResult close_design_loop(DesignSetup& setup, const DesignResult& resul
       donned[i] = d.positions.segment<3>(3 * skin.nodes[i]) - stood;
     }
     const std::vector<double> on_wall = corrections_on_wall(wall, donned, corr, compared, 0.5 * spacing);
-    for (size_t i = 0; i < n; ++i)
-      offset[i] = std::clamp(offset[i] + on_wall[i], -options.max_offset_m, options.max_offset_m);
+    if (!refitted) history.clear();  // a donning from scratch: the refits' map starts again
+    offset = history.next(offset, on_wall);
+    for (auto& v : offset) v = std::clamp(v, -options.max_offset_m, options.max_offset_m);
     // The corrected wall: the designed skin moved by δ along its normals.
     const auto ts = Clock::now();
     geometry::TriMesh inner = result.deformed_skin;
@@ -410,6 +459,7 @@ nlohmann::json write_closed_loop_outputs(const DesignSetup& setup, const DesignR
                           {"max_wall_offset_mm", it.max_offset_m * 1e3},
                           {"mean_wall_offset_mm", it.mean_offset_m * 1e3},
                           {"stood_at_mm", it.stood_offset_m * 1e3},
+                          {"axial_friction_n", it.axial_friction_n},
                           {"factorizations", it.factorizations},
                           {"donning_seconds", it.donning_seconds},
                           {"socket_seconds", it.socket_seconds}});
@@ -493,6 +543,7 @@ nlohmann::json write_closed_loop_outputs(const DesignSetup& setup, const DesignR
           {"seconds", loop.seconds},
           {"friction", setup.case_file.patient.friction},
           {"stand_force_n", 0.5 * setup.case_file.patient.body_mass_kg * units::kGravity},
+          {"designed_friction_n", result.state.radar.stability_n},
           {"iterations", iterations},
           {"regions", regions},
           {"landmarks", landmarks},

@@ -57,6 +57,9 @@ struct ClosedLoopOptions {
   /// scratch.
   int refits_per_donning = 3;
   double relaxation = 1.0;        ///< ω, the share of the computed correction applied, in (0, 1.5]
+  /// Past iterates that Anderson acceleration combines (since the last donning from scratch), in
+  /// [0, 10]; 0: the plain iteration δ ← δ + correction.
+  int anderson_depth = 3;
   /// Stop once the MAE below the brim is at most this [Pa], > 0, and the 99th percentile at most
   /// p99_tolerance_pa.
   double mae_tolerance_pa = 300.0;
@@ -84,6 +87,7 @@ struct ClosedLoopIteration {
   double max_offset_m = 0.0;       ///< max |δ| of the socket donned [m]
   double mean_offset_m = 0.0;      ///< mean δ below the brim [m] (> 0: the wall moved outwards)
   double stood_offset_m = 0.0;     ///< where the socket stood, relative to its designed pose along the axis [m]
+  double axial_friction_n = 0.0;   ///< the share of the standing load friction carried [N] (the design assumed μ Σ p A cos θ)
   int factorizations = 0;
   double donning_seconds = 0.0;    ///< the donning or the refit
   double socket_seconds = 0.0;     ///< building the socket solid
