@@ -45,10 +45,12 @@ void print_summary(const nlohmann::json& j) {
 int finish(const nlohmann::json& j, bool json) {
   if (json) print_json(j);
   else print_summary(j);
-  if (!j["constraints_met"].get<bool>())
+  if (!j["constraints_met"].get<bool>()) {
+    const std::string why = j["optimiser_message"].get<std::string>();  // empty without the optimiser
     fail("design: the constraints are not all met ({}): {}; no socket was written — see {}",
-         j["failing"].get<std::string>(), j["optimiser_message"].get<std::string>(),
+         j["failing"].get<std::string>(), why.empty() ? j["solver_message"].get<std::string>() : why,
          (std::filesystem::path(j["out"].get<std::string>()) / "report.html").string());
+  }
   return 0;
 }
 

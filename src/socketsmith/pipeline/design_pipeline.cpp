@@ -487,6 +487,8 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
       {"iterations", opt.rounds},
       {"amplitude_fits", opt.evaluations},
       {"optimiser_message", opt.message},
+      {"solver_message", state.message},
+      {"follower_converged", !state.follower_capped},
       {"optimiser_seconds", opt.seconds},
       {"model_caps", opt.model_caps},
       {"linearised", state.linearised || c.solve_mode == design::DesignSolveMode::Linear},
