@@ -34,11 +34,12 @@ void print_summary(const nlohmann::json& j) {
             j["max_pressure_kpa"].get<double>(), 100 * j["max_pressure_ratio"].get<double>(),
             j["max_displacement_mm"].get<double>());
   if (j.contains("socket"))
-    log::info("design: socket {} ({} triangles, wall {:.2f}–{:.2f} mm, cavity {:.0f} cm^3, {:.1f} % below the limb)",
+    log::info("design: socket {} ({} triangles, wall min / median / max {:.2f} / {:.2f} / {:.2f} mm, cavity {:.0f} "
+              "cm^3, {:.1f} % below the limb)",
               (std::filesystem::path(j["out"].get<std::string>()) / "socket.stl").string(),
               j["socket"]["triangles"].get<int>(), j["socket"]["min_thickness_mm"].get<double>(),
-              j["socket"]["max_thickness_mm"].get<double>(), j["socket"]["cavity_volume_cm3"].get<double>(),
-              j["socket"]["volume_reduction_percent"].get<double>());
+              j["socket"]["median_thickness_mm"].get<double>(), j["socket"]["max_thickness_mm"].get<double>(),
+              j["socket"]["cavity_volume_cm3"].get<double>(), j["socket"]["volume_reduction_percent"].get<double>());
   log::info("design: report {}", (std::filesystem::path(j["out"].get<std::string>()) / "report.html").string());
 }
 
