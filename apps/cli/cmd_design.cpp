@@ -35,11 +35,12 @@ void print_summary(const nlohmann::json& j) {
             j["max_pressure_kpa"].get<double>(), 100 * j["max_pressure_ratio"].get<double>(),
             j["max_displacement_mm"].get<double>());
   if (j.contains("socket"))
-    log::info("design: socket {} ({} triangles, wall {:.2f}–{:.2f} mm, cavity {:.0f} cm^3, {:.1f} % below the limb)",
+    log::info("design: socket {} ({} triangles, wall min / median / max {:.2f} / {:.2f} / {:.2f} mm, cavity {:.0f} "
+              "cm^3, {:.1f} % below the limb)",
               (std::filesystem::path(j["out"].get<std::string>()) / "socket.stl").string(),
               j["socket"]["triangles"].get<int>(), j["socket"]["min_thickness_mm"].get<double>(),
-              j["socket"]["max_thickness_mm"].get<double>(), j["socket"]["cavity_volume_cm3"].get<double>(),
-              j["socket"]["volume_reduction_percent"].get<double>());
+              j["socket"]["median_thickness_mm"].get<double>(), j["socket"]["max_thickness_mm"].get<double>(),
+              j["socket"]["cavity_volume_cm3"].get<double>(), j["socket"]["volume_reduction_percent"].get<double>());
   if (j.contains("closed_loop")) {
     const auto& cl = j["closed_loop"];
     const auto& o = cl["regions"]["below_brim"]["open_loop"];
@@ -56,10 +57,12 @@ void print_summary(const nlohmann::json& j) {
 int finish(const nlohmann::json& j, bool json) {
   if (json) print_json(j);
   else print_summary(j);
-  if (!j["constraints_met"].get<bool>())
+  if (!j["constraints_met"].get<bool>()) {
+    const std::string why = j["optimiser_message"].get<std::string>();  // empty without the optimiser
     fail("design: the constraints are not all met ({}): {}; no socket was written — see {}",
-         j["failing"].get<std::string>(), j["optimiser_message"].get<std::string>(),
+         j["failing"].get<std::string>(), why.empty() ? j["solver_message"].get<std::string>() : why,
          (std::filesystem::path(j["out"].get<std::string>()) / "report.html").string());
+  }
   return 0;
 }
 

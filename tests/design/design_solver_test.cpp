@@ -584,6 +584,26 @@ TEST(DesignSolverStump, linear_follower_load_is_consistent_and_warm_started) {
   EXPECT_LT((third.positions - first.positions).lpNorm<Eigen::Infinity>(), 1e-9);
 }
 
+TEST(DesignSolverStump, relaxation_converges_the_follower_loop_past_its_plain_passes) {
+  const Stump& s = stump();
+  DesignSolverOptions o = mode_options(DesignSolveMode::Linear);
+  o.max_follower_passes = 1;  // relaxed from the second pass on
+  o.max_relaxed_passes = 40;
+  auto solver = make_solver(o);
+  solver->set_brim([&](double) { return s.pt_h + 15 * kMm; });
+  const auto st = solver->solve(layout());
+  EXPECT_FALSE(st.follower_capped) << st.message;
+  EXPECT_TRUE(st.status.follower_converged);
+  EXPECT_EQ(st.follower_relaxed_from, 1);
+  EXPECT_GT(st.follower_passes, 1);
+  EXPECT_LE(linear_follower_change(*solver, st), o.follower_tolerance * 1.001);
+  // The same shape as the plain iteration's, within what the tolerance allows.
+  auto plain = make_solver(mode_options(DesignSolveMode::Linear));
+  plain->set_brim([&](double) { return s.pt_h + 15 * kMm; });
+  const auto ref = plain->solve(layout());
+  EXPECT_LT((st.positions - ref.positions).lpNorm<Eigen::Infinity>(), 0.01 * ref.max_displacement_m);
+}
+
 TEST(DesignSolverStump, a_follower_loop_stopped_by_its_pass_cap_is_reported) {
   const Stump& s = stump();
   auto solver = make_solver(DesignSolveMode::Linear);

@@ -123,6 +123,76 @@ Spot spot_from_json(const json& j, const std::string& where) {
   return s;
 }
 
+namespace {
+/// socket.alignment and socket.attachment (issue 22): the distal platform and its four holes.
+void parse_socket_attachment(const json& j, SocketOptions& s) {
+  if (j.contains("alignment")) {
+    const auto& a = j.at("alignment");
+    check_keys(a, "socket.alignment", {"flexion_deg", "adduction_deg"});
+    s.alignment.flexion_rad = number(a, "flexion_deg", "socket.alignment", s.alignment.flexion_rad / kDeg) * kDeg;
+    s.alignment.adduction_rad =
+        number(a, "adduction_deg", "socket.alignment", s.alignment.adduction_rad / kDeg) * kDeg;
+    for (const auto& [name, v] : {std::pair{"flexion_deg", s.alignment.flexion_rad},
+                                  std::pair{"adduction_deg", s.alignment.adduction_rad}})
+      require(std::abs(v) <= 30 * kDeg,
+              "case file: socket.alignment.{} = {:.1f} is outside [−30, 30] degrees (bench alignment: about 5° flexion)",
+              name, v / kDeg);
+  }
+  if (!j.contains("attachment")) return;
+  const auto& a = j.at("attachment");
+  const std::string w = "socket.attachment";
+  check_keys(a, w, {"enabled", "bolt", "hole_diameter_mm", "hole_spacing_mm", "platform_diameter_mm",
+                    "platform_thickness_mm", "rotation_deg", "offset_mm"});
+  SocketAttachment& t = s.attachment;
+  t.enabled = flag(a, "enabled", w, true);
+  t.bolt = text(a, "bolt", w, t.bolt);
+  t.bolt_diameter_m = bolt_diameter_m(t.bolt);
+  t.hole_diameter_m = number(a, "hole_diameter_mm", w, clearance_hole_diameter_m(t.bolt) / units::mm) * units::mm;
+  t.hole_spacing_m = number(a, "hole_spacing_mm", w, t.hole_spacing_m / units::mm) * units::mm;
+  t.platform_diameter_m = number(a, "platform_diameter_mm", w, t.platform_diameter_m / units::mm) * units::mm;
+  t.platform_thickness_m = number(a, "platform_thickness_mm", w, t.platform_thickness_m / units::mm) * units::mm;
+  t.rotation_rad = number(a, "rotation_deg", w, t.rotation_rad / kDeg) * kDeg;
+  if (a.contains("offset_mm")) {
+    const auto& o = a.at("offset_mm");
+    require(o.is_array() && o.size() == 2 && o[0].is_number() && o[1].is_number(),
+            "case file: socket.attachment.offset_mm must be [anterior, medial] in mm (got {})", o.dump());
+    t.offset_anterior_m = o[0].get<double>() * units::mm;
+    t.offset_medial_m = o[1].get<double>() * units::mm;
+  }
+  for (const auto& [name, v] : {std::pair{"hole_diameter_mm", t.hole_diameter_m},
+                                std::pair{"hole_spacing_mm", t.hole_spacing_m},
+                                std::pair{"platform_diameter_mm", t.platform_diameter_m},
+                                std::pair{"platform_thickness_mm", t.platform_thickness_m}})
+    require(v > 0 && v <= 0.15, "case file: socket.attachment.{} = {:.1f} is out of range (0, 150] mm", name,
+            v / units::mm);
+  require(t.hole_diameter_m >= t.bolt_diameter_m,
+          "case file: socket.attachment.hole_diameter_mm = {:.1f} is narrower than the {} bolt; give a clearance hole "
+          "(ISO 273 medium: {:.1f} mm) or leave it out",
+          t.hole_diameter_m / units::mm, t.bolt, clearance_hole_diameter_m(t.bolt) / units::mm);
+  require(std::abs(t.offset_anterior_m) <= 0.02 && std::abs(t.offset_medial_m) <= 0.02,
+          "case file: socket.attachment.offset_mm = [{:.1f}, {:.1f}] is more than 20 mm off the axis; shift the "
+          "rest with the adapter",
+          t.offset_anterior_m / units::mm, t.offset_medial_m / units::mm);
+}
+
+json socket_attachment_json(const SocketOptions& s) {
+  json out{{"alignment", {{"flexion_deg", s.alignment.flexion_rad / kDeg}, {"adduction_deg", s.alignment.adduction_rad / kDeg}}}};
+  if (s.distal_thickness_m > 0) out["distal_thickness_mm"] = s.distal_thickness_m / units::mm;
+  if (s.brim_thickness_m > 0) out["brim_thickness_mm"] = s.brim_thickness_m / units::mm;
+  if (s.attachment.enabled) {
+    const auto& t = s.attachment;
+    out["attachment"] = {{"bolt", t.bolt},
+                         {"hole_diameter_mm", t.hole_diameter_m / units::mm},
+                         {"hole_spacing_mm", t.hole_spacing_m / units::mm},
+                         {"platform_diameter_mm", t.platform_diameter_m / units::mm},
+                         {"platform_thickness_mm", t.platform_thickness_m / units::mm},
+                         {"rotation_deg", t.rotation_rad / kDeg},
+                         {"offset_mm", {t.offset_anterior_m / units::mm, t.offset_medial_m / units::mm}}};
+  }
+  return out;
+}
+}  // namespace
+
 CaseFile parse_case(const json& doc, const std::filesystem::path& folder) {
   CaseFile c;
   c.folder = folder;
@@ -258,8 +328,17 @@ CaseFile parse_case(const json& doc, const std::filesystem::path& folder) {
   }
   if (doc.contains("socket")) {
     const auto& j = doc.at("socket");
-    check_keys(j, "socket", {"thickness_mm", "distal_pad", "distal_pad_diameter_mm", "round_brim", "subdivisions"});
+    check_keys(j, "socket", {"thickness_mm", "distal_pad", "distal_pad_diameter_mm", "round_brim", "subdivisions",
+                             "distal_thickness_mm", "brim_thickness_mm", "alignment", "attachment"});
     c.socket.thickness_m = number(j, "thickness_mm", "socket", c.socket.thickness_m * 1e3) * 1e-3;
+    c.socket.distal_thickness_m = number(j, "distal_thickness_mm", "socket", 0.0) * 1e-3;
+    c.socket.brim_thickness_m = number(j, "brim_thickness_mm", "socket", 0.0) * 1e-3;
+    for (const auto& [name, v] : {std::pair{"distal_thickness_mm", c.socket.distal_thickness_m},
+                                  std::pair{"brim_thickness_mm", c.socket.brim_thickness_m}})
+      require(v == 0.0 || (v >= 0.001 && v <= 0.05),
+              "case file: socket.{} = {} mm: a wall of 1–50 mm (leave it out for a uniform thickness_mm)", name,
+              v * 1e3);
+    parse_socket_attachment(j, c.socket);
     c.socket.distal_pad = flag(j, "distal_pad", "socket", c.socket.distal_pad);
     c.socket.distal_pad_diameter_m =
         number(j, "distal_pad_diameter_mm", "socket", c.socket.distal_pad_diameter_m * 1e3) * 1e-3;
@@ -343,6 +422,7 @@ json case_to_json(const CaseFile& c) {
              {"distal_pad_diameter_mm", c.socket.distal_pad_diameter_m * 1e3},
              {"round_brim", c.socket.round_brim},
              {"subdivisions", c.socket.subdivisions}}}};
+  doc["socket"].update(socket_attachment_json(c.socket));
   if (!lms.empty()) doc["landmarks"] = lms;
   if (c.poisson_ratio) doc["tissue"]["poisson"] = *c.poisson_ratio;
   return doc;

@@ -16,7 +16,7 @@ namespace socketsmith::design {
 
 bool ConstraintStatus::all_ok() const {
   return force_ok[0] && force_ok[1] && force_ok[2] && torque_ok[0] && torque_ok[1] && torque_ok[2] && stability_ok &&
-         comfort_ok;
+         comfort_ok && follower_converged;
 }
 
 std::string ConstraintStatus::failing() const {
@@ -34,6 +34,7 @@ std::string ConstraintStatus::failing() const {
   add(torque_ok[2], "T_z");
   add(stability_ok, "stability");
   add(comfort_ok, "comfort");
+  add(follower_converged, "follower iteration");
   return out;
 }
 
@@ -174,6 +175,10 @@ DesignSolver::DesignSolver(const volume::HexMesh& mesh, const tissue::TissueMate
                            std::vector<double> thresholds_pa, const PatientLoad& patient, double stump_length_m,
                            const DesignSolverOptions& options) {
   require(std::isfinite(stump_length_m) && stump_length_m > 0, "stump length {} m must be positive", stump_length_m);
+  require(options.max_follower_passes >= 1 && options.max_follower_passes <= 1000 && options.max_relaxed_passes >= 0 &&
+              options.max_relaxed_passes <= 1000 && options.follower_tolerance > 0,
+          "DesignSolver: follower passes {} + {} (relaxed) or tolerance {} out of range ([1, 1000], [0, 1000], > 0)",
+          options.max_follower_passes, options.max_relaxed_passes, options.follower_tolerance);
   impl_ = std::make_unique<Impl>(mesh, material, model_options, frame, std::move(thresholds_pa), patient,
                                  stump_length_m, options);
   require(impl_->thresholds.size() == impl_->skin.nodes.size(), "DesignSolver: {} thresholds for {} skin nodes",
@@ -192,6 +197,7 @@ const PatientLoad& DesignSolver::patient() const { return impl_->patient; }
 const RadarTargets& DesignSolver::targets() const { return impl_->targets; }
 const tissue::MassSpringModel& DesignSolver::model() const { return impl_->model; }
 double DesignSolver::stump_length_m() const { return impl_->length; }
+const DesignSolverOptions& DesignSolver::options() const { return impl_->options; }
 const std::vector<char>& DesignSolver::above_brim() const { return impl_->above; }
 void DesignSolver::reset() {
   impl_->x = impl_->model.rest_positions();
@@ -278,73 +284,107 @@ DesignState DesignSolver::solve(const std::vector<Spot>& spots) {
     st.linearised = true;
     st.nonlinear_failure = s.fallback_reason;
   }
+  // Follower iteration: x → forces f(x) on the geometry at x → y = G(f), the stump solved under
+  // them → forces g at y. Converged when g and f differ by at most follower_tolerance (relative,
+  // largest nodal change): y is then the equilibrium under its own forces. The first passes take
+  // x = y (plain fixed point); after max_follower_passes, or as soon as the change grows (the
+  // iteration oscillates), x moves only part of the way, x += ω (y − x), with Aitken's dynamic
+  // relaxation factor ω (Irons & Tuck 1969; Küttler & Wall 2008) — for at most
+  // max_relaxed_passes more solves. A state that did not converge is flagged, and never counts as
+  // meeting its constraints (ConstraintStatus::follower_converged).
   tissue::VectorXd x = s.x;  // warm start: the last equilibrium and its geometry
   std::vector<Vec3> pos, normal;
   std::vector<double> area;
-  skin_geometry(x, pos, normal, area);
-  tissue::VectorXd f_prev;
-  for (int pass = 0; pass < s.options.max_follower_passes + 1; ++pass) {
+  auto forces_at = [&](const tissue::VectorXd& at) {
+    skin_geometry(at, pos, normal, area);
     tissue::VectorXd f = tissue::VectorXd::Zero(s.model.num_dofs());
     for (size_t i = 0; i < n; ++i) f.segment<3>(3 * s.skin.nodes[i]) = -st.pressure_pa[i] * area[i] * normal[i];
-    double change = 0;
-    if (f_prev.size() == f.size()) {
-      double fmax = 0, dmax = 0;
-      for (size_t i = 0; i < n; ++i) {
-        fmax = std::max(fmax, f.segment<3>(3 * s.skin.nodes[i]).norm());
-        dmax = std::max(dmax, (f - f_prev).segment<3>(3 * s.skin.nodes[i]).norm());
-      }
-      change = fmax > 0 ? dmax / fmax : 0.0;
-      if (change <= s.options.follower_tolerance) break;
+    return f;
+  };
+  auto relative_change = [&](const tissue::VectorXd& a, const tissue::VectorXd& b) {
+    double fmax = 0, dmax = 0;
+    for (size_t i = 0; i < n; ++i) {
+      fmax = std::max(fmax, a.segment<3>(3 * s.skin.nodes[i]).norm());
+      dmax = std::max(dmax, (a - b).segment<3>(3 * s.skin.nodes[i]).norm());
     }
-    if (pass == s.options.max_follower_passes) {
+    return fmax > 0 ? dmax / fmax : 0.0;
+  };
+  tissue::VectorXd f = forces_at(x);
+  tissue::VectorXd y = x;  // the last solve's equilibrium (the nonlinear solve's warm start)
+  tissue::VectorXd r_prev;
+  double omega = 0.5, previous_change = std::numeric_limits<double>::infinity();
+  bool relaxing = false;
+  const int max_passes = s.options.max_follower_passes + std::max(0, s.options.max_relaxed_passes);
+  for (;;) {
+    if (st.follower_passes >= max_passes) {
       st.follower_capped = true;
-      st.follower_change = change;
+      x = y;
       break;
     }
     if (linear) {
-      x = s.linear_solve(f);
-      ++st.follower_passes;
-      f_prev = std::move(f);
-      skin_geometry(x, pos, normal, area);
-      continue;
+      y = s.linear_solve(f);
+    } else {
+      const auto res = s.solver->solve(f, y);
+      st.newton_iterations += res.iterations;
+      if (!res.converged) {
+        s.failure_point = Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
+        if (res.worst_element >= 0) {
+          Vec3 c = Vec3::Zero();
+          for (int nd : s.model.mesh().hexahedra[res.worst_element]) c += s.model.rest_positions().segment<3>(3 * nd) / 8.0;
+          s.failure_point = c;
+        }
+        if (s.options.mode == DesignSolveMode::Auto) {
+          // The lattice has no stable equilibrium here: the linearised model from now on (sticky:
+          // this stump's lattice cannot carry such fields), from rest; said in the state.
+          s.fell_back = true;
+          s.fallback_reason = res.message;
+          st.nonlinear_failure = res.message;
+          st.linearised = true;
+          linear = true;
+          x = y = s.model.rest_positions();
+          f = forces_at(x);
+          r_prev.resize(0);
+          relaxing = false;
+          omega = 0.5;
+          previous_change = std::numeric_limits<double>::infinity();
+          st.follower_passes = 0;
+          continue;
+        }
+        st.converged = false;
+        st.message = res.message;
+        fail<SolverError>("design solve: the stump found no equilibrium under these pressures (peak applied {:.1f} kPa): {}",
+                          *std::max_element(st.pressure_pa.begin(), st.pressure_pa.end()) / 1e3, res.message);
+      }
     }
-    const auto res = s.solver->solve(f, x);
-    st.newton_iterations += res.iterations;
     ++st.follower_passes;
-    if (!res.converged && s.options.mode == DesignSolveMode::Auto) {
-      s.fell_back = true;  // sticky: this stump's lattice cannot carry such fields
-      s.fallback_reason = res.message;
-      // The lattice has no stable equilibrium here: take the linearised model, say so.
-      st.nonlinear_failure = res.message;
-      s.failure_point = Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
-      if (res.worst_element >= 0) {
-        Vec3 c = Vec3::Zero();
-        for (int nd : s.model.mesh().hexahedra[res.worst_element]) c += s.model.rest_positions().segment<3>(3 * nd) / 8.0;
-        s.failure_point = c;
-      }
-      linear = true;
-      st.linearised = true;
-      x = s.model.rest_positions();
-      skin_geometry(x, pos, normal, area);
-      f_prev.resize(0);
-      pass = -1;
+    const tissue::VectorXd g = forces_at(y);
+    const double change = relative_change(g, f);
+    st.follower_change = change;
+    if (change <= s.options.follower_tolerance) {
+      x = y;
+      break;
+    }
+    if (!relaxing && (st.follower_passes >= s.options.max_follower_passes || change > previous_change)) {
+      relaxing = true;
+      st.follower_relaxed_from = st.follower_passes;
+    }
+    previous_change = change;
+    if (!relaxing) {
+      x = y;
+      f = g;
       continue;
     }
-    if (!res.converged) {
-      st.converged = false;
-      s.failure_point = Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
-      if (res.worst_element >= 0) {
-        Vec3 c = Vec3::Zero();
-        for (int nd : s.model.mesh().hexahedra[res.worst_element]) c += s.model.rest_positions().segment<3>(3 * nd) / 8.0;
-        s.failure_point = c;
-      }
-      st.message = res.message;
-      fail<SolverError>("design solve: the stump found no equilibrium under these pressures (peak applied {:.1f} kPa): {}",
-                        *std::max_element(st.pressure_pa.begin(), st.pressure_pa.end()) / 1e3, res.message);
+    const tissue::VectorXd r = y - x;
+    if (r_prev.size() == r.size()) {
+      const tissue::VectorXd dr = r - r_prev;
+      const double dd = dr.squaredNorm();
+      if (dd > 0) omega = std::clamp(-omega * r_prev.dot(dr) / dd, 0.05, 1.5);
     }
-    f_prev = std::move(f);
-    skin_geometry(x, pos, normal, area);
+    r_prev = r;
+    x += omega * r;
+    f = forces_at(x);
   }
+  skin_geometry(x, pos, normal, area);
   s.x = x;  // warm start of the next solve
   st.converged = true;
   st.positions = x;
@@ -366,11 +406,13 @@ DesignState DesignSolver::solve(const std::vector<Spot>& spots) {
   st.centre_of_inertia = c / mt;
   st.radar = compute_radar(pos, normal, area, st.pressure_pa, s.frame, st.centre_of_inertia, s.patient.friction);
   st.status = check_constraints(st.radar, s.targets, st.max_requested_ratio);
+  st.status.follower_converged = !st.follower_capped;
   st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   st.message = st.status.all_ok() ? "all constraints met" : "not met: " + st.status.failing();
   if (st.follower_capped)
-    st.message += fmt::format(" (follower iteration stopped after {} passes with a force change of {:.2g}, above {:.2g})",
-                              s.options.max_follower_passes, st.follower_change, s.options.follower_tolerance);
+    st.message += fmt::format(" (the follower iteration did not converge: the forces still changed by {:.2g} after "
+                              "{} passes, tolerance {:.2g})",
+                              st.follower_change, st.follower_passes, s.options.follower_tolerance);
   if (st.linearised && s.options.mode == DesignSolveMode::Auto)
     st.message += " (shape from the linearised stump model: the nonlinear tissue model lost stability under this field)";
   return st;

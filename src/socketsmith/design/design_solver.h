@@ -19,7 +19,9 @@
 ///
 /// The pressure is a follower load: forces use the deformed normals and areas. A solve fixes the
 /// forces at the current geometry, solves, recomputes the geometry, and repeats until the nodal
-/// forces change by less than `follower_tolerance` (usually 2–3 passes).
+/// forces change by less than `follower_tolerance` (usually 2–3 passes); when it oscillates or
+/// takes long, with Aitken relaxation. A state whose iteration did not converge within its cap
+/// does not meet its constraints (ConstraintStatus::follower_converged).
 
 #include <functional>
 #include <memory>
@@ -66,8 +68,11 @@ struct ConstraintStatus {
   bool torque_ok[3] = {false, false, false};
   bool stability_ok = false;
   bool comfort_ok = false;          ///< no node's requested pressure above its threshold
+  /// The follower iteration converged: the shape is the equilibrium under its own forces. A
+  /// state whose iteration stopped at its cap never counts as meeting its constraints.
+  bool follower_converged = true;
   bool all_ok() const;
-  std::string failing() const;      ///< "F_x, comfort" or "" when all hold
+  std::string failing() const;      ///< "F_x, comfort, follower iteration" or "" when all hold
 };
 
 RadarTargets radar_targets(const PatientLoad& patient, double stump_length_m);
@@ -102,8 +107,9 @@ struct DesignState {
   bool linearised = false;                 ///< the shape comes from the linearised model
   std::string nonlinear_failure;           ///< why the nonlinear solve failed (Auto mode)
   int follower_passes = 0;
-  bool follower_capped = false;            ///< stopped at max_follower_passes before the tolerance
-  double follower_change = 0.0;            ///< the force change when capped
+  bool follower_capped = false;            ///< stopped at its pass cap before the tolerance (not met)
+  double follower_change = 0.0;            ///< the last pass's relative force change
+  int follower_relaxed_from = 0;           ///< relaxation started after this pass (0: plain iteration)
   int newton_iterations = 0;
   double seconds = 0.0;
   std::string message;
@@ -127,7 +133,8 @@ struct DesignSolverOptions {
   DesignSolveMode mode = DesignSolveMode::Linear;
   tissue::StaticSolverOptions solver;
   double follower_tolerance = 1e-3;  ///< max |Δf_i| / max |f_i| between passes
-  int max_follower_passes = 8;
+  int max_follower_passes = 8;       ///< plain passes (x = y), [1, 1000]
+  int max_relaxed_passes = 32;       ///< then passes with Aitken relaxation, [0, 1000]; 0 = none
 };
 
 /// The stump under design: model, solver and skin geometry built once; each solve() warm-starts
@@ -151,6 +158,7 @@ class DesignSolver {
   const PatientLoad& patient() const;
   const RadarTargets& targets() const;
   const tissue::MassSpringModel& model() const;
+  const DesignSolverOptions& options() const;
   double stump_length_m() const;
 
   /// Marks skin nodes above the brim (h > brim(θ), rest coordinates): no pressure there.

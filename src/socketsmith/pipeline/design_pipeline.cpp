@@ -177,6 +177,8 @@ DesignResult solve_design(DesignSetup& setup, bool optimise, const ProgressCallb
     try {
       design::SocketOptions lopt = sopt;
       lopt.undeformed_skin = nullptr;
+      lopt.distal_pad = false;  // the cavity alone: no platform, no holes
+      lopt.attachment.enabled = false;
       r.limb_volume_below_brim_m3 = design::build_socket(r.rest_skin, setup.model.frame, setup.brim, lopt).cavity_volume_m3;
     } catch (const Error&) {
       r.limb_volume_below_brim_m3 = 0;
@@ -373,13 +375,77 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
                    {"triangles", sock.solid.num_triangles()},
                    {"thickness_mm", c.socket.thickness_m * 1e3},
                    {"min_thickness_mm", sock.min_thickness_m * 1e3},
+                   {"median_thickness_mm", sock.median_thickness_m * 1e3},
                    {"max_thickness_mm", sock.max_thickness_m * 1e3},
+                   {"min_thickness_ratio", sock.min_thickness_ratio},
+                   {"thickness_map", "thickness_map.png"},
+                   {"thickness_field", "socket.vtp"},
                    {"shell_volume_cm3", sock.shell_volume_m3 * 1e6},
                    {"cavity_volume_cm3", sock.cavity_volume_m3 * 1e6},
                    {"limb_volume_below_brim_cm3", rs.limb_volume_m3 * 1e6},
                    {"volume_reduction_percent",
                     rs.limb_volume_m3 > 0 ? 100 * (1 - sock.cavity_volume_m3 / rs.limb_volume_m3) : 0.0},
                    {"levels", levels}};
+    if (c.socket.distal_thickness_m > 0 || c.socket.brim_thickness_m > 0)
+      socket_json["asked_thickness_mm"] = {
+          {"distal", design::asked_thickness_m(c.socket, 0.0, 1.0) * 1e3},
+          {"brim", design::asked_thickness_m(c.socket, 1.0, 1.0) * 1e3}};
+    socket_json["alignment"] = {{"flexion_deg", c.socket.alignment.flexion_rad / units::deg},
+                                {"adduction_deg", c.socket.alignment.adduction_rad / units::deg}};
+    if (sock.platform.is_built) {
+      const auto& pl = sock.platform;
+      nlohmann::json holes = nlohmann::json::array();
+      for (const auto& h : pl.hole_centres) holes.push_back(vec_json(h * 1e3));
+      socket_json["platform"] = {{"centre_mm", vec_json(pl.centre * 1e3)},
+                                 {"normal", vec_json(pl.normal)},
+                                 {"diameter_mm", pl.diameter_m * 1e3},
+                                 {"height_mm", pl.max_height_m * 1e3}};
+      if (c.socket.attachment.enabled)
+        socket_json["attachment"] = {{"bolt", c.socket.attachment.bolt},
+                                     {"hole_diameter_mm", pl.hole_diameter_m * 1e3},
+                                     {"hole_spacing_mm", c.socket.attachment.hole_spacing_m * 1e3},
+                                     {"hole_centres_mm", holes},
+                                     {"min_hole_depth_mm", pl.min_hole_depth_m * 1e3},
+                                     {"smallest_feature_mm", pl.smallest_feature_m * 1e3}};
+    }
+    // The wall thickness: a map of the outer surface, and the field per vertex for ParaView
+    // (0 on the inner wall; the cell field face_kind: 0 inner, 1 outer, 2 lip, 3 platform, 4 hole).
+    std::vector<double> t_mm(sock.solid.vertices.size()), t_field(sock.solid.vertices.size());
+    for (size_t v = 0; v < t_mm.size(); ++v) {
+      t_mm[v] = sock.vertex_thickness_m[v] * 1e3;
+      t_field[v] = std::isnan(t_mm[v]) ? 0.0 : t_mm[v];
+    }
+    std::vector<double> kind(sock.face_kind.size());
+    for (size_t f = 0; f < kind.size(); ++f) kind[f] = static_cast<double>(sock.face_kind[f]);
+    report::write_vtp(out / "socket.vtp", sock.solid, {{"wall_thickness_mm", 1, t_field}}, {{"face_kind", 1, kind}});
+    report::PressureMapData tm;
+    tm.surface = &sock.solid;
+    tm.values = std::move(t_mm);
+    tm.value_label = "mm";
+    tm.colormap = report::Colormap::Viridis;
+    tm.title = "Wall thickness (distance to the inner wall)";
+    tm.frame = sframe;
+    tm.value_min = 0;
+    tm.value_max = std::max(1.5 * c.socket.thickness_m, sock.max_thickness_m) * 1e3;
+    report::write_pressure_map(out / "thickness_map.png", tm);
+    rs.thickness_map = tm;
+    rs.has_thickness_map = true;
+    rs.min_thickness_m = sock.min_thickness_m;
+    rs.median_thickness_m = sock.median_thickness_m;
+    rs.max_thickness_m = sock.max_thickness_m;
+    if (sock.platform.is_built) {
+      rs.details.push_back({"distal platform", fmt::format("{:.0f} mm across, normal to the pylon (flexion {:.1f}°, "
+                                                           "adduction {:.1f}°)",
+                                                           sock.platform.diameter_m * 1e3,
+                                                           c.socket.alignment.flexion_rad / units::deg,
+                                                           c.socket.alignment.adduction_rad / units::deg)});
+      if (c.socket.attachment.enabled)
+        rs.details.push_back({"attachment", fmt::format("4 × {:.1f} mm holes ({} bolts) on a {:.1f} mm square, at least "
+                                                        "{:.1f} mm deep",
+                                                        sock.platform.hole_diameter_m * 1e3, c.socket.attachment.bolt,
+                                                        c.socket.attachment.hole_spacing_m * 1e3,
+                                                        sock.platform.min_hole_depth_m * 1e3)});
+    }
   }
   // The design as a case file that replays it (spots fixed, no optimisation).
   design::CaseFile replay = c;
@@ -454,7 +520,11 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
   nlohmann::json outputs = {"surface_nodes.csv", "stump.vtu",      "pressure_map.png", "ratio_map.png",
                             "radar.png",         "report.html",    "design_case.json", "design.json",
                             "profile_front.svg", "profile_back.svg", "profile_mid.svg"};
-  if (met) outputs.push_back("socket.stl");
+  if (met) {
+    outputs.push_back("socket.stl");
+    outputs.push_back("socket.vtp");
+    outputs.push_back("thickness_map.png");
+  }
   if (c.limb.file.empty()) outputs.push_back("limb.stl");
   nlohmann::json spots_json = nlohmann::json::array();
   for (const auto& s : spots) spots_json.push_back(design::spot_to_json(s));
@@ -497,6 +567,8 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
       {"iterations", opt.rounds},
       {"amplitude_fits", opt.evaluations},
       {"optimiser_message", opt.message},
+      {"solver_message", state.message},
+      {"follower_converged", !state.follower_capped},
       {"optimiser_seconds", opt.seconds},
       {"model_caps", opt.model_caps},
       {"linearised", state.linearised || c.solve_mode == design::DesignSolveMode::Linear},

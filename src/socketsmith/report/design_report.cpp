@@ -927,12 +927,23 @@ std::string render_design_report_html(const DesignReportData& d) {
     h.raw("<table>\n");
     if (!s.stl_file.empty()) h.kv("socket file", s.stl_file);
     h.kv("wall thickness", mm(s.thickness_m) + " mm");
+    if (s.max_thickness_m > 0)
+      h.kv("measured wall (min / median / max)",
+           mm(s.min_thickness_m) + " / " + mm(s.median_thickness_m) + " / " + mm(s.max_thickness_m) + " mm");
+    for (const auto& [k, v] : s.details) h.kv(k, v);
     h.kv("limb volume (below the brim)", num(s.limb_volume_m3 * 1e6) + " cm³");
     h.kv("socket inner volume", num(s.socket_volume_m3 * 1e6) + " cm³");
     if (s.limb_volume_m3 > 0)
       h.kv("volume reduction",
            num(100 * (s.limb_volume_m3 - s.socket_volume_m3) / s.limb_volume_m3) + " %");
     h.raw("</table>\n");
+    if (s.has_thickness_map) {
+      const Image img = render_pressure_map(s.thickness_map);
+      h.raw("<img alt=\"wall thickness\" src=\"");
+      h.raw(png_uri(img));
+      h.raw("\">\n<p>Wall thickness: the distance from each point of the outer surface to the inner wall (grey: the "
+            "inner wall). The minimum leaves out the rounded brim edge.</p>\n");
+    }
     if (!s.circumferences.empty()) {
       h.raw("<table>\n");
       h.row({"h [mm]", "limb [mm]", "socket [mm]", "reduction [%]"}, true);

@@ -300,6 +300,13 @@ struct ReportSocket {
   double limb_volume_m3 = 0;      ///< below the brim, undeformed [m³]
   double socket_volume_m3 = 0;    ///< enclosed by the socket's inner surface [m³]
   double thickness_m = 0.005;     ///< wall [m]
+  /// Measured wall: the distance from the outer surface to the inner wall [m] (0 = not measured).
+  double min_thickness_m = 0;
+  double median_thickness_m = 0;
+  double max_thickness_m = 0;
+  bool has_thickness_map = false;
+  PressureMapData thickness_map;  ///< the wall thickness on the socket (its surface must outlive the report's writing)
+  std::vector<std::pair<std::string, std::string>> details;  ///< extra (name, value) rows: platform, attachment
   std::vector<ReportCircumference> circumferences;
   std::string stl_file;           ///< socket STL file name ("" = omitted)
 };
