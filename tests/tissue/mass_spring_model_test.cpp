@@ -102,7 +102,8 @@ const Variant kVariants[] = {{TissueModelKind::Mss, CorrectiveLaw::Symmetric, "m
                              {TissueModelKind::MssCs, CorrectiveLaw::Symmetric, "mss-cs thesis"},
                              {TissueModelKind::MssCs, CorrectiveLaw::CompressionOnly, "mss-cs recommended"},
                              {TissueModelKind::MssCf, CorrectiveLaw::Symmetric, "mss-cf"},
-                             {TissueModelKind::Fe, CorrectiveLaw::Symmetric, "fe"}};
+                             {TissueModelKind::Fe, CorrectiveLaw::Symmetric, "fe"},
+                             {TissueModelKind::NeoHookean, CorrectiveLaw::Symmetric, "neo-hookean"}};
 
 TEST(MassSpringModel, jacobian_matches_finite_differences_of_the_forces_for_every_variant) {
   const auto mesh = small_lattice(2);
@@ -344,6 +345,8 @@ TEST(MassSpringModel, parses_names_and_presets) {
   EXPECT_EQ(parse_tissue_model("mss-cs"), TissueModelKind::MssCs);
   EXPECT_EQ(to_string(parse_tissue_model("mss-cf")), "mss-cf");
   EXPECT_EQ(parse_tissue_model("fe"), TissueModelKind::Fe);
+  EXPECT_EQ(parse_tissue_model("neo-hookean"), TissueModelKind::NeoHookean);
+  EXPECT_EQ(to_string(TissueModelKind::NeoHookean), "neo-hookean");
   EXPECT_THROW(parse_tissue_model("fem"), InvalidInputError);
   EXPECT_EQ(CorrectiveSpringConstants::preset("thesis").c, 25.0);
   EXPECT_THROW(CorrectiveSpringConstants::preset("best"), InvalidInputError);

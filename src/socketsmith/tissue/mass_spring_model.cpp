@@ -31,6 +31,7 @@ std::string to_string(TissueModelKind kind) {
     case TissueModelKind::MssCs: return "mss-cs";
     case TissueModelKind::MssCf: return "mss-cf";
     case TissueModelKind::Fe: return "fe";
+    case TissueModelKind::NeoHookean: return "neo-hookean";
   }
   return "?";
 }
@@ -40,7 +41,8 @@ TissueModelKind parse_tissue_model(const std::string& name) {
   if (name == "mss-cs") return TissueModelKind::MssCs;
   if (name == "mss-cf") return TissueModelKind::MssCf;
   if (name == "fe") return TissueModelKind::Fe;
-  fail("unknown tissue model '{}' (expected mss-cs, mss-cf, mss or fe)", name);
+  if (name == "neo-hookean") return TissueModelKind::NeoHookean;
+  fail("unknown tissue model '{}' (expected mss-cs, mss-cf, mss, fe or neo-hookean)", name);
 }
 
 std::string to_string(CorrectiveLaw law) {
@@ -171,7 +173,11 @@ MassSpringModel::MassSpringModel(const volume::HexMesh& mesh, const TissueMateri
                                                                    : 2.0 * std::sqrt(s.k * m1 * m2 / (m1 + m2));
     s.damping = options.damping_ratio * c;
   }
-  if (options.kind == TissueModelKind::Fe) fe_ = std::make_shared<const HexFeElements>(mesh_, E, options.fe_poisson_ratio);
+  if (is_continuum(options.kind))
+    fe_ = std::make_shared<const HexFeElements>(mesh_, E, options.fe_poisson_ratio,
+                                                options.kind == TissueModelKind::NeoHookean
+                                                    ? HyperelasticLaw::NeoHookean
+                                                    : HyperelasticLaw::StVenantKirchhoff);
   build_pattern();
 }
 
@@ -463,6 +469,7 @@ double MassSpringModel::min_corner_jacobian(const VectorXd& x) const {
   double m = std::numeric_limits<double>::infinity();
   for (const auto& el : elements_)
     m = std::min(m, volume::min_corner_jacobian(gather_nodes(x, el.nodes)));
+  if (fe_ && fe_->material().needs_positive_volume() && m > 0) m = std::min(m, fe_->min_gauss_jacobian(x));
   return m;
 }
 
