@@ -204,7 +204,7 @@ Matrix3d HexFeElements::checked_deformation_gradient(size_t e, const GaussPoint&
     const double J = F.determinant();
     require<SolverError>(J > 0,
                          "finite elements: element {} is inverted at a Gauss point (J = {:.3g}), where the neo-Hookean "
-                         "stress is undefined; reject such states before evaluating forces (min_corner_jacobian)",
+                         "stress is undefined; reject such states before evaluating forces (MassSpringModel::has_inverted_element)",
                          e, J);
   }
   return F;

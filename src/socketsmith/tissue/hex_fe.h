@@ -94,8 +94,8 @@ UniaxialStressState uniaxial_stress_state(const HyperelasticMaterial& material, 
 /// Inverted integration points (neo-Hookean): at a Gauss point with J = det F ≤ 0 energy() is
 /// +∞ (a line search on the energy rejects the state), and add_forces() and element_stiffness()
 /// throw SolverError naming the element — they never return NaN. Solvers avoid that state by
-/// checking min_gauss_jacobian() (MassSpringModel::min_corner_jacobian() includes it) before
-/// evaluating forces. The St Venant–Kirchhoff energy is defined for any F and never throws.
+/// checking min_gauss_jacobian() (MassSpringModel::has_inverted_element()) before evaluating
+/// forces. The St Venant–Kirchhoff energy is defined for any F and never throws.
 class HexFeElements {
  public:
   using ElementMatrix = Eigen::Matrix<double, 24, 24>;

@@ -469,8 +469,11 @@ double MassSpringModel::min_corner_jacobian(const VectorXd& x) const {
   double m = std::numeric_limits<double>::infinity();
   for (const auto& el : elements_)
     m = std::min(m, volume::min_corner_jacobian(gather_nodes(x, el.nodes)));
-  if (fe_ && fe_->material().needs_positive_volume() && m > 0) m = std::min(m, fe_->min_gauss_jacobian(x));
   return m;
+}
+
+bool MassSpringModel::has_inverted_element(const VectorXd& x) const {
+  return fe_ ? fe_->min_gauss_jacobian(x) <= 0 : min_corner_jacobian(x) <= 0;
 }
 
 }  // namespace socketsmith::tissue

@@ -186,11 +186,15 @@ class MassSpringModel {
   double corrective_stiffness(int e, double dv, double* slope = nullptr) const;
   /// Sum of element volumes [m^3].
   double total_volume(const VectorXd& x) const;
-  /// Smallest corner Jacobian over all elements (≤ 0: some element inverted) [m^3]. For the
-  /// neo-Hookean model also the Gauss points' (HexFeElements::min_gauss_jacobian, same scale):
-  /// its forces are undefined where an integration point is inverted, so solvers that reject
-  /// states with a value ≤ 0 never evaluate them there.
+  /// Smallest corner Jacobian over all elements (≤ 0: some element inverted) [m^3].
   double min_corner_jacobian(const VectorXd& x) const;
+  /// True when some element is inverted where this model needs it not to be: at a corner for the
+  /// lattices (their springs and volumes see the corners), at a Gauss point for the continuum
+  /// models (their energy lives at the integration points only, and CalculiX checks the same
+  /// points; a strongly sheared brick may fold a corner while every integration point is
+  /// sound). Solvers reject such states before evaluating forces: the neo-Hookean forces are
+  /// undefined there (HexFeElements throws).
+  bool has_inverted_element(const VectorXd& x) const;
 
  private:
   struct Spring {

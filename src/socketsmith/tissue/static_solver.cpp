@@ -436,7 +436,7 @@ bool StaticSolver::newton(const VectorXd& f_ext, VectorXd& x, int max_iterations
     for (int ls = 0; ls < options_.max_line_search; ++ls, t *= 0.5) {
       x_try = x;
       dofs_.add_expanded(t * delta, x_try);
-      if (model_.min_corner_jacobian(x_try) <= 0) {
+      if (model_.has_inverted_element(x_try)) {
         ++inverted_trials;
         continue;
       }
@@ -481,7 +481,7 @@ StaticResult StaticSolver::solve(const VectorXd& f_ext, VectorXd& x) {
   StaticResult res;
   res.reference_force_n = std::max(dofs_.restrict_vector(f_ext).norm(), options_.force_scale_n);
   const double tol = options_.rel_tol * res.reference_force_n + options_.abs_tol_n;
-  if (model_.min_corner_jacobian(x) <= 0) {
+  if (model_.has_inverted_element(x)) {
     res.message = "initial state has an inverted element";
     return res;
   }
