@@ -674,6 +674,35 @@ TEST(DesignSolverStump, mss_cs_stiffens_well_before_design_pressures) {
   EXPECT_LT(std::abs(t.nonlinear_mm / t.linear_mm - 1), 0.25);
 }
 
+TEST(DesignSolverStump, the_neo_hookean_stump_carries_the_default_layout_under_follower_pressure) {
+  // The nonlinear neo-Hookean stump under the default layout (peaks 10 kPa at E = 100 kPa): the
+  // follower passes reach their tolerance (compare_models checks the equilibrium with the final
+  // geometry's forces), and the answer stays near the linearised one (same tangent at rest).
+  tissue::MassSpringOptions nh;
+  nh.kind = tissue::TissueModelKind::NeoHookean;
+  const auto c = compare_models(layout(), nh);
+  std::printf("[ info ] neo-Hookean, default layout: max |u| linear %.3f mm, nonlinear %.3f mm (%.1f %%); skin L2 "
+              "difference %.1f %%\n",
+              c.linear_mm, c.nonlinear_mm, 100 * c.rel_max, 100 * c.rel_field);
+  EXPECT_LT(c.rel_max, 0.25);
+  EXPECT_LT(c.rel_field, 0.25);
+  // The same layout at 1.5× (peaks 15 kPa): plain follower passes (f = g) oscillate around the
+  // equilibrium without reaching it (measured: change 0.013 after 12 passes; at 2× they run away to
+  // 41 mm), Aitken's relaxed passes converge (5 passes; 2×: 8 passes, 4.3 mm).
+  auto spots = layout();
+  for (auto& sp : spots) sp.amplitude_pa *= 1.5;
+  DesignSolverOptions plain = mode_options(DesignSolveMode::Nonlinear);
+  plain.min_follower_relaxation = 1.0;
+  const auto a = make_solver(plain, {}, nh)->solve(spots);
+  const auto b = make_solver(mode_options(DesignSolveMode::Nonlinear), {}, nh)->solve(spots);
+  std::printf("[ info ] 1.5x layout: plain passes %d (%s, change %.3g), relaxed %d (%s), %d Newton iterations, %.2f mm\n",
+              a.follower_passes, a.follower_capped ? "capped" : "converged", a.follower_change, b.follower_passes,
+              b.follower_capped ? "capped" : "converged", b.newton_iterations, b.max_displacement_m / kMm);
+  EXPECT_TRUE(a.follower_capped);
+  EXPECT_FALSE(b.follower_capped);
+  EXPECT_TRUE(b.converged);
+}
+
 TEST(DesignSolverStump, auto_mode_reports_its_fallback_to_the_linearised_model) {
   // A field three times the default layout's (PT 30 kPa at E = 100 kPa) makes the nonlinear lattice
   // lose stability; a coarse load continuation finds that out quickly.

@@ -174,6 +174,8 @@ DesignSolver::DesignSolver(const volume::HexMesh& mesh, const tissue::TissueMate
                            std::vector<double> thresholds_pa, const PatientLoad& patient, double stump_length_m,
                            const DesignSolverOptions& options) {
   require(std::isfinite(stump_length_m) && stump_length_m > 0, "stump length {} m must be positive", stump_length_m);
+  require(options.min_follower_relaxation > 0 && options.min_follower_relaxation <= 1,
+          "DesignSolver: min_follower_relaxation {} (expected in (0, 1])", options.min_follower_relaxation);
   impl_ = std::make_unique<Impl>(mesh, material, model_options, frame, std::move(thresholds_pa), patient,
                                  stump_length_m, options);
   require(impl_->thresholds.size() == impl_->skin.nodes.size(), "DesignSolver: {} thresholds for {} skin nodes",
@@ -265,19 +267,34 @@ DesignState DesignSolver::solve(const std::vector<Spot>& spots) {
   std::vector<Vec3> pos, normal;
   std::vector<double> area;
   skin_geometry(x, pos, normal, area);
-  tissue::VectorXd f_prev;
+  // The follower passes are the fixed point f = g(x(f)) of the forces g of a geometry. Where the
+  // pressure's load stiffness beats the tissue's in a soft mode, the plain iteration (f = g)
+  // overshoots and diverges by oscillation although the equilibrium is stable (the neo-Hookean demo
+  // stump: K⁻¹ ∂g/∂x has an eigenvalue −2.9, the distal soft tissue swings further each pass).
+  // Aitken's relaxation (Irons–Tuck) f = f_prev + ω r, r = g − f_prev, with ω from the last two
+  // residuals, damps that mode; ω ≤ 1, so an iteration that converges plainly is not pushed.
+  tissue::VectorXd f_prev, r_prev;  // the forces of the last solve, and the residual that gave them
+  double omega = 1.0;
   for (int pass = 0; pass < s.options.max_follower_passes + 1; ++pass) {
     tissue::VectorXd f = tissue::VectorXd::Zero(s.model.num_dofs());
     for (size_t i = 0; i < n; ++i) f.segment<3>(3 * s.skin.nodes[i]) = -st.pressure_pa[i] * area[i] * normal[i];
     double change = 0;
     if (f_prev.size() == f.size()) {
+      tissue::VectorXd r = f - f_prev;
       double fmax = 0, dmax = 0;
       for (size_t i = 0; i < n; ++i) {
         fmax = std::max(fmax, f.segment<3>(3 * s.skin.nodes[i]).norm());
-        dmax = std::max(dmax, (f - f_prev).segment<3>(3 * s.skin.nodes[i]).norm());
+        dmax = std::max(dmax, r.segment<3>(3 * s.skin.nodes[i]).norm());
       }
       change = fmax > 0 ? dmax / fmax : 0.0;
       if (change <= s.options.follower_tolerance) break;
+      if (r_prev.size() == r.size()) {
+        const tissue::VectorXd dr = r - r_prev;
+        const double dd = dr.squaredNorm();
+        if (dd > 0) omega = std::clamp(-omega * r_prev.dot(dr) / dd, s.options.min_follower_relaxation, 1.0);
+      }
+      f = f_prev + omega * r;
+      r_prev = std::move(r);
     }
     if (pass == s.options.max_follower_passes) {
       st.follower_capped = true;
@@ -310,6 +327,8 @@ DesignState DesignSolver::solve(const std::vector<Spot>& spots) {
       x = s.model.rest_positions();
       skin_geometry(x, pos, normal, area);
       f_prev.resize(0);
+      r_prev.resize(0);
+      omega = 1.0;
       pass = -1;
       continue;
     }

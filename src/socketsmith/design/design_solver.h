@@ -19,7 +19,8 @@
 ///
 /// The pressure is a follower load: forces use the deformed normals and areas. A solve fixes the
 /// forces at the current geometry, solves, recomputes the geometry, and repeats until the nodal
-/// forces change by less than `follower_tolerance` (usually 2–3 passes).
+/// forces change by less than `follower_tolerance` (usually 2–3 passes); the forces of a pass are
+/// relaxed towards the new geometry's by Aitken's factor (see design_solver.cpp).
 
 #include <functional>
 #include <memory>
@@ -128,6 +129,8 @@ struct DesignSolverOptions {
   tissue::StaticSolverOptions solver;
   double follower_tolerance = 1e-3;  ///< max |Δf_i| / max |f_i| between passes
   int max_follower_passes = 8;
+  /// Smallest Aitken relaxation factor of the follower passes [-], in (0, 1] (1: plain passes).
+  double min_follower_relaxation = 0.05;
 };
 
 /// The stump under design: model, solver and skin geometry built once; each solve() warm-starts
