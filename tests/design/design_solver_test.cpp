@@ -599,6 +599,7 @@ TEST(DesignSolverStump, a_follower_loop_stopped_by_its_pass_cap_is_reported) {
 /// Max |u| and the relative L2 difference of the skin positions, linearised vs nonlinear stump.
 struct ModelComparison {
   double linear_mm = 0, nonlinear_mm = 0, rel_max = 0, rel_field = 0;
+  int nonlinear_passes = 0;
 };
 ModelComparison compare_models(const std::vector<Spot>& spots, const tissue::MassSpringOptions& model = {}) {
   auto lin = make_solver(mode_options(DesignSolveMode::Linear), {}, model);
@@ -616,6 +617,7 @@ ModelComparison compare_models(const std::vector<Spot>& spots, const tissue::Mas
   ModelComparison c;
   c.linear_mm = a.max_displacement_m / kMm;
   c.nonlinear_mm = b.max_displacement_m / kMm;
+  c.nonlinear_passes = b.follower_passes;
   c.rel_max = std::abs(a.max_displacement_m - b.max_displacement_m) / b.max_displacement_m;
   double diff = 0, ref = 0;
   for (size_t i = 0; i < a.displacement_m.size(); ++i) {
@@ -676,8 +678,8 @@ TEST(DesignSolverStump, mss_cs_stiffens_well_before_design_pressures) {
 
 TEST(DesignSolverStump, the_neo_hookean_stump_carries_the_default_layout_under_follower_pressure) {
   // The nonlinear neo-Hookean stump under the default layout (peaks 10 kPa at E = 100 kPa): the
-  // follower passes reach their tolerance (compare_models checks the equilibrium with the final
-  // geometry's forces), and the answer stays near the linearised one (same tangent at rest).
+  // equilibrium holds with the final geometry's forces (compare_models), and the answer stays near
+  // the linearised one (same tangent at rest).
   tissue::MassSpringOptions nh;
   nh.kind = tissue::TissueModelKind::NeoHookean;
   const auto c = compare_models(layout(), nh);
@@ -686,21 +688,19 @@ TEST(DesignSolverStump, the_neo_hookean_stump_carries_the_default_layout_under_f
               c.linear_mm, c.nonlinear_mm, 100 * c.rel_max, 100 * c.rel_field);
   EXPECT_LT(c.rel_max, 0.25);
   EXPECT_LT(c.rel_field, 0.25);
-  // The same layout at 1.5× (peaks 15 kPa): plain follower passes (f = g) oscillate around the
-  // equilibrium without reaching it (measured: change 0.013 after 12 passes; at 2× they run away to
-  // 41 mm), Aitken's relaxed passes converge (5 passes; 2×: 8 passes, 4.3 mm).
-  auto spots = layout();
-  for (auto& sp : spots) sp.amplitude_pa *= 1.5;
-  DesignSolverOptions plain = mode_options(DesignSolveMode::Nonlinear);
-  plain.min_follower_relaxation = 1.0;
-  const auto a = make_solver(plain, {}, nh)->solve(spots);
-  const auto b = make_solver(mode_options(DesignSolveMode::Nonlinear), {}, nh)->solve(spots);
-  std::printf("[ info ] 1.5x layout: plain passes %d (%s, change %.3g), relaxed %d (%s), %d Newton iterations, %.2f mm\n",
-              a.follower_passes, a.follower_capped ? "capped" : "converged", a.follower_change, b.follower_passes,
-              b.follower_capped ? "capped" : "converged", b.newton_iterations, b.max_displacement_m / kMm);
-  EXPECT_TRUE(a.follower_capped);
-  EXPECT_FALSE(b.follower_capped);
-  EXPECT_TRUE(b.converged);
+  EXPECT_EQ(c.nonlinear_passes, 1);
+  // Up to 4× the layout (peaks 40 kPa = 0.4 E) the follower Newton converges in a few iterations;
+  // passes of fixed forces needed 12 passes and 300 Newton iterations at 2.5× and diverged at 3×
+  // (measured before the follower load entered the tangent).
+  for (double scale : {2.5, 4.0}) {
+    auto spots = layout();
+    for (auto& sp : spots) sp.amplitude_pa *= scale;
+    const auto st = make_solver(mode_options(DesignSolveMode::Nonlinear), {}, nh)->solve(spots);
+    std::printf("[ info ] %.1fx layout: %d Newton iterations, max |u| %.2f mm\n", scale, st.newton_iterations,
+                st.max_displacement_m / kMm);
+    EXPECT_TRUE(st.converged);
+    EXPECT_LE(st.newton_iterations, 15);
+  }
 }
 
 TEST(DesignSolverStump, auto_mode_reports_its_fallback_to_the_linearised_model) {

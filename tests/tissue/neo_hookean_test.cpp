@@ -12,6 +12,7 @@
 #include "socketsmith/core/errors.h"
 #include "socketsmith/tissue/cube_experiment.h"
 #include "socketsmith/tissue/hex_fe.h"
+#include "socketsmith/tissue/pressure_load.h"
 #include "socketsmith/tissue/static_solver.h"
 #include "test_models.h"
 
@@ -119,14 +120,7 @@ TEST(NeoHookean, tangent_matches_finite_differences_of_the_forces_at_large_strai
     SparseMatrix J;
     m.jacobian(x, JacobianKind::Exact, J);
     const MatrixXd Jd(J);
-    const double eps = 1e-7 * a;
-    MatrixXd fd(m.num_dofs(), m.num_dofs());
-    for (int c = 0; c < m.num_dofs(); ++c) {
-      Eigen::VectorXd p = x, q = x;
-      p[c] += eps;
-      q[c] -= eps;
-      fd.col(c) = (m.elastic_forces(p) - m.elastic_forces(q)) / (2 * eps);
-    }
+    const MatrixXd fd = fd_jacobian([&](const Eigen::VectorXd& y) { return m.elastic_forces(y); }, x, 1e-7 * a);
     const double rel = (fd - Jd).norm() / Jd.norm();
     std::printf("[ info ] %s: tangent vs force FD, relative error %.2e\n", name, rel);
     EXPECT_LT(rel, 1e-6) << name;
@@ -370,6 +364,33 @@ TEST(NeoHookean, static_solve_of_the_cube_under_an_end_force_converges_at_every_
   const StaticResult sr = solver.solve(f, x);
   ASSERT_TRUE(sr.converged) << sr.message;
   EXPECT_NEAR(x[dof(cube.top.back(), 2)], s_end * edge, 1e-5 * edge);
+}
+
+TEST(NeoHookean, cube_under_a_follower_pressure_reaches_the_analytic_true_stress) {
+  // A pressure p that follows the top face (FollowerPressure) is a true (Cauchy) stress: at the
+  // homogeneous state the nominal stress is P33 = −p t², t the lateral stretch. p is chosen so that
+  // the analytic cube is compressed by 50 %; the solve starts from rest.
+  const double edge = 0.05, s_end = 0.5;
+  const Uniaxial u = analytic_uniaxial(s_end, kE, kNu);
+  const double p = -u.nominal_stress_pa / (u.lateral_stretch * u.lateral_stretch);
+  RollerCube cube(3, edge);
+  volume::HexMesh skinned = cube.mesh;  // the top face is the only skin
+  std::fill(skinned.node_tags.begin(), skinned.node_tags.end(), volume::kNodeNone);
+  for (int t : cube.top) skinned.node_tags[t] = volume::kNodeSurface;
+  const auto skin = volume::extract_skin_surface(skinned);
+  ASSERT_EQ(skin.nodes.size(), cube.top.size());
+  const MassSpringModel& m = *cube.model;
+  const FollowerPressure load(skin, std::vector<double>(skin.nodes.size(), p), m.num_nodes());
+  const DofMap dofs(m.num_dofs(), cube.base);
+  StaticSolver solver(m, dofs);
+  Eigen::VectorXd x = m.rest_positions();
+  const StaticResult r = solver.solve(load, x);
+  ASSERT_TRUE(r.converged) << r.message;
+  const double s = x[dof(cube.top.back(), 2)] / edge;
+  std::printf("[ info ] follower pressure %.1f kPa on the cube: stretch %.6f (analytic %.6f), %d Newton iterations\n",
+              p / 1e3, s, s_end, r.iterations);
+  EXPECT_NEAR(s, s_end, 1e-6);
+  EXPECT_NEAR(m.total_volume(x) / m.total_volume(m.rest_positions()), u.volume_ratio, 1e-6);
 }
 
 }  // namespace

@@ -79,6 +79,21 @@ struct BenchLattice {
   VectorXd f;
 };
 
+/// Central finite differences of a vector function @p f at @p x: column c is ∂f/∂x_c (step @p eps).
+template <class F>
+Eigen::MatrixXd fd_jacobian(const F& f, const VectorXd& x, double eps) {
+  Eigen::MatrixXd out;
+  for (Eigen::Index c = 0; c < x.size(); ++c) {
+    VectorXd p = x, q = x;
+    p[c] += eps;
+    q[c] -= eps;
+    const VectorXd col = (f(p) - f(q)) / (2 * eps);
+    if (c == 0) out.resize(col.size(), x.size());
+    out.col(c) = col;
+  }
+  return out;
+}
+
 inline Eigen::Matrix3d random_rotation(unsigned seed) {
   std::mt19937 rng(seed);
   std::normal_distribution<double> g(0.0, 1.0);

@@ -17,10 +17,11 @@
 /// `force_tolerance` (1 %) of M g / 2, torques within `torque_tolerance` (1 %) of M g / 2 × the
 /// stump length.
 ///
-/// The pressure is a follower load: forces use the deformed normals and areas. A solve fixes the
-/// forces at the current geometry, solves, recomputes the geometry, and repeats until the nodal
-/// forces change by less than `follower_tolerance` (usually 2–3 passes); the forces of a pass are
-/// relaxed towards the new geometry's by Aitken's factor (see design_solver.cpp).
+/// The pressure is a follower load: forces use the deformed normals and areas. The nonlinear
+/// stump solves for it directly (tissue::FollowerPressure: Newton with the load's stiffness in the
+/// tangent). The linearised stump fixes the forces at the current geometry, solves, recomputes the
+/// geometry, and repeats until the nodal forces change by less than `follower_tolerance` (usually
+/// 2–4 passes).
 
 #include <functional>
 #include <memory>
@@ -102,7 +103,7 @@ struct DesignState {
   bool converged = false;
   bool linearised = false;                 ///< the shape comes from the linearised model
   std::string nonlinear_failure;           ///< why the nonlinear solve failed (Auto mode)
-  int follower_passes = 0;
+  int follower_passes = 0;                 ///< linear solves of the linearised stump (1 for a nonlinear solve)
   bool follower_capped = false;            ///< stopped at max_follower_passes before the tolerance
   double follower_change = 0.0;            ///< the force change when capped
   int newton_iterations = 0;
@@ -112,7 +113,7 @@ struct DesignState {
 
 /// How the stump's equilibrium is found.
 enum class DesignSolveMode {
-  Nonlinear,  ///< the MSS-CS model's static equilibrium (Newton, warm-started)
+  Nonlinear,  ///< the tissue model's static equilibrium under the follower pressure (Newton, warm-started)
   Linear,     ///< its linearisation at rest: K₀ u = f with K₀ factorised once (updates in ms)
   Auto,       ///< nonlinear; once the lattice loses stability (no equilibrium), the linearised
               ///< model from then on, reported in DesignState::linearised and its message
@@ -127,10 +128,8 @@ struct DesignSolverOptions {
   /// makes a design update a few back-substitutions.
   DesignSolveMode mode = DesignSolveMode::Linear;
   tissue::StaticSolverOptions solver;
-  double follower_tolerance = 1e-3;  ///< max |Δf_i| / max |f_i| between passes
-  int max_follower_passes = 8;
-  /// Smallest Aitken relaxation factor of the follower passes [-], in (0, 1] (1: plain passes).
-  double min_follower_relaxation = 0.05;
+  double follower_tolerance = 1e-3;  ///< linearised stump: max |Δf_i| / max |f_i| between passes
+  int max_follower_passes = 8;       ///< linearised stump
 };
 
 /// The stump under design: model, solver and skin geometry built once; each solve() warm-starts
