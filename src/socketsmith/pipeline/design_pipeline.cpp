@@ -82,7 +82,7 @@ tissue::MassSpringOptions model_options(const design::CaseFile& c) {
   o.corrective = o.kind == tissue::TissueModelKind::MssCs ? tissue::CorrectiveSpringConstants::preset(c.constants)
                                                           : tissue::CorrectiveSpringConstants::thesis();
   if (c.poisson_ratio) {
-    if (o.kind == tissue::TissueModelKind::Fe) o.fe_poisson_ratio = *c.poisson_ratio;
+    if (tissue::is_continuum(o.kind)) o.fe_poisson_ratio = *c.poisson_ratio;
     if (o.kind == tissue::TissueModelKind::MssCf) o.cf_poisson_ratio = *c.poisson_ratio;
   }
   return o;
@@ -470,9 +470,10 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
   rd.limb_type = geometry::to_string(model.type);
   rd.side = geometry::to_string(model.frame.side);
   rd.mesh_nodes = mesh.mesh.num_nodes();
-  if (c.model == "fe")
-    rd.model = fmt::format("fe (St Venant-Kirchhoff hexahedra, E = {:.0f} kPa, nu = {:.2f}), {} design solve",
-                           c.youngs_modulus_pa / 1e3, model_options(c).fe_poisson_ratio, design::to_string(c.solve_mode));
+  if (c.model == "fe" || c.model == "neo-hookean")
+    rd.model = fmt::format("{} ({} hexahedra, E = {:.0f} kPa, nu = {:.2f}), {} design solve", c.model,
+                           c.model == "fe" ? "St Venant-Kirchhoff" : "neo-Hookean", c.youngs_modulus_pa / 1e3,
+                           model_options(c).fe_poisson_ratio, design::to_string(c.solve_mode));
   else
     rd.model = fmt::format("{} ({} constants, E = {:.0f} kPa), {} design solve", c.model, c.constants,
                            c.youngs_modulus_pa / 1e3, design::to_string(c.solve_mode));
@@ -573,6 +574,11 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
       {"model_caps", opt.model_caps},
       {"linearised", state.linearised || c.solve_mode == design::DesignSolveMode::Linear},
       {"solve_mode", design::to_string(c.solve_mode)},
+      {"final_solve",
+       {{"newton_iterations", state.newton_iterations},
+        {"follower_passes", state.follower_passes},
+        {"seconds", state.seconds},
+        {"nonlinear_failure", state.nonlinear_failure}}},
       {"brim", {{"template", brim.name()}, {"min_h_mm", brim.min_height() * 1e3}, {"max_h_mm", brim.max_height() * 1e3}}},
       {"spots", spots_json},
       {"bones_estimated", model.bones_estimated},
