@@ -88,6 +88,13 @@ tissue::MassSpringOptions model_options(const design::CaseFile& c) {
   return o;
 }
 
+design::OptimizerOptions optimizer_options(const design::CaseFile& c) {
+  design::OptimizerOptions oo;
+  oo.objective = c.objective;
+  oo.model_pressure_limit = c.model_pressure_limit;
+  return oo;
+}
+
 tissue::TissueMaterial material(const design::CaseFile& c) { return {c.youngs_modulus_pa, c.density_kg_m3}; }
 
 std::unique_ptr<DesignSetup> prepare_design(const design::CaseFile& c, const fs::path& generated_limb_stl,
@@ -149,9 +156,7 @@ DesignResult solve_design(DesignSetup& setup, bool optimise, const ProgressCallb
   DesignResult r;
   r.optimised = optimise;
   if (optimise) {
-    design::OptimizerOptions oo;
-    oo.objective = c.objective;
-    oo.model_pressure_limit = c.model_pressure_limit;
+    design::OptimizerOptions oo = optimizer_options(c);
     oo.progress = [&](double f, std::string_view stage) { return report_progress(progress, 0.9 * f, stage); };
     r.optimiser = design::optimise_design(solver, setup.spots, oo);
     r.spots = r.optimiser.spots;
