@@ -170,6 +170,7 @@ ClosedLoopResult close_design_loop(DesignSetup& setup, const DesignResult& resul
   sopt.undeformed_skin = &result.rest_skin;
 
   ClosedLoopResult r;
+  r.linear_body = don.contact.linear_body;
   r.target_pa = state.pressure_pa;
   r.below_brim.assign(n, 1);
   std::vector<int> compared;
@@ -557,6 +558,7 @@ nlohmann::json write_closed_loop_outputs(const DesignSetup& setup, const DesignR
           {"kept_donning", loop.kept_donning},
           {"seconds", loop.seconds},
           {"friction", setup.case_file.patient.friction},
+          {"body", loop.linear_body ? "linearised" : "nonlinear"},
           {"stand_force_n", 0.5 * setup.case_file.patient.body_mass_kg * units::kGravity},
           {"designed_friction_n", result.state.radar.stability_n},
           {"iterations", iterations},

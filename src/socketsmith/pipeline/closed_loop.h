@@ -110,6 +110,7 @@ struct ClosedLoopResult {
   int best = 0;
   int kept_donning = 0;            ///< which donning from scratch that is (1: the open-loop socket's)
   std::vector<double> target_pa;   ///< designed pressure per skin node (0 above the brim) [Pa]
+  bool linear_body = true;         ///< the donned stump was linearised at rest (else the nonlinear tissue model)
   std::vector<double> open_loop_pa;    ///< delivered by the open-loop socket [Pa]
   std::vector<double> closed_loop_pa;  ///< delivered by the kept socket [Pa]
   std::vector<double> wall_offset_m;   ///< δ of the kept socket per skin node [m]
