@@ -61,7 +61,7 @@ TemplateCheck check_template(BrimTemplate kind, const std::vector<volume::Landma
     c.total_axial_n += axial[i];
   }
   const auto measure = [&](const std::string& key, const std::vector<char>& in, std::vector<std::string> codes) {
-    RegionLoad r;
+    ZoneLoad r;
     r.key = key;
     r.codes = std::move(codes);
     double area = 0;

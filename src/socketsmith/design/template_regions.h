@@ -40,7 +40,7 @@ TemplateRegions template_regions(BrimTemplate kind);
 /// One region's load on the designed skin. Axial load per skin node: the normal force's component
 /// along the limb axis plus the friction the design counts on, μ p A |n × axis| — the same terms as
 /// the radar's F_z, so the shares of all nodes sum to 1.
-struct RegionLoad {
+struct ZoneLoad {
   std::string key;                 ///< "tolerant", "sensitive", "distal_fifth", "below_brim"
   std::vector<std::string> codes;  ///< landmarks in it (empty for distal_fifth, below_brim)
   int nodes = 0;
@@ -53,7 +53,7 @@ struct RegionLoad {
 /// The design read against its template.
 struct TemplateCheck {
   std::string template_name;
-  RegionLoad tolerant, sensitive, distal_fifth, below_brim;
+  ZoneLoad tolerant, sensitive, distal_fifth, below_brim;
   double total_axial_n = 0.0;      ///< F_z of all nodes (the radar's) [N]
   double tolerant_to_sensitive = 0.0;  ///< tolerant.mean / sensitive.mean (0 when not defined)
   double cv_below_brim = 0.0;      ///< area-weighted SD / mean of the pressure below the brim

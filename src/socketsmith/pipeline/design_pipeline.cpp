@@ -526,7 +526,7 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
       design::check_template(brim.kind(), model.landmarks, loads, model.frame, model.length_m, c.patient.friction);
   rd.solver.details.push_back({"template", tc.summary + (tc.applies ? (tc.met ? ": met" : ": NOT met") : "")});
   nlohmann::json regions_json = nlohmann::json::object();
-  for (const design::RegionLoad* r : {&tc.tolerant, &tc.sensitive, &tc.distal_fifth, &tc.below_brim}) {
+  for (const design::ZoneLoad* r : {&tc.tolerant, &tc.sensitive, &tc.distal_fifth, &tc.below_brim}) {
     if (r->nodes == 0) continue;
     regions_json[r->key] = {{"landmarks", r->codes},          {"nodes", r->nodes},
                             {"mean_kpa", r->mean_pa / 1e3},   {"peak_kpa", r->peak_pa / 1e3},
