@@ -133,7 +133,10 @@ TEST(CaseFile, an_empty_document_is_the_default_case) {
   EXPECT_TRUE(c.limb.file.empty());  // the generated sample
   EXPECT_TRUE(c.spots.empty());      // the default layout
   EXPECT_TRUE(c.thresholds.empty()); // Table 7
-  EXPECT_EQ(c.brim, BrimTemplate::Ptb);
+  EXPECT_FALSE(c.brim.has_value());  // the limb type's default (PTB, ICS)
+  EXPECT_EQ(c.limb.scale, 1.0);
+  EXPECT_FALSE(c.limb.axis.has_value());
+  EXPECT_FALSE(c.limb.force_size);
   EXPECT_EQ(c.solve_mode, DesignSolveMode::Linear);
   EXPECT_NEAR(c.socket.thickness_m, 0.005, 1e-12);
   EXPECT_EQ(case_to_json(c)["design"]["spots"], "default");
