@@ -137,7 +137,7 @@ struct DesignFlags {
   int target_nodes = 0;  // 0: the case's
   std::string mode = "contact";
   std::string element = "c3d8";
-  double poisson = -1;  // < 0: the case's fe model's ν, else 0.45 (the thesis's)
+  double poisson = -1;  // < 0: the case's continuum model's ν, else 0.45 (the thesis's)
   double penalty = 1e9;
   double stick_slope = 5e7;
   double friction = -1;  // < 0: the case's μ
@@ -164,11 +164,15 @@ void run_validate_design(const DesignFlags& f) {
                               : design::read_case(f.case_file);
   if (f.target_nodes > 0) c.target_nodes = f.target_nodes;
   if (f.demo) design::write_case(out / "case.json", c);
-  // CalculiX's ν: the user's, else the fe tissue model's own (same material on both sides), else
-  // the thesis's 0.45 (the MSS lattices have none to give).
-  const double poisson = f.poisson >= 0 ? f.poisson
-                         : c.model == "fe" ? pipeline::model_options(c).fe_poisson_ratio
-                                           : 0.45;
+  // CalculiX's material: the case's continuum model's own ν and law (same material on both sides),
+  // else ν 0.45, the thesis's (the MSS lattices have none to give); the flags override.
+  fe::FeMaterial material = fe::fe_material(c);
+  if (f.poisson >= 0) material.poisson_ratio = f.poisson;
+  if (f.neo_hookean) material.is_neo_hookean = true;
+  require(!(material.is_neo_hookean && f.small_strain),
+          "validate design: --small-strain with a neo-Hookean tissue: the hyperelastic law is a large-strain model, "
+          "CalculiX runs it with NLGEOM (drop --small-strain, or use the fe model for a small-strain check)");
+  const double poisson = material.poisson_ratio;
   const auto t0 = std::chrono::steady_clock::now();
   pipeline::DesignArtifacts art;
   const auto progress = console_progress(1.0);
@@ -187,12 +191,14 @@ void run_validate_design(const DesignFlags& f) {
   // starts CalculiX's load step, so the reaction does not drop when the displacement is released.
   std::optional<contact::DonningResult> ours;
   bool ours_from_loop = false;
+  bool ours_linear = !f.nonlinear_body;
   if (f.against_donning || f.stand) {
     const double mu = f.friction >= 0 ? f.friction : c.patient.friction;
     const auto& loop = art.result.closed_loop;
     if (loop && !f.nonlinear_body && f.stand && std::abs(mu - c.patient.friction) < 1e-12) {
       ours = loop->donning;
       ours_from_loop = true;
+      ours_linear = loop->linear_body;
       log::info("validate design: socketsmith's donning and standing of the socket: the closed loop's (donning {})",
                 loop->kept_donning);
     } else {
@@ -218,10 +224,7 @@ void run_validate_design(const DesignFlags& f) {
 
   fe::DesignCheckOptions o;
   o.mode = fe::parse_design_check_mode(f.mode);
-  o.material.youngs_modulus_pa = c.youngs_modulus_pa;
-  o.material.poisson_ratio = poisson;
-  o.material.density_kg_m3 = c.density_kg_m3;
-  o.material.is_neo_hookean = f.neo_hookean;
+  o.material = material;
   o.element = fe::parse_element_type(f.element);
   o.contact.penalty_pa_per_m = f.penalty;
   o.contact.stick_slope_pa_per_m = f.stick_slope;
@@ -238,8 +241,9 @@ void run_validate_design(const DesignFlags& f) {
   o.fe_pressure = fe::parse_fe_pressure(f.fe_pressure);
   o.nonlinear_geometry = !f.small_strain;
   o.ccx = ccx_options(f.ccx);
-  log::info("validate design: CalculiX {} check ({} nodes, {} elements, {}, ν {})", fe::to_string(o.mode),
-            mesh.num_nodes(), mesh.num_hexahedra(), fe::to_string(o.element), poisson);
+  log::info("validate design: CalculiX {} check ({} nodes, {} elements, {}, {}, ν {}, {})", fe::to_string(o.mode),
+            mesh.num_nodes(), mesh.num_hexahedra(), fe::to_string(o.element),
+            material.is_neo_hookean ? "neo-Hookean" : "linear elastic", poisson, o.nonlinear_geometry ? "NLGEOM" : "small strain");
   const auto r = fe::check_design(d, o, out, "design_fe");
 
   // Outputs: per-node CSV, path profiles and a scatter (SVG), stump VTU, summary JSON.
@@ -374,12 +378,12 @@ void run_validate_design(const DesignFlags& f) {
                    {"poisson_ratio", poisson},
                    {"nlgeom", !f.small_strain},
                    {"youngs_modulus_kpa", c.youngs_modulus_pa / 1e3},
-                   {"neo_hookean", f.neo_hookean},
+                   {"neo_hookean", material.is_neo_hookean},
                    {"penalty_pa_per_m", o.contact.penalty_pa_per_m},
                    {"stick_slope_pa_per_m", o.contact.stick_slope_pa_per_m},
                    {"friction", o.contact.friction},
                    {"against_donning", f.against_donning},
-                   {"socketsmith_body", f.nonlinear_body ? "nonlinear" : "linearised"},
+                   {"socketsmith_body", ours_linear ? "linearised" : "nonlinear"},
                    {"stand_force_n", stand_force_n},
                    {"fe_load_step_starts_at_n", donning_force_n},
                    {"designed_force_n", r.designed_force_n},
@@ -475,9 +479,10 @@ void add_case_flags(CLI::App& cmd, DesignFlags& f) {
   cmd.add_option("--target-nodes", f.target_nodes, "stump size (default: the case's)")->check(CLI::Range(500, 100000));
   cmd.add_option("--element", f.element, "c3d8 | c3d8i | c3d8r (default c3d8)");
   cmd.add_option("--poisson", f.poisson,
-                 "tissue Poisson ratio in CalculiX (default: the case's fe model's, else 0.45, the thesis's)")
+                 "tissue Poisson ratio in CalculiX (default: the case's fe or neo-hookean model's, else 0.45, the thesis's)")
       ->check(CLI::Range(0.0, 0.4999));
-  cmd.add_flag("--neo-hookean", f.neo_hookean, "neo-Hookean tissue instead of linear elastic");
+  cmd.add_flag("--neo-hookean", f.neo_hookean,
+               "neo-Hookean tissue in CalculiX instead of linear elastic (automatic when the case's model is neo-hookean)");
   cmd.add_flag("--nonlinear-body", f.nonlinear_body,
                "validate donning: socketsmith's donning with the nonlinear tissue model instead of its linearisation at "
                "rest (slower; with the fe model, the large-displacement problem CalculiX solves under NLGEOM)");

@@ -167,6 +167,7 @@ TEST(CaseFile, bad_input_is_one_line_naming_the_key) {
   expect_error(R"({"tissue": {"solve": "fast"}})", "design solve mode 'fast' is not known");
   expect_error(R"({"tissue": {"poisson": 0.45}})", "tissue.model 'mss-cs' has no Poisson ratio of its own");
   expect_error(R"({"tissue": {"model": "fe", "poisson": 0.5}})", "tissue.poisson = 0.5 is outside [0, 0.5)");
+  expect_error(R"({"tissue": {"model": "neo-hookean", "poisson": 0.5}})", "tissue.poisson = 0.5 is outside [0, 0.5)");
   expect_error(R"({"tissue": {"model": "mss-cf", "poisson": 0.2}})", "tissue.poisson = 0.2 is outside [0.25, 0.5)");
   expect_error(R"({"mesh": {"target_nodes": 10}})", "target_nodes = 10");
   expect_error(R"({"limb": {"units": "inch"}})", "inch");

@@ -619,6 +619,7 @@ TEST(DesignSolverStump, a_follower_loop_stopped_by_its_pass_cap_is_reported) {
 /// Max |u| and the relative L2 difference of the skin positions, linearised vs nonlinear stump.
 struct ModelComparison {
   double linear_mm = 0, nonlinear_mm = 0, rel_max = 0, rel_field = 0;
+  int nonlinear_passes = 0;
 };
 ModelComparison compare_models(const std::vector<Spot>& spots, const tissue::MassSpringOptions& model = {}) {
   auto lin = make_solver(mode_options(DesignSolveMode::Linear), {}, model);
@@ -636,6 +637,7 @@ ModelComparison compare_models(const std::vector<Spot>& spots, const tissue::Mas
   ModelComparison c;
   c.linear_mm = a.max_displacement_m / kMm;
   c.nonlinear_mm = b.max_displacement_m / kMm;
+  c.nonlinear_passes = b.follower_passes;
   c.rel_max = std::abs(a.max_displacement_m - b.max_displacement_m) / b.max_displacement_m;
   double diff = 0, ref = 0;
   for (size_t i = 0; i < a.displacement_m.size(); ++i) {
@@ -692,6 +694,33 @@ TEST(DesignSolverStump, mss_cs_stiffens_well_before_design_pressures) {
               t.linear_mm, t.nonlinear_mm, 100 * t.rel_max);
   EXPECT_NEAR(t.linear_mm, c.linear_mm, 1e-9);
   EXPECT_LT(std::abs(t.nonlinear_mm / t.linear_mm - 1), 0.25);
+}
+
+TEST(DesignSolverStump, the_neo_hookean_stump_carries_the_default_layout_under_follower_pressure) {
+  // The nonlinear neo-Hookean stump under the default layout (peaks 10 kPa at E = 100 kPa): the
+  // equilibrium holds with the final geometry's forces (compare_models), and the answer stays near
+  // the linearised one (same tangent at rest).
+  tissue::MassSpringOptions nh;
+  nh.kind = tissue::TissueModelKind::NeoHookean;
+  const auto c = compare_models(layout(), nh);
+  std::printf("[ info ] neo-Hookean, default layout: max |u| linear %.3f mm, nonlinear %.3f mm (%.1f %%); skin L2 "
+              "difference %.1f %%\n",
+              c.linear_mm, c.nonlinear_mm, 100 * c.rel_max, 100 * c.rel_field);
+  EXPECT_LT(c.rel_max, 0.25);
+  EXPECT_LT(c.rel_field, 0.25);
+  EXPECT_EQ(c.nonlinear_passes, 1);
+  // Up to 4× the layout (peaks 40 kPa = 0.4 E) the follower Newton converges in a few iterations;
+  // passes of fixed forces needed 12 passes and 300 Newton iterations at 2.5× and diverged at 3×
+  // (measured before the follower load entered the tangent).
+  for (double scale : {2.5, 4.0}) {
+    auto spots = layout();
+    for (auto& sp : spots) sp.amplitude_pa *= scale;
+    const auto st = make_solver(mode_options(DesignSolveMode::Nonlinear), {}, nh)->solve(spots);
+    std::printf("[ info ] %.1fx layout: %d Newton iterations, max |u| %.2f mm\n", scale, st.newton_iterations,
+                st.max_displacement_m / kMm);
+    EXPECT_TRUE(st.converged);
+    EXPECT_LE(st.newton_iterations, 15);
+  }
 }
 
 TEST(DesignSolverStump, auto_mode_reports_its_fallback_to_the_linearised_model) {

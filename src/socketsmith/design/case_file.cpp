@@ -259,17 +259,17 @@ CaseFile parse_case(const json& doc, const std::filesystem::path& folder) {
     const auto& j = doc.at("tissue");
     check_keys(j, "tissue", {"model", "constants", "youngs_kpa", "density_kg_m3", "poisson", "solve"});
     c.model = text(j, "model", "tissue", c.model);
-    require(c.model == "mss-cs" || c.model == "mss-cf" || c.model == "mss" || c.model == "fe",
-            "case file: tissue.model '{}' is not known (mss-cs, mss-cf, mss or fe)", c.model);
+    require(c.model == "mss-cs" || c.model == "mss-cf" || c.model == "mss" || c.model == "fe" || c.model == "neo-hookean",
+            "case file: tissue.model '{}' is not known (mss-cs, mss-cf, mss, fe or neo-hookean)", c.model);
     if (j.contains("poisson")) {
       const double nu = number(j, "poisson", "tissue", 0.45);
-      require(c.model == "fe" || c.model == "mss-cf",
+      const bool continuum = c.model == "fe" || c.model == "neo-hookean";
+      require(continuum || c.model == "mss-cf",
               "case file: tissue.poisson is given but tissue.model '{}' has no Poisson ratio of its own (the MSS lattice's "
-              "is 1/4); use model fe or mss-cf, or remove tissue.poisson",
+              "is 1/4); use model fe, neo-hookean or mss-cf, or remove tissue.poisson",
               c.model);
-      require(nu >= (c.model == "fe" ? 0.0 : 0.25) && nu < 0.5,
-              "case file: tissue.poisson = {} is outside [{}, 0.5) (soft tissue: 0.45-0.49)", nu,
-              c.model == "fe" ? 0.0 : 0.25);
+      require(nu >= (continuum ? 0.0 : 0.25) && nu < 0.5,
+              "case file: tissue.poisson = {} is outside [{}, 0.5) (soft tissue: 0.45-0.49)", nu, continuum ? 0.0 : 0.25);
       c.poisson_ratio = nu;
     }
     c.constants = text(j, "constants", "tissue", c.constants);

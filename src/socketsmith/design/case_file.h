@@ -50,7 +50,7 @@ struct CaseFile {
   PatientLoad patient;
   ThresholdTable thresholds;               ///< [Pa]; empty = the limb type's defaults
   // Tissue model
-  std::string model = "mss-cs";            ///< mss-cs | mss-cf | mss | fe
+  std::string model = "mss-cs";            ///< mss-cs | mss-cf | mss | fe | neo-hookean
   /// Poisson ratio of the fe model (default 0.45) or MSS-CF's target (default 0.49); not set =
   /// the model's default. MSS and MSS-CS have none of their own (their lattice's is 1/4).
   std::optional<double> poisson_ratio;

@@ -109,10 +109,17 @@ tissue::MassSpringOptions model_options(const design::CaseFile& c) {
   o.corrective = o.kind == tissue::TissueModelKind::MssCs ? tissue::CorrectiveSpringConstants::preset(c.constants)
                                                           : tissue::CorrectiveSpringConstants::thesis();
   if (c.poisson_ratio) {
-    if (o.kind == tissue::TissueModelKind::Fe) o.fe_poisson_ratio = *c.poisson_ratio;
+    if (tissue::is_continuum(o.kind)) o.fe_poisson_ratio = *c.poisson_ratio;
     if (o.kind == tissue::TissueModelKind::MssCf) o.cf_poisson_ratio = *c.poisson_ratio;
   }
   return o;
+}
+
+design::OptimizerOptions optimizer_options(const design::CaseFile& c) {
+  design::OptimizerOptions oo;
+  oo.objective = c.objective;
+  oo.model_pressure_limit = c.model_pressure_limit;
+  return oo;
 }
 
 tissue::TissueMaterial material(const design::CaseFile& c) { return {c.youngs_modulus_pa, c.density_kg_m3}; }
@@ -191,9 +198,7 @@ DesignResult solve_design(DesignSetup& setup, bool optimise, const ProgressCallb
   DesignResult r;
   r.optimised = optimise;
   if (optimise) {
-    design::OptimizerOptions oo;
-    oo.objective = c.objective;
-    oo.model_pressure_limit = c.model_pressure_limit;
+    design::OptimizerOptions oo = optimizer_options(c);
     if (const auto floor = ischial_floor(setup)) oo.region_floors.push_back(*floor);
     oo.progress = [&](double f, std::string_view stage) { return report_progress(progress, 0.9 * f, stage); };
     r.optimiser = design::optimise_design(solver, setup.spots, oo);
@@ -516,9 +521,10 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
   rd.limb_type = geometry::to_string(model.type);
   rd.side = geometry::to_string(model.frame.side);
   rd.mesh_nodes = mesh.mesh.num_nodes();
-  if (c.model == "fe")
-    rd.model = fmt::format("fe (St Venant-Kirchhoff hexahedra, E = {:.0f} kPa, nu = {:.2f}), {} design solve",
-                           c.youngs_modulus_pa / 1e3, model_options(c).fe_poisson_ratio, design::to_string(c.solve_mode));
+  if (c.model == "fe" || c.model == "neo-hookean")
+    rd.model = fmt::format("{} ({} hexahedra, E = {:.0f} kPa, nu = {:.2f}), {} design solve", c.model,
+                           c.model == "fe" ? "St Venant-Kirchhoff" : "neo-Hookean", c.youngs_modulus_pa / 1e3,
+                           model_options(c).fe_poisson_ratio, design::to_string(c.solve_mode));
   else
     rd.model = fmt::format("{} ({} constants, E = {:.0f} kPa), {} design solve", c.model, c.constants,
                            c.youngs_modulus_pa / 1e3, design::to_string(c.solve_mode));
@@ -633,6 +639,11 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
       {"model_caps", opt.model_caps},
       {"linearised", state.linearised || c.solve_mode == design::DesignSolveMode::Linear},
       {"solve_mode", design::to_string(c.solve_mode)},
+      {"final_solve",
+       {{"newton_iterations", state.newton_iterations},
+        {"follower_passes", state.follower_passes},
+        {"seconds", state.seconds},
+        {"nonlinear_failure", state.nonlinear_failure}}},
       {"brim", {{"template", brim.name()}, {"min_h_mm", brim.min_height() * 1e3}, {"max_h_mm", brim.max_height() * 1e3}}},
       {"spots", spots_json},
       {"bones_estimated", model.bones_estimated},

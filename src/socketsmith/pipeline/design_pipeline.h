@@ -72,6 +72,8 @@ std::unique_ptr<DesignSetup> prepare_design(const design::CaseFile& c,
 double ischial_share_floor(const DesignSetup& setup);
 /// That floor as an optimiser region floor (nullopt when 0).
 std::optional<design::OptimizerOptions::RegionFloor> ischial_floor(const DesignSetup& setup);
+/// The optimiser's settings a case asks for (objective, model pressure limit).
+design::OptimizerOptions optimizer_options(const design::CaseFile& c);
 
 /// The MSS model options and material a case asks for.
 tissue::MassSpringOptions model_options(const design::CaseFile& c);
