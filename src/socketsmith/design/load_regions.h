@@ -63,7 +63,7 @@ std::vector<RegionLoad> region_loads(const std::vector<LoadRegion>& regions,
 /// The least share of the axial load the optimiser keeps on the ischial/gluteal region for a
 /// transfemoral brim template (0: none): quadrilateral 0.30 (an ischial-gluteal seat: the tuberosity
 /// sits on it), ischial containment 0.15 (the containment shares the load with the soft tissue
-/// held in total contact, Stark 2006). Assumed values — the literature gives none as a number;
+/// held in total contact). Assumed values — the literature gives none as a number;
 /// design.ischial_share_min overrides them.
 double default_ischial_share(BrimTemplate kind);
 

@@ -351,7 +351,7 @@ LimbModel prepare_limb(const TriMesh& limb, const TriMesh& extra_bones, const Li
   if (!opt.force_size) {
     // Far outside any limb (the axis cannot even be found): the anatomical check comes later.
     const double diag = geometry::bounding_box(limb).extent().norm();
-    require(diag > 0.02 && diag < 10.0, "limb is {:.3g} m across after units: not the size of a residual limb (0.08-1.5 m) — {}",
+    require(diag > 0.02 && diag < 10.0, "limb is {:.3g} m across after units: not the size of a residual limb (0.08-1.5 m); wrong units? {}",
             diag, unit_mistake_hint(0.4 / std::max(diag, 1e-12)));
   }
 
