@@ -40,6 +40,15 @@ void run(const CheckFlags& f) {
                    {"signed_volume_m3", rep.signed_volume_m3},
                    {"problems", rep.problems()}};
   if (!info.warning.empty()) j["warning"] = info.warning;
+  if (!info.landmarks.empty()) {
+    nlohmann::json lms = nlohmann::json::array();
+    for (const auto& lm : info.landmarks) {
+      nlohmann::json pts = nlohmann::json::array();
+      for (const auto& p : lm.points) pts.push_back({p.x() * 1e3, p.y() * 1e3, p.z() * 1e3});
+      lms.push_back({{"name", lm.name}, {"points_mm", pts}});
+    }
+    j["landmarks"] = lms;
+  }
   if (f.json) {
     print_json(j);
   } else {
@@ -47,6 +56,9 @@ void run(const CheckFlags& f) {
               rep.num_vertices, rep.num_triangles, box.extent().x() * 1e3, box.extent().y() * 1e3,
               box.extent().z() * 1e3, rep.connected_components, rep.is_closed() ? "closed" : "open");
     for (const auto& p : rep.problems()) log::info("  {}", p);
+    for (const auto& lm : info.landmarks)
+      log::info("  landmark {}: {} point(s), the first at ({:.1f}, {:.1f}, {:.1f}) mm", lm.name, lm.points.size(),
+                lm.points[0].x() * 1e3, lm.points[0].y() * 1e3, lm.points[0].z() * 1e3);
   }
   if (f.require_closed) geometry::require_closed_surface(mesh, "'" + f.file + "'");
 }
@@ -57,7 +69,7 @@ void register_check(CLI::App& app) {
   auto* chk = app.add_subcommand("check", "inspect an input file");
   chk->require_subcommand(1);
   auto flags = std::make_shared<CheckFlags>();
-  auto* mesh = chk->add_subcommand("mesh", "read a surface mesh (STL/OBJ/PLY) and report units, size and topology");
+  auto* mesh = chk->add_subcommand("mesh", "read a surface mesh (STL/OBJ/PLY/AOP) and report units, size and topology");
   mesh->add_option("file", flags->file, "mesh file")->required();
   mesh->add_option("--units", flags->units, "length unit of the file: mm | m (default: guessed from its size)")
       ->check(CLI::IsMember({"mm", "m"}));

@@ -301,8 +301,8 @@ void register_contact(CLI::App& app) {
   auto f = std::make_shared<DonningFlags>();
   auto* don = sim->add_subcommand("donning", "slide a socket onto the stump with friction, then stand; contact pressures");
   don->add_option("--case", f->case_file, "case file: design it, then don its own socket");
-  don->add_option("--limb", f->limb, "limb scan (STL/OBJ/PLY) to mesh as the stump (with --socket)");
-  don->add_option("--socket", f->socket, "closed socket solid (STL/OBJ/PLY) placed on the limb (with --limb)");
+  don->add_option("--limb", f->limb, "limb scan (STL/OBJ/PLY/AOP) to mesh as the stump (with --socket)");
+  don->add_option("--socket", f->socket, "closed socket solid (STL/OBJ/PLY/AOP) placed on the limb (with --limb)");
   don->add_option("--units", f->units, "units of --limb and --socket: mm | m (default: guessed from the size)");
   don->add_option("--offset-mm", f->offset_mm,
                   "start this far below the designed pose [mm] (default: the socket's top 5 mm below the stump)");

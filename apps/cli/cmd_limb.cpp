@@ -35,8 +35,8 @@ void run_generate(const LimbFlags& f) {
   const fs::path out(f.out);
   std::string ext = out.extension().string();
   for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  require(ext == ".stl" || ext == ".obj" || ext == ".ply",
-          "limb generate: --out '{}' has extension '{}' (expected .stl, .obj or .ply; the sidecar goes beside it as .json)",
+  require(ext == ".stl" || ext == ".obj" || ext == ".ply" || ext == ".aop",
+          "limb generate: --out '{}' has extension '{}' (expected .stl, .obj, .ply or .aop; the sidecar goes beside it as .json)",
           f.out, ext);
   volume::LimbShapeParams p = volume::default_params(type, f.seed);
   p.side = side;
@@ -108,7 +108,7 @@ void register_limb(CLI::App& app) {
   auto* open = gen->add_flag("--open", flags->open, "open proximal end, one boundary loop at the cut like a scan (default)");
   auto* closed = gen->add_flag("--closed", flags->closed, "cap the proximal end with a planar cap");
   open->excludes(closed);
-  gen->add_option("--out", flags->out, "output mesh: .stl, .obj or .ply (the sidecar is written beside it as .json)")
+  gen->add_option("--out", flags->out, "output mesh: .stl, .obj, .ply or .aop (AAOP: 72 spokes x 100 slices about the limb's axis; the sidecar is written beside it as .json)")
       ->required();
   gen->add_flag("--json", flags->json, "print the sidecar and a summary as JSON on stdout");
   gen->callback([flags] { run_generate(*flags); });

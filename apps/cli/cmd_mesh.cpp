@@ -258,7 +258,7 @@ void run(const MeshFlags& f) {
 void register_mesh(CLI::App& app) {
   auto f = std::make_shared<MeshFlags>();
   auto* cmd = app.add_subcommand("mesh", "hexahedral stump mesh from a limb surface (and bones)");
-  cmd->add_option("--limb", f->limb, "limb surface: STL/OBJ/PLY, may be open proximally, may hold bone shells")
+  cmd->add_option("--limb", f->limb, "limb surface: STL/OBJ/PLY/AOP, may be open proximally, may hold bone shells")
       ->required()
       ->check(CLI::ExistingFile);
   cmd->add_option("--bones", f->bones,

@@ -290,8 +290,8 @@ void run_reconstruct(const ReconstructFlags& f) {
   const fs::path out(f.out);
   std::string ext = out.extension().string();
   for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  require(ext == ".stl" || ext == ".obj" || ext == ".ply",
-          "scan reconstruct: --out '{}' has extension '{}' (expected .stl, .obj or .ply)", f.out, ext);
+  require(ext == ".stl" || ext == ".obj" || ext == ".ply" || ext == ".aop",
+          "scan reconstruct: --out '{}' has extension '{}' (expected .stl, .obj, .ply or .aop)", f.out, ext);
   scan::ReconstructionOptions o;
   o.back_projection.upsample = f.upsample;
   o.back_projection.fusion = scan::parse_frame_fusion(f.fusion, "scan reconstruct: --fusion");
@@ -858,7 +858,7 @@ void register_scan(CLI::App& app) {
 
   auto sf = std::make_shared<SimulateFlags>();
   auto* sim = scan_cmd->add_subcommand("simulate", "ray-cast a scene from a simulated Kinect v2 rig into a recording folder");
-  sim->add_option("--mesh", sf->mesh, "scene mesh (STL/OBJ/PLY), centred on the rig");
+  sim->add_option("--mesh", sf->mesh, "scene mesh (STL/OBJ/PLY/AOP), centred on the rig");
   sim->add_option("--units", sf->units, "units of --mesh: mm | m (default: guessed)");
   sim->add_option("--cylinder-mm", sf->cylinder_mm, "scene: a cylinder of this diameter [mm] (thesis: 100, 160, 210)");
   sim->add_option("--cylinder-height-mm", sf->cylinder_height_mm, "height of the cylinder [mm] (default 400)");
@@ -900,7 +900,7 @@ void register_scan(CLI::App& app) {
                   "metres per raw unit of --frame (default 0.001 = mm; TUM: 0.0002)");
   rec->add_option("--max-depth-m", rf->max_depth_m, "readings farther than this are ignored [m] (default 4.5)");
   rec->add_option("--rig", rf->rig, "rig file of 'scan register': replaces the sensor poses of rig.json (by name)");
-  rec->add_option("--out", rf->out, "output surface: .stl, .obj or .ply, in mm")->required();
+  rec->add_option("--out", rf->out, "output surface: .stl, .obj, .ply or .aop, in mm")->required();
   auto* open = rec->add_flag("--open", rf->open, "leave the proximal cut open (one boundary loop)");
   auto* closed = rec->add_flag("--closed", rf->closed, "cap the proximal cut with a plane (default)");
   open->excludes(closed);
@@ -922,7 +922,7 @@ void register_scan(CLI::App& app) {
   auto lf = std::make_shared<LimbExperimentFlags>();
   auto* limb = exp->add_subcommand(
       "limb", "simulate a rig around a limb, reconstruct it and measure the surface distance to the original");
-  limb->add_option("--mesh", lf->mesh, "limb surface (STL/OBJ/PLY), long axis along z, proximal end up");
+  limb->add_option("--mesh", lf->mesh, "limb surface (STL/OBJ/PLY/AOP), long axis along z, proximal end up");
   limb->add_option("--units", lf->units, "units of --mesh: mm | m (default: guessed)");
   limb->add_option("--generated", lf->generated, "use the generated limb's skin: transtibial | transfemoral");
   limb->add_option("--limb-seed", lf->limb_seed, "seed of the generated limb (default 1)");

@@ -1112,7 +1112,7 @@ void App::draw_file_dialog() {
     }
     std::string ext = e.path().extension().string();
     std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char ch) { return std::tolower(ch); });
-    const bool wanted = dialog_ == Dialog::OpenLimb ? (ext == ".stl" || ext == ".obj" || ext == ".ply")
+    const bool wanted = dialog_ == Dialog::OpenLimb ? (ext == ".stl" || ext == ".obj" || ext == ".ply" || ext == ".aop")
                                                     : dialog_ != Dialog::Export && ext == ".json";
     if (wanted && ImGui::Selectable(name.c_str())) dialog_path_ = e.path().string();
   }

@@ -56,7 +56,7 @@ class App {
   void open_case(const std::filesystem::path& path);
   /// Opens the demo sample (generated limb) at @p target_nodes.
   void open_demo(int target_nodes);
-  /// Opens a limb scan (STL/OBJ/PLY) as a new case with the default design.
+  /// Opens a limb scan (STL/OBJ/PLY/AOP) as a new case with the default design.
   void open_limb(const std::filesystem::path& path, int target_nodes);
   /// Saves the case atomically (the spots, brim, thickness and patient as edited).
   /// @throws Error when it cannot be written (also shown in the window).

@@ -115,7 +115,7 @@ int main(int argc, char** argv) {
   Flags f;
   CLI::App cli("socketsmith-gui: interactive prosthetic socket design");
   auto* case_opt = cli.add_option("--case", f.case_file, "case file to open (JSON, docs/case_file.md)");
-  auto* limb_opt = cli.add_option("--limb", f.limb_file, "limb scan to open as a new case (STL/OBJ/PLY)")->excludes(case_opt);
+  auto* limb_opt = cli.add_option("--limb", f.limb_file, "limb scan to open as a new case (STL/OBJ/PLY/AOP)")->excludes(case_opt);
   cli.add_flag("--demo", f.demo, "open the demo sample (generated transtibial limb)")->excludes(case_opt)->excludes(limb_opt);
   cli.add_option("--target-nodes", f.target_nodes, "stump size of the demo or the limb (default 8000)")
       ->check(CLI::Range(500, 100000));

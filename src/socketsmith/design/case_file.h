@@ -25,7 +25,7 @@ namespace socketsmith::design {
 
 /// Where the limb comes from: a file (with optional bones) or the generator (the sample).
 struct CaseLimb {
-  std::string file;                        ///< STL/OBJ/PLY; "" = generate
+  std::string file;                        ///< STL/OBJ/PLY/AOP; "" = generate
   std::string bones = "auto";              ///< auto (shells of the file) | estimate | none | a file
   std::string units;                       ///< mm | m | "" (guess from the size)
   /// Multiplies the coordinates after the units (a normalised shape: its reference length in the

@@ -20,6 +20,7 @@
 #include "socketsmith/core/atomic_file.h"
 #include "socketsmith/core/errors.h"
 #include "socketsmith/core/log.h"
+#include "socketsmith/geometry/aaop.h"
 
 namespace socketsmith::geometry {
 namespace {
@@ -793,8 +794,8 @@ TriMesh read_mesh(const fs::path& path, const MeshReadOptions& options, MeshRead
   require(std::isfinite(options.weld_tol_m) && options.weld_tol_m >= 0.0,
           "read_mesh: weld_tol_m is {} (expected a finite value >= 0 metres)", options.weld_tol_m);
   const std::string ext = lower(path.extension().string());
-  if (ext != ".stl" && ext != ".obj" && ext != ".ply")
-    fail("read_mesh: '{}' has an unsupported extension '{}' (expected .stl, .obj or .ply)",
+  if (ext != ".stl" && ext != ".obj" && ext != ".ply" && ext != ".aop")
+    fail("read_mesh: '{}' has an unsupported extension '{}' (expected .stl, .obj, .ply or .aop)",
          path.string(), path.extension().string());
 
   const std::string data = read_file(path);
@@ -809,7 +810,26 @@ TriMesh read_mesh(const fs::path& path, const MeshReadOptions& options, MeshRead
 
   TriMesh mesh;
   const bool is_stl = ext == ".stl";
-  if (is_stl) {
+  const bool is_aaop = ext == ".aop";
+  if (is_aaop) {
+    // The format's unit is the millimetre: nothing to guess.
+    inf.format = "aaop";
+    const AaopShape shape = parse_aaop(data, src.name);
+    bool distal_closed = false, proximal_closed = false;
+    mesh = aaop_surface(shape, &distal_closed, &proximal_closed);
+    const double f = options.unit ? units::to_metres(*options.unit) / units::mm : 1.0;
+    for (const AaopLandmark& lm : shape.landmarks) {
+      MeshLandmark out{lm.name, {}};
+      for (const Vec3& p : lm.points_mm) out.points.push_back(aaop_point_m(p) * f);
+      inf.landmarks.push_back(std::move(out));
+    }
+    // Back to the file's numbers: the unit conversion below applies to every format alike.
+    for (Vec3& p : mesh.vertices) p /= units::mm;
+    log::info("read_mesh: '{}': AAOP shape, {} spokes × {} slices, {} landmark(s); distal end {}, "
+              "proximal end {}",
+              src.name, shape.num_spokes(), shape.num_slices(), shape.landmarks.size(),
+              distal_closed ? "closed" : "open", proximal_closed ? "closed" : "open");
+  } else if (is_stl) {
     mesh = parse_stl(src, inf.format);
   } else if (ext == ".obj") {
     inf.format = "obj";
@@ -823,8 +843,10 @@ TriMesh read_mesh(const fs::path& path, const MeshReadOptions& options, MeshRead
 
   // Units: the raw size decides when the caller did not say.
   const double raw_diagonal = bounding_box(mesh).extent().norm();
-  inf.unit_was_guessed = !options.unit.has_value();
-  inf.unit = options.unit ? *options.unit : guess_length_unit(raw_diagonal);
+  inf.unit_was_guessed = !options.unit.has_value() && !is_aaop;
+  inf.unit = options.unit ? *options.unit
+             : is_aaop    ? units::LengthUnit::Millimetre
+                          : guess_length_unit(raw_diagonal);
   if (inf.unit_was_guessed)
     log::info("read_mesh: '{}' has no declared unit; it is {:.4g} units across, so assuming {} "
               "(pass the unit to override)",
@@ -888,8 +910,9 @@ void write_mesh(const fs::path& path, const TriMesh& mesh, units::LengthUnit uni
     if (ext == ".stl") format = MeshFormat::StlBinary;
     else if (ext == ".obj") format = MeshFormat::Obj;
     else if (ext == ".ply") format = MeshFormat::PlyBinary;
+    else if (ext == ".aop") format = MeshFormat::Aaop;
     else
-      fail("write_mesh: '{}' has an unknown extension '{}' (expected .stl, .obj or .ply, or pass a "
+      fail("write_mesh: '{}' has an unknown extension '{}' (expected .stl, .obj, .ply or .aop, or pass a "
            "MeshFormat)",
            path.string(), path.extension().string());
   }
@@ -956,6 +979,13 @@ void write_mesh(const fs::path& path, const TriMesh& mesh, units::LengthUnit uni
         for (int k = 0; k < 3; ++k) store_le(p, static_cast<std::int32_t>(t[k]));
       }
       write_bytes(buf);
+      break;
+    }
+    case MeshFormat::Aaop: {
+      require(unit == units::LengthUnit::Millimetre,
+              "write_mesh: '{}': AAOP files are in millimetres (asked for {})", path.string(),
+              units::to_string(unit));
+      write_aaop(path, sample_aaop(mesh));
       break;
     }
     case MeshFormat::Auto: break;

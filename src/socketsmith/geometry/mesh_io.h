@@ -1,11 +1,12 @@
 #pragma once
 /// @file mesh_io.h
 /// Robust surface mesh IO: STL (binary and ASCII), OBJ, PLY (ASCII and binary little/big
-/// endian). Lengths are converted to metres at this boundary.
+/// endian), AAOP shape files (.aop, see aaop.h). Lengths are converted to metres at this boundary.
 
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "socketsmith/core/units.h"
 #include "socketsmith/geometry/tri_mesh.h"
@@ -28,28 +29,41 @@ struct MeshReadOptions {
 inline constexpr double kMinPlausibleSize_m = 0.01;
 inline constexpr double kMaxPlausibleSize_m = 3.0;
 
+/// A named landmark a mesh file carries (AAOP files do): one or more points [m], in the mesh's frame.
+struct MeshLandmark {
+  std::string name;
+  std::vector<Vec3> points;
+};
+
 /// Information about what was read, for reports.
 struct MeshReadInfo {
-  std::string format;            ///< "stl-binary", "stl-ascii", "obj", "ply-ascii", "ply-binary"
+  std::string format;            ///< "stl-binary", "stl-ascii", "obj", "ply-ascii", "ply-binary", "aaop"
   units::LengthUnit unit{};      ///< unit actually used for conversion
   bool unit_was_guessed = false;  ///< true when MeshReadOptions::unit was empty
   int welded_vertices = 0;       ///< vertices removed by welding
   int dropped_triangles = 0;     ///< degenerate (repeated index) triangles dropped
   std::string warning;           ///< non-empty when a unit or size warning was logged
+  std::vector<MeshLandmark> landmarks;  ///< landmarks stored in the file (AAOP), else empty
 };
 
-/// Reads STL/OBJ/PLY by extension (case-insensitive), sniffing binary vs ASCII STL by content.
-/// Polygons in OBJ/PLY are fan-triangulated.
+/// Reads STL/OBJ/PLY/AOP by extension (case-insensitive), sniffing binary vs ASCII STL by content.
+/// Polygons in OBJ/PLY are fan-triangulated. An AAOP file's spoke grid is triangulated in the
+/// file's frame (aaop_surface: closed where a slice of zero radii closes it, else open); its unit
+/// is millimetres unless options.unit says otherwise, and its landmarks go to info->landmarks.
 /// @throws IoError if the file cannot be opened; InvalidInputError if it is not a mesh of that
 ///         format, is empty (0 triangles), has indices out of range, or NaN/inf coordinates.
 TriMesh read_mesh(const std::filesystem::path& path, const MeshReadOptions& options = {},
                   MeshReadInfo* info = nullptr);
 
 /// Output format of write_mesh (chosen from the extension when Auto).
-enum class MeshFormat { Auto, StlBinary, StlAscii, Obj, PlyBinary, PlyAscii };
+enum class MeshFormat { Auto, StlBinary, StlAscii, Obj, PlyBinary, PlyAscii, Aaop };
 
 /// Writes @p mesh (metres) in @p unit, atomically (temporary file + rename).
-/// @throws IoError on write failure; InvalidInputError on an unknown extension.
+/// AAOP (.aop, millimetres only): the mesh, a closed limb or socket cavity or one open at its
+/// proximal end, is resampled to 72 spokes × 100 slices about its own long axis
+/// (sample_aaop in aaop.h takes the frame and the counts).
+/// @throws IoError on write failure; InvalidInputError on an unknown extension, or for AAOP a unit
+///         other than mm or a shape that is not a tube around its axis.
 void write_mesh(const std::filesystem::path& path, const TriMesh& mesh,
                 units::LengthUnit unit = units::LengthUnit::Millimetre,
                 MeshFormat format = MeshFormat::Auto);
