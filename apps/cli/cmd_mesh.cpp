@@ -31,6 +31,8 @@ struct MeshFlags {
   double scale = 1.0;
   std::string type = "transtibial";
   std::string anterior;
+  std::string axis;
+  bool force_size = false;
   std::string side;
   double cut_height_mm = -1.0;
   int target_nodes = 8000;
@@ -90,6 +92,8 @@ void run(const MeshFlags& f) {
   lo.type = geometry::parse_limb_type(f.type);
   if (f.bones != "auto" && f.bones != "estimate" && f.bones != "none") extra = read_scaled(f.bones, f);
   if (!f.anterior.empty()) lo.anterior = parse_vector(f.anterior, "--anterior");
+  if (!f.axis.empty()) lo.axis = parse_vector(f.axis, "--axis");
+  lo.force_size = f.force_size;
   if (!f.side.empty()) lo.side = geometry::parse_side(f.side);
   if (f.cut_height_mm > 0) lo.cut_height_m = f.cut_height_mm * units::mm;
   lo.estimate_bones = f.bones != "none";
@@ -263,6 +267,11 @@ void register_mesh(CLI::App& app) {
   cmd->add_option("--scale", f->scale, "multiply coordinates after unit conversion (e.g. 0.45 for femur-normalised shapes)");
   cmd->add_option("--type", f->type, "transtibial | transfemoral");
   cmd->add_option("--anterior", f->anterior, "front of the limb as a direction x,y,z in the file's frame");
+  cmd->add_option("--axis", f->axis,
+                  "long axis of the limb, distal to proximal, as x,y,z in the file's frame (default: the femur's "
+                  "shaft, else estimated from the skin)");
+  cmd->add_flag("--force-size", f->force_size,
+                "accept a limb whose size after units and --scale is outside the anatomical range of its type");
   cmd->add_option("--side", f->side, "right | left");
   cmd->add_option("--cut-height-mm", f->cut_height_mm, "proximal cut above the distal end (default: just below the open rim)");
   cmd->add_option("--target-nodes", f->target_nodes, "aimed-at node count (e.g. 3000, 8000, 20000)");

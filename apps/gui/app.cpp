@@ -222,8 +222,9 @@ void App::request_solve(bool brim_changed) {
   r.generation = ++generation_;
   if (brim_changed) {
     try {
-      setup_->brim = case_.brim_key_points.empty() ? design::make_brim(case_.brim, setup_->model)
-                                                   : design::brim_from_key_points(case_.brim_key_points, case_.brim);
+      const design::BrimTemplate kind = case_.brim.value_or(design::default_brim(setup_->model.type));
+      setup_->brim = case_.brim_key_points.empty() ? design::make_brim(kind, setup_->model)
+                                                   : design::brim_from_key_points(case_.brim_key_points, kind);
       design::validate_brim(setup_->brim, setup_->model.skin, setup_->model.frame);
     } catch (const Error& e) {
       show_error(e.what());
@@ -797,7 +798,8 @@ void App::draw_design_panel() {
                                                design::BrimTemplate::PtbScsp, design::BrimTemplate::Kbm,
                                                design::BrimTemplate::Tsb}
            : std::vector<design::BrimTemplate>{design::BrimTemplate::Quad, design::BrimTemplate::Ics};
-    const std::string current = design::to_string(case_.brim) + (case_.brim_key_points.empty() ? "" : " (edited)");
+    const std::string current = design::to_string(case_.brim.value_or(design::default_brim(setup_->model.type))) +
+                                (case_.brim_key_points.empty() ? "" : " (edited)");
     if (ImGui::BeginCombo("template", current.c_str())) {
       for (auto k : kinds)
         if (ImGui::Selectable(design::to_string(k).c_str(), k == case_.brim)) set_brim_template(k);

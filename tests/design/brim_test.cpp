@@ -30,6 +30,12 @@ double lm_h(const volume::GeneratedLimb& l, const std::string& code) {
   ADD_FAILURE() << "no landmark " << code;
   return 0;
 }
+double lm_theta(const volume::GeneratedLimb& l, const std::string& code) {
+  for (const auto& m : l.landmarks)
+    if (m.code == code) return m.cylindrical.theta;
+  ADD_FAILURE() << "no landmark " << code;
+  return 0;
+}
 std::string message_of(const std::function<void()>& f) {
   try {
     f();
@@ -93,20 +99,41 @@ TEST(BrimTemplate, transtibial_templates_have_the_shapes_of_their_socket_types) 
 }
 
 TEST(BrimTemplate, transfemoral_templates_follow_ischium_and_trochanter) {
-  // The generated thigh is cut 15 mm above the ischial seat, so raise the cut for the test by
-  // passing a higher cut height with the same landmarks (a scan that goes higher).
+  // The generated thigh reaches 80-100 mm above the ischial tuberosity (buttock and groin).
   const auto& l = tf_limb();
-  const double is = lm_h(l, "IS"), cut = is + 0.1;
-  const BrimLine quad = make_brim(BrimTemplate::Quad, LimbType::Transfemoral, l.landmarks, cut);
-  const BrimLine ics = make_brim(BrimTemplate::Ics, LimbType::Transfemoral, l.landmarks, cut);
-  EXPECT_NEAR(quad.height(150 * kDeg), is, 1e-12);                      // ischial seat
-  EXPECT_GT(quad.height(0), is + 50 * kMm);                             // anterior 5–7 cm higher
-  EXPECT_GT(quad.height(-90 * kDeg), quad.height(90 * kDeg));           // lateral above medial
-  EXPECT_GT(ics.height(150 * kDeg), is + 25 * kMm);                     // contains the ischium
-  EXPECT_GT(ics.height(-90 * kDeg), lm_h(l, "GT") + 25 * kMm);          // over the trochanter
-  // On the generated limb itself everything is clamped below its cut.
-  const BrimLine clamped = make_brim(BrimTemplate::Ics, LimbType::Transfemoral, l.landmarks, l.cut_height_m);
-  EXPECT_LE(clamped.max_height(), l.cut_height_m - 5 * kMm + 1e-4);
+  const double is = lm_h(l, "IS"), cut = l.cut_height_m;
+  const double th_is = lm_theta(l, "IS"), th_al = lm_theta(l, "AL"), th_gt = lm_theta(l, "GT");
+  ASSERT_GT(cut, is + 55 * kMm);
+  std::vector<std::string> notes;
+  const BrimLine quad = make_brim(BrimTemplate::Quad, LimbType::Transfemoral, l.landmarks, cut, {}, &notes);
+  const BrimLine ics = make_brim(BrimTemplate::Ics, LimbType::Transfemoral, l.landmarks, cut, {}, &notes);
+  // Quadrilateral: a level seat at IS from behind the tuberosity round to posterior, the anterior
+  // wall 65 mm higher (clamped below the cut), lateral above medial.
+  EXPECT_NEAR(quad.height(180 * kDeg), is, 1e-9);
+  EXPECT_NEAR(quad.height(std::min(th_is + 25 * kDeg, 165 * kDeg)), is, 1e-9);
+  EXPECT_GT(quad.height(0), is + 50 * kMm);
+  EXPECT_GT(quad.height(th_gt), quad.height(90 * kDeg));
+  // ICS: not flat (>= 40 mm around), highest postero-medially where it wraps the tuberosity, a
+  // relief over the adductor longus, the lateral wall above the trochanter.
+  EXPECT_GE(ics.max_height() - ics.min_height(), 40 * kMm);
+  double th_max = 0, h_max = -1;
+  for (int d = -180; d < 180; ++d)
+    if (ics.height(d * kDeg) > h_max) h_max = ics.height(d * kDeg), th_max = d;
+  EXPECT_GT(th_max, 90) << "highest at " << th_max << " deg";  // postero-medial
+  EXPECT_LT(th_max, 180) << "highest at " << th_max << " deg";
+  EXPECT_GT(ics.height(th_is), is + 25 * kMm);  // the tuberosity lies inside the containment
+  EXPECT_LT(ics.height(th_al), is + 10 * kMm);  // the adductor longus relief
+  EXPECT_GT(ics.height(th_gt), lm_h(l, "GT"));   // over the trochanter
+  EXPECT_TRUE(notes.empty()) << notes.front();
+  // A stump that ends too low: the key points are clamped below its cut, and each clamp is said.
+  const BrimLine clamped =
+      make_brim(BrimTemplate::Ics, LimbType::Transfemoral, l.landmarks, is + 20 * kMm, {}, &notes);
+  EXPECT_LE(clamped.max_height(), is + 15 * kMm + 1e-4);
+  ASSERT_FALSE(notes.empty());
+  EXPECT_NE(notes.front().find("clamped"), std::string::npos) << notes.front();
+  // The default brim follows the limb type.
+  EXPECT_EQ(default_brim(LimbType::Transfemoral), BrimTemplate::Ics);
+  EXPECT_EQ(default_brim(LimbType::Transtibial), BrimTemplate::Ptb);
 }
 
 TEST(BrimLine, key_points_can_be_moved_and_given_explicitly) {

@@ -133,7 +133,10 @@ TEST(CaseFile, an_empty_document_is_the_default_case) {
   EXPECT_TRUE(c.limb.file.empty());  // the generated sample
   EXPECT_TRUE(c.spots.empty());      // the default layout
   EXPECT_TRUE(c.thresholds.empty()); // Table 7
-  EXPECT_EQ(c.brim, BrimTemplate::Ptb);
+  EXPECT_FALSE(c.brim.has_value());  // the limb type's default (PTB, ICS)
+  EXPECT_EQ(c.limb.scale, 1.0);
+  EXPECT_FALSE(c.limb.axis.has_value());
+  EXPECT_FALSE(c.limb.force_size);
   EXPECT_EQ(c.solve_mode, DesignSolveMode::Linear);
   EXPECT_NEAR(c.socket.thickness_m, 0.005, 1e-12);
   EXPECT_EQ(case_to_json(c)["design"]["spots"], "default");
@@ -186,6 +189,27 @@ TEST(CaseFile, bad_input_is_one_line_naming_the_key) {
   expect_error(R"({"socket": {"alignment": {"flexion_deg": 45}}})", "flexion_deg = 45.0 is outside");
   expect_error(R"({"socket": {"alignment": {"abduction_deg": 3}}})", "unknown key 'abduction_deg'");
   expect_error(R"({"socket": {"distal_thickness_mm": 0.2}})", "socket.distal_thickness_mm = 0.2 mm");
+}
+
+TEST(CaseFile, limb_scale_axis_and_size_override_round_trip_and_are_checked) {
+  const CaseFile c = parse_case(json::parse(
+      R"({"limb": {"file": "tf.stl", "units": "m", "scale": 0.45, "axis": [0, 0, 2], "force_size": true,
+                   "type": "transfemoral"},
+          "design": {"ischial_share_min": 0.2}})"));
+  EXPECT_DOUBLE_EQ(c.limb.scale, 0.45);
+  ASSERT_TRUE(c.limb.axis.has_value());
+  EXPECT_EQ(*c.limb.axis, Eigen::Vector3d(0, 0, 2));
+  EXPECT_TRUE(c.limb.force_size);
+  ASSERT_TRUE(c.ischial_share_min.has_value());
+  EXPECT_DOUBLE_EQ(*c.ischial_share_min, 0.2);
+  EXPECT_FALSE(c.brim.has_value());
+  const CaseFile d = parse_case(case_to_json(c));
+  EXPECT_EQ(case_to_json(d), case_to_json(c));
+  EXPECT_DOUBLE_EQ(d.limb.scale, 0.45);
+  EXPECT_FALSE(d.brim.has_value());  // still the limb type's default
+  expect_error(R"({"limb": {"scale": -1}})", "limb.scale = -1 must be positive");
+  expect_error(R"({"limb": {"axis": [0, 0, 0]}})", "'limb.axis' is the zero vector");
+  expect_error(R"({"design": {"ischial_share_min": 1.5}})", "design.ischial_share_min = 1.5 is outside");
 }
 
 TEST(CaseFile, files_that_are_missing_or_not_json) {

@@ -92,7 +92,8 @@ TEST(DefaultSpots, transtibial_layout_covers_the_ptb_zones_the_distal_end_and_th
 TEST(DefaultSpots, transfemoral_layout_and_missing_landmarks) {
   const auto tf = volume::generate_limb(volume::default_params(LimbType::Transfemoral, 2));
   const auto spots = default_spots(LimbType::Transfemoral, tf.landmarks, tf.cut_height_m);
-  for (const char* name : {"IS", "AR", "GT", "distal"}) EXPECT_NE(find_spot(spots, name), nullptr) << name;
+  for (const char* name : {"ischial seat", "gluteal", "ischial ramus", "lateral wall", "Scarpa's triangle", "distal"})
+    EXPECT_NE(find_spot(spots, name), nullptr) << name;
   for (const auto& s : spots) EXPECT_NO_THROW(validate_spot(s, tf.cut_height_m)) << s.name;
 
   auto tt = volume::generate_limb(volume::default_params(LimbType::Transtibial, 2));

@@ -50,10 +50,19 @@ TEST(PainThresholds, defaults_are_the_thesis_table_7) {
   EXPECT_DOUBLE_EQ(t.at("FH"), 45.85e3);
   EXPECT_DOUBLE_EQ(t.at("POP"), 60.86e3);
   EXPECT_DOUBLE_EQ(t.at("AD"), 98.77e3);
-  EXPECT_TRUE(default_thresholds(LimbType::Transfemoral).empty());
   const auto codes = required_threshold_codes(LimbType::Transtibial);
   for (const auto& [code, v] : t) EXPECT_NE(std::find(codes.begin(), codes.end(), code), codes.end()) << code;
-  EXPECT_EQ(required_threshold_codes(LimbType::Transfemoral), (std::vector<std::string>{"IS", "AR", "GT", "DF"}));
+  // Transfemoral (docs/design.md: cited, or assumed where the literature gives none).
+  const auto tf = default_thresholds(LimbType::Transfemoral);
+  EXPECT_EQ(required_threshold_codes(LimbType::Transfemoral),
+            (std::vector<std::string>{"IS", "IR", "GT", "AL", "ST", "DF"}));
+  ASSERT_EQ(tf.size(), 6u);
+  EXPECT_DOUBLE_EQ(tf.at("IS"), 95.0e3);
+  EXPECT_DOUBLE_EQ(tf.at("IR"), 42.9e3);
+  EXPECT_DOUBLE_EQ(tf.at("GT"), 45.85e3);
+  EXPECT_DOUBLE_EQ(tf.at("AL"), 34.0e3);
+  EXPECT_DOUBLE_EQ(tf.at("ST"), 60.86e3);
+  EXPECT_DOUBLE_EQ(tf.at("DF"), 45.85e3);
 }
 
 TEST(PainThresholds, idw_of_two_points_matches_the_hand_computation) {
@@ -143,15 +152,22 @@ TEST(PainThresholds, validation_names_the_landmark_and_the_fix) {
   expect_msg(absurd, {"landmark PT", "unit"});
 }
 
-TEST(PainThresholds, transfemoral_has_no_defaults_and_asks_for_ischial_seat) {
+TEST(PainThresholds, transfemoral_defaults_cover_its_landmarks_and_old_codes_are_named) {
   const auto& lms = tf_limb().landmarks;
-  const std::string msg =
-      message_of([&] { validate_thresholds(default_thresholds(LimbType::Transfemoral), lms, LimbType::Transfemoral); });
+  EXPECT_NO_THROW(validate_thresholds(default_thresholds(LimbType::Transfemoral), lms, LimbType::Transfemoral));
+  auto missing = default_thresholds(LimbType::Transfemoral);
+  missing.erase("IS");
+  const std::string msg = message_of([&] { validate_thresholds(missing, lms, LimbType::Transfemoral); });
   EXPECT_NE(msg.find("pain threshold missing for landmark IS"), std::string::npos) << msg;
-  const ThresholdTable full = {{"IS", 150e3}, {"AR", 60e3}, {"GT", 80e3}, {"DF", 90e3}};
-  EXPECT_NO_THROW(validate_thresholds(full, lms, LimbType::Transfemoral));
+  EXPECT_NE(msg.find("95.00 kPa"), std::string::npos) << msg;
+  // The former code AR is named with its replacements.
+  auto old = default_thresholds(LimbType::Transfemoral);
+  old["AR"] = 60e3;
+  const std::string ar = message_of([&] { validate_thresholds(old, lms, LimbType::Transfemoral); });
+  EXPECT_NE(ar.find("IR"), std::string::npos) << ar;
+  EXPECT_NE(ar.find("AL"), std::string::npos) << ar;
   // A transtibial code on a transfemoral limb is not a landmark there.
-  auto wrong = full;
+  auto wrong = default_thresholds(LimbType::Transfemoral);
   wrong["PT"] = 190e3;
   EXPECT_NE(message_of([&] { validate_thresholds(wrong, lms, LimbType::Transfemoral); }).find("not a landmark"),
             std::string::npos);

@@ -119,6 +119,59 @@ TEST_F(DemoRun, RadarRecomputedFromSurfaceNodesEqualsTheReportAndTheSocketIsASol
   EXPECT_LT(max_pad, 0.03);
 }
 
+// The real transfemoral limb (OpenLimbTF mean limb, scaled by a 0.45 m femur via limb.scale), a
+// case without a brim: the transfemoral default (ICS) is placed from the bony landmarks, the
+// ischial/gluteal region carries its share of the axial load, the socket is a closed solid.
+TEST(TransfemoralCase, RealLimbWithoutABrimGetsAnIschialContainment) {
+  const fs::path stl = fs::path(SOCKETSMITH_SHARED_DATA_DIR) / "limbs/transfemoral/openlimb_tf_mean_limb_normalised.stl";
+  if (!fs::exists(stl)) GTEST_SKIP() << "shared data absent: " << stl;
+  const fs::path dir = fs::path(SOCKETSMITH_BINARY_DIR) / "tests" / "pipeline_tf";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  {
+    std::ofstream c(dir / "tf.json");
+    c << nlohmann::json{{"socketsmith_case", 1},
+                        {"limb", {{"file", stl.string()}, {"units", "m"}, {"scale", 0.45}, {"type", "transfemoral"}}},
+                        {"mesh", {{"target_nodes", 3000}}}}
+             .dump();
+  }
+  const std::string cmd = std::string(SOCKETSMITH_BINARY_DIR) + "/socketsmith design " + (dir / "tf.json").string() +
+                          " --out " + (dir / "out").string() + " > " + (dir / "log.txt").string() + " 2>&1";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << "see " << (dir / "log.txt").string();
+  std::ifstream in(dir / "out" / "design.json");
+  const auto j = nlohmann::json::parse(in);
+  EXPECT_TRUE(j["constraints_met"].get<bool>());
+  EXPECT_EQ(j["brim"]["template"], "ics");
+  EXPECT_EQ(j["frame"]["axis_source"], "femur");
+  EXPECT_EQ(j["frame"]["anterior_source"], "hemipelvis");
+  // The brim is not flat, and highest postero-medially where it wraps the tuberosity.
+  const double hmin = j["brim"]["min_h_mm"].get<double>(), hmax = j["brim"]["max_h_mm"].get<double>();
+  EXPECT_GE(hmax - hmin, 40.0);
+  double top_theta = 0, top_h = -1;
+  for (const auto& k : j["brim"]["key_points"])
+    if (k["h_mm"].get<double>() > top_h) top_h = k["h_mm"].get<double>(), top_theta = k["theta_deg"].get<double>();
+  EXPECT_GT(top_theta, 90.0);
+  EXPECT_LT(top_theta, 180.0);
+  // The tuberosity lies inside the containment: the brim above it by more than 25 mm.
+  double is_h = -1;
+  for (const auto& l : j["landmarks"])
+    if (l["code"] == "IS") is_h = l["h_mm"].get<double>();
+  ASSERT_GT(is_h, 0.0);
+  EXPECT_GT(top_h, is_h + 25.0);
+  // The ischial/gluteal region carries at least the template's share, reported.
+  EXPECT_GE(j["ischial_gluteal_share"].get<double>(), j["ischial_share_min"].get<double>() - 1e-3);
+  EXPECT_GT(j["ischial_share_min"].get<double>(), 0.0);
+  double total = 0;
+  for (const auto& r : j["load_shares"]) total += r["share"].get<double>();
+  EXPECT_NEAR(total, 1.0, 0.05);
+  // The report shows the table; the socket is a closed solid.
+  std::ifstream html(dir / "out" / "report.html");
+  const std::string report((std::istreambuf_iterator<char>(html)), std::istreambuf_iterator<char>());
+  EXPECT_NE(report.find("Axial load by region"), std::string::npos);
+  const auto socket = geometry::read_mesh(dir / "out" / "socket.stl", {});
+  EXPECT_TRUE(geometry::check_mesh(socket).is_valid_closed_surface());
+}
+
 TEST(ModelOptions, a_case_files_tissue_model_and_poisson_ratio_reach_the_model) {
   auto c = design::parse_case(nlohmann::json::parse(R"({"tissue": {"model": "fe", "poisson": 0.48}})"));
   auto o = pipeline::model_options(c);

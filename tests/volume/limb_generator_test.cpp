@@ -121,11 +121,15 @@ TEST(LimbGenerator, transfemoral_skin_and_femur_are_valid_closed_surfaces) {
     EXPECT_TRUE(geometry::check_mesh(limb.skin).is_valid_closed_surface());
     EXPECT_GE(limb.skin.num_vertices(), 5000);
     EXPECT_LE(limb.skin.num_vertices(), 10000);
-    ASSERT_EQ(limb.bones.size(), 1u);
+    // The femur and, like a CT scan's, a whole hemipelvis (the limb model clips it to the stump).
+    ASSERT_EQ(limb.bones.size(), 2u);
     EXPECT_EQ(limb.bones[0].name, "femur");
-    const auto r = geometry::check_mesh(limb.bones[0].mesh);
-    EXPECT_TRUE(r.is_valid_closed_surface());
-    EXPECT_GT(r.signed_volume_m3, 0.0);
+    EXPECT_EQ(limb.bones[1].name, "hemipelvis");
+    for (const auto& b : limb.bones) {
+      const auto r = geometry::check_mesh(b.mesh);
+      EXPECT_TRUE(r.is_valid_closed_surface()) << b.name;
+      EXPECT_GT(r.signed_volume_m3, 0.0) << b.name;
+    }
   }
 }
 
@@ -168,6 +172,7 @@ TEST(LimbGenerator, bones_lie_inside_the_skin_with_at_least_3mm_of_tissue) {
            {LimbType::Transtibial, 1}, {LimbType::Transtibial, 7}, {LimbType::Transfemoral, 3}}) {
     const GeneratedLimb limb = make(type, seed, /*open=*/true);
     for (const auto& b : limb.bones) {
+      if (b.name == "hemipelvis") continue;  // whole, as in a CT scan: it leaves the skin; its gap to the femur is checked below
       EXPECT_GE(min_vertex_distance(b.mesh, limb.skin), kMinBoneClearance_m) << b.name << " seed " << seed;
       EXPECT_GE(min_vertex_distance(limb.skin, b.mesh), kMinBoneClearance_m) << b.name << " seed " << seed;
       for (std::size_t v = 0; v < b.mesh.vertices.size(); v += 97)
@@ -266,10 +271,14 @@ TEST(LimbGenerator, left_and_right_limbs_are_mirror_images) {
     EXPECT_TRUE(geometry::check_mesh(l.skin).is_oriented());
     ASSERT_EQ(r.bones.size(), l.bones.size());
     for (std::size_t b = 0; b < r.bones.size(); ++b) {
-      EXPECT_NEAR(geometry::signed_volume(l.bones[b].mesh), geometry::signed_volume(r.bones[b].mesh), 1e-12);
+      // The hemipelvis is a boolean union of two tubes: its vertices are rounded, not mirrored exactly.
+      const bool rounded = r.bones[b].name == "hemipelvis";
+      EXPECT_NEAR(geometry::signed_volume(l.bones[b].mesh), geometry::signed_volume(r.bones[b].mesh),
+                  rounded ? 1e-9 : 1e-12);
       EXPECT_GT(geometry::signed_volume(l.bones[b].mesh), 0.0);
       const Vec3 cr = volume_centroid(r.bones[b].mesh), cl = volume_centroid(l.bones[b].mesh);
-      EXPECT_LT((cl - Vec3(-cr.x(), cr.y(), cr.z())).norm(), 1e-9) << r.bones[b].name;
+      EXPECT_LT((cl - Vec3(-cr.x(), cr.y(), cr.z())).norm(), rounded ? 1e-6 : 1e-9)
+          << r.bones[b].name;
     }
     ASSERT_EQ(r.landmarks.size(), l.landmarks.size());
     for (std::size_t i = 0; i < r.landmarks.size(); ++i) {
@@ -324,10 +333,18 @@ TEST(LimbGenerator, landmarks_lie_on_the_skin_on_their_anatomical_side) {
   }
   const GeneratedLimb tf = make(LimbType::Transfemoral, 1);
   const double cut = tf.cut_height_m;
-  EXPECT_GT(landmark(tf, "IS").cylindrical.theta, 90 * kDeg);  // posterior-medial
-  EXPECT_GT(landmark(tf, "IS").cylindrical.h, cut - 0.05);
-  EXPECT_GT(landmark(tf, "AR").cylindrical.theta, 0.0);  // medial
-  EXPECT_NEAR(landmark(tf, "GT").cylindrical.theta, -90 * kDeg, 20 * kDeg);  // lateral
+  const double tuberosity = tf.params.residual_length_m;
+  EXPECT_GT(landmark(tf, "IS").cylindrical.theta, 60 * kDeg);  // medial to postero-medial
+  EXPECT_LT(landmark(tf, "IS").cylindrical.theta, 150 * kDeg);
+  EXPECT_NEAR(landmark(tf, "IS").cylindrical.h, tuberosity, 0.02);
+  EXPECT_LT(landmark(tf, "IS").cylindrical.h, cut - 0.05);  // the skin reaches above it (buttock, groin)
+  EXPECT_GT(landmark(tf, "IR").cylindrical.theta, 0.0);  // medial
+  EXPECT_LT(landmark(tf, "IR").cylindrical.theta, landmark(tf, "IS").cylindrical.theta);  // in front of IS
+  EXPECT_GT(landmark(tf, "AL").cylindrical.theta, 25 * kDeg);  // antero-medial
+  EXPECT_LT(landmark(tf, "AL").cylindrical.theta, 80 * kDeg);
+  EXPECT_LT(std::abs(landmark(tf, "ST").cylindrical.theta), landmark(tf, "AL").cylindrical.theta);  // anterior of AL
+  EXPECT_NEAR(landmark(tf, "GT").cylindrical.theta, -90 * kDeg, 30 * kDeg);  // lateral
+  EXPECT_GT(landmark(tf, "GT").cylindrical.h, tuberosity);
   EXPECT_LT(landmark(tf, "DF").cylindrical.h, 0.05);
   for (const auto& lm : tf.landmarks) {
     TriMesh point;
@@ -411,7 +428,7 @@ TEST(LimbGenerator, rejects_out_of_range_parameters) {
   p.bulbousness = 2.0;
   expect_invalid(p, "bulbousness");
   p = default_params(LimbType::Transfemoral, 0);
-  p.proximal_extension_m = 0.05;
+  p.proximal_extension_m = 0.16;  // above the tuberosity: at most 0.15 m
   expect_invalid(p, "proximal_extension_m");
   p = default_params(LimbType::Transtibial, 0);
   p.ring_vertices = 10;
@@ -436,7 +453,7 @@ TEST(LimbGenerator, default_params_stay_in_range_and_every_seed_generates) {
         EXPECT_NEAR(p.proximal_extension_m, 0.07, 0.01 + 1e-12);
       } else {
         EXPECT_NEAR(p.residual_length_m, 0.27, 0.03 + 1e-12);
-        EXPECT_EQ(p.proximal_extension_m, 0.0);
+        EXPECT_NEAR(p.proximal_extension_m, 0.09, 0.01 + 1e-12);
       }
     }
   for (std::uint64_t seed = 10; seed < 20; ++seed)
@@ -468,6 +485,7 @@ TEST(LimbGenerator, extreme_parameters_still_give_valid_limbs) {
     ASSERT_FALSE(limb.bones.empty());
     for (const auto& b : limb.bones) {
       EXPECT_TRUE(geometry::check_mesh(b.mesh).is_valid_closed_surface()) << b.name;
+      if (b.name == "hemipelvis") continue;  // leaves the skin by design (clipped by the limb model)
       EXPECT_GE(min_vertex_distance(b.mesh, limb.skin, 3), kMinBoneClearance_m) << b.name;
     }
   }

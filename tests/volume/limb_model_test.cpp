@@ -3,6 +3,9 @@
 
 #include <cmath>
 #include <filesystem>
+#include <limits>
+
+#include <Eigen/Geometry>
 
 #include "limb_shapes.h"
 #include "socketsmith/core/errors.h"
@@ -80,23 +83,159 @@ TEST(LimbModel, AmpscanScanWithoutBonesGetsEstimatedBones) {
   expect_on_skin(m);
 }
 
+geometry::TriMesh read_tf_metres(const fs::path& file) {
+  geometry::MeshReadOptions ro;
+  ro.unit = units::LengthUnit::Metre;
+  ro.warn_on_implausible_size = false;
+  geometry::TriMesh limb = geometry::read_mesh(file, ro);
+  geometry::scale(limb, 0.45);  // normalised to the femur's length: a 0.45 m femur
+  return limb;
+}
+
+double angle_deg(const Vec3& a, const Vec3& b) {
+  return std::acos(std::clamp(a.normalized().dot(b.normalized()), -1.0, 1.0)) / units::deg;
+}
+
+// The OpenLimbTF mean limb lies in a CT frame (DICOM LPS: +x left, +y posterior, +z up): its front
+// is -y, which its pubis and anterior iliac spine show; it is a right limb.
 TEST(LimbModel, TransfemoralNormalisedLimbScaledByAFemurLength) {
+  const fs::path file = kData / "transfemoral/openlimb_tf_mean_limb_normalised.stl";
+  if (!fs::exists(file)) GTEST_SKIP() << "shared data absent: " << file;
+  const geometry::TriMesh limb = read_tf_metres(file);
+  // The file as given, and turned by an arbitrary rotation: the frame turns with it.
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(1.1, Vec3(0.3, -0.8, 0.5).normalized()).toRotationMatrix();
+  for (const bool rotated : {false, true}) {
+    geometry::TriMesh l = limb;
+    if (rotated)
+      for (auto& v : l.vertices) v = R * v;
+    const Eigen::Matrix3d back = rotated ? Eigen::Matrix3d(R.transpose()) : Eigen::Matrix3d::Identity();
+    LimbInputOptions o;
+    o.type = geometry::LimbType::Transfemoral;
+    const LimbModel m = prepare_limb(l, {}, o);
+    EXPECT_TRUE(geometry::check_mesh(m.skin).is_valid_closed_surface());
+    EXPECT_FALSE(m.bones_estimated);
+    ASSERT_EQ(m.bones.size(), 2u);
+    EXPECT_EQ(m.bones[0].name, "hemipelvis");  // clipped to the stump
+    EXPECT_EQ(m.bones[1].name, "femur");
+    EXPECT_EQ(m.axis_source, "femur");
+    EXPECT_EQ(m.anterior_source, "hemipelvis");
+    EXPECT_FALSE(m.frame.anterior_estimated);
+    EXPECT_LT(angle_deg(back * m.frame.axis, Vec3::UnitZ()), 6.0);
+    EXPECT_LT(angle_deg(back * m.frame.anterior, -Vec3::UnitY()), 15.0);
+    EXPECT_EQ(m.frame.side, geometry::Side::Right);
+    EXPECT_FALSE(m.frame.side_estimated);
+    ASSERT_EQ(m.landmarks.size(), 6u);
+    // The tuberosity medial to postero-medial, the trochanter lateral, the ramus in front of IS.
+    const double deg = units::deg;
+    EXPECT_GT(find(m.landmarks, "IS").cylindrical.theta, 60 * deg);
+    EXPECT_LT(find(m.landmarks, "IS").cylindrical.theta, 150 * deg);
+    EXPECT_LT(find(m.landmarks, "GT").cylindrical.theta, -45 * deg);
+    EXPECT_GT(find(m.landmarks, "GT").cylindrical.theta, -135 * deg);
+    EXPECT_LT(find(m.landmarks, "IR").cylindrical.theta, find(m.landmarks, "IS").cylindrical.theta);
+    EXPECT_LT(find(m.landmarks, "DF").cylindrical.h, 0.03);
+    // The stump reaches the containment's height above the tuberosity (the scan's rim is lower:
+    // the skin is continued, and said).
+    EXPECT_GE(m.cut_height_m, find(m.landmarks, "IS").cylindrical.h + 0.07);
+    EXPECT_GT(m.skin_extension_m, 0.0);
+    expect_on_skin(m);
+  }
+}
+
+// Skin alone: the axis from the rim to the far end (the skin's principal axis is 30 deg off the
+// thigh), the front from the oblique rim and the posterior fullness.
+TEST(LimbModel, TransfemoralSkinAloneGetsItsFrameFromTheRim) {
+  const fs::path file = kData / "transfemoral/openlimb_tf_mean_limb_normalised.stl";
+  if (!fs::exists(file)) GTEST_SKIP() << "shared data absent: " << file;
+  auto parts = geometry::split_components(read_tf_metres(file));
+  std::sort(parts.begin(), parts.end(),
+            [](const auto& a, const auto& b) { return geometry::surface_area(a) > geometry::surface_area(b); });
+  const geometry::TriMesh skin = parts.front();
+  LimbInputOptions o;
+  o.type = geometry::LimbType::Transfemoral;
+  const LimbModel m = prepare_limb(skin, {}, o);
+  EXPECT_EQ(m.axis_source, "skin");
+  EXPECT_LT(angle_deg(m.frame.axis, Vec3::UnitZ()), 10.0);
+  EXPECT_TRUE(m.frame.anterior_estimated);
+  EXPECT_LT(angle_deg(m.frame.anterior, -Vec3::UnitY()), 15.0);
+  EXPECT_EQ(m.frame.side, geometry::Side::Right);
+  EXPECT_TRUE(m.bones_estimated);
+  ASSERT_EQ(m.landmarks.size(), 6u);
+  expect_on_skin(m);
+}
+
+// A shortened copy (the real limb squeezed to 0.6 of its length: its skin's principal axis 64 deg
+// off the thigh) is refused with one line that names --axis, and meshes once the axis is given.
+TEST(LimbModel, TransfemoralSkinFarOffItsPrincipalAxisMeshesWithTheAxisGiven) {
+  const fs::path file = kData / "transfemoral/openlimb_tf_mean_limb_normalised.stl";
+  if (!fs::exists(file)) GTEST_SKIP() << "shared data absent: " << file;
+  auto parts = geometry::split_components(read_tf_metres(file));
+  std::sort(parts.begin(), parts.end(),
+            [](const auto& a, const auto& b) { return geometry::surface_area(a) > geometry::surface_area(b); });
+  geometry::TriMesh skin = parts.front();
+  double zmin = std::numeric_limits<double>::infinity();
+  for (const auto& v : skin.vertices) zmin = std::min(zmin, v.z());
+  for (auto& v : skin.vertices) v.z() = zmin + 0.6 * (v.z() - zmin);
+  LimbInputOptions o;
+  o.type = geometry::LimbType::Transfemoral;
+  try {
+    prepare_limb(skin, {}, o);
+    ADD_FAILURE() << "a skin 64 deg off its principal axis went through without its axis";
+  } catch (const InvalidInputError& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("--axis"), std::string::npos) << msg;
+    EXPECT_EQ(msg.find('\n'), std::string::npos) << msg;
+  }
+  o.axis = Vec3(0, 0, 2);
+  o.anterior = Vec3(0, -1, 0);
+  const LimbModel m = prepare_limb(skin, {}, o);
+  EXPECT_EQ(m.axis_source, "given");
+  EXPECT_LT(angle_deg(m.frame.axis, Vec3::UnitZ()), 1e-6);
+  HexMesherOptions mo;
+  mo.target_nodes = 3000;
+  const auto r = mesh_limb(mesher_input(m), mo);
+  EXPECT_GT(r.quality.min_scaled_jacobian, 0.2);
+  EXPECT_NEAR(static_cast<double>(r.mesh.num_nodes()) / mo.target_nodes, 1.0, 0.15);
+}
+
+// Units: the normalised file read as metres is 0.3 m long... and 1000 x that read as mm; both
+// refused in one line naming the likely mistake unless scaled (or forced).
+TEST(LimbModel, TransfemoralSizeOutsideItsRangeNamesTheUnitMistake) {
   const fs::path file = kData / "transfemoral/openlimb_tf_mean_limb_normalised.stl";
   if (!fs::exists(file)) GTEST_SKIP() << "shared data absent: " << file;
   geometry::MeshReadOptions ro;
   ro.unit = units::LengthUnit::Metre;
   ro.warn_on_implausible_size = false;
-  geometry::TriMesh limb = geometry::read_mesh(file, ro);
-  geometry::scale(limb, 0.45);
+  const geometry::TriMesh raw = geometry::read_mesh(file, ro);
   LimbInputOptions o;
   o.type = geometry::LimbType::Transfemoral;
-  const LimbModel m = prepare_limb(limb, {}, o);
-  EXPECT_TRUE(geometry::check_mesh(m.skin).is_valid_closed_surface());
-  ASSERT_FALSE(m.bones.empty());
-  EXPECT_EQ(m.bones.front().name, "femur");
-  EXPECT_FALSE(m.bones_estimated);
-  ASSERT_EQ(m.landmarks.size(), 4u);
-  expect_on_skin(m);
+  auto message = [&](const geometry::TriMesh& m, const LimbInputOptions& opt) {
+    try {
+      prepare_limb(m, {}, opt);
+    } catch (const InvalidInputError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  // 1000 x: a metre file read as millimetres would be 0.45 mm; mm read as metres 620 m.
+  geometry::TriMesh big = raw;
+  geometry::scale(big, 1000.0 * 0.45);
+  const std::string too_big = message(big, o);
+  EXPECT_NE(too_big.find("1000 x too large"), std::string::npos) << too_big;
+  EXPECT_EQ(too_big.find('\n'), std::string::npos) << too_big;
+  // The normalised shape unscaled: about 2 x too small, "limb.scale" named.
+  const std::string small = message(raw, o);
+  EXPECT_NE(small.find("limb.scale"), std::string::npos) << small;
+  // The same, transtibial-sized by a 620 mm length read as a transtibial limb.
+  geometry::TriMesh long_tt = raw;
+  geometry::scale(long_tt, 0.45 * 620.0 / 300.0);
+  LimbInputOptions tt;
+  const std::string too_long = message(long_tt, tt);
+  EXPECT_NE(too_long.find("outside"), std::string::npos) << too_long;
+  // Forced: accepted, and said.
+  o.force_size = true;
+  geometry::TriMesh scaled = raw;
+  geometry::scale(scaled, 0.45);
+  EXPECT_EQ(message(scaled, o), "");
 }
 
 TEST(LimbModel, BadInputGetsOneClearError) {

@@ -119,7 +119,7 @@ void BrimLine::set_key_points(std::vector<BrimKeyPoint> key_points) {
 }
 
 BrimLine make_brim(BrimTemplate kind, LimbType type, const std::vector<volume::Landmark>& landmarks,
-                   double cut_height_m, const BrimOptions& options) {
+                   double cut_height_m, const BrimOptions& options, std::vector<std::string>* notes) {
   require(kind != BrimTemplate::Custom,
           "make_brim: 'custom' is not a template; give the key points (brim_from_key_points) or pick one of {}",
           names_of(type));
@@ -177,28 +177,54 @@ BrimLine make_brim(BrimTemplate kind, LimbType type, const std::vector<volume::L
         break;
     }
   } else {
-    const double is = landmark(landmarks, "IS", kind).cylindrical.h;
-    const double gt = landmark(landmarks, "GT", kind).cylindrical.h;
-    const double mm = kMm;
+    // Placed from the bony landmarks: heights from the ischial tuberosity i and the greater
+    // trochanter g, angles from the landmarks themselves (docs/socket_builder.md).
+    const auto& L_is = landmark(landmarks, "IS", kind).cylindrical;
+    const auto& L_gt = landmark(landmarks, "GT", kind).cylindrical;
+    const auto& L_al = landmark(landmarks, "AL", kind).cylindrical;
+    const auto& L_st = landmark(landmarks, "ST", kind).cylindrical;
+    const double i = L_is.h, g = L_gt.h, mm = kMm;
+    const double deg = kDeg;
+    // Angles in degrees, kept apart so the spline's key points stay in order.
+    const double t_st = std::clamp(L_st.theta / deg, 5.0, 40.0);
+    const double t_al = std::clamp(L_al.theta / deg, t_st + 15.0, 80.0);
+    const double t_is = std::clamp(L_is.theta / deg, t_al + 20.0, 150.0);
+    const double t_ramus = 0.5 * (t_al + t_is);
+    const double t_contain = std::min(t_is + 25.0, 165.0);
+    const double t_gt = std::clamp(L_gt.theta / deg, -120.0, -60.0);
     if (kind == BrimTemplate::Quad)
-      p = {kp("anterior (Scarpa)", 0, is + 65 * mm), kp("antero-medial", 40, is + 50 * mm),
-           kp("medial wall", 90, is), kp("postero-medial", 120, is), kp("ischial seat", 150, is),
-           kp("posterior", 180, is), kp("postero-lateral", -140, is + 25 * mm),
-           kp("lateral wall", -90, is + 70 * mm), kp("antero-lateral", -40, is + 65 * mm)};
+      p = {kp("anterior (Scarpa's bulge)", t_st, i + 65 * mm), kp("antero-medial (adductor channel)", t_al, i + 30 * mm),
+           kp("medial wall", t_ramus, i), kp("ischial seat", t_contain, i), kp("posterior (seat)", 180, i),
+           kp("postero-lateral", -135, i + 20 * mm), kp("lateral wall", t_gt, std::max(g + 10 * mm, i + 45 * mm)),
+           kp("antero-lateral", -40, i + 65 * mm)};
     else
-      p = {kp("anterior", 0, is + 50 * mm), kp("antero-medial", 40, is + 40 * mm),
-           kp("medial (ramus)", 90, is + 20 * mm), kp("postero-medial", 120, is + 30 * mm),
-           kp("ischial containment", 150, is + 35 * mm), kp("posterior", 180, is + 20 * mm),
-           kp("postero-lateral", -140, gt + 30 * mm), kp("lateral (over the trochanter)", -90, gt + 50 * mm),
-           kp("antero-lateral", -40, is + 55 * mm)};
+      p = {kp("anterior (Scarpa's triangle)", t_st, i + 25 * mm), kp("adductor longus relief", t_al, i + 5 * mm),
+           kp("ramal containment (medial)", t_ramus, i + 35 * mm),
+           kp("ischial containment (postero-medial)", t_contain, i + 50 * mm), kp("posterior (gluteal)", 180, i + 30 * mm),
+           kp("postero-lateral", -135, i + 30 * mm),
+           kp("lateral wall (over the trochanter)", t_gt, std::clamp(g + 15 * mm, i + 20 * mm, i + 45 * mm)),
+           kp("antero-lateral", -40, i + 30 * mm)};
   }
   const double lo = options.min_height_fraction * cut_height_m, hi = cut_height_m - options.top_margin_m;
-  for (auto& q : p) q.h = std::clamp(q.h, lo, hi);
+  for (auto& q : p) {
+    const double h = std::clamp(q.h, lo, hi);
+    if (notes && std::abs(h - q.h) > 1e-6)
+      notes->push_back(fmt::format("brim '{}': key point '{}' clamped from {:.0f} to {:.0f} mm ({} the stump, which ends "
+                                   "at {:.0f} mm)",
+                                   to_string(kind), q.label, q.h / kMm, h / kMm, h < q.h ? "below the top of" : "within",
+                                   cut_height_m / kMm));
+    q.h = h;
+  }
   return BrimLine(kind, std::move(p));
 }
 
-BrimLine make_brim(BrimTemplate kind, const volume::LimbModel& model, const BrimOptions& options) {
-  return make_brim(kind, model.type, model.landmarks, model.cut_height_m, options);
+BrimLine make_brim(BrimTemplate kind, const volume::LimbModel& model, const BrimOptions& options,
+                   std::vector<std::string>* notes) {
+  return make_brim(kind, model.type, model.landmarks, model.cut_height_m, options, notes);
+}
+
+BrimTemplate default_brim(geometry::LimbType type) {
+  return type == LimbType::Transfemoral ? BrimTemplate::Ics : BrimTemplate::Ptb;
 }
 
 BrimLine brim_from_key_points(std::vector<BrimKeyPoint> key_points, BrimTemplate kind) {

@@ -17,11 +17,16 @@
 ///   condyles, the patella left free (anterior p + 10 mm).
 /// - `tsb`: total surface bearing — a nearly level brim high all around (k + 25…30 mm), slightly
 ///   lower posteriorly (k + 5 mm).
-/// - `quad`: transfemoral quadrilateral — posterior ischial seat level with IS, medial wall at the
-///   same level, anterior 6–7 cm higher (Scarpa's triangle), lateral higher than medial.
-/// - `ics`: ischial containment — posteromedial brim 35 mm above IS to contain the ischium,
-///   lateral wall over the greater trochanter (g + 50 mm).
-/// Every template height is clamped to [min_height_fraction · cut, cut − top_margin].
+/// - `quad`: transfemoral quadrilateral — a level posterior ischial seat at IS (the tuberosity
+///   sits on it), the medial wall at the same level, the anterior wall 65 mm higher over Scarpa's
+///   triangle (holding the tuberosity back on the seat), the lateral wall up to the trochanter.
+/// - `ics`: ischial(-ramal) containment — the postero-medial brim 50 mm above IS wraps the
+///   tuberosity and the ramus (35 mm above IS between them and the adductor longus), a relief down
+///   to IS + 5 mm over the adductor longus tendon, the lateral wall 15 mm over the trochanter
+///   (at most IS + 45 mm, so that the containment stays the highest point).
+/// Transfemoral key points sit at the landmarks' angles (IS, AL, ST, GT), not at fixed ones.
+/// Every template height is clamped to [min_height_fraction · cut, cut − top_margin] (said in the
+/// notes of make_brim).
 
 #include <string>
 #include <vector>
@@ -98,15 +103,20 @@ struct BrimOptions {
   double min_height_fraction = 0.4;   ///< key points at least this × cut height, in [0, 1)
 };
 
-/// The template @p kind placed on a limb from its landmarks (codes PT, POP for transtibial; IS, GT
-/// for transfemoral) and its cut height [m].
+/// The template @p kind placed on a limb from its landmarks (codes PT, POP for transtibial; IS,
+/// GT, AL, ST for transfemoral) and its cut height [m]. When a key point has to be clamped into the
+/// stump (a scan that ends too low), one line per key point is appended to @p notes.
 /// @throws InvalidInputError when the template is for the other limb type ("brim 'quad' is a
 ///         transfemoral template but the limb is transtibial; use one of ptb, ..."), a needed
 ///         landmark is missing, Custom is asked for, or options are out of range.
 BrimLine make_brim(BrimTemplate kind, geometry::LimbType type, const std::vector<volume::Landmark>& landmarks,
-                   double cut_height_m, const BrimOptions& options = {});
+                   double cut_height_m, const BrimOptions& options = {}, std::vector<std::string>* notes = nullptr);
 /// Same, from a prepared limb model (its type, landmarks and cut height).
-BrimLine make_brim(BrimTemplate kind, const volume::LimbModel& model, const BrimOptions& options = {});
+BrimLine make_brim(BrimTemplate kind, const volume::LimbModel& model, const BrimOptions& options = {},
+                   std::vector<std::string>* notes = nullptr);
+
+/// The brim a limb type gets when the case names none: PTB (transtibial), ICS (transfemoral).
+BrimTemplate default_brim(geometry::LimbType type);
 
 /// A brim from explicit key points (case file). @throws as the BrimLine constructor.
 BrimLine brim_from_key_points(std::vector<BrimKeyPoint> key_points, BrimTemplate kind = BrimTemplate::Custom);

@@ -202,11 +202,22 @@ CaseFile parse_case(const json& doc, const std::filesystem::path& folder) {
             doc.at("socketsmith_case").dump());
   if (doc.contains("limb")) {
     const auto& j = doc.at("limb");
-    check_keys(j, "limb", {"file", "bones", "units", "type", "side", "anterior", "cut_height_mm", "generate_seed"});
+    check_keys(j, "limb", {"file", "bones", "units", "scale", "type", "side", "anterior", "axis", "cut_height_mm",
+                           "force_size", "generate_seed"});
     c.limb.file = text(j, "file", "limb", "");
     c.limb.bones = text(j, "bones", "limb", "auto");
     c.limb.units = text(j, "units", "limb", "");
     if (!c.limb.units.empty()) (void)units::parse_length_unit(c.limb.units);
+    c.limb.scale = number(j, "scale", "limb", 1.0);
+    require(c.limb.scale > 0.0 && c.limb.scale <= 1e4,
+            "case file: limb.scale = {} must be positive (it multiplies the coordinates after the units; e.g. 0.45 "
+            "with units m for a shape normalised to a 0.45 m femur)",
+            c.limb.scale);
+    c.limb.force_size = flag(j, "force_size", "limb", false);
+    if (j.contains("axis")) {
+      c.limb.axis = vec3(j.at("axis"), "limb.axis");
+      require(c.limb.axis->norm() > 0, "case file: 'limb.axis' is the zero vector (give the long axis, distal to proximal)");
+    }
     c.limb.type = geometry::parse_limb_type(text(j, "type", "limb", "transtibial"));
     if (j.contains("side")) c.limb.side = geometry::parse_side(text(j, "side", "limb", ""));
     if (j.contains("anterior")) {
@@ -287,7 +298,14 @@ CaseFile parse_case(const json& doc, const std::filesystem::path& folder) {
   }
   if (doc.contains("design")) {
     const auto& j = doc.at("design");
-    check_keys(j, "design", {"spots", "optimise", "objective", "model_pressure_limit", "closed_loop", "closed_loop_donnings"});
+    check_keys(j, "design", {"spots", "optimise", "objective", "model_pressure_limit", "closed_loop", "closed_loop_donnings",
+                             "ischial_share_min"});
+    if (j.contains("ischial_share_min")) {
+      const double v = number(j, "ischial_share_min", "design", 0.0);
+      require(v >= 0.0 && v <= 0.9,
+              "case file: design.ischial_share_min = {} is outside [0, 0.9] (a fraction of the axial load, e.g. 0.2)", v);
+      c.ischial_share_min = v;
+    }
     c.optimise = flag(j, "optimise", "design", true);
     const std::string obj = text(j, "objective", "design", "pressure");
     require(obj == "pressure" || obj == "ratio", "case file: design.objective '{}' is not known (pressure or ratio)", obj);
@@ -313,7 +331,7 @@ CaseFile parse_case(const json& doc, const std::filesystem::path& folder) {
   if (doc.contains("brim")) {
     const auto& j = doc.at("brim");
     check_keys(j, "brim", {"template", "key_points"});
-    c.brim = parse_brim_template(text(j, "template", "brim", "ptb"));
+    if (j.contains("template")) c.brim = parse_brim_template(text(j, "template", "brim", ""));
     if (j.contains("key_points")) {
       const auto& k = j.at("key_points");
       require(k.is_array(), "case file: brim.key_points must be a list of {{\"theta_deg\", \"h_mm\"}}");
@@ -372,6 +390,9 @@ json case_to_json(const CaseFile& c) {
   if (!c.limb.units.empty()) limb["units"] = c.limb.units;
   if (c.limb.side) limb["side"] = geometry::to_string(*c.limb.side);
   if (c.limb.anterior) limb["anterior"] = {c.limb.anterior->x(), c.limb.anterior->y(), c.limb.anterior->z()};
+  if (c.limb.axis) limb["axis"] = {c.limb.axis->x(), c.limb.axis->y(), c.limb.axis->z()};
+  if (c.limb.scale != 1.0) limb["scale"] = c.limb.scale;
+  if (c.limb.force_size) limb["force_size"] = true;
   if (c.limb.cut_height_m) limb["cut_height_mm"] = *c.limb.cut_height_m * 1e3;
   json patient{{"body_mass_kg", c.patient.body_mass_kg},
                {"prosthesis_mass_kg", c.patient.prosthesis_mass_kg},
@@ -390,9 +411,11 @@ json case_to_json(const CaseFile& c) {
   json design{{"optimise", c.optimise}, {"objective", objective_name(c.objective)},
               {"model_pressure_limit", c.model_pressure_limit}, {"closed_loop", c.closed_loop},
               {"closed_loop_donnings", c.closed_loop_donnings}};
+  if (c.ischial_share_min) design["ischial_share_min"] = *c.ischial_share_min;
   if (c.spots.empty()) design["spots"] = "default";
   else design["spots"] = spots;
-  json brim{{"template", to_string(c.brim)}};
+  json brim = json::object();
+  if (c.brim) brim["template"] = to_string(*c.brim);
   if (!c.brim_key_points.empty()) {
     json k = json::array();
     for (const auto& p : c.brim_key_points) {

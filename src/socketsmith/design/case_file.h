@@ -28,10 +28,16 @@ struct CaseLimb {
   std::string file;                        ///< STL/OBJ/PLY/AOP; "" = generate
   std::string bones = "auto";              ///< auto (shells of the file) | estimate | none | a file
   std::string units;                       ///< mm | m | "" (guess from the size)
+  /// Multiplies the coordinates after the units (a normalised shape: its reference length in the
+  /// units, e.g. 0.45 with units m for an OpenLimb TF shape normalised to a 0.45 m femur), (0, 1e4].
+  double scale = 1.0;
   geometry::LimbType type = geometry::LimbType::Transtibial;
   std::optional<geometry::Side> side;
   std::optional<Eigen::Vector3d> anterior; ///< world direction of the front
+  std::optional<Eigen::Vector3d> axis;     ///< world direction of the long axis (the femur's or the skin's otherwise)
   std::optional<double> cut_height_m;      ///< proximal cut above the distal end [m]
+  /// Accept a limb whose size is outside the anatomical range of its type (volume::check_limb_size).
+  bool force_size = false;
   std::uint64_t generate_seed = 1;         ///< when file is empty
 };
 
@@ -60,11 +66,15 @@ struct CaseFile {
   bool optimise = true;
   OptimizerOptions::Objective objective = OptimizerOptions::Objective::Pressure;
   double model_pressure_limit = 0.25;      ///< × E (see OptimizerOptions)
+  /// Transfemoral: the least share of the axial load on the ischial/gluteal region the optimiser
+  /// keeps, [0, 0.9]; not given: the brim template's (default_ischial_share).
+  std::optional<double> ischial_share_min;
   /// Closed-loop design (pipeline/closed_loop.h): don and stand on the socket, correct its wall
   /// until it delivers the designed pressures, write the corrected socket.
   bool closed_loop = false;
   int closed_loop_donnings = 4;            ///< donnings at most, the open-loop socket's included, 1–20
-  BrimTemplate brim = BrimTemplate::Ptb;
+  /// The brim template; not given: the limb type's (default_brim: PTB transtibial, ICS transfemoral).
+  std::optional<BrimTemplate> brim;
   std::vector<BrimKeyPoint> brim_key_points;  ///< non-empty = the user's brim (overrides the template)
   SocketOptions socket;
 };

@@ -15,6 +15,7 @@
 namespace socketsmith::design {
 namespace {
 constexpr double kDeg = std::numbers::pi / 180.0;
+constexpr double kPi = std::numbers::pi;
 constexpr double kRef = 10e3;  // amplitude scale of the SLSQP variables [Pa]
 
 const volume::Landmark* find_landmark(const std::vector<volume::Landmark>& lms, const std::string& code) {
@@ -70,13 +71,19 @@ std::vector<Spot> default_spots(geometry::LimbType type, const std::vector<volum
     s.push_back(cos_sig("lateral tibia", -60 * kDeg, 30 * kDeg, 0.25 * L, 0.6 * L, lam));
     s.push_back(cos_sig("posterior calf", 180 * kDeg, 60 * kDeg, 0.2 * L, 0.6 * L, lam));
   } else {
-    const auto& is = need("IS");
-    const auto& ar = need("AR");
-    const auto& gt = need("GT");
-    s.push_back(cos2("IS", is.cylindrical.theta, is.cylindrical.h - 0.01, 35 * kDeg, 0.025));
-    s.push_back(cos2("AR", ar.cylindrical.theta, ar.cylindrical.h - 0.03, 35 * kDeg, 0.03));
-    s.push_back(cos2("GT", gt.cylindrical.theta, gt.cylindrical.h - 0.04, 35 * kDeg, 0.04));
+    // Where a transfemoral socket bears (docs/design.md): the ischial seat and the gluteal mass
+    // behind it, the lateral wall over the trochanter and along the femur (it holds the femur in
+    // adduction), Scarpa's triangle as the anterior counter-support, the walls, a little ramus.
+    const auto& is = need("IS").cylindrical;
+    const auto& ir = need("IR").cylindrical;
+    const auto& gt = need("GT").cylindrical;
+    const auto& st = need("ST").cylindrical;
+    s.push_back(cos2("ischial seat", is.theta, is.h, 35 * kDeg, 0.025));
+    s.push_back(cos_sig("gluteal", wrap_angle(0.5 * (is.theta + kPi)), 50 * kDeg, is.h - 0.04, is.h + 0.04, lam));
+    s.push_back(cos2("ischial ramus", ir.theta, ir.h, 20 * kDeg, 0.02));
+    s.push_back(cos_sig("lateral wall", gt.theta, 45 * kDeg, 0.3 * L, gt.h + 0.01, lam));
     s.push_back(cos_sig("lateral femur", -90 * kDeg, 40 * kDeg, 0.3 * L, 0.7 * L, lam));
+    s.push_back(cos2("Scarpa's triangle", st.theta, st.h, 30 * kDeg, 0.03));
     s.push_back(cos_sig("anterior wall", 0.0, 45 * kDeg, 0.3 * L, 0.75 * L, lam));
     s.push_back(cos_sig("posterior wall", 180 * kDeg, 45 * kDeg, 0.3 * L, 0.75 * L, lam));
     s.push_back(cos_sig("medial wall", 90 * kDeg, 40 * kDeg, 0.3 * L, 0.7 * L, lam));
@@ -129,6 +136,11 @@ struct AmplitudeProblem {
   Eigen::Matrix<double, 6, 1> target;
   double stability_min = 0;
   int evaluations = 0;
+  // Region floors: F_z per unit amplitude of each floor's nodes, its fixed part, and the floor [N].
+  const std::vector<OptimizerOptions::RegionFloor>* floors = nullptr;
+  bool use_floors = true;
+  Eigen::MatrixXd Rf;                 // |floors| × |free|
+  Eigen::VectorXd rf_fixed, rf_min;   // |floors|
 
   /// Radar contributions of unit pressure at skin node i: (F_x, F_y, F_z + friction, T, S).
   Eigen::Matrix<double, 7, 1> unit_radar(size_t i, const geometry::LimbFrame& fr, double mu) const {
@@ -158,6 +170,10 @@ struct AmplitudeProblem {
     std::vector<double> row(nf);
     R.setZero(7, static_cast<Eigen::Index>(nf));
     r_fixed.setZero();
+    const Eigen::Index nfl = floors ? static_cast<Eigen::Index>(floors->size()) : 0;
+    Rf.setZero(nfl, static_cast<Eigen::Index>(nf));
+    rf_fixed.setZero(nfl);
+    rf_min.setZero(nfl);
     for (size_t i = 0; i < cyl.size(); ++i) {
       if (above[i]) continue;
       double pf = 0;
@@ -172,6 +188,12 @@ struct AmplitudeProblem {
       const auto g = unit_radar(i, fr, mu);
       for (size_t j = 0; j < nf; ++j) R.col(static_cast<Eigen::Index>(j)) += g * row[j];
       r_fixed += g * pf;
+      for (Eigen::Index f = 0; f < nfl; ++f) {
+        const auto& mask = (*floors)[static_cast<std::size_t>(f)].nodes;
+        if (i >= mask.size() || !mask[i]) continue;
+        for (size_t j = 0; j < nf; ++j) Rf(f, static_cast<Eigen::Index>(j)) += g[2] * row[j];
+        rf_fixed[f] += g[2] * pf;
+      }
       nodes.push_back(static_cast<int>(i));
       const double te = cap.empty() ? thr[i] : std::min(thr[i], cap[i]);
       for (size_t j = 0; j < nf; ++j) rows.push_back(row[j] / te);
@@ -206,6 +228,12 @@ struct AmplitudeProblem {
     scale << fs, fs, fs, ts, ts, ts, fs;
     target << 0, 0, t.fz_n, 0, 0, 0;
     stability_min = t.stability_min_n;
+    for (Eigen::Index f = 0; f < nfl; ++f) rf_min[f] = (*floors)[static_cast<std::size_t>(f)].min_share * t.fz_n;
+  }
+
+  /// Shortfall of each region floor at amplitudes a, normalised by F_z (≤ 0: held).
+  Eigen::VectorXd floor_shortfall(const Eigen::VectorXd& a) const {
+    return (rf_min - (Rf * a + rf_fixed)) / scale[2];
   }
 
   Eigen::VectorXd amplitudes(const double* z) const {
@@ -266,6 +294,7 @@ struct AmplitudeProblem {
     v = std::max(v, (t.stability_min_n - rv[6]) / t.force_tol_n);
     const Eigen::VectorXd r = phi * a + fixed_ratio;
     if (r.size() > 0) v = std::max(v, 100.0 * (r.maxCoeff() - 1.0));
+    if (use_floors && rf_min.size() > 0) v = std::max(v, floor_shortfall(a).maxCoeff() * scale[2] / t.force_tol_n);
     return std::max(v, 0.0);
   }
 };
@@ -331,6 +360,18 @@ FitResult fit_amplitudes(AmplitudeProblem& P, const std::vector<Spot>& spots, co
         }
       },
       &eq, std::vector<double>(1 + P.nodes.size(), 1e-9));
+  if (P.use_floors && P.Rf.rows() > 0)
+    opt.add_inequality_mconstraint(
+        [](unsigned m, double* result, unsigned nn, const double* z, double* grad, void* data) {
+          const auto& Q = *static_cast<Eq*>(data)->P;
+          const Eigen::VectorXd sh = Q.floor_shortfall(Q.amplitudes(z));
+          for (unsigned f = 0; f < m; ++f) {
+            result[f] = sh[f];
+            if (grad)
+              for (unsigned j = 0; j < nn; ++j) grad[f * nn + j] = -Q.Rf(f, j) * kRef / Q.scale[2];
+          }
+        },
+        &eq, std::vector<double>(static_cast<std::size_t>(P.Rf.rows()), 1e-9));
   opt.set_xtol_rel(1e-8);
   opt.set_ftol_rel(1e-10);
   opt.set_maxeval(400);
@@ -352,6 +393,12 @@ FitResult fit_amplitudes(AmplitudeProblem& P, const std::vector<Spot>& spots, co
   fr.evaluations = P.evaluations - before;
   fr.ok = fr.violation < 0.5;  // within the tolerances (the equalities are met far closer in practice)
   return fr;
+}
+
+std::string floor_names(const std::vector<OptimizerOptions::RegionFloor>& floors) {
+  std::string out;
+  for (const auto& f : floors) out += fmt::format("{}{} ≥ {:.0f} %", out.empty() ? "" : ", ", f.name, 100 * f.min_share);
+  return out;
 }
 
 /// Position parameters of the spots that may move: (spot, kind) with kind 0 = θ, 1 = h.
@@ -381,6 +428,12 @@ OptimizerResult optimise_design(DesignSolver& solver, std::vector<Spot> spots, c
   for (const auto& s : spots) validate_spot(s, solver.stump_length_m());
   AmplitudeProblem P;
   P.solver = &solver;
+  P.floors = &options.region_floors;
+  for (const auto& f : options.region_floors)
+    require(f.min_share >= 0.0 && f.min_share < 1.0 && f.nodes.size() == solver.skin_cylindrical().size(),
+            "optimise_design: region floor '{}' asks {:.0f} % of F_z on {} nodes of {} (expected [0, 100) % and one flag "
+            "per skin node)",
+            f.name, 100 * f.min_share, f.nodes.size(), solver.skin_cylindrical().size());
   P.q = options.softmax_power;
   P.by_ratio = options.objective == OptimizerOptions::Objective::Ratio;
   double tmax = 0;
@@ -408,7 +461,23 @@ OptimizerResult optimise_design(DesignSolver& solver, std::vector<Spot> spots, c
       break;
     }
     P.build(spots);
+    // The region floors are the template's intent, not one of the seven constraints: a fit that
+    // cannot keep them and the constraints together drops them (said in the log).
+    P.use_floors = !options.region_floors.empty();
     FitResult fit = fit_amplitudes(P, spots, targets);
+    if (!fit.ok && P.use_floors) {
+      P.use_floors = false;
+      const FitResult without = fit_amplitudes(P, spots, targets);
+      if (without.ok) {
+        out.log.push_back(fmt::format("round {}: the region floors ({}) cannot be kept with the seven constraints: "
+                                      "dropped for this fit",
+                                      round + 1, floor_names(options.region_floors)));
+        fit = without;
+      } else {
+        P.use_floors = true;
+      }
+    }
+    out.region_floors_met = P.use_floors || options.region_floors.empty();
     ++out.evaluations;
     out.slsqp_iterations += fit.evaluations;
     // Without friction no layout can hold the prosthesis: moving spots cannot help.

@@ -30,9 +30,11 @@ namespace socketsmith::design {
 
 /// The default spot layout of a limb type, placed from its landmarks: where prosthetists tighten a
 /// socket (transtibial: patellar tendon, popliteal, medial and lateral flares, the medial and
-/// lateral tibial sides, the posterior calf, a distal GRAD; transfemoral: ischial seat, adductor
-/// region, greater trochanter, lateral femur, anterior and posterior walls, distal GRAD). Amplitudes
-/// start at 10 kPa. @throws InvalidInputError when a needed landmark is missing.
+/// lateral tibial sides, the posterior calf, a distal GRAD; transfemoral: the ischial seat (IS) and
+/// the gluteal band behind it, the ischial ramus (IR), the lateral wall over the trochanter (GT) and
+/// along the femur, Scarpa's triangle (ST), the anterior, posterior and medial walls, a distal
+/// GRAD), plus a total-contact background. Amplitudes start at 10 kPa. @throws InvalidInputError
+/// when a needed landmark is missing.
 std::vector<Spot> default_spots(geometry::LimbType type, const std::vector<volume::Landmark>& landmarks,
                                 double stump_length_m);
 
@@ -58,6 +60,16 @@ struct OptimizerOptions {
   /// more than ≈ 0.25–0.3 E (measured, docs/design.md); real tissue stiffens instead.
   double model_pressure_limit = 0.25;
   int max_model_caps = 6;
+  /// A region the brim template means to load (design/load_regions.h), e.g. the ischial/gluteal
+  /// region of an ischial containment: its skin nodes must carry at least `min_share` of F_z (their
+  /// normal forces' axial part plus the available friction on them). A floor the constraints cannot
+  /// meet together is dropped for that fit and said in the log.
+  struct RegionFloor {
+    std::string name;           ///< for the log: "ischial / gluteal"
+    std::vector<char> nodes;    ///< per skin node (DesignSolver::skin order): 1 = in the region
+    double min_share = 0.0;     ///< of F_z, [0, 1)
+  };
+  std::vector<RegionFloor> region_floors;
   ProgressCallback progress;
 };
 
@@ -72,6 +84,7 @@ struct OptimizerResult {
   int model_caps = 0;                ///< zones where the stump model's stability limited the pressure
   double seconds = 0.0;
   std::string message;               ///< "all constraints met …" or which constraint fails and why
+  bool region_floors_met = true;     ///< every OptimizerOptions::region_floors held in the last fit
   std::vector<std::string> log;      ///< one line per round
 };
 

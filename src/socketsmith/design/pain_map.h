@@ -18,12 +18,18 @@ namespace socketsmith::design {
 using ThresholdTable = std::map<std::string, double>;
 
 /// The thesis's Table 7 for a transtibial limb (PTB socket, standing; Safari et al.): MF 53.7,
-/// PT 189.72, FH 45.85, POP 60.86, AD 98.77 kPa. Transfemoral: empty (no published default in the
-/// thesis: the case file must give IS, AR, GT, DF).
+/// PT 189.72, FH 45.85, POP 60.86, AD 98.77 kPa. Transfemoral (the thesis has none; sources and
+/// which are assumed in docs/design.md, "Pain thresholds of a transfemoral limb"): IS ischial
+/// tuberosity 95 (the walking maximum of ischial-bearing sockets, Lee et al. 1997), IR ischial
+/// ramus 42.9 (the medial-proximal peak of comfortable ischial-ramal containment sockets, Kahle &
+/// Highsmith 2013), GT greater trochanter 45.85 and DF distal femur 45.85 (bony prominences: the
+/// fibular head's, assumed), AL adductor longus tendon 34 (the standing maximum, Lee et al. 1997,
+/// for a known sore spot, assumed), ST Scarpa's triangle 60.86 (soft tissue over a neurovascular
+/// bundle: the popliteal area's, assumed) kPa.
 ThresholdTable default_thresholds(geometry::LimbType type);
 
 /// The landmark codes a threshold table must cover for @p type (transtibial: Table 7's five
-/// zones; transfemoral: IS, AR, GT, DF).
+/// zones; transfemoral: IS, IR, GT, AL, ST, DF).
 std::vector<std::string> required_threshold_codes(geometry::LimbType type);
 
 /// Checks @p table against the limb's landmarks: every required code present, every value finite

@@ -5,6 +5,8 @@
 
 #include "socketsmith/core/errors.h"
 
+#include <fmt/format.h>
+
 namespace socketsmith::geometry {
 
 namespace {
@@ -134,6 +136,74 @@ void set_anterior(LimbFrame& frame, const Vec3& direction) {
   frame.anterior = d.normalized();
 }
 
+namespace {
+
+/// Extents of @p skin perpendicular to @p axis: the largest over 12 directions [m].
+double width_across(const TriMesh& skin, const Vec3& axis) {
+  const Vec3 u = any_perpendicular(axis), v = axis.cross(u).normalized();
+  double width = 0.0;
+  for (int k = 0; k < 12; ++k) {
+    const double a = std::numbers::pi * k / 12.0;
+    const auto [lo, hi] = height_range(skin, Vec3::Zero(), std::cos(a) * u + std::sin(a) * v);
+    width = std::max(width, hi - lo);
+  }
+  return width;
+}
+
+/// Mean centroid of the sections normal to @p axis between 20 % and 80 % of the closed part, the
+/// sections taken about @p centre; @p centre itself when fewer than three sections exist.
+Vec3 section_centre(const TriMesh& skin, const Vec3& centre, const Vec3& axis, bool open) {
+  LimbFrame tmp;
+  tmp.origin = centre;
+  tmp.axis = axis;
+  const auto [lo, hi_all] = height_range(skin, centre, axis);
+  const double hi = open ? lowest_open_boundary_height(skin, tmp) : hi_all;
+  Vec3 sum = Vec3::Zero();
+  int n = 0;
+  for (int k = 0; k <= 12; ++k) {
+    const double h = lo + (0.2 + 0.6 * k / 12.0) * (hi - lo);
+    const Slice s = slice_surface(skin, centre + h * axis, axis);
+    if (s.area == 0.0) continue;
+    sum += s.centroid;
+    ++n;
+  }
+  if (n < 3) return centre;
+  // Only the position across the axis: keep the centre's height.
+  const Vec3 c = sum / n;
+  return c - (c - centre).dot(axis) * axis;
+}
+
+/// Origin at the most distal skin point's height, placeholder anterior, and the taper check.
+LimbFrame finish_frame(const TriMesh& skin, const Vec3& axis, const Vec3& centre) {
+  LimbFrame frame;
+  frame.axis = axis;
+  const auto [lo, hi] = height_range(skin, centre, axis);
+  (void)hi;
+  frame.origin = centre + lo * axis;
+  frame.anterior = any_perpendicular(axis);
+  frame.anterior_estimated = true;
+  frame.side_estimated = true;
+  // A limb tapers to its distal end: the section near the end is clearly smaller than mid-limb.
+  const double top = lowest_open_boundary_height(skin, frame);
+  const Slice s_mid = slice_surface(skin, frame.on_axis(0.5 * top), axis);
+  const Slice s_end = slice_surface(skin, frame.on_axis(0.03 * top), axis);
+  require(s_mid.area != 0.0 && std::abs(s_end.area) < 0.75 * std::abs(s_mid.area),
+          "the surface does not taper to a rounded distal end (section area 3 % from the end is "
+          "{:.0f} % of mid-length): not a residual limb; check the file (a box or cylinder?)",
+          s_mid.area != 0.0 ? 100.0 * std::abs(s_end.area / s_mid.area) : 0.0);
+  return frame;
+}
+
+}  // namespace
+
+std::optional<Vec3> open_rim_centroid(const TriMesh& skin) {
+  const auto bv = boundary_vertices(skin);
+  if (bv.empty()) return std::nullopt;
+  Vec3 c = Vec3::Zero();
+  for (int v : bv) c += skin.vertices[v];
+  return c / static_cast<double>(bv.size());
+}
+
 LimbFrame estimate_limb_axis(const TriMesh& skin) {
   require(skin.num_triangles() >= 4, "limb surface has {} triangles (expected a scanned limb)",
           skin.num_triangles());
@@ -148,17 +218,28 @@ LimbFrame estimate_limb_axis(const TriMesh& skin) {
   }
   require(total > 0.0, "limb surface has zero area");
   mean /= total;
-  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-  for (int t = 0; t < skin.num_triangles(); ++t) {
-    const auto& tri = skin.triangles[t];
-    const Vec3 c = (skin.vertices[tri[0]] + skin.vertices[tri[1]] + skin.vertices[tri[2]]) / 3.0 - mean;
-    cov += triangle_area(skin, t) * c * c.transpose();
-  }
-  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);
-  Vec3 axis = eig.eigenvectors().col(2).normalized();
-
-  // Elongation check in the PCA frame.
-  {
+  const auto bv = boundary_vertices(skin);
+  const bool open = !bv.empty();
+  Vec3 axis, centre;
+  if (open) {
+    // The distal end is the skin point farthest from the rim; the first axis joins them.
+    const Vec3 rim = *open_rim_centroid(skin);
+    Vec3 tip = skin.vertices.front();
+    for (const auto& v : skin.vertices)
+      if ((v - rim).squaredNorm() > (tip - rim).squaredNorm()) tip = v;
+    require((rim - tip).norm() > 0.0, "limb surface is degenerate (its rim and its far end coincide)");
+    axis = (rim - tip).normalized();
+    centre = 0.5 * (rim + tip);
+  } else {
+    Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+    for (int t = 0; t < skin.num_triangles(); ++t) {
+      const auto& tri = skin.triangles[t];
+      const Vec3 c = (skin.vertices[tri[0]] + skin.vertices[tri[1]] + skin.vertices[tri[2]]) / 3.0 - mean;
+      cov += triangle_area(skin, t) * c * c.transpose();
+    }
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);
+    axis = eig.eigenvectors().col(2).normalized();
+    // Elongation check in the PCA frame.
     const auto [lo, hi] = height_range(skin, mean, axis);
     double width = 0.0;
     for (int c = 0; c < 2; ++c) {
@@ -169,24 +250,12 @@ LimbFrame estimate_limb_axis(const TriMesh& skin) {
             "the surface is {:.0f} mm long and {:.0f} mm wide: not elongated like a residual limb "
             "(expected a length of at least 1.2 x the width); check that the file is a limb scan",
             (hi - lo) * 1e3, width * 1e3);
+    // Proximal = the wider end.
+    const Slice s_lo = slice_surface(skin, mean + (lo + 0.08 * (hi - lo)) * axis, axis);
+    const Slice s_hi = slice_surface(skin, mean + (hi - 0.08 * (hi - lo)) * axis, axis);
+    if (std::abs(s_lo.area) > std::abs(s_hi.area)) axis = -axis;
+    centre = mean;
   }
-
-  // Orientation: proximal = side of the open boundary, else the wider end.
-  const auto bv = boundary_vertices(skin);
-  auto orient = [&](const Vec3& c, Vec3 a) {
-    const auto [lo, hi] = height_range(skin, c, a);
-    if (!bv.empty()) {
-      double hb = 0.0;
-      for (int v : bv) hb += (skin.vertices[v] - c).dot(a);
-      hb /= static_cast<double>(bv.size());
-      return hb >= 0.5 * (lo + hi) ? a : Vec3(-a);
-    }
-    const Slice s_lo = slice_surface(skin, c + (lo + 0.08 * (hi - lo)) * a, a);
-    const Slice s_hi = slice_surface(skin, c + (hi - 0.08 * (hi - lo)) * a, a);
-    return std::abs(s_lo.area) <= std::abs(s_hi.area) ? a : Vec3(-a);
-  };
-  axis = orient(mean, axis);
-  Vec3 centre = mean;
 
   // Refinement: line through cross-section centroids.
   for (int iter = 0; iter < 3; ++iter) {
@@ -194,7 +263,7 @@ LimbFrame estimate_limb_axis(const TriMesh& skin) {
     tmp.origin = centre;
     tmp.axis = axis;
     const auto [lo, hi_all] = height_range(skin, centre, axis);
-    const double hi = bv.empty() ? hi_all : lowest_open_boundary_height(skin, tmp);
+    const double hi = open ? lowest_open_boundary_height(skin, tmp) : hi_all;
     std::vector<Vec3> cs;
     for (int k = 0; k <= 12; ++k) {
       const double h = lo + (0.2 + 0.6 * k / 12.0) * (hi - lo);
@@ -210,47 +279,55 @@ LimbFrame estimate_limb_axis(const TriMesh& skin) {
     Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> e2(cc);
     Vec3 a = e2.eigenvectors().col(2).normalized();
     if (a.dot(axis) < 0.0) a = -a;
-    // Guard against a degenerate fit (centroids nearly coincident): keep the PCA axis.
-    if (e2.eigenvalues()(2) < 1e-12 || a.dot(axis) < std::cos(25.0 * 3.14159265358979 / 180.0)) break;
+    // Guard against a degenerate fit (centroids nearly coincident): keep the axis.
+    if (e2.eigenvalues()(2) < 1e-12 || a.dot(axis) < std::cos(25.0 * std::numbers::pi / 180.0)) break;
     axis = a;
     centre = m;
   }
-
-  LimbFrame frame;
-  frame.axis = axis;
-  const auto [lo, hi] = height_range(skin, centre, axis);
-  frame.origin = centre + lo * axis;
-  frame.anterior = any_perpendicular(axis);
-  frame.anterior_estimated = true;
-  frame.side_estimated = true;
-
-  // A limb tapers to its distal end: the section near the end is clearly smaller than mid-limb.
-  const double top = lowest_open_boundary_height(skin, frame);
-  const Slice s_mid = slice_surface(skin, frame.on_axis(0.5 * top), axis);
-  const Slice s_end = slice_surface(skin, frame.on_axis(0.03 * top), axis);
-  require(s_mid.area != 0.0 && std::abs(s_end.area) < 0.75 * std::abs(s_mid.area),
-          "the surface does not taper to a rounded distal end (section area 3 % from the end is "
-          "{:.0f} % of mid-length): not a residual limb; check the file (a box or cylinder?)",
-          s_mid.area != 0.0 ? 100.0 * std::abs(s_end.area / s_mid.area) : 0.0);
-  (void)hi;
-  return frame;
+  if (open) {
+    const auto [lo, hi] = height_range(skin, centre, axis);
+    const double width = width_across(skin, axis);
+    require(hi - lo >= 1.0 * width,
+            "the surface is {:.0f} mm long and {:.0f} mm wide: not elongated like a residual limb "
+            "(expected an open scan at least as long as it is wide); check that the file is a limb scan, or give "
+            "its long axis (--axis x,y,z)",
+            (hi - lo) * 1e3, width * 1e3);
+  }
+  return finish_frame(skin, axis, centre);
 }
 
-Vec3 estimate_anterior_from_skin(const TriMesh& skin, const LimbFrame& frame) {
-  // The outline's third moment about the section centroid (its skewness) points to the
-  // postero-medial calf bulge; anterior is kSkewToAnterior from it, towards lateral.
+LimbFrame limb_frame_along(const TriMesh& skin, const Vec3& axis_direction) {
+  require(skin.num_triangles() >= 4, "limb surface has {} triangles (expected a scanned limb)", skin.num_triangles());
+  require(axis_direction.allFinite() && axis_direction.norm() > 0.0,
+          "limb axis ({:.3g}, {:.3g}, {:.3g}) is not a direction (give a non-zero x,y,z)", axis_direction.x(),
+          axis_direction.y(), axis_direction.z());
+  Vec3 axis = axis_direction.normalized();
+  Vec3 centre = Vec3::Zero();
+  for (const auto& v : skin.vertices) centre += v;
+  centre /= static_cast<double>(skin.vertices.size());
+  const auto rim = open_rim_centroid(skin);
+  if (rim && (*rim - centre).dot(axis) < 0.0) axis = -axis;
+  for (int round = 0; round < 3; ++round) centre = section_centre(skin, centre, axis, rim.has_value());
+  return finish_frame(skin, axis, centre);
+}
+
+namespace {
+/// Direction (perpendicular to the axis) in which the outlines of the sections between fractions
+/// @p lo and @p hi of the closed part are most skewed: the largest third moment of the outline
+/// about the section centroid, summed over 9 sections.
+Vec3 outline_skew_direction(const TriMesh& skin, const LimbFrame& frame, double lo, double hi) {
   const double top = lowest_open_boundary_height(skin, frame);
   const Vec3 u = frame.anterior;
   const Vec3 v = frame.axis.cross(u).normalized();
   constexpr int kDirections = 360;
   std::vector<double> skew(kDirections, 0.0);
   for (int k = 0; k <= 8; ++k) {
-    const double h = (0.3 + 0.4 * k / 8.0) * top;
+    const double h = (lo + (hi - lo) * k / 8.0) * top;
     const Slice s = slice_surface(skin, frame.on_axis(h), frame.axis);
     if (s.area == 0.0 || s.perimeter <= 0.0) continue;
     const double scale = std::sqrt(std::abs(s.area));
     for (int d = 0; d < kDirections; ++d) {
-      const double th = 2.0 * 3.14159265358979 * d / kDirections;
+      const double th = 2.0 * std::numbers::pi * d / kDirections;
       const Vec3 dir = std::cos(th) * u + std::sin(th) * v;
       double m3 = 0.0;
       for (const auto& seg : s.segments) {
@@ -262,12 +339,61 @@ Vec3 estimate_anterior_from_skin(const TriMesh& skin, const LimbFrame& frame) {
     }
   }
   const int best = static_cast<int>(std::max_element(skew.begin(), skew.end()) - skew.begin());
-  const double th = 2.0 * 3.14159265358979 * best / kDirections;
-  const Vec3 d = std::cos(th) * u + std::sin(th) * v;
+  const double th = 2.0 * std::numbers::pi * best / kDirections;
+  return std::cos(th) * u + std::sin(th) * v;
+}
+}  // namespace
+
+Vec3 estimate_anterior_from_skin(const TriMesh& skin, const LimbFrame& frame) {
+  // The outline's third moment about the section centroid (its skewness) points to the
+  // postero-medial calf bulge; anterior is kSkewToAnterior from it, towards lateral.
+  const Vec3 d = outline_skew_direction(skin, frame, 0.3, 0.7);
   // theta grows by a right-hand turn about the axis for a right limb, left-hand for a left one.
-  constexpr double kSkewToAnterior = 120.0 * 3.14159265358979 / 180.0;
+  constexpr double kSkewToAnterior = 120.0 * std::numbers::pi / 180.0;
   const double phi = (frame.side == Side::Right ? -1.0 : 1.0) * kSkewToAnterior;
   return std::cos(phi) * d + std::sin(phi) * frame.axis.cross(d);
+}
+
+ThighFrontEstimate estimate_anterior_from_thigh(const TriMesh& skin, const LimbFrame& frame, bool side_given) {
+  ThighFrontEstimate out;
+  const Vec3 skew = outline_skew_direction(skin, frame, 0.25, 0.6);
+  // First harmonic of the rim height around the axis: h ≈ c0 + c1 cos φ + s1 sin φ.
+  const auto bv = boundary_vertices(skin);
+  const Vec3 u = frame.anterior, v = frame.axis.cross(u).normalized();
+  Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d b = Eigen::Vector3d::Zero();
+  for (int i : bv) {
+    const Vec3 d = skin.vertices[i] - frame.origin;
+    const double phi = std::atan2(d.dot(v), d.dot(u));
+    const Eigen::Vector3d row(1.0, std::cos(phi), std::sin(phi));
+    A += row * row.transpose();
+    b += row * d.dot(frame.axis);
+  }
+  const Eigen::Vector3d c = bv.size() >= 6 ? Eigen::Vector3d(A.ldlt().solve(b)) : Eigen::Vector3d::Zero();
+  const double rise = 2.0 * c.tail<2>().norm();
+  if (rise < 0.02) {
+    out.how = fmt::format("the thigh outline's posterior fullness; the rim is level ({:.0f} mm), so the side cannot be told",
+                          rise * 1e3);
+    const Vec3 a = -(skew - skew.dot(frame.axis) * frame.axis);
+    out.anterior = a.norm() > 0 ? Vec3(a.normalized()) : u;
+    return out;
+  }
+  const double phi_low = std::atan2(-c(2), -c(1));
+  const Vec3 medial = std::cos(phi_low) * u + std::sin(phi_low) * v;
+  // Right limb: medial = axis × anterior, so anterior = −axis × medial; left: the opposite.
+  const Vec3 a_right = -frame.axis.cross(medial);
+  if (side_given) {
+    out.how = fmt::format("the rim rises {:.0f} mm from the groin (medial) to the hip, and the given side", rise * 1e3);
+    out.anterior = frame.side == Side::Right ? a_right : Vec3(-a_right);
+    return out;
+  }
+  out.side_found = true;
+  out.side = a_right.dot(skew) < 0.0 ? Side::Right : Side::Left;
+  out.how = fmt::format("the rim rises {:.0f} mm from the groin (medial) to the hip; the thigh is fuller posteriorly, "
+                        "so a {} limb",
+                        rise * 1e3, to_string(out.side));
+  out.anterior = out.side == Side::Right ? a_right : Vec3(-a_right);
+  return out;
 }
 
 }  // namespace socketsmith::geometry

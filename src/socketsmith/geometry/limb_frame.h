@@ -15,6 +15,7 @@
 #include <array>
 #include <cmath>
 #include <numbers>
+#include <optional>
 #include <string>
 
 #include <Eigen/Core>
@@ -97,13 +98,47 @@ struct Slice {
 Slice slice_surface(const TriMesh& mesh, const Vec3& point, const Vec3& normal);
 
 /// Long axis, distal end and origin of a limb surface (open at the proximal cut or closed).
-/// The axis is first the principal direction of the area-weighted surface (PCA), then refined as
-/// the line through the centroids of cross-sections between 20 % and 80 % of the length. The
-/// distal end is the end opposite the open boundary (or, on a closed surface, the end with the
-/// smaller cross-section). The anterior direction is only a placeholder perpendicular to the axis
+/// The first guess is, for an open surface, the line from the skin point farthest from the open
+/// rim's centroid (the distal end) to that centroid — it does not depend on the surface's
+/// principal axis, which on a short transfemoral skin cut obliquely from the hip to the groin lies
+/// 35–60° off the thigh — and, for a closed surface, the principal direction of the area-weighted
+/// surface (PCA). It is then refined as the line through the centroids of cross-sections between
+/// 20 % and 80 % of the length (three rounds, each turning it by at most 25°). The distal end is
+/// the end opposite the open boundary (or, on a closed surface, the end with the smaller
+/// cross-section). The anterior direction is only a placeholder perpendicular to the axis
 /// (anterior_estimated = true): set it from bones, the user, or estimate_anterior_from_skin.
-/// @throws InvalidInputError when the surface is not elongated like a limb (length < 1.2 × width).
+/// @throws InvalidInputError when the surface is not elongated like a limb (length < 1.2 × width)
+///         or does not taper to a distal end.
 LimbFrame estimate_limb_axis(const TriMesh& skin);
+
+/// The limb frame of a skin whose long-axis direction is known (from the femur, or given by the
+/// user): the axis is ±@p axis_direction — pointing towards the open rim on an open surface, as
+/// given on a closed one — through the mean centroid of the skin's cross-sections normal to it
+/// between 20 % and 80 % of its closed part; the origin lies on it at the height of the most
+/// distal skin point. The anterior direction is a placeholder, as in estimate_limb_axis.
+/// @throws InvalidInputError for a zero or non-finite direction, or a surface that does not taper
+///         to a distal end in that frame ("not a residual limb").
+LimbFrame limb_frame_along(const TriMesh& skin, const Vec3& axis_direction);
+
+/// Heuristic anterior direction of a transfemoral limb from its skin alone (a thigh has no crest).
+/// A thigh scan's open rim runs from the hip (laterally, highest) down to the groin (medially,
+/// lowest): when the first harmonic of the rim's height around the axis rises by at least 20 mm,
+/// its lowest direction is taken as medial. The outline of the sections between 25 % and 60 % of
+/// the closed part is skewed towards the fuller posterior thigh (hamstrings): of the two directions
+/// perpendicular to medial, the front is the one away from the skew, and that sets the side
+/// (unless @p side_given: then frame.side turns medial into anterior).
+/// Without an oblique rim the front is taken opposite the skew and the side is kept. Callers must
+/// label the result as an estimate.
+struct ThighFrontEstimate {
+  Vec3 anterior = Vec3::UnitY();  ///< unit, perpendicular to the axis
+  bool side_found = false;        ///< the side follows from the rim and the skew (else: as given or unknown)
+  Side side = Side::Right;        ///< when side_found
+  std::string how;                ///< a short description for the notes
+};
+ThighFrontEstimate estimate_anterior_from_thigh(const TriMesh& skin, const LimbFrame& frame, bool side_given);
+
+/// Centroid of the open boundary's vertices (the rim of a scan) [m]; nullopt for a closed surface.
+std::optional<Vec3> open_rim_centroid(const TriMesh& skin);
 
 /// Highest h below which every cross-section of the skin is a closed curve: the lowest vertex of
 /// the open boundary (in h) for an open surface, the top of the surface for a closed one [m].

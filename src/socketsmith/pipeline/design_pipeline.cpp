@@ -42,9 +42,15 @@ std::pair<geometry::TriMesh, geometry::TriMesh> load_limb(const design::CaseFile
   }
   geometry::MeshReadOptions ro;
   if (!c.limb.units.empty()) ro.unit = units::parse_length_unit(c.limb.units);
+  // The size is checked against the limb type's anatomy once scaled (volume::check_limb_size).
+  ro.warn_on_implausible_size = false;
   limb = geometry::read_mesh(design::resolve(c, c.limb.file), ro);
   if (c.limb.bones != "auto" && c.limb.bones != "estimate" && c.limb.bones != "none")
     extra = geometry::read_mesh(design::resolve(c, c.limb.bones), ro);
+  if (c.limb.scale != 1.0) {
+    geometry::scale(limb, c.limb.scale);
+    if (!extra.empty()) geometry::scale(extra, c.limb.scale);
+  }
   if (c.limb.bones == "estimate" || c.limb.bones == "none") {
     auto parts = geometry::split_components(limb);
     std::sort(parts.begin(), parts.end(),
@@ -75,6 +81,27 @@ report::ReportSpot report_spot(const design::Spot& s) {
 }
 
 }  // namespace
+
+double ischial_share_floor(const DesignSetup& setup) {
+  if (setup.model.type != geometry::LimbType::Transfemoral) return 0.0;
+  return setup.case_file.ischial_share_min.value_or(design::default_ischial_share(setup.brim.kind()));
+}
+
+std::optional<design::OptimizerOptions::RegionFloor> ischial_floor(const DesignSetup& setup) {
+  const double share = ischial_share_floor(setup);
+  if (share <= 0.0) return std::nullopt;
+  const auto which = design::region_of(setup.regions, setup.solver->skin_cylindrical());
+  int k = -1;
+  for (std::size_t i = 0; i < setup.regions.size(); ++i)
+    if (setup.regions[i].key == "ischial_gluteal") k = static_cast<int>(i);
+  if (k < 0) return std::nullopt;
+  design::OptimizerOptions::RegionFloor f;
+  f.name = setup.regions[static_cast<std::size_t>(k)].name;
+  f.min_share = share;
+  f.nodes.resize(which.size());
+  for (std::size_t i = 0; i < which.size(); ++i) f.nodes[i] = which[i] == k ? 1 : 0;
+  return f;
+}
 
 tissue::MassSpringOptions model_options(const design::CaseFile& c) {
   tissue::MassSpringOptions o;
@@ -108,9 +135,11 @@ std::unique_ptr<DesignSetup> prepare_design(const design::CaseFile& c, const fs:
   volume::LimbInputOptions lo;
   lo.type = c.limb.type;
   lo.anterior = c.limb.anterior;
+  lo.axis = c.limb.axis;
   lo.side = c.limb.side;
   lo.cut_height_m = c.limb.cut_height_m;
   lo.estimate_bones = c.limb.bones != "none";
+  lo.force_size = c.limb.force_size;
   s->model = volume::prepare_limb(limb, extra, lo);
   auto& model = s->model;
   for (const auto& [code, p] : c.landmarks) {
@@ -124,11 +153,24 @@ std::unique_ptr<DesignSetup> prepare_design(const design::CaseFile& c, const fs:
   // Checks that need the limb, before the expensive steps.
   s->table = c.thresholds.empty() ? design::default_thresholds(model.type) : c.thresholds;
   design::validate_thresholds(s->table, model.landmarks, model.type);
-  s->brim = c.brim_key_points.empty() ? design::make_brim(c.brim, model)
-                                      : design::brim_from_key_points(c.brim_key_points, c.brim);
+  const design::BrimTemplate kind = c.brim.value_or(design::default_brim(model.type));
+  if (!c.brim) model.notes.push_back(fmt::format("brim: {} (the default of a {} limb)", design::to_string(kind),
+                                                 geometry::to_string(model.type)));
+  if (c.brim_key_points.empty()) {
+    std::vector<std::string> clamped;
+    s->brim = design::make_brim(kind, model, {}, &clamped);
+    for (const auto& n : clamped) {
+      log::warn("design: {}", n);
+      model.notes.push_back(n);
+      s->brim_notes.push_back(n);
+    }
+  } else {
+    s->brim = design::brim_from_key_points(c.brim_key_points, kind);
+  }
   design::validate_brim(s->brim, model.skin, model.frame);
   s->spots = c.spots.empty() ? design::default_spots(model.type, model.landmarks, model.length_m) : c.spots;
   for (const auto& sp : s->spots) design::validate_spot(sp, model.length_m);
+  s->regions = design::load_regions(model.type, model.landmarks, model.length_m);
 
   report_progress(progress, 0.1, "design: meshing the stump");
   volume::HexMesherOptions mo;
@@ -158,6 +200,7 @@ DesignResult solve_design(DesignSetup& setup, bool optimise, const ProgressCallb
   r.optimised = optimise;
   if (optimise) {
     design::OptimizerOptions oo = optimizer_options(c);
+    if (const auto floor = ischial_floor(setup)) oo.region_floors.push_back(*floor);
     oo.progress = [&](double f, std::string_view stage) { return report_progress(progress, 0.9 * f, stage); };
     r.optimiser = design::optimise_design(solver, setup.spots, oo);
     r.spots = r.optimiser.spots;
@@ -169,6 +212,8 @@ DesignResult solve_design(DesignSetup& setup, bool optimise, const ProgressCallb
     r.state = solver.solve(r.spots);
   }
   r.constraints_met = r.state.status.all_ok();
+  r.region_loads = design::region_loads(setup.regions, solver.skin_cylindrical(), solver.above_brim(), r.state,
+                                        setup.model.frame, c.patient.friction);
   // Deformed and rest skin as triangles (local ids = skin order).
   r.rest_skin = solver.skin().triangles();
   r.deformed_skin = r.rest_skin;
@@ -457,6 +502,7 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
   design::CaseFile replay = c;
   replay.spots = spots;
   replay.optimise = false;
+  replay.brim = brim.kind();
   if (!c.limb.file.empty()) replay.limb.file = fs::absolute(design::resolve(c, c.limb.file)).string();
   if (c.limb.bones != "auto" && c.limb.bones != "estimate" && c.limb.bones != "none")
     replay.limb.bones = fs::absolute(design::resolve(c, c.limb.bones)).string();
@@ -496,6 +542,14 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
   }
   rd.max_pressure_pa = *std::max_element(state.pressure_pa.begin(), state.pressure_pa.end());
   rd.landmarks = marks;
+  for (const auto& r : result.region_loads)
+    rd.region_loads.push_back({r.name, r.share, r.axial_n, r.friction_axial_n, r.area_m2, r.mean_pressure_pa,
+                               r.peak_pressure_pa, r.key == "ischial_gluteal"});
+  if (model.type == geometry::LimbType::Transfemoral && ischial_share_floor(setup) > 0)
+    rd.region_note = fmt::format("The {} template asks the optimiser for at least {:.0f} % on the ischial / gluteal "
+                                 "region{}.",
+                                 brim.name(), 100 * ischial_share_floor(setup),
+                                 opt.region_floors_met ? "" : " — it could not be kept with the seven constraints");
   rd.socket = rs;
   nlohmann::json closed_loop_json;
   if (result.closed_loop) closed_loop_json = write_closed_loop_outputs(setup, result, out, rd.delivery);
@@ -549,6 +603,12 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
   if (model.bones_estimated) rd.warnings.push_back("bones ESTIMATED from the skin (no bone surfaces given)");
   if (model.frame.anterior_estimated) rd.warnings.push_back("anterior direction ESTIMATED from the skin: check it");
   if (model.frame.side_estimated) rd.warnings.push_back("side ESTIMATED: check it");
+  if (model.skin_extension_m > 0)
+    rd.warnings.push_back(fmt::format("skin CONTINUED {:.0f} mm above the scan ({:.0f} % of the socket's skin): the "
+                                      "ischial containment lies on an assumed surface — scan up to the buttock and the "
+                                      "groin",
+                                      model.skin_extension_m * 1e3, 100 * model.skin_extension_area_fraction));
+  for (const auto& n : setup.brim_notes) rd.warnings.push_back(n);
   if (state.linearised) rd.warnings.push_back("shape from the linearised stump model: " + state.nonlinear_failure);
   if (!met) rd.warnings.push_back("constraints not met: no socket written. " + (optimise ? opt.message : state.message));
   report::write_design_report_html(out / "report.html", rd);
@@ -624,6 +684,48 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
       {"out", out.string()},
       {"outputs", outputs}};
   if (!socket_json.is_null()) j["socket"] = socket_json;
+  j["frame"]["axis_source"] = model.axis_source;
+  j["frame"]["anterior_source"] = model.anterior_source;
+  j["frame"]["side"] = geometry::to_string(model.frame.side);
+  j["frame"]["side_estimated"] = model.frame.side_estimated;
+  j["brim"]["key_points"] = nlohmann::json::array();
+  for (const auto& k : brim.key_points())
+    j["brim"]["key_points"].push_back({{"label", k.label}, {"theta_deg", k.theta / units::deg}, {"h_mm", k.h * 1e3}});
+  j["brim"]["notes"] = setup.brim_notes;
+  {
+    nlohmann::json shares = nlohmann::json::array();
+    for (const auto& r : result.region_loads)
+      shares.push_back({{"region", r.key},
+                        {"name", r.name},
+                        {"share", r.share},
+                        {"axial_n", r.axial_n},
+                        {"normal_axial_n", r.normal_axial_n},
+                        {"friction_axial_n", r.friction_axial_n},
+                        {"area_cm2", r.area_m2 * 1e4},
+                        {"mean_kpa", r.mean_pressure_pa / 1e3},
+                        {"peak_kpa", r.peak_pressure_pa / 1e3}});
+    j["load_shares"] = shares;
+    for (const auto& r : result.region_loads)
+      if (r.key == "ischial_gluteal") j["ischial_gluteal_share"] = r.share;
+    if (model.type == geometry::LimbType::Transfemoral) {
+      j["ischial_share_min"] = ischial_share_floor(setup);
+      j["ischial_share_floor_met"] = opt.region_floors_met;
+    }
+  }
+  j["skin_extension_mm"] = model.skin_extension_m * 1e3;
+  j["skin_extension_area_percent"] = 100 * model.skin_extension_area_fraction;
+  j["limb_notes"] = model.notes;
+  {
+    nlohmann::json lms = nlohmann::json::array();
+    for (const auto& l : model.landmarks)
+      lms.push_back({{"code", l.code},
+                     {"name", l.name},
+                     {"theta_deg", l.cylindrical.theta / units::deg},
+                     {"h_mm", l.cylindrical.h * 1e3},
+                     {"position_mm", vec_json(l.position * 1e3)},
+                     {"estimated", l.estimated}});
+    j["landmarks"] = lms;
+  }
   j["template_regions"] = template_json;
   if (!closed_loop_json.is_null()) {
     j["closed_loop"] = closed_loop_json;

@@ -23,6 +23,7 @@
 #include "socketsmith/design/brim.h"
 #include "socketsmith/design/case_file.h"
 #include "socketsmith/design/design_solver.h"
+#include "socketsmith/design/load_regions.h"
 #include "socketsmith/design/optimizer.h"
 #include "socketsmith/design/pain_map.h"
 #include "socketsmith/design/socket_builder.h"
@@ -43,7 +44,9 @@ struct DesignSetup {
   volume::LimbModel model;             ///< frame, bones, landmarks, length
   design::ThresholdTable table;        ///< pain thresholds per landmark [Pa]
   design::BrimLine brim;
+  std::vector<std::string> brim_notes; ///< template key points clamped into the stump (a scan ending too low)
   std::vector<design::Spot> spots;     ///< the case's spots, or the default layout
+  std::vector<design::LoadRegion> regions;  ///< where the axial load is counted (design/load_regions.h)
   volume::HexMesherResult mesh;
   tissue::MassSpringOptions model_options;
   tissue::TissueMaterial material;
@@ -63,6 +66,12 @@ std::unique_ptr<DesignSetup> prepare_design(const design::CaseFile& c,
                                             const std::filesystem::path& generated_limb_stl = {},
                                             const ProgressCallback& progress = {});
 
+/// The least share of the axial load a transfemoral design keeps on the ischial/gluteal region:
+/// the case's design.ischial_share_min, else the brim template's (design::default_ischial_share);
+/// 0 for a transtibial limb.
+double ischial_share_floor(const DesignSetup& setup);
+/// That floor as an optimiser region floor (nullopt when 0).
+std::optional<design::OptimizerOptions::RegionFloor> ischial_floor(const DesignSetup& setup);
 /// The optimiser's settings a case asks for (objective, model pressure limit).
 design::OptimizerOptions optimizer_options(const design::CaseFile& c);
 
@@ -81,6 +90,7 @@ struct DesignResult {
   geometry::TriMesh deformed_skin;     ///< same triangles at the designed shape = the socket's inner wall
   std::optional<design::SocketResult> socket;  ///< only when every constraint is met (the closed loop's when it ran)
   double limb_volume_below_brim_m3 = 0.0;      ///< the cavity measure on the undeformed skin
+  std::vector<design::RegionLoad> region_loads; ///< the axial load by region (setup.regions) of `state`
   /// The closed loop (case `design.closed_loop`): the open-loop socket donned and stood on, its
   /// wall corrected; `socket` is then the corrected socket.
   std::optional<ClosedLoopResult> closed_loop;

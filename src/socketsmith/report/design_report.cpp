@@ -888,6 +888,23 @@ std::string render_design_report_html(const DesignReportData& d) {
   h.kv("where", where);
   h.raw("</table>\n");
 
+  // Axial load by region.
+  if (!d.region_loads.empty()) {
+    h.raw("<h2>Axial load by region</h2>\n<table>\n");
+    h.row({"region", "share of F_z", "axial [N]", "of which friction [N]", "loaded area [cm²]", "mean [kPa]",
+           "peak [kPa]"},
+          true);
+    for (const auto& r : d.region_loads)
+      h.row({r.name, num(100 * r.share) + " %", num(r.axial_n), num(r.friction_n), num(r.area_m2 * 1e4),
+             kpa(r.mean_pressure_pa), kpa(r.peak_pressure_pa)},
+            false, r.is_highlighted ? "ok" : "");
+    h.raw("</table>\n<p>");
+    h.text("Axial: the normal forces' component along the limb axis plus the available friction μ p A cos θ "
+           "(the thesis's F_z, eq. 42), summed over the region's skin below the brim." +
+           (d.region_note.empty() ? std::string() : " " + d.region_note));
+    h.raw("</p>\n");
+  }
+
   // Maps.
   if (!d.maps.empty()) {
     h.raw("<h2>Pressure maps</h2>\n");

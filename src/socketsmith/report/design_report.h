@@ -347,6 +347,18 @@ struct ReportDelivery {
 };
 
 /// Everything in the report. Pictures are rendered from this data when the report is written.
+/// The axial load carried by one region of the skin (design/load_regions.h).
+struct ReportRegionLoad {
+  std::string name;            ///< "ischial / gluteal"
+  double share = 0;            ///< of the socket's axial load F_z [-]
+  double axial_n = 0;          ///< [N]: normal forces' axial part + available friction
+  double friction_n = 0;       ///< of which the friction [N]
+  double area_m2 = 0;          ///< loaded area [m²]
+  double mean_pressure_pa = 0;
+  double peak_pressure_pa = 0;
+  bool is_highlighted = false; ///< the region the brim template is meant to load (shown first, bold)
+};
+
 struct DesignReportData {
   std::string title = "Socket design report";
   std::string generated;  ///< date / software version line ("" = omitted; no clock is read)
@@ -370,6 +382,8 @@ struct DesignReportData {
   Eigen::Vector3d max_ratio_position = Eigen::Vector3d::Zero();  ///< where [m]
   double max_pressure_pa = 0;      ///< largest applied pressure [Pa]
   std::vector<MapLandmark> landmarks;  ///< for "nearest landmark zone" (else maps[0]'s)
+  std::vector<ReportRegionLoad> region_loads;  ///< "Axial load by region"; empty = section omitted
+  std::string region_note;             ///< a line under that table (e.g. the template's floor)
   ReportSocket socket;
   ReportDelivery delivery;
   ReportRun optimiser;
@@ -380,7 +394,8 @@ struct DesignReportData {
 /// The report as one self-contained HTML5 document (pictures embedded as base64 PNG / SVG data
 /// URIs, inline CSS): patient, inputs (limb, mesh, model, spots in kPa/degrees/mm, brim), the
 /// radar chart and a table of the constraint values with targets and pass/fail, the largest
-/// pressure/threshold ratio and the nearest landmark zone, pressure maps, path profiles,
+/// pressure/threshold ratio and the nearest landmark zone, the axial load by region, pressure
+/// maps, path profiles,
 /// socket measurements (volume, circumferences with % reduction, thickness), the delivered
 /// pressures against the design (when the closed loop ran), optimiser and solver summaries,
 /// warnings. Every string is HTML-escaped.

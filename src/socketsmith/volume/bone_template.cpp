@@ -2,6 +2,8 @@
 #include "socketsmith/volume/bone_template.h"
 
 #include <algorithm>
+#include <numeric>
+#include <tuple>
 #include <array>
 #include <cmath>
 #include <cstdint>
@@ -12,6 +14,7 @@
 #include <Eigen/Dense>
 
 #include "socketsmith/core/errors.h"
+#include "socketsmith/geometry/mesh_boolean.h"
 
 namespace socketsmith::volume {
 
@@ -563,7 +566,13 @@ std::vector<BoneShape> transfemoral_shapes(const SkinRadii& skin, const BoneTemp
           "(expected at least 73 mm)",
           (T - B) * 1e3);
   const double rfs = p.femur_shaft_radius_m;
-  auto mean = [=](double h) { return rfs * (1.0 + 0.35 * smoothstep((h - (T - 0.07)) / 0.06)); };
+  // Widening towards the trochanters: at the top of the skin, or from the ischial tuberosity's
+  // level up when it is known (the lesser trochanter lies about level with it).
+  const double hi_t = pl.ischial_height_m;
+  const bool has_trochanter = hi_t >= 0.0;
+  const double widen_from = has_trochanter ? hi_t - 0.01 : T - 0.07;
+  const double widen_over = has_trochanter ? 0.05 : 0.06;
+  auto mean = [=](double h) { return rfs * (1.0 + 0.35 * smoothstep((h - widen_from) / widen_over)); };
   std::vector<double> hs, as, ms;
   for (int i = 0; i <= 6; ++i) {
     const double h = lerp(h_end + 0.01, top - 0.01, i / 6.0);
@@ -580,7 +589,12 @@ std::vector<BoneShape> transfemoral_shapes(const SkinRadii& skin, const BoneTemp
   femur.cap_bottom = 0.008;
   femur.cap_top = 0.008;
   femur.centre = [=](double h) { return Vector2d(fa(h), fm(h)); };
-  femur.radius = [=](double phi, double h) { return mean(h) * (1.0 + 0.10 * gauss(wrap_angle(phi - kPi), 0.25)); };
+  const double h_gt = hi_t + p.trochanter_height_m, gt = has_trochanter ? p.trochanter_prominence_m : 0.0;
+  // The greater trochanter stands out postero-laterally (phi = -90° - 17°).
+  femur.radius = [=](double phi, double h) {
+    return mean(h) * (1.0 + 0.10 * gauss(wrap_angle(phi - kPi), 0.25)) +
+           gt * gauss(wrap_angle(phi + 0.5 * kPi + 0.3), 0.6) * gauss(h - h_gt, 0.014);
+  };
   femur.columns = 40;
   femur.rows = 60;
   return {femur};
@@ -644,6 +658,12 @@ ClearanceReport measure_clearances(const TriMesh& skin, const TriangleIndex& ski
     }
   }
   return rep;
+}
+
+/// The centreline point of a bone shape at height @p h (world) [m].
+Vec3 femur_point_at(const BoneShape& b, const LimbFrame& frame, double h) {
+  const Vector2d c = b.centre(h);
+  return frame.origin + h * frame.axis + c.x() * frame.anterior + c.y() * frame.medial();
 }
 
 std::vector<BoneShape> template_shapes(const SkinRadii& skin, const BoneTemplateParams& params, const BonePlacement& placement) {
@@ -840,8 +860,17 @@ void validate(const BoneTemplateParams& p) {
   check_range("patella_tissue_m", p.patella_tissue_m, 0.004, 0.02);
   check_range("femur_shaft_radius_m", p.femur_shaft_radius_m, 0.009, 0.02);
   check_range("femur_end_height_m", p.femur_end_height_m, 0.02, 0.09);
-  check_range("femur_lateral_fraction", p.femur_lateral_fraction, 0.0, 0.45);
+  check_range("femur_lateral_fraction", p.femur_lateral_fraction, 0.0, 0.6);
   check_range("femur_anterior_fraction", p.femur_anterior_fraction, -0.2, 0.35);
+  check_range("trochanter_height_m", p.trochanter_height_m, 0.0, 0.07);
+  check_range("trochanter_prominence_m", p.trochanter_prominence_m, 0.005, 0.03);
+  check_range("ischium_radius_m", p.ischium_radius_m, 0.008, 0.02);
+  check_range("ischium_offset_m", p.ischium_offset_m, 0.045, 0.1);
+  check_range("ischium_angle_rad", p.ischium_angle_rad, -0.8, 0.4);
+  check_range("min_ischial_tissue_m", p.min_ischial_tissue_m, 0.005, 0.04);
+  check_range("pubic_ramus_length_m", p.pubic_ramus_length_m, 0.06, 0.12);
+  check_range("pubic_ramus_angle_rad", p.pubic_ramus_angle_rad, 0.2, 1.0);
+  check_range("pubic_ramus_rise_m", p.pubic_ramus_rise_m, 0.015, 0.06);
 }
 
 BoneTemplateParams scaled_bone_sizes(const BoneTemplateParams& params, double factor) {
@@ -860,17 +889,123 @@ BoneTemplateParams scaled_bone_sizes(const BoneTemplateParams& params, double fa
   scale(p.patella_height_m, 0.03, 0.055);
   scale(p.patella_thickness_m, 0.014, 0.026);
   scale(p.femur_shaft_radius_m, 0.009, 0.02);
+  scale(p.trochanter_prominence_m, 0.005, 0.03);
+  scale(p.ischium_radius_m, 0.008, 0.02);
+  scale(p.ischium_offset_m, 0.045, 0.1);
+  scale(p.pubic_ramus_length_m, 0.06, 0.12);
+  scale(p.pubic_ramus_rise_m, 0.015, 0.06);
   return p;
+}
+
+NamedMesh build_hemipelvis_template(const SkinRadii& skin, const LimbFrame& frame, const BoneTemplateParams& p,
+                                    const BonePlacement& pl, const Vec3& femur_axis_point) {
+  validate(p);
+  const double hT = pl.ischial_height_m;
+  require(hT > skin.bottom_m + 0.03 && hT < skin.top_m - 0.005,
+          "build_hemipelvis_template: ischial height {:.1f} mm is outside the skin ({:.1f} to {:.1f} mm along the "
+          "axis)",
+          hT * 1e3, (skin.bottom_m + 0.03) * 1e3, (skin.top_m - 0.005) * 1e3);
+  const double s = pl.shrink;
+  const double r = s * p.ischium_radius_m;
+  const double k = p.pubic_ramus_length_m / 0.09;  // the pelvis's proportions follow the ramus
+  const Vec3 medial = frame.medial();
+  const Vec3 fd = femur_axis_point - frame.on_axis((femur_axis_point - frame.origin).dot(frame.axis));
+  const Vector2d f_am(fd.dot(frame.anterior), fd.dot(medial));
+  // The tuberosity's centre: ischium_offset_m from the femur, 15° (by default) behind medial,
+  // pulled back towards the femur while the skin over it would be thinner than allowed.
+  const Vector2d dir(std::sin(p.ischium_angle_rad), std::cos(p.ischium_angle_rad));  // (anterior, medial)
+  double off = p.ischium_offset_m;
+  Vector2d t_am = f_am + off * dir;
+  for (int it = 0; it < 40; ++it) {
+    const double th = std::atan2(t_am.y(), t_am.x());
+    if (t_am.norm() + r + p.min_ischial_tissue_m <= skin.radius(th, hT + r)) break;
+    off *= 0.95;
+    t_am = f_am + off * dir;
+  }
+  const Vector2d ramus(std::cos(p.pubic_ramus_angle_rad), std::sin(p.pubic_ramus_angle_rad));
+  const Vector2d s_am = t_am + p.pubic_ramus_length_m * ramus;
+  const Vector2d a_am = t_am + k * Vector2d(0.038, -0.036);  // the ischial body rises towards the acetabulum
+  auto world = [&](const Vector2d& am, double h) -> Vec3 {
+    return frame.origin + h * frame.axis + am.x() * frame.anterior + am.y() * medial;
+  };
+  const double hc = hT + r;
+  const Vec3 T = world(t_am, hc), A = world(a_am, hc + k * 0.062);
+  const Vec3 S = world(s_am, hc + p.pubic_ramus_rise_m);
+  const Vec3 A_top = A + std::max(0.02, skin.top_m + 0.06 - (hc + k * 0.062)) * frame.axis;
+  // Two nearly straight tubes joined at the tuberosity (their round ends make its round bottom):
+  // the ramus to the symphysis, and the ischial body up past the acetabulum.
+  const TriMesh ramus_tube = detail::sweep_tube({T, S}, {r, 0.6 * r}, 24, 0.003);
+  const TriMesh body_tube = detail::sweep_tube({T, A, A_top}, {r, 0.9 * r, 0.9 * r}, 24, 0.003);
+  geometry::BooleanOptions bo;
+  bo.check_operands = false;  // both tubes are valid by construction (straight or gently bent)
+  TriMesh m = geometry::mesh_boolean(ramus_tube, body_tube, geometry::BooleanOperation::Union, bo);
+  // The boolean's vertex and triangle order varies from run to run: sort both, so that the same
+  // parameters give the same mesh (an open and a closed generated limb share their bones).
+  {
+    std::vector<int> order(m.vertices.size());
+    std::iota(order.begin(), order.end(), 0);
+    std::sort(order.begin(), order.end(), [&](int a, int b) {
+      const Vec3 &va = m.vertices[a], &vb = m.vertices[b];
+      return std::tie(va.x(), va.y(), va.z()) < std::tie(vb.x(), vb.y(), vb.z());
+    });
+    std::vector<int> new_id(order.size());
+    TriMesh sorted;
+    sorted.vertices.reserve(order.size());
+    for (std::size_t i = 0; i < order.size(); ++i) {
+      new_id[order[i]] = static_cast<int>(i);
+      sorted.vertices.push_back(m.vertices[order[i]]);
+    }
+    for (auto t : m.triangles) {
+      for (int& v : t) v = new_id[v];
+      // Start each triangle at its smallest index (same orientation).
+      const auto first = std::min_element(t.begin(), t.end()) - t.begin();
+      std::rotate(t.begin(), t.begin() + first, t.end());
+      sorted.triangles.push_back(t);
+    }
+    std::sort(sorted.triangles.begin(), sorted.triangles.end());
+    m = std::move(sorted);
+  }
+  // Put the lowest vertex at the tuberosity's height.
+  double low_h = kInf;
+  for (const auto& v : m.vertices) low_h = std::min(low_h, (v - frame.origin).dot(frame.axis));
+  for (auto& v : m.vertices) v += (hT - low_h) * frame.axis;
+  return {bone_name("hemipelvis", pl), std::move(m)};
 }
 
 std::vector<NamedMesh> build_bone_template(const SkinRadii& skin, const LimbFrame& frame, const BoneTemplateParams& params,
                                            const BonePlacement& placement) {
   const auto shapes = template_shapes(skin, params, placement);
   std::vector<NamedMesh> bones;
-  bones.reserve(shapes.size());
+  bones.reserve(shapes.size() + 1);
   for (const auto& s : shapes) bones.push_back({s.name, mesh_bone(s, frame, placement.shrink)});
+  if (placement.type == geometry::LimbType::Transfemoral && placement.ischial_height_m >= 0.0)
+    bones.push_back(build_hemipelvis_template(skin, frame, params, placement,
+                                              femur_point_at(shapes.front(), frame, placement.ischial_height_m)));
   return bones;
 }
+
+namespace {
+/// Appends the template hemipelvis to a fitted femur, shrunk (0.93 per step) until it keeps
+/// kMinBoneGap_m from the other bones. It may leave the skin (it is clipped to the stump later).
+void add_hemipelvis(BoneFitResult& fit, const TriMesh& skin, const SkinRadii& radii, const LimbFrame& frame,
+                    const BoneTemplateParams& params, BonePlacement placement, const Vec3& femur_point) {
+  const TriangleIndex skin_index(skin, frame, 0.006);
+  for (int iter = 0; iter < 12; ++iter) {
+    fit.bones.push_back(build_hemipelvis_template(radii, frame, params, placement, femur_point));
+    const ClearanceReport rep = measure_clearances(skin, skin_index, fit.bones, frame, 0.0, kMinBoneGap_m + 0.0005);
+    if (rep.gap.back() >= kMinBoneGap_m + 0.0005 || placement.shrink < 0.3) {
+      fit.shrink.push_back(placement.shrink);
+      fit.min_bone_gap_m = std::min(fit.min_bone_gap_m, rep.gap.back());
+      return;
+    }
+    fit.bones.pop_back();
+    placement.shrink *= 0.93;
+  }
+  fail("fit_bone_template: the hemipelvis cannot be kept {:.1f} mm from the femur (the femur reaches the ischium: "
+       "check the bone placement)",
+       kMinBoneGap_m * 1e3);
+}
+}  // namespace
 
 BoneFitResult fit_bone_template(const TriMesh& skin, const SkinRadii& radii, const LimbFrame& frame,
                                 const BoneTemplateParams& params, const BonePlacement& placement, double min_clearance_m) {
@@ -917,6 +1052,9 @@ BoneFitResult fit_bone_template(const TriMesh& skin, const SkinRadii& radii, con
       result.min_skin_clearance_m = *std::min_element(full.skin.begin(), full.skin.end());
       result.min_bone_gap_m = nb > 1 ? *std::min_element(full.gap.begin(), full.gap.end()) : kInf;
       result.bones = std::move(bones);
+      if (placement.type == geometry::LimbType::Transfemoral && placement.ischial_height_m >= 0.0)
+        add_hemipelvis(result, skin, radii, frame, params, placement,
+                       femur_point_at(shapes.front(), frame, placement.ischial_height_m));
       return result;
     }
     if (stuck) break;
@@ -962,6 +1100,7 @@ std::vector<NamedMesh> estimate_bones(const TriMesh& closed_skin, const LimbFram
     p.tibia_end_height_m = std::clamp(0.17 * (knee - radii.bottom_m), 0.015, 0.04);
   } else {
     p.femur_end_height_m = std::clamp(0.16 * length, 0.025, 0.07);
+    pl.ischial_height_m = options.ischial_height_m;
   }
   BoneFitResult fit = fit_bone_template(closed_skin, radii, frame, p, pl, options.min_clearance_m);
   return std::move(fit.bones);
@@ -1089,6 +1228,136 @@ Vec3 closest_point_on_mesh(const TriMesh& mesh, const Vec3& p) {
     }
   }
   return best;
+}
+
+TriMesh sweep_tube(const std::vector<Vec3>& control, const std::vector<double>& radii, int ring_vertices,
+                   double spacing_m) {
+  require(control.size() >= 2 && control.size() == radii.size(),
+          "sweep_tube: {} control points and {} radii (expected at least 2, one radius per point)", control.size(),
+          radii.size());
+  require(ring_vertices >= 6 && spacing_m > 0.0, "sweep_tube: {} ring vertices, spacing {} m (expected ≥ 6, > 0)",
+          ring_vertices, spacing_m);
+  for (double r : radii) require(std::isfinite(r) && r > 0.0, "sweep_tube: radius {} m is not positive", r);
+  // Clamped uniform cubic B-spline: the end points tripled.
+  std::vector<Vec3> q;
+  std::vector<double> rq;
+  for (int k = 0; k < 2; ++k) {
+    q.push_back(control.front());
+    rq.push_back(radii.front());
+  }
+  q.insert(q.end(), control.begin(), control.end());
+  rq.insert(rq.end(), radii.begin(), radii.end());
+  for (int k = 0; k < 2; ++k) {
+    q.push_back(control.back());
+    rq.push_back(radii.back());
+  }
+  std::vector<Vec3> fine;
+  std::vector<double> fine_r, arc;
+  const int per_segment = 40;
+  for (std::size_t i = 0; i + 3 < q.size(); ++i)
+    for (int j = 0; j < per_segment + (i + 4 == q.size() ? 1 : 0); ++j) {
+      const double t = static_cast<double>(j) / per_segment, t2 = t * t, t3 = t2 * t;
+      const double b0 = (1 - t) * (1 - t) * (1 - t) / 6.0, b1 = (3 * t3 - 6 * t2 + 4) / 6.0,
+                   b2 = (-3 * t3 + 3 * t2 + 3 * t + 1) / 6.0, b3 = t3 / 6.0;
+      fine.push_back(b0 * q[i] + b1 * q[i + 1] + b2 * q[i + 2] + b3 * q[i + 3]);
+      fine_r.push_back(b0 * rq[i] + b1 * rq[i + 1] + b2 * rq[i + 2] + b3 * rq[i + 3]);
+      arc.push_back(arc.empty() ? 0.0 : arc.back() + (fine.back() - fine[fine.size() - 2]).norm());
+    }
+  const double total = arc.back();
+  require(total > 0.0, "sweep_tube: the control points coincide (no curve to sweep)");
+  const int rings = std::max(2, static_cast<int>(std::ceil(total / spacing_m)) + 1);
+  std::vector<Vec3> c(static_cast<std::size_t>(rings));
+  std::vector<double> rr(c.size());
+  std::size_t k = 0;
+  for (int i = 0; i < rings; ++i) {
+    const double target = total * i / (rings - 1);
+    while (k + 2 < arc.size() && arc[k + 1] < target) ++k;
+    const double w = arc[k + 1] > arc[k] ? clamp01((target - arc[k]) / (arc[k + 1] - arc[k])) : 0.0;
+    c[static_cast<std::size_t>(i)] = (1 - w) * fine[k] + w * fine[k + 1];
+    rr[static_cast<std::size_t>(i)] = (1 - w) * fine_r[k] + w * fine_r[k + 1];
+  }
+  // Where the curve bends more tightly than the tube is thick, its inner side would fold: smooth the
+  // centreline (ends fixed) until the radius of curvature exceeds 1.5 × the tube's radius.
+  auto tightest = [&]() {
+    double worst = kInf;
+    for (std::size_t i = 1; i + 1 < c.size(); ++i) {
+      const Vec3 a = c[i] - c[i - 1], b = c[i + 1] - c[i];
+      const double turn = std::acos(std::clamp(a.normalized().dot(b.normalized()), -1.0, 1.0));
+      if (turn < 1e-9) continue;
+      worst = std::min(worst, 0.5 * (a.norm() + b.norm()) / turn / rr[i]);
+    }
+    return worst;
+  };
+  for (int it = 0; it < 2000 && tightest() < 1.5; ++it) {
+    std::vector<Vec3> next = c;
+    for (std::size_t i = 1; i + 1 < c.size(); ++i) next[i] = 0.5 * c[i] + 0.25 * (c[i - 1] + c[i + 1]);
+    c = std::move(next);
+  }
+  // Tangents and rotation-minimising frames (double reflection, Wang et al. 2008).
+  std::vector<Vec3> tan(c.size()), u(c.size());
+  for (std::size_t i = 0; i < c.size(); ++i) {
+    const Vec3 d = c[std::min(i + 1, c.size() - 1)] - c[i == 0 ? 0 : i - 1];
+    tan[i] = d.normalized();
+  }
+  {
+    const Vec3 trial = std::abs(tan[0].x()) < 0.9 ? Vec3::UnitX() : Vec3::UnitY();
+    u[0] = (trial - trial.dot(tan[0]) * tan[0]).normalized();
+  }
+  for (std::size_t i = 0; i + 1 < c.size(); ++i) {
+    const Vec3 v1 = c[i + 1] - c[i];
+    const double c1 = v1.squaredNorm();
+    if (c1 < 1e-24) {
+      u[i + 1] = u[i];
+      continue;
+    }
+    const Vec3 rl = u[i] - (2.0 / c1) * v1.dot(u[i]) * v1, tl = tan[i] - (2.0 / c1) * v1.dot(tan[i]) * v1;
+    const Vec3 v2 = tan[i + 1] - tl;
+    const double c2 = v2.squaredNorm();
+    const Vec3 un = c2 < 1e-24 ? rl : Vec3(rl - (2.0 / c2) * v2.dot(rl) * v2);
+    u[i + 1] = (un - un.dot(tan[i + 1]) * tan[i + 1]).normalized();
+  }
+  // Rings: hemispherical cap rings, the body, cap rings; poles at both ends.
+  const int n = ring_vertices;
+  std::vector<std::vector<Vec3>> ring_pts;
+  auto ring_at = [&](const Vec3& centre, const Vec3& t, const Vec3& uu, double radius) {
+    const Vec3 vv = t.cross(uu).normalized();
+    std::vector<Vec3> ring(static_cast<std::size_t>(n));
+    for (int j = 0; j < n; ++j) {
+      const double a = 2.0 * kPi * j / n;
+      ring[static_cast<std::size_t>(j)] = centre + radius * (std::cos(a) * uu + std::sin(a) * vv);
+    }
+    return ring;
+  };
+  constexpr int kCapRings = 3;
+  const Vec3 bottom_pole = c.front() - rr.front() * tan.front();
+  for (int i = kCapRings; i >= 1; --i) {
+    const double a = 0.5 * kPi * i / (kCapRings + 1);
+    ring_pts.push_back(ring_at(c.front() - rr.front() * std::sin(a) * tan.front(), tan.front(), u.front(),
+                               rr.front() * std::cos(a)));
+  }
+  for (std::size_t i = 0; i < c.size(); ++i) ring_pts.push_back(ring_at(c[i], tan[i], u[i], rr[i]));
+  for (int i = 1; i <= kCapRings; ++i) {
+    const double a = 0.5 * kPi * i / (kCapRings + 1);
+    ring_pts.push_back(ring_at(c.back() + rr.back() * std::sin(a) * tan.back(), tan.back(), u.back(),
+                               rr.back() * std::cos(a)));
+  }
+  const Vec3 top_pole = c.back() + rr.back() * tan.back();
+  TriMesh m;
+  m.vertices.push_back(bottom_pole);
+  for (const auto& ring : ring_pts) m.vertices.insert(m.vertices.end(), ring.begin(), ring.end());
+  m.vertices.push_back(top_pole);
+  const int nr = static_cast<int>(ring_pts.size());
+  auto vid = [&](int ring, int j) { return 1 + ring * n + ((j % n) + n) % n; };
+  for (int j = 0; j < n; ++j) m.triangles.push_back({0, vid(0, j + 1), vid(0, j)});
+  for (int i = 0; i + 1 < nr; ++i)
+    for (int j = 0; j < n; ++j) {
+      m.triangles.push_back({vid(i, j), vid(i, j + 1), vid(i + 1, j + 1)});
+      m.triangles.push_back({vid(i, j), vid(i + 1, j + 1), vid(i + 1, j)});
+    }
+  const int top = m.num_vertices() - 1;
+  for (int j = 0; j < n; ++j) m.triangles.push_back({top, vid(nr - 1, j), vid(nr - 1, j + 1)});
+  if (geometry::signed_volume(m) < 0.0) geometry::flip_orientation(m);
+  return m;
 }
 
 }  // namespace detail

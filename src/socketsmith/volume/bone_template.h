@@ -94,8 +94,26 @@ struct BoneTemplateParams {
   // Femur shaft (both types) and the transfemoral residual femur.
   double femur_shaft_radius_m = 0.014;    ///< mean femoral shaft radius, [0.009, 0.02]
   double femur_end_height_m = 0.045;      ///< transfemoral: femur cut above the distal skin end, [0.02, 0.09]
-  double femur_lateral_fraction = 0.25;   ///< transfemoral: proximal femur centre lateral of the axis, as a fraction of the lateral skin radius, [0, 0.45]
+  double femur_lateral_fraction = 0.35;   ///< transfemoral: proximal femur centre lateral of the axis, as a fraction of the lateral skin radius (OpenLimbTF mean limb: 0.49 at the ischial tuberosity), [0, 0.6]
   double femur_anterior_fraction = 0.12;  ///< transfemoral: femur centre anterior of the axis, fraction of the anterior skin radius, [-0.2, 0.35]
+  // Transfemoral, placed from the ischial tuberosity's height (BonePlacement::ischial_height_m):
+  // the greater trochanter and the lower hemipelvis (ischium with its tuberosity, the ischiopubic
+  // ramus to the pubic symphysis, the ischial body up towards the acetabulum), hung on the femur
+  // through the hip. Proportions from the OpenLimbTF mean limb scaled by a 0.45 m femur: seen from
+  // the femur's shaft axis at the tuberosity's height, the tuberosity lies 75 mm away, 10.5°
+  // posterior of medial; the symphysis 90 mm from it across the axis at 30.5° from anterior
+  // towards medial (the ischial ramus angle: 32.65° ± 5.59° on 200 CT scans, Prosthet Orthot Int,
+  // doi:10.1177/0309364618789439) and 40 mm higher; the acetabulum 36 mm lateral, 38 mm anterior
+  // and 62 mm above the tuberosity; the trochanter's lateral prominence 35 mm above it.
+  double trochanter_height_m = 0.035;      ///< the trochanter's lateral prominence above the ischial tuberosity, [0, 0.07]
+  double trochanter_prominence_m = 0.015;  ///< how far it stands out of the shaft laterally, [0.005, 0.03]
+  double ischium_radius_m = 0.013;         ///< radius of the tuberosity, [0.008, 0.02]
+  double ischium_offset_m = 0.075;         ///< femur shaft axis to the tuberosity across the axis, [0.045, 0.1]
+  double ischium_angle_rad = -0.18;        ///< direction of that offset from medial towards anterior (−10.5°: posterior of medial), [−0.8, 0.4]
+  double min_ischial_tissue_m = 0.012;     ///< the tuberosity is pulled towards the femur to keep this much tissue, [0.005, 0.04]
+  double pubic_ramus_length_m = 0.09;      ///< tuberosity to pubic symphysis across the axis, [0.06, 0.12]
+  double pubic_ramus_angle_rad = 0.53;     ///< direction of that span from anterior towards medial (30.5°), [0.2, 1.0]
+  double pubic_ramus_rise_m = 0.04;        ///< the symphysis above the tuberosity, [0.015, 0.06]
 };
 
 /// Throws InvalidInputError naming the first field of @p params outside its documented range.
@@ -112,13 +130,32 @@ struct BonePlacement {
   double knee_height_m = 0.15;  ///< transtibial knee joint line (frame height) [m]; unused for transfemoral
   double shrink = 1.0;          ///< (0, 1]: bone radii and caps scaled about the centrelines, ends pulled in
   std::string name_suffix;      ///< appended to every bone name, e.g. " (estimated)"
+  /// Transfemoral: height of the ischial tuberosity (frame height) [m]; ≥ 0 adds the greater
+  /// trochanter to the femur and builds the hemipelvis; < 0: the femur alone, widening at the top.
+  double ischial_height_m = -1.0;
 };
+
+/// The lower hemipelvis of the transfemoral template, named "hemipelvis" + suffix: one closed tube
+/// swept along a smooth curve from the pubic symphysis down the ischiopubic ramus to the ischial
+/// tuberosity (its lowest point, at placement.ischial_height_m) and up the ischial body towards the
+/// acetabulum, 60 mm past @p skin's top. The tuberosity lies ischium_offset_m from
+/// @p femur_axis_point (the femur's shaft axis at the tuberosity's height), pulled towards it when
+/// less than min_ischial_tissue_m of tissue would cover it; the symphysis lies where it lies in
+/// the OpenLimbTF mean limb, which is often outside a thigh's skin — like a CT hemipelvis, it is
+/// meant to be clipped to the stump (prepare_limb keeps what lies 5 mm inside the skin). Radii:
+/// tuberosity ischium_radius_m, ramus 0.6 ×, ischial body 0.9 ×, all times placement.shrink.
+/// @throws InvalidInputError when placement.ischial_height_m is outside the skin's height range.
+NamedMesh build_hemipelvis_template(const SkinRadii& skin, const geometry::LimbFrame& frame,
+                                    const BoneTemplateParams& params, const BonePlacement& placement,
+                                    const geometry::Vec3& femur_axis_point);
 
 /// Builds the template bones in @p frame, placed from @p skin. Transtibial: tibia (its cut
 /// lowered when needed to keep 40 mm of tibia, but at least 12 mm above the distal end), fibula
 /// (omitted when less than 30 mm of it would remain), and femur (when the skin reaches ≥ 35 mm
 /// above the joint line) and patella (≥ 12 mm + its height + 8 mm); transfemoral: femur (its cut
-/// lowered when needed to keep 50 mm of femur). Does not check clearances: see fit_bone_template.
+/// lowered when needed to keep 50 mm of femur; with placement.ischial_height_m ≥ 0 its greater
+/// trochanter) and then the hemipelvis (build_hemipelvis_template). Does not check clearances: see
+/// fit_bone_template.
 /// @throws InvalidInputError on invalid params or a placement outside the skin's height range.
 std::vector<NamedMesh> build_bone_template(const SkinRadii& skin, const geometry::LimbFrame& frame,
                                            const BoneTemplateParams& params, const BonePlacement& placement);
@@ -133,7 +170,10 @@ struct BoneFitResult {
 
 /// Builds the template and shrinks the offending bones (factor 0.93 per step, each bone on its
 /// own) until every bone lies inside @p skin with at least @p min_clearance_m of tissue and the
-/// bones are at least kMinBoneGap_m apart. @p placement.shrink is the starting factor.
+/// bones are at least kMinBoneGap_m apart. @p placement.shrink is the starting factor. The
+/// transfemoral hemipelvis (last, when placement.ischial_height_m ≥ 0) is not held inside the skin
+/// (it is clipped later, see build_hemipelvis_template); it is shrunk only to keep its gap to the
+/// femur.
 /// @throws InvalidInputError when no shrink factor ≥ 0.25 satisfies the clearances (a skin too
 ///         thin for the bones), naming the bone and the height.
 BoneFitResult fit_bone_template(const geometry::TriMesh& skin, const SkinRadii& radii,
@@ -148,6 +188,7 @@ double estimate_knee_height(const SkinRadii& skin);
 /// Options of estimate_bones.
 struct BoneEstimateOptions {
   double knee_height_m = -1.0;                    ///< > 0: the known joint line height; otherwise estimated
+  double ischial_height_m = -1.0;                 ///< transfemoral, ≥ 0: add the trochanter and the hemipelvis there
   double min_clearance_m = kMinBoneClearance_m;   ///< soft tissue kept between skin and bones [m]
 };
 
@@ -206,6 +247,16 @@ geometry::Vec3 closest_point_on_triangle(const geometry::Vec3& p, const geometry
 
 /// Closest point to @p p on @p mesh, by brute force over its triangles (for a few queries).
 geometry::Vec3 closest_point_on_mesh(const geometry::TriMesh& mesh, const geometry::Vec3& p);
+
+/// A closed tube swept along the uniform cubic B-spline of @p control points (clamped at both
+/// ends, so it starts and ends at the first and last point), with radius interpolated along the
+/// control polygon from @p radii (one per control point) [m], rounded hemispherical ends. Rings of
+/// @p ring_vertices vertices about every @p spacing_m of arc length, oriented by parallel transport
+/// (rotation-minimising frames), outward. The curve's radius of curvature must exceed the tube's
+/// radius for the surface to be free of self-intersections (the caller's choice of points).
+/// @throws InvalidInputError for fewer than 2 points, a size mismatch, or a non-positive radius.
+geometry::TriMesh sweep_tube(const std::vector<geometry::Vec3>& control, const std::vector<double>& radii,
+                             int ring_vertices = 24, double spacing_m = 0.003);
 
 }  // namespace detail
 

@@ -103,11 +103,39 @@ Landmark nearest_on_skin(const geometry::SurfaceQuery& skin, const LimbFrame& fr
 
 std::vector<std::string> landmark_codes(geometry::LimbType type) {
   if (type == geometry::LimbType::Transtibial) return {"PT", "MF", "LF", "FH", "POP", "AD", "TC", "DT"};
-  return {"IS", "AR", "GT", "DF"};
+  return {"IS", "IR", "GT", "AL", "ST", "DF"};
+}
+
+std::vector<Landmark> place_transfemoral_landmarks(const TriMesh& closed_skin, const LimbFrame& frame,
+                                                   const TransfemoralPoints& points, double cut_height_m) {
+  const geometry::SurfaceQuery skin(closed_skin);
+  const double deg = units::deg, mm = units::mm;
+  const double top = cut_height_m - 10 * mm;
+  const auto is = frame.to_cylindrical(points.ischial_tuberosity);
+  const auto ir = frame.to_cylindrical(points.ischial_ramus);
+  const auto sy = frame.to_cylindrical(points.symphysis);
+  std::vector<Landmark> out;
+  out.push_back(on_skin(skin, frame, "IS", "ischial tuberosity", is.theta, std::min(is.h, top), 25 * mm));
+  out.push_back(on_skin(skin, frame, "IR", "ischial ramus", ir.theta, std::min(ir.h, top), 20 * mm));
+  if (points.greater_trochanter) {
+    const auto gt = frame.to_cylindrical(*points.greater_trochanter);
+    out.push_back(on_skin(skin, frame, "GT", "greater trochanter", gt.theta, std::min(gt.h, top), 30 * mm));
+  } else {
+    out.push_back(on_skin(skin, frame, "GT", "greater trochanter", -90 * deg, std::min(is.h + 35 * mm, top), 30 * mm));
+  }
+  const double al = std::clamp(sy.theta, 30 * deg, 75 * deg);
+  out.push_back(on_skin(skin, frame, "AL", "adductor longus tendon", al, std::min(is.h + 5 * mm, top), 20 * mm));
+  out.push_back(on_skin(skin, frame, "ST", "Scarpa's triangle", 0.4 * al, std::min(is.h + 20 * mm, top), 30 * mm));
+  out.push_back(nearest_on_skin(skin, frame, "DF", "distal end of the femur", points.femur_distal_end, 25 * mm));
+  for (auto& l : out) l.estimated = true;
+  return out;
 }
 
 std::vector<Landmark> place_landmarks(const TriMesh& closed_skin, const LimbFrame& frame, geometry::LimbType type,
-                                      const std::vector<NamedMesh>& bones, double cut_height_m) {
+                                      const std::vector<NamedMesh>& bones, double cut_height_m,
+                                      const TransfemoralPoints* transfemoral) {
+  if (type == geometry::LimbType::Transfemoral && transfemoral != nullptr)
+    return place_transfemoral_landmarks(closed_skin, frame, *transfemoral, cut_height_m);
   const geometry::SurfaceQuery skin(closed_skin);
   const double deg = units::deg, mm = units::mm;
   const double top = cut_height_m;
@@ -141,10 +169,15 @@ std::vector<Landmark> place_landmarks(const TriMesh& closed_skin, const LimbFram
     else
       out.push_back(on_skin(skin, frame, "DT", "distal end of the tibia", 0.0, 0.1 * top, 20 * mm));
   } else {
+    // No hemipelvis: fixed places below the cut (the tuberosity 75 mm below it, as the limb model
+    // cuts a transfemoral stump by default).
     const BoneInfo femur = bone_info(bones, frame, "femur");
-    out.push_back(on_skin(skin, frame, "IS", "ischial seat", 150 * deg, top - 15 * mm, 25 * mm));
-    out.push_back(on_skin(skin, frame, "AR", "adductor / pubic ramus", 90 * deg, top - 20 * mm, 25 * mm));
-    out.push_back(on_skin(skin, frame, "GT", "greater trochanter", -90 * deg, top - 20 * mm, 30 * mm));
+    const double is_h = std::max(0.5 * top, top - 75 * mm);
+    out.push_back(on_skin(skin, frame, "IS", "ischial tuberosity", 135 * deg, is_h, 25 * mm));
+    out.push_back(on_skin(skin, frame, "IR", "ischial ramus", 100 * deg, is_h + 10 * mm, 20 * mm));
+    out.push_back(on_skin(skin, frame, "GT", "greater trochanter", -100 * deg, is_h + 35 * mm, 30 * mm));
+    out.push_back(on_skin(skin, frame, "AL", "adductor longus tendon", 55 * deg, is_h + 5 * mm, 20 * mm));
+    out.push_back(on_skin(skin, frame, "ST", "Scarpa's triangle", 22 * deg, is_h + 20 * mm, 30 * mm));
     if (femur.present)
       out.push_back(nearest_on_skin(skin, frame, "DF", "distal end of the femur", femur.lowest, 25 * mm));
     else

@@ -60,7 +60,7 @@ class SkinModel {
       : p_(p),
         tt_(p.type == LimbType::Transtibial),
         knee_(p.residual_length_m),
-        top_(tt_ ? p.residual_length_m + p.proximal_extension_m : p.residual_length_m),
+        top_(p.residual_length_m + p.proximal_extension_m),
         cap_h_(p.distal_cap_height_m),
         cap_k_(2.0 + p.bulbousness),
         profile_(make_profile(p)) {}
@@ -133,7 +133,7 @@ class SkinModel {
       const double q = lerp(p_.ap_ml_ratio, std::min(1.0, p_.ap_ml_ratio + 0.08), 1.0 - smoothstep(h / (0.5 * top_)));
       double r = ellipse(theta, q);
       if (c < 0.0) r *= 1.0 + p_.posterior_fullness * c * c;
-      r *= 1.0 - 0.05 * gauss(wrap_angle(theta - 0.5 * kPi), 0.5) * smoothstep((h - (top_ - 0.08)) / 0.08);
+      r *= 1.0 - 0.05 * gauss(wrap_angle(theta - 0.5 * kPi), 0.5) * smoothstep((h - (knee_ - 0.08)) / 0.08);
       return r;
     }
     const double H = knee_;
@@ -181,6 +181,8 @@ class SkinModel {
 
   /// Relative circumference growth at dh above the knee joint line.
   static double above_knee_growth(double dh) { return 0.09 * (1.0 - std::exp(-dh / 0.025)) + 0.4 * dh; }
+  /// Relative circumference growth at dh above the ischial tuberosity (buttock and hip: +4.5 % at 90 mm).
+  static double above_ischium_growth(double dh) { return 0.5 * dh; }
 
   static detail::Pchip make_profile(const LimbShapeParams& p) {
     const bool tt = p.type == LimbType::Transtibial;
@@ -195,13 +197,14 @@ class SkinModel {
     }
     xs.push_back(L);
     ys.push_back(rp);
-    if (tt && p.proximal_extension_m > 0.005) {
+    if (p.proximal_extension_m > 0.005) {
       // Above the joint line the skin widens quickly over the patella and the condyles, then
-      // slowly along the distal thigh (OpenLimb mean limb: +6 % at 22 mm, +10 % at 70 mm).
+      // slowly along the distal thigh (OpenLimb mean limb: +6 % at 22 mm, +10 % at 70 mm); above
+      // the ischial tuberosity slowly over the buttock and the hip.
       for (const double s : {1.0 / 3.0, 2.0 / 3.0, 1.0}) {
         const double dh = s * p.proximal_extension_m;
         xs.push_back(L + dh);
-        ys.push_back(rp * (1.0 + above_knee_growth(dh)));
+        ys.push_back(rp * (1.0 + (tt ? above_knee_growth(dh) : above_ischium_growth(dh))));
       }
     }
     return detail::Pchip(xs, ys);
@@ -262,7 +265,7 @@ LimbShapeParams default_params(LimbType type, std::uint64_t seed) {
   const bool tt = type == LimbType::Transtibial;
   if (!tt) {
     p.residual_length_m = 0.27;
-    p.proximal_extension_m = 0.0;
+    p.proximal_extension_m = 0.09;
     p.proximal_circumference_m = 0.48;
     p.distal_circumference_m = 0.71 * 0.48;
     p.distal_cap_height_m = 0.05;
@@ -274,8 +277,7 @@ LimbShapeParams default_params(LimbType type, std::uint64_t seed) {
   auto jitter = [&](double& x, double half) { x += half * rng.symmetric(); };
   auto jitter_rel = [&](double& x, double rel) { x *= 1.0 + rel * rng.symmetric(); };
   jitter(p.residual_length_m, tt ? 0.02 : 0.03);
-  if (tt) jitter(p.proximal_extension_m, 0.01);
-  else rng.next();
+  jitter(p.proximal_extension_m, 0.01);
   jitter_rel(p.proximal_circumference_m, 0.06);
   double ratio = tt ? 0.77 : 0.71;
   jitter(ratio, 0.06);
@@ -310,6 +312,16 @@ LimbShapeParams default_params(LimbType type, std::uint64_t seed) {
   jitter(b.femur_end_height_m, 0.015);
   jitter(b.femur_lateral_fraction, 0.05);
   jitter(b.femur_anterior_fraction, 0.04);
+  if (!tt) {
+    jitter(b.trochanter_height_m, 0.008);
+    jitter_rel(b.trochanter_prominence_m, 0.15);
+    jitter_rel(b.ischium_radius_m, 0.1);
+    jitter_rel(b.ischium_offset_m, 0.08);
+    jitter(b.ischium_angle_rad, 8.0 * kDeg);
+    jitter_rel(b.pubic_ramus_length_m, 0.08);
+    jitter(b.pubic_ramus_angle_rad, 8.0 * kDeg);
+    jitter(b.pubic_ramus_rise_m, 0.006);
+  }
   return p;
 }
 
@@ -322,7 +334,7 @@ void validate(const LimbShapeParams& p) {
   const auto [lo, hi] = residual_length_range(p.type);
   check_range("residual_length_m", p.residual_length_m, lo, hi, " m", tt ? " for a transtibial limb" : " for a transfemoral limb");
   if (tt) check_range("proximal_extension_m", p.proximal_extension_m, 0.0, 0.12, " m");
-  else check_range("proximal_extension_m", p.proximal_extension_m, 0.0, 0.0, " m", ": a transfemoral skin ends at its proximal cut");
+  else check_range("proximal_extension_m", p.proximal_extension_m, 0.0, 0.15, " m", " above the ischial tuberosity");
   if (tt) check_range("proximal_circumference_m", p.proximal_circumference_m, 0.26, 0.60, " m", " for a transtibial limb");
   else check_range("proximal_circumference_m", p.proximal_circumference_m, 0.30, 0.80, " m", " for a transfemoral limb");
   check_range("distal_circumference_m", p.distal_circumference_m, 0.5 * p.proximal_circumference_m,
@@ -440,6 +452,7 @@ GeneratedLimb generate_limb(const LimbShapeParams& params) {
   BonePlacement placement;
   placement.type = params.type;
   placement.knee_height_m = skin_model.knee();
+  if (params.type == LimbType::Transfemoral) placement.ischial_height_m = skin_model.knee();
   const BoneTemplateParams bones = scaled_bone_sizes(params.bones, bone_size_factor(params));
   BoneFitResult fit = fit_bone_template(closed_skin, radii, frame, bones, placement);
   limb.bones = std::move(fit.bones);
@@ -499,12 +512,20 @@ GeneratedLimb generate_limb(const LimbShapeParams& params) {
     add("TC", "tibial crest", on_skin(ctc.theta, h_mid), 0.015);
     add("DT", "distal tibia (end)", lowest(tibia->mesh), 0.02);
   } else {
+    // The bony points of the femur and the hemipelvis in the truth frame, and the landmarks
+    // placed from them by the same rules as a limb model's (landmarks.h).
     const NamedMesh* femur = find_bone(limb.bones, "femur");
-    SOCKETSMITH_ASSERT(femur != nullptr);
-    add("IS", "ischial seat", on_skin(150.0 * kDeg, top - 0.02), 0.025);
-    add("AR", "adductor longus / pubic ramus", on_skin(80.0 * kDeg, top - 0.035), 0.025);
-    add("GT", "greater trochanter", on_skin(-90.0 * kDeg, top - 0.025), 0.025);
-    add("DF", "distal femur", lowest(femur->mesh), 0.025);
+    const NamedMesh* pelvis = find_bone(limb.bones, "hemipelvis");
+    SOCKETSMITH_ASSERT(femur != nullptr && pelvis != nullptr);
+    Vec3 pc = Vec3::Zero();
+    for (const auto& v : pelvis->mesh.vertices) pc += v;
+    const FemurAxis axis = femur_shaft_axis(femur->mesh, pc / static_cast<double>(pelvis->mesh.vertices.size()));
+    limb.transfemoral = transfemoral_points(femur->mesh, axis, pelvis->mesh, frame);
+    limb.landmarks = place_transfemoral_landmarks(closed_skin, frame, *limb.transfemoral, top);
+    for (auto& l : limb.landmarks) {
+      // On the scan-like (open) skin too: the closed skin's side is the same surface below the top.
+      l.estimated = false;
+    }
   }
   return limb;
 }
@@ -561,7 +582,16 @@ nlohmann::json limb_sidecar_json(const GeneratedLimb& limb) {
                    {"femur_shaft_radius_m", b.femur_shaft_radius_m},
                    {"femur_end_height_m", b.femur_end_height_m},
                    {"femur_lateral_fraction", b.femur_lateral_fraction},
-                   {"femur_anterior_fraction", b.femur_anterior_fraction}}}};
+                   {"femur_anterior_fraction", b.femur_anterior_fraction},
+                   {"trochanter_height_m", b.trochanter_height_m},
+                   {"trochanter_prominence_m", b.trochanter_prominence_m},
+                   {"ischium_radius_m", b.ischium_radius_m},
+                   {"ischium_offset_m", b.ischium_offset_m},
+                   {"min_ischial_tissue_m", b.min_ischial_tissue_m},
+                   {"ischium_angle_rad", b.ischium_angle_rad},
+                   {"pubic_ramus_length_m", b.pubic_ramus_length_m},
+                   {"pubic_ramus_angle_rad", b.pubic_ramus_angle_rad},
+                   {"pubic_ramus_rise_m", b.pubic_ramus_rise_m}}}};
   const LimbFrame& f = limb.frame;
   j["frame"] = {{"origin_mm", vec_mm(f.origin)},
                 {"axis", vec(f.axis)},
@@ -571,6 +601,16 @@ nlohmann::json limb_sidecar_json(const GeneratedLimb& limb) {
                 {"anterior_estimated", f.anterior_estimated},
                 {"side_estimated", f.side_estimated}};
   if (p.type == LimbType::Transtibial) j["knee_joint_line_h_mm"] = p.residual_length_m * 1e3;
+  if (limb.transfemoral) {
+    const auto& t = *limb.transfemoral;
+    j["ischial_tuberosity_h_mm"] = p.residual_length_m * 1e3;
+    nlohmann::json pts = {{"ischial_tuberosity_mm", vec_mm(t.ischial_tuberosity)},
+                          {"ischial_ramus_mm", vec_mm(t.ischial_ramus)},
+                          {"pubic_symphysis_mm", vec_mm(t.symphysis)},
+                          {"femur_distal_end_mm", vec_mm(t.femur_distal_end)}};
+    if (t.greater_trochanter) pts["greater_trochanter_mm"] = vec_mm(*t.greater_trochanter);
+    j["bony_points"] = pts;
+  }
   j["cut_height_mm"] = limb.cut_height_m * 1e3;
   j["skin_open"] = p.open_proximal;
   j["skin_volume_cm3"] = limb.skin_volume_m3 * 1e6;

@@ -14,6 +14,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <utility>
 #include <vector>
 
@@ -23,6 +24,7 @@
 #include "socketsmith/geometry/tri_mesh.h"
 #include "socketsmith/volume/bone_template.h"
 #include "socketsmith/volume/landmarks.h"
+#include "socketsmith/volume/transfemoral_anatomy.h"
 
 namespace socketsmith::volume {
 
@@ -33,15 +35,18 @@ struct LimbShapeParams {
   geometry::LimbType type = geometry::LimbType::Transtibial;
   geometry::Side side = geometry::Side::Right;
   std::uint64_t seed = 0;  ///< the seed default_params used (recorded in the sidecar only)
-  /// Transtibial: knee joint line to the distal end; transfemoral: proximal cut to the distal
-  /// end [m]. Transtibial [0.06, 0.30], transfemoral [0.10, 0.45].
+  /// Transtibial: knee joint line to the distal end; transfemoral: the ischial tuberosity's level
+  /// to the distal end (the clinical residual length) [m]. Transtibial [0.06, 0.30], transfemoral
+  /// [0.10, 0.45].
   double residual_length_m = 0.15;
-  /// Transtibial: skin kept above the knee joint line up to the proximal cut, like a real scan
-  /// [m], [0, 0.12]. Must be 0 for a transfemoral limb.
+  /// Skin kept above the knee joint line (transtibial, [0, 0.12]) or above the ischial tuberosity
+  /// (transfemoral, over the buttock and the groin, [0, 0.15]) up to the proximal cut, like a scan
+  /// or a cast [m].
   double proximal_extension_m = 0.07;
-  /// Circumference at the knee joint line (transtibial, [0.26, 0.60]) or at the proximal cut
-  /// (transfemoral, [0.30, 0.80]) [m]. Above the knee the transtibial circumference grows by
-  /// 0.09 (1 − exp(−dh / 25 mm)) + 0.4 dh/m (patella and condyles: +6 % at 23 mm, +11 % at 70 mm).
+  /// Circumference at the knee joint line (transtibial, [0.26, 0.60]) or at the ischial
+  /// tuberosity's level (transfemoral, [0.30, 0.80]) [m]. Above the knee the transtibial
+  /// circumference grows by 0.09 (1 − exp(−dh / 25 mm)) + 0.4 dh/m (patella and condyles: +6 % at
+  /// 23 mm, +11 % at 70 mm); above the tuberosity the transfemoral one by 0.5 dh/m.
   double proximal_circumference_m = 0.35;
   /// Circumference at the top of the rounded distal end, h = distal_cap_height_m [m], in
   /// [0.5, 1.1] × proximal_circumference_m.
@@ -78,8 +83,10 @@ struct LimbShapeParams {
 /// Nominal parameters of @p type jittered from @p seed (seed 0: the nominal values exactly).
 /// Uniform jitter (its half-width in brackets): transtibial residual 0.15 m (±0.02) below the
 /// knee + 0.07 m (±0.01) above, circumference 0.35 m (±6 %) at the knee and 0.77 (±0.06) of it
-/// distally, cap 0.035 m (±0.005); transfemoral residual 0.27 m (±0.03), circumference 0.48 m
-/// (±6 %) proximally and 0.71 (±0.06) of it distally, cap 0.05 m (±0.008); bulbousness 0.3
+/// distally, cap 0.035 m (±0.005); transfemoral residual 0.27 m (±0.03) below the ischial
+/// tuberosity + 0.09 m (±0.01) above, circumference 0.48 m (±6 %) at the tuberosity and 0.71
+/// (±0.06) of it distally, cap 0.05 m (±0.008); the hemipelvis's and trochanter's proportions
+/// (BoneTemplateParams: ±8–15 %, the tuberosity's angle ±10°, tissue ±6 mm); bulbousness 0.3
 /// (±0.25), AP/ML 0.90 (±0.05), anterior flattening 0.12 (±0.03), posterior fullness 0.12
 /// (±0.04); bone sizes ±5–10 %, tibia cut 0.025 m (±0.005), fibula 0.03 m (±0.01) shorter,
 /// femur cut 0.045 m (±0.015). The side stays Right. Portable: its own SplitMix64 generator.
@@ -94,9 +101,14 @@ std::pair<double, double> residual_length_range(geometry::LimbType type);
 /// A generated residual limb: the truth for every later stage.
 struct GeneratedLimb {
   geometry::TriMesh skin;           ///< outward; open (one boundary loop at the cut) or capped
-  std::vector<NamedMesh> bones;     ///< "tibia", "fibula", "patella", "femur" (transtibial) / "femur"
+  /// "tibia", "fibula", "patella", "femur" (transtibial) / "femur", "hemipelvis" (transfemoral:
+  /// the hemipelvis is whole, as in a CT scan, and reaches out of the skin at the pubis and above
+  /// its top; the limb model clips it to the stump).
+  std::vector<NamedMesh> bones;
   geometry::LimbFrame frame;        ///< the truth (anterior_estimated = side_estimated = false)
   std::vector<Landmark> landmarks;  ///< the truth (estimated = false), on the skin
+  /// Transfemoral: the truth of the bony points the landmarks are placed from.
+  std::optional<TransfemoralPoints> transfemoral;
   LimbShapeParams params;           ///< what made it
   double cut_height_m = 0.0;        ///< h of the proximal cut plane [m]
   double skin_volume_m3 = 0.0;      ///< volume enclosed by the skin closed by its planar cap [m^3]

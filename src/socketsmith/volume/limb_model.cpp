@@ -3,18 +3,27 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
+#include <numbers>
+
+#include <Eigen/Eigenvalues>
 
 #include "socketsmith/core/errors.h"
 #include "socketsmith/core/log.h"
 #include "socketsmith/core/units.h"
+#include "socketsmith/geometry/mesh_boolean.h"
 #include "socketsmith/geometry/mesh_checks.h"
 #include "socketsmith/geometry/surface_query.h"
+#include "socketsmith/volume/transfemoral_anatomy.h"
 
 namespace socketsmith::volume {
 namespace {
 
 using geometry::LimbFrame;
 using geometry::TriMesh;
+
+/// Tissue kept between the skin and a clipped hemipelvis [m].
+constexpr double kPelvisClearance_m = 0.005;
 
 struct Shell {
   TriMesh mesh;
@@ -97,20 +106,253 @@ bool trim(Shell& s, const LimbFrame& frame, double cut) {
   return true;
 }
 
+/// Length along its principal direction over its largest width (a femur: 4–10; a hemipelvis: 1–2).
+double elongation(const TriMesh& m) {
+  Vec3 mean = Vec3::Zero();
+  for (const auto& v : m.vertices) mean += v;
+  mean /= static_cast<double>(std::max<std::size_t>(1, m.vertices.size()));
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (const auto& v : m.vertices) cov += (v - mean) * (v - mean).transpose();
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);
+  const Vec3 d = eig.eigenvectors().col(2).normalized();
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo, width = 0.0;
+  for (const auto& v : m.vertices) {
+    const double h = (v - mean).dot(d);
+    lo = std::min(lo, h);
+    hi = std::max(hi, h);
+    width = std::max(width, ((v - mean) - h * d).norm());
+  }
+  return width > 0.0 ? (hi - lo) / (2.0 * width) : 0.0;
+}
+
+/// Transfemoral roles of the bone shells (before the cut): the femur is the most elongated shell
+/// (at least 2.5 × as long as wide), the hemipelvis the largest other shell of more than 20 cm³.
+/// Returns their indices (-1 when absent).
+std::pair<int, int> transfemoral_roles(const std::vector<Shell>& shells) {
+  int femur = -1, pelvis = -1;
+  double best = 2.5;
+  for (std::size_t i = 0; i < shells.size(); ++i) {
+    const double e = elongation(shells[i].mesh);
+    if (e > best && std::abs(geometry::signed_volume(shells[i].mesh)) > 5e-6) {
+      best = e;
+      femur = static_cast<int>(i);
+    }
+  }
+  double vmax = 20e-6;
+  for (std::size_t i = 0; i < shells.size(); ++i) {
+    if (static_cast<int>(i) == femur) continue;
+    const double v = std::abs(geometry::signed_volume(shells[i].mesh));
+    if (v > vmax) {
+      vmax = v;
+      pelvis = static_cast<int>(i);
+    }
+  }
+  return {femur, pelvis};
+}
+
+/// A closed, star-shaped region @p clearance_m inside the skin: rings of the measured skin radii
+/// less the clearance, from just above the distal end to the clearance below the top, closed by
+/// fans to the axis.
+TriMesh inset_region(const SkinRadii& r, const LimbFrame& frame, double clearance_m) {
+  detail::RingStack stack;
+  const double h0 = r.h_lo_m + clearance_m, h1 = r.h_hi_m - clearance_m;
+  const int rows = std::max(8, r.num_heights);
+  for (int k = 0; k < rows; ++k) {
+    const double h = h0 + (h1 - h0) * k / (rows - 1);
+    std::vector<Vec3> ring;
+    for (int j = 0; j < r.num_angles; ++j) {
+      const double th = 2.0 * std::numbers::pi * j / r.num_angles;
+      ring.push_back(frame.from_cylindrical({std::max(r.radius(th, h) - clearance_m, 1e-3), th, h}));
+    }
+    stack.rings.push_back(std::move(ring));
+  }
+  stack.has_bottom_pole = stack.has_top_pole = true;
+  stack.bottom_pole = frame.on_axis(h0);
+  stack.top_pole = frame.on_axis(h1);
+  return detail::mesh_ring_stack(stack, detail::is_left_handed(frame));
+}
+
+/// The part of a hemipelvis that lies at least @p clearance_m inside the closed skin (exact
+/// intersection), debris under 0.3 cm³ dropped; empty when nothing remains.
+TriMesh clip_to_stump(const TriMesh& pelvis, const TriMesh& closed_skin, const LimbFrame& frame, double clearance_m) {
+  const SkinRadii radii = measure_skin_radii(closed_skin, frame, 64, 72);
+  const TriMesh region = inset_region(radii, frame, clearance_m);
+  const TriMesh cut = geometry::mesh_boolean(pelvis, region, geometry::BooleanOperation::Intersection);
+  TriMesh out;
+  for (auto& c : geometry::split_components(cut)) {
+    if (geometry::signed_volume(c) < 0.3e-6) continue;
+    const int off = out.num_vertices();
+    out.vertices.insert(out.vertices.end(), c.vertices.begin(), c.vertices.end());
+    for (auto t : c.triangles) out.triangles.push_back({t[0] + off, t[1] + off, t[2] + off});
+  }
+  return out;
+}
+
+/// The open boundary's vertices as (θ, h) in @p frame, sorted by θ.
+std::vector<std::pair<double, double>> rim_profile(const TriMesh& skin, const LimbFrame& frame) {
+  std::map<std::pair<int, int>, int> count;
+  for (const auto& t : skin.triangles)
+    for (int k = 0; k < 3; ++k) ++count[{std::min(t[k], t[(k + 1) % 3]), std::max(t[k], t[(k + 1) % 3])}];
+  std::vector<char> on(skin.vertices.size(), 0);
+  for (const auto& [e, c] : count)
+    if (c == 1) on[e.first] = on[e.second] = 1;
+  std::vector<std::pair<double, double>> out;
+  for (std::size_t v = 0; v < on.size(); ++v)
+    if (on[v]) {
+      const auto c = frame.to_cylindrical(skin.vertices[v]);
+      out.emplace_back(c.theta, c.h);
+    }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+/// Height of the rim at angle θ (linear between the nearest rim vertices, periodic).
+double rim_height_at(const std::vector<std::pair<double, double>>& rim, double theta) {
+  if (rim.empty()) return std::numeric_limits<double>::infinity();
+  auto it = std::lower_bound(rim.begin(), rim.end(), std::pair{theta, -1e300});
+  const auto& b = it == rim.end() ? rim.front() : *it;
+  const auto& a = it == rim.begin() ? rim.back() : *(it - 1);
+  double ta = a.first, tb = b.first;
+  if (tb < ta) tb += 2.0 * std::numbers::pi;
+  double t = theta;
+  if (t < ta) t += 2.0 * std::numbers::pi;
+  const double w = tb > ta ? std::clamp((t - ta) / (tb - ta), 0.0, 1.0) : 0.0;
+  return a.second + w * (b.second - a.second);
+}
+
+/// The ischial tuberosity's height estimated from a transfemoral skin alone: 20 mm below the rim's
+/// highest point when the rim is oblique (a scan reaching the hip laterally: OpenLimbTF mean limb,
+/// truth 17 mm), else 60 mm below a level rim (an assumption: a level scan taken up to the groin).
+double estimate_ischial_height(const std::vector<std::pair<double, double>>& rim, double top) {
+  if (rim.empty()) return top - 0.06;
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  for (const auto& [t, h] : rim) {
+    lo = std::min(lo, h);
+    hi = std::max(hi, h);
+  }
+  return hi - lo >= 0.03 ? hi - 0.02 : lo - 0.06;
+}
+
 }  // namespace
+
+std::string unit_mistake_hint(double factor) {
+  if (factor > 300 && factor < 3000) return "about 1000 x too small: the file is probably in m read as mm; give units m";
+  if (factor < 1.0 / 300 && factor > 1.0 / 3000)
+    return "about 1000 x too large: the file is probably in mm read as m; give units mm";
+  if (factor < 1.0 / 30 && factor >= 1.0 / 300)
+    return "about 100 x too large: in cm read as mm? give units mm and limb.scale 10 (--scale 10), or units m and "
+           "limb.scale 0.01";
+  if (factor > 0.05 && factor < 20)
+    return fmt::format("about {:.2g} x off: a normalised shape? give limb.scale (--scale), e.g. the intact femur length "
+                       "in m for an OpenLimbTF shape (0.45)",
+                       factor);
+  return "check the units and limb.scale (--units, --scale)";
+}
+
+LimbSizeRange limb_size_range(geometry::LimbType type) {
+  return type == geometry::LimbType::Transtibial ? LimbSizeRange{0.06, 0.45, 0.05, 0.20}
+                                                 : LimbSizeRange{0.05, 0.60, 0.07, 0.25};
+}
+
+LimbSize measure_limb_size(const TriMesh& skin, const LimbFrame& frame) {
+  LimbSize s;
+  for (const auto& v : skin.vertices) s.length_m = std::max(s.length_m, frame.to_cylindrical(v).h);
+  const double closed = geometry::lowest_open_boundary_height(skin, frame);
+  const geometry::Slice mid = geometry::slice_surface(skin, frame.on_axis(0.5 * closed), frame.axis);
+  s.width_m = 2.0 * std::sqrt(std::abs(mid.area) / std::numbers::pi);
+  return s;
+}
+
+void check_limb_size(const LimbSize& size, geometry::LimbType type) {
+  const LimbSizeRange r = limb_size_range(type);
+  const bool ok = size.length_m >= r.min_length_m && size.length_m <= r.max_length_m && size.width_m >= r.min_width_m &&
+                  size.width_m <= r.max_width_m;
+  if (ok) return;
+  // What factor would bring both into the range, and which unit mistake that is.
+  const double mid_l = std::sqrt(r.min_length_m * r.max_length_m), mid_w = std::sqrt(r.min_width_m * r.max_width_m);
+  const double factor = std::sqrt((mid_l / std::max(size.length_m, 1e-12)) * (mid_w / std::max(size.width_m, 1e-12)));
+  const std::string hint = unit_mistake_hint(factor);
+  fail("limb is {:.0f} mm long and {:.0f} mm wide at mid-length after units: outside {:.0f}-{:.0f} mm x {:.0f}-{:.0f} mm for "
+       "a {} limb — {} (or set limb.force_size / --force-size if it really is this size)",
+       size.length_m * 1e3, size.width_m * 1e3, r.min_length_m * 1e3, r.max_length_m * 1e3, r.min_width_m * 1e3,
+       r.max_width_m * 1e3, geometry::to_string(type), hint);
+}
+
+SkinExtension extend_skin_to_height(const TriMesh& open_skin, const LimbFrame& frame, double top_h_m,
+                                    double row_spacing_m) {
+  require(row_spacing_m > 0.0, "extend_skin_to_height: row spacing {} m is not positive", row_spacing_m);
+  // The boundary loop, in the direction its triangles traverse it.
+  std::map<std::pair<int, int>, int> count;
+  for (const auto& t : open_skin.triangles)
+    for (int k = 0; k < 3; ++k) ++count[{std::min(t[k], t[(k + 1) % 3]), std::max(t[k], t[(k + 1) % 3])}];
+  std::map<int, int> next;
+  for (const auto& t : open_skin.triangles)
+    for (int k = 0; k < 3; ++k) {
+      const int a = t[k], b = t[(k + 1) % 3];
+      if (count[{std::min(a, b), std::max(a, b)}] == 1) next[a] = b;
+    }
+  require(!next.empty(), "extend_skin_to_height: the skin has no open rim to continue (it is closed)");
+  std::vector<int> loop{next.begin()->first};
+  while (true) {
+    const auto it = next.find(loop.back());
+    require(it != next.end(), "extend_skin_to_height: the skin's rim is not a closed loop (non-manifold boundary)");
+    if (it->second == loop.front()) break;
+    loop.push_back(it->second);
+    require(loop.size() <= next.size(), "extend_skin_to_height: the skin's rim is not a simple loop");
+  }
+  require(loop.size() == next.size(),
+          "extend_skin_to_height: the skin has {} boundary vertices in more than one loop (holes besides the rim: "
+          "fill them first)",
+          next.size());
+  std::vector<double> hv(loop.size());
+  double hmin = std::numeric_limits<double>::infinity(), hmax = -hmin;
+  for (std::size_t j = 0; j < loop.size(); ++j) {
+    hv[j] = frame.to_cylindrical(open_skin.vertices[loop[j]]).h;
+    hmin = std::min(hmin, hv[j]);
+    hmax = std::max(hmax, hv[j]);
+  }
+  SkinExtension ext;
+  ext.top_h_m = std::max(top_h_m, hmax + 0.001);
+  ext.skin = open_skin;
+  ext.first_added_triangle = open_skin.num_triangles();
+  const int rows = std::max(1, static_cast<int>(std::ceil((ext.top_h_m - hmin) / row_spacing_m)));
+  const int n = static_cast<int>(loop.size());
+  std::vector<std::vector<int>> id(rows + 1, std::vector<int>(n));
+  for (int j = 0; j < n; ++j) id[0][j] = loop[j];
+  for (int k = 1; k <= rows; ++k)
+    for (int j = 0; j < n; ++j) {
+      const double h = hv[j] + (ext.top_h_m - hv[j]) * k / rows;
+      id[k][j] = ext.skin.num_vertices();
+      ext.skin.vertices.push_back(open_skin.vertices[loop[j]] + (h - hv[j]) * frame.axis);
+    }
+  // The rim edge a -> b belongs to a skin triangle; the wall triangle beside it runs b -> a.
+  for (int k = 0; k < rows; ++k)
+    for (int j = 0; j < n; ++j) {
+      const int jn = (j + 1) % n;
+      const int a = id[k][j], b = id[k][jn], au = id[k + 1][j], bu = id[k + 1][jn];
+      ext.skin.triangles.push_back({b, a, au});
+      ext.skin.triangles.push_back({b, au, bu});
+    }
+  for (int t = ext.first_added_triangle; t < ext.skin.num_triangles(); ++t)
+    ext.added_area_m2 += geometry::triangle_area(ext.skin, t);
+  return ext;
+}
 
 LimbModel prepare_limb(const TriMesh& limb, const TriMesh& extra_bones, const LimbInputOptions& opt) {
   LimbModel model;
   model.type = opt.type;
+  const bool tf = opt.type == geometry::LimbType::Transfemoral;
   require(!limb.empty(), "limb surface is empty (expected a scanned limb)");
   for (const auto& v : limb.vertices)
     require(v.allFinite(), "limb surface has a NaN or infinite vertex coordinate: re-export the scan");
-  {
+  require(opt.containment_height_m >= 0.03 && opt.containment_height_m <= 0.15,
+          "prepare_limb: containment height {:.0f} mm is outside 30-150 mm above the ischial tuberosity",
+          opt.containment_height_m * 1e3);
+  if (!opt.force_size) {
+    // Far outside any limb (the axis cannot even be found): the anatomical check comes later.
     const double diag = geometry::bounding_box(limb).extent().norm();
-    require(diag > 0.08 && diag < 1.5,
-            "limb is {:.3g} m across: not the size of a residual limb (0.08-1.5 m); wrong units? "
-            "use --units mm or --units m (or --scale for normalised shapes)",
-            diag);
+    require(diag > 0.02 && diag < 10.0, "limb is {:.3g} m across after units: not the size of a residual limb (0.08-1.5 m); wrong units? {}",
+            diag, unit_mistake_hint(0.4 / std::max(diag, 1e-12)));
   }
 
   // Shells: the skin has the largest area.
@@ -128,19 +370,179 @@ LimbModel prepare_limb(const TriMesh& limb, const TriMesh& extra_bones, const Li
   std::sort(shells.begin(), shells.end(), [](const Shell& a, const Shell& b) { return a.area > b.area; });
   Shell skin = std::move(shells.front());
   shells.erase(shells.begin());
-
   const auto rep = geometry::repair_surface(skin.mesh);
   for (const auto& line : rep.changes()) model.notes.push_back("skin: " + line);
-  model.frame = geometry::estimate_limb_axis(skin.mesh);
-  LimbFrame& frame = model.frame;
+  for (auto& s : shells) {
+    geometry::repair_surface(s.mesh);
+    if (geometry::signed_volume(s.mesh) < 0.0) geometry::flip_orientation(s.mesh);
+  }
+  const auto [femur_i, pelvis_i] = tf ? transfemoral_roles(shells) : std::pair{-1, -1};
+  if (femur_i >= 0) shells[femur_i].name = "femur";
+  if (pelvis_i >= 0) shells[pelvis_i].name = "hemipelvis";
 
-  // Cut plane.
+  // Axis: the user's, the femur's shaft, or the skin's.
+  std::optional<FemurAxis> femur_axis;
+  if (femur_i >= 0) {
+    Vec3 hint;
+    if (pelvis_i >= 0) {
+      hint = Vec3::Zero();
+      for (const auto& v : shells[pelvis_i].mesh.vertices) hint += v;
+      hint /= static_cast<double>(shells[pelvis_i].mesh.vertices.size());
+    } else if (const auto rim = geometry::open_rim_centroid(skin.mesh)) {
+      hint = *rim;
+    } else {
+      const LimbFrame f = geometry::estimate_limb_axis(skin.mesh);
+      hint = f.on_axis(10.0);
+    }
+    femur_axis = femur_shaft_axis(shells[femur_i].mesh, hint);
+  }
+  if (opt.axis) {
+    model.frame = geometry::limb_frame_along(skin.mesh, *opt.axis);
+    model.axis_source = "given";
+  } else if (femur_axis) {
+    model.frame = geometry::limb_frame_along(skin.mesh, femur_axis->direction);
+    model.axis_source = "femur";
+    model.notes.push_back("limb axis along the femur's shaft");
+  } else {
+    model.frame = geometry::estimate_limb_axis(skin.mesh);
+    model.axis_source = "skin";
+  }
+  LimbFrame& frame = model.frame;
+  const LimbSize size = measure_limb_size(skin.mesh, frame);
+  if (opt.force_size)
+    model.notes.push_back(fmt::format("limb size {:.0f} x {:.0f} mm accepted without the anatomical range check (forced)",
+                                      size.length_m * 1e3, size.width_m * 1e3));
+  else
+    check_limb_size(size, opt.type);
+
+  // The open rim: where the closed part of the skin ends.
   const double rim = geometry::lowest_open_boundary_height(skin.mesh, frame);
+  double skin_top = 0.0;
+  for (const auto& v : skin.mesh.vertices) skin_top = std::max(skin_top, frame.to_cylindrical(v).h);
+  require(rim >= 0.2 * skin_top,
+          "the skin's open rim comes down to {:.0f} mm above the distal end along the limb axis, while the skin "
+          "reaches {:.0f} mm: the limb axis ({} estimate) is probably wrong — give the limb's long axis "
+          "(--axis x,y,z, or limb.axis in the case file)",
+          rim * 1e3, skin_top * 1e3, model.axis_source == "given" ? "the given axis" : model.axis_source);
+
+  std::optional<PelvicDirections> pelvic;
+  if (femur_axis && pelvis_i >= 0)
+    pelvic = pelvic_directions(*femur_axis, pelvis_points(shells[pelvis_i].mesh, *femur_axis), frame.axis);
+  // Front and side: the user's, then bones, then the skin — once the bones are named (transtibial:
+  // after the cut, as their names depend on it; transfemoral: before, as the cut depends on them).
+  bool side_from_skin = false;
+  auto decide_front = [&](const std::vector<Shell>& named, const TriMesh& skin_mesh, double top) {
+    auto find = [&](const std::string& name) -> const Shell* {
+      for (const auto& b : named)
+        if (b.name == name) return &b;
+      return nullptr;
+    };
+    const geometry::Slice mid = geometry::slice_surface(skin_mesh, frame.on_axis(0.6 * top), frame.axis);
+    const Vec3 skin_centre = mid.area > 0 ? mid.centroid : frame.on_axis(0.6 * top);
+    if (opt.anterior) {
+      geometry::set_anterior(frame, *opt.anterior);
+      frame.anterior_estimated = false;
+      model.anterior_source = "given";
+    } else if (pelvic) {
+      geometry::set_anterior(frame, pelvic->anterior);
+      frame.anterior_estimated = false;
+      model.anterior_source = "hemipelvis";
+      model.notes.push_back(fmt::format("anterior direction from the hemipelvis: its ischiopubic ramus turned back by the "
+                                        "ischial ramus angle ({:.1f}°; the femur-centred estimate differs by {:.0f}°)",
+                                        kIschialRamusAngle_rad / units::deg, pelvic->bisector_difference_deg));
+    } else if (const Shell* patella = tf ? nullptr : find("patella")) {
+      geometry::set_anterior(frame, patella->centroid - frame.on_axis(frame.to_cylindrical(patella->centroid).h));
+      frame.anterior_estimated = false;
+      model.anterior_source = "patella";
+      model.notes.push_back("anterior direction from the patella");
+    } else if (const Shell* tibia = tf ? nullptr : find("tibia")) {
+      geometry::set_anterior(frame, tibia->centroid - skin_centre);
+      frame.anterior_estimated = false;
+      model.anterior_source = "tibia";
+      model.notes.push_back("anterior direction from the tibia's offset in the limb");
+    } else {
+      if (opt.side) frame.side = *opt.side;  // the skin estimate depends on the side
+      model.anterior_source = "skin";
+      if (tf) {
+        const auto est = geometry::estimate_anterior_from_thigh(skin_mesh, frame, opt.side.has_value());
+        geometry::set_anterior(frame, est.anterior);
+        if (est.side_found && !opt.side) {
+          frame.side = est.side;
+          side_from_skin = true;
+        }
+        model.notes.push_back(fmt::format("anterior direction ESTIMATED from the skin ({}); check it and give --anterior "
+                                          "x,y,z",
+                                          est.how));
+      } else {
+        geometry::set_anterior(frame, geometry::estimate_anterior_from_skin(skin_mesh, frame));
+        model.notes.push_back(fmt::format(
+            "anterior direction ESTIMATED from the skin shape for a {} limb (calf skewness); check it and give "
+            "--anterior x,y,z",
+            geometry::to_string(frame.side)));
+      }
+    }
+    if (opt.side) {
+      frame.side = *opt.side;
+      frame.side_estimated = false;
+    } else if (pelvic) {
+      // The hemipelvis is medial (a given front keeps it so).
+      frame.side = pelvic->medial.dot(frame.patient_right()) < 0 ? geometry::Side::Right : geometry::Side::Left;
+      frame.side_estimated = false;
+      model.notes.push_back(fmt::format("{} limb (the hemipelvis is medial)", geometry::to_string(frame.side)));
+    } else if (const Shell* fibula = tf ? nullptr : find("fibula"); fibula && find("tibia")) {
+      const double d = (fibula->centroid - find("tibia")->centroid).dot(frame.patient_right());
+      frame.side = d > 0 ? geometry::Side::Right : geometry::Side::Left;
+      frame.side_estimated = false;
+      model.notes.push_back(fmt::format("{} limb (the fibula is lateral)", geometry::to_string(frame.side)));
+    } else if (side_from_skin) {
+      frame.side_estimated = true;
+    } else {
+      frame.side = geometry::Side::Right;
+      frame.side_estimated = true;
+      model.notes.push_back("side unknown: assumed right (give --side left|right)");
+    }
+  };
+  if (tf) decide_front(shells, skin.mesh, rim);
+
+  // Transfemoral bony points on the whole bones (before the cut): they set the stump's top.
+  std::optional<TransfemoralPoints> tf_points;
+  const auto rim_h = rim_profile(skin.mesh, frame);
+  double ischial_h = -1.0;
+  if (tf) {
+    if (femur_axis && pelvis_i >= 0) {
+      tf_points = transfemoral_points(shells[femur_i].mesh, *femur_axis, shells[pelvis_i].mesh, frame);
+      ischial_h = frame.to_cylindrical(tf_points->ischial_tuberosity).h;
+    } else {
+      ischial_h = estimate_ischial_height(rim_h, rim);
+      model.notes.push_back(fmt::format("no hemipelvis given: ischial tuberosity ESTIMATED at {:.0f} mm above the distal "
+                                        "end (from the skin's rim)",
+                                        ischial_h * 1e3));
+    }
+  }
+
+  // Cut plane, and the skin continued above the scan where a transfemoral containment needs it.
   double cut = opt.cut_height_m.value_or(rim - opt.cut_margin_m);
-  require(cut > 0.3 * rim && cut <= rim + 1e-9,
-          "cut height {:.0f} mm is outside the limb's closed part (0.3 x {:.0f} mm .. {:.0f} mm above the distal "
-          "end); choose a cut below the open rim",
-          cut * 1e3, rim * 1e3, rim * 1e3);
+  if (tf && !opt.cut_height_m && ischial_h > 0.0) cut = std::max(cut, ischial_h + opt.containment_height_m);
+  const bool is_open = !rim_h.empty();
+  if (tf && is_open && opt.extend_skin && cut > rim) {
+    const SkinExtension ext = extend_skin_to_height(skin.mesh, frame, cut + opt.cut_margin_m);
+    model.skin_extension_m = cut - rim;
+    model.notes.push_back(fmt::format("skin CONTINUED above the scan by walls parallel to the axis, up to {:.0f} mm "
+                                      "(the scan's rim ends {:.0f} mm lower at its lowest): the ischial containment "
+                                      "needs the stump {:.0f} mm above the tuberosity; that part of the socket is "
+                                      "designed on an assumed surface — scan up to the buttock and the groin",
+                                      cut * 1e3, (cut - rim) * 1e3, opt.containment_height_m * 1e3));
+    skin.mesh = ext.skin;
+  }
+  const double rim_now = geometry::lowest_open_boundary_height(skin.mesh, frame);
+  require(cut > 0.3 * rim_now && cut <= rim_now + 1e-9,
+          "cut height {:.0f} mm is outside the limb's closed part: give a cut between {:.0f} and {:.0f} mm above the "
+          "distal end (the lowest point of the open rim)",
+          cut * 1e3, 0.3 * rim_now * 1e3, rim_now * 1e3);
+  if (tf && ischial_h > 0.0 && cut < ischial_h + 0.05)
+    model.notes.push_back(fmt::format("the stump ends {:.0f} mm above the ischial tuberosity: too low for an ischial "
+                                      "containment (45-50 mm above it); transfemoral brims will be clamped below the cut",
+                                      (cut - ischial_h) * 1e3));
   auto trimmed = geometry::trim_and_cap(skin.mesh, frame.on_axis(cut), frame.axis);
   if (geometry::signed_volume(trimmed.mesh) < 0.0) {
     geometry::flip_orientation(skin.mesh);
@@ -162,13 +564,45 @@ LimbModel prepare_limb(const TriMesh& limb, const TriMesh& extra_bones, const Li
   if (rim - cut > 0.02)
     model.notes.push_back(fmt::format("skin cut at {:.0f} mm above the distal end ({:.0f} mm below the open rim)",
                                       cut * 1e3, (rim - cut) * 1e3));
+  if (model.skin_extension_m > 0.0) {
+    double side = 0.0, added = 0.0;
+    for (int t = 0; t < model.first_cap_triangle; ++t) {
+      const auto& tri = model.skin.triangles[t];
+      const auto c = frame.to_cylindrical((model.skin.vertices[tri[0]] + model.skin.vertices[tri[1]] +
+                                           model.skin.vertices[tri[2]]) /
+                                          3.0);
+      const double a = geometry::triangle_area(model.skin, t);
+      side += a;
+      if (c.h > rim_height_at(rim_h, c.theta) + 1e-6) added += a;
+    }
+    model.skin_extension_area_fraction = side > 0 ? added / side : 0.0;
+  }
 
-  // Bones: trimmed, inside the skin.
+  // Bones: trimmed, inside the skin (the hemipelvis: clipped to the stump).
   const geometry::SurfaceQuery skin_query(model.skin);
   std::vector<Shell> bones;
   for (auto& s : shells) {
-    geometry::repair_surface(s.mesh);
-    if (geometry::signed_volume(s.mesh) < 0.0) geometry::flip_orientation(s.mesh);
+    if (s.name == "hemipelvis") {
+      try {
+        TriMesh kept = clip_to_stump(s.mesh, model.skin, frame, kPelvisClearance_m);
+        if (kept.empty()) {
+          model.notes.push_back("the hemipelvis lies outside the stump: kept for the frame and the landmarks only");
+          continue;
+        }
+        model.notes.push_back(fmt::format("hemipelvis clipped to the stump ({:.0f} of {:.0f} cm^3 lie {:.0f} mm inside the "
+                                          "skin)",
+                                          geometry::signed_volume(kept) * 1e6, geometry::signed_volume(s.mesh) * 1e6,
+                                          kPelvisClearance_m * 1e3));
+        s.mesh = std::move(kept);
+        measure(s, frame);
+        bones.push_back(std::move(s));
+      } catch (const Error& e) {
+        model.notes.push_back(fmt::format("the hemipelvis could not be clipped to the stump ({}): left out of the mesh, "
+                                          "kept for the frame and the landmarks",
+                                          e.what()));
+      }
+      continue;
+    }
     if (!trim(s, frame, cut)) {
       model.notes.push_back(fmt::format("a shell of {:.0f} cm^2 lies above the cut: ignored", s.area * 1e4));
       continue;
@@ -195,59 +629,66 @@ LimbModel prepare_limb(const TriMesh& limb, const TriMesh& extra_bones, const Li
     s.outside_m = worst;
     bones.push_back(std::move(s));
   }
-  name_bones(bones, opt.type, cut);
+  if (tf) {
+    int extra = 1;
+    for (auto& b : bones)
+      if (b.name.empty()) b.name = "bone " + std::to_string(++extra);
+  } else {
+    name_bones(bones, opt.type, cut);
+    decide_front(bones, model.skin, cut);
+  }
   for (const auto& b : bones)
     if (b.outside_m > 0.0)
       model.notes.push_back(fmt::format("{} touches the skin (up to {:.1f} mm outside it)", b.name, b.outside_m * 1e3));
-
-  // Anterior and side: user, then bones, then skin heuristic.
-  auto find = [&](const std::string& name) -> const Shell* {
-    for (const auto& b : bones)
-      if (b.name == name) return &b;
-    return nullptr;
-  };
-  const geometry::Slice mid = geometry::slice_surface(model.skin, frame.on_axis(0.6 * cut), frame.axis);
-  const Vec3 skin_centre = mid.area > 0 ? mid.centroid : frame.on_axis(0.6 * cut);
-  if (opt.anterior) {
-    geometry::set_anterior(frame, *opt.anterior);
-    frame.anterior_estimated = false;
-  } else if (const Shell* patella = find("patella")) {
-    geometry::set_anterior(frame, patella->centroid - frame.on_axis(frame.to_cylindrical(patella->centroid).h));
-    frame.anterior_estimated = false;
-    model.notes.push_back("anterior direction from the patella");
-  } else if (const Shell* tibia = find(opt.type == geometry::LimbType::Transtibial ? "tibia" : "")) {
-    geometry::set_anterior(frame, tibia->centroid - skin_centre);
-    frame.anterior_estimated = false;
-    model.notes.push_back("anterior direction from the tibia's offset in the limb");
-  } else {
-    if (opt.side) frame.side = *opt.side;  // the skin estimate depends on the side
-    geometry::set_anterior(frame, geometry::estimate_anterior_from_skin(model.skin, frame));
-    model.notes.push_back(fmt::format(
-        "anterior direction ESTIMATED from the skin shape for a {} limb (calf skewness); check it and give "
-        "--anterior x,y,z",
-        geometry::to_string(frame.side)));
-  }
-  if (opt.side) {
-    frame.side = *opt.side;
-    frame.side_estimated = false;
-  } else if (const Shell* fibula = find("fibula"); fibula && find("tibia")) {
-    const double d = (fibula->centroid - find("tibia")->centroid).dot(frame.patient_right());
-    frame.side = d > 0 ? geometry::Side::Right : geometry::Side::Left;
-    frame.side_estimated = false;
-    model.notes.push_back(fmt::format("{} limb (the fibula is lateral)", geometry::to_string(frame.side)));
-  } else {
-    frame.side = geometry::Side::Right;
-    frame.side_estimated = true;
-    model.notes.push_back("side unknown: assumed right (give --side left|right)");
-  }
-
   for (auto& b : bones) model.bones.push_back({b.name, std::move(b.mesh)});
-  if (model.bones.empty() && opt.estimate_bones) {
+
+  // Estimated bones.
+  if (!tf && model.bones.empty() && opt.estimate_bones) {
     model.bones = estimate_bones(model.skin, frame, opt.type);
     model.bones_estimated = true;
     model.notes.push_back("no bones given: bones ESTIMATED from the skin by an anatomical template");
   }
-  model.landmarks = place_landmarks(model.skin, frame, opt.type, model.bones, cut);
+  if (tf && opt.estimate_bones && !tf_points) {
+    const bool has_femur = femur_i >= 0;
+    BoneEstimateOptions eo;
+    eo.ischial_height_m = std::clamp(ischial_h, 0.05, cut - 0.01);
+    std::vector<NamedMesh> est;
+    if (has_femur) {
+      const SkinRadii radii = measure_skin_radii(model.skin, frame);
+      BonePlacement pl;
+      pl.type = opt.type;
+      pl.name_suffix = " (estimated)";
+      pl.ischial_height_m = eo.ischial_height_m;
+      est.push_back(build_hemipelvis_template(radii, frame, BoneTemplateParams{}, pl,
+                                              femur_axis->at_height_of(frame.on_axis(eo.ischial_height_m))));
+    } else {
+      est = estimate_bones(model.skin, frame, opt.type, eo);
+    }
+    const NamedMesh* femur_mesh = has_femur ? nullptr : &est.front();
+    const NamedMesh& pelvis_mesh = est.back();
+    const TriMesh& femur_for_axis = has_femur ? shells[femur_i].mesh : femur_mesh->mesh;
+    const FemurAxis fa = has_femur ? *femur_axis : femur_shaft_axis(femur_for_axis, frame.on_axis(cut));
+    tf_points = transfemoral_points(femur_for_axis, fa, pelvis_mesh.mesh, frame);
+    tf_points->estimated = true;
+    for (auto& b : est) {
+      if (b.name.rfind("hemipelvis", 0) == 0) {
+        try {
+          b.mesh = clip_to_stump(b.mesh, model.skin, frame, kPelvisClearance_m);
+        } catch (const Error& e) {
+          model.notes.push_back(fmt::format("the estimated hemipelvis could not be clipped ({}): left out", e.what()));
+          continue;
+        }
+        if (b.mesh.empty()) continue;
+      }
+      model.bones.push_back(std::move(b));
+    }
+    model.bones_estimated = true;
+    model.notes.push_back(has_femur ? "no hemipelvis given: hemipelvis ESTIMATED from the skin by an anatomical template"
+                                    : "no bones given: femur and hemipelvis ESTIMATED from the skin by an anatomical "
+                                      "template");
+  }
+  model.landmarks = place_landmarks(model.skin, frame, opt.type, model.bones, cut, tf_points ? &*tf_points : nullptr);
+  model.transfemoral = tf_points;
   return model;
 }
 
