@@ -22,6 +22,7 @@ packages=(
   libopencv-dev           # scan: 16-bit depth PNG IO, undistortion, Kinect calibration YAML (cv::FileStorage)
   libimgui-dev libglfw3-dev libgl-dev  # socketsmith-gui: Dear ImGui (with its GLFW/OpenGL3 back-ends), window, OpenGL
   xvfb xauth libgl1-mesa-dri  # GUI tests and screenshots headless: virtual X server, Mesa llvmpipe OpenGL
+  chromium                # the reports' browser test: headless Chromium renders report.html and prints it to PDF
 )
 
 if [ "${1:-}" = "--dev" ]; then packages+=(ccache); fi

@@ -12,6 +12,7 @@
 #include "socketsmith/core/units.h"
 #include "socketsmith/geometry/mesh_checks.h"
 #include "socketsmith/geometry/mesh_io.h"
+#include "socketsmith/pipeline/prosthetist_checks.h"
 #include "socketsmith/report/csv.h"
 #include "socketsmith/report/design_report.h"
 #include "socketsmith/report/vtk_writer.h"
@@ -365,7 +366,6 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
     rs.limb_volume_m3 = result.limb_volume_below_brim_m3;
     nlohmann::json levels = nlohmann::json::array();
     for (const auto& l : sock.levels) {
-      rs.circumferences.push_back({l.h_m, l.limb_circumference_m, l.inner_circumference_m});
       levels.push_back({{"h_mm", l.h_m * 1e3},
                         {"socket_mm", l.inner_circumference_m * 1e3},
                         {"limb_mm", l.limb_circumference_m * 1e3},
@@ -490,6 +490,8 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
   rd.max_pressure_pa = *std::max_element(state.pressure_pa.begin(), state.pressure_pa.end());
   rd.landmarks = marks;
   rd.socket = rs;
+  // What a prosthetist checks: the rectification chart and the slice measurements.
+  const nlohmann::json checks_json = write_prosthetist_checks(setup, result, prosthetist_checks(setup, result), out, rd);
   nlohmann::json closed_loop_json;
   if (result.closed_loop) closed_loop_json = write_closed_loop_outputs(setup, result, out, rd.delivery);
   rd.optimiser.has_run = optimise;
@@ -581,6 +583,9 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
       {"out", out.string()},
       {"outputs", outputs}};
   if (!socket_json.is_null()) j["socket"] = socket_json;
+  j["rectification"] = checks_json["rectification"];
+  j["slices"] = checks_json["slices"];
+  for (const char* o : {"rectification_map.png", "rectification.csv", "slices.csv"}) j["outputs"].push_back(o);
   if (!closed_loop_json.is_null()) {
     j["closed_loop"] = closed_loop_json;
     for (const auto& o : closed_loop_json["outputs"]) j["outputs"].push_back(o);
