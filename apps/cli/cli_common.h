@@ -39,5 +39,6 @@ void register_design(CLI::App& app);  // cmd_design.cpp: design, run, demo
 void register_contact(CLI::App& app);  // cmd_contact.cpp: simulate donning
 void register_scan(CLI::App& app);  // cmd_scan.cpp: scan simulate, scan reconstruct
 void register_validate(CLI::App& app);  // cmd_validate.cpp: validate cube, validate design
+void register_compare(CLI::App& app);  // cmd_compare.cpp: compare A B
 
 }  // namespace socketsmith::cli

@@ -27,6 +27,7 @@ int main(int argc, char** argv) {
   cli::register_scan(app);
   cli::register_contact(app);
   cli::register_validate(app);
+  cli::register_compare(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
