@@ -287,6 +287,18 @@ DesignState DesignSolver::solve(const std::vector<Spot>& spots) {
     if (linear) {
       x = s.linear_solve(f);
       ++st.follower_passes;
+      // The follower iteration runs away when the tissue is too soft for the load (each pass's
+      // deformed skin carries larger forces): stop before NaN reaches the outputs.
+      double umax = 0;
+      for (Eigen::Index k = 0; k < x.size() / 3; ++k)
+        umax = std::max(umax, (x - s.model.rest_positions()).segment<3>(3 * k).norm());
+      if (!x.allFinite() || !(umax <= 0.5 * s.length)) {
+        s.failure_point = Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
+        fail<SolverError>("design solve: the stump's deformation runs away under these pressures (pass {}: {:.3g} mm, "
+                          "more than half the {:.0f} mm stump): the tissue (E = {:.3g} kPa) is too soft for this load — "
+                          "raise tissue.youngs_kpa or lower the pressures",
+                          st.follower_passes, umax * 1e3, s.length * 1e3, s.model.material().youngs_modulus_pa / 1e3);
+      }
       f_prev = std::move(f);
       skin_geometry(x, pos, normal, area);
       continue;
