@@ -187,9 +187,10 @@ TEST(RadarTargets, reject_implausible_patients) {
   pl.body_mass_kg = std::numeric_limits<double>::quiet_NaN();
   expect_msg(pl, "body mass");
   pl.body_mass_kg = 70e3;  // grams
-  expect_msg(pl, "not plausible");
+  expect_msg(pl, "patient.body_mass_kg = 70000 kg is outside (0, 400) kg");
   pl = PatientLoad{};
-  pl.prosthesis_mass_kg = 80;
+  pl.body_mass_kg = 40;
+  pl.prosthesis_mass_kg = 45;
   expect_msg(pl, "not below the body mass");
   pl = PatientLoad{};
   pl.prosthesis_mass_kg = -1;

@@ -7,7 +7,9 @@
 
 #include "socketsmith/core/atomic_file.h"
 #include "socketsmith/core/errors.h"
+#include "socketsmith/core/json_input.h"
 #include "socketsmith/core/units.h"
+#include "socketsmith/design/input_limits.h"
 
 namespace socketsmith::design {
 namespace {
@@ -31,6 +33,19 @@ double number(const json& j, const std::string& key, const std::string& where, d
   const double d = v.get<double>();
   require(std::isfinite(d), "case file: '{}.{}' is not finite", where, key);
   return d;
+}
+
+/// A number of @p j checked against its limit (the name in messages is the case-file key).
+double limited(const json& j, const std::string& key, const std::string& where, double fallback,
+               const InputLimit& limit) {
+  if (!j.contains(key)) return fallback;
+  return check_input(limit, number(j, key, where, fallback), fmt::format("case file: {}.{}", where, key));
+}
+
+/// A whole number of @p j checked against its limit before it becomes an int.
+int count(const json& j, const std::string& key, const std::string& where, int fallback, const InputLimit& limit) {
+  if (!j.contains(key)) return fallback;
+  return check_input_count(limit, number(j, key, where, fallback), fmt::format("case file: {}.{}", where, key));
 }
 
 std::string text(const json& j, const std::string& key, const std::string& where, const std::string& fallback) {
@@ -117,7 +132,7 @@ Spot spot_from_json(const json& j, const std::string& where) {
   s.enabled = flag(j, "enabled", where, true);
   s.optimise_amplitude = flag(j, "optimise_amplitude", where, true);
   s.optimise_position = flag(j, "optimise_position", where, true);
-  s.max_amplitude_pa = number(j, "max_amplitude_kpa", where, 0.0) * 1e3;
+  s.max_amplitude_pa = limited(j, "max_amplitude_kpa", where, 0.0, limits::kMaxAmplitude) * 1e3;
   require(s.amplitude_pa >= 0, "case file: '{}.amplitude_kpa' is negative (a socket can only push: use 0 or more)",
           where);
   return s;
@@ -134,7 +149,12 @@ CaseFile parse_case(const json& doc, const std::filesystem::path& folder) {
     const auto& j = doc.at("limb");
     check_keys(j, "limb", {"file", "bones", "units", "type", "side", "anterior", "cut_height_mm", "generate_seed"});
     c.limb.file = text(j, "file", "limb", "");
+    require(!j.contains("file") || !c.limb.file.empty(),
+            "case file: limb.file is empty: give the scan's path (STL/OBJ/PLY), or remove 'file' to use the generated "
+            "sample limb");
     c.limb.bones = text(j, "bones", "limb", "auto");
+    require(!c.limb.bones.empty(),
+            "case file: limb.bones is empty: give auto, estimate, none or the path of a bone file");
     c.limb.units = text(j, "units", "limb", "");
     if (!c.limb.units.empty()) (void)units::parse_length_unit(c.limb.units);
     c.limb.type = geometry::parse_limb_type(text(j, "type", "limb", "transtibial"));
@@ -143,7 +163,7 @@ CaseFile parse_case(const json& doc, const std::filesystem::path& folder) {
       c.limb.anterior = vec3(j.at("anterior"), "limb.anterior");
       require(c.limb.anterior->norm() > 0, "case file: 'limb.anterior' is the zero vector (give the front direction)");
     }
-    if (j.contains("cut_height_mm")) c.limb.cut_height_m = number(j, "cut_height_mm", "limb", 0) * 1e-3;
+    if (j.contains("cut_height_mm")) c.limb.cut_height_m = limited(j, "cut_height_mm", "limb", 0, limits::kCutHeight) * 1e-3;
     if (j.contains("generate_seed")) {
       require(j.at("generate_seed").is_number_unsigned(), "case file: 'limb.generate_seed' must be a whole number ≥ 0");
       c.limb.generate_seed = j.at("generate_seed").get<std::uint64_t>();
@@ -166,14 +186,13 @@ CaseFile parse_case(const json& doc, const std::filesystem::path& folder) {
       for (const auto& [code, v] : t.items()) {
         require(v.is_number(), "case file: pain threshold of landmark {} must be a number in kPa (got {})", code,
                 v.dump());
-        c.thresholds[code] = v.get<double>() * 1e3;
+        c.thresholds[code] =
+            check_input(limits::kPainThreshold, v.get<double>(), "case file: patient.thresholds_kpa." + code) * 1e3;
       }
     }
   }
   // Validate the patient now: the message names the field.
-  require(c.patient.body_mass_kg > 0, "case file: patient.body_mass_kg = {} kg: the body mass must be positive",
-          c.patient.body_mass_kg);
-  (void)radar_targets(c.patient, 0.1);
+  check_patient(c.patient, "case file: ");
   if (doc.contains("tissue")) {
     const auto& j = doc.at("tissue");
     check_keys(j, "tissue", {"model", "constants", "youngs_kpa", "density_kg_m3", "poisson", "solve"});
@@ -181,35 +200,26 @@ CaseFile parse_case(const json& doc, const std::filesystem::path& folder) {
     require(c.model == "mss-cs" || c.model == "mss-cf" || c.model == "mss" || c.model == "fe",
             "case file: tissue.model '{}' is not known (mss-cs, mss-cf, mss or fe)", c.model);
     if (j.contains("poisson")) {
-      const double nu = number(j, "poisson", "tissue", 0.45);
       require(c.model == "fe" || c.model == "mss-cf",
               "case file: tissue.poisson is given but tissue.model '{}' has no Poisson ratio of its own (the MSS lattice's "
               "is 1/4); use model fe or mss-cf, or remove tissue.poisson",
               c.model);
-      require(nu >= (c.model == "fe" ? 0.0 : 0.25) && nu < 0.5,
-              "case file: tissue.poisson = {} is outside [{}, 0.5) (soft tissue: 0.45-0.49)", nu,
-              c.model == "fe" ? 0.0 : 0.25);
-      c.poisson_ratio = nu;
+      c.poisson_ratio =
+          limited(j, "poisson", "tissue", 0.45, c.model == "fe" ? limits::kFePoisson : limits::kCfPoisson);
     }
     c.constants = text(j, "constants", "tissue", c.constants);
     require(c.constants == "recommended" || c.constants == "thesis" || c.constants == "cube-fit" ||
                 c.constants == "cube-targets",
             "case file: tissue.constants '{}' is not known (cube-targets, recommended, thesis or cube-fit)", c.constants);
-    c.youngs_modulus_pa = number(j, "youngs_kpa", "tissue", c.youngs_modulus_pa / 1e3) * 1e3;
-    c.density_kg_m3 = number(j, "density_kg_m3", "tissue", c.density_kg_m3);
+    c.youngs_modulus_pa = limited(j, "youngs_kpa", "tissue", c.youngs_modulus_pa / 1e3, limits::kYoungsModulus) * 1e3;
+    c.density_kg_m3 = limited(j, "density_kg_m3", "tissue", c.density_kg_m3, limits::kDensity);
     c.solve_mode = parse_design_solve_mode(text(j, "solve", "tissue", to_string(c.solve_mode)));
   }
-  require(c.youngs_modulus_pa > 0 && c.youngs_modulus_pa < 1e8,
-          "case file: tissue.youngs_kpa = {} kPa: give the soft tissue's Young's modulus in kPa (10–500)",
-          c.youngs_modulus_pa / 1e3);
-  require(c.density_kg_m3 > 0, "case file: tissue.density_kg_m3 must be positive");
   if (doc.contains("mesh")) {
     const auto& j = doc.at("mesh");
     check_keys(j, "mesh", {"target_nodes"});
-    c.target_nodes = static_cast<int>(number(j, "target_nodes", "mesh", c.target_nodes));
+    c.target_nodes = count(j, "target_nodes", "mesh", c.target_nodes, limits::kTargetNodes);
   }
-  require(c.target_nodes >= 200 && c.target_nodes <= 200000,
-          "case file: mesh.target_nodes = {} is outside 200–200000 (e.g. 3000, 8000, 20000)", c.target_nodes);
   if (doc.contains("landmarks")) {
     const auto& j = doc.at("landmarks");
     require(j.is_object(), "case file: 'landmarks' must be an object {{\"PT\": [x, y, z] in mm, ...}}");
@@ -217,19 +227,23 @@ CaseFile parse_case(const json& doc, const std::filesystem::path& folder) {
   }
   if (doc.contains("design")) {
     const auto& j = doc.at("design");
-    check_keys(j, "design", {"spots", "optimise", "objective", "model_pressure_limit"});
+    check_keys(j, "design", {"spots", "optimise", "objective", "model_pressure_limit", "time_limit_s"});
     c.optimise = flag(j, "optimise", "design", true);
     const std::string obj = text(j, "objective", "design", "pressure");
     require(obj == "pressure" || obj == "ratio", "case file: design.objective '{}' is not known (pressure or ratio)", obj);
     c.objective = obj == "ratio" ? OptimizerOptions::Objective::Ratio : OptimizerOptions::Objective::Pressure;
-    c.model_pressure_limit = number(j, "model_pressure_limit", "design", c.model_pressure_limit);
-    require(c.model_pressure_limit >= 0, "case file: design.model_pressure_limit must be ≥ 0 (a fraction of E; 0 = none)");
+    c.model_pressure_limit =
+        limited(j, "model_pressure_limit", "design", c.model_pressure_limit, limits::kModelPressureLimit);
+    c.time_limit_s = limited(j, "time_limit_s", "design", c.time_limit_s, limits::kTimeLimit);
     if (j.contains("spots")) {
       const auto& s = j.at("spots");
       if (s.is_string()) {
         require(s == "default", "case file: design.spots must be a list of spots or \"default\"");
       } else {
         require(s.is_array(), "case file: design.spots must be a list of spots or \"default\"");
+        require(!s.empty(),
+                "case file: design.spots is an empty list: give at least one spot, or \"default\" for the limb type's "
+                "layout");
         for (size_t i = 0; i < s.size(); ++i) c.spots.push_back(spot_from_json(s[i], fmt::format("design.spots[{}]", i)));
       }
     }
@@ -253,16 +267,14 @@ CaseFile parse_case(const json& doc, const std::filesystem::path& folder) {
   if (doc.contains("socket")) {
     const auto& j = doc.at("socket");
     check_keys(j, "socket", {"thickness_mm", "distal_pad", "distal_pad_diameter_mm", "round_brim", "subdivisions"});
-    c.socket.thickness_m = number(j, "thickness_mm", "socket", c.socket.thickness_m * 1e3) * 1e-3;
+    c.socket.thickness_m = limited(j, "thickness_mm", "socket", c.socket.thickness_m * 1e3, limits::kThickness) * 1e-3;
     c.socket.distal_pad = flag(j, "distal_pad", "socket", c.socket.distal_pad);
     c.socket.distal_pad_diameter_m =
-        number(j, "distal_pad_diameter_mm", "socket", c.socket.distal_pad_diameter_m * 1e3) * 1e-3;
+        limited(j, "distal_pad_diameter_mm", "socket", c.socket.distal_pad_diameter_m * 1e3,
+                limits::kDistalPadDiameter) * 1e-3;
     c.socket.round_brim = flag(j, "round_brim", "socket", c.socket.round_brim);
-    c.socket.subdivisions = static_cast<int>(number(j, "subdivisions", "socket", c.socket.subdivisions));
+    c.socket.subdivisions = count(j, "subdivisions", "socket", c.socket.subdivisions, limits::kSubdivisions);
   }
-  require(c.socket.thickness_m > 0 && c.socket.thickness_m <= 0.05,
-          "case file: socket.thickness_mm = {} mm: the wall must be thicker than 0 and at most 50 mm (typical 4–8)",
-          c.socket.thickness_m * 1e3);
   return c;
 }
 
@@ -271,12 +283,8 @@ CaseFile read_case(const std::filesystem::path& path) {
   require<IoError>(in.good(), "cannot open case file '{}' (check the path)", path.string());
   std::stringstream ss;
   ss << in.rdbuf();
-  json doc;
-  try {
-    doc = json::parse(ss.str());
-  } catch (const json::parse_error& e) {
-    fail("case file '{}' is not valid JSON: {}", path.string(), e.what());
-  }
+  require<IoError>(!in.bad(), "cannot read case file '{}' (check the path)", path.string());
+  const json doc = parse_json_input(ss.str(), fmt::format("case file '{}'", path.string()));
   return parse_case(doc, std::filesystem::absolute(path).parent_path());
 }
 
@@ -304,6 +312,7 @@ json case_to_json(const CaseFile& c) {
   for (const auto& s : c.spots) spots.push_back(spot_to_json(s));
   json design{{"optimise", c.optimise}, {"objective", objective_name(c.objective)},
               {"model_pressure_limit", c.model_pressure_limit}};
+  if (c.time_limit_s > 0) design["time_limit_s"] = c.time_limit_s;
   if (c.spots.empty()) design["spots"] = "default";
   else design["spots"] = spots;
   json brim{{"template", to_string(c.brim)}};

@@ -60,6 +60,7 @@ struct CaseFile {
   bool optimise = true;
   OptimizerOptions::Objective objective = OptimizerOptions::Objective::Pressure;
   double model_pressure_limit = 0.25;      ///< × E (see OptimizerOptions)
+  double time_limit_s = 0.0;               ///< the optimiser's wall-time bound [s]; 0 = none
   BrimTemplate brim = BrimTemplate::Ptb;
   std::vector<BrimKeyPoint> brim_key_points;  ///< non-empty = the user's brim (overrides the template)
   SocketOptions socket;

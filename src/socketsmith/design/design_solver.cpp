@@ -9,6 +9,7 @@
 
 #include "socketsmith/core/errors.h"
 #include "socketsmith/core/units.h"
+#include "socketsmith/design/input_limits.h"
 #include "socketsmith/tissue/dof_map.h"
 #include "socketsmith/tissue/pressure_load.h"
 
@@ -38,16 +39,7 @@ std::string ConstraintStatus::failing() const {
 }
 
 RadarTargets radar_targets(const PatientLoad& patient, double stump_length_m) {
-  require(std::isfinite(patient.body_mass_kg) && patient.body_mass_kg > 0,
-          "body mass {} kg must be a positive number of kilograms", patient.body_mass_kg);
-  require(patient.body_mass_kg < 400, "body mass {} kg is not plausible (the case file takes kg)", patient.body_mass_kg);
-  require(std::isfinite(patient.prosthesis_mass_kg) && patient.prosthesis_mass_kg >= 0,
-          "prosthesis mass {} kg must be zero or more", patient.prosthesis_mass_kg);
-  require(patient.prosthesis_mass_kg < patient.body_mass_kg, "prosthesis mass {} kg is not below the body mass {} kg",
-          patient.prosthesis_mass_kg, patient.body_mass_kg);
-  require(std::isfinite(patient.friction) && patient.friction >= 0 && patient.friction <= 2,
-          "friction coefficient {} must be in [0, 2] (skin on a socket: about 0.5)", patient.friction);
-  require(patient.force_tolerance > 0 && patient.torque_tolerance > 0, "constraint tolerances must be positive");
+  check_patient(patient);
   RadarTargets t;
   t.fz_n = 0.5 * patient.body_mass_kg * units::kGravity;
   t.stability_min_n = patient.prosthesis_mass_kg * units::kGravity;

@@ -152,6 +152,7 @@ DesignResult solve_design(DesignSetup& setup, bool optimise, const ProgressCallb
     design::OptimizerOptions oo;
     oo.objective = c.objective;
     oo.model_pressure_limit = c.model_pressure_limit;
+    oo.time_limit_s = c.time_limit_s;
     oo.progress = [&](double f, std::string_view stage) { return report_progress(progress, 0.9 * f, stage); };
     r.optimiser = design::optimise_design(solver, setup.spots, oo);
     r.spots = r.optimiser.spots;
@@ -266,6 +267,18 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
   const auto& spots = result.spots;
   const bool optimise = result.optimised;
   const bool met = result.constraints_met;
+  // A socket of an earlier run would sit beside this run's report as if it were this design's.
+  nlohmann::json removed = nlohmann::json::array();
+  if (!result.socket) {
+    std::error_code ec;
+    if (fs::remove(out / "socket.stl", ec)) {
+      removed.push_back("socket.stl");
+      log::warn("design: removed the earlier socket.stl from {}: this design has no socket", out.string());
+    } else if (ec) {
+      fail<IoError>("design: cannot remove the earlier socket.stl from {} ({}): remove it by hand, it is not this "
+                    "design's", out.string(), ec.message());
+    }
+  }
 
   // Outputs: surface nodes, stump fields, pictures, socket, report, case replay.
   const auto& skin = solver.skin();
@@ -488,6 +501,7 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
       {"amplitude_fits", opt.evaluations},
       {"optimiser_message", opt.message},
       {"optimiser_seconds", opt.seconds},
+      {"optimiser_time_limited", opt.is_time_limited},
       {"model_caps", opt.model_caps},
       {"linearised", state.linearised || c.solve_mode == design::DesignSolveMode::Linear},
       {"solve_mode", design::to_string(c.solve_mode)},
@@ -497,7 +511,8 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
       {"anterior_estimated", model.frame.anterior_estimated},
       {"seconds", seconds},
       {"out", out.string()},
-      {"outputs", outputs}};
+      {"outputs", outputs},
+      {"removed", removed}};
   if (!socket_json.is_null()) j["socket"] = socket_json;
   write_text_atomically(out / "design.json", j.dump(2) + "\n");
   return j;
