@@ -363,6 +363,9 @@ TEST(MeshIoErrors, garbage_text) {
   expect_read_error<InvalidInputError>(dir / "b.obj", "binary");
   test::write_bytes(dir / "x.off", "OFF\n");
   expect_read_error<InvalidInputError>(dir / "x.off", "unsupported extension");
+  // A folder given as a mesh is named as such (it said "unsupported extension ''").
+  std::filesystem::create_directories(dir / "scans");
+  expect_read_error<IoError>(dir / "scans", "it is a directory");
 }
 
 TEST(MeshIoErrors, truncated_binary_files) {

@@ -790,15 +790,19 @@ units::LengthUnit guess_length_unit(double raw_diagonal) {
 }
 
 TriMesh read_mesh(const fs::path& path, const MeshReadOptions& options, MeshReadInfo* info) {
+  // Read first: a folder given as a mesh is "a directory", not "an unsupported extension ''".
+  return read_mesh_data(read_file(path), path.string(), options, info);
+}
+
+TriMesh read_mesh_data(std::string_view data, const std::string& name, const MeshReadOptions& options,
+                       MeshReadInfo* info) {
   require(std::isfinite(options.weld_tol_m) && options.weld_tol_m >= 0.0,
           "read_mesh: weld_tol_m is {} (expected a finite value >= 0 metres)", options.weld_tol_m);
-  const std::string ext = lower(path.extension().string());
+  const std::string ext = lower(fs::path(name).extension().string());
   if (ext != ".stl" && ext != ".obj" && ext != ".ply")
-    fail("read_mesh: '{}' has an unsupported extension '{}' (expected .stl, .obj or .ply)",
-         path.string(), path.extension().string());
-
-  const std::string data = read_file(path);
-  const Source src{path.string(), data};
+    fail("read_mesh: '{}' has an unsupported extension '{}' (expected .stl, .obj or .ply)", name,
+         fs::path(name).extension().string());
+  const Source src{name, data};
   if (data.empty()) fail("read_mesh: '{}' is empty (0 bytes); expected a mesh", src.name);
   if (std::all_of(data.begin(), data.end(), [](char c) { return is_space(c); }))
     fail("read_mesh: '{}' contains only whitespace; expected a mesh", src.name);
