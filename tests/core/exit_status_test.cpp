@@ -56,5 +56,14 @@ TEST(ExitStatus, the_message_is_one_line_with_its_prefix) {
   EXPECT_EQ(one_line("a  \n\n  b\r\n"), "a; b");
 }
 
+TEST(Errors, user_text_with_control_characters_keeps_a_message_on_one_line) {
+  try {
+    fail("unknown key '{}'", std::string("a\nb\r\x01"));
+  } catch (const InvalidInputError& e) {
+    EXPECT_EQ(std::string(e.what()), "unknown key 'a\\nb\\r\\x01'");
+  }
+  EXPECT_THROW(require<IoError>(false, "{}", "x"), IoError);
+}
+
 }  // namespace
 }  // namespace socketsmith

@@ -117,6 +117,8 @@ void expect_error(const std::string& text, const std::string& needle) {
 TEST(CaseFile, bad_input_is_one_line_naming_the_key) {
   expect_error(R"({"patient": {"body_mas_kg": 70}})", "unknown key 'body_mas_kg' in 'patient'");
   expect_error(R"({"pateint": {}})", "unknown key 'pateint'");
+  // A key with a line break (found by fuzzing): the message stays one line, the break shown escaped.
+  expect_error(R"({"patient": {"a\nb": 1}})", "unknown key 'a\\nb' in 'patient'");
   expect_error(R"({"patient": {"body_mass_kg": -70}})", "body mass must be positive");
   expect_error(R"({"patient": {"body_mass_kg": -70}})", "patient.body_mass_kg = -70 kg is outside (0, 400) kg");
   expect_error(R"({"patient": {"body_mass_kg": "70"}})", "must be a number");
