@@ -415,6 +415,17 @@ struct PlyTruncated {};
 struct PlyBadToken {
   const char* where;
 };
+/// A list count or an index stored as a float that is not a whole number of a sane size.
+struct PlyBadInteger {
+  double value;
+};
+
+/// A float read where an integer is meant (some writers store list counts or indices as floats):
+/// whole and below 2^53, else PlyBadInteger (casting 1.8e22 to long long is undefined behaviour).
+long long whole_number(double d) {
+  if (!std::isfinite(d) || d != std::floor(d) || std::abs(d) >= 9e15) throw PlyBadInteger{d};
+  return static_cast<long long>(d);
+}
 
 /// Binary body reader (little or big endian).
 struct PlyBinaryReader {
@@ -449,8 +460,8 @@ struct PlyBinaryReader {
       case PlyType::UInt16: return get<std::uint16_t>();
       case PlyType::Int32: return get<std::int32_t>();
       case PlyType::UInt32: return get<std::uint32_t>();
-      case PlyType::Float32: return static_cast<long long>(get<float>());
-      case PlyType::Float64: return static_cast<long long>(get<double>());
+      case PlyType::Float32: return whole_number(get<float>());
+      case PlyType::Float64: return whole_number(get<double>());
     }
     return 0;
   }
@@ -488,9 +499,12 @@ struct PlyAsciiReader {
     auto [r, ec] = std::from_chars(b, e, v);
     if (ec == std::errc() && r == e) return v;
     double d;  // some writers print integers as "3.0"
-    if (parse_double(tok.data(), e, d) && std::isfinite(d) && d == std::floor(d) && std::abs(d) < 9e15)
-      return static_cast<long long>(d);
-    throw PlyBadToken{tok.data()};
+    if (!parse_double(tok.data(), e, d)) throw PlyBadToken{tok.data()};
+    try {
+      return whole_number(d);
+    } catch (const PlyBadInteger&) {
+      throw PlyBadToken{tok.data()};
+    }
   }
   void skip(PlyType) { token(); }
 };
@@ -599,6 +613,9 @@ void read_ply_body(Reader& in, const std::vector<PlyElement>& elements, TriMesh&
     } catch (const PlyTruncated&) {
       fail("read_mesh: '{}' ends inside element '{}' at item {} of {} (truncated {} PLY?)", src.name,
            e.name, item, e.count, binary ? "binary" : "ASCII");
+    } catch (const PlyBadInteger& bad) {
+      fail("read_mesh: '{}': element '{}' item {} has a count or index of {} stored as a float (expected a whole "
+           "number below 2^53)", src.name, e.name, item, bad.value);
     } catch (const PlyBadToken& bad) {
       fail("read_mesh: '{}' line {}: expected a number in element '{}', got '{}'", src.name,
            src.line_of(bad.where), e.name,
