@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <bit>
+#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -395,6 +396,19 @@ TEST(MeshIoErrors, a_binary_ply_count_stored_as_a_float_must_be_a_sane_whole_num
       EXPECT_NE(std::string(e.what()).find("stored as a float"), std::string::npos) << e.what();
     }
   }
+}
+
+// Found by fuzz_ply (a libFuzzer timeout): an element of 8e14 items without properties was looped
+// over item by item (the header's size check bounds every other count). It carries no data.
+TEST(MeshIoErrors, a_ply_element_without_properties_is_not_looped_over) {
+  LogCapture quiet;
+  const std::string tetra =
+      "element vertex 4\nproperty float x\nproperty float y\nproperty float z\nelement face 4\n"
+      "property list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n"
+      "3 0 3 2\n3 1 2 3\n";
+  const auto t0 = std::chrono::steady_clock::now();
+  EXPECT_EQ(read_mesh_data("ply\nformat ascii 1.0\nelement marker 800000041468615\n" + tetra, "m.ply").num_triangles(), 4);
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 1.0);
 }
 
 TEST(MeshIoErrors, truncated_binary_files) {

@@ -518,6 +518,9 @@ void read_ply_body(Reader& in, const std::vector<PlyElement>& elements, TriMesh&
   long long max_index_face = -1;
   for (const PlyElement& e : elements) {
     long long item = 0;
+    // Items without properties carry no data: nothing to read, whatever the count (the header's
+    // size check cannot bound their count, and 8e14 of them were looped over for ever).
+    if (e.props.empty() && e.name != "vertex" && e.name != "face") continue;
     try {
       if (e.name == "vertex") {
         int ix = -1, iy = -1, iz = -1;
