@@ -40,8 +40,9 @@ CLI::Validator non_negative() { return sign_check(true); }
 
 void add_model_flags(CLI::App& app, ModelFlags& f) {
   app.add_option("--model", f.model, "tissue model: mss-cs (thesis), mss-cf (Golec hybrid), mss (springs only), fe "
-                 "(hexahedral finite elements, St Venant-Kirchhoff: CalculiX's C3D8 on the same mesh)")
-      ->check(CLI::IsMember({"mss", "mss-cs", "mss-cf", "fe"}));
+                 "(hexahedral finite elements, St Venant-Kirchhoff: CalculiX's C3D8 on the same mesh), neo-hookean (the "
+                 "same elements, compressible neo-Hookean: CalculiX's *HYPERELASTIC, NEO HOOKE; large strains)")
+      ->check(CLI::IsMember({"mss", "mss-cs", "mss-cf", "fe", "neo-hookean"}));
   app.add_option("--constants", f.constants, "MSS-CS constants preset: cube-targets (default: meets the cube's 5 %/2 %, carries the "
                  "sheared cube), recommended (same linearisation, no dead zone: 6.4 %/2.6 %), thesis or cube-fit; see docs/VALIDATION.md")
       ->check(CLI::IsMember({"thesis", "recommended", "cube-fit", "cube-targets"}));
@@ -56,7 +57,7 @@ void add_model_flags(CLI::App& app, ModelFlags& f) {
       ->check(within(design::limits::kYoungsModulus));
   app.add_option("--density", f.density, "tissue density rho [kg/m^3]")->check(within(design::limits::kDensity));
   app.add_option("--cf-poisson", f.cf_poisson, "MSS-CF target Poisson ratio, in [0.25, 0.5)");
-  app.add_option("--fe-poisson", f.fe_poisson, "fe model's Poisson ratio, in [0, 0.5) (default 0.45)");
+  app.add_option("--fe-poisson", f.fe_poisson, "Poisson ratio of the fe and neo-hookean models, in [0, 0.5) (default 0.45)");
 }
 
 tissue::MassSpringOptions make_model_options(const ModelFlags& f) {
@@ -92,7 +93,7 @@ nlohmann::json to_json(const tissue::MassSpringOptions& o, const tissue::TissueM
   else
     j["golec_a"] = o.corrective.golec_a;
   if (o.kind == tissue::TissueModelKind::MssCf) j["cf_poisson_ratio"] = o.cf_poisson_ratio;
-  if (o.kind == tissue::TissueModelKind::Fe) j["fe_poisson_ratio"] = o.fe_poisson_ratio;
+  if (tissue::is_continuum(o.kind)) j["fe_poisson_ratio"] = o.fe_poisson_ratio;
   return j;
 }
 

@@ -12,12 +12,12 @@
 #include "socketsmith/core/log.h"
 #include "socketsmith/core/progress.h"
 #include "socketsmith/core/units.h"
-#include "socketsmith/fe/comparison.h"
 #include "socketsmith/geometry/mesh_checks.h"
 #include "socketsmith/geometry/mesh_io.h"
 #include "socketsmith/pipeline/design_pipeline.h"
 #include "socketsmith/report/csv.h"
 #include "socketsmith/report/design_report.h"
+#include "socketsmith/report/field_comparison.h"
 #include "socketsmith/report/svg_plot.h"
 #include "socketsmith/report/vtk_writer.h"
 
@@ -48,7 +48,7 @@ nlohmann::json agreement_json(const std::vector<double>& contact_pa, const std::
   std::vector<int> subset;
   for (size_t i = 0; i < mask.size(); ++i)
     if (mask[i]) subset.push_back(static_cast<int>(i));
-  return fe::to_json(fe::compare_fields(contact_pa, designed_pa, subset), 1e-3, "_kpa");
+  return report::to_json(report::compare_fields(contact_pa, designed_pa, subset), 1e-3, "_kpa");
 }
 
 int run_donning(const DonningFlags& f) {

@@ -20,6 +20,7 @@ struct DesignFlags {
   std::string out;
   bool no_optimise = false;
   bool json = false;
+  int closed_loop = -1;  ///< donnings of the closed loop (0: open loop; −1: as the case says)
   int target_nodes = 8000;
   double time_limit_s = 0;  // 0: the case's (design.time_limit_s), else none
 };
@@ -48,11 +49,22 @@ void print_summary(const nlohmann::json& j) {
             j["max_pressure_kpa"].get<double>(), 100 * j["max_pressure_ratio"].get<double>(),
             j["max_displacement_mm"].get<double>());
   if (j.contains("socket"))
-    log::info("design: socket {} ({} triangles, wall {:.2f}–{:.2f} mm, cavity {:.0f} cm^3, {:.1f} % below the limb)",
+    log::info("design: socket {} ({} triangles, wall min / median / max {:.2f} / {:.2f} / {:.2f} mm, cavity {:.0f} "
+              "cm^3, {:.1f} % below the limb)",
               (std::filesystem::path(j["out"].get<std::string>()) / "socket.stl").string(),
               j["socket"]["triangles"].get<int>(), j["socket"]["min_thickness_mm"].get<double>(),
-              j["socket"]["max_thickness_mm"].get<double>(), j["socket"]["cavity_volume_cm3"].get<double>(),
-              j["socket"]["volume_reduction_percent"].get<double>());
+              j["socket"]["median_thickness_mm"].get<double>(), j["socket"]["max_thickness_mm"].get<double>(),
+              j["socket"]["cavity_volume_cm3"].get<double>(), j["socket"]["volume_reduction_percent"].get<double>());
+  if (j.contains("closed_loop")) {
+    const auto& cl = j["closed_loop"];
+    const auto& o = cl["regions"]["below_brim"]["open_loop"];
+    const auto& c = cl["regions"]["below_brim"]["closed_loop"];
+    log::info("design: delivered below the brim (donned, then stood on): open loop MAE {:.2f} kPa, 99th percentile "
+              "{:.2f} kPa, R {:.3f}; closed loop MAE {:.2f} kPa, 99th percentile {:.2f} kPa, R {:.3f} ({} donnings, {:.1f} s)",
+              o["mae_kpa"].get<double>(), o["p99_kpa"].get<double>(), o["r"].is_null() ? 0.0 : o["r"].get<double>(),
+              c["mae_kpa"].get<double>(), c["p99_kpa"].get<double>(), c["r"].is_null() ? 0.0 : c["r"].get<double>(),
+              cl["donnings"].get<int>(), cl["seconds"].get<double>());
+  }
   log::info("design: report {}", (std::filesystem::path(j["out"].get<std::string>()) / "report.html").string());
 }
 
@@ -61,11 +73,13 @@ int finish(const nlohmann::json& j, bool json) {
   else print_summary(j);
   if (j.value("optimiser_time_limited", false) && j["constraints_met"].get<bool>())
     log::warn("design: {}", j["optimiser_message"].get<std::string>());
-  if (!j["constraints_met"].get<bool>())
+  if (!j["constraints_met"].get<bool>()) {
+    const std::string why = j["optimiser_message"].get<std::string>();  // empty without the optimiser
     fail("design: the constraints are not all met ({}): {}; no socket was written{} — see {}",
-         j["failing"].get<std::string>(), j["optimiser_message"].get<std::string>(),
+         j["failing"].get<std::string>(), why.empty() ? j["solver_message"].get<std::string>() : why,
          j.value("removed", nlohmann::json::array()).empty() ? "" : " (the earlier socket.stl there was removed)",
          (std::filesystem::path(j["out"].get<std::string>()) / "report.html").string());
+  }
   return 0;
 }
 
@@ -79,8 +93,20 @@ void register_design(CLI::App& app) {
   cmd->add_flag("--no-optimise", f->no_optimise, "solve the case's spots as given (no optimiser)");
   cmd->add_flag("--json", f->json, "print the summary as JSON on stdout");
   add_time_limit(cmd, *f);
+  cmd->add_option("--closed-loop", f->closed_loop,
+                  "don and stand on the socket, correct its wall in up to N donnings (0: open loop; default: the case's "
+                  "design.closed_loop)")
+      ->check(CLI::Validator(
+          [](std::string& text) -> std::string {
+            return text == "0" ? std::string() : within(design::limits::kClosedLoopDonnings)(text);
+          },
+          "0 (open loop) or " + design::describe(design::limits::kClosedLoopDonnings)));
   cmd->callback([f] {
-    const auto c = with_time_limit(design::read_case(f->case_file), *f);
+    auto c = with_time_limit(design::read_case(f->case_file), *f);
+    if (f->closed_loop >= 0) {
+      c.closed_loop = f->closed_loop > 0;
+      if (f->closed_loop > 0) c.closed_loop_donnings = f->closed_loop;
+    }
     finish(pipeline::run_design(c, f->out, c.optimise && !f->no_optimise, console_progress(1.0)), f->json);
   });
 

@@ -107,9 +107,9 @@ void run_validate_cube(const CubeFlags& f) {
                    {"max_force_n", r.force_n.back()},
                    {"max_displacement_rel_error", r.max_displacement_rel_error},
                    {"max_pressure_rel_error", r.max_pressure_rel_error},
-                   {"displacement", fe::to_json(r.displacement, 1e3, "_mm")},
-                   {"pressure", fe::to_json(r.pressure, 1e-3, "_kpa")},
-                   {"pressure_without_edges", fe::to_json(r.interior_pressure, 1e-3, "_kpa")},
+                   {"displacement", report::to_json(r.displacement, 1e3, "_mm")},
+                   {"pressure", report::to_json(r.pressure, 1e-3, "_kpa")},
+                   {"pressure_without_edges", report::to_json(r.interior_pressure, 1e-3, "_kpa")},
                    {"ccx_wall_s", r.ccx.wall_s},
                    {"ccx_increments", r.ccx.increments},
                    {"deck", "cube.inp"},
@@ -137,7 +137,7 @@ struct DesignFlags {
   int target_nodes = 0;  // 0: the case's
   std::string mode = "contact";
   std::string element = "c3d8";
-  double poisson = -1;  // < 0: the case's fe model's ν, else 0.45 (the thesis's)
+  double poisson = -1;  // < 0: the case's continuum model's ν, else 0.45 (the thesis's)
   double penalty = 1e9;
   double stick_slope = 5e7;
   double friction = -1;  // < 0: the case's μ
@@ -155,6 +155,7 @@ struct DesignFlags {
 
 void run_validate_design(const DesignFlags& f) {
   require(!f.against_donning || f.mode == "donning", "validate design: --against-donning needs --mode donning");
+  require(!f.stand || f.mode == "donning", "validate design: --stand needs --mode donning (the socket is donned, then stood on)");
   require(!f.nonlinear_body || f.against_donning,
           "validate design: --nonlinear-body sets socketsmith's donning body: use it with validate donning");
   const fs::path out(f.out);
@@ -163,11 +164,15 @@ void run_validate_design(const DesignFlags& f) {
                               : design::read_case(f.case_file);
   if (f.target_nodes > 0) c.target_nodes = f.target_nodes;
   if (f.demo) design::write_case(out / "case.json", c);
-  // CalculiX's ν: the user's, else the fe tissue model's own (same material on both sides), else
-  // the thesis's 0.45 (the MSS lattices have none to give).
-  const double poisson = f.poisson >= 0 ? f.poisson
-                         : c.model == "fe" ? pipeline::model_options(c).fe_poisson_ratio
-                                           : 0.45;
+  // CalculiX's material: the case's continuum model's own ν and law (same material on both sides),
+  // else ν 0.45, the thesis's (the MSS lattices have none to give); the flags override.
+  fe::FeMaterial material = fe::fe_material(c);
+  if (f.poisson >= 0) material.poisson_ratio = f.poisson;
+  if (f.neo_hookean) material.is_neo_hookean = true;
+  require(!(material.is_neo_hookean && f.small_strain),
+          "validate design: --small-strain with a neo-Hookean tissue: the hyperelastic law is a large-strain model, "
+          "CalculiX runs it with NLGEOM (drop --small-strain, or use the fe model for a small-strain check)");
+  const double poisson = material.poisson_ratio;
   const auto t0 = std::chrono::steady_clock::now();
   pipeline::DesignArtifacts art;
   const auto progress = console_progress(1.0);
@@ -180,34 +185,44 @@ void run_validate_design(const DesignFlags& f) {
 
   fe::DesignedStump d = fe::designed_stump(art);
   double stand_force_n = 0, donning_force_n = 0;
-  if (f.against_donning) {
-    // The thesis's ch. 3 check: CalculiX's donning against socketsmith's own donning simulation of
-    // the same socket on the same stump, same travel and friction (not against the design).
-    contact::DonningOptions dopt;
-    dopt.start_offset_m = f.travel_mm * 1e-3;
-    dopt.friction = f.friction >= 0 ? f.friction : c.patient.friction;
-    dopt.stand_force_n = f.stand ? 0.5 * c.patient.body_mass_kg * units::kGravity : 0.0;
-    dopt.progress = progress;
-    dopt.contact.linear_body = !f.nonlinear_body;
-    log::info("validate design: socketsmith's donning ({:.0f} mm, μ = {:.2f}, {} body)", f.travel_mm, dopt.friction,
-              f.nonlinear_body ? "nonlinear" : "linearised");
-    const auto dr = fe::don_designed_socket(art, dopt);
-    if (f.stand && dr.series.size() >= 2) {
-      // The FE's load step starts from the donning force at the designed pose (socketsmith's estimate).
-      stand_force_n = dopt.stand_force_n;
-      donning_force_n = std::max(0.0, dr.series[dr.series.size() - 2].axial_force_n);
+  // socketsmith's own donning of the socket written (the closed loop's kept donning when the design
+  // ran one, else a donning here): what CalculiX's donning is compared with (--against-donning), or
+  // beside the design (--stand: the delivered pressures three ways). Its force at the designed pose
+  // starts CalculiX's load step, so the reaction does not drop when the displacement is released.
+  std::optional<contact::DonningResult> ours;
+  bool ours_from_loop = false;
+  if (f.against_donning || f.stand) {
+    const double mu = f.friction >= 0 ? f.friction : c.patient.friction;
+    const auto& loop = art.result.closed_loop;
+    if (loop && !f.nonlinear_body && f.stand && std::abs(mu - c.patient.friction) < 1e-12) {
+      ours = loop->donning;
+      ours_from_loop = true;
+      log::info("validate design: socketsmith's donning and standing of the socket: the closed loop's (donning {})",
+                loop->kept_donning);
+    } else {
+      contact::DonningOptions dopt;
+      dopt.start_offset_m = f.travel_mm * 1e-3;
+      dopt.friction = mu;
+      dopt.stand_force_n = f.stand ? 0.5 * c.patient.body_mass_kg * units::kGravity : 0.0;
+      dopt.progress = progress;
+      dopt.contact.linear_body = !f.nonlinear_body;
+      log::info("validate design: socketsmith's donning ({:.0f} mm, μ = {:.2f}, {} body)", f.travel_mm, dopt.friction,
+                f.nonlinear_body ? "nonlinear" : "linearised");
+      ours = fe::don_designed_socket(art, dopt);
+      log::info("validate design: socketsmith donning done in {:.1f} s, {} nodes in contact", ours->seconds,
+                ours->series.empty() ? 0 : ours->series.back().contact_nodes);
     }
-    fe::use_donning_pressures(dr, d);
-    log::info("validate design: socketsmith donning done in {:.1f} s, {} nodes in contact", dr.seconds,
-              dr.series.empty() ? 0 : dr.series.back().contact_nodes);
+    if (f.stand && ours->series.size() >= 2) {
+      // The FE's load step starts from the donning force at the designed pose (socketsmith's estimate).
+      stand_force_n = 0.5 * c.patient.body_mass_kg * units::kGravity;
+      donning_force_n = std::max(0.0, ours->series[ours->series.size() - 2].axial_force_n);
+    }
+    if (f.against_donning) fe::use_donning_pressures(*ours, d);
   }
 
   fe::DesignCheckOptions o;
   o.mode = fe::parse_design_check_mode(f.mode);
-  o.material.youngs_modulus_pa = c.youngs_modulus_pa;
-  o.material.poisson_ratio = poisson;
-  o.material.density_kg_m3 = c.density_kg_m3;
-  o.material.is_neo_hookean = f.neo_hookean;
+  o.material = material;
   o.element = fe::parse_element_type(f.element);
   o.contact.penalty_pa_per_m = f.penalty;
   o.contact.stick_slope_pa_per_m = f.stick_slope;
@@ -224,8 +239,9 @@ void run_validate_design(const DesignFlags& f) {
   o.fe_pressure = fe::parse_fe_pressure(f.fe_pressure);
   o.nonlinear_geometry = !f.small_strain;
   o.ccx = ccx_options(f.ccx);
-  log::info("validate design: CalculiX {} check ({} nodes, {} elements, {}, ν {})", fe::to_string(o.mode),
-            mesh.num_nodes(), mesh.num_hexahedra(), fe::to_string(o.element), poisson);
+  log::info("validate design: CalculiX {} check ({} nodes, {} elements, {}, {}, ν {}, {})", fe::to_string(o.mode),
+            mesh.num_nodes(), mesh.num_hexahedra(), fe::to_string(o.element),
+            material.is_neo_hookean ? "neo-Hookean" : "linear elastic", poisson, o.nonlinear_geometry ? "NLGEOM" : "small strain");
   const auto r = fe::check_design(d, o, out, "design_fe");
 
   // Outputs: per-node CSV, path profiles and a scatter (SVG), stump VTU, summary JSON.
@@ -272,9 +288,9 @@ void run_validate_design(const DesignFlags& f) {
     report::write_svg(out / fmt::format("profile_{}.svg", pc.name), p);
     report::write_plot_png(out / fmt::format("profile_{}.png", pc.name), p);
     panels.push_back(p);
-    auto pj = fe::to_json(pc.stats, scale, suffix);
+    auto pj = report::to_json(pc.stats, scale, suffix);
     pj["label"] = pc.label;
-    pj["smoothed"] = fe::to_json(pc.smoothed, scale, suffix);
+    pj["smoothed"] = report::to_json(pc.smoothed, scale, suffix);
     paths_json[pc.name] = pj;
   }
   {
@@ -360,7 +376,7 @@ void run_validate_design(const DesignFlags& f) {
                    {"poisson_ratio", poisson},
                    {"nlgeom", !f.small_strain},
                    {"youngs_modulus_kpa", c.youngs_modulus_pa / 1e3},
-                   {"neo_hookean", f.neo_hookean},
+                   {"neo_hookean", material.is_neo_hookean},
                    {"penalty_pa_per_m", o.contact.penalty_pa_per_m},
                    {"stick_slope_pa_per_m", o.contact.stick_slope_pa_per_m},
                    {"friction", o.contact.friction},
@@ -374,15 +390,15 @@ void run_validate_design(const DesignFlags& f) {
                    {"mean_fe_kpa", r.mean_fe_pa / 1e3},
                    {"fe_pressure", contact ? fe::to_string(r.fe_pressure) : "none"},
                    {"mean_fe_cpress_kpa", r.all_cpress.mean_a / 1e3},
-                   {"all_cpress", fe::to_json(r.all_cpress, scale, suffix)},
-                   {"all_stress", fe::to_json(r.all_stress, scale, suffix)},
-                   {"all_force", fe::to_json(r.all_force, scale, suffix)},
+                   {"all_cpress", report::to_json(r.all_cpress, scale, suffix)},
+                   {"all_stress", report::to_json(r.all_stress, scale, suffix)},
+                   {"all_force", report::to_json(r.all_force, scale, suffix)},
                    {"max_penetration_mm", r.max_penetration_m * 1e3},
-                   {"all", fe::to_json(r.all, scale, suffix)},
-                   {"one_ring_away", fe::to_json(r.one_ring_away, scale, suffix)},
-                   {"away_from_brim", fe::to_json(r.away_from_brim, scale, suffix)},
-                   {"all_smoothed", fe::to_json(r.all_smoothed, scale, suffix)},
-                   {"away_from_brim_smoothed", fe::to_json(r.away_from_brim_smoothed, scale, suffix)},
+                   {"all", report::to_json(r.all, scale, suffix)},
+                   {"one_ring_away", report::to_json(r.one_ring_away, scale, suffix)},
+                   {"away_from_brim", report::to_json(r.away_from_brim, scale, suffix)},
+                   {"all_smoothed", report::to_json(r.all_smoothed, scale, suffix)},
+                   {"away_from_brim_smoothed", report::to_json(r.away_from_brim_smoothed, scale, suffix)},
                    {"paths", paths_json},
                    {"ccx_wall_s", r.ccx.wall_s},
                    {"ccx_increments", r.ccx.increments},
@@ -395,6 +411,28 @@ void run_validate_design(const DesignFlags& f) {
                      "profile_back.png", "profile_mid.png", "scatter.svg", "scatter.png", "stump_fe.vtu", "comparison_map.png",
                      "summary.json", "design/"}},
                    {"out", out.string()}};
+  if (ours && !f.against_donning) {
+    // Delivered three ways on the socket nodes: CalculiX and socketsmith against the design, and
+    // against each other.
+    std::vector<int> socket_nodes;
+    std::vector<double> delivered(skin.nodes.size());
+    for (size_t i = 0; i < skin.nodes.size(); ++i) {
+      delivered[i] = ours->contacts[i].pressure_pa;
+      if (r.brim_ring[i] >= 1) socket_nodes.push_back(static_cast<int>(i));
+    }
+    j["socketsmith_delivered_vs_design"] = report::to_json(report::compare_fields(delivered, r.socketsmith_value, socket_nodes), scale, suffix);
+    j["calculix_vs_socketsmith_delivered"] = report::to_json(report::compare_fields(r.fe_value, delivered, socket_nodes), scale, suffix);
+    j["socketsmith_delivered_from"] = ours_from_loop ? "the closed loop's kept donning" : "a donning in this run";
+    if (!f.json) {
+      const auto& a = j["socketsmith_delivered_vs_design"];
+      const auto& b = j["calculix_vs_socketsmith_delivered"];
+      log::info("validate design: socketsmith delivered vs design: MAE {:.2f} {}, p99 {:.2f}, R {:.3f}; CalculiX vs "
+                "socketsmith delivered: MAE {:.2f}, p99 {:.2f}, R {:.3f}",
+                a["mae" + suffix].get<double>(), unit, a["p99" + suffix].get<double>(),
+                a["r"].is_null() ? 0.0 : a["r"].get<double>(), b["mae" + suffix].get<double>(),
+                b["p99" + suffix].get<double>(), b["r"].is_null() ? 0.0 : b["r"].get<double>());
+    }
+  }
   write_text_atomically(out / "summary.json", j.dump(2) + "\n");
   if (f.json) print_json(j);
   else {
@@ -402,7 +440,7 @@ void run_validate_design(const DesignFlags& f) {
               r.converged ? "" : "PARTIAL ", what, r.ccx.wall_s, ss_wall, state.seconds);
     log::info("validate design: force designed {:.1f} N, CalculiX {:.1f} N; mean designed {:.2f}, CalculiX {:.2f}",
               r.designed_force_n, r.fe_force_n, r.all.mean_b * scale, r.all.mean_a * scale);
-    const auto line = [&](const std::string& name, const fe::ErrorStats& st) {
+    const auto line = [&](const std::string& name, const report::ErrorStats& st) {
       log::info("validate design: {:<26} n {:4d}  MAE {:.2f} ± {:.2f} {}  R {:.2f}  max {:.2f}", name, st.count,
                 st.mae * scale, st.sd * scale, unit, st.r, st.max_error * scale);
     };
@@ -440,9 +478,10 @@ void add_case_flags(CLI::App& cmd, DesignFlags& f) {
       ->check(within(design::limits::kTargetNodes));
   cmd.add_option("--element", f.element, "c3d8 | c3d8i | c3d8r (default c3d8)");
   cmd.add_option("--poisson", f.poisson,
-                 "tissue Poisson ratio in CalculiX (default: the case's fe model's, else 0.45, the thesis's)")
+                 "tissue Poisson ratio in CalculiX (default: the case's fe or neo-hookean model's, else 0.45, the thesis's)")
       ->check(CLI::Range(0.0, 0.4999));
-  cmd.add_flag("--neo-hookean", f.neo_hookean, "neo-Hookean tissue instead of linear elastic");
+  cmd.add_flag("--neo-hookean", f.neo_hookean,
+               "neo-Hookean tissue in CalculiX instead of linear elastic (automatic when the case's model is neo-hookean)");
   cmd.add_flag("--nonlinear-body", f.nonlinear_body,
                "validate donning: socketsmith's donning with the nonlinear tissue model instead of its linearisation at "
                "rest (slower; with the fe model, the large-displacement problem CalculiX solves under NLGEOM)");
@@ -496,6 +535,10 @@ void register_validate(CLI::App& app) {
       ->check(CLI::IsMember({"contact", "load", "donning"}));
   des->add_option("--clearance-mm", df->clearance_mm, "where the socket fit starts outside the skin [mm] (default 1)")
       ->check(positive());
+  des->add_flag("--stand", df->stand,
+                "with --mode donning: then push the socket with half the body weight (the thesis's second step) in "
+                "CalculiX, and compare socketsmith's own donned-and-stood pressures too (the closed loop's when the "
+                "case runs one)");
   des->add_flag("--against-donning", df->against_donning,
                 "with --mode donning: compare CalculiX's donning with socketsmith's own donning simulation "
                 "(contact solver, same travel and μ) instead of with the designed pressures (thesis ch. 3)");

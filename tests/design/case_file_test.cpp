@@ -32,7 +32,10 @@ json full_case() {
     "brim": {"template": "kbm", "key_points": [{"theta_deg": 0, "h_mm": 150}, {"theta_deg": 90, "h_mm": 170},
                                                {"theta_deg": 180, "h_mm": 140, "label": "back"}]},
     "socket": {"thickness_mm": 4, "distal_pad": true, "distal_pad_diameter_mm": 30, "round_brim": false,
-               "subdivisions": 1}
+               "subdivisions": 1, "distal_thickness_mm": 7, "brim_thickness_mm": 3.5,
+               "alignment": {"flexion_deg": 6, "adduction_deg": -2},
+               "attachment": {"bolt": "M5", "hole_spacing_mm": 28, "platform_diameter_mm": 55,
+                              "platform_thickness_mm": 9, "rotation_deg": 12, "offset_mm": [2, -1.5]}}
   })");
 }
 
@@ -72,6 +75,38 @@ TEST(CaseFile, file_units_become_si) {
   EXPECT_NEAR(c.socket.thickness_m, 0.004, 1e-12);
   EXPECT_TRUE(c.socket.distal_pad);
   EXPECT_FALSE(c.socket.round_brim);
+  EXPECT_NEAR(c.socket.distal_thickness_m, 0.007, 1e-12);
+  EXPECT_NEAR(c.socket.brim_thickness_m, 0.0035, 1e-12);
+  EXPECT_NEAR(c.socket.alignment.flexion_rad, 6 * units::deg, 1e-12);
+  EXPECT_NEAR(c.socket.alignment.adduction_rad, -2 * units::deg, 1e-12);
+  const SocketAttachment& a = c.socket.attachment;
+  EXPECT_TRUE(a.enabled);
+  EXPECT_EQ(a.bolt, "M5");
+  EXPECT_NEAR(a.bolt_diameter_m, 0.005, 1e-12);
+  EXPECT_NEAR(a.hole_diameter_m, 0.0055, 1e-12);  // ISO 273 medium clearance of M5
+  EXPECT_NEAR(a.hole_spacing_m, 0.028, 1e-12);
+  EXPECT_NEAR(a.platform_diameter_m, 0.055, 1e-12);
+  EXPECT_NEAR(a.platform_thickness_m, 0.009, 1e-12);
+  EXPECT_NEAR(a.rotation_rad, 12 * units::deg, 1e-12);
+  EXPECT_NEAR(a.offset_anterior_m, 0.002, 1e-12);
+  EXPECT_NEAR(a.offset_medial_m, -0.0015, 1e-12);
+}
+
+TEST(CaseFile, the_attachment_and_the_alignment_have_clinical_defaults) {
+  const CaseFile none = parse_case(json::object());
+  EXPECT_FALSE(none.socket.attachment.enabled);
+  EXPECT_NEAR(none.socket.alignment.flexion_rad, 5 * units::deg, 1e-12);
+  EXPECT_DOUBLE_EQ(none.socket.alignment.adduction_rad, 0.0);
+  EXPECT_FALSE(case_to_json(none)["socket"].contains("attachment"));
+  const CaseFile c = parse_case(json::parse(R"({"socket": {"attachment": {}}})"));
+  const SocketAttachment& a = c.socket.attachment;
+  EXPECT_TRUE(a.enabled);
+  EXPECT_EQ(a.bolt, "M6");
+  EXPECT_NEAR(a.hole_diameter_m, 0.0066, 1e-12);
+  EXPECT_NEAR(a.hole_spacing_m, 0.030, 1e-12);
+  EXPECT_NEAR(a.platform_diameter_m, 0.060, 1e-12);
+  EXPECT_NEAR(a.platform_thickness_m, 0.010, 1e-12);
+  EXPECT_FALSE(parse_case(json::parse(R"({"socket": {"attachment": {"enabled": false}}})")).socket.attachment.enabled);
 }
 
 TEST(CaseFile, round_trip_keeps_every_value) {
@@ -139,6 +174,7 @@ TEST(CaseFile, bad_input_is_one_line_naming_the_key) {
   expect_error(R"({"tissue": {"solve": "fast"}})", "design solve mode 'fast' is not known");
   expect_error(R"({"tissue": {"poisson": 0.45}})", "tissue.model 'mss-cs' has no Poisson ratio of its own");
   expect_error(R"({"tissue": {"model": "fe", "poisson": 0.5}})", "tissue.poisson = 0.5 is outside [0, 0.5)");
+  expect_error(R"({"tissue": {"model": "neo-hookean", "poisson": 0.5}})", "tissue.poisson = 0.5 is outside [0, 0.5)");
   expect_error(R"({"tissue": {"model": "mss-cf", "poisson": 0.2}})", "tissue.poisson = 0.2 is outside [0.25, 0.5)");
   expect_error(R"({"mesh": {"target_nodes": 10}})", "target_nodes = 10");
   expect_error(R"({"limb": {"units": "inch"}})", "inch");
@@ -151,6 +187,18 @@ TEST(CaseFile, bad_input_is_one_line_naming_the_key) {
   expect_error(R"({"design": {"spots": [{"type": "cos2", "h0": 3}]}})", "unknown key 'h0'");
   expect_error(R"({"design": {"objective": "cheap"}})", "design.objective 'cheap'");
   expect_error(R"({"socketsmith_case": 2})", "version 2 is not supported");
+  expect_error(R"({"socket": {"attachment": {"bolt": "M7"}}})", "bolt 'M7' is not known");
+  expect_error(R"({"socket": {"attachment": {"hole_diameter_mm": 5}}})", "narrower than the M6 bolt");
+  expect_error(R"({"socket": {"attachment": {"hole_spacing_mm": 0}}})", "socket.attachment.hole_spacing_mm = 0 mm is outside (0, 150] mm");
+  expect_error(R"({"socket": {"attachment": {"offset_mm": [30, 0]}}})", "socket.attachment.offset_mm[0] (anterior) = 30 mm is outside [-20, 20] mm");
+  expect_error(R"({"socket": {"attachment": {"offset_mm": 3}}})", "offset_mm must be [anterior, medial]");
+  expect_error(R"({"socket": {"attachment": {"hole_count": 3}}})", "unknown key 'hole_count' in 'socket.attachment'");
+  expect_error(R"({"socket": {"alignment": {"flexion_deg": 45}}})", "socket.alignment.flexion_deg = 45 deg is outside [-30, 30] deg");
+  expect_error(R"({"socket": {"attachment": {"offset_mm": [0, -21]}}})", "offset_mm[1] (medial) = -21 mm is outside");
+  expect_error(R"({"design": {"closed_loop_donnings": 0}})", "design.closed_loop_donnings = 0 is outside [1, 20]");
+  expect_error(R"({"design": {"closed_loop_donnings": 2.5}})", "design.closed_loop_donnings = 2.5 is not a whole number");
+  expect_error(R"({"socket": {"alignment": {"abduction_deg": 3}}})", "unknown key 'abduction_deg'");
+  expect_error(R"({"socket": {"distal_thickness_mm": 0.2}})", "socket.distal_thickness_mm = 0.2 mm is outside [1, 50] mm");
 }
 
 // Values that were silently replaced or accepted, each now one line naming the key and the range.

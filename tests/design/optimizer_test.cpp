@@ -131,13 +131,14 @@ const Stump& stump() {
   return stump_once;
 }
 
-std::unique_ptr<DesignSolver> make_solver(const PatientLoad& pl, std::vector<double> thresholds = {}) {
+std::unique_ptr<DesignSolver> make_solver(const PatientLoad& pl, std::vector<double> thresholds = {},
+                                          const DesignSolverOptions& options = {}) {
   const Stump& s = stump();
   tissue::TissueMaterial mat;
   mat.youngs_modulus_pa = 100e3;
   if (thresholds.empty()) thresholds = s.thresholds;
   auto solver = std::make_unique<DesignSolver>(s.mesh, mat, tissue::MassSpringOptions{}, s.model.frame,
-                                               std::move(thresholds), pl, s.model.length_m);
+                                               std::move(thresholds), pl, s.model.length_m, options);
   const double h = s.brim_h;
   solver->set_brim([h](double) { return h; });
   return solver;
@@ -237,6 +238,35 @@ TEST(OptimiseDesign, meets_every_constraint_on_a_generated_stump) {
   ASSERT_FALSE(f.progress.empty());
   EXPECT_TRUE(std::is_sorted(f.progress.begin(), f.progress.end()));
   EXPECT_DOUBLE_EQ(f.progress.back(), 1.0);
+}
+
+TEST(OptimiseDesign, the_met_design_converged_its_follower_iteration) {
+  const auto& st = feasible().result.state;
+  EXPECT_FALSE(st.follower_capped);
+  EXPECT_TRUE(st.status.follower_converged);
+  EXPECT_LE(st.follower_change, DesignSolverOptions{}.follower_tolerance);
+}
+
+TEST(OptimiseDesign, a_design_whose_follower_iteration_cannot_converge_within_its_cap_is_never_met) {
+  // One pass from rest, no relaxation: the shape is the stump under the forces of the rest
+  // geometry, not an equilibrium under its own — whatever its radar says.
+  DesignSolverOptions capped;
+  capped.max_follower_passes = 1;
+  capped.max_relaxed_passes = 0;
+  auto solver = make_solver(patient_60kg(), {}, capped);
+  const DesignState st = solver->solve(feasible().result.spots);
+  EXPECT_TRUE(st.follower_capped);
+  EXPECT_FALSE(st.status.follower_converged);
+  EXPECT_FALSE(st.status.all_ok());
+  EXPECT_GT(st.follower_change, capped.follower_tolerance);
+  EXPECT_NE(st.status.failing().find("follower iteration"), std::string::npos) << st.status.failing();
+  EXPECT_NE(st.message.find("did not converge"), std::string::npos) << st.message;
+  // The optimiser cannot make it met either, and says why in one line.
+  const OptimizerResult r = optimise_design(*solver, layout());
+  EXPECT_FALSE(r.constraints_met);
+  EXPECT_FALSE(r.state.status.all_ok());
+  EXPECT_NE(r.message.find("follower iteration"), std::string::npos) << r.message;
+  EXPECT_EQ(r.message.find('\n'), std::string::npos);
 }
 
 TEST(OptimiseDesign, a_fresh_solve_of_the_optimised_spots_reproduces_the_radar) {

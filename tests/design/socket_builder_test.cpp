@@ -1,5 +1,8 @@
 // Socket builder: an analytic capsule (wall thickness, shell volume, rim height), a generated
-// transtibial limb with its PTB brim, and the bad inputs of the issue.
+// transtibial limb with its PTB brim, and the bad inputs of the issue. Issue 22: the wall is at
+// least 0.95 × the asked thickness everywhere but the brim band, pad and attachment included,
+// checked by socket_check.h's own distances; the platform is flat and its holes are where the
+// options put them.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -14,6 +17,7 @@
 #include "socketsmith/geometry/mesh_io.h"
 #include "socketsmith/geometry/surface_query.h"
 #include "socketsmith/volume/limb_generator.h"
+#include "socket_check.h"
 
 namespace socketsmith::design {
 namespace {
@@ -145,9 +149,31 @@ TEST(SocketBuilder, capsule_wall_has_the_requested_thickness_volume_and_rim_heig
   for (const auto& l : r.levels) EXPECT_NEAR(l.reduction_percent, 0.0, 1e-9);
   EXPECT_EQ(r.inner_triangles, r.outer_triangles);
   EXPECT_GT(r.lip_triangles, 0);
+  // Independent distances: the whole outer wall within 0.95–1.02 × t of the inner wall.
+  const auto check = wall_check::check_socket(r, inner, z_frame(), flat_brim(brim_h), o);
+  EXPECT_TRUE(check.failures.empty()) << check.text();
+  EXPECT_GT(check.wall.min_ratio, 0.98) << check.text();
+  EXPECT_LT(check.wall.median_m, 1.01 * t) << check.text();
+  EXPECT_NEAR(r.median_thickness_m, t, 0.02 * kMm);
+  EXPECT_GE(r.min_thickness_ratio, 0.99);
+  // The thickness field: NaN on the inner wall, ≈ t on the outer wall.
+  ASSERT_EQ(r.vertex_thickness_m.size(), r.solid.vertices.size());
+  std::vector<int> kind(r.solid.vertices.size(), -1);  // 0 inner, 1 outer only
+  for (int f = 0; f < r.solid.num_triangles(); ++f)
+    for (int v : r.solid.triangles[f]) {
+      if (r.face_kind[f] == SocketFace::Inner) kind[v] = 0;
+      else if (r.face_kind[f] == SocketFace::Outer && kind[v] != 0) kind[v] = 1;
+    }
+  for (int v = 0; v < r.solid.num_vertices(); ++v) {
+    if (kind[v] == 0) {
+      EXPECT_TRUE(std::isnan(r.vertex_thickness_m[v])) << v;
+    } else if (kind[v] == 1) {
+      EXPECT_NEAR(r.vertex_thickness_m[v], t, 0.02 * t) << v;
+    }
+  }
 }
 
-TEST(SocketBuilder, capsule_with_a_wavy_brim_a_flat_lip_and_a_distal_pad) {
+TEST(SocketBuilder, capsule_with_a_wavy_brim_a_flat_lip_and_a_distal_pad_built_outward) {
   const double R = 0.05, H = 0.2, t = 0.004;
   const TriMesh inner = capsule(R, H, 64, 16, 50);
   std::vector<BrimKeyPoint> p;
@@ -161,26 +187,31 @@ TEST(SocketBuilder, capsule_with_a_wavy_brim_a_flat_lip_and_a_distal_pad) {
   o.round_brim = false;
   o.distal_pad = true;
   o.distal_pad_diameter_m = 0.03;
+  o.alignment = {0.0, 0.0};  // the pad normal to the limb's axis
   o.subdivisions = 1;
   const SocketResult r = build_socket(inner, z_frame(), brim, o);
   EXPECT_TRUE(geometry::check_mesh(r.solid).is_valid_closed_surface());
   EXPECT_LT(r.max_rim_error_m, 0.01 * kMm);
   EXPECT_NEAR(r.rim_min_h_m, brim.min_height(), 0.2 * kMm);
   EXPECT_NEAR(r.rim_max_h_m, brim.max_height(), 0.2 * kMm);
-  // The pad: every solid vertex is at or above the plane, and a disc of ~30 mm lies in it.
-  EXPECT_GT(r.pad_vertices, 10);
-  double rmax = 0;
-  for (const auto& v : r.solid.vertices) {
-    EXPECT_GE(v.z(), r.pad_plane_h_m - 1e-12);
-    if (std::abs(v.z() - r.pad_plane_h_m) < 1e-9) rmax = std::max(rmax, std::hypot(v.x(), v.y()));
-  }
-  EXPECT_NEAR(rmax, 0.015, 3 * kMm);
-  EXPECT_NEAR(r.pad_plane_h_m, -t + (R + t) - std::sqrt((R + t) * (R + t) - 0.015 * 0.015), 1 * kMm);
+  // The pad lies below the wall (half a millimetre below its lowest point, z = −t), a 30 mm disc
+  // on the axis; the distal wall keeps its thickness.
+  ASSERT_TRUE(r.platform.is_built);
+  EXPECT_NEAR(r.platform.centre.z(), -t - 0.5 * kMm, 0.05 * kMm);
+  EXPECT_NEAR(r.platform.normal.z(), -1.0, 1e-12);
+  EXPECT_DOUBLE_EQ(r.platform.diameter_m, 0.03);
+  const auto check = wall_check::check_socket(r, geometry::TriMesh(inner), z_frame(), brim, o);
+  EXPECT_TRUE(check.failures.empty()) << check.text();
+  EXPECT_LT(check.flatness_m, 1e-9);
+  // Thicker than the wall at the pad only: the median stays the wall.
+  EXPECT_NEAR(r.median_thickness_m, t, 0.05 * kMm);
+  EXPECT_GT(r.max_thickness_m, t + 0.4 * kMm);
 }
 
-TEST(SocketBuilder, a_pointed_distal_end_gets_a_narrower_pad_below_the_cavity_not_a_broken_solid) {
-  // A 30° cone: the outer wall reaches the pad's 15 mm radius 20 mm above the apex, where a plane
-  // would cut through the inner wall (the fe model's design of the 1.8k-node sample hit this).
+TEST(SocketBuilder, a_pointed_distal_end_gets_its_full_pad_below_the_wall) {
+  // A 30° cone: the outer wall reaches the pad's 15 mm radius 20 mm above the apex, so the pad's
+  // block climbs the cone; the wall above it keeps its thickness (the old builder pushed the
+  // outer wall in there).
   const double R = 0.04, H = 0.2, t = 0.005;
   const TriMesh inner = capsule(R, H, 64, 16, 40, 30 * kPi / 180);
   SocketOptions o;
@@ -188,12 +219,63 @@ TEST(SocketBuilder, a_pointed_distal_end_gets_a_narrower_pad_below_the_cavity_no
   o.distal_pad = true;
   o.distal_pad_diameter_m = 0.03;
   const SocketResult r = build_socket(inner, z_frame(), flat_brim(0.15), o);
-  EXPECT_TRUE(geometry::check_mesh(r.solid).is_valid_closed_surface());
-  EXPECT_NEAR(r.pad_plane_h_m, -0.5 * t, 1e-9);  // half a wall below the apex
-  EXPECT_GT(r.pad_vertices, 0);
-  const bool noted = std::any_of(r.notes.begin(), r.notes.end(),
-                                 [](const std::string& n) { return n.find("narrower than 30 mm") != std::string::npos; });
-  EXPECT_TRUE(noted);
+  ASSERT_TRUE(r.platform.is_built);
+  EXPECT_GT(r.platform.max_height_m, 0.015);
+  const auto check = wall_check::check_socket(r, inner, z_frame(), flat_brim(0.15), o);
+  EXPECT_TRUE(check.failures.empty()) << check.text();
+}
+
+TEST(SocketBuilder, a_four_hole_attachment_is_flat_aligned_and_drilled_where_asked) {
+  const double R = 0.05, H = 0.2, t = 0.005;
+  const TriMesh inner = capsule(R, H, 96, 24, 60);
+  SocketOptions o;
+  o.thickness_m = t;
+  o.alignment = {7 * units::deg, -4 * units::deg};
+  o.attachment.enabled = true;
+  o.attachment.rotation_rad = 15 * units::deg;
+  o.attachment.offset_anterior_m = 3 * kMm;
+  o.attachment.offset_medial_m = -2 * kMm;
+  const BrimLine brim = flat_brim(0.15);
+  const SocketResult r = build_socket(inner, z_frame(), brim, o);
+  const auto check = wall_check::check_socket(r, inner, z_frame(), brim, o);
+  EXPECT_TRUE(check.failures.empty()) << check.text();
+  EXPECT_GE(check.min_hole_depth_m, o.attachment.platform_thickness_m - 0.02 * kMm);
+  // The builder reports the same holes as the independent expectation.
+  const auto e = wall_check::expected_platform(z_frame(), o);
+  ASSERT_EQ(r.platform.hole_centres.size(), 4u);
+  for (int k = 0; k < 4; ++k) {
+    const Eigen::Vector2d q = e.xy(r.platform.hole_centres[k]);
+    EXPECT_NEAR((q - e.holes[k]).norm(), 0.0, 1e-9) << k;
+  }
+  EXPECT_NEAR(r.platform.normal.dot(-e.up), 1.0, 1e-12);
+  EXPECT_NEAR(r.platform.hole_diameter_m, 6.6 * kMm, 1e-12);
+  EXPECT_GE(r.platform.min_hole_depth_m, o.attachment.platform_thickness_m - 1e-9);
+  EXPECT_GE(r.platform.smallest_feature_m, o.min_feature_m);
+  // Every hole face is a bore; the flat face is the lowest part of the socket.
+  EXPECT_GT(std::count(r.face_kind.begin(), r.face_kind.end(), SocketFace::Hole), 4 * 24 - 1);
+  EXPECT_GT(std::count(r.face_kind.begin(), r.face_kind.end(), SocketFace::Platform), 10);
+}
+
+TEST(SocketBuilder, a_variable_wall_is_thicker_distally_and_thinner_at_the_brim) {
+  const double R = 0.05, H = 0.2, brim_h = 0.15;
+  const TriMesh inner = capsule(R, H, 96, 24, 60);
+  SocketOptions o;
+  o.thickness_m = 0.005;
+  o.distal_thickness_m = 0.008;
+  o.brim_thickness_m = 0.004;
+  const SocketResult r = build_socket(inner, z_frame(), flat_brim(brim_h), o);
+  const auto check = wall_check::check_socket(r, inner, z_frame(), flat_brim(brim_h), o);
+  EXPECT_TRUE(check.failures.empty()) << check.text();
+  // On the cylinder (radius R + wall), the wall follows 8 + (4 − 8) h / 150 mm.
+  for (const auto& v : r.solid.vertices) {
+    const double rho = std::hypot(v.x(), v.y());
+    if (v.z() < R + 0.01 || v.z() > brim_h - 0.01 || rho < R + 1e-3) continue;
+    const double asked = 0.008 - 0.004 * v.z() / brim_h;
+    EXPECT_NEAR(rho - R, asked, 0.03 * asked) << "at z = " << v.z();
+  }
+  EXPECT_DOUBLE_EQ(asked_thickness_m(o, 0.0, brim_h), 0.008);
+  EXPECT_DOUBLE_EQ(asked_thickness_m(o, brim_h, brim_h), 0.004);
+  EXPECT_DOUBLE_EQ(asked_thickness_m(o, 0.5 * brim_h, brim_h), 0.006);
 }
 
 TEST(SocketBuilder, generated_limb_with_a_ptb_brim_gives_a_valid_solid_of_even_thickness) {
@@ -204,9 +286,11 @@ TEST(SocketBuilder, generated_limb_with_a_ptb_brim_gives_a_valid_solid_of_even_t
   EXPECT_TRUE(rep.is_valid_closed_surface()) << (rep.problems().empty() ? "" : rep.problems().front());
   EXPECT_GT(r.shell_volume_m3, 0.0);
   EXPECT_NEAR(r.mean_thickness_m, 5 * kMm, 0.1 * kMm);
-  EXPECT_GT(r.min_thickness_m, 4.0 * kMm);
-  EXPECT_LT(r.max_thickness_m, 5.05 * kMm);
+  EXPECT_GT(r.min_thickness_m, 0.99 * 5 * kMm);
+  EXPECT_LT(r.max_thickness_m, 5.3 * kMm);
   EXPECT_LT(r.max_rim_error_m, 0.05 * kMm);
+  const auto check = wall_check::check_socket(r, limb.skin, limb.frame, brim, SocketOptions{});
+  EXPECT_TRUE(check.failures.empty()) << check.text();
   // Independent check: outer-wall samples lie ~5 mm outside the skin.
   const geometry::SurfaceQuery skin(limb.skin);
   geometry::TriMesh outer;
@@ -220,7 +304,7 @@ TEST(SocketBuilder, generated_limb_with_a_ptb_brim_gives_a_valid_solid_of_even_t
     lo = std::min(lo, d);
     sum += d;
   }
-  EXPECT_GT(lo, 4.0 * kMm);
+  EXPECT_GT(lo, 0.95 * 5 * kMm);
   EXPECT_NEAR(sum / pts.size(), 5 * kMm, 0.15 * kMm);
   const auto tmp = std::filesystem::temp_directory_path() / "socketsmith_socket_test.stl";
   write_socket_stl(tmp, r);
@@ -280,7 +364,39 @@ TEST(SocketBuilder, bad_inputs_give_one_line_errors) {
   geometry::flip_orientation(flipped);
   EXPECT_NE(message_of([&] { build_socket(flipped, f, brim, {}); }).find("inside-out"), std::string::npos);
   EXPECT_THROW(write_socket_stl("/tmp/x.stl", SocketResult{}), InvalidInputError);
+  // Attachment and alignment out of range: one line naming the field and the fix.
+  auto attach = [] {
+    SocketOptions o;
+    o.attachment.enabled = true;
+    return o;
+  };
+  SocketOptions narrow = attach();
+  narrow.attachment.hole_diameter_m = 5 * kMm;
+  EXPECT_NE(message_of([&] { build_socket(inner, f, brim, narrow); }).find("narrower than its 6.0 mm bolt"), std::string::npos);
+  SocketOptions close = attach();
+  close.attachment.hole_spacing_m = 7 * kMm;
+  EXPECT_NE(message_of([&] { build_socket(inner, f, brim, close); }).find("widen the spacing"), std::string::npos);
+  SocketOptions small = attach();
+  small.attachment.platform_diameter_m = 40 * kMm;
+  const std::string small_msg = message_of([&] { build_socket(inner, f, brim, small); });
+  EXPECT_NE(small_msg.find("make platform_diameter_mm at least"), std::string::npos) << small_msg;
+  SocketOptions wide = attach();
+  wide.attachment.platform_diameter_m = 0.14;
+  const std::string wide_msg = message_of([&] { build_socket(inner, f, brim, wide); });
+  EXPECT_NE(wide_msg.find("wider than the socket's distal end"), std::string::npos) << wide_msg;
+  SocketOptions tilted;
+  tilted.alignment.flexion_rad = 40 * units::deg;
+  EXPECT_NE(message_of([&] { build_socket(inner, f, brim, tilted); }).find("socket flexion 40.0°"), std::string::npos);
+  SocketOptions thin;
+  thin.thickness_m = 0.5 * kMm;
+  EXPECT_NE(message_of([&] { build_socket(inner, f, brim, thin); }).find("below the smallest printable feature"),
+            std::string::npos);
+  EXPECT_NE(message_of([] { (void)clearance_hole_diameter_m("M7"); }).find("M4, M5, M6 or M8"), std::string::npos);
+  EXPECT_DOUBLE_EQ(clearance_hole_diameter_m("M6"), 6.6 * kMm);
+  EXPECT_DOUBLE_EQ(bolt_diameter_m("M8"), 8 * kMm);
 }
+
+
 
 }  // namespace
 }  // namespace socketsmith::design

@@ -133,6 +133,37 @@ TEST(SurfaceQuery, closest_point_on_a_sphere_matches_brute_force_and_the_analyti
   }
 }
 
+TEST(SurfaceQuery, closest_point_from_a_hint_gives_the_same_answer) {
+  const double r = 0.06;
+  const TriMesh sphere = make_icosphere(r, 3, Vec3(0.01, -0.02, 0.3));
+  const SurfaceQuery query(sphere);
+  std::mt19937 rng(5);
+  std::uniform_int_distribution<int> tri(0, sphere.num_triangles() - 1);
+  std::uniform_real_distribution<double> u(0.0, 0.03);
+  for (int i = 0; i < 300; ++i) {
+    // A point offset from a surface point along its face's normal, hinted from there — and from
+    // an unrelated face: the answer is the same (the hint only starts the search).
+    const int t = tri(rng);
+    const auto& f = sphere.triangles[t];
+    const Vec3 on = (sphere.vertices[f[0]] + sphere.vertices[f[1]] + sphere.vertices[f[2]]) / 3.0;
+    const Vec3 n = (sphere.vertices[f[1]] - sphere.vertices[f[0]]).cross(sphere.vertices[f[2]] - sphere.vertices[f[0]]);
+    const Vec3 p = on + (u(rng) - 0.01) * n.normalized();
+    SurfaceHit hint;
+    hint.point = on;
+    hint.triangle = t;
+    EXPECT_NEAR(query.closest_point(p, hint).distance, brute_force_distance(sphere, p), 1e-13);
+    const int other = tri(rng);
+    const auto& g = sphere.triangles[other];
+    hint.point = sphere.vertices[g[0]];
+    hint.triangle = other;
+    EXPECT_NEAR(query.closest_point(p, hint).distance, brute_force_distance(sphere, p), 1e-13);
+  }
+  SurfaceHit bad;
+  bad.triangle = sphere.num_triangles() + 5;  // ignored: the plain search
+  const Vec3 p(0.1, 0.0, 0.3);
+  EXPECT_NEAR(query.closest_point(p, bad).distance, query.closest_point(p).distance, 0.0);
+}
+
 TEST(SurfaceQuery, first_hit_distance_matches_the_analytic_ray_box_intersection) {
   const SurfaceQuery query(centred_cube());
   std::mt19937 rng(3);

@@ -312,7 +312,7 @@ struct ContactSolver::Impl {
   bool try_step(const VectorXd& xs, const Vec3& t, const VectorXd& delta, double a, Trial& tr) {
     tr.x = xs;
     dofs.add_expanded(a * delta, tr.x);
-    if (!opt.linear_body && model.min_corner_jacobian(tr.x) <= 0) return false;
+    if (!opt.linear_body && model.has_inverted_element(tr.x)) return false;
     VectorXd Ku;
     if (opt.linear_body) Ku = Ku0 + a * Kd;
     tr.r = evaluate(tr.x, t, tr.st, tr.th, &tr.B, &tr.pi, opt.linear_body ? &Ku : nullptr);
@@ -817,6 +817,13 @@ ContactStep ContactSolver::push_with_force(const Vec3& direction, double force_n
     }
   }
   fail<SolverError>("contact: the push force {:.1f} N was not reached within tolerance", force_n);
+}
+
+void ContactSolver::obstacle_changed() {
+  auto& s = *impl_;
+  s.qcache.assign(s.nodes.size(), Impl::QueryCache{});
+  // One query before any parallel one (CGAL builds its distance-query structures lazily).
+  (void)s.obstacle.gap(s.x.segment<3>(3 * s.nodes.front()));
 }
 
 const VectorXd& ContactSolver::positions() const { return impl_->x; }

@@ -137,6 +137,10 @@ class ContactSolver {
   ContactStep push_with_force(const Vec3& direction, double force_n, double rel_tol = 1e-3,
                               double max_step_m = 0.002, double first_step_m = 0.0);
 
+  /// The obstacle's geometry changed (e.g. RigidSocket::replace_solid): forget the gap queries
+  /// cached per node. The contact state and friction history stay; the next solve sees the new wall.
+  void obstacle_changed();
+
   const tissue::VectorXd& positions() const;
   const std::vector<NodeContact>& contacts() const;
   const std::vector<int>& nodes() const;

@@ -24,6 +24,7 @@ DonningSample sample(const ContactStep& st, const std::vector<NodeContact>& cont
   s.friction_passes = st.friction_passes;
   s.seconds = st.seconds;
   double sum = 0;
+  for (const auto& c : contacts) s.axial_friction_n += c.tangential_n.dot(axis);
   for (const auto& c : contacts) {
     if (!c.active) continue;
     s.max_pressure_pa = std::max(s.max_pressure_pa, c.pressure_pa);
@@ -35,41 +36,104 @@ DonningSample sample(const ContactStep& st, const std::vector<NodeContact>& cont
 
 }  // namespace
 
-DonningResult simulate_donning(const tissue::MassSpringModel& model, const std::vector<int>& skin_nodes,
-                               const std::vector<double>& skin_areas, const geometry::TriMesh& socket_solid,
-                               const geometry::LimbFrame& frame, const DonningOptions& options) {
-  DonningOptions o = options;
-  require(std::isfinite(o.start_offset_m) && o.start_offset_m >= 0,
-          "donning: start offset {} mm must be positive (the socket starts below the stump)", o.start_offset_m * 1e3);
-  require(o.steps >= 0 && std::isfinite(o.step_m) && o.step_m > 0, "donning: {} steps of {} mm: use positive values",
-          o.steps, o.step_m * 1e3);
-  require(std::isfinite(o.min_step_m) && o.min_step_m > 0, "donning: the shortest step {} mm must be positive",
-          o.min_step_m * 1e3);
-  o.min_step_m = std::min(o.min_step_m, o.step_m);
-  require(std::isfinite(o.stand_force_n) && o.stand_force_n >= 0, "donning: standing force {} N must be ≥ 0",
-          o.stand_force_n);
-  if (o.start_offset_m == 0) {
-    // The socket's top 5 mm below the stump's lowest skin node: nothing touches at the start.
-    double top = -1e30, bottom = 1e30;
-    for (const auto& v : socket_solid.vertices) top = std::max(top, (v - frame.origin).dot(frame.axis));
-    for (int n : skin_nodes) bottom = std::min(bottom, (model.rest_positions().segment<3>(3 * n) - frame.origin).dot(frame.axis));
-    o.start_offset_m = std::max(top - bottom + 0.005, o.step_m);
+struct DonningSimulation::Impl {
+  const tissue::MassSpringModel& model;
+  DonningOptions o;
+  Vec3 axis;
+  RigidSocket socket;
+  tissue::DofMap dofs;
+  std::unique_ptr<ContactSolver> solver;
+  std::vector<int> skin_nodes;
+  bool completed = false, stood = false;
+  double last_step = 0.0;
+
+  Impl(const tissue::MassSpringModel& m, const std::vector<int>& nodes, const std::vector<double>& areas,
+       const geometry::TriMesh& solid, const geometry::LimbFrame& frame, const DonningOptions& options)
+      : model(m), o(checked(options, m, nodes, solid, frame)), axis(frame.axis.normalized()),
+        socket(solid, frame, o.socket_density_kg_m3), dofs(tissue::fixed_node_dofs(m.mesh(), "donning")),
+        skin_nodes(nodes) {
+    socket.set_smooth_wall(o.smooth_wall);
+    ContactOptions co = o.contact;
+    co.friction = o.friction;
+    socket.set_translation(-o.start_offset_m * axis);
+    solver = std::make_unique<ContactSolver>(model, dofs, nodes, areas, socket, co);
   }
+
+  /// The options checked, with the automatic start offset resolved.
+  static DonningOptions checked(DonningOptions o, const tissue::MassSpringModel& model, const std::vector<int>& skin_nodes,
+                                const geometry::TriMesh& socket_solid, const geometry::LimbFrame& frame) {
+    require(std::isfinite(o.start_offset_m) && o.start_offset_m >= 0,
+            "donning: start offset {} mm must be positive (the socket starts below the stump)", o.start_offset_m * 1e3);
+    require(o.steps >= 0 && std::isfinite(o.step_m) && o.step_m > 0, "donning: {} steps of {} mm: use positive values",
+            o.steps, o.step_m * 1e3);
+    require(std::isfinite(o.min_step_m) && o.min_step_m > 0, "donning: the shortest step {} mm must be positive",
+            o.min_step_m * 1e3);
+    o.min_step_m = std::min(o.min_step_m, o.step_m);
+    require(std::isfinite(o.stand_force_n) && o.stand_force_n >= 0, "donning: standing force {} N must be ≥ 0",
+            o.stand_force_n);
+    require(std::isfinite(o.friction) && o.friction >= 0 && o.friction <= 2,
+            "donning: friction coefficient {} must be in [0, 2] (skin on a socket: about 0.5)", o.friction);
+    if (o.start_offset_m == 0) {
+      // The socket's top 5 mm below the stump's lowest skin node: nothing touches at the start.
+      double top = -1e30, bottom = 1e30;
+      for (const auto& v : socket_solid.vertices) top = std::max(top, (v - frame.origin).dot(frame.axis));
+      for (int n : skin_nodes)
+        bottom = std::min(bottom, (model.rest_positions().segment<3>(3 * n) - frame.origin).dot(frame.axis));
+      o.start_offset_m = std::max(top - bottom + 0.005, o.step_m);
+    }
+    return o;
+  }
+
+  /// Pushes the socket along the axis until its axial reaction is the standing force. The first
+  /// step of the push from the reaction's slope over the last two samples (a little past the
+  /// predicted position, so that it usually brackets the load at once); a 2 mm step overshot by
+  /// 2–3× and its solve cost more than the bracket's.
+  void stand(DonningResult& r) {
+    try {
+      double first = 0;
+      const size_t ns = r.series.size();
+      if (o.predict_stand_step && ns >= 2) {
+        const auto &a = r.series[ns - 2], &b = r.series[ns - 1];
+        const double slope = (b.axial_force_n - a.axial_force_n) / (b.offset_m - a.offset_m);
+        if (slope > 0 && o.stand_force_n > b.axial_force_n) first = 1.1 * (o.stand_force_n - b.axial_force_n) / slope;
+      }
+      const ContactStep st = solver->push_with_force(axis, o.stand_force_n, 1e-3, last_step, first);
+      const double stood_at = socket.translation().dot(axis);
+      r.series.push_back(sample(st, solver->contacts(), axis, stood_at));
+      r.newton_iterations += st.newton_iterations;
+      r.force_on_socket_n = st.force_on_obstacle_n;
+      r.final_offset_m = stood_at;
+      r.stood = stood = true;
+      r.contacts = solver->contacts();
+      r.positions = solver->positions();
+    } catch (const SolverError& e) {
+      r.message = fmt::format("standing with {:.0f} N not reached ({}); the results are those of the donned socket at "
+                              "its designed pose",
+                              o.stand_force_n, e.what());
+    }
+    report_progress(o.progress, 1.0, "donning: standing");
+  }
+};
+
+DonningSimulation::DonningSimulation(const tissue::MassSpringModel& model, const std::vector<int>& skin_nodes,
+                                     const std::vector<double>& skin_areas, const geometry::TriMesh& socket_solid,
+                                     const geometry::LimbFrame& frame, const DonningOptions& options)
+    : impl_(std::make_unique<Impl>(model, skin_nodes, skin_areas, socket_solid, frame, options)) {}
+
+DonningSimulation::~DonningSimulation() = default;
+
+DonningResult DonningSimulation::run() {
+  auto& s = *impl_;
+  const DonningOptions& o = s.o;
+  require(!s.completed, "donning: run() was already called on this simulation");
+  auto& solver = *s.solver;
+  const Vec3 axis = s.axis;
   const bool adaptive = o.steps == 0;
   const auto t0 = std::chrono::steady_clock::now();
-  const Vec3 axis = frame.axis.normalized();
-  RigidSocket socket(socket_solid, frame, o.socket_density_kg_m3);
-  socket.set_smooth_wall(o.smooth_wall);
-  const tissue::DofMap dofs = tissue::fixed_node_dofs(model.mesh(), "donning");
-  ContactOptions co = o.contact;
-  co.friction = o.friction;
-  socket.set_translation(-o.start_offset_m * axis);
-  ContactSolver solver(model, dofs, skin_nodes, skin_areas, socket, co);
-
   DonningResult r;
   r.start_offset_m = o.start_offset_m;
-  r.nodes = skin_nodes;
-  r.socket_mass_kg = socket.mass_kg();
+  r.nodes = s.skin_nodes;
+  r.socket_mass_kg = s.socket.mass_kg();
   // Where the path starts, nothing may be gripped already: a node inside the wall at the start
   // means the offset is too small for this socket (it would start half donned).
   {
@@ -84,7 +148,8 @@ DonningResult simulate_donning(const tissue::MassSpringModel& model, const std::
   // node that was sliding or free sticks in it; then it is tried again at the shortest step (and at
   // half the length when it does not converge).
   const double fixed_step = adaptive ? 0.0 : o.start_offset_m / o.steps;
-  double offset = -o.start_offset_m, step = adaptive ? o.step_m : fixed_step, last_step = step;
+  double offset = -o.start_offset_m, step = adaptive ? o.step_m : fixed_step;
+  s.last_step = step;
   const double stand_share = o.stand_force_n > 0 ? 1.0 / (o.steps > 0 ? o.steps + 1 : 20) : 0.0;
   while (offset < -1e-12) {
     const double next = std::min(offset + step, 0.0);
@@ -116,7 +181,7 @@ DonningResult simulate_donning(const tissue::MassSpringModel& model, const std::
       continue;
     }
     if (refinable) solver.commit();
-    last_step = target - offset;
+    s.last_step = target - offset;
     offset = target;
     ++r.steps;
     if (adaptive && new_sticks == 0) step = std::min(2.0 * step, o.step_m);
@@ -132,36 +197,49 @@ DonningResult simulate_donning(const tissue::MassSpringModel& model, const std::
   }
   r.contacts = solver.contacts();
   r.positions = solver.positions();
-  if (r.completed && o.stand_force_n > 0) {
-    try {
-      // The first step of the push from the reaction's slope over the last step (a little past the
-      // predicted position, so that it usually brackets the load at once); a 2 mm step overshot
-      // by 2–3× and its solve cost more than the bracket's.
-      double first = 0;
-      const size_t ns = r.series.size();
-      if (o.predict_stand_step && ns >= 2) {
-        const auto &a = r.series[ns - 2], &b = r.series[ns - 1];
-        const double slope = (b.axial_force_n - a.axial_force_n) / (b.offset_m - a.offset_m);
-        if (slope > 0 && o.stand_force_n > b.axial_force_n) first = 1.1 * (o.stand_force_n - b.axial_force_n) / slope;
-      }
-      const ContactStep st = solver.push_with_force(axis, o.stand_force_n, 1e-3, last_step, first);
-      const double stood_at = socket.translation().dot(axis);
-      r.series.push_back(sample(st, solver.contacts(), axis, stood_at));
-      r.newton_iterations += st.newton_iterations;
-      r.force_on_socket_n = st.force_on_obstacle_n;
-      r.final_offset_m = stood_at;
-      r.stood = true;
-      r.contacts = solver.contacts();
-      r.positions = solver.positions();
-    } catch (const SolverError& e) {
-      r.message = fmt::format("standing with {:.0f} N not reached ({}); the results are those of the donned socket at "
-                              "its designed pose",
-                              o.stand_force_n, e.what());
+  s.completed = r.completed;
+  if (r.completed && o.stand_force_n > 0) s.stand(r);
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return r;
+}
+
+DonningResult DonningSimulation::refit(const geometry::TriMesh& socket_solid) {
+  auto& s = *impl_;
+  require(s.completed, "donning: refit() needs a completed run() (the socket must be worn)");
+  const auto t0 = std::chrono::steady_clock::now();
+  s.socket.replace_solid(socket_solid);
+  s.solver->obstacle_changed();
+  DonningResult r;
+  r.nodes = s.skin_nodes;
+  r.socket_mass_kg = s.socket.mass_kg();
+  r.start_offset_m = s.o.start_offset_m;
+  const Vec3 t = s.socket.translation();
+  const ContactStep st = s.solver->move_to(t);
+  r.completed = st.converged;
+  if (!st.converged) {
+    r.message = fmt::format("the refitted socket found no equilibrium where the worn one stood: {}", st.message);
+    s.completed = false;
+  } else {
+    r.series.push_back(sample(st, s.solver->contacts(), s.axis, t.dot(s.axis)));
+    r.newton_iterations = st.newton_iterations;
+    r.force_on_socket_n = st.force_on_obstacle_n;
+    r.final_offset_m = t.dot(s.axis);
+    r.contacts = s.solver->contacts();
+    r.positions = s.solver->positions();
+    if (s.stood && s.o.stand_force_n > 0) {
+      s.stood = false;
+      s.stand(r);
     }
-    report_progress(o.progress, 1.0, "donning: standing");
   }
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return r;
+}
+
+DonningResult simulate_donning(const tissue::MassSpringModel& model, const std::vector<int>& skin_nodes,
+                               const std::vector<double>& skin_areas, const geometry::TriMesh& socket_solid,
+                               const geometry::LimbFrame& frame, const DonningOptions& options) {
+  DonningSimulation sim(model, skin_nodes, skin_areas, socket_solid, frame, options);
+  return sim.run();
 }
 
 }  // namespace socketsmith::contact

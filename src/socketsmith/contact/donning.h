@@ -7,6 +7,7 @@
 /// is compared with the pressure the design asked for: if the design is right, the socket
 /// reproduces it.
 
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -74,6 +75,9 @@ struct DonningSample {
   double offset_m = 0.0;          ///< socket position along the axis relative to the designed pose (< 0: below)
   double axial_force_n = 0.0;     ///< force of the stump on the socket along −axis (what holds the socket)
   double lateral_force_n = 0.0;   ///< its component across the axis
+  /// The part of axial_force_n that friction carries (Σ of the friction forces on the nodes along
+  /// the axis) [N]; the rest is the normal pressures'. The design assumes μ Σ p A cos θ (eq. 42).
+  double axial_friction_n = 0.0;
   int contact_nodes = 0;
   int sliding_nodes = 0;
   double max_pressure_pa = 0.0;
@@ -114,5 +118,35 @@ struct DonningResult {
 DonningResult simulate_donning(const tissue::MassSpringModel& model, const std::vector<int>& skin_nodes,
                                const std::vector<double>& skin_areas, const geometry::TriMesh& socket_solid,
                                const geometry::LimbFrame& frame, const DonningOptions& options = {});
+
+/// A donning that can go on after its run: run() dons and stands (simulate_donning is a
+/// DonningSimulation's run()); refit() then replaces the socket while it is worn and finds the new
+/// equilibrium from the worn state, the skin's friction history kept, and the standing load again
+/// — what a small correction of the socket's wall does, at a fraction of a donning's cost (the
+/// closed-loop design's inner iterations; its answer is checked by a full donning).
+/// The model must outlive the simulation.
+class DonningSimulation {
+ public:
+  /// @throws as simulate_donning.
+  DonningSimulation(const tissue::MassSpringModel& model, const std::vector<int>& skin_nodes,
+                    const std::vector<double>& skin_areas, const geometry::TriMesh& socket_solid,
+                    const geometry::LimbFrame& frame, const DonningOptions& options = {});
+  ~DonningSimulation();
+  DonningSimulation(const DonningSimulation&) = delete;
+  DonningSimulation& operator=(const DonningSimulation&) = delete;
+
+  /// The donning path and the standing load, once. @throws InvalidInputError when called twice.
+  DonningResult run();
+  /// Replaces the worn socket by @p socket_solid (same frame), solves where the socket stood and
+  /// pushes it to the standing load again (when the run stood). The result's series holds the
+  /// refit's steps only; completed = false (with a message) when no equilibrium was found, and
+  /// the simulation cannot be refitted again.
+  /// @throws InvalidInputError when run() did not complete; as RigidSocket for a bad solid.
+  DonningResult refit(const geometry::TriMesh& socket_solid);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
 
 }  // namespace socketsmith::contact

@@ -21,8 +21,15 @@ RigidSocket::~RigidSocket() = default;
 RigidSocket::RigidSocket(RigidSocket&&) noexcept = default;
 RigidSocket& RigidSocket::operator=(RigidSocket&&) noexcept = default;
 
+void RigidSocket::replace_solid(geometry::TriMesh solid) {
+  RigidSocket fresh(std::move(solid), frame_, density_);
+  fresh.set_translation(translation());
+  fresh.smooth_ = smooth_;
+  *this = std::move(fresh);
+}
+
 RigidSocket::RigidSocket(geometry::TriMesh solid, const geometry::LimbFrame& frame, double density)
-    : solid_(std::move(solid)) {
+    : frame_(frame), density_(density), solid_(std::move(solid)) {
   require(std::isfinite(density) && density > 0, "socket density {} kg/m^3 must be positive", density);
   const auto rep = geometry::check_mesh(solid_);
   require(rep.non_finite_vertices == 0, "the socket has {} vertices with NaN/inf coordinates", rep.non_finite_vertices);
@@ -78,7 +85,10 @@ RigidSocket::RigidSocket(geometry::TriMesh solid, const geometry::LimbFrame& fra
             100 * f, facing);
   }
   // Inner wall: triangles visible from the limb axis (the cavity is star-shaped about its axis),
-  // from origins on the axis no higher than the socket (else the brim's top is "seen").
+  // from origins on the axis no higher than the socket (else the brim's top is "seen") and in the
+  // cavity: an origin in the distal wall (below the cavity's bottom) would "see" faces of the
+  // outside — the ledge where a distal platform joins the outer wall — from within the material.
+  // An origin is in the cavity when the ray up the axis leaves through the open brim.
 
   for (int i = 0; i < solid_.num_triangles(); ++i) {
     const auto& t = solid_.triangles[i];
@@ -95,6 +105,7 @@ RigidSocket::RigidSocket(geometry::TriMesh solid, const geometry::LimbFrame& fra
       const Vec3 o = frame.on_axis(ho);
       const Vec3 dir = ctr - o;
       if (dir.norm() < 1e-9 || dir.dot(n) >= 0) continue;  // must face the origin (normal into the cavity)
+      if (all.first_hit(o, frame.axis)) continue;             // the origin is in the wall or below the socket
       const auto hit = all.first_hit(o, dir);
       if (hit && (hit->triangle == i || std::abs(hit->distance - dir.norm()) < 1e-7)) {
         inner = true;

@@ -84,6 +84,11 @@ class RigidSocket : public Obstacle {
   RigidSocket(RigidSocket&&) noexcept;
   RigidSocket& operator=(RigidSocket&&) noexcept;
 
+  /// Replaces the socket's solid by @p solid (same frame, density, translation and wall mode), as
+  /// the constructor checks and builds it: a socket whose wall was corrected while it is worn.
+  /// @throws as the constructor; the socket is unchanged when it throws.
+  void replace_solid(geometry::TriMesh solid);
+
   const geometry::TriMesh& solid() const { return solid_; }
   /// The inner wall: triangles of the solid seen from the limb axis (the cavity's surface).
   const geometry::TriMesh& inner_wall() const { return inner_; }
@@ -111,6 +116,8 @@ class RigidSocket : public Obstacle {
  private:
   Gap smooth_gap(const Vec3& q, Gap g) const;
 
+  geometry::LimbFrame frame_;
+  double density_ = 0.0;
   geometry::TriMesh solid_, inner_;
   std::vector<Vec3> inner_normals_;  // outward normals of the solid = into the cavity
   std::unique_ptr<geometry::SurfaceQuery> query_;

@@ -4,6 +4,7 @@
 #include <fstream>
 #include <set>
 #include <sstream>
+#include <tuple>
 
 #include "socketsmith/core/atomic_file.h"
 #include "socketsmith/core/errors.h"
@@ -138,6 +139,69 @@ Spot spot_from_json(const json& j, const std::string& where) {
   return s;
 }
 
+namespace {
+/// socket.alignment and socket.attachment (issue 22): the distal platform and its four holes.
+void parse_socket_attachment(const json& j, SocketOptions& s) {
+  if (j.contains("alignment")) {
+    const auto& a = j.at("alignment");
+    check_keys(a, "socket.alignment", {"flexion_deg", "adduction_deg"});
+    s.alignment.flexion_rad = limited(a, "flexion_deg", "socket.alignment", s.alignment.flexion_rad / kDeg,
+                                      limits::kFlexion) * kDeg;
+    s.alignment.adduction_rad = limited(a, "adduction_deg", "socket.alignment", s.alignment.adduction_rad / kDeg,
+                                        limits::kAdduction) * kDeg;
+  }
+  if (!j.contains("attachment")) return;
+  const auto& a = j.at("attachment");
+  const std::string w = "socket.attachment";
+  check_keys(a, w, {"enabled", "bolt", "hole_diameter_mm", "hole_spacing_mm", "platform_diameter_mm",
+                    "platform_thickness_mm", "rotation_deg", "offset_mm"});
+  SocketAttachment& t = s.attachment;
+  t.enabled = flag(a, "enabled", w, true);
+  t.bolt = text(a, "bolt", w, t.bolt);
+  t.bolt_diameter_m = bolt_diameter_m(t.bolt);
+  t.hole_diameter_m = limited(a, "hole_diameter_mm", w, clearance_hole_diameter_m(t.bolt) / units::mm,
+                              limits::kHoleDiameter) * units::mm;
+  t.hole_spacing_m = limited(a, "hole_spacing_mm", w, t.hole_spacing_m / units::mm, limits::kHoleSpacing) * units::mm;
+  t.platform_diameter_m =
+      limited(a, "platform_diameter_mm", w, t.platform_diameter_m / units::mm, limits::kPlatformDiameter) * units::mm;
+  t.platform_thickness_m =
+      limited(a, "platform_thickness_mm", w, t.platform_thickness_m / units::mm, limits::kPlatformThickness) * units::mm;
+  t.rotation_rad = number(a, "rotation_deg", w, t.rotation_rad / kDeg) * kDeg;
+  if (a.contains("offset_mm")) {
+    const auto& o = a.at("offset_mm");
+    require(o.is_array() && o.size() == 2 && o[0].is_number() && o[1].is_number(),
+            "case file: socket.attachment.offset_mm must be [anterior, medial] in mm (got {})", o.dump());
+    t.offset_anterior_m =
+        check_input(limits::kAttachmentOffset, o[0].get<double>(), "case file: socket.attachment.offset_mm[0] (anterior)") *
+        units::mm;
+    t.offset_medial_m =
+        check_input(limits::kAttachmentOffset, o[1].get<double>(), "case file: socket.attachment.offset_mm[1] (medial)") *
+        units::mm;
+  }
+  require(t.hole_diameter_m >= t.bolt_diameter_m,
+          "case file: socket.attachment.hole_diameter_mm = {:.1f} is narrower than the {} bolt; give a clearance hole "
+          "(ISO 273 medium: {:.1f} mm) or leave it out",
+          t.hole_diameter_m / units::mm, t.bolt, clearance_hole_diameter_m(t.bolt) / units::mm);
+}
+
+json socket_attachment_json(const SocketOptions& s) {
+  json out{{"alignment", {{"flexion_deg", s.alignment.flexion_rad / kDeg}, {"adduction_deg", s.alignment.adduction_rad / kDeg}}}};
+  if (s.distal_thickness_m > 0) out["distal_thickness_mm"] = s.distal_thickness_m / units::mm;
+  if (s.brim_thickness_m > 0) out["brim_thickness_mm"] = s.brim_thickness_m / units::mm;
+  if (s.attachment.enabled) {
+    const auto& t = s.attachment;
+    out["attachment"] = {{"bolt", t.bolt},
+                         {"hole_diameter_mm", t.hole_diameter_m / units::mm},
+                         {"hole_spacing_mm", t.hole_spacing_m / units::mm},
+                         {"platform_diameter_mm", t.platform_diameter_m / units::mm},
+                         {"platform_thickness_mm", t.platform_thickness_m / units::mm},
+                         {"rotation_deg", t.rotation_rad / kDeg},
+                         {"offset_mm", {t.offset_anterior_m / units::mm, t.offset_medial_m / units::mm}}};
+  }
+  return out;
+}
+}  // namespace
+
 CaseFile parse_case(const json& doc, const std::filesystem::path& folder) {
   CaseFile c;
   c.folder = folder;
@@ -197,15 +261,16 @@ CaseFile parse_case(const json& doc, const std::filesystem::path& folder) {
     const auto& j = doc.at("tissue");
     check_keys(j, "tissue", {"model", "constants", "youngs_kpa", "density_kg_m3", "poisson", "solve"});
     c.model = text(j, "model", "tissue", c.model);
-    require(c.model == "mss-cs" || c.model == "mss-cf" || c.model == "mss" || c.model == "fe",
-            "case file: tissue.model '{}' is not known (mss-cs, mss-cf, mss or fe)", c.model);
+    require(c.model == "mss-cs" || c.model == "mss-cf" || c.model == "mss" || c.model == "fe" || c.model == "neo-hookean",
+            "case file: tissue.model '{}' is not known (mss-cs, mss-cf, mss, fe or neo-hookean)", c.model);
     if (j.contains("poisson")) {
-      require(c.model == "fe" || c.model == "mss-cf",
+      const bool continuum = c.model == "fe" || c.model == "neo-hookean";
+      require(continuum || c.model == "mss-cf",
               "case file: tissue.poisson is given but tissue.model '{}' has no Poisson ratio of its own (the MSS lattice's "
-              "is 1/4); use model fe or mss-cf, or remove tissue.poisson",
+              "is 1/4); use model fe, neo-hookean or mss-cf, or remove tissue.poisson",
               c.model);
       c.poisson_ratio =
-          limited(j, "poisson", "tissue", 0.45, c.model == "fe" ? limits::kFePoisson : limits::kCfPoisson);
+          limited(j, "poisson", "tissue", 0.45, continuum ? limits::kFePoisson : limits::kCfPoisson);
     }
     c.constants = text(j, "constants", "tissue", c.constants);
     require(c.constants == "recommended" || c.constants == "thesis" || c.constants == "cube-fit" ||
@@ -227,7 +292,8 @@ CaseFile parse_case(const json& doc, const std::filesystem::path& folder) {
   }
   if (doc.contains("design")) {
     const auto& j = doc.at("design");
-    check_keys(j, "design", {"spots", "optimise", "objective", "model_pressure_limit", "time_limit_s"});
+    check_keys(j, "design", {"spots", "optimise", "objective", "model_pressure_limit", "time_limit_s", "closed_loop",
+                             "closed_loop_donnings"});
     c.optimise = flag(j, "optimise", "design", true);
     const std::string obj = text(j, "objective", "design", "pressure");
     require(obj == "pressure" || obj == "ratio", "case file: design.objective '{}' is not known (pressure or ratio)", obj);
@@ -235,6 +301,9 @@ CaseFile parse_case(const json& doc, const std::filesystem::path& folder) {
     c.model_pressure_limit =
         limited(j, "model_pressure_limit", "design", c.model_pressure_limit, limits::kModelPressureLimit);
     c.time_limit_s = limited(j, "time_limit_s", "design", c.time_limit_s, limits::kTimeLimit);
+    c.closed_loop = flag(j, "closed_loop", "design", c.closed_loop);
+    c.closed_loop_donnings =
+        count(j, "closed_loop_donnings", "design", c.closed_loop_donnings, limits::kClosedLoopDonnings);
     if (j.contains("spots")) {
       const auto& s = j.at("spots");
       if (s.is_string()) {
@@ -266,8 +335,16 @@ CaseFile parse_case(const json& doc, const std::filesystem::path& folder) {
   }
   if (doc.contains("socket")) {
     const auto& j = doc.at("socket");
-    check_keys(j, "socket", {"thickness_mm", "distal_pad", "distal_pad_diameter_mm", "round_brim", "subdivisions"});
+    check_keys(j, "socket", {"thickness_mm", "distal_pad", "distal_pad_diameter_mm", "round_brim", "subdivisions",
+                             "distal_thickness_mm", "brim_thickness_mm", "alignment", "attachment"});
     c.socket.thickness_m = limited(j, "thickness_mm", "socket", c.socket.thickness_m * 1e3, limits::kThickness) * 1e-3;
+    // 0 (or left out): the uniform thickness_mm.
+    for (auto [key, limit, value] : {std::tuple{"distal_thickness_mm", limits::kDistalThickness, &c.socket.distal_thickness_m},
+                                     std::tuple{"brim_thickness_mm", limits::kBrimThickness, &c.socket.brim_thickness_m}}) {
+      const double mm = number(j, key, "socket", 0.0);
+      *value = (mm == 0.0 ? 0.0 : check_input(limit, mm, fmt::format("case file: socket.{}", key))) * 1e-3;
+    }
+    parse_socket_attachment(j, c.socket);
     c.socket.distal_pad = flag(j, "distal_pad", "socket", c.socket.distal_pad);
     c.socket.distal_pad_diameter_m =
         limited(j, "distal_pad_diameter_mm", "socket", c.socket.distal_pad_diameter_m * 1e3,
@@ -311,7 +388,8 @@ json case_to_json(const CaseFile& c) {
   json spots = json::array();
   for (const auto& s : c.spots) spots.push_back(spot_to_json(s));
   json design{{"optimise", c.optimise}, {"objective", objective_name(c.objective)},
-              {"model_pressure_limit", c.model_pressure_limit}};
+              {"model_pressure_limit", c.model_pressure_limit}, {"closed_loop", c.closed_loop},
+              {"closed_loop_donnings", c.closed_loop_donnings}};
   if (c.time_limit_s > 0) design["time_limit_s"] = c.time_limit_s;
   if (c.spots.empty()) design["spots"] = "default";
   else design["spots"] = spots;
@@ -345,6 +423,7 @@ json case_to_json(const CaseFile& c) {
              {"distal_pad_diameter_mm", c.socket.distal_pad_diameter_m * 1e3},
              {"round_brim", c.socket.round_brim},
              {"subdivisions", c.socket.subdivisions}}}};
+  doc["socket"].update(socket_attachment_json(c.socket));
   if (!lms.empty()) doc["landmarks"] = lms;
   if (c.poisson_ratio) doc["tissue"]["poisson"] = *c.poisson_ratio;
   return doc;

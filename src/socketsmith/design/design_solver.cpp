@@ -1,6 +1,5 @@
 #include "socketsmith/design/design_solver.h"
 
-#include <algorithm>
 #include <chrono>
 #include <limits>
 #include <cmath>
@@ -17,7 +16,7 @@ namespace socketsmith::design {
 
 bool ConstraintStatus::all_ok() const {
   return force_ok[0] && force_ok[1] && force_ok[2] && torque_ok[0] && torque_ok[1] && torque_ok[2] && stability_ok &&
-         comfort_ok;
+         comfort_ok && follower_converged;
 }
 
 std::string ConstraintStatus::failing() const {
@@ -35,6 +34,7 @@ std::string ConstraintStatus::failing() const {
   add(torque_ok[2], "T_z");
   add(stability_ok, "stability");
   add(comfort_ok, "comfort");
+  add(follower_converged, "follower iteration");
   return out;
 }
 
@@ -114,7 +114,6 @@ struct DesignSolver::Impl {
   tissue::DofMap dofs;
   std::unique_ptr<tissue::StaticSolver> solver;
   tissue::VectorXd x;  // warm start
-  std::vector<int> local_of_node;
   Vec3 failure_point = Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
   bool fell_back = false;  // Auto mode: the nonlinear lattice lost stability once; linear since
   std::string fallback_reason;
@@ -166,6 +165,10 @@ DesignSolver::DesignSolver(const volume::HexMesh& mesh, const tissue::TissueMate
                            std::vector<double> thresholds_pa, const PatientLoad& patient, double stump_length_m,
                            const DesignSolverOptions& options) {
   require(std::isfinite(stump_length_m) && stump_length_m > 0, "stump length {} m must be positive", stump_length_m);
+  require(options.max_follower_passes >= 1 && options.max_follower_passes <= 1000 && options.max_relaxed_passes >= 0 &&
+              options.max_relaxed_passes <= 1000 && options.follower_tolerance > 0,
+          "DesignSolver: follower passes {} + {} (relaxed) or tolerance {} out of range ([1, 1000], [0, 1000], > 0)",
+          options.max_follower_passes, options.max_relaxed_passes, options.follower_tolerance);
   impl_ = std::make_unique<Impl>(mesh, material, model_options, frame, std::move(thresholds_pa), patient,
                                  stump_length_m, options);
   require(impl_->thresholds.size() == impl_->skin.nodes.size(), "DesignSolver: {} thresholds for {} skin nodes",
@@ -184,6 +187,7 @@ const PatientLoad& DesignSolver::patient() const { return impl_->patient; }
 const RadarTargets& DesignSolver::targets() const { return impl_->targets; }
 const tissue::MassSpringModel& DesignSolver::model() const { return impl_->model; }
 double DesignSolver::stump_length_m() const { return impl_->length; }
+const DesignSolverOptions& DesignSolver::options() const { return impl_->options; }
 const std::vector<char>& DesignSolver::above_brim() const { return impl_->above; }
 void DesignSolver::reset() {
   impl_->x = impl_->model.rest_positions();
@@ -207,28 +211,26 @@ std::vector<double> DesignSolver::requested_pressure(const std::vector<Spot>& sp
 void DesignSolver::skin_geometry(const tissue::VectorXd& x, std::vector<Vec3>& pos, std::vector<Vec3>& normal,
                                  std::vector<double>& area) const {
   const auto& s = *impl_;
+  pos.resize(s.skin.nodes.size());
+  for (size_t i = 0; i < pos.size(); ++i) pos[i] = x.segment<3>(3 * s.skin.nodes[i]);
+  tissue::skin_areas_and_normals(s.skin, x, area, normal);
+}
+
+std::vector<double> DesignSolver::normal_displacement(const std::vector<double>& pressure_pa, const DesignState& state) {
+  auto& s = *impl_;
   const size_t n = s.skin.nodes.size();
-  pos.resize(n);
-  normal.assign(n, Vec3::Zero());
-  area.assign(n, 0.0);
-  if (s.local_of_node.empty()) {
-    auto& lon = const_cast<std::vector<int>&>(s.local_of_node);
-    lon.assign(s.model.num_nodes(), -1);
-    for (size_t i = 0; i < n; ++i) lon[s.skin.nodes[i]] = static_cast<int>(i);
+  require(pressure_pa.size() == n && state.skin_normals.size() == n && state.skin_areas.size() == n,
+          "normal_displacement: {} pressures and a state with {} normals for {} skin nodes", pressure_pa.size(),
+          state.skin_normals.size(), n);
+  tissue::VectorXd f = tissue::VectorXd::Zero(s.model.num_dofs());
+  for (size_t i = 0; i < n; ++i) {
+    require(std::isfinite(pressure_pa[i]), "normal_displacement: the pressure at skin node {} is not a number", i);
+    f.segment<3>(3 * s.skin.nodes[i]) = -pressure_pa[i] * state.skin_areas[i] * state.skin_normals[i];
   }
-  for (size_t i = 0; i < n; ++i) pos[i] = x.segment<3>(3 * s.skin.nodes[i]);
-  for (const auto& q : s.skin.quads) {
-    const Vec3 a = x.segment<3>(3 * q[0]), b = x.segment<3>(3 * q[1]), c = x.segment<3>(3 * q[2]),
-               d = x.segment<3>(3 * q[3]);
-    const Vec3 an = 0.5 * (c - a).cross(d - b);
-    for (int nd : q) {
-      const int l = s.local_of_node[nd];
-      area[l] += 0.25 * an.norm();
-      normal[l] += an;
-    }
-  }
-  for (auto& v : normal)
-    if (v.squaredNorm() > 0) v.normalize();
+  const tissue::VectorXd u = s.linear_solve(f) - s.model.rest_positions();
+  std::vector<double> un(n);
+  for (size_t i = 0; i < n; ++i) un[i] = u.segment<3>(3 * s.skin.nodes[i]).dot(state.skin_normals[i]);
+  return un;
 }
 
 DesignState DesignSolver::solve(const std::vector<Spot>& spots) {
@@ -253,85 +255,118 @@ DesignState DesignSolver::solve(const std::vector<Spot>& spots) {
     st.linearised = true;
     st.nonlinear_failure = s.fallback_reason;
   }
+  // The linearised stump's follower iteration: x → forces f(x) on the geometry at x → y = K₀⁻¹ f,
+  // the stump solved under them → forces g at y. Converged when g and f differ by at most follower_tolerance (relative,
+  // largest nodal change): y is then the equilibrium under its own forces. The first passes take
+  // x = y (plain fixed point); after max_follower_passes, or as soon as the change grows (the
+  // iteration oscillates), x moves only part of the way, x += ω (y − x), with Aitken's dynamic
+  // relaxation factor ω (Irons & Tuck 1969; Küttler & Wall 2008) — for at most
+  // max_relaxed_passes more solves. A state that did not converge is flagged, and never counts as
+  // meeting its constraints (ConstraintStatus::follower_converged).
   tissue::VectorXd x = s.x;  // warm start: the last equilibrium and its geometry
-  std::vector<Vec3> pos, normal;
-  std::vector<double> area;
-  skin_geometry(x, pos, normal, area);
-  tissue::VectorXd f_prev;
-  for (int pass = 0; pass < s.options.max_follower_passes + 1; ++pass) {
-    tissue::VectorXd f = tissue::VectorXd::Zero(s.model.num_dofs());
-    for (size_t i = 0; i < n; ++i) f.segment<3>(3 * s.skin.nodes[i]) = -st.pressure_pa[i] * area[i] * normal[i];
-    double change = 0;
-    if (f_prev.size() == f.size()) {
-      double fmax = 0, dmax = 0;
-      for (size_t i = 0; i < n; ++i) {
-        fmax = std::max(fmax, f.segment<3>(3 * s.skin.nodes[i]).norm());
-        dmax = std::max(dmax, (f - f_prev).segment<3>(3 * s.skin.nodes[i]).norm());
-      }
-      change = fmax > 0 ? dmax / fmax : 0.0;
-      if (change <= s.options.follower_tolerance) break;
-    }
-    if (pass == s.options.max_follower_passes) {
-      st.follower_capped = true;
-      st.follower_change = change;
-      break;
-    }
-    if (linear) {
-      x = s.linear_solve(f);
-      ++st.follower_passes;
-      // The follower iteration runs away when the tissue is too soft for the load (each pass's
-      // deformed skin carries larger forces): stop before NaN reaches the outputs.
-      double umax = 0;
-      for (Eigen::Index k = 0; k < x.size() / 3; ++k)
-        umax = std::max(umax, (x - s.model.rest_positions()).segment<3>(3 * k).norm());
-      if (!x.allFinite() || !(umax <= 0.5 * s.length)) {
-        s.failure_point = Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
-        fail<SolverError>("design solve: the stump's deformation runs away under these pressures (pass {}: {:.3g} mm, "
-                          "more than half the {:.0f} mm stump): the tissue (E = {:.3g} kPa) is too soft for this load — "
-                          "raise tissue.youngs_kpa or lower the pressures",
-                          st.follower_passes, umax * 1e3, s.length * 1e3, s.model.material().youngs_modulus_pa / 1e3);
-      }
-      f_prev = std::move(f);
-      skin_geometry(x, pos, normal, area);
-      continue;
-    }
-    const auto res = s.solver->solve(f, x);
+  if (!linear) {
+    // The nonlinear stump: one Newton solve with the pressure as a load that follows the skin, its
+    // load stiffness in the tangent. Passes of fixed forces do not carry it: a stump at a design
+    // load can be close to buckling under dead forces (the distal tissue swinging round the bone
+    // end; measured on ampscan, 80 kg, 100 kPa: softest eigenvalue 0.4 N/m, the second pass stalls
+    // at 0.8 % of its load) while the follower load, which turns with the skin, holds it.
+    const tissue::FollowerPressure load(s.skin, st.pressure_pa, s.model.num_nodes());
+    const auto res = s.solver->solve(load, x);
     st.newton_iterations += res.iterations;
-    ++st.follower_passes;
-    if (!res.converged && s.options.mode == DesignSolveMode::Auto) {
-      s.fell_back = true;  // sticky: this stump's lattice cannot carry such fields
-      s.fallback_reason = res.message;
-      // The lattice has no stable equilibrium here: take the linearised model, say so.
-      st.nonlinear_failure = res.message;
+    st.follower_passes = 1;
+    if (!res.converged) {
       s.failure_point = Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
       if (res.worst_element >= 0) {
         Vec3 c = Vec3::Zero();
         for (int nd : s.model.mesh().hexahedra[res.worst_element]) c += s.model.rest_positions().segment<3>(3 * nd) / 8.0;
         s.failure_point = c;
       }
+      st.nonlinear_failure = res.message;
+      if (s.options.mode != DesignSolveMode::Auto) {
+        st.converged = false;
+        st.message = res.message;
+        fail<SolverError>("design solve: the stump found no equilibrium under these pressures (peak applied {:.1f} kPa): {}",
+                          *std::max_element(st.pressure_pa.begin(), st.pressure_pa.end()) / 1e3, res.message);
+      }
+      // Auto: the model has no stable equilibrium here; take the linearised model from now on, say so.
+      s.fell_back = true;
+      s.fallback_reason = res.message;
       linear = true;
       st.linearised = true;
+      st.follower_passes = 0;
       x = s.model.rest_positions();
-      skin_geometry(x, pos, normal, area);
-      f_prev.resize(0);
-      pass = -1;
+    }
+  }
+  std::vector<Vec3> pos, normal;
+  std::vector<double> area;
+  auto forces_at = [&](const tissue::VectorXd& at) {
+    skin_geometry(at, pos, normal, area);
+    tissue::VectorXd f = tissue::VectorXd::Zero(s.model.num_dofs());
+    for (size_t i = 0; i < n; ++i) f.segment<3>(3 * s.skin.nodes[i]) = -st.pressure_pa[i] * area[i] * normal[i];
+    return f;
+  };
+  auto relative_change = [&](const tissue::VectorXd& a, const tissue::VectorXd& b) {
+    double fmax = 0, dmax = 0;
+    for (size_t i = 0; i < n; ++i) {
+      fmax = std::max(fmax, a.segment<3>(3 * s.skin.nodes[i]).norm());
+      dmax = std::max(dmax, (a - b).segment<3>(3 * s.skin.nodes[i]).norm());
+    }
+    return fmax > 0 ? dmax / fmax : 0.0;
+  };
+  tissue::VectorXd f = forces_at(x);
+  tissue::VectorXd y = x;  // the last solve's equilibrium (the nonlinear solve's warm start)
+  tissue::VectorXd r_prev;
+  double omega = 0.5, previous_change = std::numeric_limits<double>::infinity();
+  bool relaxing = false;
+  const int max_passes = s.options.max_follower_passes + std::max(0, s.options.max_relaxed_passes);
+  for (; linear;) {
+    if (st.follower_passes >= max_passes) {
+      st.follower_capped = true;
+      x = y;
+      break;
+    }
+    y = s.linear_solve(f);
+    ++st.follower_passes;
+    // The follower iteration runs away when the tissue is too soft for the load (each pass's
+    // deformed skin carries larger forces): stop before NaN reaches the outputs.
+    double umax = 0;
+    for (Eigen::Index k = 0; k < y.size() / 3; ++k)
+      umax = std::max(umax, (y - s.model.rest_positions()).segment<3>(3 * k).norm());
+    if (!y.allFinite() || !(umax <= 0.5 * s.length)) {
+      s.failure_point = Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
+      fail<SolverError>("design solve: the stump's deformation runs away under these pressures (pass {}: {:.3g} mm, "
+                        "more than half the {:.0f} mm stump): the tissue (E = {:.3g} kPa) is too soft for this load — "
+                        "raise tissue.youngs_kpa or lower the pressures",
+                        st.follower_passes, umax * 1e3, s.length * 1e3, s.model.material().youngs_modulus_pa / 1e3);
+    }
+    const tissue::VectorXd g = forces_at(y);
+    const double change = relative_change(g, f);
+    st.follower_change = change;
+    if (change <= s.options.follower_tolerance) {
+      x = y;
+      break;
+    }
+    if (!relaxing && (st.follower_passes >= s.options.max_follower_passes || change > previous_change)) {
+      relaxing = true;
+      st.follower_relaxed_from = st.follower_passes;
+    }
+    previous_change = change;
+    if (!relaxing) {
+      x = y;
+      f = g;
       continue;
     }
-    if (!res.converged) {
-      st.converged = false;
-      s.failure_point = Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
-      if (res.worst_element >= 0) {
-        Vec3 c = Vec3::Zero();
-        for (int nd : s.model.mesh().hexahedra[res.worst_element]) c += s.model.rest_positions().segment<3>(3 * nd) / 8.0;
-        s.failure_point = c;
-      }
-      st.message = res.message;
-      fail<SolverError>("design solve: the stump found no equilibrium under these pressures (peak applied {:.1f} kPa): {}",
-                        *std::max_element(st.pressure_pa.begin(), st.pressure_pa.end()) / 1e3, res.message);
+    const tissue::VectorXd r = y - x;
+    if (r_prev.size() == r.size()) {
+      const tissue::VectorXd dr = r - r_prev;
+      const double dd = dr.squaredNorm();
+      if (dd > 0) omega = std::clamp(-omega * r_prev.dot(dr) / dd, 0.05, 1.5);
     }
-    f_prev = std::move(f);
-    skin_geometry(x, pos, normal, area);
+    r_prev = r;
+    x += omega * r;
+    f = forces_at(x);
   }
+  skin_geometry(x, pos, normal, area);
   s.x = x;  // warm start of the next solve
   st.converged = true;
   st.positions = x;
@@ -353,11 +388,13 @@ DesignState DesignSolver::solve(const std::vector<Spot>& spots) {
   st.centre_of_inertia = c / mt;
   st.radar = compute_radar(pos, normal, area, st.pressure_pa, s.frame, st.centre_of_inertia, s.patient.friction);
   st.status = check_constraints(st.radar, s.targets, st.max_requested_ratio);
+  st.status.follower_converged = !st.follower_capped;
   st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   st.message = st.status.all_ok() ? "all constraints met" : "not met: " + st.status.failing();
   if (st.follower_capped)
-    st.message += fmt::format(" (follower iteration stopped after {} passes with a force change of {:.2g}, above {:.2g})",
-                              s.options.max_follower_passes, st.follower_change, s.options.follower_tolerance);
+    st.message += fmt::format(" (the follower iteration did not converge: the forces still changed by {:.2g} after "
+                              "{} passes, tolerance {:.2g})",
+                              st.follower_change, st.follower_passes, s.options.follower_tolerance);
   if (st.linearised && s.options.mode == DesignSolveMode::Auto)
     st.message += " (shape from the linearised stump model: the nonlinear tissue model lost stability under this field)";
   return st;

@@ -17,9 +17,12 @@
 /// `force_tolerance` (1 %) of M g / 2, torques within `torque_tolerance` (1 %) of M g / 2 × the
 /// stump length.
 ///
-/// The pressure is a follower load: forces use the deformed normals and areas. A solve fixes the
-/// forces at the current geometry, solves, recomputes the geometry, and repeats until the nodal
-/// forces change by less than `follower_tolerance` (usually 2–3 passes).
+/// The pressure is a follower load: forces use the deformed normals and areas. The nonlinear
+/// stump solves for it directly (tissue::FollowerPressure: Newton with the load's stiffness in the
+/// tangent). The linearised stump fixes the forces at the current geometry, solves, recomputes the
+/// geometry, and repeats until the nodal forces change by less than `follower_tolerance` (usually
+/// 2–4 passes); when it oscillates or takes long, with Aitken relaxation. A state whose iteration
+/// did not converge within its cap does not meet its constraints (ConstraintStatus::follower_converged).
 
 #include <functional>
 #include <memory>
@@ -66,8 +69,11 @@ struct ConstraintStatus {
   bool torque_ok[3] = {false, false, false};
   bool stability_ok = false;
   bool comfort_ok = false;          ///< no node's requested pressure above its threshold
+  /// The follower iteration converged: the shape is the equilibrium under its own forces. A
+  /// state whose iteration stopped at its cap never counts as meeting its constraints.
+  bool follower_converged = true;
   bool all_ok() const;
-  std::string failing() const;      ///< "F_x, comfort" or "" when all hold
+  std::string failing() const;      ///< "F_x, comfort, follower iteration" or "" when all hold
 };
 
 RadarTargets radar_targets(const PatientLoad& patient, double stump_length_m);
@@ -101,9 +107,10 @@ struct DesignState {
   bool converged = false;
   bool linearised = false;                 ///< the shape comes from the linearised model
   std::string nonlinear_failure;           ///< why the nonlinear solve failed (Auto mode)
-  int follower_passes = 0;
-  bool follower_capped = false;            ///< stopped at max_follower_passes before the tolerance
-  double follower_change = 0.0;            ///< the force change when capped
+  int follower_passes = 0;                 ///< linear solves of the linearised stump (1 for a nonlinear solve)
+  bool follower_capped = false;            ///< stopped at its pass cap before the tolerance (not met)
+  double follower_change = 0.0;            ///< the last pass's relative force change
+  int follower_relaxed_from = 0;           ///< relaxation started after this pass (0: plain iteration)
   int newton_iterations = 0;
   double seconds = 0.0;
   std::string message;
@@ -111,7 +118,7 @@ struct DesignState {
 
 /// How the stump's equilibrium is found.
 enum class DesignSolveMode {
-  Nonlinear,  ///< the MSS-CS model's static equilibrium (Newton, warm-started)
+  Nonlinear,  ///< the tissue model's static equilibrium under the follower pressure (Newton, warm-started)
   Linear,     ///< its linearisation at rest: K₀ u = f with K₀ factorised once (updates in ms)
   Auto,       ///< nonlinear; once the lattice loses stability (no equilibrium), the linearised
               ///< model from then on, reported in DesignState::linearised and its message
@@ -126,8 +133,9 @@ struct DesignSolverOptions {
   /// makes a design update a few back-substitutions.
   DesignSolveMode mode = DesignSolveMode::Linear;
   tissue::StaticSolverOptions solver;
-  double follower_tolerance = 1e-3;  ///< max |Δf_i| / max |f_i| between passes
-  int max_follower_passes = 8;
+  double follower_tolerance = 1e-3;  ///< linearised stump: max |Δf_i| / max |f_i| between passes
+  int max_follower_passes = 8;       ///< linearised stump: plain passes (x = y), [1, 1000]
+  int max_relaxed_passes = 32;       ///< linearised stump: then passes with Aitken relaxation, [0, 1000]; 0 = none
 };
 
 /// The stump under design: model, solver and skin geometry built once; each solve() warm-starts
@@ -151,6 +159,7 @@ class DesignSolver {
   const PatientLoad& patient() const;
   const RadarTargets& targets() const;
   const tissue::MassSpringModel& model() const;
+  const DesignSolverOptions& options() const;
   double stump_length_m() const;
 
   /// Marks skin nodes above the brim (h > brim(θ), rest coordinates): no pressure there.
@@ -167,6 +176,15 @@ class DesignSolver {
   /// Skin geometry (positions, outward normals, nodal areas) at node positions @p x (3N).
   void skin_geometry(const tissue::VectorXd& x, std::vector<Vec3>& pos, std::vector<Vec3>& normal,
                      std::vector<double>& area) const;
+
+  /// Normal displacement of every skin node (along the outward normal, [m]) when pressures
+  /// @p pressure_pa [Pa, one per skin node] push on the skin with the nodal areas and normals of
+  /// @p state, on the stump linearised at rest (K₀, factorised once and shared with the linear
+  /// design solve). A pressure pushes inwards, so a positive pressure gives negative values. This
+  /// is the stump's compliance seen from its skin: the closed-loop design moves a socket wall by
+  /// it to take away a pressure the wall delivers in excess.
+  /// @throws InvalidInputError for a field of the wrong size or with non-finite values.
+  std::vector<double> normal_displacement(const std::vector<double>& pressure_pa, const DesignState& state);
 
   /// Forgets the warm start (next solve starts from rest).
   void reset();

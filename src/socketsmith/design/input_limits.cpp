@@ -15,7 +15,10 @@ const std::vector<InputLimit>& all_input_limits() {
                                            kTorqueTolerance, kPainThreshold,    kYoungsModulus, kDensity,
                                            kFePoisson,     kCfPoisson,          kTargetNodes,   kModelPressureLimit,
                                            kMaxAmplitude,  kTimeLimit,          kCutHeight,     kThickness,
-                                           kDistalPadDiameter, kSubdivisions};
+                                           kDistalPadDiameter, kSubdivisions, kClosedLoopDonnings,
+                                           kDistalThickness, kBrimThickness, kFlexion, kAdduction,
+                                           kHoleDiameter, kHoleSpacing, kPlatformDiameter, kPlatformThickness,
+                                           kAttachmentOffset};
   return all;
 }
 

@@ -47,7 +47,7 @@ inline constexpr InputLimit kYoungsModulus{"tissue.youngs_kpa", "kPa", 10, 10000
 inline constexpr InputLimit kDensity{"tissue.density_kg_m3", "kg/m^3", 100, 10000, false, false, false,
                                      "soft tissue: about 1060"};
 inline constexpr InputLimit kFePoisson{"tissue.poisson", "", 0, 0.5, false, true, false,
-                                       "the fe model's Poisson ratio (soft tissue: 0.45-0.49)"};
+                                       "the fe and neo-hookean models' Poisson ratio (soft tissue: 0.45-0.49)"};
 inline constexpr InputLimit kCfPoisson{"tissue.poisson", "", 0.25, 0.5, false, true, false,
                                        "MSS-CF's target Poisson ratio (soft tissue: 0.45-0.49)"};
 // Mesh, design, socket
@@ -57,12 +57,33 @@ inline constexpr InputLimit kModelPressureLimit{"design.model_pressure_limit", "
                                                 "a fraction of E; 0 = no limit (default 0.25)"};
 inline constexpr InputLimit kMaxAmplitude{"design.spots[].max_amplitude_kpa", "kPa", 0, 5000, false, false, false,
                                           "the optimiser's bound on the spot's amplitude; 0 = none"};
+inline constexpr InputLimit kClosedLoopDonnings{"design.closed_loop_donnings", "", 1, 20, false, false, true,
+                                                "donnings at most, the open-loop socket's included (default 4)"};
 inline constexpr InputLimit kTimeLimit{"design.time_limit_s", "s", 0, 86400, true, false, false,
                                        "the optimiser's wall-time bound in seconds (e.g. 60)"};
 inline constexpr InputLimit kCutHeight{"limb.cut_height_mm", "mm", 0, 2000, true, false, false,
                                        "the proximal cut above the distal end, in mm (e.g. 180)"};
 inline constexpr InputLimit kThickness{"socket.thickness_mm", "mm", 0, 50, true, false, false,
                                        "the wall must be thicker than 0 and at most 50 mm (typical 4–8)"};
+inline constexpr InputLimit kDistalThickness{"socket.distal_thickness_mm", "mm", 1, 50, false, false, false,
+                                             "a wall of 1-50 mm (leave it out for a uniform thickness_mm)"};
+inline constexpr InputLimit kBrimThickness{"socket.brim_thickness_mm", "mm", 1, 50, false, false, false,
+                                           "a wall of 1-50 mm (leave it out for a uniform thickness_mm)"};
+inline constexpr InputLimit kFlexion{"socket.alignment.flexion_deg", "deg", -30, 30, false, false, false,
+                                     "bench alignment: about 5 degrees of flexion"};
+inline constexpr InputLimit kAdduction{"socket.alignment.adduction_deg", "deg", -30, 30, false, false, false,
+                                       "bench alignment: a few degrees of adduction"};
+inline constexpr InputLimit kHoleDiameter{"socket.attachment.hole_diameter_mm", "mm", 0, 150, true, false, false,
+                                          "a clearance hole at least as wide as the bolt (leave it out for ISO 273 medium)"};
+inline constexpr InputLimit kHoleSpacing{"socket.attachment.hole_spacing_mm", "mm", 0, 150, true, false, false,
+                                         "the adapter's hole square, centre to centre"};
+inline constexpr InputLimit kPlatformDiameter{"socket.attachment.platform_diameter_mm", "mm", 0, 150, true, false, false,
+                                              "the distal platform's diameter"};
+inline constexpr InputLimit kPlatformThickness{"socket.attachment.platform_thickness_mm", "mm", 0, 150, true, false,
+                                               false, "the distal platform's thickness"};
+inline constexpr InputLimit kAttachmentOffset{"socket.attachment.offset_mm", "mm", -20, 20, false, false, false,
+                                              "each of [anterior, medial] within 20 mm of the axis; shift the rest with "
+                                              "the adapter"};
 inline constexpr InputLimit kDistalPadDiameter{"socket.distal_pad_diameter_mm", "mm", 0, 150, true, false, false,
                                                "the flat disc for the adapter (e.g. 40)"};
 inline constexpr InputLimit kSubdivisions{"socket.subdivisions", "", 0, 3, false, false, true,

@@ -681,7 +681,14 @@ OptimizerResult optimise_design(DesignSolver& solver, std::vector<Spot> spots, c
       const auto& r = out.state.radar;
       std::string why;
       const auto& st = out.state.status;
-      if (!st.comfort_ok)
+      if (!st.follower_converged)
+        why = fmt::format("follower iteration: the stump's shape did not settle under its own pressures (the forces "
+                          "still changed by {:.2g} after {} passes, tolerance {:.2g}), so the socket it gives is not "
+                          "an equilibrium — stiffer tissue (tissue.youngs_kpa), a coarser or finer mesh, or lower "
+                          "pressures",
+                          out.state.follower_change, out.state.follower_passes,
+                          solver.options().follower_tolerance);
+      else if (!st.comfort_ok)
         why = fmt::format("comfort: the pressures needed peak at {:.0f} % of the pain threshold (skin node {}); the "
                           "thresholds are too low for M g / 2 = {:.0f} N on this brim — raise the brim, add spots "
                           "over tolerant areas, or review the thresholds",

@@ -114,9 +114,9 @@ CubeFeResult run_cube_fe(const CubeFeOptions& o, const std::filesystem::path& di
   if (res.force_n.empty())
     fail<SolverError>("validate cube: ccx finished but its results hold no contact increment ({}, {}): read the log {}",
                       res.ccx.frd.string(), res.ccx.dat.string(), res.ccx.log.string());
-  res.displacement = compare_fields(res.fe_displacement_m, res.analytic_displacement_m);
-  res.pressure = compare_fields(all_fe_p, all_an_p);
-  res.interior_pressure = compare_fields(all_fe_p, all_an_p, interior);
+  res.displacement = report::compare_fields(res.fe_displacement_m, res.analytic_displacement_m);
+  res.pressure = report::compare_fields(all_fe_p, all_an_p);
+  res.interior_pressure = report::compare_fields(all_fe_p, all_an_p, interior);
   for (size_t k = 0; k < res.force_n.size(); ++k) {
     res.max_displacement_rel_error =
         std::max(res.max_displacement_rel_error,

@@ -18,7 +18,7 @@
 
 #include "socketsmith/fe/calculix_deck.h"
 #include "socketsmith/fe/ccx_runner.h"
-#include "socketsmith/fe/comparison.h"
+#include "socketsmith/report/field_comparison.h"
 
 namespace socketsmith::fe {
 
@@ -40,9 +40,9 @@ struct CubeFeResult {
   std::vector<double> analytic_displacement_m;  ///< F L / (A E)
   std::vector<double> fe_pressure_pa;      ///< mean top-face CPRESS [Pa]
   std::vector<double> analytic_pressure_pa;     ///< F / (A (1 + ν ε)²)
-  ErrorStats displacement;   ///< FE vs analytic top displacement over the increments [m]
-  ErrorStats pressure;       ///< nodal CPRESS vs F/A over all top nodes × increments [Pa]
-  ErrorStats interior_pressure;  ///< the same without the top face's edge nodes [Pa]
+  report::ErrorStats displacement;   ///< FE vs analytic top displacement over the increments [m]
+  report::ErrorStats pressure;       ///< nodal CPRESS vs F/A over all top nodes × increments [Pa]
+  report::ErrorStats interior_pressure;  ///< the same without the top face's edge nodes [Pa]
   double max_displacement_rel_error = 0;  ///< max |FE − analytic| / analytic
   double max_pressure_rel_error = 0;      ///< of the mean top pressure
   int nodes = 0, elements = 0;

@@ -167,8 +167,10 @@ DesignCheckResult check_design(const DesignedStump& d, const DesignCheckOptions&
       // The designed socket, rigid, moved distally; pushed back up by the reference node.
       std::vector<Vec3> inner(ns), normal(ns);
       const Vec3 down = -o.donning_travel_m * d.frame.axis.normalized();
+      require(d.wall_positions.empty() || static_cast<int>(d.wall_positions.size()) == ns,
+              "check_design: {} wall positions for {} skin nodes", d.wall_positions.size(), ns);
       for (int i = 0; i < ns; ++i) {
-        inner[i] = d.designed_positions[skin.nodes[i]] + down;
+        inner[i] = (d.wall_positions.empty() ? d.designed_positions[skin.nodes[i]] : d.wall_positions[i]) + down;
         normal[i] = d.skin_normals[i].normalized();
       }
       shell = extrude_shell(inner, normal, socket_quads, o.socket_thickness_m);
@@ -291,20 +293,20 @@ DesignCheckResult check_design(const DesignedStump& d, const DesignCheckOptions&
     if (res.brim_ring[i] >= 2) ring2.push_back(i);
     if (res.brim_ring[i] >= 4) ring4.push_back(i);
   }
-  res.all = compare_fields(res.fe_value, res.socketsmith_value, all);
+  res.all = report::compare_fields(res.fe_value, res.socketsmith_value, all);
   if (contact) {
-    res.all_cpress = compare_fields(res.fe_cpress_pa, res.socketsmith_value, all);
+    res.all_cpress = report::compare_fields(res.fe_cpress_pa, res.socketsmith_value, all);
     if (!res.fe_stress_pressure_pa.empty())
-      res.all_stress = compare_fields(res.fe_stress_pressure_pa, res.socketsmith_value, all);
+      res.all_stress = report::compare_fields(res.fe_stress_pressure_pa, res.socketsmith_value, all);
     if (!res.fe_force_pressure_pa.empty())
-      res.all_force = compare_fields(res.fe_force_pressure_pa, res.socketsmith_value, all);
+      res.all_force = report::compare_fields(res.fe_force_pressure_pa, res.socketsmith_value, all);
   }
-  res.one_ring_away = compare_fields(res.fe_value, res.socketsmith_value, ring2);
-  res.away_from_brim = compare_fields(res.fe_value, res.socketsmith_value, ring4);
+  res.one_ring_away = report::compare_fields(res.fe_value, res.socketsmith_value, ring2);
+  res.away_from_brim = report::compare_fields(res.fe_value, res.socketsmith_value, ring4);
   res.fe_value_smoothed = smooth_one_ring(res.fe_value, adj, skin.area_m2);
   res.socketsmith_value_smoothed = smooth_one_ring(res.socketsmith_value, adj, skin.area_m2);
-  res.all_smoothed = compare_fields(res.fe_value_smoothed, res.socketsmith_value_smoothed, all);
-  res.away_from_brim_smoothed = compare_fields(res.fe_value_smoothed, res.socketsmith_value_smoothed, ring4);
+  res.all_smoothed = report::compare_fields(res.fe_value_smoothed, res.socketsmith_value_smoothed, all);
+  res.away_from_brim_smoothed = report::compare_fields(res.fe_value_smoothed, res.socketsmith_value_smoothed, ring4);
   res.mean_fe_pa = res.all.mean_a;
   res.mean_designed_pa = res.all.mean_b;
   // The thesis's paths, sampled on the rest skin as in the design report.
@@ -319,8 +321,8 @@ DesignCheckResult check_design(const DesignedStump& d, const DesignCheckOptions&
       pc.skin_index.push_back(smp.index);
       pc.s.push_back(pc.is_vertical ? smp.s * 1e3 : smp.s * 180 / std::numbers::pi);
     }
-    pc.stats = compare_fields(res.fe_value, res.socketsmith_value, pc.skin_index);
-    pc.smoothed = compare_fields(res.fe_value_smoothed, res.socketsmith_value_smoothed, pc.skin_index);
+    pc.stats = report::compare_fields(res.fe_value, res.socketsmith_value, pc.skin_index);
+    pc.smoothed = report::compare_fields(res.fe_value_smoothed, res.socketsmith_value_smoothed, pc.skin_index);
     res.paths.push_back(std::move(pc));
   }
   return res;

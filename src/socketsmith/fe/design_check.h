@@ -25,8 +25,8 @@
 
 #include "socketsmith/fe/calculix_deck.h"
 #include "socketsmith/fe/ccx_runner.h"
-#include "socketsmith/fe/comparison.h"
 #include "socketsmith/geometry/limb_frame.h"
+#include "socketsmith/report/field_comparison.h"
 #include "socketsmith/volume/hex_mesher.h"
 
 namespace socketsmith::fe {
@@ -42,6 +42,10 @@ struct DesignedStump {
   std::vector<Vec3> skin_normals;              ///< deformed outward normals per skin node
   std::vector<double> skin_areas_m2;           ///< deformed nodal areas per skin node [m²]
   std::vector<char> above_brim;                ///< per skin node: above the brim (no socket)
+  /// The socket's inner wall at each skin node [m] when it is not the designed skin (the closed
+  /// loop moved it by δ along the designed normals); empty: the designed skin is the wall. The
+  /// donning check's rigid socket is built on it.
+  std::vector<Vec3> wall_positions;
   double front_theta_rad = 0;                  ///< angle of the front line (through PT)
   double stump_length_m = 0;                   ///< for the mid-stump circumference
 };
@@ -97,8 +101,8 @@ struct PathComparison {
   bool is_vertical = true;
   std::vector<int> skin_index;  ///< skin nodes along the path, in order
   std::vector<double> s;        ///< path coordinate: mm (vertical) or degrees (circumference)
-  ErrorStats stats;             ///< FE vs socketsmith on the path (Pa or m)
-  ErrorStats smoothed;          ///< the same on the one-ring smoothed fields
+  report::ErrorStats stats;             ///< FE vs socketsmith on the path (Pa or m)
+  report::ErrorStats smoothed;          ///< the same on the one-ring smoothed fields
 };
 
 struct DesignCheckResult {
@@ -110,16 +114,16 @@ struct DesignCheckResult {
   std::vector<double> fe_cpress_pa, fe_stress_pressure_pa, fe_force_pressure_pa;
   FePressure fe_pressure = FePressure::NodalForce;  ///< the one compared
   /// Socket nodes, each FE pressure against socketsmith (whichever is compared).
-  ErrorStats all_cpress, all_stress, all_force;
+  report::ErrorStats all_cpress, all_stress, all_force;
   std::vector<Vec3> fe_displacement_m;    ///< per mesh node (last increment)
   std::vector<int> brim_ring;             ///< per skin node: rings of quads from the brim (0 = above)
-  ErrorStats all;                         ///< socket nodes (ring ≥ 1)
-  ErrorStats one_ring_away;               ///< ring ≥ 2
-  ErrorStats away_from_brim;              ///< ring ≥ 4
+  report::ErrorStats all;                         ///< socket nodes (ring ≥ 1)
+  report::ErrorStats one_ring_away;               ///< ring ≥ 2
+  report::ErrorStats away_from_brim;              ///< ring ≥ 4
   /// Both fields averaged over each node's one ring (area-weighted): separates the pattern from
   /// node-level scatter of nodal CPRESS (CALCULIX.md: ±40 % between formulations).
   std::vector<double> socketsmith_value_smoothed, fe_value_smoothed;
-  ErrorStats all_smoothed, away_from_brim_smoothed;
+  report::ErrorStats all_smoothed, away_from_brim_smoothed;
   std::vector<PathComparison> paths;      ///< front, back, mid
   double designed_force_n = 0;            ///< |Σ p A n| of the design [N]
   double fe_force_n = 0;                  ///< |contact force| (Contact) or |bone reaction| (Load) [N]

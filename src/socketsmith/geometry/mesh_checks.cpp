@@ -4,6 +4,9 @@
 #include <cmath>
 #include <numeric>
 
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Polygon_mesh_processing/self_intersections.h>
+#include <CGAL/Surface_mesh.h>
 #include <fmt/format.h>
 
 #include "socketsmith/core/errors.h"
@@ -306,6 +309,26 @@ std::vector<TriMesh> split_components(const TriMesh& mesh) {
     }
   }
   return out;
+}
+
+bool has_self_intersections(const TriMesh& mesh) {
+  using K = CGAL::Exact_predicates_inexact_constructions_kernel;
+  using SM = CGAL::Surface_mesh<K::Point_3>;
+  SM sm;
+  std::vector<SM::Vertex_index> v;
+  v.reserve(mesh.vertices.size());
+  for (const auto& p : mesh.vertices) {
+    require(is_finite(p), "has_self_intersections: the mesh has a NaN/inf vertex");
+    v.push_back(sm.add_vertex(K::Point_3(p.x(), p.y(), p.z())));
+  }
+  const int nv = mesh.num_vertices();
+  for (const auto& t : mesh.triangles) {
+    require(indices_in_range(t, nv), "has_self_intersections: a triangle has a vertex index out of range");
+    if (sm.add_face(v[t[0]], v[t[1]], v[t[2]]) == SM::null_face())
+      fail<TopologyError>("has_self_intersections: the mesh is not a manifold surface (a face could not be added); "
+                          "check it with socketsmith check mesh");
+  }
+  return CGAL::Polygon_mesh_processing::does_self_intersect(sm);
 }
 
 }  // namespace socketsmith::geometry

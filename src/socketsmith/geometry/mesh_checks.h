@@ -42,6 +42,12 @@ struct MeshCheckOptions {
 /// Inspects @p mesh without modifying it. Never throws on bad geometry: reports it.
 MeshCheckReport check_mesh(const TriMesh& mesh, const MeshCheckOptions& options = {});
 
+/// Whether two triangles of @p mesh that do not share an edge or a vertex intersect, or two that
+/// do overlap beyond it (CGAL Polygon Mesh Processing's does_self_intersect, exact predicates).
+/// @throws TopologyError when @p mesh is not a manifold surface (CGAL cannot read it);
+///         InvalidInputError for NaN coordinates or indices out of range.
+bool has_self_intersections(const TriMesh& mesh);
+
 /// Throws TopologyError (or InvalidInputError for NaN) with one line naming the first problem
 /// and the fix when @p mesh is not a valid closed, manifold, consistently oriented surface.
 /// @param what names the mesh in the message, e.g. "limb 'scan.stl'".

@@ -250,6 +250,7 @@ struct SurfaceQuery::Impl {
   TriMesh mesh;
   std::vector<Triangle> triangles;  ///< the non-degenerate triangles, in the tree
   std::vector<int> mesh_triangle;   ///< mesh_triangle[i]: index in `mesh` of triangles[i]
+  std::vector<int> tree_triangle;   ///< tree_triangle[t]: index in `triangles` of mesh triangle t, −1 if left out
   Tree tree;
   std::array<Vec3, 3> inside_directions = inside_test_directions();
 
@@ -282,6 +283,7 @@ SurfaceQuery::SurfaceQuery(const TriMesh& mesh) : impl_(std::make_unique<Impl>()
   m.mesh = mesh;
   m.triangles.reserve(mesh.triangles.size());
   m.mesh_triangle.reserve(mesh.triangles.size());
+  m.tree_triangle.assign(mesh.triangles.size(), -1);
   for (int t = 0; t < mesh.num_triangles(); ++t) {
     const auto& tri = mesh.triangles[t];
     for (int k = 0; k < 3; ++k)
@@ -292,6 +294,7 @@ SurfaceQuery::SurfaceQuery(const TriMesh& mesh) : impl_(std::make_unique<Impl>()
     // Degenerate triangles hold no surface of their own (their points lie on neighbouring
     // triangles) and have no plane to project onto: leave them out of the tree.
     if (triangle.is_degenerate()) continue;
+    m.tree_triangle[t] = static_cast<int>(m.triangles.size());
     m.triangles.push_back(triangle);
     m.mesh_triangle.push_back(t);
   }
@@ -317,6 +320,21 @@ SurfaceHit SurfaceQuery::closest_point(const Vec3& p) const {
   const auto [hint, hint_triangle] = impl_->tree.best_hint(query);  // nearest vertex, by the kd-tree
   NearestFirstSearch search(p, to_vec3(hint), hint_triangle);
   impl_->tree.traversal_with_priority(query, search);
+  SurfaceHit hit;
+  hit.point = search.point();
+  hit.triangle = impl_->triangle_index(search.triangle());
+  hit.distance = (p - hit.point).norm();
+  return hit;
+}
+
+SurfaceHit SurfaceQuery::closest_point(const Vec3& p, const SurfaceHit& hint) const {
+  require(is_finite(p), "SurfaceQuery::closest_point: query point ({}, {}, {}) is not finite", p.x(), p.y(), p.z());
+  const int tri = hint.triangle >= 0 && hint.triangle < static_cast<int>(impl_->tree_triangle.size())
+                      ? impl_->tree_triangle[hint.triangle]
+                      : -1;
+  if (tri < 0 || !is_finite(hint.point)) return closest_point(p);
+  NearestFirstSearch search(p, hint.point, impl_->triangles.cbegin() + tri);
+  impl_->tree.traversal_with_priority(to_cgal(p), search);
   SurfaceHit hit;
   hit.point = search.point();
   hit.triangle = impl_->triangle_index(search.triangle());

@@ -82,7 +82,7 @@ tissue::MassSpringOptions model_options(const design::CaseFile& c) {
   o.corrective = o.kind == tissue::TissueModelKind::MssCs ? tissue::CorrectiveSpringConstants::preset(c.constants)
                                                           : tissue::CorrectiveSpringConstants::thesis();
   if (c.poisson_ratio) {
-    if (o.kind == tissue::TissueModelKind::Fe) o.fe_poisson_ratio = *c.poisson_ratio;
+    if (tissue::is_continuum(o.kind)) o.fe_poisson_ratio = *c.poisson_ratio;
     if (o.kind == tissue::TissueModelKind::MssCf) o.cf_poisson_ratio = *c.poisson_ratio;
   }
   return o;
@@ -178,9 +178,19 @@ DesignResult solve_design(DesignSetup& setup, bool optimise, const ProgressCallb
     try {
       design::SocketOptions lopt = sopt;
       lopt.undeformed_skin = nullptr;
+      lopt.distal_pad = false;  // the cavity alone: no platform, no holes
+      lopt.attachment.enabled = false;
       r.limb_volume_below_brim_m3 = design::build_socket(r.rest_skin, setup.model.frame, setup.brim, lopt).cavity_volume_m3;
     } catch (const Error&) {
       r.limb_volume_below_brim_m3 = 0;
+    }
+    if (c.closed_loop) {
+      ClosedLoopOptions lo;
+      lo.max_donnings = c.closed_loop_donnings;
+      lo.progress = [&](double f, std::string_view stage) { return report_progress(progress, 0.93 + 0.07 * f, stage); };
+      r.closed_loop = close_design_loop(setup, r, lo);
+      log::info("design: closed loop: {}", r.closed_loop->message);
+      r.socket = r.closed_loop->socket;
     }
   }
   report_progress(progress, 1.0, "design: solved");
@@ -378,13 +388,77 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
                    {"triangles", sock.solid.num_triangles()},
                    {"thickness_mm", c.socket.thickness_m * 1e3},
                    {"min_thickness_mm", sock.min_thickness_m * 1e3},
+                   {"median_thickness_mm", sock.median_thickness_m * 1e3},
                    {"max_thickness_mm", sock.max_thickness_m * 1e3},
+                   {"min_thickness_ratio", sock.min_thickness_ratio},
+                   {"thickness_map", "thickness_map.png"},
+                   {"thickness_field", "socket.vtp"},
                    {"shell_volume_cm3", sock.shell_volume_m3 * 1e6},
                    {"cavity_volume_cm3", sock.cavity_volume_m3 * 1e6},
                    {"limb_volume_below_brim_cm3", rs.limb_volume_m3 * 1e6},
                    {"volume_reduction_percent",
                     rs.limb_volume_m3 > 0 ? 100 * (1 - sock.cavity_volume_m3 / rs.limb_volume_m3) : 0.0},
                    {"levels", levels}};
+    if (c.socket.distal_thickness_m > 0 || c.socket.brim_thickness_m > 0)
+      socket_json["asked_thickness_mm"] = {
+          {"distal", design::asked_thickness_m(c.socket, 0.0, 1.0) * 1e3},
+          {"brim", design::asked_thickness_m(c.socket, 1.0, 1.0) * 1e3}};
+    socket_json["alignment"] = {{"flexion_deg", c.socket.alignment.flexion_rad / units::deg},
+                                {"adduction_deg", c.socket.alignment.adduction_rad / units::deg}};
+    if (sock.platform.is_built) {
+      const auto& pl = sock.platform;
+      nlohmann::json holes = nlohmann::json::array();
+      for (const auto& h : pl.hole_centres) holes.push_back(vec_json(h * 1e3));
+      socket_json["platform"] = {{"centre_mm", vec_json(pl.centre * 1e3)},
+                                 {"normal", vec_json(pl.normal)},
+                                 {"diameter_mm", pl.diameter_m * 1e3},
+                                 {"height_mm", pl.max_height_m * 1e3}};
+      if (c.socket.attachment.enabled)
+        socket_json["attachment"] = {{"bolt", c.socket.attachment.bolt},
+                                     {"hole_diameter_mm", pl.hole_diameter_m * 1e3},
+                                     {"hole_spacing_mm", c.socket.attachment.hole_spacing_m * 1e3},
+                                     {"hole_centres_mm", holes},
+                                     {"min_hole_depth_mm", pl.min_hole_depth_m * 1e3},
+                                     {"smallest_feature_mm", pl.smallest_feature_m * 1e3}};
+    }
+    // The wall thickness: a map of the outer surface, and the field per vertex for ParaView
+    // (0 on the inner wall; the cell field face_kind: 0 inner, 1 outer, 2 lip, 3 platform, 4 hole).
+    std::vector<double> t_mm(sock.solid.vertices.size()), t_field(sock.solid.vertices.size());
+    for (size_t v = 0; v < t_mm.size(); ++v) {
+      t_mm[v] = sock.vertex_thickness_m[v] * 1e3;
+      t_field[v] = std::isnan(t_mm[v]) ? 0.0 : t_mm[v];
+    }
+    std::vector<double> kind(sock.face_kind.size());
+    for (size_t f = 0; f < kind.size(); ++f) kind[f] = static_cast<double>(sock.face_kind[f]);
+    report::write_vtp(out / "socket.vtp", sock.solid, {{"wall_thickness_mm", 1, t_field}}, {{"face_kind", 1, kind}});
+    report::PressureMapData tm;
+    tm.surface = &sock.solid;
+    tm.values = std::move(t_mm);
+    tm.value_label = "mm";
+    tm.colormap = report::Colormap::Viridis;
+    tm.title = "Wall thickness (distance to the inner wall)";
+    tm.frame = sframe;
+    tm.value_min = 0;
+    tm.value_max = std::max(1.5 * c.socket.thickness_m, sock.max_thickness_m) * 1e3;
+    report::write_pressure_map(out / "thickness_map.png", tm);
+    rs.thickness_map = tm;
+    rs.has_thickness_map = true;
+    rs.min_thickness_m = sock.min_thickness_m;
+    rs.median_thickness_m = sock.median_thickness_m;
+    rs.max_thickness_m = sock.max_thickness_m;
+    if (sock.platform.is_built) {
+      rs.details.push_back({"distal platform", fmt::format("{:.0f} mm across, normal to the pylon (flexion {:.1f}°, "
+                                                           "adduction {:.1f}°)",
+                                                           sock.platform.diameter_m * 1e3,
+                                                           c.socket.alignment.flexion_rad / units::deg,
+                                                           c.socket.alignment.adduction_rad / units::deg)});
+      if (c.socket.attachment.enabled)
+        rs.details.push_back({"attachment", fmt::format("4 × {:.1f} mm holes ({} bolts) on a {:.1f} mm square, at least "
+                                                        "{:.1f} mm deep",
+                                                        sock.platform.hole_diameter_m * 1e3, c.socket.attachment.bolt,
+                                                        c.socket.attachment.hole_spacing_m * 1e3,
+                                                        sock.platform.min_hole_depth_m * 1e3)});
+    }
   }
   // The design as a case file that replays it (spots fixed, no optimisation).
   design::CaseFile replay = c;
@@ -409,9 +483,10 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
   rd.limb_type = geometry::to_string(model.type);
   rd.side = geometry::to_string(model.frame.side);
   rd.mesh_nodes = mesh.mesh.num_nodes();
-  if (c.model == "fe")
-    rd.model = fmt::format("fe (St Venant-Kirchhoff hexahedra, E = {:.0f} kPa, nu = {:.2f}), {} design solve",
-                           c.youngs_modulus_pa / 1e3, model_options(c).fe_poisson_ratio, design::to_string(c.solve_mode));
+  if (c.model == "fe" || c.model == "neo-hookean")
+    rd.model = fmt::format("{} ({} hexahedra, E = {:.0f} kPa, nu = {:.2f}), {} design solve", c.model,
+                           c.model == "fe" ? "St Venant-Kirchhoff" : "neo-Hookean", c.youngs_modulus_pa / 1e3,
+                           model_options(c).fe_poisson_ratio, design::to_string(c.solve_mode));
   else
     rd.model = fmt::format("{} ({} constants, E = {:.0f} kPa), {} design solve", c.model, c.constants,
                            c.youngs_modulus_pa / 1e3, design::to_string(c.solve_mode));
@@ -429,6 +504,8 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
   rd.max_pressure_pa = *std::max_element(state.pressure_pa.begin(), state.pressure_pa.end());
   rd.landmarks = marks;
   rd.socket = rs;
+  nlohmann::json closed_loop_json;
+  if (result.closed_loop) closed_loop_json = write_closed_loop_outputs(setup, result, out, rd.delivery);
   rd.optimiser.has_run = optimise;
   rd.optimiser.converged = opt.constraints_met;
   rd.optimiser.iterations = opt.rounds;
@@ -457,7 +534,11 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
   nlohmann::json outputs = {"surface_nodes.csv", "stump.vtu",      "pressure_map.png", "ratio_map.png",
                             "radar.png",         "report.html",    "design_case.json", "design.json",
                             "profile_front.svg", "profile_back.svg", "profile_mid.svg"};
-  if (met) outputs.push_back("socket.stl");
+  if (met) {
+    outputs.push_back("socket.stl");
+    outputs.push_back("socket.vtp");
+    outputs.push_back("thickness_map.png");
+  }
   if (c.limb.file.empty()) outputs.push_back("limb.stl");
   nlohmann::json spots_json = nlohmann::json::array();
   for (const auto& s : spots) spots_json.push_back(design::spot_to_json(s));
@@ -500,11 +581,18 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
       {"iterations", opt.rounds},
       {"amplitude_fits", opt.evaluations},
       {"optimiser_message", opt.message},
+      {"solver_message", state.message},
+      {"follower_converged", !state.follower_capped},
       {"optimiser_seconds", opt.seconds},
       {"optimiser_time_limited", opt.is_time_limited},
       {"model_caps", opt.model_caps},
       {"linearised", state.linearised || c.solve_mode == design::DesignSolveMode::Linear},
       {"solve_mode", design::to_string(c.solve_mode)},
+      {"final_solve",
+       {{"newton_iterations", state.newton_iterations},
+        {"follower_passes", state.follower_passes},
+        {"seconds", state.seconds},
+        {"nonlinear_failure", state.nonlinear_failure}}},
       {"brim", {{"template", brim.name()}, {"min_h_mm", brim.min_height() * 1e3}, {"max_h_mm", brim.max_height() * 1e3}}},
       {"spots", spots_json},
       {"bones_estimated", model.bones_estimated},
@@ -514,6 +602,10 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
       {"outputs", outputs},
       {"removed", removed}};
   if (!socket_json.is_null()) j["socket"] = socket_json;
+  if (!closed_loop_json.is_null()) {
+    j["closed_loop"] = closed_loop_json;
+    for (const auto& o : closed_loop_json["outputs"]) j["outputs"].push_back(o);
+  }
   write_text_atomically(out / "design.json", j.dump(2) + "\n");
   return j;
 }

@@ -27,6 +27,7 @@
 #include "socketsmith/design/pain_map.h"
 #include "socketsmith/design/socket_builder.h"
 #include "socketsmith/geometry/tri_mesh.h"
+#include "socketsmith/pipeline/closed_loop.h"
 #include "socketsmith/report/design_report.h"
 #include "socketsmith/volume/hex_mesher.h"
 #include "socketsmith/volume/limb_model.h"
@@ -75,12 +76,16 @@ struct DesignResult {
   bool constraints_met = false;
   geometry::TriMesh rest_skin;         ///< skin triangles at rest (local ids = skin order) [m]
   geometry::TriMesh deformed_skin;     ///< same triangles at the designed shape = the socket's inner wall
-  std::optional<design::SocketResult> socket;  ///< only when every constraint is met
+  std::optional<design::SocketResult> socket;  ///< only when every constraint is met (the closed loop's when it ran)
   double limb_volume_below_brim_m3 = 0.0;      ///< the cavity measure on the undeformed skin
+  /// The closed loop (case `design.closed_loop`): the open-loop socket donned and stood on, its
+  /// wall corrected; `socket` is then the corrected socket.
+  std::optional<ClosedLoopResult> closed_loop;
 };
 
 /// Stage 2. Optimises (or solves the setup's spots) and builds the socket when every constraint
-/// holds. Never builds a socket that violates the constraints.
+/// holds, then closes the loop when the case asks for it. Never builds a socket that violates the
+/// constraints.
 /// @throws SolverError when the stump cannot be solved at all.
 DesignResult solve_design(DesignSetup& setup, bool optimise, const ProgressCallback& progress = {});
 

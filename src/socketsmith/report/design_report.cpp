@@ -927,12 +927,23 @@ std::string render_design_report_html(const DesignReportData& d) {
     h.raw("<table>\n");
     if (!s.stl_file.empty()) h.kv("socket file", s.stl_file);
     h.kv("wall thickness", mm(s.thickness_m) + " mm");
+    if (s.max_thickness_m > 0)
+      h.kv("measured wall (min / median / max)",
+           mm(s.min_thickness_m) + " / " + mm(s.median_thickness_m) + " / " + mm(s.max_thickness_m) + " mm");
+    for (const auto& [k, v] : s.details) h.kv(k, v);
     h.kv("limb volume (below the brim)", num(s.limb_volume_m3 * 1e6) + " cm³");
     h.kv("socket inner volume", num(s.socket_volume_m3 * 1e6) + " cm³");
     if (s.limb_volume_m3 > 0)
       h.kv("volume reduction",
            num(100 * (s.limb_volume_m3 - s.socket_volume_m3) / s.limb_volume_m3) + " %");
     h.raw("</table>\n");
+    if (s.has_thickness_map) {
+      const Image img = render_pressure_map(s.thickness_map);
+      h.raw("<img alt=\"wall thickness\" src=\"");
+      h.raw(png_uri(img));
+      h.raw("\">\n<p>Wall thickness: the distance from each point of the outer surface to the inner wall (grey: the "
+            "inner wall). The minimum leaves out the rounded brim edge.</p>\n");
+    }
     if (!s.circumferences.empty()) {
       h.raw("<table>\n");
       h.row({"h [mm]", "limb [mm]", "socket [mm]", "reduction [%]"}, true);
@@ -940,6 +951,43 @@ std::string render_design_report_html(const DesignReportData& d) {
         h.row({mm(c.height_m), mm(c.limb_m), mm(c.socket_m),
                c.limb_m > 0 ? num(100 * (c.limb_m - c.socket_m) / c.limb_m) : "—"});
       h.raw("</table>\n");
+    }
+  }
+
+  // Delivered pressures.
+  const ReportDelivery& dl = d.delivery;
+  if (dl.has_delivery) {
+    h.raw("<h2>Delivered pressures (the socket donned and stood on)</h2>\n<p>");
+    h.text(dl.summary);
+    h.raw("</p>\n<table>\n");
+    h.row({"region", "socket", "nodes", "designed mean [kPa]", "delivered mean [kPa]", "MAE [kPa]",
+           "99th pct. error [kPa]", "max error [kPa]", "R", "designed SD [kPa]"},
+          true);
+    for (const auto& a : dl.rows)
+      h.row({a.region, a.stage, std::to_string(a.count), kpa(a.target_mean_pa), kpa(a.delivered_mean_pa),
+             kpa(a.mae_pa), kpa(a.p99_pa), kpa(a.max_error_pa), std::isfinite(a.r) ? num(a.r, 3) : "—",
+             kpa(a.target_sd_pa)});
+    h.raw("</table>\n");
+    if (!dl.details.empty()) {
+      h.raw("<table>\n");
+      for (const auto& [k, v] : dl.details) h.kv(k, v);
+      h.raw("</table>\n");
+    }
+    for (const auto& m : dl.maps) {
+      h.raw("<h3>");
+      h.text(m.title);
+      h.raw("</h3>\n<img alt=\"");
+      h.text(m.title);
+      h.raw("\" src=\"");
+      h.raw(png_uri(render_pressure_map(m)));
+      h.raw("\">\n");
+    }
+    for (const auto& pl : dl.plots) {
+      h.raw("<img alt=\"");
+      h.text(pl.title);
+      h.raw("\" src=\"data:image/svg+xml;base64,");
+      h.raw(base64_encode(render_svg(pl)));
+      h.raw("\">\n");
     }
   }
 

@@ -300,6 +300,13 @@ struct ReportSocket {
   double limb_volume_m3 = 0;      ///< below the brim, undeformed [m³]
   double socket_volume_m3 = 0;    ///< enclosed by the socket's inner surface [m³]
   double thickness_m = 0.005;     ///< wall [m]
+  /// Measured wall: the distance from the outer surface to the inner wall [m] (0 = not measured).
+  double min_thickness_m = 0;
+  double median_thickness_m = 0;
+  double max_thickness_m = 0;
+  bool has_thickness_map = false;
+  PressureMapData thickness_map;  ///< the wall thickness on the socket (its surface must outlive the report's writing)
+  std::vector<std::pair<std::string, std::string>> details;  ///< extra (name, value) rows: platform, attachment
   std::vector<ReportCircumference> circumferences;
   std::string stl_file;           ///< socket STL file name ("" = omitted)
 };
@@ -312,6 +319,30 @@ struct ReportRun {
   double residual = 0;    ///< final objective / residual (unit as the producer defines it)
   double seconds = 0;     ///< wall time [s]
   std::string message;
+  std::vector<std::pair<std::string, std::string>> details;  ///< extra (name, value) rows
+};
+
+/// How well delivered pressures match the designed ones in one region, at one stage.
+struct ReportAgreement {
+  std::string region;            ///< "below the brim", "front line", ...
+  std::string stage;             ///< "open loop", "closed loop"
+  int count = 0;                 ///< skin nodes compared
+  double target_mean_pa = 0;     ///< designed mean [Pa]
+  double delivered_mean_pa = 0;  ///< delivered mean [Pa]
+  double mae_pa = 0;             ///< mean |delivered − designed| [Pa]
+  double p99_pa = 0;             ///< 99th percentile of |delivered − designed| [Pa]
+  double max_error_pa = 0;       ///< largest |delivered − designed| [Pa]
+  double r = 0;                  ///< Pearson R (NaN: a field is constant)
+  double target_sd_pa = 0;       ///< spread of the designed field [Pa] (R of a flat field measures noise)
+};
+
+/// The pressures the socket delivers once donned and stood on, against the design (the closed loop).
+struct ReportDelivery {
+  bool has_delivery = false;     ///< false = section omitted
+  std::string summary;           ///< how the loop ended, one line
+  std::vector<ReportAgreement> rows;
+  std::vector<PressureMapData> maps;  ///< designed, open-loop, closed-loop, difference
+  std::vector<Plot> plots;            ///< designed vs delivered along the paths
   std::vector<std::pair<std::string, std::string>> details;  ///< extra (name, value) rows
 };
 
@@ -340,6 +371,7 @@ struct DesignReportData {
   double max_pressure_pa = 0;      ///< largest applied pressure [Pa]
   std::vector<MapLandmark> landmarks;  ///< for "nearest landmark zone" (else maps[0]'s)
   ReportSocket socket;
+  ReportDelivery delivery;
   ReportRun optimiser;
   ReportRun solver;
   std::vector<std::string> warnings;  ///< "bones estimated", "anterior estimated", ...
@@ -349,8 +381,9 @@ struct DesignReportData {
 /// URIs, inline CSS): patient, inputs (limb, mesh, model, spots in kPa/degrees/mm, brim), the
 /// radar chart and a table of the constraint values with targets and pass/fail, the largest
 /// pressure/threshold ratio and the nearest landmark zone, pressure maps, path profiles,
-/// socket measurements (volume, circumferences with % reduction, thickness), optimiser and
-/// solver summaries, warnings. Every string is HTML-escaped.
+/// socket measurements (volume, circumferences with % reduction, thickness), the delivered
+/// pressures against the design (when the closed loop ran), optimiser and solver summaries,
+/// warnings. Every string is HTML-escaped.
 /// @throws InvalidInputError as render_radar_chart / render_pressure_map / path_profile_plot.
 std::string render_design_report_html(const DesignReportData& data);
 

@@ -1,4 +1,4 @@
-#include "socketsmith/fe/comparison.h"
+#include "socketsmith/report/field_comparison.h"
 
 #include <cmath>
 
@@ -6,7 +6,7 @@
 
 #include "socketsmith/core/errors.h"
 
-namespace socketsmith::fe {
+namespace socketsmith::report {
 namespace {
 
 TEST(Comparison, known_values) {
@@ -35,6 +35,22 @@ TEST(Comparison, linear_relation_has_r_one_and_constant_field_has_no_r) {
   EXPECT_TRUE(std::isnan(compare_fields(std::vector<double>(5, 3.0), b).r));
 }
 
+TEST(Comparison, percentiles_are_nearest_rank_and_spreads_are_population_sds) {
+  // Errors 1..100 (a − b = k): the 95th percentile is 95, the 99th 99; b constant has no spread.
+  std::vector<double> a, b(100, 10.0);
+  for (int k = 1; k <= 100; ++k) a.push_back(10.0 + k);
+  const auto s = compare_fields(a, b);
+  EXPECT_DOUBLE_EQ(s.p95, 95.0);
+  EXPECT_DOUBLE_EQ(s.p99, 99.0);
+  EXPECT_DOUBLE_EQ(s.max_error, 100.0);
+  EXPECT_DOUBLE_EQ(s.sd_b, 0.0);
+  EXPECT_NEAR(s.sd_a, std::sqrt((100.0 * 100.0 - 1) / 12), 1e-12);  // SD of 1..n: sqrt((n²−1)/12)
+  // Four points: the 99th percentile is the largest error, the 95th too (ceil(0.95·4) = 4).
+  const auto t = compare_fields({2, 1, 6, 1}, {1, 2, 3, 4});
+  EXPECT_DOUBLE_EQ(t.p99, 3.0);
+  EXPECT_DOUBLE_EQ(t.p95, 3.0);
+}
+
 TEST(Comparison, subset_and_non_finite_values) {
   const std::vector<double> a{1, NAN, 5, 7}, b{1, 2, 3, 0};
   const auto s = compare_fields(a, b, {0, 1, 2});
@@ -49,4 +65,4 @@ TEST(Comparison, subset_and_non_finite_values) {
 }
 
 }  // namespace
-}  // namespace socketsmith::fe
+}  // namespace socketsmith::report

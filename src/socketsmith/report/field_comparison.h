@@ -1,15 +1,15 @@
 #pragma once
 /// @file comparison.h
-/// Agreement between two fields on the same points (socketsmith vs CalculiX): mean absolute
-/// error and its standard deviation, RMSE, bias, Pearson R, the largest error and where — the
-/// thesis's measures (ch. 3.6, 5.5).
+/// Agreement between two fields on the same points (socketsmith vs CalculiX, a donned socket vs
+/// its design): mean absolute error and its standard deviation, RMSE, bias, Pearson R, high
+/// percentiles and the largest error and where — the thesis's measures (ch. 3.6, 5.5) and more.
 
 #include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
-namespace socketsmith::fe {
+namespace socketsmith::report {
 
 struct ErrorStats {
   int count = 0;          ///< points compared
@@ -20,7 +20,10 @@ struct ErrorStats {
   double r = 0;           ///< Pearson correlation; NaN when either field is constant or count < 2
   double max_error = 0;   ///< max |a − b|
   int max_index = -1;     ///< index (into the inputs) of max_error
+  double p95 = 0;         ///< 95th percentile of |a − b| (nearest rank)
+  double p99 = 0;         ///< 99th percentile of |a − b| (nearest rank)
   double mean_a = 0, mean_b = 0;
+  double sd_a = 0, sd_b = 0;  ///< standard deviation of each field (R of a nearly flat field measures noise)
 };
 
 /// Statistics of @p a against @p b over @p subset (indices; all points when empty). Points where
@@ -29,8 +32,8 @@ struct ErrorStats {
 ErrorStats compare_fields(const std::vector<double>& a, const std::vector<double>& b, const std::vector<int>& subset = {});
 
 /// The statistics scaled by @p scale (e.g. 1e-3 for Pa → kPa; r and count unchanged) as JSON:
-/// {count, mae, sd, rmse, bias, r, max_err, max_index, mean_a, mean_b} with @p suffix appended to
+/// {count, mae, sd, rmse, bias, r, max_err, max_index, p95, p99, mean_a, mean_b, sd_a, sd_b} with @p suffix appended to
 /// the names of scaled values ("_kpa": mae_kpa, sd_kpa, max_err_kpa...). NaN becomes null.
 nlohmann::json to_json(const ErrorStats& s, double scale = 1.0, const std::string& suffix = "");
 
-}  // namespace socketsmith::fe
+}  // namespace socketsmith::report

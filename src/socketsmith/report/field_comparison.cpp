@@ -1,11 +1,12 @@
-#include "socketsmith/fe/comparison.h"
+#include "socketsmith/report/field_comparison.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
 #include "socketsmith/core/errors.h"
 
-namespace socketsmith::fe {
+namespace socketsmith::report {
 
 ErrorStats compare_fields(const std::vector<double>& a, const std::vector<double>& b, const std::vector<int>& subset) {
   require(a.size() == b.size(), "compare_fields: the fields have {} and {} values (expected the same points)", a.size(),
@@ -18,11 +19,14 @@ ErrorStats compare_fields(const std::vector<double>& a, const std::vector<double
   }
   ErrorStats s;
   double sa = 0, sb = 0, se = 0, se2 = 0, sd = 0;
+  std::vector<double> abs_err;
+  abs_err.reserve(idx.size());
   for (int i : idx) {
     require(i >= 0 && i < n, "compare_fields: subset index {} is out of range ({} values)", i, n);
     if (!std::isfinite(a[i]) || !std::isfinite(b[i])) continue;
     const double d = a[i] - b[i], e = std::abs(d);
     ++s.count;
+    abs_err.push_back(e);
     sa += a[i];
     sb += b[i];
     se += e;
@@ -35,7 +39,7 @@ ErrorStats compare_fields(const std::vector<double>& a, const std::vector<double
   }
   const double nan = std::numeric_limits<double>::quiet_NaN();
   if (s.count == 0) {
-    s.mae = s.sd = s.rmse = s.bias = s.r = s.mean_a = s.mean_b = nan;
+    s.mae = s.sd = s.rmse = s.bias = s.r = s.mean_a = s.mean_b = s.p95 = s.p99 = s.sd_a = s.sd_b = nan;
     return s;
   }
   const double c = s.count;
@@ -54,6 +58,13 @@ ErrorStats compare_fields(const std::vector<double>& a, const std::vector<double
     sab += da * db;
   }
   s.r = (s.count >= 2 && saa > 0 && sbb > 0) ? sab / std::sqrt(saa * sbb) : nan;
+  s.sd_a = std::sqrt(saa / c);
+  s.sd_b = std::sqrt(sbb / c);
+  // Nearest-rank percentiles: the smallest error that at least q of the points do not exceed.
+  std::sort(abs_err.begin(), abs_err.end());
+  const auto rank = [&](double q) { return abs_err[static_cast<size_t>(std::max(0.0, std::ceil(q * c) - 1))]; };
+  s.p95 = rank(0.95);
+  s.p99 = rank(0.99);
   return s;
 }
 
@@ -67,8 +78,12 @@ nlohmann::json to_json(const ErrorStats& s, double scale, const std::string& suf
           {"r", num(s.r)},
           {"max_err" + suffix, num(s.max_error * scale)},
           {"max_index", s.max_index},
+          {"p95" + suffix, num(s.p95 * scale)},
+          {"p99" + suffix, num(s.p99 * scale)},
           {"mean_a" + suffix, num(s.mean_a * scale)},
-          {"mean_b" + suffix, num(s.mean_b * scale)}};
+          {"mean_b" + suffix, num(s.mean_b * scale)},
+          {"sd_a" + suffix, num(s.sd_a * scale)},
+          {"sd_b" + suffix, num(s.sd_b * scale)}};
 }
 
-}  // namespace socketsmith::fe
+}  // namespace socketsmith::report

@@ -1,0 +1,554 @@
+#include "socketsmith/pipeline/closed_loop.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <numbers>
+#include <unordered_map>
+
+#include "socketsmith/core/errors.h"
+#include "socketsmith/core/log.h"
+#include "socketsmith/core/units.h"
+#include "socketsmith/pipeline/design_pipeline.h"
+#include "socketsmith/report/csv.h"
+
+namespace socketsmith::pipeline {
+namespace {
+
+using Vec3 = Eigen::Vector3d;
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+void check_options(const ClosedLoopOptions& o) {
+  require(o.max_donnings >= 1 && o.max_donnings <= 20,
+          "closed loop: {} donnings (expected 1-20; 1 measures the open-loop socket only)", o.max_donnings);
+  require(std::isfinite(o.relaxation) && o.relaxation > 0 && o.relaxation <= 1.5,
+          "closed loop: relaxation {} (expected in (0, 1.5]; 1 applies the whole correction)", o.relaxation);
+  require(std::isfinite(o.mae_tolerance_pa) && o.mae_tolerance_pa > 0 && std::isfinite(o.p99_tolerance_pa) &&
+              o.p99_tolerance_pa > 0,
+          "closed loop: tolerances {} / {} kPa must be positive", o.mae_tolerance_pa / 1e3, o.p99_tolerance_pa / 1e3);
+  require(o.refits_per_donning >= 0 && o.refits_per_donning <= 20,
+          "closed loop: {} refits per donning (expected 0-20; 0 dons every corrected socket from scratch)",
+          o.refits_per_donning);
+  require(o.anderson_depth >= 0 && o.anderson_depth <= 10, "closed loop: Anderson depth {} (expected 0-10)",
+          o.anderson_depth);
+  require(o.smoothing_passes >= 0 && o.smoothing_passes <= 50, "closed loop: {} smoothing passes (expected 0-50)",
+          o.smoothing_passes);
+  require(std::isfinite(o.max_offset_m) && o.max_offset_m > 0 && o.max_offset_m <= 0.02,
+          "closed loop: largest wall correction {} mm (expected in (0, 20] mm)", o.max_offset_m * 1e3);
+}
+
+/// Area-weighted averages of @p v over each node and its neighbours on the skin's quads, @p passes
+/// times, among the nodes where @p use is 1 (the others keep their value and are not averaged in).
+std::vector<double> smooth_on_skin(const volume::SkinSurface& skin, const std::vector<char>& use, std::vector<double> v,
+                                   int passes) {
+  if (passes == 0) return v;
+  const size_t n = skin.nodes.size();
+  std::unordered_map<int, int> local;
+  for (size_t i = 0; i < n; ++i) local[skin.nodes[i]] = static_cast<int>(i);
+  std::vector<std::vector<int>> nb(n);
+  for (const auto& q : skin.quads)
+    for (int a = 0; a < 4; ++a) {
+      const int i = local.at(q[a]), j = local.at(q[(a + 1) % 4]);
+      nb[i].push_back(j);
+      nb[j].push_back(i);
+    }
+  for (auto& l : nb) {
+    std::sort(l.begin(), l.end());
+    l.erase(std::unique(l.begin(), l.end()), l.end());
+  }
+  std::vector<double> next(n);
+  for (int p = 0; p < passes; ++p) {
+    for (size_t i = 0; i < n; ++i) {
+      if (!use[i]) {
+        next[i] = v[i];
+        continue;
+      }
+      double s = skin.area_m2[i] * v[i], w = skin.area_m2[i];
+      for (int j : nb[i])
+        if (use[j]) {
+          s += skin.area_m2[j] * v[j];
+          w += skin.area_m2[j];
+        }
+      next[i] = s / w;
+    }
+    v.swap(next);
+  }
+  return v;
+}
+
+/// Corrections @p c computed at the skin nodes, moved onto the wall's vertices. Donning drags the
+/// skin along the wall (on the demo 5–7 mm proximally, a node spacing), so a node presses the wall
+/// where it ended up, not at its own designed vertex: correcting the node's vertex moved the wall
+/// under a neighbour instead. Each wall vertex @p wall takes the Gaussian-weighted mean
+/// (σ = @p sigma_m, up to 3σ) of the corrections of the nodes @p used whose donned position
+/// @p donned (in the socket's frame) is near it; a vertex no node reaches keeps its own node's.
+std::vector<double> corrections_on_wall(const std::vector<Vec3>& wall, const std::vector<Vec3>& donned,
+                                        const std::vector<double>& c, const std::vector<int>& used, double sigma_m) {
+  const double r2 = 9 * sigma_m * sigma_m, inv = 1.0 / (2 * sigma_m * sigma_m);
+  std::vector<double> out(wall.size());
+  for (size_t j = 0; j < wall.size(); ++j) {
+    double sw = 0, sc = 0;
+    for (int i : used) {
+      const double d2 = (donned[i] - wall[j]).squaredNorm();
+      if (d2 > r2) continue;
+      const double w = std::exp(-d2 * inv);
+      sw += w;
+      sc += w * c[i];
+    }
+    out[j] = sw > 1e-3 ? sc / sw : c[j];
+  }
+  return out;
+}
+
+/// Anderson acceleration of the fixed point δ ← δ + c(δ) (type II, Walker & Ni 2011): from the last
+/// few iterates and their corrections it finds the combination whose correction is smallest, so a
+/// correction whose scale is wrong in some mode (confined, nearly incompressible tissue at the
+/// distal end answers 2–3× stiffer than the compliance says; the plain iteration then oscillated
+/// there) is rescaled from what the iterations measured.
+class AndersonMixing {
+ public:
+  explicit AndersonMixing(int depth) : depth_(depth) {}
+  void clear() {
+    x_.clear();
+    f_.clear();
+  }
+  /// The next iterate from @p x and its correction @p f (the plain step is x + f).
+  std::vector<double> next(const std::vector<double>& x, const std::vector<double>& f) {
+    const size_t n = x.size();
+    x_.push_back(x);
+    f_.push_back(f);
+    if (static_cast<int>(x_.size()) > depth_ + 1) {
+      x_.erase(x_.begin());
+      f_.erase(f_.begin());
+    }
+    std::vector<double> out(n);
+    for (size_t i = 0; i < n; ++i) out[i] = x[i] + f[i];
+    const int m = static_cast<int>(x_.size()) - 1;
+    if (m < 1) return out;
+    Eigen::MatrixXd dF(n, m), dX(n, m);
+    Eigen::VectorXd fk = Eigen::Map<const Eigen::VectorXd>(f.data(), static_cast<Eigen::Index>(n));
+    for (int j = 0; j < m; ++j)
+      for (size_t i = 0; i < n; ++i) {
+        dF(static_cast<Eigen::Index>(i), j) = f[i] - f_[j][i];
+        dX(static_cast<Eigen::Index>(i), j) = x[i] - x_[j][i];
+      }
+    const Eigen::VectorXd theta = dF.colPivHouseholderQr().solve(fk);
+    if (!theta.allFinite()) return out;
+    const Eigen::VectorXd step = (dX + dF) * theta;
+    for (size_t i = 0; i < n; ++i) out[i] -= step[static_cast<Eigen::Index>(i)];
+    return out;
+  }
+
+ private:
+  int depth_;
+  std::vector<std::vector<double>> x_, f_;
+};
+
+}  // namespace
+
+ClosedLoopResult close_design_loop(DesignSetup& setup, const DesignResult& result, const ClosedLoopOptions& options) {
+  check_options(options);
+  require(result.socket.has_value() && result.constraints_met,
+          "closed loop: the design does not meet its constraints, so it has no socket to don; fix the design first");
+  const auto t0 = Clock::now();
+  auto& solver = *setup.solver;
+  const auto& skin = solver.skin();
+  const auto& state = result.state;
+  const design::CaseFile& c = setup.case_file;
+  const size_t n = skin.nodes.size();
+
+  contact::DonningOptions don = options.donning;
+  if (!options.keep_donning_loads) {
+    don.friction = c.patient.friction;
+    don.stand_force_n = 0.5 * c.patient.body_mass_kg * units::kGravity;
+  }
+  design::SocketOptions sopt = c.socket;
+  sopt.undeformed_skin = &result.rest_skin;
+
+  ClosedLoopResult r;
+  r.target_pa = state.pressure_pa;
+  r.below_brim.assign(n, 1);
+  std::vector<int> compared;
+  for (size_t i = 0; i < n; ++i) {
+    if (solver.above_brim()[i]) {
+      r.below_brim[i] = 0;
+      r.target_pa[i] = 0.0;
+    } else {
+      compared.push_back(static_cast<int>(i));
+    }
+  }
+  require(compared.size() >= 3, "closed loop: only {} skin nodes lie below the brim; lower the brim", compared.size());
+  double spacing = 0;  // mean skin node spacing [m]
+  for (int i : compared) spacing += std::sqrt(skin.area_m2[i]) / static_cast<double>(compared.size());
+
+  std::vector<double> offset(n, 0.0);  // δ of the socket worn now
+  double socket_seconds = 0;
+  AndersonMixing history(options.anderson_depth);
+  design::SocketResult socket = *result.socket;
+  std::unique_ptr<contact::DonningSimulation> sim;
+  int full_donnings = 0, refits = 0;
+  // A full donning of the socket as it is now (the path from below, then standing).
+  const auto don_from_scratch = [&]() {
+    const double lo = static_cast<double>(full_donnings) / options.max_donnings;
+    const double hi = static_cast<double>(full_donnings + 1) / options.max_donnings;
+    don.progress = [&options, lo, hi, first = full_donnings == 0](double f, std::string_view) {
+      return report_progress(options.progress, lo + (hi - lo) * f,
+                             first ? "closed loop: donning the open-loop socket" : "closed loop: donning the corrected socket");
+    };
+    ++full_donnings;
+    refits = 0;
+    sim = std::make_unique<contact::DonningSimulation>(solver.model(), skin.nodes, skin.area_m2, socket.solid,
+                                                       setup.model.frame, don);
+    return sim->run();
+  };
+  contact::DonningResult d = don_from_scratch();
+  bool refitted = false;
+  // The socket kept is the one closest to the tolerances among those donned from scratch: the
+  // smallest max(MAE / tol, p99 / tol).
+  double best_score = std::numeric_limits<double>::infinity();
+  for (;;) {
+    if (!d.completed || !d.stood) {
+      const std::string why = d.message.empty() ? "the standing load was not reached" : d.message;
+      require<SolverError>(!r.iterations.empty(), "closed loop: the open-loop socket could not be donned and stood on: {}", why);
+      if (refitted) {  // the refit lost its way: don the same socket from scratch instead
+        if (full_donnings >= options.max_donnings) {
+          r.message = fmt::format("stopped: the corrected socket's refit failed ({}) and no donning is left", why);
+          break;
+        }
+        d = don_from_scratch();
+        refitted = false;
+        continue;
+      }
+      r.message = fmt::format("stopped after {} donnings: the corrected socket could not be donned and stood on ({})",
+                              full_donnings, why);
+      break;
+    }
+    ClosedLoopIteration it;
+    it.refit = refitted;
+    for (size_t i = 0; i < n; ++i) {
+      it.max_offset_m = std::max(it.max_offset_m, std::abs(offset[i]));
+      if (r.below_brim[i]) it.mean_offset_m += offset[i] / static_cast<double>(compared.size());
+    }
+    std::vector<double> delivered(n);
+    for (size_t i = 0; i < n; ++i) delivered[i] = d.contacts[i].pressure_pa;
+    it.below_brim = report::compare_fields(delivered, r.target_pa, compared);
+    it.stood_offset_m = d.final_offset_m;
+    it.axial_friction_n = d.series.empty() ? 0.0 : d.series.back().axial_friction_n;
+    it.factorizations = d.series.empty() ? 0 : static_cast<int>(d.series.back().factorizations);
+    it.donning_seconds = d.seconds;
+    it.socket_seconds = socket_seconds;
+    log::info("closed loop: {} {} — below the brim MAE {:.2f} kPa, 99th percentile {:.2f} kPa, R {:.3f}, mean {:.2f} vs "
+              "{:.2f} kPa designed; friction carries {:.0f} N ({:.0f} N designed); wall moved up to {:.2f} mm; {:.1f} s",
+              refitted ? "refit" : "donning", refitted ? refits : full_donnings,
+              it.below_brim.mae / 1e3,
+              it.below_brim.p99 / 1e3, it.below_brim.r, it.below_brim.mean_a / 1e3, it.below_brim.mean_b / 1e3,
+              it.axial_friction_n, state.radar.stability_n, it.max_offset_m * 1e3, d.seconds);
+    r.delivered_by_iteration.push_back(delivered);
+    r.offset_by_iteration.push_back(offset);
+    if (r.iterations.empty()) r.open_loop_pa = delivered;
+    r.iterations.push_back(it);
+    const bool within = it.below_brim.mae <= options.mae_tolerance_pa && it.below_brim.p99 <= options.p99_tolerance_pa;
+    if (!refitted) {
+      const double score =
+          std::max(it.below_brim.mae / options.mae_tolerance_pa, it.below_brim.p99 / options.p99_tolerance_pa);
+      if (score < best_score) {
+        best_score = score;
+        r.best = static_cast<int>(r.iterations.size()) - 1;
+        r.closed_loop_pa = delivered;
+        r.wall_offset_m = offset;
+        r.socket = socket;
+        r.donning = d;
+      }
+      if (within) {
+        r.converged = true;
+        r.message = fmt::format("converged after {} donnings and {} refits: below the brim MAE {:.2f} kPa, 99th "
+                                "percentile {:.2f} kPa",
+                                full_donnings, r.iterations.size() - full_donnings, it.below_brim.mae / 1e3,
+                                it.below_brim.p99 / 1e3);
+        break;
+      }
+    }
+    // A refit within the tolerances, or the last refit of a round: check it by a full donning.
+    if (refitted && (within || refits >= options.refits_per_donning)) {
+      if (full_donnings >= options.max_donnings) break;
+      d = don_from_scratch();
+      refitted = false;
+      continue;
+    }
+    if (!refitted && full_donnings >= options.max_donnings) break;
+    // The correction: move the wall by the skin's normal displacement under the excess pressure,
+    // where each node touches the wall now.
+    std::vector<double> excess(n, 0.0);
+    for (int i : compared) excess[i] = delivered[i] - r.target_pa[i];
+    excess = smooth_on_skin(skin, r.below_brim, std::move(excess), options.smoothing_passes);
+    const std::vector<double> un = solver.normal_displacement(excess, state);
+    std::vector<double> corr(n);
+    std::vector<Vec3> wall(n), donned(n);
+    const Vec3 stood = d.final_offset_m * setup.model.frame.axis.normalized();
+    for (size_t i = 0; i < n; ++i) {
+      corr[i] = -options.relaxation * un[i];
+      wall[i] = state.skin_positions[i] + offset[i] * state.skin_normals[i];
+      donned[i] = d.positions.segment<3>(3 * skin.nodes[i]) - stood;
+    }
+    const std::vector<double> on_wall = corrections_on_wall(wall, donned, corr, compared, 0.5 * spacing);
+    if (!refitted) history.clear();  // a donning from scratch: the refits' map starts again
+    offset = history.next(offset, on_wall);
+    for (auto& v : offset) v = std::clamp(v, -options.max_offset_m, options.max_offset_m);
+    // The corrected wall: the designed skin moved by δ along its normals.
+    const auto ts = Clock::now();
+    geometry::TriMesh inner = result.deformed_skin;
+    for (size_t i = 0; i < n; ++i) inner.vertices[i] += offset[i] * state.skin_normals[i];
+    try {
+      socket = design::build_socket(inner, setup.model.frame, setup.brim, sopt);
+    } catch (const Error& e) {
+      r.message = fmt::format("stopped after {} donnings: the corrected socket could not be built ({})", full_donnings,
+                              e.what());
+      break;
+    }
+    socket_seconds = since(ts);
+    if (options.refits_per_donning > 0) {
+      ++refits;
+      d = sim->refit(socket.solid);
+      refitted = true;
+    } else {
+      d = don_from_scratch();
+      refitted = false;
+    }
+  }
+  for (int k = 0; k <= r.best; ++k) r.kept_donning += r.iterations[k].refit ? 0 : 1;
+  if (r.message.empty()) {
+    const auto& b = r.iterations[r.best].below_brim;
+    r.message = fmt::format("{} donnings without meeting the tolerances ({:.2f} / {:.2f} kPa); kept donning {}: MAE "
+                            "{:.2f} kPa, 99th percentile {:.2f} kPa",
+                            full_donnings, options.mae_tolerance_pa / 1e3, options.p99_tolerance_pa / 1e3, r.kept_donning,
+                            b.mae / 1e3, b.p99 / 1e3);
+  }
+  r.seconds = since(t0);
+  report_progress(options.progress, 1.0, "closed loop: done");
+  return r;
+}
+
+}  // namespace socketsmith::pipeline
+
+namespace socketsmith::pipeline {
+namespace {
+
+nlohmann::json stats_json(const report::ErrorStats& s) { return report::to_json(s, 1e-3, "_kpa"); }
+
+report::ReportAgreement agreement_row(const std::string& region, const std::string& stage, const report::ErrorStats& s) {
+  return {region, stage, s.count, s.mean_b, s.mean_a, s.mae, s.p99, s.max_error, s.r, s.sd_b};
+}
+
+}  // namespace
+
+DeliverySummary summarise_delivery(const DesignSetup& setup, const ClosedLoopResult& loop) {
+  const auto& skin = setup.solver->skin();
+  const size_t n = skin.nodes.size();
+  require(loop.target_pa.size() == n && loop.open_loop_pa.size() == n && loop.closed_loop_pa.size() == n,
+          "summarise_delivery: the loop's fields do not match the stump's {} skin nodes", n);
+  DeliverySummary d;
+  std::vector<int> below;
+  for (size_t i = 0; i < n; ++i)
+    if (loop.below_brim[i]) below.push_back(static_cast<int>(i));
+  const auto region = [&](const std::string& key, const std::string& name, const std::vector<int>& subset) {
+    d.regions.push_back({key, name, report::compare_fields(loop.open_loop_pa, loop.target_pa, subset),
+                         report::compare_fields(loop.closed_loop_pa, loop.target_pa, subset)});
+  };
+  region("below_brim", "below the brim", below);
+  const auto sframe = report::surface_frame(setup.model.frame);
+  for (const auto& path : design_paths(setup)) {
+    std::vector<int> subset;
+    for (const auto& s : report::sample_path(skin.positions, {}, sframe, path.spec))
+      if (loop.below_brim[s.index]) subset.push_back(s.index);
+    if (subset.size() >= 3) region(path.key, path.name, subset);
+  }
+  for (const auto& l : setup.model.landmarks) {
+    LandmarkDelivery ld;
+    ld.code = l.code;
+    const double radius = std::min(l.radius_m, 0.015);
+    double w = 0;
+    for (int i : below) {
+      if ((skin.positions[i] - l.position).norm() > radius) continue;
+      const double a = skin.area_m2[i];
+      ++ld.nodes;
+      w += a;
+      ld.threshold_pa += a * setup.thresholds[i];
+      ld.target_pa += a * loop.target_pa[i];
+      ld.open_loop_pa += a * loop.open_loop_pa[i];
+      ld.closed_loop_pa += a * loop.closed_loop_pa[i];
+    }
+    if (ld.nodes == 0) continue;  // above the brim (or off the stump): not loaded by the socket
+    ld.threshold_pa /= w;
+    ld.target_pa /= w;
+    ld.open_loop_pa /= w;
+    ld.closed_loop_pa /= w;
+    d.landmarks.push_back(ld);
+  }
+  return d;
+}
+
+nlohmann::json write_closed_loop_outputs(const DesignSetup& setup, const DesignResult& result,
+                                         const std::filesystem::path& out, report::ReportDelivery& delivery) {
+  require(result.closed_loop.has_value(), "write_closed_loop_outputs: the design ran no closed loop");
+  const ClosedLoopResult& loop = *result.closed_loop;
+  const auto& skin = setup.solver->skin();
+  const size_t n = skin.nodes.size();
+  const auto& state = result.state;
+  {
+    report::CsvTable t;
+    t.header = {"x_m", "y_m", "z_m", "above_brim", "threshold_pa", "designed_pa", "open_loop_pa", "closed_loop_pa",
+                "wall_offset_mm"};
+    for (size_t i = 0; i < n; ++i) {
+      const auto& p = state.skin_positions[i];
+      t.rows.push_back({p.x(), p.y(), p.z(), loop.below_brim[i] ? 0.0 : 1.0, setup.thresholds[i], loop.target_pa[i],
+                        loop.open_loop_pa[i], loop.closed_loop_pa[i], loop.wall_offset_m[i] * 1e3});
+    }
+    report::write_csv(out / "delivered.csv", t.header, t.rows, 12);
+    report::CsvTable h;
+    h.header = {"above_brim", "designed_pa"};
+    for (size_t k = 0; k < loop.delivered_by_iteration.size(); ++k) {
+      h.header.push_back(fmt::format("donning{}_pa", k + 1));
+      h.header.push_back(fmt::format("donning{}_wall_offset_mm", k + 1));
+    }
+    for (size_t i = 0; i < n; ++i) {
+      std::vector<double> row{loop.below_brim[i] ? 0.0 : 1.0, loop.target_pa[i]};
+      for (size_t k = 0; k < loop.delivered_by_iteration.size(); ++k) {
+        row.push_back(loop.delivered_by_iteration[k][i]);
+        row.push_back(loop.offset_by_iteration[k][i] * 1e3);
+      }
+      h.rows.push_back(std::move(row));
+    }
+    report::write_csv(out / "delivered_iterations.csv", h.header, h.rows, 9);
+  }
+  const DeliverySummary sum = summarise_delivery(setup, loop);
+  delivery = {};
+  delivery.has_delivery = true;
+  delivery.summary = fmt::format(
+      "The socket is donned from below with friction μ = {:.2f}, then pushed with half the body weight ({:.0f} N), "
+      "as a standing patient loads it; the delivered contact pressures are compared with the designed ones. The "
+      "closed loop corrected the wall: {}",
+      setup.case_file.patient.friction, 0.5 * setup.case_file.patient.body_mass_kg * units::kGravity, loop.message);
+  nlohmann::json regions = nlohmann::json::object();
+  for (const auto& r : sum.regions) {
+    delivery.rows.push_back(agreement_row(r.name, "open loop", r.open_loop));
+    delivery.rows.push_back(agreement_row(r.name, "closed loop", r.closed_loop));
+    regions[r.key] = {{"open_loop", stats_json(r.open_loop)}, {"closed_loop", stats_json(r.closed_loop)}};
+  }
+  nlohmann::json landmarks = nlohmann::json::array();
+  for (const auto& l : sum.landmarks) {
+    landmarks.push_back({{"code", l.code},
+                         {"nodes", l.nodes},
+                         {"threshold_kpa", l.threshold_pa / 1e3},
+                         {"designed_kpa", l.target_pa / 1e3},
+                         {"open_loop_kpa", l.open_loop_pa / 1e3},
+                         {"closed_loop_kpa", l.closed_loop_pa / 1e3},
+                         {"designed_ratio", l.target_pa / l.threshold_pa},
+                         {"open_loop_ratio", l.open_loop_pa / l.threshold_pa},
+                         {"closed_loop_ratio", l.closed_loop_pa / l.threshold_pa}});
+    delivery.details.push_back(
+        {fmt::format("landmark {}: pressure / threshold", l.code),
+         fmt::format("designed {:.3f}, open loop {:.3f}, closed loop {:.3f} ({} nodes)", l.target_pa / l.threshold_pa,
+                     l.open_loop_pa / l.threshold_pa, l.closed_loop_pa / l.threshold_pa, l.nodes)});
+  }
+  nlohmann::json iterations = nlohmann::json::array();
+  for (size_t k = 0; k < loop.iterations.size(); ++k) {
+    const auto& it = loop.iterations[k];
+    iterations.push_back({{"refit", it.refit},
+                          {"below_brim", stats_json(it.below_brim)},
+                          {"max_wall_offset_mm", it.max_offset_m * 1e3},
+                          {"mean_wall_offset_mm", it.mean_offset_m * 1e3},
+                          {"stood_at_mm", it.stood_offset_m * 1e3},
+                          {"axial_friction_n", it.axial_friction_n},
+                          {"factorizations", it.factorizations},
+                          {"donning_seconds", it.donning_seconds},
+                          {"socket_seconds", it.socket_seconds}});
+    delivery.details.push_back({fmt::format("{} {}", it.refit ? "refit" : "donning", k + 1),
+                                fmt::format("MAE {:.2f} kPa, 99th percentile {:.2f} kPa, R {:.3f}; wall moved up to "
+                                            "{:.2f} mm; stood {:+.2f} mm from the designed pose; {:.1f} s{}",
+                                            it.below_brim.mae / 1e3, it.below_brim.p99 / 1e3, it.below_brim.r,
+                                            it.max_offset_m * 1e3, it.stood_offset_m * 1e3, it.donning_seconds,
+                                            static_cast<int>(k) == loop.best ? " (kept)" : "")});
+  }
+  // Maps on one scale: designed, open loop, closed loop; and the closed loop's error.
+  const auto sframe = report::surface_frame(setup.model.frame);
+  std::vector<report::MapLandmark> marks;
+  for (const auto& l : setup.model.landmarks) marks.push_back({l.code, l.position, l.estimated});
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  double vmax = 0, emax = 0;
+  std::vector<double> tk(n), ok(n), ck(n), ek(n);
+  for (size_t i = 0; i < n; ++i) {
+    const bool b = loop.below_brim[i];
+    tk[i] = b ? loop.target_pa[i] / 1e3 : nan;
+    ok[i] = b ? loop.open_loop_pa[i] / 1e3 : nan;
+    ck[i] = b ? loop.closed_loop_pa[i] / 1e3 : nan;
+    ek[i] = b ? ck[i] - tk[i] : nan;
+    if (b) {
+      vmax = std::max({vmax, tk[i], ok[i], ck[i]});
+      emax = std::max(emax, std::abs(ek[i]));
+    }
+  }
+  report::PressureMapData base;
+  base.surface = &result.deformed_skin;  // lives as long as the result the report is written from
+  base.value_label = "kPa";
+  base.frame = sframe;
+  base.landmarks = marks;
+  emax = std::max(emax, 0.5);
+  const struct {
+    const std::vector<double>* values;
+    const char* title;
+    double lo, hi;
+  } specs[] = {{&tk, "Designed pressure", 0, vmax},
+               {&ok, "Delivered by the open-loop socket", 0, vmax},
+               {&ck, "Delivered by the closed-loop socket (written)", 0, vmax},
+               {&ek, "Closed loop: delivered minus designed", -emax, emax}};
+  for (const auto& sp : specs) {
+    report::PressureMapData m = base;
+    m.values = *sp.values;
+    m.title = sp.title;
+    m.value_min = sp.lo;
+    m.value_max = sp.hi;
+    delivery.maps.push_back(std::move(m));
+  }
+  report::write_pressure_map(out / "delivered_map.png", delivery.maps[2]);
+  report::write_pressure_map(out / "delivered_error_map.png", delivery.maps[3]);
+  // Paths: designed, open- and closed-loop pressures along the thesis's three paths.
+  for (const auto& path : design_paths(setup)) {
+    const auto samples = report::sample_path(skin.positions, {}, sframe, path.spec);
+    report::Plot p;
+    p.title = "Delivered vs designed: " + path.name;
+    p.x_label = path.spec.kind == report::PathKind::Vertical ? "height above the distal end [mm]" : "angle [deg]";
+    p.y_label = "pressure [kPa]";
+    const std::vector<std::pair<std::string, const std::vector<double>*>> curves{
+        {"designed", &loop.target_pa}, {"open loop", &loop.open_loop_pa}, {"closed loop", &loop.closed_loop_pa}};
+    for (const auto& [name, field] : curves) {
+      report::PlotSeries s;
+      s.name = name;
+      s.dashed = name == "designed";
+      for (const auto& smp : samples) {
+        if (!loop.below_brim[smp.index]) continue;
+        s.x.push_back(path.spec.kind == report::PathKind::Vertical ? smp.s * 1e3 : smp.s * 180.0 / std::numbers::pi);
+        s.y.push_back((*field)[smp.index] / 1e3);
+      }
+      p.series.push_back(s);
+    }
+    p.y_min = 0.0;
+    delivery.plots.push_back(p);
+  }
+  return {{"converged", loop.converged},
+          {"message", loop.message},
+          {"donnings", std::count_if(loop.iterations.begin(), loop.iterations.end(), [](const auto& it) { return !it.refit; })},
+          {"refits", std::count_if(loop.iterations.begin(), loop.iterations.end(), [](const auto& it) { return it.refit; })},
+          {"kept_donning", loop.kept_donning},
+          {"seconds", loop.seconds},
+          {"friction", setup.case_file.patient.friction},
+          {"stand_force_n", 0.5 * setup.case_file.patient.body_mass_kg * units::kGravity},
+          {"designed_friction_n", result.state.radar.stability_n},
+          {"iterations", iterations},
+          {"regions", regions},
+          {"landmarks", landmarks},
+          {"max_wall_offset_mm", loop.iterations[loop.best].max_offset_m * 1e3},
+          {"outputs", {"delivered.csv", "delivered_iterations.csv", "delivered_map.png", "delivered_error_map.png"}}};
+}
+
+}  // namespace socketsmith::pipeline
