@@ -37,11 +37,11 @@ struct Setup {
     o.divisions = {n, n, n};
     return volume::mesh_box(o);
   }
-  /// A preset of the MSS-CS constants, or "fe": the finite-element tissue model (ν 0.45).
+  /// A preset of the MSS-CS constants, or "fe" / "neo-hookean": a finite-element tissue model (ν 0.45).
   static MassSpringOptions options(const char* constants) {
     MassSpringOptions o;
-    if (std::string(constants) == "fe") {
-      o.kind = TissueModelKind::Fe;
+    if (std::string(constants) == "fe" || std::string(constants) == "neo-hookean") {
+      o.kind = parse_tissue_model(constants);
       return o;
     }
     o.corrective = CorrectiveSpringConstants::preset(constants);
@@ -169,4 +169,6 @@ TISSUE_BENCHMARK(BM_StaticResolveWarm);
 TISSUE_BENCHMARK(BM_ForcesAndJacobian);
 // The finite-element tissue model (St Venant–Kirchhoff hexahedra, 8 Gauss points): assembly cost.
 BENCHMARK_CAPTURE(BM_ForcesAndJacobian, fe, "fe")->Apply(args_BM_ForcesAndJacobian);
+// The same elements with the neo-Hookean material (9×9 tangent per Gauss point).
+BENCHMARK_CAPTURE(BM_ForcesAndJacobian, neo_hookean, "neo-hookean")->Apply(args_BM_ForcesAndJacobian);
 BENCHMARK_MAIN();

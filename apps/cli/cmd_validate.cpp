@@ -39,7 +39,7 @@ void add_ccx_flags(CLI::App& cmd, CcxFlags& f) {
   cmd.add_option("--fe", f.solver, "FE solver (only calculix)")->check(CLI::IsMember({"calculix"}));
   cmd.add_option("--ccx", f.ccx, "CalculiX executable (default: ccx on the PATH; package calculix-ccx)");
   cmd.add_option("--ccx-threads", f.threads, "threads for ccx (default 1)")->check(CLI::Range(1, 64));
-  cmd.add_option("--ccx-time-limit", f.time_limit_s, "wall-time limit of ccx [s] (default 3600)")->check(CLI::PositiveNumber);
+  cmd.add_option("--ccx-time-limit", f.time_limit_s, "wall-time limit of ccx [s] (default 3600)")->check(positive());
 }
 
 fe::CcxOptions ccx_options(const CcxFlags& f) {
@@ -137,7 +137,7 @@ struct DesignFlags {
   int target_nodes = 0;  // 0: the case's
   std::string mode = "contact";
   std::string element = "c3d8";
-  double poisson = -1;  // < 0: the case's fe model's ν, else 0.45 (the thesis's)
+  double poisson = -1;  // < 0: the case's continuum model's ν, else 0.45 (the thesis's)
   double penalty = 1e9;
   double stick_slope = 5e7;
   double friction = -1;  // < 0: the case's μ
@@ -164,11 +164,15 @@ void run_validate_design(const DesignFlags& f) {
                               : design::read_case(f.case_file);
   if (f.target_nodes > 0) c.target_nodes = f.target_nodes;
   if (f.demo) design::write_case(out / "case.json", c);
-  // CalculiX's ν: the user's, else the fe tissue model's own (same material on both sides), else
-  // the thesis's 0.45 (the MSS lattices have none to give).
-  const double poisson = f.poisson >= 0 ? f.poisson
-                         : c.model == "fe" ? pipeline::model_options(c).fe_poisson_ratio
-                                           : 0.45;
+  // CalculiX's material: the case's continuum model's own ν and law (same material on both sides),
+  // else ν 0.45, the thesis's (the MSS lattices have none to give); the flags override.
+  fe::FeMaterial material = fe::fe_material(c);
+  if (f.poisson >= 0) material.poisson_ratio = f.poisson;
+  if (f.neo_hookean) material.is_neo_hookean = true;
+  require(!(material.is_neo_hookean && f.small_strain),
+          "validate design: --small-strain with a neo-Hookean tissue: the hyperelastic law is a large-strain model, "
+          "CalculiX runs it with NLGEOM (drop --small-strain, or use the fe model for a small-strain check)");
+  const double poisson = material.poisson_ratio;
   const auto t0 = std::chrono::steady_clock::now();
   pipeline::DesignArtifacts art;
   const auto progress = console_progress(1.0);
@@ -218,10 +222,7 @@ void run_validate_design(const DesignFlags& f) {
 
   fe::DesignCheckOptions o;
   o.mode = fe::parse_design_check_mode(f.mode);
-  o.material.youngs_modulus_pa = c.youngs_modulus_pa;
-  o.material.poisson_ratio = poisson;
-  o.material.density_kg_m3 = c.density_kg_m3;
-  o.material.is_neo_hookean = f.neo_hookean;
+  o.material = material;
   o.element = fe::parse_element_type(f.element);
   o.contact.penalty_pa_per_m = f.penalty;
   o.contact.stick_slope_pa_per_m = f.stick_slope;
@@ -238,8 +239,9 @@ void run_validate_design(const DesignFlags& f) {
   o.fe_pressure = fe::parse_fe_pressure(f.fe_pressure);
   o.nonlinear_geometry = !f.small_strain;
   o.ccx = ccx_options(f.ccx);
-  log::info("validate design: CalculiX {} check ({} nodes, {} elements, {}, ν {})", fe::to_string(o.mode),
-            mesh.num_nodes(), mesh.num_hexahedra(), fe::to_string(o.element), poisson);
+  log::info("validate design: CalculiX {} check ({} nodes, {} elements, {}, {}, ν {}, {})", fe::to_string(o.mode),
+            mesh.num_nodes(), mesh.num_hexahedra(), fe::to_string(o.element),
+            material.is_neo_hookean ? "neo-Hookean" : "linear elastic", poisson, o.nonlinear_geometry ? "NLGEOM" : "small strain");
   const auto r = fe::check_design(d, o, out, "design_fe");
 
   // Outputs: per-node CSV, path profiles and a scatter (SVG), stump VTU, summary JSON.
@@ -374,7 +376,7 @@ void run_validate_design(const DesignFlags& f) {
                    {"poisson_ratio", poisson},
                    {"nlgeom", !f.small_strain},
                    {"youngs_modulus_kpa", c.youngs_modulus_pa / 1e3},
-                   {"neo_hookean", f.neo_hookean},
+                   {"neo_hookean", material.is_neo_hookean},
                    {"penalty_pa_per_m", o.contact.penalty_pa_per_m},
                    {"stick_slope_pa_per_m", o.contact.stick_slope_pa_per_m},
                    {"friction", o.contact.friction},
@@ -472,25 +474,28 @@ void add_case_flags(CLI::App& cmd, DesignFlags& f) {
       ->required();
   cmd.add_flag("--json", f.json, "print the summary as JSON on stdout");
   cmd.add_flag("--no-optimise", f.no_optimise, "solve the case's spots as given");
-  cmd.add_option("--target-nodes", f.target_nodes, "stump size (default: the case's)")->check(CLI::Range(500, 100000));
+  cmd.add_option("--target-nodes", f.target_nodes, "stump size (default: the case's)")
+      ->check(within(design::limits::kTargetNodes));
   cmd.add_option("--element", f.element, "c3d8 | c3d8i | c3d8r (default c3d8)");
   cmd.add_option("--poisson", f.poisson,
-                 "tissue Poisson ratio in CalculiX (default: the case's fe model's, else 0.45, the thesis's)")
+                 "tissue Poisson ratio in CalculiX (default: the case's fe or neo-hookean model's, else 0.45, the thesis's)")
       ->check(CLI::Range(0.0, 0.4999));
-  cmd.add_flag("--neo-hookean", f.neo_hookean, "neo-Hookean tissue instead of linear elastic");
+  cmd.add_flag("--neo-hookean", f.neo_hookean,
+               "neo-Hookean tissue in CalculiX instead of linear elastic (automatic when the case's model is neo-hookean)");
   cmd.add_flag("--nonlinear-body", f.nonlinear_body,
                "validate donning: socketsmith's donning with the nonlinear tissue model instead of its linearisation at "
                "rest (slower; with the fe model, the large-displacement problem CalculiX solves under NLGEOM)");
   cmd.add_flag("--small-strain", f.small_strain,
                "CalculiX without NLGEOM: the problem of socketsmith's linear design solve (with --mode load and the fe "
                "tissue model, the two displacement fields agree to round-off)");
-  cmd.add_option("--penalty", f.penalty, "contact penalty stiffness [Pa/m] (default 1e9)")->check(CLI::PositiveNumber);
+  cmd.add_option("--penalty", f.penalty, "contact penalty stiffness [Pa/m] (default 1e9)")->check(positive());
   cmd.add_option("--stick-slope", f.stick_slope,
                  "CalculiX's friction stick slope [Pa/m] (default 5e7, CALCULIX.md; socketsmith's stick is 0.2 x its penalty)")
-      ->check(CLI::PositiveNumber);
-  cmd.add_option("--friction", f.friction, "friction coefficient (default: the case's μ)");
+      ->check(positive());
+  cmd.add_option("--friction", f.friction, "friction coefficient (default: the case's μ)")
+      ->check(within(design::limits::kFriction));
   cmd.add_option("--travel-mm", f.travel_mm, "donning: start this far distally [mm] (default 30)")
-      ->check(CLI::PositiveNumber);
+      ->check(positive());
   cmd.add_option("--initial-increment", f.initial_increment, "first ccx increment (fraction of the step, default 0.05)")
       ->check(CLI::Range(1e-4, 1.0));
   cmd.add_option("--fe-pressure", f.fe_pressure,
@@ -512,7 +517,8 @@ void register_validate(CLI::App& app) {
   cube->add_option("--out", cf->out, "output folder (cube.inp, cube_fe.csv, cube_fe.svg, cube_fe.png, summary.json)")->required();
   cube->add_flag("--json", cf->json, "print the summary as JSON on stdout");
   cube->add_option("--divisions", cf->divisions, "elements per edge (default 4)")->check(CLI::Range(1, 40));
-  cube->add_option("--youngs-kpa", cf->youngs_kpa, "Young's modulus [kPa] (default 50)");
+  cube->add_option("--youngs-kpa", cf->youngs_kpa, "Young's modulus [kPa] (default 50)")
+      ->check(within(design::limits::kYoungsModulus));
   cube->add_option("--poisson", cf->poisson, "Poisson ratio (default 0.45)");
   cube->add_option("--max-force", cf->max_force, "plate force at the end [N] (default 8: 6.4 % strain)");
   cube->add_option("--increments", cf->increments, "equal load increments (default 8)")->check(CLI::Range(1, 100));
@@ -528,7 +534,7 @@ void register_validate(CLI::App& app) {
                                        "displacements) | donning (rigid socket pushed up the axis)")
       ->check(CLI::IsMember({"contact", "load", "donning"}));
   des->add_option("--clearance-mm", df->clearance_mm, "where the socket fit starts outside the skin [mm] (default 1)")
-      ->check(CLI::PositiveNumber);
+      ->check(positive());
   des->add_flag("--stand", df->stand,
                 "with --mode donning: then push the socket with half the body weight (the thesis's second step) in "
                 "CalculiX, and compare socketsmith's own donned-and-stood pressures too (the closed loop's when the "

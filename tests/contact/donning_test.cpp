@@ -243,6 +243,36 @@ TEST_F(Donning, a_refit_keeps_the_worn_state_and_follows_a_looser_wall_as_a_donn
   EXPECT_LT(dr.dsum, 0.25 * dw.dsum);  // the refit is much closer to the full donning than the old state was
 }
 
+TEST_F(Donning, a_distal_platform_leaves_the_cavity_that_the_stump_meets_as_it_is) {
+  // The pad (or the attachment's platform) joins the outer wall below the cavity; the ledge where it
+  // meets the wall faces the axis from within the distal wall's material. Taken for inner wall, it
+  // stopped the distal skin 6 mm into the wall and doubled the donned distal pressure (CalculiX
+  // donning check R 0.84 -> 0.36, 2026-11-26).
+  const auto& setup = *art_.setup;
+  design::SocketOptions plain = c_.socket;
+  plain.distal_pad = false;
+  plain.undeformed_skin = &art_.result.rest_skin;
+  design::SocketOptions padded = plain;
+  padded.distal_pad = true;
+  const auto a = design::build_socket(art_.result.deformed_skin, setup.model.frame, setup.brim, padded);
+  const auto b = design::build_socket(art_.result.deformed_skin, setup.model.frame, setup.brim, plain);
+  ASSERT_TRUE(a.platform.is_built);
+  const RigidSocket ra(a.solid, setup.model.frame, 1000.0), rb(b.solid, setup.model.frame, 1000.0);
+  EXPECT_EQ(ra.inner_wall().num_triangles(), rb.inner_wall().num_triangles());
+  const auto& skin = art_.result.state;
+  int compared = 0;
+  for (size_t i = 0; i < skin.skin_positions.size(); ++i)
+    for (double depth : {0.0, 2e-3, 4e-3, 6e-3}) {
+      const Vec3 p = skin.skin_positions[i] - depth * skin.skin_normals[i];
+      const Gap ga = ra.gap(p), gb = rb.gap(p);
+      if (!gb.valid) continue;
+      ++compared;
+      ASSERT_TRUE(ga.valid) << "skin node " << i << ", " << depth * 1e3 << " mm into the wall";
+      ASSERT_NEAR(ga.gap_m, gb.gap_m, 1e-9) << "skin node " << i << ", " << depth * 1e3 << " mm into the wall";
+    }
+  EXPECT_GT(compared, 1000);
+}
+
 TEST_F(Donning, rejects_a_socket_that_grips_at_the_start_and_bad_options) {
   const auto& art = art_;
   ASSERT_TRUE(art.result.socket.has_value());

@@ -1,4 +1,5 @@
 #include "socketsmith/fe/calculix_deck.h"
+#include "socketsmith/fe/design_artifacts.h"
 #include "socketsmith/fe/design_check.h"
 
 #include <map>
@@ -7,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include "socketsmith/core/errors.h"
+#include "socketsmith/tissue/hex_fe.h"
 #include "socketsmith/volume/box_mesher.h"
 #include "box_with_top.h"
 
@@ -58,12 +60,18 @@ struct BoxAndPlate {
   }
 };
 
-TEST(CalculixDeck, nodes_elements_sets_and_loads_read_back) {
-  Box b;
+/// The box with three fixed nodes and one nodal force (no socket).
+DeckSpec loaded_box(const Box& b) {
   DeckSpec s;
   s.stump = &b.mesh;
   s.fixed_nodes = {0, 1, 2};
   s.nodal_forces = {{26, Vec3(0, 0, -1.5)}};
+  return s;
+}
+
+TEST(CalculixDeck, nodes_elements_sets_and_loads_read_back) {
+  Box b;
+  DeckSpec s = loaded_box(b);
   s.material.youngs_modulus_pa = 100e3;
   s.material.poisson_ratio = 0.45;
   const auto blocks = parse_blocks(write_deck(s));
@@ -91,6 +99,32 @@ TEST(CalculixDeck, nodes_elements_sets_and_loads_read_back) {
   EXPECT_EQ(numbers(cl[0]), (std::vector<double>{27, 3, -1.5}));
   EXPECT_EQ(blocks.count("*CONTACT PAIR, INTERACTION=SI, TYPE=SURFACE TO SURFACE"), 0u);
   EXPECT_EQ(blocks.count("*STEP, NLGEOM, INC=1000"), 1u);
+}
+
+TEST(CalculixDeck, the_cases_tissue_model_picks_calculixs_material) {
+  // neo-hookean: *HYPERELASTIC, NEO HOOKE with the C10 and D1 of socketsmith's own elements;
+  // fe: *ELASTIC with its ν; a lattice: *ELASTIC with the thesis's ν 0.45.
+  Box b;
+  DeckSpec s = loaded_box(b);
+  auto c = design::parse_case(nlohmann::json::parse(R"({"tissue": {"model": "neo-hookean", "poisson": 0.47, "youngs_kpa": 80}})"));
+  s.material = fe_material(c);
+  EXPECT_TRUE(s.material.is_neo_hookean);
+  auto blocks = parse_blocks(write_deck(s));
+  ASSERT_EQ(blocks.count("*HYPERELASTIC, NEO HOOKE"), 1u);
+  EXPECT_EQ(blocks.count("*ELASTIC"), 0u);
+  const tissue::HyperelasticMaterial nh(tissue::HyperelasticLaw::NeoHookean, 80e3, 0.47);
+  const auto v = numbers(blocks.find("*HYPERELASTIC, NEO HOOKE")->second.at(0));
+  ASSERT_EQ(v.size(), 2u);
+  EXPECT_NEAR(v[0], nh.c10(), 1e-8 * nh.c10());
+  EXPECT_NEAR(v[1], nh.d1(), 1e-8 * nh.d1());
+  c = design::parse_case(nlohmann::json::parse(R"({"tissue": {"model": "fe", "poisson": 0.47, "youngs_kpa": 80}})"));
+  s.material = fe_material(c);
+  blocks = parse_blocks(write_deck(s));
+  EXPECT_EQ(numbers(blocks.find("*ELASTIC")->second.at(0)), (std::vector<double>{80e3, 0.47}));
+  c = design::parse_case(nlohmann::json::parse(R"({"tissue": {"model": "mss-cs", "youngs_kpa": 80}})"));
+  s.material = fe_material(c);
+  EXPECT_FALSE(s.material.is_neo_hookean);
+  EXPECT_DOUBLE_EQ(s.material.poisson_ratio, 0.45);
 }
 
 TEST(CalculixDeck, socket_contact_and_the_two_steps_follow_calculix_md) {

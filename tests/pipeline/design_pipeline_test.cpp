@@ -117,6 +117,12 @@ TEST(ModelOptions, a_case_files_tissue_model_and_poisson_ratio_reach_the_model) 
   EXPECT_DOUBLE_EQ(pipeline::model_options(c).fe_poisson_ratio, 0.45);
   c = design::parse_case(nlohmann::json::parse(R"({"tissue": {"model": "mss-cf", "poisson": 0.3}})"));
   EXPECT_DOUBLE_EQ(pipeline::model_options(c).cf_poisson_ratio, 0.3);
+  // The neo-Hookean model takes the same ν as the fe model.
+  c = design::parse_case(nlohmann::json::parse(R"({"tissue": {"model": "neo-hookean", "poisson": 0.45, "solve": "nonlinear"}})"));
+  o = pipeline::model_options(c);
+  EXPECT_EQ(o.kind, tissue::TissueModelKind::NeoHookean);
+  EXPECT_DOUBLE_EQ(o.fe_poisson_ratio, 0.45);
+  EXPECT_EQ(c.solve_mode, design::DesignSolveMode::Nonlinear);
 }
 
 }  // namespace

@@ -2,8 +2,6 @@
 
 #include <gtest/gtest.h>
 
-#include <random>
-
 #include <Eigen/Dense>
 #include <Eigen/SparseLU>
 
@@ -15,19 +13,6 @@ namespace {
 using namespace testing;
 using Eigen::Matrix3d;
 using Eigen::Vector3d;
-
-/// A 3×3×3 lattice of the box [0, a]³ whose interior nodes are moved at random (distorted bricks).
-volume::HexMesh distorted_lattice(double a, unsigned seed) {
-  auto mesh = small_lattice(3, a);
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> u(-0.15 * a / 3, 0.15 * a / 3);
-  for (auto& p : mesh.nodes) {
-    bool interior = true;
-    for (int d = 0; d < 3; ++d) interior = interior && p[d] > 1e-9 && p[d] < a - 1e-9;
-    if (interior) p += Vector3d(u(rng), u(rng), u(rng));
-  }
-  return mesh;
-}
 
 TEST(HexFe, energy_of_an_affine_deformation_is_exact_on_distorted_bricks) {
   // A homogeneous deformation x = F X gives the same E in every element, and the 2×2×2 rule

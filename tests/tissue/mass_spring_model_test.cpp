@@ -102,7 +102,8 @@ const Variant kVariants[] = {{TissueModelKind::Mss, CorrectiveLaw::Symmetric, "m
                              {TissueModelKind::MssCs, CorrectiveLaw::Symmetric, "mss-cs thesis"},
                              {TissueModelKind::MssCs, CorrectiveLaw::CompressionOnly, "mss-cs recommended"},
                              {TissueModelKind::MssCf, CorrectiveLaw::Symmetric, "mss-cf"},
-                             {TissueModelKind::Fe, CorrectiveLaw::Symmetric, "fe"}};
+                             {TissueModelKind::Fe, CorrectiveLaw::Symmetric, "fe"},
+                             {TissueModelKind::NeoHookean, CorrectiveLaw::Symmetric, "neo-hookean"}};
 
 TEST(MassSpringModel, jacobian_matches_finite_differences_of_the_forces_for_every_variant) {
   const auto mesh = small_lattice(2);
@@ -112,14 +113,7 @@ TEST(MassSpringModel, jacobian_matches_finite_differences_of_the_forces_for_ever
     SparseMatrix J;
     m.jacobian(x, JacobianKind::Exact, J);
     const Eigen::MatrixXd Jd(J);
-    const double eps = 1e-9;
-    Eigen::MatrixXd fd(m.num_dofs(), m.num_dofs());
-    for (int c = 0; c < m.num_dofs(); ++c) {
-      VectorXd p = x, q = x;
-      p[c] += eps;
-      q[c] -= eps;
-      fd.col(c) = (m.elastic_forces(p) - m.elastic_forces(q)) / (2 * eps);
-    }
+    const Eigen::MatrixXd fd = fd_jacobian([&](const VectorXd& y) { return m.elastic_forces(y); }, x, 1e-9);
     EXPECT_LT((fd - Jd).norm(), 1e-6 * Jd.norm()) << var.name;
     if (var.kind != TissueModelKind::MssCs) {
       EXPECT_LT((Jd - Jd.transpose()).norm(), 1e-10 * Jd.norm()) << var.name;
@@ -253,13 +247,7 @@ TEST(MassSpringModel, corrective_dead_zone_is_silent_below_d_and_exact_beyond) {
     SparseMatrix J;
     m.jacobian(x, JacobianKind::Exact, J);
     const Eigen::MatrixXd Jd(J);
-    Eigen::MatrixXd fd(m.num_dofs(), m.num_dofs());
-    for (int c = 0; c < m.num_dofs(); ++c) {
-      VectorXd p = x, q = x;
-      p[c] += 1e-9;
-      q[c] -= 1e-9;
-      fd.col(c) = (m.elastic_forces(p) - m.elastic_forces(q)) / 2e-9;
-    }
+    const Eigen::MatrixXd fd = fd_jacobian([&](const VectorXd& y) { return m.elastic_forces(y); }, x, 1e-9);
     EXPECT_LT((fd - Jd).norm(), 1e-6 * Jd.norm()) << to_string(law);
   }
   MassSpringOptions bad;
@@ -344,6 +332,8 @@ TEST(MassSpringModel, parses_names_and_presets) {
   EXPECT_EQ(parse_tissue_model("mss-cs"), TissueModelKind::MssCs);
   EXPECT_EQ(to_string(parse_tissue_model("mss-cf")), "mss-cf");
   EXPECT_EQ(parse_tissue_model("fe"), TissueModelKind::Fe);
+  EXPECT_EQ(parse_tissue_model("neo-hookean"), TissueModelKind::NeoHookean);
+  EXPECT_EQ(to_string(TissueModelKind::NeoHookean), "neo-hookean");
   EXPECT_THROW(parse_tissue_model("fem"), InvalidInputError);
   EXPECT_EQ(CorrectiveSpringConstants::preset("thesis").c, 25.0);
   EXPECT_THROW(CorrectiveSpringConstants::preset("best"), InvalidInputError);

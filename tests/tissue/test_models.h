@@ -17,6 +17,19 @@ inline volume::HexMesh small_lattice(int n = 2, double edge = 0.02) {
   return volume::mesh_box(o);
 }
 
+/// A 3×3×3 lattice of the box [0, a]³ whose interior nodes are moved at random (distorted bricks).
+inline volume::HexMesh distorted_lattice(double a, unsigned seed) {
+  auto mesh = small_lattice(3, a);
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-0.15 * a / 3, 0.15 * a / 3);
+  for (auto& p : mesh.nodes) {
+    bool interior = true;
+    for (int d = 0; d < 3; ++d) interior = interior && p[d] > 1e-9 && p[d] < a - 1e-9;
+    if (interior) p += volume::Vec3(u(rng), u(rng), u(rng));
+  }
+  return mesh;
+}
+
 inline MassSpringOptions options_for(TissueModelKind kind, CorrectiveLaw law = CorrectiveLaw::Symmetric) {
   MassSpringOptions o;
   o.kind = kind;
@@ -65,6 +78,21 @@ struct BenchLattice {
   DofConstraints constraints;
   VectorXd f;
 };
+
+/// Central finite differences of a vector function @p f at @p x: column c is ∂f/∂x_c (step @p eps).
+template <class F>
+Eigen::MatrixXd fd_jacobian(const F& f, const VectorXd& x, double eps) {
+  Eigen::MatrixXd out;
+  for (Eigen::Index c = 0; c < x.size(); ++c) {
+    VectorXd p = x, q = x;
+    p[c] += eps;
+    q[c] -= eps;
+    const VectorXd col = (f(p) - f(q)) / (2 * eps);
+    if (c == 0) out.resize(col.size(), x.size());
+    out.col(c) = col;
+  }
+  return out;
+}
 
 inline Eigen::Matrix3d random_rotation(unsigned seed) {
   std::mt19937 rng(seed);

@@ -312,7 +312,7 @@ struct ContactSolver::Impl {
   bool try_step(const VectorXd& xs, const Vec3& t, const VectorXd& delta, double a, Trial& tr) {
     tr.x = xs;
     dofs.add_expanded(a * delta, tr.x);
-    if (!opt.linear_body && model.min_corner_jacobian(tr.x) <= 0) return false;
+    if (!opt.linear_body && model.has_inverted_element(tr.x)) return false;
     VectorXd Ku;
     if (opt.linear_body) Ku = Ku0 + a * Kd;
     tr.r = evaluate(tr.x, t, tr.st, tr.th, &tr.B, &tr.pi, opt.linear_body ? &Ku : nullptr);

@@ -44,7 +44,7 @@ struct CaseFile {
   PatientLoad patient;
   ThresholdTable thresholds;               ///< [Pa]; empty = the limb type's defaults
   // Tissue model
-  std::string model = "mss-cs";            ///< mss-cs | mss-cf | mss | fe
+  std::string model = "mss-cs";            ///< mss-cs | mss-cf | mss | fe | neo-hookean
   /// Poisson ratio of the fe model (default 0.45) or MSS-CF's target (default 0.49); not set =
   /// the model's default. MSS and MSS-CS have none of their own (their lattice's is 1/4).
   std::optional<double> poisson_ratio;
@@ -60,6 +60,7 @@ struct CaseFile {
   bool optimise = true;
   OptimizerOptions::Objective objective = OptimizerOptions::Objective::Pressure;
   double model_pressure_limit = 0.25;      ///< × E (see OptimizerOptions)
+  double time_limit_s = 0.0;               ///< the optimiser's wall-time bound [s]; 0 = none
   /// Closed-loop design (pipeline/closed_loop.h): don and stand on the socket, correct its wall
   /// until it delivers the designed pressures, write the corrected socket.
   bool closed_loop = false;

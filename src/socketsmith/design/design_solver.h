@@ -17,11 +17,12 @@
 /// `force_tolerance` (1 %) of M g / 2, torques within `torque_tolerance` (1 %) of M g / 2 × the
 /// stump length.
 ///
-/// The pressure is a follower load: forces use the deformed normals and areas. A solve fixes the
-/// forces at the current geometry, solves, recomputes the geometry, and repeats until the nodal
-/// forces change by less than `follower_tolerance` (usually 2–3 passes); when it oscillates or
-/// takes long, with Aitken relaxation. A state whose iteration did not converge within its cap
-/// does not meet its constraints (ConstraintStatus::follower_converged).
+/// The pressure is a follower load: forces use the deformed normals and areas. The nonlinear
+/// stump solves for it directly (tissue::FollowerPressure: Newton with the load's stiffness in the
+/// tangent). The linearised stump fixes the forces at the current geometry, solves, recomputes the
+/// geometry, and repeats until the nodal forces change by less than `follower_tolerance` (usually
+/// 2–4 passes); when it oscillates or takes long, with Aitken relaxation. A state whose iteration
+/// did not converge within its cap does not meet its constraints (ConstraintStatus::follower_converged).
 
 #include <functional>
 #include <memory>
@@ -106,7 +107,7 @@ struct DesignState {
   bool converged = false;
   bool linearised = false;                 ///< the shape comes from the linearised model
   std::string nonlinear_failure;           ///< why the nonlinear solve failed (Auto mode)
-  int follower_passes = 0;
+  int follower_passes = 0;                 ///< linear solves of the linearised stump (1 for a nonlinear solve)
   bool follower_capped = false;            ///< stopped at its pass cap before the tolerance (not met)
   double follower_change = 0.0;            ///< the last pass's relative force change
   int follower_relaxed_from = 0;           ///< relaxation started after this pass (0: plain iteration)
@@ -117,7 +118,7 @@ struct DesignState {
 
 /// How the stump's equilibrium is found.
 enum class DesignSolveMode {
-  Nonlinear,  ///< the MSS-CS model's static equilibrium (Newton, warm-started)
+  Nonlinear,  ///< the tissue model's static equilibrium under the follower pressure (Newton, warm-started)
   Linear,     ///< its linearisation at rest: K₀ u = f with K₀ factorised once (updates in ms)
   Auto,       ///< nonlinear; once the lattice loses stability (no equilibrium), the linearised
               ///< model from then on, reported in DesignState::linearised and its message
@@ -132,9 +133,9 @@ struct DesignSolverOptions {
   /// makes a design update a few back-substitutions.
   DesignSolveMode mode = DesignSolveMode::Linear;
   tissue::StaticSolverOptions solver;
-  double follower_tolerance = 1e-3;  ///< max |Δf_i| / max |f_i| between passes
-  int max_follower_passes = 8;       ///< plain passes (x = y), [1, 1000]
-  int max_relaxed_passes = 32;       ///< then passes with Aitken relaxation, [0, 1000]; 0 = none
+  double follower_tolerance = 1e-3;  ///< linearised stump: max |Δf_i| / max |f_i| between passes
+  int max_follower_passes = 8;       ///< linearised stump: plain passes (x = y), [1, 1000]
+  int max_relaxed_passes = 32;       ///< linearised stump: then passes with Aitken relaxation, [0, 1000]; 0 = none
 };
 
 /// The stump under design: model, solver and skin geometry built once; each solve() warm-starts

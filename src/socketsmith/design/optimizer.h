@@ -18,6 +18,9 @@
 ///    the equilibrium, refit — until the radar of the solved stump meets the constraints (2–3
 ///    rounds), because the socket's pressures act on the deformed surface.
 /// When the constraints cannot all be met, the result says which one fails and by how much.
+/// With fewer than six free amplitudes the six equalities are fitted in the least-squares sense
+/// (½ Σ (residual / tolerance)²) under the same inequalities; the message then asks for more spots
+/// when the balance fails.
 
 #include <string>
 #include <vector>
@@ -58,6 +61,12 @@ struct OptimizerOptions {
   /// more than ≈ 0.25–0.3 E (measured, docs/design.md); real tissue stiffens instead.
   double model_pressure_limit = 0.25;
   int max_model_caps = 6;
+  /// Wall-time bound of the whole optimisation [s], 0 = none. When it stops the search, the last
+  /// fitted layout is solved and returned with is_time_limited and a message that says so.
+  double time_limit_s = 0.0;
+  /// Called at every objective evaluation (the bar moves while a large fit runs); the stage ends
+  /// with a detail in parentheses ("design: optimising, round 1 (amplitude fit, 37 evaluations, 12 s)").
+  /// Returning false cancels: message "cancelled".
   ProgressCallback progress;
 };
 
@@ -71,6 +80,7 @@ struct OptimizerResult {
   double objective = 0.0;            ///< J of the last fit
   int model_caps = 0;                ///< zones where the stump model's stability limited the pressure
   double seconds = 0.0;
+  bool is_time_limited = false;      ///< stopped by OptimizerOptions::time_limit_s
   std::string message;               ///< "all constraints met …" or which constraint fails and why
   std::vector<std::string> log;      ///< one line per round
 };

@@ -4,6 +4,16 @@
 
 namespace socketsmith::fe {
 
+FeMaterial fe_material(const design::CaseFile& c) {
+  FeMaterial m;
+  m.youngs_modulus_pa = c.youngs_modulus_pa;
+  m.density_kg_m3 = c.density_kg_m3;
+  const auto model = pipeline::model_options(c);
+  m.poisson_ratio = tissue::is_continuum(model.kind) ? model.fe_poisson_ratio : 0.45;
+  m.is_neo_hookean = model.kind == tissue::TissueModelKind::NeoHookean;
+  return m;
+}
+
 DesignedStump designed_stump(const pipeline::DesignArtifacts& artifacts) {
   require(artifacts.setup != nullptr && artifacts.setup->solver != nullptr,
           "designed_stump: the design artifacts are empty (run pipeline::run_design with artifacts first)");

@@ -15,6 +15,12 @@ namespace socketsmith::fe {
 /// @throws InvalidInputError when the artifacts hold no setup.
 DesignedStump designed_stump(const pipeline::DesignArtifacts& artifacts);
 
+/// CalculiX's twin of a case's tissue: E and ρ of the case; for the continuum models their own
+/// ν and law (fe: *ELASTIC, St Venant–Kirchhoff under NLGEOM; neo-hookean: *HYPERELASTIC, NEO
+/// HOOKE with the same C10 and D1), so both sides solve the same problem; for the MSS lattices,
+/// which have no continuum twin, ν = 0.45 (the thesis's Abaqus check) and *ELASTIC.
+FeMaterial fe_material(const design::CaseFile& c);
+
 /// socketsmith's own donning of a design run's socket onto its stump (the thesis's ch. 3 check:
 /// the side that CalculiX's donning is compared with): the contact solver on the run's linearised
 /// stump, the socket started @p options.start_offset_m below its designed pose.

@@ -66,6 +66,7 @@ std::vector<int> cavity_triangles(const TriMesh& solid, const LimbFrame& frame) 
       const Vec3 o = frame.on_axis(ho);
       const Vec3 dir = ctr - o;
       if (dir.norm() < 1e-9 || dir.dot(n) >= 0) continue;  // must face the origin (normal into the cavity)
+      if (all.first_hit(o, frame.axis)) continue;             // the origin is in the wall or below the socket
       const auto hit = all.first_hit(o, dir);
       if (hit && (hit->triangle == i || std::abs(hit->distance - dir.norm()) < 1e-7)) {
         out.push_back(i);

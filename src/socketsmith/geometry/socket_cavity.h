@@ -19,7 +19,10 @@ bool surrounds_axis(const TriMesh& solid, const LimbFrame& frame, int* facing_ou
 
 /// Triangles of the closed, outward @p solid seen from @p frame's axis — the cavity's wall (the
 /// cavity is star-shaped about its axis) — from origins on the axis at each triangle's height or
-/// lifted towards the opening, no higher than the solid (else the lip's top is "seen").
+/// lifted towards the opening, no higher than the solid (else the lip's top is "seen"), and in the
+/// cavity: an origin in the distal wall would "see" faces of the outside (the ledge where a distal
+/// platform joins the outer wall) from within the material; an origin is in the cavity when the
+/// ray up the axis leaves through the open brim.
 std::vector<int> cavity_triangles(const TriMesh& solid, const LimbFrame& frame);
 
 /// The triangles @p ids of @p mesh with only the vertices they use (renumbered in order).

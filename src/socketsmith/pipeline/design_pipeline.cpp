@@ -83,7 +83,7 @@ tissue::MassSpringOptions model_options(const design::CaseFile& c) {
   o.corrective = o.kind == tissue::TissueModelKind::MssCs ? tissue::CorrectiveSpringConstants::preset(c.constants)
                                                           : tissue::CorrectiveSpringConstants::thesis();
   if (c.poisson_ratio) {
-    if (o.kind == tissue::TissueModelKind::Fe) o.fe_poisson_ratio = *c.poisson_ratio;
+    if (tissue::is_continuum(o.kind)) o.fe_poisson_ratio = *c.poisson_ratio;
     if (o.kind == tissue::TissueModelKind::MssCf) o.cf_poisson_ratio = *c.poisson_ratio;
   }
   return o;
@@ -153,6 +153,7 @@ DesignResult solve_design(DesignSetup& setup, bool optimise, const ProgressCallb
     design::OptimizerOptions oo;
     oo.objective = c.objective;
     oo.model_pressure_limit = c.model_pressure_limit;
+    oo.time_limit_s = c.time_limit_s;
     oo.progress = [&](double f, std::string_view stage) { return report_progress(progress, 0.9 * f, stage); };
     r.optimiser = design::optimise_design(solver, setup.spots, oo);
     r.spots = r.optimiser.spots;
@@ -277,6 +278,18 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
   const auto& spots = result.spots;
   const bool optimise = result.optimised;
   const bool met = result.constraints_met;
+  // A socket of an earlier run would sit beside this run's report as if it were this design's.
+  nlohmann::json removed = nlohmann::json::array();
+  if (!result.socket) {
+    std::error_code ec;
+    if (fs::remove(out / "socket.stl", ec)) {
+      removed.push_back("socket.stl");
+      log::warn("design: removed the earlier socket.stl from {}: this design has no socket", out.string());
+    } else if (ec) {
+      fail<IoError>("design: cannot remove the earlier socket.stl from {} ({}): remove it by hand, it is not this "
+                    "design's", out.string(), ec.message());
+    }
+  }
 
   // Outputs: surface nodes, stump fields, pictures, socket, report, case replay.
   const auto& skin = solver.skin();
@@ -470,9 +483,10 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
   rd.limb_type = geometry::to_string(model.type);
   rd.side = geometry::to_string(model.frame.side);
   rd.mesh_nodes = mesh.mesh.num_nodes();
-  if (c.model == "fe")
-    rd.model = fmt::format("fe (St Venant-Kirchhoff hexahedra, E = {:.0f} kPa, nu = {:.2f}), {} design solve",
-                           c.youngs_modulus_pa / 1e3, model_options(c).fe_poisson_ratio, design::to_string(c.solve_mode));
+  if (c.model == "fe" || c.model == "neo-hookean")
+    rd.model = fmt::format("{} ({} hexahedra, E = {:.0f} kPa, nu = {:.2f}), {} design solve", c.model,
+                           c.model == "fe" ? "St Venant-Kirchhoff" : "neo-Hookean", c.youngs_modulus_pa / 1e3,
+                           model_options(c).fe_poisson_ratio, design::to_string(c.solve_mode));
   else
     rd.model = fmt::format("{} ({} constants, E = {:.0f} kPa), {} design solve", c.model, c.constants,
                            c.youngs_modulus_pa / 1e3, design::to_string(c.solve_mode));
@@ -572,16 +586,23 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
       {"solver_message", state.message},
       {"follower_converged", !state.follower_capped},
       {"optimiser_seconds", opt.seconds},
+      {"optimiser_time_limited", opt.is_time_limited},
       {"model_caps", opt.model_caps},
       {"linearised", state.linearised || c.solve_mode == design::DesignSolveMode::Linear},
       {"solve_mode", design::to_string(c.solve_mode)},
+      {"final_solve",
+       {{"newton_iterations", state.newton_iterations},
+        {"follower_passes", state.follower_passes},
+        {"seconds", state.seconds},
+        {"nonlinear_failure", state.nonlinear_failure}}},
       {"brim", {{"template", brim.name()}, {"min_h_mm", brim.min_height() * 1e3}, {"max_h_mm", brim.max_height() * 1e3}}},
       {"spots", spots_json},
       {"bones_estimated", model.bones_estimated},
       {"anterior_estimated", model.frame.anterior_estimated},
       {"seconds", seconds},
       {"out", out.string()},
-      {"outputs", outputs}};
+      {"outputs", outputs},
+      {"removed", removed}};
   if (!socket_json.is_null()) j["socket"] = socket_json;
   j["rectification"] = checks_json["rectification"];
   j["slices"] = checks_json["slices"];

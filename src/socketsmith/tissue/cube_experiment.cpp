@@ -61,6 +61,13 @@ CubeExperimentResult run_cube_experiment(const CubeExperimentOptions& o, const P
     row.weight_n = weight;
     row.top_pressure_analytic_pa = weight / area;
     row.displacement_ratio_analytic = weight / (area * o.material.youngs_modulus_pa);
+    if (const auto* material = model.continuum_material()) {
+      const UniaxialStressState ref = uniaxial_stress_state(*material, -weight / area);
+      if (ref.found) {
+        row.displacement_ratio_reference = 1.0 - ref.axial_stretch;
+        row.volume_ratio_reference = ref.axial_stretch * ref.lateral_stretch * ref.lateral_stretch;
+      }
+    }
     for (int sub = 1; sub <= (w == 0 ? 1 : o.load_substeps); ++sub) {
       const double wi = previous_weight + (weight - previous_weight) * sub / (w == 0 ? 1 : o.load_substeps);
       for (int t : top) f_ext[dof(t, 2)] = -wi / static_cast<double>(top.size());
@@ -127,6 +134,13 @@ CubeErrors cube_errors(const CubeExperimentResult& result, double disp_limit, do
     if (strain <= disp_limit + 1e-12)
       e.max_displacement_error = std::max(e.max_displacement_error, std::abs(r.displacement_ratio - strain) / strain);
     if (strain <= vol_limit + 1e-12) e.max_volume_error = std::max(e.max_volume_error, std::abs(r.volume_ratio - 1.0));
+    if (std::isfinite(r.displacement_ratio_reference) && r.displacement_ratio_reference > 0) {
+      const double d = std::abs(r.displacement_ratio - r.displacement_ratio_reference) / r.displacement_ratio_reference;
+      const double v = std::abs(r.volume_ratio - r.volume_ratio_reference);
+      e.max_displacement_error_reference =
+          std::isnan(e.max_displacement_error_reference) ? d : std::max(e.max_displacement_error_reference, d);
+      e.max_volume_error_reference = std::isnan(e.max_volume_error_reference) ? v : std::max(e.max_volume_error_reference, v);
+    }
   }
   return e;
 }

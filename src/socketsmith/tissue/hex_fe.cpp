@@ -1,6 +1,7 @@
 #include "socketsmith/tissue/hex_fe.h"
 
 #include <cmath>
+#include <limits>
 
 #include <Eigen/Dense>
 
@@ -11,6 +12,42 @@ namespace socketsmith::tissue {
 
 using Eigen::Matrix3d;
 using Eigen::Vector3d;
+using Tangent = HyperelasticMaterial::Tangent;
+using Vec9 = Eigen::Matrix<double, 9, 1>;
+
+namespace {
+
+Matrix3d cross_matrix(const Vector3d& v) {
+  Matrix3d m;
+  m << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
+  return m;
+}
+
+/// Cofactor H = ∂J/∂F = J F⁻ᵀ (column j: the cross product of the other two columns of F).
+Matrix3d cofactor(const Matrix3d& F) {
+  Matrix3d H;
+  H.col(0) = F.col(1).cross(F.col(2));
+  H.col(1) = F.col(2).cross(F.col(0));
+  H.col(2) = F.col(0).cross(F.col(1));
+  return H;
+}
+
+/// ∂²J/∂vec(F)² (9×9, linear in F): block (j, k) is ∂²J/∂f_j∂f_k for the columns f of F.
+Tangent determinant_hessian(const Matrix3d& F) {
+  Tangent h = Tangent::Zero();
+  const Matrix3d c0 = cross_matrix(F.col(0)), c1 = cross_matrix(F.col(1)), c2 = cross_matrix(F.col(2));
+  h.block<3, 3>(0, 3) = -c2;
+  h.block<3, 3>(3, 0) = c2;
+  h.block<3, 3>(0, 6) = c1;
+  h.block<3, 3>(6, 0) = -c1;
+  h.block<3, 3>(3, 6) = -c0;
+  h.block<3, 3>(6, 3) = c0;
+  return h;
+}
+
+Vec9 vec(const Matrix3d& m) { return Eigen::Map<const Vec9>(m.data()); }
+
+}  // namespace
 
 Lame lame_constants(double E, double nu) {
   require(std::isfinite(E) && E > 0, "finite elements: Young's modulus {} Pa (expected > 0, e.g. 50e3)", E);
@@ -19,8 +56,122 @@ Lame lame_constants(double E, double nu) {
   return {E * nu / ((1 + nu) * (1 - 2 * nu)), E / (2 * (1 + nu))};
 }
 
-HexFeElements::HexFeElements(const volume::HexMesh& mesh, double E, double nu)
-    : hexes_(mesh.hexahedra), lame_(lame_constants(E, nu)) {
+HyperelasticMaterial::HyperelasticMaterial(HyperelasticLaw law, double E, double nu)
+    : law_(law), lame_(lame_constants(E, nu)) {}
+
+double HyperelasticMaterial::energy_density(const Matrix3d& F) const {
+  const double lambda = lame_.lambda, mu = lame_.mu;
+  if (law_ == HyperelasticLaw::StVenantKirchhoff) {
+    const Matrix3d E = 0.5 * (F.transpose() * F - Matrix3d::Identity());
+    const double tr = E.trace();
+    return 0.5 * lambda * tr * tr + mu * E.squaredNorm();
+  }
+  const double J = F.determinant();
+  if (!(J > 0)) return std::numeric_limits<double>::infinity();
+  // C10 (J^(−2/3) I1 − 3) + (J − 1)²/D1 with C10 = μ/2, 1/D1 = K/2.
+  return 0.5 * mu * (std::pow(J, -2.0 / 3.0) * F.squaredNorm() - 3.0) + 0.5 * bulk_modulus() * (J - 1) * (J - 1);
+}
+
+Matrix3d HyperelasticMaterial::first_piola(const Matrix3d& F) const {
+  const double lambda = lame_.lambda, mu = lame_.mu;
+  if (law_ == HyperelasticLaw::StVenantKirchhoff) {
+    const Matrix3d E = 0.5 * (F.transpose() * F - Matrix3d::Identity());
+    return F * (lambda * E.trace() * Matrix3d::Identity() + 2.0 * mu * E);
+  }
+  // P = μ J^(−2/3) F − (μ/3) I1 J^(−5/3) H + K (J − 1) H, with H = ∂J/∂F.
+  const double J = F.determinant();
+  SOCKETSMITH_ASSERT(J > 0);
+  const double j23 = std::pow(J, -2.0 / 3.0);
+  const Matrix3d H = cofactor(F);
+  return mu * j23 * F + (bulk_modulus() * (J - 1) - mu / 3.0 * F.squaredNorm() * j23 / J) * H;
+}
+
+Tangent HyperelasticMaterial::tangent(const Matrix3d& F, bool psd) const {
+  const double lambda = lame_.lambda, mu = lame_.mu;
+  Tangent A;
+  if (law_ == HyperelasticLaw::StVenantKirchhoff) {
+    // ∂(F S)_iJ/∂F_kL = δ_ik S_JL + λ F_iJ F_kL + μ (F_iL F_kJ + (F Fᵀ)_ik δ_JL).
+    const Matrix3d E = 0.5 * (F.transpose() * F - Matrix3d::Identity());
+    Matrix3d S = lambda * E.trace() * Matrix3d::Identity() + 2.0 * mu * E;
+    if (psd) {  // the material term is PSD: clamping the stress of the geometric term suffices
+      Eigen::SelfAdjointEigenSolver<Matrix3d> eig(S);
+      S = eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).asDiagonal() * eig.eigenvectors().transpose();
+    }
+    const Matrix3d FFt = F * F.transpose();
+    for (int L = 0; L < 3; ++L)
+      for (int k = 0; k < 3; ++k)
+        for (int J = 0; J < 3; ++J)
+          for (int i = 0; i < 3; ++i)
+            A(i + 3 * J, k + 3 * L) = (i == k ? S(J, L) : 0.0) + lambda * F(i, J) * F(k, L) +
+                                      mu * (F(i, L) * F(k, J) + (J == L ? FFt(i, k) : 0.0));
+    return A;
+  }
+  const double J = F.determinant();
+  SOCKETSMITH_ASSERT(J > 0);
+  const double I1 = F.squaredNorm(), j23 = std::pow(J, -2.0 / 3.0), j53 = j23 / J, j83 = j53 / J;
+  const double kappa = bulk_modulus();
+  const Vec9 f = vec(F), h = vec(cofactor(F));
+  A = (kappa * (J - 1) - mu / 3.0 * I1 * j53) * determinant_hessian(F);
+  A.noalias() += (kappa + 5.0 / 9.0 * mu * I1 * j83) * h * h.transpose();
+  A.noalias() -= 2.0 / 3.0 * mu * j53 * (f * h.transpose() + h * f.transpose());
+  A.diagonal().array() += mu * j23;
+  if (psd) {
+    // IPC-style projection on the positive eigen-part. A point whose tangent is positive
+    // semi-definite to round-off (at rest its rotations are exact zero modes) is kept as is; a
+    // Cholesky of A + 1e-10 μ I tells that cheaply.
+    const Tangent shifted = A + 1e-10 * mu * Tangent::Identity();
+    Eigen::LLT<Tangent> llt(shifted);
+    if (llt.info() != Eigen::Success) {
+      Eigen::SelfAdjointEigenSolver<Tangent> eig(A);
+      A = eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).asDiagonal() * eig.eigenvectors().transpose();
+    }
+  }
+  return A;
+}
+
+UniaxialStressState uniaxial_stress_state(const HyperelasticMaterial& material, double p) {
+  require(std::isfinite(p), "uniaxial_stress_state: nominal stress {} Pa (expected finite)", p);
+  UniaxialStressState out;
+  double s = 1.0, t = 1.0;
+  const double tol = 1e-12 * std::max(std::abs(p), material.lame().mu);
+  // Load steps small enough that Newton from the previous state converges; a law with a limit
+  // point on the path (no state for the next load) makes Newton fail there.
+  const int steps = 50;
+  for (int k = 1; k <= steps; ++k) {
+    const double target = p * k / steps;
+    bool converged = false;
+    for (int it = 0; it < 50 && !converged; ++it) {
+      const Matrix3d F = Eigen::Vector3d(t, t, s).asDiagonal();
+      if (material.needs_positive_volume() && !(F.determinant() > 0)) return out;
+      const Matrix3d P = material.first_piola(F);
+      const Eigen::Vector2d r(P(2, 2) - target, P(0, 0));
+      if (r.cwiseAbs().maxCoeff() <= tol) {
+        converged = true;
+        break;
+      }
+      const Tangent A = material.tangent(F, false);
+      // vec indices: F11 → 0, F22 → 4, F33 → 8; t moves F11 and F22 together.
+      Eigen::Matrix2d D;
+      D << A(8, 8), A(8, 0) + A(8, 4), A(0, 8), A(0, 0) + A(0, 4);
+      const Eigen::Vector2d d = D.partialPivLu().solve(-r);
+      if (!d.allFinite()) return out;
+      // Keep the stretches positive: at most half the way to zero per iteration.
+      double step = 1.0;
+      if (s + d[0] <= 0.5 * s) step = std::min(step, -0.5 * s / d[0]);
+      if (t + d[1] <= 0.5 * t) step = std::min(step, -0.5 * t / d[1]);
+      s += step * d[0];
+      t += step * d[1];
+    }
+    if (!converged) return out;
+  }
+  out.found = true;
+  out.axial_stretch = s;
+  out.lateral_stretch = t;
+  return out;
+}
+
+HexFeElements::HexFeElements(const volume::HexMesh& mesh, double E, double nu, HyperelasticLaw law)
+    : hexes_(mesh.hexahedra), material_(law, E, nu) {
   const auto& dN = volume::hex_gauss_shape_derivatives();
   gauss_.resize(hexes_.size());
   for (size_t e = 0; e < hexes_.size(); ++e) {
@@ -47,17 +198,23 @@ Matrix3d HexFeElements::deformation_gradient(const volume::Hex& hex, const Gauss
   return F;
 }
 
-Matrix3d HexFeElements::stress(const Matrix3d& F) const {
-  const Matrix3d E = 0.5 * (F.transpose() * F - Matrix3d::Identity());
-  return lame_.lambda * E.trace() * Matrix3d::Identity() + 2.0 * lame_.mu * E;
+Matrix3d HexFeElements::checked_deformation_gradient(size_t e, const GaussPoint& gp, const Eigen::VectorXd& x) const {
+  const Matrix3d F = deformation_gradient(hexes_[e], gp, x);
+  if (material_.needs_positive_volume()) {
+    const double J = F.determinant();
+    require<SolverError>(J > 0,
+                         "finite elements: element {} is inverted at a Gauss point (J = {:.3g}), where the neo-Hookean "
+                         "stress is undefined; reject such states before evaluating forces (MassSpringModel::has_inverted_element)",
+                         e, J);
+  }
+  return F;
 }
 
 void HexFeElements::add_forces(const Eigen::VectorXd& x, Eigen::VectorXd& f) const {
   for (size_t e = 0; e < hexes_.size(); ++e) {
     const auto& hex = hexes_[e];
     for (const auto& gp : gauss_[e]) {
-      const Matrix3d F = deformation_gradient(hex, gp, x);
-      const Matrix3d P = F * stress(F);  // first Piola–Kirchhoff
+      const Matrix3d P = material_.first_piola(checked_deformation_gradient(e, gp, x));
       for (int a = 0; a < 8; ++a) f.segment<3>(3 * hex[a]) -= gp.weight * (P * gp.grad[a]);
     }
   }
@@ -66,44 +223,36 @@ void HexFeElements::add_forces(const Eigen::VectorXd& x, Eigen::VectorXd& f) con
 double HexFeElements::energy(const Eigen::VectorXd& x) const {
   double w = 0.0;
   for (size_t e = 0; e < hexes_.size(); ++e)
-    for (const auto& gp : gauss_[e]) {
-      const Matrix3d F = deformation_gradient(hexes_[e], gp, x);
-      const Matrix3d E = 0.5 * (F.transpose() * F - Matrix3d::Identity());
-      const double tr = E.trace();
-      w += gp.weight * (0.5 * lame_.lambda * tr * tr + lame_.mu * E.squaredNorm());
-    }
+    for (const auto& gp : gauss_[e]) w += gp.weight * material_.energy_density(deformation_gradient(hexes_[e], gp, x));
   return w;
 }
 
 void HexFeElements::element_stiffness(int e, const Eigen::VectorXd& x, bool psd, ElementMatrix& K) const {
   require(e >= 0 && e < num_elements(), "element_stiffness: element {} (expected 0..{})", e, num_elements() - 1);
   K.setZero();
-  const auto& hex = hexes_[static_cast<size_t>(e)];
-  const double lambda = lame_.lambda, mu = lame_.mu;
-  for (const auto& gp : gauss_[static_cast<size_t>(e)]) {
-    const Matrix3d F = deformation_gradient(hex, gp, x);
-    Matrix3d S = stress(F);
-    if (psd) {
-      Eigen::SelfAdjointEigenSolver<Matrix3d> eig(S);
-      S = eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).asDiagonal() * eig.eigenvectors().transpose();
-    }
-    const Matrix3d FFt = F * F.transpose();
-    std::array<Vector3d, 8> Fg, Sg;
+  const auto ue = static_cast<size_t>(e);
+  Eigen::Matrix<double, 9, 24> AG;
+  for (const auto& gp : gauss_[ue]) {
+    const Tangent A = material_.tangent(checked_deformation_gradient(ue, gp, x), psd);
+    // G = ∂vec(F)/∂x_e has G(i + 3j, 3a + m) = δ_im g_a,j, so (A G)(:, 3a + n) = Σ_l A(:, n + 3l) g_a,l
+    // and (Gᵀ A G)(3a + m, :) = Σ_j g_a,j (A G)(m + 3j, :): K = Σ_g w Gᵀ A G without forming G.
     for (int a = 0; a < 8; ++a) {
-      Fg[a] = F * gp.grad[a];
-      Sg[a] = S * gp.grad[a];
+      const Vector3d& g = gp.grad[a];
+      for (int n = 0; n < 3; ++n) AG.col(3 * a + n) = A.col(n) * g[0] + A.col(n + 3) * g[1] + A.col(n + 6) * g[2];
     }
-    const double w = gp.weight;
-    for (int a = 0; a < 8; ++a)
-      for (int b = a; b < 8; ++b) {
-        const double gg = gp.grad[a].dot(gp.grad[b]);
-        Matrix3d B = (gp.grad[a].dot(Sg[b])) * Matrix3d::Identity() + lambda * Fg[a] * Fg[b].transpose() +
-                     mu * (gg * FFt + Fg[b] * Fg[a].transpose());
-        B *= w;
-        K.block<3, 3>(3 * a, 3 * b) += B;
-        if (b != a) K.block<3, 3>(3 * b, 3 * a) += B.transpose();
-      }
+    for (int a = 0; a < 8; ++a) {
+      const Vector3d g = gp.weight * gp.grad[a];
+      K.middleRows<3>(3 * a) += g[0] * AG.topRows<3>() + g[1] * AG.middleRows<3>(3) + g[2] * AG.bottomRows<3>();
+    }
   }
+}
+
+double HexFeElements::min_gauss_jacobian(const Eigen::VectorXd& x) const {
+  double m = std::numeric_limits<double>::infinity();
+  for (size_t e = 0; e < hexes_.size(); ++e)
+    for (const auto& gp : gauss_[e])
+      m = std::min(m, 8.0 * gp.weight * deformation_gradient(hexes_[e], gp, x).determinant());
+  return m;
 }
 
 }  // namespace socketsmith::tissue

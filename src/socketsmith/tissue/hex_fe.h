@@ -1,14 +1,20 @@
 #pragma once
 /// @file hex_fe.h
 /// Hexahedral finite elements for the soft tissue: trilinear 8-node bricks, full 2×2×2 Gauss
-/// integration, a St Venant–Kirchhoff material (S = λ tr(E) I + 2μ E with the Green–Lagrange
-/// strain E = ½(FᵀF − I)). This is the element CalculiX calls C3D8 with a linear elastic material
-/// under NLGEOM, so on the same mesh socketsmith and CalculiX solve the same discrete problem; at
-/// rest its tangent is the small-strain linear elastic stiffness of the same element.
+/// integration (CalculiX's C3D8), with one of two hyperelastic materials (`HyperelasticLaw`):
+///  - St Venant–Kirchhoff: S = λ tr(E) I + 2μ E with the Green–Lagrange strain E = ½(FᵀF − I),
+///    W = λ/2 tr(E)² + μ E:E — CalculiX's `*ELASTIC` under NLGEOM;
+///  - compressible neo-Hookean: W = C10 (Ī1 − 3) + (1/D1)(J − 1)², Ī1 = J^(−2/3) tr(FᵀF),
+///    C10 = μ/2, D1 = 2/K (K = E/(3(1 − 2ν)) the bulk modulus) — CalculiX's `*HYPERELASTIC,
+///    NEO HOOKE` (C10, D1), the constants fe/calculix_deck.cpp writes.
+/// On the same mesh socketsmith and CalculiX then solve the same discrete problem; at rest both
+/// materials have the small-strain linear elastic tangent of the element (λ = K − 2μ/3).
 ///
 /// Per Gauss point g with reference shape-function gradients g_a = ∇_X N_a and weight w = det J₀:
-///   F = Σ_a x_a g_aᵀ,   f_a = −Σ_g w F S g_a   (internal force),   W = Σ_g w (λ/2 tr(E)² + μ E:E),
-///   K_ab = Σ_g w [ (g_aᵀ S g_b) I + λ (F g_a)(F g_b)ᵀ + μ ((g_a·g_b) F Fᵀ + (F g_b)(F g_a)ᵀ) ].
+///   F = Σ_a x_a g_aᵀ,   W = Σ_g w W(F),   f_a = −Σ_g w P(F) g_a   (internal force),
+///   K = Σ_g w Gᵀ A G,   A = ∂P/∂F (9×9 on vec(F), column-major),  G = ∂vec(F)/∂x_e (9×24),
+/// with P = ∂W/∂F the first Piola–Kirchhoff stress. The material is a value inside the elements;
+/// both laws share these loops.
 
 #include <array>
 #include <vector>
@@ -24,27 +30,98 @@ struct Lame {
   double lambda = 0.0;  ///< λ = E ν / ((1 + ν)(1 − 2ν)) [Pa]
   double mu = 0.0;      ///< μ = E / (2(1 + ν)) [Pa]
 };
+/// @throws InvalidInputError for E ≤ 0 or ν outside [0, 0.5).
 Lame lame_constants(double youngs_modulus_pa, double poisson_ratio);
 
+/// Strain energy of the continuum elements.
+enum class HyperelasticLaw {
+  StVenantKirchhoff,  ///< W = λ/2 tr(E)² + μ E:E; defined for any F (softens in strong compression)
+  NeoHookean,         ///< W = C10 (Ī1 − 3) + (1/D1)(J − 1)²; +∞ for J ≤ 0
+};
+
+/// One material point of an isotropic hyperelastic law: W(F), P(F) = ∂W/∂F and A(F) = ∂P/∂F.
+/// vec(F) is column-major: index i + 3j holds F_ij.
+class HyperelasticMaterial {
+ public:
+  using Tangent = Eigen::Matrix<double, 9, 9>;
+
+  /// @throws InvalidInputError for E ≤ 0 or ν outside [0, 0.5).
+  HyperelasticMaterial(HyperelasticLaw law, double youngs_modulus_pa, double poisson_ratio);
+
+  HyperelasticLaw law() const { return law_; }
+  const Lame& lame() const { return lame_; }
+  /// C10 = μ/2 [Pa] of the neo-Hookean law (CalculiX's first constant).
+  double c10() const { return 0.5 * lame_.mu; }
+  /// D1 = 2/K [1/Pa] of the neo-Hookean law (CalculiX's second constant), K = λ + 2μ/3.
+  double d1() const { return 2.0 / bulk_modulus(); }
+  /// Bulk modulus K = λ + 2μ/3 = E/(3(1 − 2ν)) [Pa].
+  double bulk_modulus() const { return lame_.lambda + 2.0 * lame_.mu / 3.0; }
+  /// True when the law is defined only for J = det F > 0 (neo-Hookean).
+  bool needs_positive_volume() const { return law_ == HyperelasticLaw::NeoHookean; }
+
+  /// Energy density W(F) [J/m³]; +∞ for the neo-Hookean law when det F ≤ 0.
+  double energy_density(const Eigen::Matrix3d& F) const;
+  /// First Piola–Kirchhoff stress P = ∂W/∂F [Pa]. @pre det F > 0 when needs_positive_volume().
+  Eigen::Matrix3d first_piola(const Eigen::Matrix3d& F) const;
+  /// A = ∂P/∂F [Pa] (symmetric 9×9). @p psd: a symmetric positive semi-definite surrogate —
+  /// St Venant–Kirchhoff: the stress S in the geometric term δ_ik S_JL projected on its positive
+  /// part (the material term is PSD already); neo-Hookean: A projected on its positive eigen-part
+  /// (IPC Toolkit's project_to_psd; skipped when A is already positive definite).
+  /// @pre det F > 0 when needs_positive_volume().
+  Tangent tangent(const Eigen::Matrix3d& F, bool psd) const;
+
+ private:
+  HyperelasticLaw law_;
+  Lame lame_;
+};
+
+/// A homogeneous uniaxial stress state F = diag(t, t, s) of a material: lateral stresses
+/// P11 = P22 = 0, axial nominal (first Piola–Kirchhoff) stress P33 given.
+struct UniaxialStressState {
+  bool found = false;          ///< false when the law has no such state on the path from rest
+                               ///< (St Venant–Kirchhoff past its compressive limit point)
+  double axial_stretch = 1.0;  ///< s [-]
+  double lateral_stretch = 1.0;  ///< t [-]
+};
+/// Solves for the uniaxial stress state of @p material under the nominal stress
+/// @p nominal_stress_pa (< 0: compression): Newton on (s, t) with load continuation from rest,
+/// so the state is the one the loading path reaches. The analytic reference of the cube
+/// experiment for the continuum models.
+UniaxialStressState uniaxial_stress_state(const HyperelasticMaterial& material, double nominal_stress_pa);
+
 /// The elements of a hexahedral mesh, precomputed at rest. Immutable after construction.
+///
+/// Inverted integration points (neo-Hookean): at a Gauss point with J = det F ≤ 0 energy() is
+/// +∞ (a line search on the energy rejects the state), and add_forces() and element_stiffness()
+/// throw SolverError naming the element — they never return NaN. Solvers avoid that state by
+/// checking min_gauss_jacobian() (MassSpringModel::has_inverted_element()) before evaluating
+/// forces. The St Venant–Kirchhoff energy is defined for any F and never throws.
 class HexFeElements {
  public:
   using ElementMatrix = Eigen::Matrix<double, 24, 24>;
 
   /// @throws InvalidInputError for E ≤ 0, ν outside [0, 0.5); TopologyError for a hexahedron
   ///         whose Jacobian is not positive at a Gauss point.
-  HexFeElements(const volume::HexMesh& mesh, double youngs_modulus_pa, double poisson_ratio);
+  HexFeElements(const volume::HexMesh& mesh, double youngs_modulus_pa, double poisson_ratio,
+                HyperelasticLaw law = HyperelasticLaw::StVenantKirchhoff);
 
   int num_elements() const { return static_cast<int>(hexes_.size()); }
+  const HyperelasticMaterial& material() const { return material_; }
 
   /// Adds the internal forces −∂W/∂x at node positions @p x (3N, node-major) to @p f.
+  /// @throws SolverError when the law needs J > 0 and some Gauss point has J ≤ 0.
   void add_forces(const Eigen::VectorXd& x, Eigen::VectorXd& f) const;
-  /// Strain energy W at @p x [J].
+  /// Strain energy W at @p x [J] (+∞ when the law needs J > 0 and some Gauss point has J ≤ 0).
   double energy(const Eigen::VectorXd& x) const;
   /// Stiffness K_e = ∂²W/∂x_e² of element @p e at @p x (24×24, node-major in the element's node
-  /// order). @p psd: the stress in the geometric term is projected on its positive part, so K_e is
-  /// symmetric positive semi-definite (for CG and as a preconditioner).
+  /// order). @p psd: built from the material's PSD tangent, so K_e is symmetric positive
+  /// semi-definite (for CG and as a preconditioner).
+  /// @throws SolverError when the law needs J > 0 and a Gauss point of @p e has J ≤ 0.
   void element_stiffness(int e, const Eigen::VectorXd& x, bool psd, ElementMatrix& K) const;
+  /// Smallest det(∂x/∂ξ) over every element's Gauss points at @p x, times 8 so that it has the
+  /// scale of volume::min_corner_jacobian (edge vectors rather than half-edges) [m³]; ≤ 0: some
+  /// integration point is inverted.
+  double min_gauss_jacobian(const Eigen::VectorXd& x) const;
 
  private:
   struct GaussPoint {
@@ -52,11 +129,12 @@ class HexFeElements {
     double weight = 0.0;                  // det J₀ [m³]
   };
   Eigen::Matrix3d deformation_gradient(const volume::Hex& hex, const GaussPoint& gp, const Eigen::VectorXd& x) const;
-  Eigen::Matrix3d stress(const Eigen::Matrix3d& F) const;
+  /// F at a Gauss point of element @p e, checked against inversion when the law needs J > 0.
+  Eigen::Matrix3d checked_deformation_gradient(size_t e, const GaussPoint& gp, const Eigen::VectorXd& x) const;
 
   std::vector<volume::Hex> hexes_;
   std::vector<std::array<GaussPoint, 8>> gauss_;
-  Lame lame_;
+  HyperelasticMaterial material_;
 };
 
 }  // namespace socketsmith::tissue

@@ -87,7 +87,7 @@ void ImplicitEuler::accept(DynamicState& s, const VectorXd& dv, VectorXd& x_new,
                               "time step {:.3g} s or the load)", s.time_s, moved, max_step_m_, h);
     return;
   }
-  if (model_.min_corner_jacobian(x_new) <= 0) {
+  if (model_.has_inverted_element(x_new)) {
     res.message = fmt::format("diverged at t = {:.4g} s: an element inverted (reduce the time step {:.3g} s)", s.time_s, h);
     return;
   }

@@ -31,6 +31,7 @@ std::string to_string(TissueModelKind kind) {
     case TissueModelKind::MssCs: return "mss-cs";
     case TissueModelKind::MssCf: return "mss-cf";
     case TissueModelKind::Fe: return "fe";
+    case TissueModelKind::NeoHookean: return "neo-hookean";
   }
   return "?";
 }
@@ -40,7 +41,8 @@ TissueModelKind parse_tissue_model(const std::string& name) {
   if (name == "mss-cs") return TissueModelKind::MssCs;
   if (name == "mss-cf") return TissueModelKind::MssCf;
   if (name == "fe") return TissueModelKind::Fe;
-  fail("unknown tissue model '{}' (expected mss-cs, mss-cf, mss or fe)", name);
+  if (name == "neo-hookean") return TissueModelKind::NeoHookean;
+  fail("unknown tissue model '{}' (expected mss-cs, mss-cf, mss, fe or neo-hookean)", name);
 }
 
 std::string to_string(CorrectiveLaw law) {
@@ -171,7 +173,11 @@ MassSpringModel::MassSpringModel(const volume::HexMesh& mesh, const TissueMateri
                                                                    : 2.0 * std::sqrt(s.k * m1 * m2 / (m1 + m2));
     s.damping = options.damping_ratio * c;
   }
-  if (options.kind == TissueModelKind::Fe) fe_ = std::make_shared<const HexFeElements>(mesh_, E, options.fe_poisson_ratio);
+  if (is_continuum(options.kind))
+    fe_ = std::make_shared<const HexFeElements>(mesh_, E, options.fe_poisson_ratio,
+                                                options.kind == TissueModelKind::NeoHookean
+                                                    ? HyperelasticLaw::NeoHookean
+                                                    : HyperelasticLaw::StVenantKirchhoff);
   build_pattern();
 }
 
@@ -464,6 +470,10 @@ double MassSpringModel::min_corner_jacobian(const VectorXd& x) const {
   for (const auto& el : elements_)
     m = std::min(m, volume::min_corner_jacobian(gather_nodes(x, el.nodes)));
   return m;
+}
+
+bool MassSpringModel::has_inverted_element(const VectorXd& x) const {
+  return fe_ ? fe_->min_gauss_jacobian(x) <= 0 : min_corner_jacobian(x) <= 0;
 }
 
 }  // namespace socketsmith::tissue

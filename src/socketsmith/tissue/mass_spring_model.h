@@ -8,6 +8,8 @@
 ///  - FE:     not a lattice — hexahedral finite elements (St Venant–Kirchhoff, 2×2×2 Gauss; the
 ///            element CalculiX calls C3D8, hex_fe.h) on the same mesh, with E and ν. The Golec
 ///            springs are kept for their dampers only (the dynamic simulation's damping).
+///  - neo-Hookean: the same elements with a compressible neo-Hookean material (CalculiX's
+///            *HYPERELASTIC, NEO HOOKE with C10 = μ/2, D1 = 2/K; hex_fe.h), for large strains.
 ///
 /// State vectors are flattened node-major: x = (x0, y0, z0, x1, ...), size 3N, metres.
 /// Forces are internal forces on the nodes [N]; the Jacobian is J = ∂f/∂x [N/m] and the
@@ -35,9 +37,14 @@ struct TissueMaterial {
   double density_kg_m3 = 1060.0;    ///< ρ [kg/m^3], > 0 (thesis: 1060)
 };
 
-enum class TissueModelKind { Mss, MssCs, MssCf, Fe };
+enum class TissueModelKind { Mss, MssCs, MssCf, Fe, NeoHookean };
 
-/// "mss", "mss-cs", "mss-cf", "fe".
+/// True for the continuum (finite-element) models: Fe and NeoHookean.
+inline bool is_continuum(TissueModelKind kind) {
+  return kind == TissueModelKind::Fe || kind == TissueModelKind::NeoHookean;
+}
+
+/// "mss", "mss-cs", "mss-cf", "fe", "neo-hookean".
 std::string to_string(TissueModelKind kind);
 /// @throws InvalidInputError for an unknown name.
 TissueModelKind parse_tissue_model(const std::string& name);
@@ -105,7 +112,9 @@ struct MassSpringOptions {
   TissueModelKind kind = TissueModelKind::MssCs;
   CorrectiveSpringConstants corrective = CorrectiveSpringConstants::cube_targets();
   double cf_poisson_ratio = 0.49;  ///< MSS-CF target Poisson ratio ν [-], in [0.25, 0.5)
-  double fe_poisson_ratio = 0.45;  ///< FE Poisson ratio ν [-], in [0, 0.5) (the thesis's Abaqus check: 0.45)
+  /// Poisson ratio ν of the continuum models (fe, neo-hookean) [-], in [0, 0.5) (the thesis's
+  /// Abaqus check: 0.45)
+  double fe_poisson_ratio = 0.45;
   DampingLaw damping_law = DampingLaw::Critical;
   double damping_ratio = 1.0;      ///< ζ multiplying the damping law [-], ≥ 0
 };
@@ -134,6 +143,9 @@ class MassSpringModel {
   const TissueMaterial& material() const { return material_; }
   const MassSpringOptions& options() const { return options_; }
 
+  /// The material of the continuum models (fe, neo-hookean); null for the lattices.
+  const HyperelasticMaterial* continuum_material() const { return fe_ ? &fe_->material() : nullptr; }
+
   /// Rest positions (3N) [m].
   const VectorXd& rest_positions() const { return rest_; }
   /// Nodal masses (N) [kg], eq. 1.
@@ -146,7 +158,7 @@ class MassSpringModel {
   /// Adds the damper forces at (x, v) to @p f.
   void add_damping_forces(const VectorXd& x, const VectorXd& v, VectorXd& f) const;
 
-  /// True when the elastic forces derive from an energy (MSS, MSS-CF, FE; not MSS-CS).
+  /// True when the elastic forces derive from an energy (MSS, MSS-CF, FE, neo-Hookean; not MSS-CS).
   bool has_energy() const { return options_.kind != TissueModelKind::MssCs; }
   /// Elastic energy [J]. @throws Error when has_energy() is false.
   double energy(const VectorXd& x) const;
@@ -176,6 +188,13 @@ class MassSpringModel {
   double total_volume(const VectorXd& x) const;
   /// Smallest corner Jacobian over all elements (≤ 0: some element inverted) [m^3].
   double min_corner_jacobian(const VectorXd& x) const;
+  /// True when some element is inverted where this model needs it not to be: at a corner for the
+  /// lattices (their springs and volumes see the corners), at a Gauss point for the continuum
+  /// models (their energy lives at the integration points only, and CalculiX checks the same
+  /// points; a strongly sheared brick may fold a corner while every integration point is
+  /// sound). Solvers reject such states before evaluating forces: the neo-Hookean forces are
+  /// undefined there (HexFeElements throws).
+  bool has_inverted_element(const VectorXd& x) const;
 
  private:
   struct Spring {
@@ -209,7 +228,7 @@ class MassSpringModel {
   std::vector<Element> elements_;
   std::vector<Corrective> corrective_;  // rest lengths per element: 16 × num_elements
   double cf_bulk_increment_pa_ = 0.0;   // ΔK of MSS-CF [Pa]
-  std::shared_ptr<const HexFeElements> fe_;  // FE only (shared: immutable, the model stays copyable)
+  std::shared_ptr<const HexFeElements> fe_;  // continuum models only (shared: immutable, the model stays copyable)
 
   // Block-sparse pattern of all node pairs sharing an element (3×3 blocks).
   SparseMatrix pattern_;

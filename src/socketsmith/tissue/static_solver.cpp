@@ -318,12 +318,12 @@ std::string StaticSolver::stall_diagnosis(const VectorXd& x, StaticResult& res, 
   return fmt::format("at the last equilibrium {}; {}", facts, verdict);
 }
 
-/// One Newton solve toward @p f_ext from @p x, at most @p max_iterations iterations, to
+/// One Newton solve toward @p load from @p x, at most @p max_iterations iterations, to
 /// residual @p tol. Accumulates statistics into @p res; on failure @p x holds the last iterate.
-bool StaticSolver::newton(const VectorXd& f_ext, VectorXd& x, int max_iterations, double tol, StaticResult& res,
+bool StaticSolver::newton(const AppliedLoad& load, VectorXd& x, int max_iterations, double tol, StaticResult& res,
                           int stall_iterations) {
   Impl& s = *impl_;
-  VectorXd r = static_residual(model_, dofs_, f_ext, x);
+  VectorXd r = static_residual(model_, dofs_, load.at(x), x);
   double rnorm = r.norm();
   auto factorize = [&]() -> bool {
     model_.jacobian(x, JacobianKind::SymmetricPsd, s.K);
@@ -389,6 +389,7 @@ bool StaticSolver::newton(const VectorXd& f_ext, VectorXd& x, int max_iterations
       }
     }
     model_.jacobian(x, JacobianKind::Exact, s.J);
+    if (load.moving) load.moving->add_jacobian(x, load.scale, s.J);
     dofs_.reduce_matrix(s.J, s.J_red);
     s.J_red *= -1.0;  // solve (−J) δ = r
     Eigen::BiCGSTAB<SparseMatrix, FactorPreconditioner> krylov;
@@ -436,15 +437,16 @@ bool StaticSolver::newton(const VectorXd& f_ext, VectorXd& x, int max_iterations
     for (int ls = 0; ls < options_.max_line_search; ++ls, t *= 0.5) {
       x_try = x;
       dofs_.add_expanded(t * delta, x_try);
-      if (model_.min_corner_jacobian(x_try) <= 0) {
+      if (model_.has_inverted_element(x_try)) {
         ++inverted_trials;
         continue;
       }
-      VectorXd r_try = static_residual(model_, dofs_, f_ext, x_try);
+      VectorXd r_try = static_residual(model_, dofs_, load.at(x_try), x_try);
       const double n_try = r_try.norm();
       if (std::isfinite(n_try) && n_try < (1.0 - 1e-4 * t) * rnorm) {
-        log::debug("  Newton {}: |r| {:.3e} -> {:.3e} N, step {:.3g}, {} Krylov iterations{}", it, rnorm, n_try, t,
-                   kit, krylov_ok ? "" : " (Krylov failed)");
+        log::debug("  Newton {}: |r| {:.3e} -> {:.3e} N, step {:.3g}, {} Krylov iterations{}{}", it, rnorm, n_try, t,
+                   kit, krylov_ok ? "" : " (Krylov failed)",
+                   inverted_trials > 0 ? fmt::format(", {} trial step(s) inverted an element", inverted_trials) : "");
         x = x_try;
         r = std::move(r_try);
         rnorm = n_try;
@@ -477,21 +479,36 @@ StaticResult StaticSolver::solve(const VectorXd& f_ext, VectorXd& x) {
           "StaticSolver::solve: f_ext has {} and x {} entries (expected 3N = {})", f_ext.size(), x.size(),
           model_.num_dofs());
   require(f_ext.allFinite(), "StaticSolver::solve: external forces contain NaN or inf");
+  return solve_load({f_ext, nullptr, 0.0}, x);
+}
+
+StaticResult StaticSolver::solve(const PositionDependentLoad& load, VectorXd& x) {
+  require(x.size() == model_.num_dofs(), "StaticSolver::solve: x has {} entries (expected 3N = {})", x.size(),
+          model_.num_dofs());
+  return solve_load({VectorXd::Zero(model_.num_dofs()), &load, 1.0}, x);
+}
+
+StaticResult StaticSolver::solve_load(const AppliedLoad& load, VectorXd& x) {
   require(x.allFinite(), "StaticSolver::solve: initial positions contain NaN or inf");
   StaticResult res;
-  res.reference_force_n = std::max(dofs_.restrict_vector(f_ext).norm(), options_.force_scale_n);
-  const double tol = options_.rel_tol * res.reference_force_n + options_.abs_tol_n;
-  if (model_.min_corner_jacobian(x) <= 0) {
+  if (model_.has_inverted_element(x)) {
     res.message = "initial state has an inverted element";
     return res;
   }
+  const VectorXd f_start = load.at(x);
+  require(f_start.size() == model_.num_dofs() && f_start.allFinite(),
+          "StaticSolver::solve: the external forces at the initial state contain NaN or inf (or have {} entries, "
+          "expected {})", f_start.size(), model_.num_dofs());
+  res.reference_force_n = std::max(dofs_.restrict_vector(f_start).norm(), options_.force_scale_n);
+  const double tol = options_.rel_tol * res.reference_force_n + options_.abs_tol_n;
   impl_->failed_searches = impl_->failed_searches_inverting = 0;
   const VectorXd x0 = x;
   // 1. Plain Newton from the warm start (the common case: a small load change).
-  res.converged = newton(f_ext, x, options_.continuation_newton_iterations, tol, res, options_.stall_iterations);
+  res.converged = newton(load, x, options_.continuation_newton_iterations, tol, res, options_.stall_iterations);
   if (res.converged) res.load_fraction = 1.0;
   // 2. Otherwise, load continuation from the load the initial state already balances,
-  //    f(λ) = f₀ + λ (f_ext − f₀) with f₀ = −f_int(x₀), λ: 0 → 1 in adaptive steps.
+  //    f(λ) = f₀ + λ (f_ext − f₀) with f₀ = −f_int(x₀), λ: 0 → 1 in adaptive steps (a
+  //    position-dependent part of f_ext is scaled by λ as it moves).
   if (!res.converged) {
     log::debug("StaticSolver: direct Newton failed ({}); continuing the load", res.message);
     x = x0;
@@ -504,7 +521,7 @@ StaticResult StaticSolver::solve(const VectorXd& f_ext, VectorXd& x) {
     while (lambda < 1.0) {
       const double target = std::min(1.0, lambda + step);
       VectorXd x_try = x;
-      const VectorXd f = f0 + target * (f_ext - f0);
+      const AppliedLoad f{(1.0 - target) * f0 + target * load.constant, load.moving, target * load.scale};
       const bool last = target >= 1.0;
       log::debug("StaticSolver: load step {:.4g} -> {:.4g}", lambda, target);
       if (newton(f, x_try, options_.continuation_newton_iterations, last ? tol : loose_tol, res)) {

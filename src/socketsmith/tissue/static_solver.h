@@ -99,6 +99,19 @@ ElementStabilityRange element_stability_range(const MassSpringModel& model);
 /// SparseLU: memory and time of a direct solve; meant for diagnosis, not every solve.
 TangentStability tangent_stability(const MassSpringModel& model, const DofMap& dofs, const VectorXd& x);
 
+/// External forces that depend on the positions, e.g. a pressure that follows the deformed skin:
+/// f(x) and its Jacobian, which the Newton tangent then includes (a follower load is not a dead
+/// load: its load stiffness can hold a body that a dead load of the same forces would buckle).
+class PositionDependentLoad {
+ public:
+  virtual ~PositionDependentLoad() = default;
+  /// Forces at positions @p x (3N) [N].
+  virtual VectorXd forces(const VectorXd& x) const = 0;
+  /// Adds @p scale · ∂f/∂x at @p x to @p J (3N × 3N, MassSpringModel::jacobian's pattern: entries
+  /// only between nodes that share an element) [N/m].
+  virtual void add_jacobian(const VectorXd& x, double scale, SparseMatrix& J) const = 0;
+};
+
 struct StaticResult {
   bool converged = false;
   int iterations = 0;          ///< Newton iterations
@@ -135,13 +148,24 @@ class StaticSolver {
   ///          iterate when not converged). Never returns a state with inverted elements.
   /// @throws InvalidInputError for wrong sizes or non-finite input.
   StaticResult solve(const VectorXd& f_ext, VectorXd& x);
+  /// The same under forces that depend on the positions (@p load, kept alive by the caller): Newton
+  /// on f_int(x) + f(x) = 0 with the tangent ∂f_int/∂x + ∂f/∂x; load continuation scales f.
+  StaticResult solve(const PositionDependentLoad& load, VectorXd& x);
 
   const StaticSolverOptions& options() const { return options_; }
 
  private:
   struct Impl;
+  /// The load of one Newton solve: constant + scale · moving(x).
+  struct AppliedLoad {
+    VectorXd constant;
+    const PositionDependentLoad* moving = nullptr;
+    double scale = 0.0;
+    VectorXd at(const VectorXd& x) const { return moving ? VectorXd(constant + scale * moving->forces(x)) : constant; }
+  };
+  StaticResult solve_load(const AppliedLoad& load, VectorXd& x);
   /// @param stall_iterations give up when ‖r‖ has not halved over this many iterations (0: never).
-  bool newton(const VectorXd& f_ext, VectorXd& x, int max_iterations, double tol, StaticResult& res,
+  bool newton(const AppliedLoad& load, VectorXd& x, int max_iterations, double tol, StaticResult& res,
               int stall_iterations = 0);
   void describe_state(const VectorXd& x, StaticResult& res) const;
   std::string stall_diagnosis(const VectorXd& x, StaticResult& res, double path_stiffness_ratio) const;

@@ -1,0 +1,397 @@
+// The neo-Hookean hexahedra (hex_fe.h, TissueModelKind::NeoHookean): derivatives by finite
+// differences at large strain, closed forms of the energy, the rest tangent, rigid invariance,
+// inverted integration points, and the cube on rollers against the analytic uniaxial solution of
+// the same strain energy, solved here independently of the element code.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+
+#include <Eigen/Dense>
+
+#include "socketsmith/core/errors.h"
+#include "socketsmith/tissue/cube_experiment.h"
+#include "socketsmith/tissue/hex_fe.h"
+#include "socketsmith/tissue/pressure_load.h"
+#include "socketsmith/tissue/static_solver.h"
+#include "test_models.h"
+
+namespace socketsmith::tissue {
+namespace {
+using namespace testing;
+using Eigen::Matrix3d;
+using Eigen::MatrixXd;
+using Eigen::Vector3d;
+
+constexpr double kE = 50e3, kNu = 0.45;
+
+/// CalculiX's constants for (E, ν): C10 = E/(4(1+ν)), D1 = 6(1−2ν)/E.
+double c10(double E, double nu) { return E / (4 * (1 + nu)); }
+double d1(double E, double nu) { return 6 * (1 - 2 * nu) / E; }
+
+/// W(F) = C10 (J^(−2/3) tr(FᵀF) − 3) + (J − 1)²/D1, written out from CalculiX's definition.
+double neo_hookean_w(const Matrix3d& F, double E, double nu) {
+  const double J = F.determinant();
+  return c10(E, nu) * (std::pow(J, -2.0 / 3.0) * (F.transpose() * F).trace() - 3) + (J - 1) * (J - 1) / d1(E, nu);
+}
+
+/// The uniaxial state F = diag(t, t, s) of that energy: with Ī1 = s^(4/3) t^(−4/3) + 2 s^(−2/3) t^(2/3)
+/// and J = s t², the lateral stretch solves ∂W/∂t = 0 (1-D Newton from t = 1), the nominal stress is
+/// P33 = ∂W/∂s at that t.
+struct Uniaxial {
+  double lateral_stretch;
+  double nominal_stress_pa;
+  double volume_ratio;
+};
+Uniaxial analytic_uniaxial(double s, double E, double nu) {
+  const double C = c10(E, nu), D = d1(E, nu);
+  double t = 1.0;
+  for (int it = 0; it < 100; ++it) {
+    const double J = s * t * t;
+    const double g = C * (-4.0 / 3 * std::pow(s, 4.0 / 3) * std::pow(t, -7.0 / 3) +
+                          4.0 / 3 * std::pow(s, -2.0 / 3) * std::pow(t, -1.0 / 3)) +
+                     4 * s * t / D * (J - 1);
+    const double dg = C * (28.0 / 9 * std::pow(s, 4.0 / 3) * std::pow(t, -10.0 / 3) -
+                           4.0 / 9 * std::pow(s, -2.0 / 3) * std::pow(t, -4.0 / 3)) +
+                      4 * s / D * (3 * J - 1);
+    const double dt = -g / dg;
+    t += dt;
+    if (std::abs(dt) < 1e-15) break;
+  }
+  const double J = s * t * t;
+  const double p = C * (4.0 / 3 * std::pow(s, 1.0 / 3) * std::pow(t, -4.0 / 3) -
+                        4.0 / 3 * std::pow(s, -5.0 / 3) * std::pow(t, 2.0 / 3)) +
+                   2 * t * t / D * (J - 1);
+  return {t, p, J};
+}
+
+/// Node positions of @p mesh under x = F X + noise (relative to the element size).
+Eigen::VectorXd mapped(const volume::HexMesh& mesh, const Matrix3d& F, double noise_m = 0.0, unsigned seed = 1) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> g(0.0, 1.0);
+  Eigen::VectorXd x(3 * mesh.num_nodes());
+  for (int i = 0; i < mesh.num_nodes(); ++i)
+    x.segment<3>(3 * i) = F * mesh.nodes[i] + noise_m * Vector3d(g(rng), g(rng), g(rng));
+  return x;
+}
+
+/// The strained states of the finite-difference checks: 30 % and 60 % compression with shear,
+/// plus random nodal noise so that no two Gauss points share F.
+std::vector<std::pair<const char*, Matrix3d>> large_strains() {
+  Matrix3d c30, c60, shear;
+  c30 << 1.12, 0.0, 0.25, 0.0, 1.1, 0.0, 0.0, 0.05, 0.7;
+  c60 << 1.35, 0.1, 0.4, 0.0, 1.3, -0.1, 0.05, 0.0, 0.4;
+  shear << 1.0, 0.6, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0;
+  return {{"30% compression + shear", c30}, {"60% compression + shear", c60}, {"simple shear 0.6", shear}};
+}
+
+TEST(NeoHookean, forces_match_finite_differences_of_the_energy_at_large_strain) {
+  const double a = 0.03;
+  const auto mesh = distorted_lattice(a, 11);
+  const HexFeElements fe(mesh, kE, kNu, HyperelasticLaw::NeoHookean);
+  for (const auto& [name, F] : large_strains()) {
+    const Eigen::VectorXd x = mapped(mesh, F, 0.02 * a / 3, 3);
+    ASSERT_GT(fe.min_gauss_jacobian(x), 0) << name;
+    Eigen::VectorXd f = Eigen::VectorXd::Zero(x.size());
+    fe.add_forces(x, f);
+    const double eps = 1e-7 * a;
+    double worst = 0.0;
+    for (Eigen::Index c = 0; c < x.size(); ++c) {
+      Eigen::VectorXd p = x, q = x;
+      p[c] += eps;
+      q[c] -= eps;
+      worst = std::max(worst, std::abs(-(fe.energy(p) - fe.energy(q)) / (2 * eps) - f[c]));
+    }
+    std::printf("[ info ] %s: force vs energy FD, max error %.2e of max force %.3g N\n", name, worst / f.cwiseAbs().maxCoeff(),
+                f.cwiseAbs().maxCoeff());
+    EXPECT_LT(worst, 1e-6 * f.cwiseAbs().maxCoeff()) << name;
+  }
+}
+
+TEST(NeoHookean, tangent_matches_finite_differences_of_the_forces_at_large_strain) {
+  const double a = 0.03;
+  const auto mesh = distorted_lattice(a, 12);
+  MassSpringOptions o;
+  o.kind = TissueModelKind::NeoHookean;
+  o.fe_poisson_ratio = kNu;
+  const MassSpringModel m(mesh, {kE, 1060}, o);
+  for (const auto& [name, F] : large_strains()) {
+    const Eigen::VectorXd x = mapped(mesh, F, 0.02 * a / 3, 5);
+    SparseMatrix J;
+    m.jacobian(x, JacobianKind::Exact, J);
+    const MatrixXd Jd(J);
+    const MatrixXd fd = fd_jacobian([&](const Eigen::VectorXd& y) { return m.elastic_forces(y); }, x, 1e-7 * a);
+    const double rel = (fd - Jd).norm() / Jd.norm();
+    std::printf("[ info ] %s: tangent vs force FD, relative error %.2e\n", name, rel);
+    EXPECT_LT(rel, 1e-6) << name;
+    EXPECT_LT((Jd - Jd.transpose()).norm(), 1e-12 * Jd.norm()) << name;
+  }
+}
+
+TEST(NeoHookean, psd_tangent_is_symmetric_positive_semidefinite_where_the_exact_one_is_not) {
+  const double a = 0.03;
+  const auto mesh = distorted_lattice(a, 13);
+  const HexFeElements fe(mesh, kE, kNu, HyperelasticLaw::NeoHookean);
+  int indefinite = 0;
+  for (const auto& [name, F] : large_strains()) {
+    const Eigen::VectorXd x = mapped(mesh, F, 0.02 * a / 3, 7);
+    for (int e = 0; e < fe.num_elements(); ++e) {
+      HexFeElements::ElementMatrix K, Kp;
+      fe.element_stiffness(e, x, false, K);
+      fe.element_stiffness(e, x, true, Kp);
+      const auto exact = Eigen::SelfAdjointEigenSolver<HexFeElements::ElementMatrix>(K).eigenvalues();
+      const auto proj = Eigen::SelfAdjointEigenSolver<HexFeElements::ElementMatrix>(Kp).eigenvalues();
+      if (exact[0] < -1e-6 * exact[23]) ++indefinite;
+      EXPECT_LT((Kp - Kp.transpose()).norm(), 1e-12 * Kp.norm()) << name << ", element " << e;
+      EXPECT_GE(proj[0], -1e-10 * proj[23]) << name << ", element " << e;
+    }
+  }
+  // The check means something only if some exact tangents were indefinite.
+  EXPECT_GT(indefinite, 0);
+  // Where every Gauss point's tangent is positive definite (at rest) the projection changes nothing.
+  const Eigen::VectorXd x0 = mapped(mesh, Matrix3d::Identity());
+  HexFeElements::ElementMatrix K, Kp;
+  fe.element_stiffness(0, x0, false, K);
+  fe.element_stiffness(0, x0, true, Kp);
+  EXPECT_LT((K - Kp).norm(), 1e-12 * K.norm());
+}
+
+TEST(NeoHookean, one_brick_has_exactly_the_six_rigid_zero_modes_at_rest) {
+  const auto mesh = small_lattice(1, 0.01);
+  const HexFeElements fe(mesh, kE, kNu, HyperelasticLaw::NeoHookean);
+  HexFeElements::ElementMatrix K;
+  fe.element_stiffness(0, mapped(mesh, Matrix3d::Identity()), false, K);
+  const Eigen::VectorXd ev = Eigen::SelfAdjointEigenSolver<HexFeElements::ElementMatrix>(K).eigenvalues();
+  for (int k = 0; k < 6; ++k) EXPECT_LT(std::abs(ev[k]), 1e-9 * ev[23]);
+  EXPECT_GT(ev[6], 1e-3 * ev[23]);
+}
+
+TEST(NeoHookean, energy_of_a_homogeneous_deformation_is_volume_times_w_on_distorted_bricks) {
+  // x = F X: the same F at every Gauss point, integrated exactly by the 2×2×2 rule whatever the
+  // element shapes; interior nodes carry no force (patch test).
+  const double a = 0.03;
+  const auto mesh = distorted_lattice(a, 3);
+  const HexFeElements fe(mesh, kE, kNu, HyperelasticLaw::NeoHookean);
+  for (const auto& [name, F] : large_strains()) {
+    const Eigen::VectorXd x = mapped(mesh, F);
+    const double expected = a * a * a * neo_hookean_w(F, kE, kNu);
+    EXPECT_NEAR(fe.energy(x), expected, 1e-12 * expected) << name;
+    Eigen::VectorXd f = Eigen::VectorXd::Zero(x.size());
+    fe.add_forces(x, f);
+    for (int i = 0; i < mesh.num_nodes(); ++i)
+      if (mesh.nodes[i].minCoeff() > 1e-9 && mesh.nodes[i].maxCoeff() < a - 1e-9) {
+        EXPECT_LT(f.segment<3>(3 * i).norm(), 1e-9 * f.cwiseAbs().maxCoeff()) << name;
+      }
+  }
+}
+
+TEST(NeoHookean, rest_tangent_equals_the_linear_elastic_st_venant_kirchhoff_tangent) {
+  // Both laws linearise to λ tr(ε) I + 2μ ε at rest (λ = K − 2μ/3): the same K₀ on the same mesh.
+  const auto mesh = distorted_lattice(0.03, 4);
+  MassSpringOptions nh, svk;
+  nh.kind = TissueModelKind::NeoHookean;
+  svk.kind = TissueModelKind::Fe;
+  const MassSpringModel m_nh(mesh, {kE, 1060}, nh), m_svk(mesh, {kE, 1060}, svk);
+  SparseMatrix J_nh, J_svk;
+  m_nh.jacobian(m_nh.rest_positions(), JacobianKind::Exact, J_nh);
+  m_svk.jacobian(m_svk.rest_positions(), JacobianKind::Exact, J_svk);
+  EXPECT_LT((MatrixXd(J_nh) - MatrixXd(J_svk)).norm(), 1e-10 * MatrixXd(J_svk).norm());
+  EXPECT_NEAR(m_nh.continuum_material()->c10(), c10(kE, kNu), 1e-9 * kE);
+  EXPECT_NEAR(m_nh.continuum_material()->d1(), d1(kE, kNu), 1e-9 * d1(kE, kNu));
+}
+
+TEST(NeoHookean, energy_forces_and_tangent_are_invariant_under_a_rigid_rotation) {
+  const double a = 0.03;
+  const auto mesh = distorted_lattice(a, 6);
+  const HexFeElements fe(mesh, kE, kNu, HyperelasticLaw::NeoHookean);
+  const Matrix3d R = random_rotation(8);
+  const Eigen::VectorXd x = mapped(mesh, large_strains()[1].second, 0.02 * a / 3, 9);
+  const Eigen::VectorXd xr = rigid_motion(x, R, Vector3d(0.2, -0.4, 1.0));
+  EXPECT_NEAR(fe.energy(xr), fe.energy(x), 1e-11 * fe.energy(x));
+  Eigen::VectorXd f = Eigen::VectorXd::Zero(x.size()), fr = f;
+  fe.add_forces(x, f);
+  fe.add_forces(xr, fr);
+  EXPECT_LT((rigid_motion(f, R, Vector3d::Zero()) - fr).norm(), 1e-10 * f.norm());
+  Eigen::Matrix<double, 24, 24> Rb = Eigen::Matrix<double, 24, 24>::Zero();
+  for (int k = 0; k < 8; ++k) Rb.block<3, 3>(3 * k, 3 * k) = R;
+  for (int e : {0, 13, 26}) {
+    HexFeElements::ElementMatrix K, Kr;
+    fe.element_stiffness(e, x, false, K);
+    fe.element_stiffness(e, xr, false, Kr);
+    EXPECT_LT((Rb * K * Rb.transpose() - Kr).norm(), 1e-10 * K.norm()) << "element " << e;
+  }
+}
+
+TEST(NeoHookean, an_inverted_gauss_point_gives_infinite_energy_and_a_solver_error_not_nan) {
+  const auto mesh = small_lattice(1, 0.01);
+  MassSpringOptions o;
+  o.kind = TissueModelKind::NeoHookean;
+  const MassSpringModel m(mesh, {kE, 1060}, o);
+  Eigen::VectorXd x = m.rest_positions();
+  for (int i = 0; i < m.num_nodes(); ++i) x[3 * i + 2] *= -0.5;  // mirrored: J < 0 everywhere
+  EXPECT_EQ(m.energy(x), std::numeric_limits<double>::infinity());
+  EXPECT_TRUE(m.has_inverted_element(x));
+  EXPECT_THROW(m.elastic_forces(x), SolverError);
+  SparseMatrix J;
+  EXPECT_THROW(m.jacobian(x, JacobianKind::Exact, J), SolverError);
+  // St Venant–Kirchhoff is defined for any F: finite forces, no exception.
+  o.kind = TissueModelKind::Fe;
+  const MassSpringModel svk(mesh, {kE, 1060}, o);
+  EXPECT_TRUE(svk.elastic_forces(x).allFinite());
+}
+
+TEST(NeoHookean, uniaxial_stress_state_of_the_library_matches_the_closed_form) {
+  // The cube experiment's reference (uniaxial_stress_state) against this file's own 1-D solution.
+  const HyperelasticMaterial nh(HyperelasticLaw::NeoHookean, kE, kNu);
+  for (double s : {0.95, 0.7, 0.4, 1.3}) {
+    const Uniaxial u = analytic_uniaxial(s, kE, kNu);
+    const UniaxialStressState st = uniaxial_stress_state(nh, u.nominal_stress_pa);
+    ASSERT_TRUE(st.found) << "s = " << s;
+    EXPECT_NEAR(st.axial_stretch, s, 1e-9) << "s = " << s;
+    EXPECT_NEAR(st.lateral_stretch, u.lateral_stretch, 1e-9) << "s = " << s;
+  }
+  // St Venant–Kirchhoff has a compressive limit point: no uniaxial state beyond it.
+  const HyperelasticMaterial svk(HyperelasticLaw::StVenantKirchhoff, kE, kNu);
+  EXPECT_TRUE(uniaxial_stress_state(svk, -0.1 * kE).found);
+  EXPECT_FALSE(uniaxial_stress_state(svk, -2.0 * kE).found);
+}
+
+/// The cube on rollers: base z fixed, the x = 0 and y = 0 faces held in x and y (symmetry planes),
+/// lateral faces free.
+struct RollerCube {
+  RollerCube(int n, double edge) : mesh(small_lattice(n, edge)), edge_m(edge) {
+    MassSpringOptions o;
+    o.kind = TissueModelKind::NeoHookean;
+    o.fe_poisson_ratio = kNu;
+    model = std::make_unique<MassSpringModel>(mesh, TissueMaterial{kE, 1060}, o);
+    for (int i = 0; i < mesh.num_nodes(); ++i) {
+      const auto& q = mesh.nodes[i];
+      if (q.z() < 1e-9) base.fixed.push_back(dof(i, 2));
+      if (q.x() < 1e-9) base.fixed.push_back(dof(i, 0));
+      if (q.y() < 1e-9) base.fixed.push_back(dof(i, 1));
+      if (q.z() > edge - 1e-9) top.push_back(i);
+    }
+  }
+  volume::HexMesh mesh;
+  double edge_m;
+  std::unique_ptr<MassSpringModel> model;
+  DofConstraints base;
+  std::vector<int> top;
+};
+
+TEST(NeoHookean, cube_on_rollers_follows_the_analytic_uniaxial_solution_to_60_percent_compression) {
+  // Displacement control: the top face is moved down to the stretch s (its z DOFs prescribed),
+  // the lateral faces are free; the reaction on the top over the rest area is the nominal stress.
+  RollerCube cube(3, 0.05);
+  const MassSpringModel& m = *cube.model;
+  DofConstraints c = cube.base;
+  for (int t : cube.top) c.fixed.push_back(dof(t, 2));
+  const DofMap dofs(m.num_dofs(), c);
+  StaticSolver solver(m, dofs);
+  Eigen::VectorXd x = m.rest_positions();
+  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(m.num_dofs());
+  const double area = cube.edge_m * cube.edge_m, v0 = m.total_volume(x);
+  double worst_stress = 0.0, worst_volume = 0.0;
+  for (int k = 1; k <= 12; ++k) {
+    const double s = 1.0 - 0.05 * k;  // to 60 % compression
+    for (int t : cube.top) x[dof(t, 2)] = s * cube.edge_m;
+    const StaticResult r = solver.solve(zero, x);
+    ASSERT_TRUE(r.converged) << "s = " << s << ": " << r.message;
+    const Eigen::VectorXd f = m.elastic_forces(x);
+    double reaction = 0.0;
+    for (int t : cube.top) reaction += f[dof(t, 2)];  // internal force the plate holds back
+    const Uniaxial u = analytic_uniaxial(s, kE, kNu);
+    const double nominal = -reaction / area;
+    worst_stress = std::max(worst_stress, std::abs(nominal - u.nominal_stress_pa) / std::abs(u.nominal_stress_pa));
+    worst_volume = std::max(worst_volume, std::abs(m.total_volume(x) / v0 - u.volume_ratio));
+  }
+  std::printf("[ info ] cube to 60%% compression: nominal stress error %.2e, volume ratio error %.2e\n", worst_stress,
+              worst_volume);
+  EXPECT_LT(worst_stress, 0.02);  // the bar; the state is homogeneous, so the elements are exact
+  EXPECT_LT(worst_volume, 0.01);
+  EXPECT_LT(worst_stress, 1e-5);
+  EXPECT_LT(worst_volume, 1e-6);
+}
+
+TEST(NeoHookean, static_solve_of_the_cube_under_an_end_force_converges_at_every_step_to_60_percent) {
+  // Force control (the thesis's cube: frictionless rigid box on the top, run_cube_experiment):
+  // the weight grows to the one that compresses the analytic cube by 60 %; every weight converges,
+  // and each state's stretch and volume match the analytic state of that load.
+  const double edge = 0.05, s_end = 0.4;
+  const double max_weight = -analytic_uniaxial(s_end, kE, kNu).nominal_stress_pa * edge * edge;
+  CubeExperimentOptions o;
+  o.edge_m = edge;
+  o.material = {kE, 1060};
+  o.divisions = 4;
+  o.max_weight_n = max_weight;
+  o.num_weights = 13;
+  o.load_substeps = 1;
+  o.model.kind = TissueModelKind::NeoHookean;
+  o.model.fe_poisson_ratio = kNu;
+  const CubeExperimentResult r = run_cube_experiment(o);
+  ASSERT_TRUE(r.converged) << r.message;
+  ASSERT_EQ(static_cast<int>(r.rows.size()), o.num_weights);
+  double worst_stress = 0.0, worst_volume = 0.0;
+  for (const auto& row : r.rows) {
+    EXPECT_TRUE(row.converged);
+    if (row.weight_n <= 0) continue;
+    const Uniaxial u = analytic_uniaxial(1.0 - row.displacement_ratio, kE, kNu);
+    worst_stress = std::max(worst_stress, std::abs(-u.nominal_stress_pa - row.top_pressure_analytic_pa) /
+                                              row.top_pressure_analytic_pa);
+    worst_volume = std::max(worst_volume, std::abs(row.volume_ratio - u.volume_ratio));
+    EXPECT_NEAR(row.displacement_ratio_reference, row.displacement_ratio, 1e-5);  // the library's reference
+  }
+  EXPECT_NEAR(r.rows.back().displacement_ratio, 1.0 - s_end, 1e-5);
+  std::printf("[ info ] force-controlled cube to %.1f N (60%% strain): stress error %.2e, volume error %.2e, %.2f s\n",
+              max_weight, worst_stress, worst_volume, r.wall_s);
+  EXPECT_LT(worst_stress, 0.02);
+  EXPECT_LT(worst_volume, 0.01);
+  const CubeErrors err = cube_errors(r);
+  EXPECT_LT(err.max_displacement_error_reference, 1e-4);
+  EXPECT_LT(err.max_volume_error_reference, 1e-5);
+
+  // From rest to the 60 % load in one call: the solver's own load continuation gets there too.
+  RollerCube cube(3, edge);
+  const MassSpringModel& m = *cube.model;
+  const DofMap dofs(m.num_dofs(), cube.base);
+  StaticSolver solver(m, dofs);
+  Eigen::VectorXd x = m.rest_positions(), f = Eigen::VectorXd::Zero(m.num_dofs());
+  const double h = edge / 3;
+  for (int t : cube.top) {
+    const auto w = [&](double q) { return (q < 1e-9 || q > edge - 1e-9) ? 0.5 * h : h; };
+    f[dof(t, 2)] = -max_weight / (edge * edge) * w(cube.mesh.nodes[t].x()) * w(cube.mesh.nodes[t].y());
+  }
+  const StaticResult sr = solver.solve(f, x);
+  ASSERT_TRUE(sr.converged) << sr.message;
+  EXPECT_NEAR(x[dof(cube.top.back(), 2)], s_end * edge, 1e-5 * edge);
+}
+
+TEST(NeoHookean, cube_under_a_follower_pressure_reaches_the_analytic_true_stress) {
+  // A pressure p that follows the top face (FollowerPressure) is a true (Cauchy) stress: at the
+  // homogeneous state the nominal stress is P33 = −p t², t the lateral stretch. p is chosen so that
+  // the analytic cube is compressed by 50 %; the solve starts from rest.
+  const double edge = 0.05, s_end = 0.5;
+  const Uniaxial u = analytic_uniaxial(s_end, kE, kNu);
+  const double p = -u.nominal_stress_pa / (u.lateral_stretch * u.lateral_stretch);
+  RollerCube cube(3, edge);
+  volume::HexMesh skinned = cube.mesh;  // the top face is the only skin
+  std::fill(skinned.node_tags.begin(), skinned.node_tags.end(), volume::kNodeNone);
+  for (int t : cube.top) skinned.node_tags[t] = volume::kNodeSurface;
+  const auto skin = volume::extract_skin_surface(skinned);
+  ASSERT_EQ(skin.nodes.size(), cube.top.size());
+  const MassSpringModel& m = *cube.model;
+  const FollowerPressure load(skin, std::vector<double>(skin.nodes.size(), p), m.num_nodes());
+  const DofMap dofs(m.num_dofs(), cube.base);
+  StaticSolver solver(m, dofs);
+  Eigen::VectorXd x = m.rest_positions();
+  const StaticResult r = solver.solve(load, x);
+  ASSERT_TRUE(r.converged) << r.message;
+  const double s = x[dof(cube.top.back(), 2)] / edge;
+  std::printf("[ info ] follower pressure %.1f kPa on the cube: stretch %.6f (analytic %.6f), %d Newton iterations\n",
+              p / 1e3, s, s_end, r.iterations);
+  EXPECT_NEAR(s, s_end, 1e-6);
+  EXPECT_NEAR(m.total_volume(x) / m.total_volume(m.rest_positions()), u.volume_ratio, 1e-6);
+}
+
+}  // namespace
+}  // namespace socketsmith::tissue
