@@ -191,12 +191,14 @@ void run_validate_design(const DesignFlags& f) {
   // starts CalculiX's load step, so the reaction does not drop when the displacement is released.
   std::optional<contact::DonningResult> ours;
   bool ours_from_loop = false;
+  bool ours_linear = !f.nonlinear_body;
   if (f.against_donning || f.stand) {
     const double mu = f.friction >= 0 ? f.friction : c.patient.friction;
     const auto& loop = art.result.closed_loop;
     if (loop && !f.nonlinear_body && f.stand && std::abs(mu - c.patient.friction) < 1e-12) {
       ours = loop->donning;
       ours_from_loop = true;
+      ours_linear = loop->linear_body;
       log::info("validate design: socketsmith's donning and standing of the socket: the closed loop's (donning {})",
                 loop->kept_donning);
     } else {
@@ -381,7 +383,7 @@ void run_validate_design(const DesignFlags& f) {
                    {"stick_slope_pa_per_m", o.contact.stick_slope_pa_per_m},
                    {"friction", o.contact.friction},
                    {"against_donning", f.against_donning},
-                   {"socketsmith_body", f.nonlinear_body ? "nonlinear" : "linearised"},
+                   {"socketsmith_body", ours_linear ? "linearised" : "nonlinear"},
                    {"stand_force_n", stand_force_n},
                    {"fe_load_step_starts_at_n", donning_force_n},
                    {"designed_force_n", r.designed_force_n},

@@ -273,6 +273,41 @@ TEST_F(Donning, a_distal_platform_leaves_the_cavity_that_the_stump_meets_as_it_i
   EXPECT_GT(compared, 1000);
 }
 
+TEST(DonningNeoHookean, a_frictionless_donning_of_a_nonlinear_design_gives_back_its_state_with_the_nonlinear_body) {
+  // The neo-Hookean design solved nonlinearly (follower pressures, large strain): donned without
+  // friction and not stood on, its socket must put the stump back in the designed state — the wall
+  // is the designed skin, the load is the designed pressures — when the donned body is the same
+  // nonlinear model (CHOLMOD on the exact tangent, projected when it is not positive definite).
+  auto c = pipeline::demo_case(1800);
+  c.model = "neo-hookean";
+  c.solve_mode = design::DesignSolveMode::Nonlinear;
+  pipeline::DesignArtifacts art;
+  pipeline::run_design(c, fs::path(SOCKETSMITH_BINARY_DIR) / "tests" / "donning_design_nh", true, {}, &art);
+  ASSERT_TRUE(art.result.socket.has_value()) << "the neo-Hookean demo design must meet its constraints";
+  ASSERT_FALSE(art.result.state.linearised);
+  const auto& solver = *art.setup->solver;
+  DonningOptions o;
+  o.friction = 0.0;
+  o.start_offset_m = 0.04;
+  o.contact.linear_body = false;
+  const auto r = simulate_donning(solver.model(), solver.skin().nodes, solver.skin().area_m2,
+                                  art.result.socket->solid, art.setup->model.frame, o);
+  ASSERT_TRUE(r.completed) << r.message;
+  std::vector<double> pc;
+  std::vector<int> subset;
+  for (size_t i = 0; i < r.contacts.size(); ++i) {
+    pc.push_back(r.contacts[i].pressure_pa);
+    if (!solver.above_brim()[i]) subset.push_back(static_cast<int>(i));
+  }
+  const auto a = report::compare_fields(pc, art.result.state.pressure_pa, subset);
+  std::cout << "neo-Hookean, frictionless, nonlinear body: means " << a.mean_a << " / " << a.mean_b << " Pa, MAE "
+            << a.mae << " Pa, p99 " << a.p99 << " Pa, R " << a.r << ", " << r.seconds << " s\n";
+  EXPECT_NEAR(a.mean_a, a.mean_b, 0.05 * a.mean_b);
+  // Measured 2026-11-26: means 10.45 / 10.41 kPa, MAE 0.42 kPa, p99 1.67 kPa, R 0.984, 1.3 s.
+  EXPECT_LT(a.mae, 0.06 * a.mean_b);
+  EXPECT_GT(a.r, 0.97);
+}
+
 TEST_F(Donning, rejects_a_socket_that_grips_at_the_start_and_bad_options) {
   const auto& art = art_;
   ASSERT_TRUE(art.result.socket.has_value());

@@ -78,6 +78,17 @@ TEST_F(DemoRun, RadarRecomputedFromSurfaceNodesEqualsTheReportAndTheSocketIsASol
   EXPECT_LT(std::abs(F.dot(ey)), 0.01 * fz_target);
   EXPECT_LE(T.norm(), std::sqrt(3.0) * j["targets"]["torque_tolerance_nm"].get<double>());
   EXPECT_GE(S, j["targets"]["stability_min_n"].get<double>());
+  // The template reading's axial loads are the same terms: they sum to F_z; the regions' shares
+  // are parts of it.
+  const auto& tr = j["template_regions"];
+  EXPECT_NEAR(tr["total_axial_n"].get<double>(), F.dot(ez) + S, 1e-6 * fz_target);
+  EXPECT_EQ(tr["template"].get<std::string>(), "ptb");
+  for (const char* key : {"tolerant", "sensitive", "distal_fifth"}) {
+    ASSERT_TRUE(tr["regions"].contains(key)) << key;
+    EXPECT_GT(tr["regions"][key]["nodes"].get<int>(), 0) << key;
+    EXPECT_GT(tr["regions"][key]["axial_share"].get<double>(), 0.0) << key;
+    EXPECT_LT(tr["regions"][key]["axial_share"].get<double>(), 1.0) << key;
+  }
 
   // The socket: a closed manifold solid of the requested thickness.
   geometry::MeshReadOptions ro;

@@ -188,7 +188,7 @@ struct ContactSolver::Impl {
   /// node's block is in the pattern (explicit zeros where it is not in contact), so the pattern
   /// never changes and CHOLMOD orders it once. Linear body: K₀'s values are copied into that fixed
   /// pattern and the blocks added in place (block_at: where each block entry lives).
-  void tangent(const VectorXd& xs, const std::vector<Eigen::Matrix3d>& blocks, SparseMatrix& K) {
+  void tangent(const VectorXd& xs, const std::vector<Eigen::Matrix3d>& blocks, SparseMatrix& K, bool psd_body = false) {
     const auto& ri = dofs.reduced_index();
     if (opt.linear_body) {
       if (K.nonZeros() != K0c.nonZeros()) K = K0c;
@@ -200,7 +200,12 @@ struct ContactSolver::Impl {
             if (block_at[9 * i + 3 * b + a] >= 0) v[block_at[9 * i + 3 * b + a]] += blocks[i](a, b);
       return;
     }
+    // Nonlinear body: the body's tangent at xs plus every candidate node's block (explicit zeros
+    // where it is not in contact), so the pattern stays the same from one Newton iteration to the
+    // next and CHOLMOD analyses it once. `psd_body`: the body's tangent projected on its positive
+    // part per element (when the exact one is not positive definite away from equilibrium).
     std::vector<Eigen::Triplet<double>> trip;
+    trip.reserve(9 * nodes.size());
     for (size_t i = 0; i < nodes.size(); ++i)
       for (int a = 0; a < 3; ++a)
         for (int b = 0; b < 3; ++b) {
@@ -210,9 +215,9 @@ struct ContactSolver::Impl {
     SparseMatrix C(dofs.num_reduced(), dofs.num_reduced());
     C.setFromTriplets(trip.begin(), trip.end());
     SparseMatrix J, Kel;
-    model.jacobian(xs, tissue::JacobianKind::Exact, J);
+    model.jacobian(xs, psd_body ? tissue::JacobianKind::SymmetricPsd : tissue::JacobianKind::Exact, J);
     dofs.reduce_matrix(J, Kel);
-    K = -Kel + C;
+    K = C - Kel;
     K.makeCompressed();
   }
 
@@ -400,6 +405,38 @@ struct ContactSolver::Impl {
     return false;
   }
 
+  /// The Newton step of the nonlinear body: CHOLMOD on the exact tangent @p K (symmetric for the
+  /// hyperelastic models; positive definite near a stable equilibrium), else on the tangent with
+  /// the body's part projected positive (a descent direction for the line search on Π), else
+  /// sparse LU. The pattern is the same every iteration, so CHOLMOD orders it once.
+  bool solve_nonlinear(const VectorXd& xs, const std::vector<Eigen::Matrix3d>& B, SparseMatrix& K, const VectorXd& r,
+                       VectorXd& delta) {
+    const SerialParallelRegions serial;
+    const auto cholesky = [&](const SparseMatrix& A) {
+      if (A.nonZeros() != analysed_nnz) {
+        llt.analyzePattern(A);
+        analysed_nnz = A.nonZeros();
+      }
+      llt.factorize(A);
+      if (llt.info() != Eigen::Success) return false;
+      ++factorizations;
+      delta = llt.solve(r);
+      return delta.allFinite();
+    };
+    if (model.has_energy() && cholesky(K)) return true;
+    if (model.has_energy()) {
+      SparseMatrix Kp;
+      tangent(xs, B, Kp, true);
+      if (cholesky(Kp)) return true;
+    }
+    Eigen::SparseLU<SparseMatrix> lu;
+    lu.compute(K);
+    if (lu.info() != Eigen::Success) return false;
+    ++factorizations;
+    delta = lu.solve(r);
+    return delta.allFinite();
+  }
+
   /// Newton on the equilibrium at translation t with the friction lag fixed; updates xs.
   bool newton(VectorXd& xs, const Vec3& t, std::vector<NodeContact>& st, std::vector<Vec3>& th, int& iterations,
               double& rn, bool& at_kink) {
@@ -442,11 +479,8 @@ struct ContactSolver::Impl {
           ++factorizations;
           delta = llt.solve(r);
         }
-      } else {
-        Eigen::SparseLU<SparseMatrix> lu;
-        lu.compute(K);
-        if (lu.info() != Eigen::Success) return false;
-        delta = lu.solve(r);
+      } else if (!solve_nonlinear(xs, B, K, r, delta)) {
+        return false;
       }
       ++iterations;
       double step = 0;

@@ -154,8 +154,9 @@ ClosedLoopResult close_design_loop(DesignSetup& setup, const DesignResult& resul
   const auto t0 = Clock::now();
   auto& solver = *setup.solver;
   const auto& skin = solver.skin();
-  const auto& state = result.state;
   const design::CaseFile& c = setup.case_file;
+  const auto& state = result.state;
+  const double mu = c.patient.friction;
   const size_t n = skin.nodes.size();
 
   contact::DonningOptions don = options.donning;
@@ -163,10 +164,13 @@ ClosedLoopResult close_design_loop(DesignSetup& setup, const DesignResult& resul
     don.friction = c.patient.friction;
     don.stand_force_n = 0.5 * c.patient.body_mass_kg * units::kGravity;
   }
+  if (options.body_follows_design) don.contact.linear_body = state.linearised || c.solve_mode == design::DesignSolveMode::Linear;
+  const Vec3 axis = setup.model.frame.axis.normalized();
   design::SocketOptions sopt = c.socket;
   sopt.undeformed_skin = &result.rest_skin;
 
   ClosedLoopResult r;
+  r.linear_body = don.contact.linear_body;
   r.target_pa = state.pressure_pa;
   r.below_brim.assign(n, 1);
   std::vector<int> compared;
@@ -244,6 +248,15 @@ ClosedLoopResult close_design_loop(DesignSetup& setup, const DesignResult& resul
               it.below_brim.mae / 1e3,
               it.below_brim.p99 / 1e3, it.below_brim.r, it.below_brim.mean_a / 1e3, it.below_brim.mean_b / 1e3,
               it.axial_friction_n, state.radar.stability_n, it.max_offset_m * 1e3, d.seconds);
+    // Friction: the design counts on sliding friction μ p at every node (its axial share μ p |n × a|);
+    // donned and stood, the socket mobilises a share of what its delivered pressures make available
+    // (nodes stuck by the donning's friction history carry less).
+    double available = 0;
+    for (int i : compared) {
+      const double nz = state.skin_normals[i].dot(axis);
+      available += mu * delivered[i] * state.skin_areas[i] * std::sqrt(std::max(0.0, 1 - nz * nz));
+    }
+    it.friction_utilisation = available > 0 ? it.axial_friction_n / available : 1.0;
     r.delivered_by_iteration.push_back(delivered);
     r.offset_by_iteration.push_back(offset);
     if (r.iterations.empty()) r.open_loop_pa = delivered;
@@ -460,14 +473,17 @@ nlohmann::json write_closed_loop_outputs(const DesignSetup& setup, const DesignR
                           {"mean_wall_offset_mm", it.mean_offset_m * 1e3},
                           {"stood_at_mm", it.stood_offset_m * 1e3},
                           {"axial_friction_n", it.axial_friction_n},
+                          {"friction_utilisation", it.friction_utilisation},
                           {"factorizations", it.factorizations},
                           {"donning_seconds", it.donning_seconds},
                           {"socket_seconds", it.socket_seconds}});
     delivery.details.push_back({fmt::format("{} {}", it.refit ? "refit" : "donning", k + 1),
                                 fmt::format("MAE {:.2f} kPa, 99th percentile {:.2f} kPa, R {:.3f}; wall moved up to "
-                                            "{:.2f} mm; stood {:+.2f} mm from the designed pose; {:.1f} s{}",
+                                            "{:.2f} mm; stood {:+.2f} mm from the designed pose; friction mobilised "
+                                            "{:.0f} %; {:.1f} s{}",
                                             it.below_brim.mae / 1e3, it.below_brim.p99 / 1e3, it.below_brim.r,
-                                            it.max_offset_m * 1e3, it.stood_offset_m * 1e3, it.donning_seconds,
+                                            it.max_offset_m * 1e3, it.stood_offset_m * 1e3,
+                                            100 * it.friction_utilisation, it.donning_seconds,
                                             static_cast<int>(k) == loop.best ? " (kept)" : "")});
   }
   // Maps on one scale: designed, open loop, closed loop; and the closed loop's error.
@@ -542,6 +558,7 @@ nlohmann::json write_closed_loop_outputs(const DesignSetup& setup, const DesignR
           {"kept_donning", loop.kept_donning},
           {"seconds", loop.seconds},
           {"friction", setup.case_file.patient.friction},
+          {"body", loop.linear_body ? "linearised" : "nonlinear"},
           {"stand_force_n", 0.5 * setup.case_file.patient.body_mass_kg * units::kGravity},
           {"designed_friction_n", result.state.radar.stability_n},
           {"iterations", iterations},

@@ -77,6 +77,10 @@ struct ClosedLoopOptions {
   /// from the case's patient (μ, M g / 2) unless `keep_donning_loads` is true.
   contact::DonningOptions donning;
   bool keep_donning_loads = false;
+  /// The donned stump is the design's: linearised at rest for a linear design solve, the nonlinear
+  /// tissue model for a nonlinear one (so that a frictionless donning gives back the designed
+  /// state). false: `donning.contact.linear_body` as given.
+  bool body_follows_design = true;
   ProgressCallback progress;
 };
 
@@ -88,6 +92,9 @@ struct ClosedLoopIteration {
   double mean_offset_m = 0.0;      ///< mean δ below the brim [m] (> 0: the wall moved outwards)
   double stood_offset_m = 0.0;     ///< where the socket stood, relative to its designed pose along the axis [m]
   double axial_friction_n = 0.0;   ///< the share of the standing load friction carried [N] (the design assumed μ Σ p A cos θ)
+  /// axial_friction_n over μ Σ p A |n × axis| of the delivered pressures: the share of the friction
+  /// the design counts on that donning and standing mobilise [-]
+  double friction_utilisation = 1.0;
   int factorizations = 0;
   double donning_seconds = 0.0;    ///< the donning or the refit
   double socket_seconds = 0.0;     ///< building the socket solid
@@ -103,6 +110,7 @@ struct ClosedLoopResult {
   int best = 0;
   int kept_donning = 0;            ///< which donning from scratch that is (1: the open-loop socket's)
   std::vector<double> target_pa;   ///< designed pressure per skin node (0 above the brim) [Pa]
+  bool linear_body = true;         ///< the donned stump was linearised at rest (else the nonlinear tissue model)
   std::vector<double> open_loop_pa;    ///< delivered by the open-loop socket [Pa]
   std::vector<double> closed_loop_pa;  ///< delivered by the kept socket [Pa]
   std::vector<double> wall_offset_m;   ///< δ of the kept socket per skin node [m]

@@ -10,6 +10,7 @@
 #include "socketsmith/core/errors.h"
 #include "socketsmith/core/log.h"
 #include "socketsmith/core/units.h"
+#include "socketsmith/design/template_regions.h"
 #include "socketsmith/geometry/mesh_checks.h"
 #include "socketsmith/geometry/mesh_io.h"
 #include "socketsmith/pipeline/prosthetist_checks.h"
@@ -89,6 +90,14 @@ tissue::MassSpringOptions model_options(const design::CaseFile& c) {
   return o;
 }
 
+design::OptimizerOptions optimizer_options(const design::CaseFile& c) {
+  design::OptimizerOptions oo;
+  oo.objective = c.objective;
+  oo.model_pressure_limit = c.model_pressure_limit;
+  oo.time_limit_s = c.time_limit_s;
+  return oo;
+}
+
 tissue::TissueMaterial material(const design::CaseFile& c) { return {c.youngs_modulus_pa, c.density_kg_m3}; }
 
 std::unique_ptr<DesignSetup> prepare_design(const design::CaseFile& c, const fs::path& generated_limb_stl,
@@ -150,10 +159,7 @@ DesignResult solve_design(DesignSetup& setup, bool optimise, const ProgressCallb
   DesignResult r;
   r.optimised = optimise;
   if (optimise) {
-    design::OptimizerOptions oo;
-    oo.objective = c.objective;
-    oo.model_pressure_limit = c.model_pressure_limit;
-    oo.time_limit_s = c.time_limit_s;
+    design::OptimizerOptions oo = optimizer_options(c);
     oo.progress = [&](double f, std::string_view stage) { return report_progress(progress, 0.9 * f, stage); };
     r.optimiser = design::optimise_design(solver, setup.spots, oo);
     r.spots = r.optimiser.spots;
@@ -524,6 +530,37 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
   rd.solver.message = state.message;
   rd.solver.details.push_back({"max displacement", fmt::format("{:.2f} mm", state.max_displacement_m * 1e3)});
   rd.solver.details.push_back({"follower passes", std::to_string(state.follower_passes)});
+  // The design read against its template (tolerant vs sensitive regions, the distal fifth's load).
+  design::SkinLoads loads;
+  loads.rest_positions = &skin.positions;
+  loads.normals = &state.skin_normals;
+  loads.areas_m2 = &state.skin_areas;
+  loads.pressures_pa = &state.pressure_pa;
+  loads.above_brim = &solver.above_brim();
+  const design::TemplateCheck tc =
+      design::check_template(brim.kind(), model.landmarks, loads, model.frame, model.length_m, c.patient.friction);
+  rd.solver.details.push_back({"template", tc.summary + (tc.applies ? (tc.met ? ": met" : ": NOT met") : "")});
+  nlohmann::json regions_json = nlohmann::json::object();
+  for (const design::ZoneLoad* r : {&tc.tolerant, &tc.sensitive, &tc.distal_fifth, &tc.below_brim}) {
+    if (r->nodes == 0) continue;
+    regions_json[r->key] = {{"landmarks", r->codes},          {"nodes", r->nodes},
+                            {"mean_kpa", r->mean_pa / 1e3},   {"peak_kpa", r->peak_pa / 1e3},
+                            {"axial_n", r->axial_force_n},    {"axial_share", r->axial_share}};
+    std::string codes;
+    for (const auto& code : r->codes) codes += (codes.empty() ? "" : ", ") + code;
+    rd.solver.details.push_back({fmt::format("{} region", r->key),
+                                 fmt::format("{}{} nodes, mean {:.1f} kPa, peak {:.1f} kPa, {:.0f} % of the axial load",
+                                             codes.empty() ? "" : codes + "; ", r->nodes, r->mean_pa / 1e3,
+                                             r->peak_pa / 1e3, 100 * r->axial_share)});
+  }
+  const nlohmann::json template_json = {{"template", tc.template_name},
+                                        {"applies", tc.applies},
+                                        {"met", tc.met},
+                                        {"summary", tc.summary},
+                                        {"tolerant_to_sensitive", tc.tolerant_to_sensitive},
+                                        {"cv_below_brim", tc.cv_below_brim},
+                                        {"total_axial_n", tc.total_axial_n},
+                                        {"regions", regions_json}};
   if (model.bones_estimated) rd.warnings.push_back("bones ESTIMATED from the skin (no bone surfaces given)");
   if (model.frame.anterior_estimated) rd.warnings.push_back("anterior direction ESTIMATED from the skin: check it");
   if (model.frame.side_estimated) rd.warnings.push_back("side ESTIMATED: check it");
@@ -607,6 +644,7 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
   j["rectification"] = checks_json["rectification"];
   j["slices"] = checks_json["slices"];
   for (const char* o : {"rectification_map.png", "rectification.csv", "slices.csv"}) j["outputs"].push_back(o);
+  j["template_regions"] = template_json;
   if (!closed_loop_json.is_null()) {
     j["closed_loop"] = closed_loop_json;
     for (const auto& o : closed_loop_json["outputs"]) j["outputs"].push_back(o);

@@ -63,6 +63,9 @@ std::unique_ptr<DesignSetup> prepare_design(const design::CaseFile& c,
                                             const std::filesystem::path& generated_limb_stl = {},
                                             const ProgressCallback& progress = {});
 
+/// The optimiser's settings a case asks for (objective, model pressure limit).
+design::OptimizerOptions optimizer_options(const design::CaseFile& c);
+
 /// The MSS model options and material a case asks for.
 tissue::MassSpringOptions model_options(const design::CaseFile& c);
 tissue::TissueMaterial material(const design::CaseFile& c);
