@@ -61,18 +61,22 @@ void register_compare(CLI::App& app) {
   cmd->add_option("a", f->a, "reference shape A: a limb scan (STL/OBJ/PLY)")->required();
   cmd->add_option("b", f->b, "shape B aligned onto A: a limb scan, or a socket solid (its cavity is compared)")->required();
   cmd->add_option("--out", f->out, "output directory")->required();
-  cmd->add_option("--b-kind", f->b_kind, "what B is: auto (default) | surface | socket");
+  cmd->add_option("--b-kind", f->b_kind, "what B is: auto (default) | surface | socket")
+      ->check(CLI::IsMember({"auto", "surface", "socket"}));
   cmd->add_option("--seed", f->seed,
                   "alignment start: auto (default: landmarks when given, else the best of the identity and the limb "
                   "frames) | frames | landmarks | identity | none (no alignment)");
   cmd->add_option("--landmarks-a", f->landmarks_a, "JSON {\"PT\": [x, y, z], ...} on A, in A's unit");
   cmd->add_option("--landmarks-b", f->landmarks_b, "the same codes on B");
   cmd->add_option("--crop-mm", f->crop_mm,
-                  "compare below this height above A's distal end [mm] (default: 5 mm below the lower opening)");
-  cmd->add_option("--range-mm", f->range_mm, "colour range of the deviation map: ±R mm (default: automatic)");
-  cmd->add_option("--slice-mm", f->slice_mm, "slice spacing [mm] (default 10)")->check(CLI::PositiveNumber);
+                  "compare below this height above A's distal end [mm] (default: 5 mm below the lower opening)")
+      ->check(non_negative());
+  cmd->add_option("--range-mm", f->range_mm, "colour range of the deviation map: ±R mm (default: automatic)")
+      ->check(non_negative());
+  cmd->add_option("--slice-mm", f->slice_mm, "slice spacing [mm] (default 10)")->check(positive());
   cmd->add_option("--units", f->units, "unit of both files: mm | m (default: guessed from the size)");
-  cmd->add_option("--scale", f->scale, "multiply both shapes by this after reading (e.g. a normalised limb)");
+  cmd->add_option("--scale", f->scale, "multiply both shapes by this after reading (e.g. a normalised limb)")
+      ->check(positive());
   cmd->add_flag("--json", f->json, "print the summary as JSON on stdout");
   cmd->callback([f] { run(*f); });
 }
