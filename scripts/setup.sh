@@ -2,7 +2,8 @@
 # Installs the Debian 12 packages socketsmith needs to build and test, when they are missing.
 # Idempotent: does nothing when everything is present. Runs apt-get as root (or via sudo).
 # `scripts/setup.sh --dev` also installs ccache (scripts/build.sh then uses it: rebuilds and builds
-# of other clones or worktrees under the same ccache base_dir take minutes instead of ~20).
+# of other clones or worktrees under the same ccache base_dir take minutes instead of ~20) and
+# clang with libclang-rt-14-dev (libFuzzer, ASan, UBSan) for scripts/fuzz.sh.
 set -euo pipefail
 
 packages=(
@@ -22,9 +23,11 @@ packages=(
   libopencv-dev           # scan: 16-bit depth PNG IO, undistortion, Kinect calibration YAML (cv::FileStorage)
   libimgui-dev libglfw3-dev libgl-dev  # socketsmith-gui: Dear ImGui (with its GLFW/OpenGL3 back-ends), window, OpenGL
   xvfb xauth libgl1-mesa-dri  # GUI tests and screenshots headless: virtual X server, Mesa llvmpipe OpenGL
+  chromium                # the reports' browser test: headless Chromium renders report.html and prints it to PDF
 )
 
-if [ "${1:-}" = "--dev" ]; then packages+=(ccache); fi
+# --dev: ccache, and clang with its sanitizer/libFuzzer runtime for scripts/fuzz.sh.
+if [ "${1:-}" = "--dev" ]; then packages+=(ccache clang libclang-rt-14-dev); fi
 
 missing=()
 for p in "${packages[@]}"; do

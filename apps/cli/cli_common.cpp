@@ -1,8 +1,42 @@
 #include "cli_common.h"
 
+#include <cmath>
+#include <cstdlib>
 #include <iostream>
 
+#include <fmt/format.h>
+
 namespace socketsmith::cli {
+
+CLI::Validator within(const design::InputLimit& limit) {
+  return CLI::Validator(
+      [limit](std::string& text) -> std::string {
+        char* end = nullptr;
+        const double v = std::strtod(text.c_str(), &end);
+        if (text.empty() || end != text.c_str() + text.size())
+          return fmt::format("'{}' is not a number: give a value in {}", text, design::describe(limit));
+        return design::input_violation(limit, v);
+      },
+      design::describe(limit));
+}
+
+namespace {
+CLI::Validator sign_check(bool is_zero_allowed) {
+  return CLI::Validator(
+      [is_zero_allowed](std::string& text) -> std::string {
+        char* end = nullptr;
+        const double v = std::strtod(text.c_str(), &end);
+        if (text.empty() || end != text.c_str() + text.size()) return fmt::format("'{}' is not a number", text);
+        if (!std::isfinite(v) || v < 0 || (v == 0 && !is_zero_allowed))
+          return fmt::format("{} must be a {} number", text, is_zero_allowed ? "finite, zero or positive" : "finite, positive");
+        return {};
+      },
+      is_zero_allowed ? "NONNEGATIVE" : "POSITIVE");
+}
+}  // namespace
+
+CLI::Validator positive() { return sign_check(false); }
+CLI::Validator non_negative() { return sign_check(true); }
 
 void add_model_flags(CLI::App& app, ModelFlags& f) {
   app.add_option("--model", f.model, "tissue model: mss-cs (thesis), mss-cf (Golec hybrid), mss (springs only), fe "
@@ -19,8 +53,9 @@ void add_model_flags(CLI::App& app, ModelFlags& f) {
   app.add_option("--spring-ratio", f.spring_ratio, "override the MSS-CS spring modulus ratio E_s/E, > 0");
   app.add_option("--law", f.law, "override the corrective law: symmetric | compression-only");
   app.add_option("--dead-zone", f.dead_zone, "override the corrective dead zone d (volume fraction), in [0, 0.5)");
-  app.add_option("--youngs-kpa", f.youngs_modulus_kpa, "tissue Young's modulus E [kPa]");
-  app.add_option("--density", f.density, "tissue density rho [kg/m^3]");
+  app.add_option("--youngs-kpa", f.youngs_modulus_kpa, "tissue Young's modulus E [kPa]")
+      ->check(within(design::limits::kYoungsModulus));
+  app.add_option("--density", f.density, "tissue density rho [kg/m^3]")->check(within(design::limits::kDensity));
   app.add_option("--cf-poisson", f.cf_poisson, "MSS-CF target Poisson ratio, in [0.25, 0.5)");
   app.add_option("--fe-poisson", f.fe_poisson, "Poisson ratio of the fe and neo-hookean models, in [0, 0.5) (default 0.45)");
 }

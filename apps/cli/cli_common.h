@@ -6,6 +6,7 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
+#include "socketsmith/design/input_limits.h"
 #include "socketsmith/tissue/mass_spring_model.h"
 
 namespace socketsmith::cli {
@@ -21,6 +22,15 @@ struct ModelFlags {
   double cf_poisson = 0.49;
   double fe_poisson = 0.45;
 };
+
+/// A CLI11 check from the shared input limits (design/input_limits.h): a flag takes the same range
+/// as its case-file key and says so in the same words ("--friction: 3 is outside [0, 2]: ...").
+CLI::Validator within(const design::InputLimit& limit);
+
+/// A finite number > 0 (CLI::PositiveNumber's message printed the 309 digits of DBL_MAX).
+CLI::Validator positive();
+/// A finite number ≥ 0.
+CLI::Validator non_negative();
 
 void add_model_flags(CLI::App& app, ModelFlags& flags);
 tissue::MassSpringOptions make_model_options(const ModelFlags& flags);
@@ -39,5 +49,6 @@ void register_design(CLI::App& app);  // cmd_design.cpp: design, run, demo
 void register_contact(CLI::App& app);  // cmd_contact.cpp: simulate donning
 void register_scan(CLI::App& app);  // cmd_scan.cpp: scan simulate, scan reconstruct
 void register_validate(CLI::App& app);  // cmd_validate.cpp: validate cube, validate design
+void register_compare(CLI::App& app);  // cmd_compare.cpp: compare A B
 
 }  // namespace socketsmith::cli

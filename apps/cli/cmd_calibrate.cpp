@@ -119,7 +119,7 @@ void register_calibrate(CLI::App& app) {
   cube->add_flag("--thesis-springs", flags->fixed_springs, "keep the Golec springs at E (fit A, alpha, C, beta only)");
   cube->add_option("--divisions", flags->divisions, "elements per cube edge")->check(CLI::Range(1, 20));
   cube->add_option("--max-c", flags->max_c, "upper bound of the corrective constant C (default 2000)")
-      ->check(CLI::PositiveNumber);
+      ->check(positive());
   cube->add_option("--min-beta", flags->min_beta,
                    "lower bound of the corrective exponent beta (default 0.5; >= 2.5 keeps the corrective springs "
                    "negligible at small strain, where the linearised design model must hold)")
@@ -138,9 +138,9 @@ void register_calibrate(CLI::App& app) {
   cube->add_flag("--no-shear-check", flags->no_shear_check,
                  "do not require the constants to carry the sheared cube (base held, compression + shear on the top)");
   cube->add_option("--shear-compression-kpa", flags->shear_compression_kpa, "sheared cube: compression on the top [kPa]")
-      ->check(CLI::NonNegativeNumber);
+      ->check(non_negative());
   cube->add_option("--shear-kpa", flags->shear_kpa, "sheared cube: shear traction on the top [kPa]")
-      ->check(CLI::NonNegativeNumber);
+      ->check(non_negative());
   cube->callback([flags] { run(*flags); });
 }
 

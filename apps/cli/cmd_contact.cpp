@@ -310,15 +310,16 @@ void register_contact(CLI::App& app) {
       ->check(CLI::Range(1, 100000));
   don->add_option("--step-mm", f->step_mm,
                   "longest adaptive step [mm] (default 4; 2 mm where a node starts sticking)")
-      ->check(CLI::PositiveNumber);
-  don->add_option("--target-nodes", f->target_nodes, "stump size (default: the case's, 8000)")->check(CLI::Range(500, 100000));
-  don->add_option("--friction", f->friction, "Coulomb μ (default: the case's)");
+      ->check(positive());
+  don->add_option("--target-nodes", f->target_nodes, "stump size (default: the case's, 8000)")
+      ->check(within(design::limits::kTargetNodes));
+  don->add_option("--friction", f->friction, "Coulomb μ (default: the case's)")->check(within(design::limits::kFriction));
   don->add_option("--penalty-factor", f->penalty_factor,
                   "contact penalty k = factor · E / h (default 20: 15 kPa penetrates ~45 µm at E = 100 kPa, h = 6 mm)");
   don->add_option("--stick-stiffness", f->stick_stiffness,
                   "friction's elastic stick as a fraction of the contact penalty (default 0.2: ~75 µm of elastic slip "
                   "at 10 kPa; 1: as stiff as the penalty)")
-      ->check(CLI::PositiveNumber);
+      ->check(positive());
   don->add_option("--reuse-cg", f->reuse_cg,
                   "CG iterations on the last factorisation before refactorising (default 0: always factorise)")
       ->check(CLI::Range(0, 1000));

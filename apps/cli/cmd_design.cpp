@@ -22,7 +22,21 @@ struct DesignFlags {
   bool json = false;
   int closed_loop = -1;  ///< donnings of the closed loop (0: open loop; −1: as the case says)
   int target_nodes = 8000;
+  double time_limit_s = 0;  // 0: the case's (design.time_limit_s), else none
 };
+
+/// --time-limit: the optimiser's wall-time bound, checked like the case file's design.time_limit_s.
+void add_time_limit(CLI::App* cmd, DesignFlags& f) {
+  cmd->add_option("--time-limit", f.time_limit_s,
+                  "stop the optimiser after this many seconds and report the design it reached (default: the case's "
+                  "design.time_limit_s, else none)")
+      ->check(within(design::limits::kTimeLimit));
+}
+
+design::CaseFile with_time_limit(design::CaseFile c, const DesignFlags& f) {
+  if (f.time_limit_s > 0) c.time_limit_s = f.time_limit_s;  // checked by within(kTimeLimit)
+  return c;
+}
 
 void print_summary(const nlohmann::json& j) {
   log::info("design: {} nodes; F = ({:.1f}, {:.1f}, {:.1f}) N (target Fz {:.1f} N), T = ({:.2f}, {:.2f}, {:.2f}) N m, "
@@ -57,10 +71,13 @@ void print_summary(const nlohmann::json& j) {
 int finish(const nlohmann::json& j, bool json) {
   if (json) print_json(j);
   else print_summary(j);
+  if (j.value("optimiser_time_limited", false) && j["constraints_met"].get<bool>())
+    log::warn("design: {}", j["optimiser_message"].get<std::string>());
   if (!j["constraints_met"].get<bool>()) {
     const std::string why = j["optimiser_message"].get<std::string>();  // empty without the optimiser
-    fail("design: the constraints are not all met ({}): {}; no socket was written — see {}",
+    fail("design: the constraints are not all met ({}): {}; no socket was written{} — see {}",
          j["failing"].get<std::string>(), why.empty() ? j["solver_message"].get<std::string>() : why,
+         j.value("removed", nlohmann::json::array()).empty() ? "" : " (the earlier socket.stl there was removed)",
          (std::filesystem::path(j["out"].get<std::string>()) / "report.html").string());
   }
   return 0;
@@ -75,12 +92,17 @@ void register_design(CLI::App& app) {
   cmd->add_option("--out", f->out, "output directory")->required();
   cmd->add_flag("--no-optimise", f->no_optimise, "solve the case's spots as given (no optimiser)");
   cmd->add_flag("--json", f->json, "print the summary as JSON on stdout");
+  add_time_limit(cmd, *f);
   cmd->add_option("--closed-loop", f->closed_loop,
                   "don and stand on the socket, correct its wall in up to N donnings (0: open loop; default: the case's "
                   "design.closed_loop)")
-      ->check(CLI::Range(0, 20));
+      ->check(CLI::Validator(
+          [](std::string& text) -> std::string {
+            return text == "0" ? std::string() : within(design::limits::kClosedLoopDonnings)(text);
+          },
+          "0 (open loop) or " + design::describe(design::limits::kClosedLoopDonnings)));
   cmd->callback([f] {
-    auto c = design::read_case(f->case_file);
+    auto c = with_time_limit(design::read_case(f->case_file), *f);
     if (f->closed_loop >= 0) {
       c.closed_loop = f->closed_loop > 0;
       if (f->closed_loop > 0) c.closed_loop_donnings = f->closed_loop;
@@ -93,8 +115,9 @@ void register_design(CLI::App& app) {
   run->add_option("case", r->case_file, "case file (JSON)")->required();
   run->add_option("--out", r->out, "output directory (default: <case name>_out beside the case file)");
   run->add_flag("--json", r->json, "print the summary as JSON on stdout");
+  add_time_limit(run, *r);
   run->callback([r] {
-    const auto c = design::read_case(r->case_file);
+    const auto c = with_time_limit(design::read_case(r->case_file), *r);
     const fs::path p(r->case_file);
     const fs::path out = r->out.empty() ? p.parent_path() / (p.stem().string() + "_out") : fs::path(r->out);
     finish(pipeline::run_design(c, out, c.optimise, console_progress(1.0)), r->json);
@@ -104,7 +127,8 @@ void register_design(CLI::App& app) {
   d->out = "socketsmith_demo";
   auto* demo = app.add_subcommand("demo", "the embedded sample: generated limb → stump → optimised design → socket");
   demo->add_option("--out", d->out, "output directory (default: socketsmith_demo)");
-  demo->add_option("--target-nodes", d->target_nodes, "stump size (default 8000)")->check(CLI::Range(500, 100000));
+  demo->add_option("--target-nodes", d->target_nodes, "stump size (default 8000)")
+      ->check(within(design::limits::kTargetNodes));
   demo->add_flag("--json", d->json, "print the summary as JSON on stdout");
   demo->callback([d] {
     const design::CaseFile c = pipeline::demo_case(d->target_nodes);

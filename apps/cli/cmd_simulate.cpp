@@ -217,8 +217,8 @@ void register_simulate(CLI::App& app) {
   cube->add_flag("--json", flags->json, "print the selected model's summary as JSON on stdout");
   cube->add_option("--divisions", flags->divisions, "elements per cube edge")->check(CLI::Range(1, 60));
   cube->add_option("--weights", flags->weights, "number of weights from 0 to --max-weight")->check(CLI::Range(2, 1000));
-  cube->add_option("--max-weight", flags->max_weight, "heaviest box [N]")->check(CLI::PositiveNumber);
-  cube->add_option("--edge-mm", flags->edge_mm, "cube edge [mm]")->check(CLI::PositiveNumber);
+  cube->add_option("--max-weight", flags->max_weight, "heaviest box [N]")->check(positive());
+  cube->add_option("--edge-mm", flags->edge_mm, "cube edge [mm]")->check(positive());
   cube->callback([flags] { run_cube(*flags); });
 }
 

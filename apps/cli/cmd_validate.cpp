@@ -39,7 +39,7 @@ void add_ccx_flags(CLI::App& cmd, CcxFlags& f) {
   cmd.add_option("--fe", f.solver, "FE solver (only calculix)")->check(CLI::IsMember({"calculix"}));
   cmd.add_option("--ccx", f.ccx, "CalculiX executable (default: ccx on the PATH; package calculix-ccx)");
   cmd.add_option("--ccx-threads", f.threads, "threads for ccx (default 1)")->check(CLI::Range(1, 64));
-  cmd.add_option("--ccx-time-limit", f.time_limit_s, "wall-time limit of ccx [s] (default 3600)")->check(CLI::PositiveNumber);
+  cmd.add_option("--ccx-time-limit", f.time_limit_s, "wall-time limit of ccx [s] (default 3600)")->check(positive());
 }
 
 fe::CcxOptions ccx_options(const CcxFlags& f) {
@@ -476,7 +476,8 @@ void add_case_flags(CLI::App& cmd, DesignFlags& f) {
       ->required();
   cmd.add_flag("--json", f.json, "print the summary as JSON on stdout");
   cmd.add_flag("--no-optimise", f.no_optimise, "solve the case's spots as given");
-  cmd.add_option("--target-nodes", f.target_nodes, "stump size (default: the case's)")->check(CLI::Range(500, 100000));
+  cmd.add_option("--target-nodes", f.target_nodes, "stump size (default: the case's)")
+      ->check(within(design::limits::kTargetNodes));
   cmd.add_option("--element", f.element, "c3d8 | c3d8i | c3d8r (default c3d8)");
   cmd.add_option("--poisson", f.poisson,
                  "tissue Poisson ratio in CalculiX (default: the case's fe or neo-hookean model's, else 0.45, the thesis's)")
@@ -489,13 +490,14 @@ void add_case_flags(CLI::App& cmd, DesignFlags& f) {
   cmd.add_flag("--small-strain", f.small_strain,
                "CalculiX without NLGEOM: the problem of socketsmith's linear design solve (with --mode load and the fe "
                "tissue model, the two displacement fields agree to round-off)");
-  cmd.add_option("--penalty", f.penalty, "contact penalty stiffness [Pa/m] (default 1e9)")->check(CLI::PositiveNumber);
+  cmd.add_option("--penalty", f.penalty, "contact penalty stiffness [Pa/m] (default 1e9)")->check(positive());
   cmd.add_option("--stick-slope", f.stick_slope,
                  "CalculiX's friction stick slope [Pa/m] (default 5e7, CALCULIX.md; socketsmith's stick is 0.2 x its penalty)")
-      ->check(CLI::PositiveNumber);
-  cmd.add_option("--friction", f.friction, "friction coefficient (default: the case's μ)");
+      ->check(positive());
+  cmd.add_option("--friction", f.friction, "friction coefficient (default: the case's μ)")
+      ->check(within(design::limits::kFriction));
   cmd.add_option("--travel-mm", f.travel_mm, "donning: start this far distally [mm] (default 30)")
-      ->check(CLI::PositiveNumber);
+      ->check(positive());
   cmd.add_option("--initial-increment", f.initial_increment, "first ccx increment (fraction of the step, default 0.05)")
       ->check(CLI::Range(1e-4, 1.0));
   cmd.add_option("--fe-pressure", f.fe_pressure,
@@ -517,7 +519,8 @@ void register_validate(CLI::App& app) {
   cube->add_option("--out", cf->out, "output folder (cube.inp, cube_fe.csv, cube_fe.svg, cube_fe.png, summary.json)")->required();
   cube->add_flag("--json", cf->json, "print the summary as JSON on stdout");
   cube->add_option("--divisions", cf->divisions, "elements per edge (default 4)")->check(CLI::Range(1, 40));
-  cube->add_option("--youngs-kpa", cf->youngs_kpa, "Young's modulus [kPa] (default 50)");
+  cube->add_option("--youngs-kpa", cf->youngs_kpa, "Young's modulus [kPa] (default 50)")
+      ->check(within(design::limits::kYoungsModulus));
   cube->add_option("--poisson", cf->poisson, "Poisson ratio (default 0.45)");
   cube->add_option("--max-force", cf->max_force, "plate force at the end [N] (default 8: 6.4 % strain)");
   cube->add_option("--increments", cf->increments, "equal load increments (default 8)")->check(CLI::Range(1, 100));
@@ -533,7 +536,7 @@ void register_validate(CLI::App& app) {
                                        "displacements) | donning (rigid socket pushed up the axis)")
       ->check(CLI::IsMember({"contact", "load", "donning"}));
   des->add_option("--clearance-mm", df->clearance_mm, "where the socket fit starts outside the skin [mm] (default 1)")
-      ->check(CLI::PositiveNumber);
+      ->check(positive());
   des->add_flag("--stand", df->stand,
                 "with --mode donning: then push the socket with half the body weight (the thesis's second step) in "
                 "CalculiX, and compare socketsmith's own donned-and-stood pressures too (the closed loop's when the "

@@ -1,12 +1,13 @@
-// socketsmith — command-line entry point. Maps errors to one clear line and an exit code:
-// 1 bad input, 2 IO, 3 solver/divergence, 4 topology, 70 internal.
+// socketsmith — command-line entry point. Maps errors to one clear line and an exit code
+// (core/exit_status.h): 1 bad input (also a bad command line), 2 IO, 3 solver/divergence,
+// 4 topology, 70 internal.
 #include <cstdio>
 #include <exception>
 
 #include <CLI/CLI.hpp>
 
 #include "cli_common.h"
-#include "socketsmith/core/errors.h"
+#include "socketsmith/core/exit_status.h"
 #include "socketsmith/core/log.h"
 
 int main(int argc, char** argv) {
@@ -27,25 +28,18 @@ int main(int argc, char** argv) {
   cli::register_scan(app);
   cli::register_contact(app);
   cli::register_validate(app);
+  cli::register_compare(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
-  } catch (const InvalidInputError& e) {
-    std::fprintf(stderr, "error: %s\n", e.what());
-    return 1;
-  } catch (const IoError& e) {
-    std::fprintf(stderr, "error: %s\n", e.what());
-    return 2;
-  } catch (const SolverError& e) {
-    std::fprintf(stderr, "error: %s\n", e.what());
-    return 3;
-  } catch (const TopologyError& e) {
-    std::fprintf(stderr, "error: %s\n", e.what());
-    return 4;
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "internal error: %s (please report it)\n", e.what());
-    return 70;
+    // --help and --version are "errors" with exit code 0: CLI11 prints them.
+    if (e.get_exit_code() == static_cast<int>(CLI::ExitCodes::Success)) return app.exit(e);
+    std::fprintf(stderr, "error: %s (see --help)\n", one_line(e.what()).c_str());
+    return kExitBadInput;
+  } catch (...) {
+    const ExitStatus status = exit_status(std::current_exception());
+    std::fprintf(stderr, "%s\n", status.line().c_str());
+    return status.code;
   }
   return 0;
 }

@@ -12,6 +12,8 @@
 #include "plots.h"
 #include "socketsmith/core/atomic_file.h"
 #include "socketsmith/core/errors.h"
+#include "socketsmith/core/exit_status.h"
+#include "socketsmith/design/input_limits.h"
 #include "socketsmith/core/log.h"
 #include "socketsmith/core/units.h"
 #include "socketsmith/report/raster.h"
@@ -97,8 +99,8 @@ void App::load(design::CaseFile c, fs::path path, const std::string& what, bool 
 void App::open_case(const fs::path& path) {
   try {
     load(design::read_case(path), path, "opening " + path.string());
-  } catch (const Error& e) {
-    show_error(e.what());
+  } catch (const std::exception& e) {
+    show_error(exit_status(std::current_exception()).message);
   }
 }
 
@@ -178,7 +180,10 @@ void App::export_design(const fs::path& dir) {
     std::lock_guard lock(loaded_mutex_);
     job_message_ = summary.value("constraints_met", false)
                 ? fmt::format("exported socket.stl and report.html to {}", dir.string())
-                : fmt::format("exported the report to {}; no socket: the constraints are not all met", dir.string());
+                : fmt::format("exported the report to {}; no socket: the constraints are not all met{}", dir.string(),
+                              summary.value("removed", nlohmann::json::array()).empty()
+                                  ? ""
+                                  : " (the earlier socket.stl there was removed)");
   });
 }
 
@@ -350,6 +355,9 @@ void App::set_spot_value(int index, const std::string& field, double value) {
 
 void App::remove_spot(int index) {
   if (index < 0 || index >= static_cast<int>(case_.spots.size())) return;
+  // A case without spots would be saved as the default layout: keep at least one.
+  require(case_.spots.size() > 1, "remove spot: '{}' is the last spot; a design needs at least one: add another "
+          "spot first", case_.spots[index].name);
   edit([&] { case_.spots.erase(case_.spots.begin() + index); });
   selected_spot_ = -1;
 }
@@ -383,15 +391,30 @@ void App::move_brim_key_point(int index, double theta_rad, double h_m) {
   edit([&] { case_.brim_key_points = b.key_points(); }, true);
 }
 
+void App::set_patient(const design::PatientLoad& patient, double youngs_modulus_pa, const design::ThresholdTable& thresholds) {
+  // The same checks as the case file's (design/input_limits.h): nothing is silently replaced.
+  design::check_patient(patient, "patient: ");
+  design::check_input(design::limits::kYoungsModulus, youngs_modulus_pa / 1e3, "patient: tissue.youngs_kpa");
+  for (const auto& [code, v] : thresholds)
+    design::check_input(design::limits::kPainThreshold, v / 1e3, "patient: patient.thresholds_kpa." + code);
+  push_history();
+  case_.patient = patient;
+  case_.youngs_modulus_pa = youngs_modulus_pa;
+  case_.thresholds = thresholds;
+  is_dirty_ = true;
+}
+
 void App::set_thickness(double thickness_m) {
-  require(thickness_m > 0 && thickness_m <= 0.05, "thickness {:.1f} mm is out of range (0..50 mm]", thickness_m * 1e3);
+  design::check_input(design::limits::kThickness, thickness_m * 1e3, "socket: socket.thickness_mm");
   edit([&] { case_.socket.thickness_m = thickness_m; });
 }
 
-void App::optimise() {
+void App::optimise(double time_limit_s) {
   if (!worker_) return;
+  if (time_limit_s > 0) design::check_input(design::limits::kTimeLimit, time_limit_s, "optimise: time limit");
   push_history();
   design::OptimizerOptions o;
+  o.time_limit_s = time_limit_s;
   o.objective = case_.objective;
   o.model_pressure_limit = case_.model_pressure_limit;
   DesignRequest r;
@@ -774,7 +797,13 @@ void App::draw_design_panel() {
         }
         if (ImGui::Checkbox("optimiser may change A", &s.optimise_amplitude)) is_dirty_ = true;
         if (ImGui::Checkbox("optimiser may move it", &s.optimise_position)) is_dirty_ = true;
-        if (ImGui::Button("Remove spot")) remove_spot(k);
+        if (ImGui::Button("Remove spot")) {
+          try {
+            remove_spot(k);
+          } catch (const Error& e) {
+            show_error(e.what());
+          }
+        }
         ImGui::Unindent();
       }
       ImGui::PopID();
@@ -786,8 +815,13 @@ void App::draw_design_panel() {
       ImGui::ProgressBar(static_cast<float>(fraction), ImVec2(-80, 0), stage.c_str());
       ImGui::SameLine();
       if (ImGui::Button("Cancel")) cancel_optimise();
-    } else if (ImGui::Button("Optimise", ImVec2(-1, 0))) {
-      optimise();
+    } else {
+      if (ImGui::Button("Optimise", ImVec2(-170, 0))) optimise(optimise_time_limit_s_);
+      ImGui::SameLine();
+      ImGui::SetNextItemWidth(100);
+      ImGui::InputFloat("s max", &optimise_time_limit_s_, 10, 60, "%.0f");
+      if (ImGui::IsItemHovered()) ImGui::SetTooltip("Time limit of the optimiser in seconds (0: none)");
+      optimise_time_limit_s_ = std::max(0.0f, optimise_time_limit_s_);
     }
     if (!optimiser_message_.empty()) ImGui::TextWrapped("%s", optimiser_message_.c_str());
   }
@@ -859,16 +893,14 @@ void App::draw_patient_panel() {
     }
   }
   if (changed || thr_changed) {
-    if (mass > 0 && pmass >= 0 && mu >= 0 && e > 0) {
-      push_history();
-      case_.patient.body_mass_kg = mass;
-      case_.patient.prosthesis_mass_kg = pmass;
-      case_.patient.friction = mu;
-      case_.youngs_modulus_pa = e * 1e3;
-      if (thr_changed) case_.thresholds = table;
-      is_dirty_ = true;
-    } else {
-      show_error("patient: masses and E must be positive, friction >= 0");
+    design::PatientLoad p = case_.patient;
+    p.body_mass_kg = mass;
+    p.prosthesis_mass_kg = pmass;
+    p.friction = mu;
+    try {
+      set_patient(p, e * 1e3, thr_changed ? table : case_.thresholds);
+    } catch (const Error& err) {
+      show_error(err.what());
     }
   }
   if (ImGui::Button("Apply (rebuild the stump model)")) {

@@ -79,11 +79,17 @@ class App {
   /// @throws InvalidInputError for an unknown field or spot.
   void set_spot_value(int index, const std::string& field, double value);
   int spot_index(const std::string& name) const;
+  /// @throws InvalidInputError when it is the last spot (a case without spots would replay as the
+  ///         default layout).
   void remove_spot(int index);
   void set_brim_template(design::BrimTemplate kind);
   void move_brim_key_point(int index, double theta_rad, double h_m);
   void set_thickness(double thickness_m);
-  void optimise();
+  /// The patient panel's values (applied to the stump model by "Apply"), checked like the case
+  /// file's (design/input_limits.h). @throws InvalidInputError naming the value and its range.
+  void set_patient(const design::PatientLoad& patient, double youngs_modulus_pa, const design::ThresholdTable& thresholds);
+  /// Optimises the spots on the worker; @p time_limit_s > 0 bounds its wall time [s].
+  void optimise(double time_limit_s = 0);
   void cancel_optimise();
   void set_field(Field field) { field_ = field; colours_dirty_ = true; }
   /// A continuous edit (a slider drag) starts / ends: its changes make one undo step.
@@ -207,6 +213,7 @@ class App {
   bool is_placing_spot_ = false;
   int new_spot_type_ = 0;
   float new_spot_amplitude_kpa_ = 20;
+  float optimise_time_limit_s_ = 0;  ///< the optimiser's wall-time bound [s]; 0 = none
   int selected_spot_ = -1;
   int selected_key_point_ = -1;
   bool is_dragging_view_ = false;

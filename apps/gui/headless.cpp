@@ -5,11 +5,13 @@
 #include <fstream>
 #include <iostream>
 #include <numbers>
+#include <sstream>
 
 #include <sys/resource.h>
 
 #include "socketsmith/core/atomic_file.h"
 #include "socketsmith/core/errors.h"
+#include "socketsmith/core/json_input.h"
 
 namespace socketsmith::gui {
 
@@ -19,12 +21,9 @@ using nlohmann::json;
 std::vector<json> read_script(const fs::path& path) {
   std::ifstream in(path);
   if (!in) fail<IoError>("socketsmith-gui: cannot open script '{}'", path.string());
-  json doc;
-  try {
-    doc = json::parse(in);
-  } catch (const json::exception& e) {
-    fail("socketsmith-gui: script '{}' is not valid JSON: {}", path.string(), e.what());
-  }
+  std::stringstream text;
+  text << in.rdbuf();
+  json doc = parse_json_input(text.str(), fmt::format("socketsmith-gui: script '{}'", path.string()));
   if (doc.is_object() && doc.contains("actions")) doc = doc["actions"];
   require(doc.is_array(), "socketsmith-gui: script '{}' must be a list of actions or {{\"actions\": [...]}}",
           path.string());
@@ -94,7 +93,15 @@ void HeadlessRunner::run_action(const json& a, int width, int height) {
   } else if (what == "field") {
     app_.set_field(parse_field(a.at("value").get<std::string>()));
   } else if (what == "optimise") {
-    app_.optimise();
+    app_.optimise(a.value("time_limit_s", 0.0));
+  } else if (what == "patient") {
+    // The patient panel's fields, checked as the panel checks them.
+    design::PatientLoad p = app_.document().patient;
+    p.body_mass_kg = a.value("body_mass_kg", p.body_mass_kg);
+    p.prosthesis_mass_kg = a.value("prosthesis_mass_kg", p.prosthesis_mass_kg);
+    p.friction = a.value("friction", p.friction);
+    const double e_kpa = a.value("youngs_kpa", app_.document().youngs_modulus_pa / 1e3);
+    app_.set_patient(p, e_kpa * 1e3, app_.document().thresholds);
   } else if (what == "cancel") {
     app_.cancel_optimise();
   } else if (what == "brim") {
@@ -144,7 +151,7 @@ void HeadlessRunner::run_action(const json& a, int width, int height) {
   } else if (what == "wait_frames") {
     settle_ = std::max(settle_, a.at("count").get<int>());
   } else {
-    fail("action '{}' is not known (add_spot, set, remove_spot, select_spot, field, optimise, cancel, brim, "
+    fail("action '{}' is not known (add_spot, set, remove_spot, select_spot, field, optimise, cancel, patient, brim, "
          "brim_key_point, thickness, undo, redo, save, export, view, screenshot, write_state, wait_frames)",
          what);
   }

@@ -4,6 +4,7 @@
 //   socketsmith-gui --headless --case FILE|--limb FILE|--demo [--target-nodes N] [--script actions.json]
 //                   [--frames N] [--screenshot-dir DIR] [--bench-drag SECONDS [--bench-spot NAME]]
 #include <cstdio>
+#include <cstdlib>
 #include <iostream>
 #include <memory>
 
@@ -16,6 +17,8 @@
 #include "app.h"
 #include "headless.h"
 #include "socketsmith/core/errors.h"
+#include "socketsmith/core/exit_status.h"
+#include "socketsmith/design/input_limits.h"
 #include "socketsmith/core/log.h"
 
 namespace {
@@ -118,7 +121,14 @@ int main(int argc, char** argv) {
   auto* limb_opt = cli.add_option("--limb", f.limb_file, "limb scan to open as a new case (STL/OBJ/PLY/AOP)")->excludes(case_opt);
   cli.add_flag("--demo", f.demo, "open the demo sample (generated transtibial limb)")->excludes(case_opt)->excludes(limb_opt);
   cli.add_option("--target-nodes", f.target_nodes, "stump size of the demo or the limb (default 8000)")
-      ->check(CLI::Range(500, 100000));
+      ->check(CLI::Validator(
+          [](std::string& text) {  // the case file's range (design/input_limits.h)
+            char* end = nullptr;
+            const double v = std::strtod(text.c_str(), &end);
+            if (text.empty() || end != text.c_str() + text.size()) return "'" + text + "' is not a whole number";
+            return socketsmith::design::input_violation(socketsmith::design::limits::kTargetNodes, v);
+          },
+          socketsmith::design::describe(socketsmith::design::limits::kTargetNodes)));
   cli.add_flag("--headless", f.headless, "run a script, save screenshots and exit (tests, docs; under xvfb-run)");
   cli.add_option("--script", f.script, "headless: actions to apply (JSON, docs/gui.md)");
   cli.add_option("--frames", f.frames, "headless: frames rendered after the last action")->check(CLI::Range(0, 100000));
@@ -129,15 +139,23 @@ int main(int argc, char** argv) {
   cli.add_option("--bench-json", f.bench_json, "headless: also write the --bench-drag result to this JSON file");
   cli.add_option("--width", f.width, "window width [px]")->check(CLI::Range(800, 8000));
   cli.add_option("--height", f.height, "window height [px]")->check(CLI::Range(600, 8000));
-  CLI11_PARSE(cli, argc, argv);
+  try {
+    cli.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    if (e.get_exit_code() == static_cast<int>(CLI::ExitCodes::Success)) return cli.exit(e);  // --help
+    std::fprintf(stderr, "socketsmith-gui: %s (see --help)\n", socketsmith::one_line(e.what()).c_str());
+    return socketsmith::kExitBadInput;
+  }
   if (f.headless && f.case_file.empty() && f.limb_file.empty() && !f.demo) {
     std::fprintf(stderr, "socketsmith-gui: --headless needs --case FILE, --limb FILE or --demo\n");
     return 2;
   }
   try {
     return run(f);
-  } catch (const socketsmith::Error& e) {
-    std::fprintf(stderr, "socketsmith-gui: %s\n", e.what());
-    return 1;
+  } catch (...) {
+    // Whatever escaped the window (the window itself shows and keeps errors of the design).
+    const auto status = socketsmith::exit_status(std::current_exception());
+    std::fprintf(stderr, "socketsmith-gui: %s\n", status.line().c_str());
+    return status.code == socketsmith::kExitInternal ? status.code : 1;
   }
 }

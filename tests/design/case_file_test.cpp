@@ -155,14 +155,24 @@ void expect_error(const std::string& text, const std::string& needle) {
 TEST(CaseFile, bad_input_is_one_line_naming_the_key) {
   expect_error(R"({"patient": {"body_mas_kg": 70}})", "unknown key 'body_mas_kg' in 'patient'");
   expect_error(R"({"pateint": {}})", "unknown key 'pateint'");
+  // A key with a line break (found by fuzzing): the message stays one line, the break shown escaped.
+  expect_error(R"({"patient": {"a\nb": 1}})", "unknown key 'a\\nb' in 'patient'");
   expect_error(R"({"patient": {"body_mass_kg": -70}})", "body mass must be positive");
+  expect_error(R"({"patient": {"body_mass_kg": -70}})", "patient.body_mass_kg = -70 kg is outside (0, 400) kg");
   expect_error(R"({"patient": {"body_mass_kg": "70"}})", "must be a number");
-  expect_error(R"({"patient": {"body_mass_kg": 70, "prosthesis_mass_kg": 90}})", "is not below the body mass");
-  expect_error(R"({"patient": {"friction": 3}})", "friction coefficient 3");
+  expect_error(R"({"patient": {"body_mass_kg": 40, "prosthesis_mass_kg": 45}})", "is not below the body mass");
+  expect_error(R"({"patient": {"prosthesis_mass_kg": 90}})", "patient.prosthesis_mass_kg = 90 kg is outside [0, 50] kg");
+  expect_error(R"({"patient": {"friction": 3}})", "case file: patient.friction = 3 is outside [0, 2]");
   expect_error(R"({"patient": {"thresholds_kpa": {"PT": "high"}}})", "must be a number in kPa");
   expect_error(R"({"socket": {"thickness_mm": 0}})", "thickness_mm = 0 mm");
   expect_error(R"({"socket": {"thickness_mm": -5}})", "thickness_mm = -5 mm");
   expect_error(R"({"tissue": {"youngs_kpa": -1}})", "youngs_kpa");
+  expect_error(R"({"mesh": {"target_nodes": 2500.5}})", "mesh.target_nodes = 2500.5 is not a whole number");
+  expect_error(R"({"socket": {"subdivisions": 9}})", "socket.subdivisions = 9 is outside [0, 3]");
+  expect_error(R"({"design": {"model_pressure_limit": -1}})", "design.model_pressure_limit = -1 is outside [0, 5]");
+  expect_error(R"({"design": {"time_limit_s": 0}})", "design.time_limit_s = 0 s is outside (0, 86400] s");
+  expect_error(R"({"limb": {"bones": ""}})", "limb.bones is empty");
+  expect_error(R"({"patient": {"thresholds_kpa": {"PT": -5}}})", "patient.thresholds_kpa.PT = -5 kPa is outside");
   expect_error(R"({"tissue": {"model": "fem"}})", "tissue.model 'fem' is not known");
   expect_error(R"({"tissue": {"solve": "fast"}})", "design solve mode 'fast' is not known");
   expect_error(R"({"tissue": {"poisson": 0.45}})", "tissue.model 'mss-cs' has no Poisson ratio of its own");
@@ -182,13 +192,49 @@ TEST(CaseFile, bad_input_is_one_line_naming_the_key) {
   expect_error(R"({"socketsmith_case": 2})", "version 2 is not supported");
   expect_error(R"({"socket": {"attachment": {"bolt": "M7"}}})", "bolt 'M7' is not known");
   expect_error(R"({"socket": {"attachment": {"hole_diameter_mm": 5}}})", "narrower than the M6 bolt");
-  expect_error(R"({"socket": {"attachment": {"hole_spacing_mm": 0}}})", "hole_spacing_mm = 0.0 is out of range");
-  expect_error(R"({"socket": {"attachment": {"offset_mm": [30, 0]}}})", "more than 20 mm off the axis");
+  expect_error(R"({"socket": {"attachment": {"hole_spacing_mm": 0}}})", "socket.attachment.hole_spacing_mm = 0 mm is outside (0, 150] mm");
+  expect_error(R"({"socket": {"attachment": {"offset_mm": [30, 0]}}})", "socket.attachment.offset_mm[0] (anterior) = 30 mm is outside [-20, 20] mm");
   expect_error(R"({"socket": {"attachment": {"offset_mm": 3}}})", "offset_mm must be [anterior, medial]");
   expect_error(R"({"socket": {"attachment": {"hole_count": 3}}})", "unknown key 'hole_count' in 'socket.attachment'");
-  expect_error(R"({"socket": {"alignment": {"flexion_deg": 45}}})", "flexion_deg = 45.0 is outside");
+  expect_error(R"({"socket": {"alignment": {"flexion_deg": 45}}})", "socket.alignment.flexion_deg = 45 deg is outside [-30, 30] deg");
+  expect_error(R"({"socket": {"attachment": {"offset_mm": [0, -21]}}})", "offset_mm[1] (medial) = -21 mm is outside");
+  expect_error(R"({"design": {"closed_loop_donnings": 0}})", "design.closed_loop_donnings = 0 is outside [1, 20]");
+  expect_error(R"({"design": {"closed_loop_donnings": 2.5}})", "design.closed_loop_donnings = 2.5 is not a whole number");
   expect_error(R"({"socket": {"alignment": {"abduction_deg": 3}}})", "unknown key 'abduction_deg'");
-  expect_error(R"({"socket": {"distal_thickness_mm": 0.2}})", "socket.distal_thickness_mm = 0.2 mm");
+  expect_error(R"({"socket": {"distal_thickness_mm": 0.2}})", "socket.distal_thickness_mm = 0.2 mm is outside [1, 50] mm");
+}
+
+// Values that were silently replaced or accepted, each now one line naming the key and the range.
+TEST(CaseFile, nothing_is_silently_replaced_by_a_default) {
+  // "file": "" designed the generated sample limb; "spots": [] the default 32 spots.
+  expect_error(R"({"limb": {"file": ""}})", "case file: limb.file is empty: give the scan's path");
+  expect_error(R"({"design": {"spots": []}})", "case file: design.spots is an empty list");
+  // No upper bound let a 155 N socket pass a 343 N target with tolerances of 1 (100 %).
+  expect_error(R"({"patient": {"force_tolerance": 1}})", "case file: patient.force_tolerance = 1 is outside (0, 0.1]");
+  expect_error(R"({"patient": {"torque_tolerance": 1}})", "case file: patient.torque_tolerance = 1 is outside (0, 0.1]");
+  // 0 < E <= 5 kPa was accepted and ended in NaN; E = 0 was refused with another range than checked.
+  expect_error(R"({"tissue": {"youngs_kpa": 5}})", "case file: tissue.youngs_kpa = 5 kPa is outside [10, 10000] kPa");
+  expect_error(R"({"tissue": {"youngs_kpa": 0}})", "case file: tissue.youngs_kpa = 0 kPa is outside [10, 10000] kPa");
+  // 1e20 nodes was reported as -2147483648 (the int overflowed before the check).
+  expect_error(R"({"mesh": {"target_nodes": 1e20}})", "case file: mesh.target_nodes = 1e+20 is outside [200, 200000]");
+  // Accepted values stay accepted.
+  EXPECT_NO_THROW(parse_case(json::parse(R"({"patient": {"force_tolerance": 0.1}, "tissue": {"youngs_kpa": 10}})")));
+  EXPECT_DOUBLE_EQ(parse_case(json::parse(R"({"design": {"time_limit_s": 30}})")).time_limit_s, 30.0);
+}
+
+TEST(CaseFile, a_number_too_large_for_a_double_is_one_line_naming_the_key) {
+  // The GUI aborted (terminate: number overflow parsing '1e400') and the CLI exited 70.
+  const auto p = std::filesystem::temp_directory_path() / "socketsmith_overflow_case.json";
+  std::ofstream(p) << R"({"patient": {"body_mass_kg": 1e400}})";
+  try {
+    read_case(p);
+    ADD_FAILURE() << "no error";
+  } catch (const InvalidInputError& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("the number 1e400 at 'patient.body_mass_kg' is out of range"), std::string::npos) << m;
+    EXPECT_EQ(m.find('\n'), std::string::npos) << m;
+  }
+  std::filesystem::remove(p);
 }
 
 TEST(CaseFile, limb_scale_axis_and_size_override_round_trip_and_are_checked) {

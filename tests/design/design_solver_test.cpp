@@ -187,9 +187,10 @@ TEST(RadarTargets, reject_implausible_patients) {
   pl.body_mass_kg = std::numeric_limits<double>::quiet_NaN();
   expect_msg(pl, "body mass");
   pl.body_mass_kg = 70e3;  // grams
-  expect_msg(pl, "not plausible");
+  expect_msg(pl, "patient.body_mass_kg = 70000 kg is outside (0, 400) kg");
   pl = PatientLoad{};
-  pl.prosthesis_mass_kg = 80;
+  pl.body_mass_kg = 40;
+  pl.prosthesis_mass_kg = 45;
   expect_msg(pl, "not below the body mass");
   pl = PatientLoad{};
   pl.prosthesis_mass_kg = -1;
@@ -614,6 +615,37 @@ TEST(DesignSolverStump, a_follower_loop_stopped_by_its_pass_cap_is_reported) {
     EXPECT_FALSE(st.converged && st.message.find("follower") == std::string::npos)
         << "follower change " << change << " after " << st.follower_passes << " passes, reported: " << st.message;
   }
+}
+
+// Tissue too soft for its load: each follower pass's deformed skin carried larger forces until
+// NaN reached surface_nodes.csv (E <= 15 kPa at 70 kg). The solve now stops with a SolverError
+// naming E, before anything non-finite leaves it.
+TEST(DesignSolverStump, a_runaway_follower_iteration_is_a_solver_error_not_nan) {
+  const Stump& s = stump();
+  tissue::TissueMaterial soft;
+  soft.youngs_modulus_pa = 10e3;
+  PatientLoad pl;
+  pl.body_mass_kg = 60;
+  DesignSolverOptions o = mode_options(DesignSolveMode::Linear);
+  o.max_follower_passes = 12;
+  DesignSolver solver(s.mesh, soft, {}, s.model.frame, s.thresholds, pl, s.model.length_m, o);
+  solver.set_brim([&](double) { return s.pt_h + 15 * kMm; });
+  auto spots = layout();
+  for (auto& sp : spots) sp.amplitude_pa *= 3;  // pressures of the order of E
+  try {
+    const auto st = solver.solve(spots);
+    ADD_FAILURE() << "no error; max |u| " << st.max_displacement_m / kMm << " mm, Fz " << st.radar.force_n.z();
+  } catch (const SolverError& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("too soft for this load"), std::string::npos) << m;
+    EXPECT_NE(m.find("E = 10 kPa"), std::string::npos) << m;
+  }
+  // The stiff stump under the same spots is fine (the check is about the runaway, not the load).
+  auto stiff = make_solver(o);
+  stiff->set_brim([&](double) { return s.pt_h + 15 * kMm; });
+  const auto ok = stiff->solve(spots);
+  EXPECT_TRUE(ok.radar.force_n.allFinite());
+  EXPECT_LT(ok.max_displacement_m, 0.5 * s.model.length_m);
 }
 
 /// Max |u| and the relative L2 difference of the skin positions, linearised vs nonlinear stump.

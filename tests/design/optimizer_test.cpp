@@ -350,7 +350,9 @@ TEST(OptimiseDesign, cancel_stops_the_position_search_too) {
   int searching = 0;
   OptimizerOptions o;
   o.progress = [&](double, std::string_view stage) {
-    if (stage != "design: moving spots") return true;
+    // The search reports "design: optimising, round 1, moving spots (fit 3 of at most 300, …)"
+    // before each fit (and the fit inside reports its own evaluations).
+    if (stage.find("moving spots (fit ") == std::string_view::npos) return true;
     return ++searching < 3;  // cancel at the third fit of the search
   };
   const auto res = optimise_design(*solver, layout(), o);
@@ -358,6 +360,62 @@ TEST(OptimiseDesign, cancel_stops_the_position_search_too) {
   EXPECT_EQ(res.message, "cancelled");
   EXPECT_FALSE(res.constraints_met);
   EXPECT_LE(res.evaluations, 4);  // the first amplitude fit + the two fits of the search before the cancel
+}
+
+// NLopt refuses SLSQP with more equalities (the six radar balances) than free amplitudes: 1–5
+// spots ended in "internal error: too many equality constraints" (exit 70, an "unexpected error"
+// in the GUI). They are fitted in the least-squares sense and the message asks for spots.
+TEST(OptimiseDesign, fewer_than_six_free_amplitudes_are_fitted_and_the_message_asks_for_spots) {
+  auto solver = make_solver(patient_60kg());
+  const auto all = layout();
+  for (size_t n : {size_t{1}, size_t{2}, size_t{5}}) {
+    const std::vector<Spot> few(all.begin(), all.begin() + static_cast<std::ptrdiff_t>(n));
+    OptimizerOptions o;
+    o.optimise_positions = n == 2;  // the position search fits the amplitudes too
+    OptimizerResult res;
+    ASSERT_NO_THROW(res = optimise_design(*solver, few, o)) << n << " spots";
+    EXPECT_FALSE(res.constraints_met) << n << " spots: " << res.message;
+    EXPECT_NE(res.message.find("needs at least 6: add spots"), std::string::npos) << res.message;
+    EXPECT_TRUE(res.state.radar.force_n.allFinite());
+    // Least squares: the fit pushes towards the load (the 10 kPa start carries far less than M g / 2 with one spot).
+    EXPECT_GT(res.state.radar.force_n.z(), 0.0) << n << " spots";
+  }
+}
+
+// 500 spots sat at "optimising: 56 %" for 378 s: the bar now moves inside a fit and a time limit
+// stops the search with a message that says so.
+TEST(OptimiseDesign, progress_moves_within_the_amplitude_fits) {
+  const Feasible& f = feasible();
+  ASSERT_TRUE(f.result.constraints_met);
+  // One report per round start would be ≤ 2 × rounds; the fits report every evaluation.
+  EXPECT_GT(f.progress.size(), static_cast<size_t>(10 * f.result.rounds)) << f.result.slsqp_iterations;
+  for (size_t k = 1; k < f.progress.size(); ++k) EXPECT_GE(f.progress[k], f.progress[k - 1] - 1e-12) << k;
+}
+
+TEST(OptimiseDesign, a_time_limit_stops_the_search_and_says_so) {
+  // Tiny thresholds: amplitudes alone fail and the position search would run up to 300 fits (20 s).
+  auto solver = make_solver(patient_60kg(), std::vector<double>(stump().thresholds.size(), 1 * kKPa));
+  OptimizerOptions o;
+  o.time_limit_s = 0.3;
+  std::string last_stage;
+  o.progress = [&](double, std::string_view stage) {
+    last_stage = stage;
+    return true;
+  };
+  const auto res = optimise_design(*solver, layout(), o);
+  EXPECT_TRUE(res.is_time_limited);
+  EXPECT_FALSE(res.constraints_met);
+  EXPECT_NE(res.message.find("stopped by the time limit of 0.3 s"), std::string::npos) << res.message;
+  EXPECT_LT(res.seconds, 3.0);  // the fit in progress stops, one solve of the layout reached follows
+  EXPECT_GE(res.rounds, 1);
+  EXPECT_TRUE(res.state.radar.force_n.allFinite());  // a solved state to report
+  EXPECT_FALSE(res.state.skin_positions.empty());
+  // Without a limit the same search runs on (the limit, not the case, stopped it).
+  OptimizerOptions unlimited;
+  unlimited.max_position_seconds = 2.0;
+  const auto full = optimise_design(*solver, layout(), unlimited);
+  EXPECT_FALSE(full.is_time_limited);
+  EXPECT_GT(full.evaluations, res.evaluations);
 }
 
 TEST(OptimiseDesign, rejects_an_invalid_spot_up_front) {

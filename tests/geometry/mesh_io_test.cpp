@@ -3,9 +3,11 @@
 #include <gtest/gtest.h>
 
 #include <bit>
+#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <limits>
 #include <random>
 #include <string>
 
@@ -363,6 +365,50 @@ TEST(MeshIoErrors, garbage_text) {
   expect_read_error<InvalidInputError>(dir / "b.obj", "binary");
   test::write_bytes(dir / "x.off", "OFF\n");
   expect_read_error<InvalidInputError>(dir / "x.off", "unsupported extension");
+  // A folder given as a mesh is named as such (it said "unsupported extension ''").
+  std::filesystem::create_directories(dir / "scans");
+  expect_read_error<IoError>(dir / "scans", "it is a directory");
+}
+
+// Found by fuzz_ply (UBSan: "1.75905e+22 is outside the range of representable values of type
+// 'long long'"): a list count stored as a float was cast to an integer unchecked.
+TEST(MeshIoErrors, a_binary_ply_count_stored_as_a_float_must_be_a_sane_whole_number) {
+  LogCapture quiet;
+  const std::string header =
+      "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+      "property float z\nelement face 1\nproperty list float int vertex_indices\nend_header\n";
+  std::string body(9 * sizeof(float), '\0');
+  const float vertices[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+  std::memcpy(body.data(), vertices, sizeof vertices);
+  const auto with_count = [&](float count) {
+    std::string face(sizeof(float) + 3 * sizeof(std::int32_t), '\0');
+    const std::int32_t idx[3] = {0, 1, 2};
+    std::memcpy(face.data(), &count, sizeof count);
+    std::memcpy(face.data() + sizeof count, idx, sizeof idx);
+    return header + body + face;
+  };
+  EXPECT_EQ(read_mesh_data(with_count(3.0f), "ok.ply").num_triangles(), 1);
+  for (const float bad : {1.75905e22f, 2.5f, std::numeric_limits<float>::quiet_NaN()}) {
+    try {
+      read_mesh_data(with_count(bad), "bad.ply");
+      ADD_FAILURE() << "no error for a count of " << bad;
+    } catch (const InvalidInputError& e) {
+      EXPECT_NE(std::string(e.what()).find("stored as a float"), std::string::npos) << e.what();
+    }
+  }
+}
+
+// Found by fuzz_ply (a libFuzzer timeout): an element of 8e14 items without properties was looped
+// over item by item (the header's size check bounds every other count). It carries no data.
+TEST(MeshIoErrors, a_ply_element_without_properties_is_not_looped_over) {
+  LogCapture quiet;
+  const std::string tetra =
+      "element vertex 4\nproperty float x\nproperty float y\nproperty float z\nelement face 4\n"
+      "property list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n"
+      "3 0 3 2\n3 1 2 3\n";
+  const auto t0 = std::chrono::steady_clock::now();
+  EXPECT_EQ(read_mesh_data("ply\nformat ascii 1.0\nelement marker 800000041468615\n" + tetra, "m.ply").num_triangles(), 4);
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 1.0);
 }
 
 TEST(MeshIoErrors, truncated_binary_files) {

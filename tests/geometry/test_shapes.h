@@ -92,6 +92,61 @@ inline TriMesh make_open_tube(double radius, double height, int segments) {
   return m;
 }
 
+/// Surface of revolution about z through the profile (r_k, z_k), k = 0..K-1, with @p segments
+/// around, outward. A profile point with r = 0 at either end becomes a pole (closing that end);
+/// otherwise that end is left open.
+inline TriMesh make_lathe(const std::vector<std::pair<double, double>>& profile, int segments) {
+  TriMesh m;
+  const int k_count = static_cast<int>(profile.size());
+  const bool bottom_pole = profile.front().first == 0.0, top_pole = profile.back().first == 0.0;
+  const int first_ring = bottom_pole ? 1 : 0, last_ring = top_pole ? k_count - 2 : k_count - 1;
+  std::vector<int> ring_start;
+  for (int k = first_ring; k <= last_ring; ++k) {
+    ring_start.push_back(m.num_vertices());
+    for (int i = 0; i < segments; ++i) {
+      const double a = 2.0 * M_PI * i / segments;
+      m.vertices.emplace_back(profile[k].first * std::cos(a), profile[k].first * std::sin(a), profile[k].second);
+    }
+  }
+  const auto at = [&](int ring, int i) { return ring_start[ring] + (i % segments); };
+  for (int r = 0; r + 1 < static_cast<int>(ring_start.size()); ++r)
+    for (int i = 0; i < segments; ++i) {
+      m.triangles.push_back({at(r, i), at(r, i + 1), at(r + 1, i + 1)});
+      m.triangles.push_back({at(r, i), at(r + 1, i + 1), at(r + 1, i)});
+    }
+  if (bottom_pole) {
+    const int p = m.num_vertices();
+    m.vertices.emplace_back(0.0, 0.0, profile.front().second);
+    for (int i = 0; i < segments; ++i) m.triangles.push_back({p, at(0, i + 1), at(0, i)});
+  }
+  if (top_pole) {
+    const int p = m.num_vertices();
+    const int last = static_cast<int>(ring_start.size()) - 1;
+    m.vertices.emplace_back(0.0, 0.0, profile.back().second);
+    for (int i = 0; i < segments; ++i) m.triangles.push_back({p, at(last, i), at(last, i + 1)});
+  }
+  return m;
+}
+
+/// A capsule about z: hemispheres of @p radius around a cylinder of @p length, distal pole at z = 0,
+/// @p rings per hemisphere; open at z = radius + length (a limb-like cup) when @p open_top.
+inline TriMesh make_capsule(double radius, double length, int rings, int segments, bool open_top = false) {
+  std::vector<std::pair<double, double>> profile;
+  for (int k = 0; k <= rings; ++k) {
+    const double phi = 0.5 * M_PI * k / rings;  // from the pole
+    profile.emplace_back(radius * std::sin(phi), radius * (1 - std::cos(phi)));
+  }
+  if (open_top) {
+    profile.emplace_back(radius, radius + length);
+    return make_lathe(profile, segments);
+  }
+  for (int k = 0; k <= rings; ++k) {
+    const double phi = 0.5 * M_PI * k / rings;
+    profile.emplace_back(k == rings ? 0.0 : radius * std::cos(phi), radius + length + radius * std::sin(phi));
+  }
+  return make_lathe(profile, segments);
+}
+
 /// Appends @p b to @p a (indices shifted).
 inline TriMesh merged(TriMesh a, const TriMesh& b) {
   const int off = a.num_vertices();

@@ -248,5 +248,62 @@ TEST(GuiErrors, a_bad_case_file_is_reported_and_the_exit_status_is_not_zero) {
   EXPECT_NE(log.find("body mass must be positive"), std::string::npos) << log;
 }
 
+// Issue 26: a number too large for a double aborted the GUI (terminate, rc 134).
+TEST(GuiErrors, a_number_overflow_in_the_case_is_one_message_not_an_abort) {
+  const fs::path dir = kBin / "tests" / "gui_errors";
+  fs::create_directories(dir);
+  std::ofstream(dir / "overflow.json") << R"({"patient": {"body_mass_kg": 1e400}})";
+  const int rc = run_gui("--headless --case " + (dir / "overflow.json").string() + " --frames 1", dir / "overflow.log");
+  const std::string log = read_text(dir / "overflow.log");
+  EXPECT_EQ(rc, 1) << log;
+  EXPECT_NE(log.find("the number 1e400 at 'patient.body_mass_kg' is out of range"), std::string::npos) << log;
+  EXPECT_EQ(log.find("terminate"), std::string::npos) << log;
+}
+
+// The patient panel checks its values like the case file (friction 3 was refused only there).
+TEST(GuiErrors, the_patient_panel_refuses_a_value_outside_its_documented_range) {
+  const fs::path dir = kBin / "tests" / "gui_errors";
+  fs::create_directories(dir);
+  std::ofstream(dir / "small.json") << R"({"mesh": {"target_nodes": 1500}})";
+  std::ofstream(dir / "patient.json") << json{{"actions", {{{"do", "patient"}, {"friction", 3}}}}}.dump();
+  const int rc = run_gui("--headless --case " + (dir / "small.json").string() + " --script " +
+                             (dir / "patient.json").string() + " --frames 1",
+                         dir / "patient.log");
+  const std::string log = read_text(dir / "patient.log");
+  EXPECT_EQ(rc, 1) << log;
+  EXPECT_NE(log.find("patient: patient.friction = 3 is outside [0, 2]"), std::string::npos) << log;
+}
+
+// Two spots and Optimise: "unexpected error: too many equality constraints" before. Now the
+// optimiser runs (least squares) and reports that the constraints are not met; the export of that
+// design into a folder with an earlier socket removes the socket.
+TEST(GuiErrors, optimising_two_spots_is_not_an_error_and_its_export_removes_a_stale_socket) {
+  const fs::path dir = kBin / "tests" / "gui_two_spots";
+  fs::remove_all(dir);
+  fs::create_directories(dir / "export");
+  std::ofstream(dir / "export" / "socket.stl") << "solid earlier\nendsolid earlier\n";
+  std::ofstream(dir / "two.json") << R"({"mesh": {"target_nodes": 1500}, "design": {"spots": [
+      {"type": "cos2", "name": "PT", "amplitude_kpa": 20, "theta0_deg": 0, "r_theta_deg": 30, "h0_mm": 100, "r_h_mm": 30},
+      {"type": "grad", "name": "distal", "amplitude_kpa": 5, "h1_mm": 20, "h2_mm": 60}]}})";
+  const json script = {{"actions",
+                        {{{"do", "optimise"}},
+                         {{"do", "write_state"}, {"path", (dir / "state.json").string()}},
+                         {{"do", "export"}, {"dir", (dir / "export").string()}}}}};
+  std::ofstream(dir / "script.json") << script.dump();
+  const int rc = run_gui("--headless --case " + (dir / "two.json").string() + " --script " +
+                             (dir / "script.json").string() + " --frames 1",
+                         dir / "gui.log");
+  const std::string log = read_text(dir / "gui.log");
+  EXPECT_EQ(rc, 0) << log;
+  EXPECT_EQ(log.find("unexpected error"), std::string::npos) << log;
+  const json state = read_json(dir / "state.json");
+  EXPECT_FALSE(state["constraints_met"].get<bool>());
+  EXPECT_EQ(state["spots"].size(), 2u);
+  EXPECT_FALSE(fs::exists(dir / "export" / "socket.stl")) << "the earlier socket is beside a report without one";
+  const json summary = read_json(dir / "export" / "design.json");
+  EXPECT_FALSE(summary["constraints_met"].get<bool>());
+  EXPECT_EQ(summary["removed"], json::array({"socket.stl"}));
+}
+
 }  // namespace
 }  // namespace socketsmith

@@ -5,6 +5,7 @@
 
 #include "socketsmith/core/errors.h"
 #include "socketsmith/geometry/mesh_checks.h"
+#include "socketsmith/geometry/socket_cavity.h"
 
 namespace socketsmith::contact {
 
@@ -61,60 +62,15 @@ RigidSocket::RigidSocket(geometry::TriMesh solid, const geometry::LimbFrame& fra
   inertia_ = cov.trace() * Eigen::Matrix3d::Identity() - cov;
   // The socket must surround the limb's axis: horizontal rays from the axis, at three heights of
   // the socket, hit a wall that faces them in (nearly) every direction.
-  const geometry::SurfaceQuery all(solid_);
-  double hmin = 1e30, hmax = -1e30;
-  for (const auto& v : solid_.vertices) {
-    const double h = frame.to_cylindrical(v).h;
-    hmin = std::min(hmin, h);
-    hmax = std::max(hmax, h);
-  }
-  for (double f : {0.3, 0.5, 0.7}) {
-    const Vec3 o = frame.on_axis(hmin + f * (hmax - hmin));
-    int facing = 0;
-    for (int k = 0; k < 8; ++k) {
-      const Vec3 dir = frame.radial(2 * 3.14159265358979 * k / 8.0);
-      const auto hit = all.first_hit(o, dir);
-      if (!hit) continue;
-      const auto& t = solid_.triangles[hit->triangle];
-      const Vec3 n = (solid_.vertices[t[1]] - solid_.vertices[t[0]]).cross(solid_.vertices[t[2]] - solid_.vertices[t[0]]);
-      facing += n.dot(dir) < 0 ? 1 : 0;
-    }
-    require(facing >= 7,
-            "the socket does not surround the limb: from the limb's axis at {:.0f} % of the socket's height only {} of 8 "
-            "directions meet its inner wall (place it around the stump, check its units and the limb frame)",
-            100 * f, facing);
-  }
-  // Inner wall: triangles visible from the limb axis (the cavity is star-shaped about its axis),
-  // from origins on the axis no higher than the socket (else the brim's top is "seen") and in the
-  // cavity: an origin in the distal wall (below the cavity's bottom) would "see" faces of the
-  // outside — the ledge where a distal platform joins the outer wall — from within the material.
-  // An origin is in the cavity when the ray up the axis leaves through the open brim.
-
-  for (int i = 0; i < solid_.num_triangles(); ++i) {
-    const auto& t = solid_.triangles[i];
-    const Vec3 a = solid_.vertices[t[0]], b = solid_.vertices[t[1]], d = solid_.vertices[t[2]];
-    const Vec3 ctr = (a + b + d) / 3.0;
-    Vec3 n = (b - a).cross(d - a);
-    if (n.norm() <= 0) continue;
-    n.normalize();
-    const auto cy = frame.to_cylindrical(ctr);
-    bool inner = false;
-    for (double lift : {0.0, 0.3, 1.0}) {
-      const double ho = cy.h + lift * std::max(cy.rho, 0.01);
-      if (lift > 0 && ho > hmax - 1e-6) continue;
-      const Vec3 o = frame.on_axis(ho);
-      const Vec3 dir = ctr - o;
-      if (dir.norm() < 1e-9 || dir.dot(n) >= 0) continue;  // must face the origin (normal into the cavity)
-      if (all.first_hit(o, frame.axis)) continue;             // the origin is in the wall or below the socket
-      const auto hit = all.first_hit(o, dir);
-      if (hit && (hit->triangle == i || std::abs(hit->distance - dir.norm()) < 1e-7)) {
-        inner = true;
-        break;
-      }
-    }
-    if (!inner) continue;
-    inner_.triangles.push_back(t);
-    inner_normals_.push_back(n);
+  int facing = 0;
+  require(geometry::surrounds_axis(solid_, frame, &facing),
+          "the socket does not surround the limb: from the limb's axis at 30-70 % of the socket's height only {} of 8 "
+          "directions meet its inner wall (place it around the stump, check its units and the limb frame)",
+          facing);
+  // Inner wall: triangles visible from the limb axis (the cavity is star-shaped about its axis).
+  for (int i : geometry::cavity_triangles(solid_, frame)) {
+    inner_.triangles.push_back(solid_.triangles[i]);
+    inner_normals_.push_back(geometry::triangle_normal(solid_, i));
   }
   inner_.vertices = solid_.vertices;
   require(inner_.num_triangles() > 0,

@@ -40,16 +40,34 @@ class TopologyError : public Error {
   using Error::Error;
 };
 
-/// Throws E with a fmt-formatted message.
+namespace detail {
+/// A message is one line: control characters that came in with the user's text (a key, a name, a
+/// token read from a file) are shown escaped ("\n", "\x01") instead of breaking it.
+inline std::string one_line_message(std::string m) {
+  std::string out;
+  out.reserve(m.size());
+  for (const char c : m) {
+    const auto u = static_cast<unsigned char>(c);
+    if (c == '\n') out += "\\n";
+    else if (c == '\r') out += "\\r";
+    else if (c == '\t') out += ' ';
+    else if (u < 0x20 || u == 0x7f) out += fmt::format("\\x{:02x}", u);
+    else out += c;
+  }
+  return out;
+}
+}  // namespace detail
+
+/// Throws E with a fmt-formatted message (on one line, see detail::one_line_message).
 template <class E = InvalidInputError, class... Args>
 [[noreturn]] void fail(fmt::format_string<Args...> format, Args&&... args) {
-  throw E(fmt::format(format, std::forward<Args>(args)...));
+  throw E(detail::one_line_message(fmt::format(format, std::forward<Args>(args)...)));
 }
 
 /// Precondition check active in every build type (public API contracts).
 template <class E = InvalidInputError, class... Args>
 void require(bool condition, fmt::format_string<Args...> format, Args&&... args) {
-  if (!condition) throw E(fmt::format(format, std::forward<Args>(args)...));
+  if (!condition) throw E(detail::one_line_message(fmt::format(format, std::forward<Args>(args)...)));
 }
 
 }  // namespace socketsmith

@@ -16,7 +16,10 @@ using ProgressCallback = std::function<bool(double fraction, std::string_view st
 /// Calls @p cb if set; returns true to continue.
 bool report_progress(const ProgressCallback& cb, double fraction, std::string_view stage);
 
-/// A callback that prints "stage: 42%" lines to stderr at most every @p min_interval_s seconds.
+/// A callback that prints "stage: 42%" lines to stderr: at once when the stage changes, else at
+/// most every @p min_interval_s seconds. A detail in parentheses at the end of the stage
+/// ("design: optimising (fit, 37 evaluations)") is not a change of stage: it is printed with the
+/// periodic lines, so a long step shows it moves without a line per evaluation.
 ProgressCallback console_progress(double min_interval_s = 0.5);
 
 }  // namespace socketsmith

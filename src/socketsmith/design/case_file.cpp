@@ -4,10 +4,13 @@
 #include <fstream>
 #include <set>
 #include <sstream>
+#include <tuple>
 
 #include "socketsmith/core/atomic_file.h"
 #include "socketsmith/core/errors.h"
+#include "socketsmith/core/json_input.h"
 #include "socketsmith/core/units.h"
+#include "socketsmith/design/input_limits.h"
 
 namespace socketsmith::design {
 namespace {
@@ -31,6 +34,19 @@ double number(const json& j, const std::string& key, const std::string& where, d
   const double d = v.get<double>();
   require(std::isfinite(d), "case file: '{}.{}' is not finite", where, key);
   return d;
+}
+
+/// A number of @p j checked against its limit (the name in messages is the case-file key).
+double limited(const json& j, const std::string& key, const std::string& where, double fallback,
+               const InputLimit& limit) {
+  if (!j.contains(key)) return fallback;
+  return check_input(limit, number(j, key, where, fallback), fmt::format("case file: {}.{}", where, key));
+}
+
+/// A whole number of @p j checked against its limit before it becomes an int.
+int count(const json& j, const std::string& key, const std::string& where, int fallback, const InputLimit& limit) {
+  if (!j.contains(key)) return fallback;
+  return check_input_count(limit, number(j, key, where, fallback), fmt::format("case file: {}.{}", where, key));
 }
 
 std::string text(const json& j, const std::string& key, const std::string& where, const std::string& fallback) {
@@ -117,7 +133,7 @@ Spot spot_from_json(const json& j, const std::string& where) {
   s.enabled = flag(j, "enabled", where, true);
   s.optimise_amplitude = flag(j, "optimise_amplitude", where, true);
   s.optimise_position = flag(j, "optimise_position", where, true);
-  s.max_amplitude_pa = number(j, "max_amplitude_kpa", where, 0.0) * 1e3;
+  s.max_amplitude_pa = limited(j, "max_amplitude_kpa", where, 0.0, limits::kMaxAmplitude) * 1e3;
   require(s.amplitude_pa >= 0, "case file: '{}.amplitude_kpa' is negative (a socket can only push: use 0 or more)",
           where);
   return s;
@@ -129,14 +145,10 @@ void parse_socket_attachment(const json& j, SocketOptions& s) {
   if (j.contains("alignment")) {
     const auto& a = j.at("alignment");
     check_keys(a, "socket.alignment", {"flexion_deg", "adduction_deg"});
-    s.alignment.flexion_rad = number(a, "flexion_deg", "socket.alignment", s.alignment.flexion_rad / kDeg) * kDeg;
-    s.alignment.adduction_rad =
-        number(a, "adduction_deg", "socket.alignment", s.alignment.adduction_rad / kDeg) * kDeg;
-    for (const auto& [name, v] : {std::pair{"flexion_deg", s.alignment.flexion_rad},
-                                  std::pair{"adduction_deg", s.alignment.adduction_rad}})
-      require(std::abs(v) <= 30 * kDeg,
-              "case file: socket.alignment.{} = {:.1f} is outside [−30, 30] degrees (bench alignment: about 5° flexion)",
-              name, v / kDeg);
+    s.alignment.flexion_rad = limited(a, "flexion_deg", "socket.alignment", s.alignment.flexion_rad / kDeg,
+                                      limits::kFlexion) * kDeg;
+    s.alignment.adduction_rad = limited(a, "adduction_deg", "socket.alignment", s.alignment.adduction_rad / kDeg,
+                                        limits::kAdduction) * kDeg;
   }
   if (!j.contains("attachment")) return;
   const auto& a = j.at("attachment");
@@ -147,32 +159,29 @@ void parse_socket_attachment(const json& j, SocketOptions& s) {
   t.enabled = flag(a, "enabled", w, true);
   t.bolt = text(a, "bolt", w, t.bolt);
   t.bolt_diameter_m = bolt_diameter_m(t.bolt);
-  t.hole_diameter_m = number(a, "hole_diameter_mm", w, clearance_hole_diameter_m(t.bolt) / units::mm) * units::mm;
-  t.hole_spacing_m = number(a, "hole_spacing_mm", w, t.hole_spacing_m / units::mm) * units::mm;
-  t.platform_diameter_m = number(a, "platform_diameter_mm", w, t.platform_diameter_m / units::mm) * units::mm;
-  t.platform_thickness_m = number(a, "platform_thickness_mm", w, t.platform_thickness_m / units::mm) * units::mm;
+  t.hole_diameter_m = limited(a, "hole_diameter_mm", w, clearance_hole_diameter_m(t.bolt) / units::mm,
+                              limits::kHoleDiameter) * units::mm;
+  t.hole_spacing_m = limited(a, "hole_spacing_mm", w, t.hole_spacing_m / units::mm, limits::kHoleSpacing) * units::mm;
+  t.platform_diameter_m =
+      limited(a, "platform_diameter_mm", w, t.platform_diameter_m / units::mm, limits::kPlatformDiameter) * units::mm;
+  t.platform_thickness_m =
+      limited(a, "platform_thickness_mm", w, t.platform_thickness_m / units::mm, limits::kPlatformThickness) * units::mm;
   t.rotation_rad = number(a, "rotation_deg", w, t.rotation_rad / kDeg) * kDeg;
   if (a.contains("offset_mm")) {
     const auto& o = a.at("offset_mm");
     require(o.is_array() && o.size() == 2 && o[0].is_number() && o[1].is_number(),
             "case file: socket.attachment.offset_mm must be [anterior, medial] in mm (got {})", o.dump());
-    t.offset_anterior_m = o[0].get<double>() * units::mm;
-    t.offset_medial_m = o[1].get<double>() * units::mm;
+    t.offset_anterior_m =
+        check_input(limits::kAttachmentOffset, o[0].get<double>(), "case file: socket.attachment.offset_mm[0] (anterior)") *
+        units::mm;
+    t.offset_medial_m =
+        check_input(limits::kAttachmentOffset, o[1].get<double>(), "case file: socket.attachment.offset_mm[1] (medial)") *
+        units::mm;
   }
-  for (const auto& [name, v] : {std::pair{"hole_diameter_mm", t.hole_diameter_m},
-                                std::pair{"hole_spacing_mm", t.hole_spacing_m},
-                                std::pair{"platform_diameter_mm", t.platform_diameter_m},
-                                std::pair{"platform_thickness_mm", t.platform_thickness_m}})
-    require(v > 0 && v <= 0.15, "case file: socket.attachment.{} = {:.1f} is out of range (0, 150] mm", name,
-            v / units::mm);
   require(t.hole_diameter_m >= t.bolt_diameter_m,
           "case file: socket.attachment.hole_diameter_mm = {:.1f} is narrower than the {} bolt; give a clearance hole "
           "(ISO 273 medium: {:.1f} mm) or leave it out",
           t.hole_diameter_m / units::mm, t.bolt, clearance_hole_diameter_m(t.bolt) / units::mm);
-  require(std::abs(t.offset_anterior_m) <= 0.02 && std::abs(t.offset_medial_m) <= 0.02,
-          "case file: socket.attachment.offset_mm = [{:.1f}, {:.1f}] is more than 20 mm off the axis; shift the "
-          "rest with the adapter",
-          t.offset_anterior_m / units::mm, t.offset_medial_m / units::mm);
 }
 
 json socket_attachment_json(const SocketOptions& s) {
@@ -205,7 +214,12 @@ CaseFile parse_case(const json& doc, const std::filesystem::path& folder) {
     check_keys(j, "limb", {"file", "bones", "units", "scale", "type", "side", "anterior", "axis", "cut_height_mm",
                            "force_size", "generate_seed"});
     c.limb.file = text(j, "file", "limb", "");
+    require(!j.contains("file") || !c.limb.file.empty(),
+            "case file: limb.file is empty: give the scan's path (STL/OBJ/PLY), or remove 'file' to use the generated "
+            "sample limb");
     c.limb.bones = text(j, "bones", "limb", "auto");
+    require(!c.limb.bones.empty(),
+            "case file: limb.bones is empty: give auto, estimate, none or the path of a bone file");
     c.limb.units = text(j, "units", "limb", "");
     if (!c.limb.units.empty()) (void)units::parse_length_unit(c.limb.units);
     c.limb.scale = number(j, "scale", "limb", 1.0);
@@ -224,7 +238,7 @@ CaseFile parse_case(const json& doc, const std::filesystem::path& folder) {
       c.limb.anterior = vec3(j.at("anterior"), "limb.anterior");
       require(c.limb.anterior->norm() > 0, "case file: 'limb.anterior' is the zero vector (give the front direction)");
     }
-    if (j.contains("cut_height_mm")) c.limb.cut_height_m = number(j, "cut_height_mm", "limb", 0) * 1e-3;
+    if (j.contains("cut_height_mm")) c.limb.cut_height_m = limited(j, "cut_height_mm", "limb", 0, limits::kCutHeight) * 1e-3;
     if (j.contains("generate_seed")) {
       require(j.at("generate_seed").is_number_unsigned(), "case file: 'limb.generate_seed' must be a whole number ≥ 0");
       c.limb.generate_seed = j.at("generate_seed").get<std::uint64_t>();
@@ -247,14 +261,13 @@ CaseFile parse_case(const json& doc, const std::filesystem::path& folder) {
       for (const auto& [code, v] : t.items()) {
         require(v.is_number(), "case file: pain threshold of landmark {} must be a number in kPa (got {})", code,
                 v.dump());
-        c.thresholds[code] = v.get<double>() * 1e3;
+        c.thresholds[code] =
+            check_input(limits::kPainThreshold, v.get<double>(), "case file: patient.thresholds_kpa." + code) * 1e3;
       }
     }
   }
   // Validate the patient now: the message names the field.
-  require(c.patient.body_mass_kg > 0, "case file: patient.body_mass_kg = {} kg: the body mass must be positive",
-          c.patient.body_mass_kg);
-  (void)radar_targets(c.patient, 0.1);
+  check_patient(c.patient, "case file: ");
   if (doc.contains("tissue")) {
     const auto& j = doc.at("tissue");
     check_keys(j, "tissue", {"model", "constants", "youngs_kpa", "density_kg_m3", "poisson", "solve"});
@@ -262,35 +275,27 @@ CaseFile parse_case(const json& doc, const std::filesystem::path& folder) {
     require(c.model == "mss-cs" || c.model == "mss-cf" || c.model == "mss" || c.model == "fe" || c.model == "neo-hookean",
             "case file: tissue.model '{}' is not known (mss-cs, mss-cf, mss, fe or neo-hookean)", c.model);
     if (j.contains("poisson")) {
-      const double nu = number(j, "poisson", "tissue", 0.45);
       const bool continuum = c.model == "fe" || c.model == "neo-hookean";
       require(continuum || c.model == "mss-cf",
               "case file: tissue.poisson is given but tissue.model '{}' has no Poisson ratio of its own (the MSS lattice's "
               "is 1/4); use model fe, neo-hookean or mss-cf, or remove tissue.poisson",
               c.model);
-      require(nu >= (continuum ? 0.0 : 0.25) && nu < 0.5,
-              "case file: tissue.poisson = {} is outside [{}, 0.5) (soft tissue: 0.45-0.49)", nu, continuum ? 0.0 : 0.25);
-      c.poisson_ratio = nu;
+      c.poisson_ratio =
+          limited(j, "poisson", "tissue", 0.45, continuum ? limits::kFePoisson : limits::kCfPoisson);
     }
     c.constants = text(j, "constants", "tissue", c.constants);
     require(c.constants == "recommended" || c.constants == "thesis" || c.constants == "cube-fit" ||
                 c.constants == "cube-targets",
             "case file: tissue.constants '{}' is not known (cube-targets, recommended, thesis or cube-fit)", c.constants);
-    c.youngs_modulus_pa = number(j, "youngs_kpa", "tissue", c.youngs_modulus_pa / 1e3) * 1e3;
-    c.density_kg_m3 = number(j, "density_kg_m3", "tissue", c.density_kg_m3);
+    c.youngs_modulus_pa = limited(j, "youngs_kpa", "tissue", c.youngs_modulus_pa / 1e3, limits::kYoungsModulus) * 1e3;
+    c.density_kg_m3 = limited(j, "density_kg_m3", "tissue", c.density_kg_m3, limits::kDensity);
     c.solve_mode = parse_design_solve_mode(text(j, "solve", "tissue", to_string(c.solve_mode)));
   }
-  require(c.youngs_modulus_pa > 0 && c.youngs_modulus_pa < 1e8,
-          "case file: tissue.youngs_kpa = {} kPa: give the soft tissue's Young's modulus in kPa (10–500)",
-          c.youngs_modulus_pa / 1e3);
-  require(c.density_kg_m3 > 0, "case file: tissue.density_kg_m3 must be positive");
   if (doc.contains("mesh")) {
     const auto& j = doc.at("mesh");
     check_keys(j, "mesh", {"target_nodes"});
-    c.target_nodes = static_cast<int>(number(j, "target_nodes", "mesh", c.target_nodes));
+    c.target_nodes = count(j, "target_nodes", "mesh", c.target_nodes, limits::kTargetNodes);
   }
-  require(c.target_nodes >= 200 && c.target_nodes <= 200000,
-          "case file: mesh.target_nodes = {} is outside 200–200000 (e.g. 3000, 8000, 20000)", c.target_nodes);
   if (doc.contains("landmarks")) {
     const auto& j = doc.at("landmarks");
     require(j.is_object(), "case file: 'landmarks' must be an object {{\"PT\": [x, y, z] in mm, ...}}");
@@ -298,8 +303,8 @@ CaseFile parse_case(const json& doc, const std::filesystem::path& folder) {
   }
   if (doc.contains("design")) {
     const auto& j = doc.at("design");
-    check_keys(j, "design", {"spots", "optimise", "objective", "model_pressure_limit", "closed_loop", "closed_loop_donnings",
-                             "ischial_share_min"});
+    check_keys(j, "design", {"spots", "optimise", "objective", "model_pressure_limit", "time_limit_s", "closed_loop",
+                             "closed_loop_donnings", "ischial_share_min"});
     if (j.contains("ischial_share_min")) {
       const double v = number(j, "ischial_share_min", "design", 0.0);
       require(v >= 0.0 && v <= 0.9,
@@ -310,20 +315,21 @@ CaseFile parse_case(const json& doc, const std::filesystem::path& folder) {
     const std::string obj = text(j, "objective", "design", "pressure");
     require(obj == "pressure" || obj == "ratio", "case file: design.objective '{}' is not known (pressure or ratio)", obj);
     c.objective = obj == "ratio" ? OptimizerOptions::Objective::Ratio : OptimizerOptions::Objective::Pressure;
-    c.model_pressure_limit = number(j, "model_pressure_limit", "design", c.model_pressure_limit);
-    require(c.model_pressure_limit >= 0, "case file: design.model_pressure_limit must be ≥ 0 (a fraction of E; 0 = none)");
+    c.model_pressure_limit =
+        limited(j, "model_pressure_limit", "design", c.model_pressure_limit, limits::kModelPressureLimit);
+    c.time_limit_s = limited(j, "time_limit_s", "design", c.time_limit_s, limits::kTimeLimit);
     c.closed_loop = flag(j, "closed_loop", "design", c.closed_loop);
-    const double donnings = number(j, "closed_loop_donnings", "design", c.closed_loop_donnings);
-    require(donnings >= 1 && donnings <= 20 && donnings == std::floor(donnings),
-            "case file: design.closed_loop_donnings {} must be a whole number in 1-20 (the open-loop socket's donning counts)",
-            donnings);
-    c.closed_loop_donnings = static_cast<int>(donnings);
+    c.closed_loop_donnings =
+        count(j, "closed_loop_donnings", "design", c.closed_loop_donnings, limits::kClosedLoopDonnings);
     if (j.contains("spots")) {
       const auto& s = j.at("spots");
       if (s.is_string()) {
         require(s == "default", "case file: design.spots must be a list of spots or \"default\"");
       } else {
         require(s.is_array(), "case file: design.spots must be a list of spots or \"default\"");
+        require(!s.empty(),
+                "case file: design.spots is an empty list: give at least one spot, or \"default\" for the limb type's "
+                "layout");
         for (size_t i = 0; i < s.size(); ++i) c.spots.push_back(spot_from_json(s[i], fmt::format("design.spots[{}]", i)));
       }
     }
@@ -348,24 +354,21 @@ CaseFile parse_case(const json& doc, const std::filesystem::path& folder) {
     const auto& j = doc.at("socket");
     check_keys(j, "socket", {"thickness_mm", "distal_pad", "distal_pad_diameter_mm", "round_brim", "subdivisions",
                              "distal_thickness_mm", "brim_thickness_mm", "alignment", "attachment"});
-    c.socket.thickness_m = number(j, "thickness_mm", "socket", c.socket.thickness_m * 1e3) * 1e-3;
-    c.socket.distal_thickness_m = number(j, "distal_thickness_mm", "socket", 0.0) * 1e-3;
-    c.socket.brim_thickness_m = number(j, "brim_thickness_mm", "socket", 0.0) * 1e-3;
-    for (const auto& [name, v] : {std::pair{"distal_thickness_mm", c.socket.distal_thickness_m},
-                                  std::pair{"brim_thickness_mm", c.socket.brim_thickness_m}})
-      require(v == 0.0 || (v >= 0.001 && v <= 0.05),
-              "case file: socket.{} = {} mm: a wall of 1–50 mm (leave it out for a uniform thickness_mm)", name,
-              v * 1e3);
+    c.socket.thickness_m = limited(j, "thickness_mm", "socket", c.socket.thickness_m * 1e3, limits::kThickness) * 1e-3;
+    // 0 (or left out): the uniform thickness_mm.
+    for (auto [key, limit, value] : {std::tuple{"distal_thickness_mm", limits::kDistalThickness, &c.socket.distal_thickness_m},
+                                     std::tuple{"brim_thickness_mm", limits::kBrimThickness, &c.socket.brim_thickness_m}}) {
+      const double mm = number(j, key, "socket", 0.0);
+      *value = (mm == 0.0 ? 0.0 : check_input(limit, mm, fmt::format("case file: socket.{}", key))) * 1e-3;
+    }
     parse_socket_attachment(j, c.socket);
     c.socket.distal_pad = flag(j, "distal_pad", "socket", c.socket.distal_pad);
     c.socket.distal_pad_diameter_m =
-        number(j, "distal_pad_diameter_mm", "socket", c.socket.distal_pad_diameter_m * 1e3) * 1e-3;
+        limited(j, "distal_pad_diameter_mm", "socket", c.socket.distal_pad_diameter_m * 1e3,
+                limits::kDistalPadDiameter) * 1e-3;
     c.socket.round_brim = flag(j, "round_brim", "socket", c.socket.round_brim);
-    c.socket.subdivisions = static_cast<int>(number(j, "subdivisions", "socket", c.socket.subdivisions));
+    c.socket.subdivisions = count(j, "subdivisions", "socket", c.socket.subdivisions, limits::kSubdivisions);
   }
-  require(c.socket.thickness_m > 0 && c.socket.thickness_m <= 0.05,
-          "case file: socket.thickness_mm = {} mm: the wall must be thicker than 0 and at most 50 mm (typical 4–8)",
-          c.socket.thickness_m * 1e3);
   return c;
 }
 
@@ -374,12 +377,8 @@ CaseFile read_case(const std::filesystem::path& path) {
   require<IoError>(in.good(), "cannot open case file '{}' (check the path)", path.string());
   std::stringstream ss;
   ss << in.rdbuf();
-  json doc;
-  try {
-    doc = json::parse(ss.str());
-  } catch (const json::parse_error& e) {
-    fail("case file '{}' is not valid JSON: {}", path.string(), e.what());
-  }
+  require<IoError>(!in.bad(), "cannot read case file '{}' (check the path)", path.string());
+  const json doc = parse_json_input(ss.str(), fmt::format("case file '{}'", path.string()));
   return parse_case(doc, std::filesystem::absolute(path).parent_path());
 }
 
@@ -412,6 +411,7 @@ json case_to_json(const CaseFile& c) {
               {"model_pressure_limit", c.model_pressure_limit}, {"closed_loop", c.closed_loop},
               {"closed_loop_donnings", c.closed_loop_donnings}};
   if (c.ischial_share_min) design["ischial_share_min"] = *c.ischial_share_min;
+  if (c.time_limit_s > 0) design["time_limit_s"] = c.time_limit_s;
   if (c.spots.empty()) design["spots"] = "default";
   else design["spots"] = spots;
   json brim = json::object();

@@ -69,6 +69,7 @@ struct CaseFile {
   /// Transfemoral: the least share of the axial load on the ischial/gluteal region the optimiser
   /// keeps, [0, 0.9]; not given: the brim template's (default_ischial_share).
   std::optional<double> ischial_share_min;
+  double time_limit_s = 0.0;               ///< the optimiser's wall-time bound [s]; 0 = none
   /// Closed-loop design (pipeline/closed_loop.h): don and stand on the socket, correct its wall
   /// until it delivers the designed pressures, write the corrected socket.
   bool closed_loop = false;

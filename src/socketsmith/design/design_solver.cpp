@@ -8,6 +8,7 @@
 
 #include "socketsmith/core/errors.h"
 #include "socketsmith/core/units.h"
+#include "socketsmith/design/input_limits.h"
 #include "socketsmith/tissue/dof_map.h"
 #include "socketsmith/tissue/pressure_load.h"
 
@@ -38,16 +39,7 @@ std::string ConstraintStatus::failing() const {
 }
 
 RadarTargets radar_targets(const PatientLoad& patient, double stump_length_m) {
-  require(std::isfinite(patient.body_mass_kg) && patient.body_mass_kg > 0,
-          "body mass {} kg must be a positive number of kilograms", patient.body_mass_kg);
-  require(patient.body_mass_kg < 400, "body mass {} kg is not plausible (the case file takes kg)", patient.body_mass_kg);
-  require(std::isfinite(patient.prosthesis_mass_kg) && patient.prosthesis_mass_kg >= 0,
-          "prosthesis mass {} kg must be zero or more", patient.prosthesis_mass_kg);
-  require(patient.prosthesis_mass_kg < patient.body_mass_kg, "prosthesis mass {} kg is not below the body mass {} kg",
-          patient.prosthesis_mass_kg, patient.body_mass_kg);
-  require(std::isfinite(patient.friction) && patient.friction >= 0 && patient.friction <= 2,
-          "friction coefficient {} must be in [0, 2] (skin on a socket: about 0.5)", patient.friction);
-  require(patient.force_tolerance > 0 && patient.torque_tolerance > 0, "constraint tolerances must be positive");
+  check_patient(patient);
   RadarTargets t;
   t.fz_n = 0.5 * patient.body_mass_kg * units::kGravity;
   t.stability_min_n = patient.prosthesis_mass_kg * units::kGravity;
@@ -335,6 +327,18 @@ DesignState DesignSolver::solve(const std::vector<Spot>& spots) {
     }
     y = s.linear_solve(f);
     ++st.follower_passes;
+    // The follower iteration runs away when the tissue is too soft for the load (each pass's
+    // deformed skin carries larger forces): stop before NaN reaches the outputs.
+    double umax = 0;
+    for (Eigen::Index k = 0; k < y.size() / 3; ++k)
+      umax = std::max(umax, (y - s.model.rest_positions()).segment<3>(3 * k).norm());
+    if (!y.allFinite() || !(umax <= 0.5 * s.length)) {
+      s.failure_point = Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
+      fail<SolverError>("design solve: the stump's deformation runs away under these pressures (pass {}: {:.3g} mm, "
+                        "more than half the {:.0f} mm stump): the tissue (E = {:.3g} kPa) is too soft for this load — "
+                        "raise tissue.youngs_kpa or lower the pressures",
+                        st.follower_passes, umax * 1e3, s.length * 1e3, s.model.material().youngs_modulus_pa / 1e3);
+    }
     const tissue::VectorXd g = forces_at(y);
     const double change = relative_change(g, f);
     st.follower_change = change;

@@ -5,6 +5,8 @@
 #include <limits>
 #include <cmath>
 #include <numbers>
+#include <optional>
+#include <string>
 
 #include <fmt/ranges.h>
 #include <nlopt.hpp>
@@ -134,6 +136,7 @@ struct AmplitudeProblem {
   Eigen::Matrix<double, 7, 1> r_fixed;
   Eigen::Matrix<double, 7, 1> scale;  // normalisers of the radar rows
   Eigen::Matrix<double, 6, 1> target;
+  Eigen::Matrix<double, 6, 1> tolerance;  // of the six equalities [N, N m]
   double stability_min = 0;
   int evaluations = 0;
   // Region floors: F_z per unit amplitude of each floor's nodes, its fixed part, and the floor [N].
@@ -227,6 +230,7 @@ struct AmplitudeProblem {
     const double fs = t.fz_n, ts = t.fz_n * solver->stump_length_m();
     scale << fs, fs, fs, ts, ts, ts, fs;
     target << 0, 0, t.fz_n, 0, 0, 0;
+    tolerance << t.force_tol_n, t.force_tol_n, t.force_tol_n, t.torque_tol_nm, t.torque_tol_nm, t.torque_tol_nm;
     stability_min = t.stability_min_n;
     for (Eigen::Index f = 0; f < nfl; ++f) rf_min[f] = (*floors)[static_cast<std::size_t>(f)].min_share * t.fz_n;
   }
@@ -234,6 +238,27 @@ struct AmplitudeProblem {
   /// Shortfall of each region floor at amplitudes a, normalised by F_z (≤ 0: held).
   Eigen::VectorXd floor_shortfall(const Eigen::VectorXd& a) const {
     return (rf_min - (Rf * a + rf_fixed)) / scale[2];
+  }
+
+  /// ½ Σ_k (e_k / tol_k)², e = the six radar residuals: the objective of a least-squares fit
+  /// when fewer than six amplitudes are free (six equalities cannot all hold exactly).
+  double balance(const double* z, double* grad) {
+    ++evaluations;
+    const Eigen::VectorXd a = amplitudes(z);
+    const auto rv = radar(a);
+    double f = 0;
+    Eigen::Matrix<double, 6, 1> e;
+    for (int k = 0; k < 6; ++k) {
+      e[k] = (rv[k] - target[k]) / tolerance[k];
+      f += 0.5 * e[k] * e[k];
+    }
+    if (grad)
+      for (Eigen::Index j = 0; j < a.size(); ++j) {
+        double g = 0;
+        for (int k = 0; k < 6; ++k) g += e[k] * R(k, j) / tolerance[k];
+        grad[j] = g * kRef;
+      }
+    return std::isfinite(f) ? f : 1e30;
   }
 
   Eigen::VectorXd amplitudes(const double* z) const {
@@ -299,6 +324,32 @@ struct AmplitudeProblem {
   }
 };
 
+/// Progress, cancel and the time limit of the SLSQP fits: every objective evaluation reports
+/// (the bar moves while a large fit runs) and stops the fit when asked or past the deadline.
+struct FitControl {
+  const ProgressCallback* progress = nullptr;
+  std::string stage = "design: optimising";
+  double fraction0 = 0, fraction_span = 0;  // the bar's share of the current fit
+  std::chrono::steady_clock::time_point start = std::chrono::steady_clock::now();
+  std::optional<std::chrono::steady_clock::time_point> deadline;
+  bool is_cancelled = false;
+  bool is_timed_out = false;
+
+  bool should_stop() const { return is_cancelled || is_timed_out; }
+  bool past_deadline() const { return deadline && std::chrono::steady_clock::now() >= *deadline; }
+  double seconds() const { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); }
+  /// Reports @p done ∈ [0, 1] of the current share; false = stop (cancelled or out of time).
+  bool report(double done, const std::string& detail) {
+    if (past_deadline()) is_timed_out = true;
+    const double f = fraction0 + fraction_span * std::clamp(done, 0.0, 1.0);
+    if (progress && !report_progress(*progress, f, fmt::format("{} ({}, {:.0f} s)", stage, detail, seconds())))
+      is_cancelled = true;
+    return !should_stop();
+  }
+};
+
+constexpr int kMaxFitEvaluations = 400;
+
 struct FitResult {
   Eigen::VectorXd z;
   double J = 0;
@@ -307,7 +358,8 @@ struct FitResult {
   bool ok = false;
 };
 
-FitResult fit_amplitudes(AmplitudeProblem& P, const std::vector<Spot>& spots, const RadarTargets& t) {
+FitResult fit_amplitudes(AmplitudeProblem& P, const std::vector<Spot>& spots, const RadarTargets& t,
+                         FitControl& control) {
   const unsigned n = static_cast<unsigned>(P.free.size());
   FitResult fr;
   fr.z.resize(n);
@@ -324,14 +376,30 @@ FitResult fit_amplitudes(AmplitudeProblem& P, const std::vector<Spot>& spots, co
     if (spots[P.free[j]].max_amplitude_pa > 0) upper[j] = std::min(upper[j], spots[P.free[j]].max_amplitude_pa / kRef);
   for (unsigned j = 0; j < n; ++j) fr.z[j] = std::min(fr.z[j], upper[j]);
   opt.set_upper_bounds(upper);
-  opt.set_min_objective(
-      [](unsigned, const double* z, double* g, void* data) { return static_cast<AmplitudeProblem*>(data)->objective(z, g); },
-      &P);
-  // Six equalities: the radar's forces and torques at their targets (normalised).
+  // Fewer free amplitudes than the six equalities (3 forces, 3 torques): no exact solution in
+  // general, and NLopt refuses the problem — fit them in the least-squares sense instead (the
+  // violation then says whether the tolerances hold).
+  const bool least_squares = n < 6;
   struct Eq {
     AmplitudeProblem* P;
-  } eq{&P};
-  opt.add_equality_mconstraint(
+    FitControl* control;
+    nlopt::opt* opt;
+    bool least_squares;
+    int first_evaluation;
+  } eq{&P, &control, &opt, least_squares, P.evaluations};
+  opt.set_min_objective(
+      [](unsigned, const double* z, double* g, void* data) {
+        auto& e = *static_cast<Eq*>(data);
+        const int k = e.P->evaluations - e.first_evaluation;
+        if (!e.control->report(static_cast<double>(k) / kMaxFitEvaluations,
+                               fmt::format("amplitude fit, {} evaluations", k)))
+          e.opt->force_stop();
+        return e.least_squares ? e.P->balance(z, g) : e.P->objective(z, g);
+      },
+      &eq);
+  // Six equalities: the radar's forces and torques at their targets (normalised).
+  if (!least_squares)
+    opt.add_equality_mconstraint(
       [](unsigned m, double* result, unsigned nn, const double* z, double* grad, void* data) {
         const auto& Q = *static_cast<Eq*>(data)->P;
         const Eigen::VectorXd a = Q.amplitudes(z);
@@ -374,7 +442,7 @@ FitResult fit_amplitudes(AmplitudeProblem& P, const std::vector<Spot>& spots, co
         &eq, std::vector<double>(static_cast<std::size_t>(P.Rf.rows()), 1e-9));
   opt.set_xtol_rel(1e-8);
   opt.set_ftol_rel(1e-10);
-  opt.set_maxeval(400);
+  opt.set_maxeval(kMaxFitEvaluations);
   std::vector<double> z(fr.z.data(), fr.z.data() + n);
   double J = 0;
   const int before = P.evaluations;
@@ -455,19 +523,32 @@ OptimizerResult optimise_design(DesignSolver& solver, std::vector<Spot> spots, c
   };
   bool positions_searched = false;
   int model_caps = 0;
+  FitControl control;
+  control.progress = &options.progress;
+  control.start = t0;
+  require(std::isfinite(options.time_limit_s) && options.time_limit_s >= 0,
+          "optimise_design: time limit {} s must be 0 (none) or positive", options.time_limit_s);
+  if (options.time_limit_s > 0)
+    control.deadline = t0 + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                std::chrono::duration<double>(options.time_limit_s));
   for (int round = 0; round < options.max_rounds; ++round) {
-    if (!report_progress(options.progress, 0.1 + 0.8 * round / options.max_rounds, "design: optimising")) {
-      out.message = "cancelled";
-      break;
-    }
+    // The bar: each round has 0.8 / max_rounds; its amplitude fit the first tenth of it, the
+    // position search (when it runs) the next seven tenths.
+    const double round_share = 0.8 / options.max_rounds;
+    control.fraction0 = 0.1 + round_share * round;
+    control.fraction_span = 0.1 * round_share;
+    control.stage = fmt::format("design: optimising, round {}", round + 1);
+    // Out of time after a solved round: stop; at the first round the fit stops at once and its
+    // starting amplitudes are solved, so there is always a state to report.
+    if (!control.report(0.0, "starting") && (control.is_cancelled || round > 0)) break;
     P.build(spots);
     // The region floors are the template's intent, not one of the seven constraints: a fit that
     // cannot keep them and the constraints together drops them (said in the log).
     P.use_floors = !options.region_floors.empty();
-    FitResult fit = fit_amplitudes(P, spots, targets);
+    FitResult fit = fit_amplitudes(P, spots, targets, control);
     if (!fit.ok && P.use_floors) {
       P.use_floors = false;
-      const FitResult without = fit_amplitudes(P, spots, targets);
+      const FitResult without = fit_amplitudes(P, spots, targets, control);
       if (without.ok) {
         out.log.push_back(fmt::format("round {}: the region floors ({}) cannot be kept with the seven constraints: "
                                       "dropped for this fit",
@@ -482,7 +563,7 @@ OptimizerResult optimise_design(DesignSolver& solver, std::vector<Spot> spots, c
     out.slsqp_iterations += fit.evaluations;
     // Without friction no layout can hold the prosthesis: moving spots cannot help.
     const bool hopeless = solver.patient().friction == 0.0 && targets.stability_min_n > 0;
-    if (!fit.ok && options.optimise_positions && !positions_searched && !hopeless) {
+    if (!fit.ok && options.optimise_positions && !positions_searched && !hopeless && !control.should_stop()) {
       // Amplitudes alone cannot meet the constraints: move the spots.
       positions_searched = true;
       std::vector<PositionParam> params;
@@ -495,25 +576,37 @@ OptimizerResult optimise_design(DesignSolver& solver, std::vector<Spot> spots, c
       if (!params.empty()) {
         const std::vector<Spot> base = spots;
         struct Ctx {
-          AmplitudeProblem* P;
-          const std::vector<Spot>* base;
-          const std::vector<PositionParam>* params;
-          const RadarTargets* targets;
+          AmplitudeProblem* P = nullptr;
+          const std::vector<Spot>* base = nullptr;
+          const std::vector<PositionParam>* params = nullptr;
+          const RadarTargets* targets = nullptr;
           std::vector<Spot> work;
           int evaluations = 0;
           double length = 0;
-          // Cancel: the progress callback is asked at every evaluation; false stops the search.
-          const ProgressCallback* progress = nullptr;
+          // Progress, cancel and the time limit: each evaluation (one amplitude fit) has its share
+          // of the bar, and the fit inside reports within it.
+          FitControl* control = nullptr;
           double fraction0 = 0, fraction_span = 0;
           int max_evaluations = 1;
           nlopt::opt* opt = nullptr;
-          bool cancelled = false;
-        } ctx{&P, &base, &params, &targets, base, 0, solver.stump_length_m()};
+          // The best evaluation: its shifts and its fit (kept, so no refit is needed after the search).
+          double best_value = std::numeric_limits<double>::infinity();
+          std::vector<double> best_shift;
+          std::optional<FitResult> best_fit;
+        };
+        Ctx ctx;
+        ctx.P = &P;
+        ctx.base = &base;
+        ctx.params = &params;
+        ctx.targets = &targets;
+        ctx.work = base;
+        ctx.length = solver.stump_length_m();
         const unsigned n = static_cast<unsigned>(params.size());
         nlopt::opt opt(nlopt::LN_SBPLX, n);
-        ctx.progress = &options.progress;
-        ctx.fraction0 = 0.1 + 0.8 * round / options.max_rounds;
-        ctx.fraction_span = 0.7 / options.max_rounds;
+        ctx.control = &control;
+        control.stage = fmt::format("design: optimising, round {}, moving spots", round + 1);
+        ctx.fraction0 = control.fraction0 + round_share * 0.1;
+        ctx.fraction_span = round_share * 0.7;
         ctx.max_evaluations = std::max(1, options.max_position_evaluations);
         ctx.opt = &opt;
         std::vector<double> lo(n), hi(n), step(n), x(n, 0.0);
@@ -531,9 +624,11 @@ OptimizerResult optimise_design(DesignSolver& solver, std::vector<Spot> spots, c
         opt.set_min_objective(
             [](unsigned nn, const double* d, double*, void* data) {
               auto& c = *static_cast<Ctx*>(data);
-              const double done = std::min(1.0, static_cast<double>(c.evaluations) / c.max_evaluations);
-              if (!report_progress(*c.progress, c.fraction0 + c.fraction_span * done, "design: moving spots")) {
-                c.cancelled = true;
+              auto& fc = *c.control;
+              const double share = c.fraction_span / c.max_evaluations;
+              fc.fraction0 = c.fraction0 + share * std::min(c.evaluations, c.max_evaluations);
+              fc.fraction_span = c.evaluations < c.max_evaluations ? share : 0.0;
+              if (!fc.report(0.0, fmt::format("fit {} of at most {}", c.evaluations + 1, c.max_evaluations))) {
                 c.opt->force_stop();
                 return std::numeric_limits<double>::max();
               }
@@ -543,9 +638,16 @@ OptimizerResult optimise_design(DesignSolver& solver, std::vector<Spot> spots, c
                 s.h0 = std::clamp(s.h0, 0.0, c.length);
               }
               c.P->build(c.work);
-              const FitResult f = fit_amplitudes(*c.P, c.work, *c.targets);
+              const FitResult f = fit_amplitudes(*c.P, c.work, *c.targets, fc);
               ++c.evaluations;
-              return f.J + 10.0 * f.violation;
+              const double value = f.J + 10.0 * f.violation;
+              if (value < c.best_value) {
+                c.best_value = value;
+                c.best_shift.assign(d, d + nn);
+                c.best_fit = f;
+              }
+              if (fc.should_stop()) c.opt->force_stop();
+              return value;
             },
             &ctx);
         opt.set_stopval(0.0);
@@ -555,21 +657,25 @@ OptimizerResult optimise_design(DesignSolver& solver, std::vector<Spot> spots, c
         } catch (const std::exception& e) {
           log::debug("optimise_design: position search stopped: {}", e.what());
         }
-        if (ctx.cancelled) {
+        control.stage = fmt::format("design: optimising, round {}", round + 1);
+        if (control.is_cancelled) {
           out.evaluations += ctx.evaluations;
-          out.message = "cancelled";
           break;
         }
+        if (ctx.best_fit) x = ctx.best_shift;
         for (unsigned i = 0; i < n; ++i) shift_spot(spots[params[i].spot], params[i].kind, x[i]);
         for (auto& s : spots) s.h0 = std::clamp(s.h0, 0.0, solver.stump_length_m());
         out.evaluations += ctx.evaluations;
         P.build(spots);
-        fit = fit_amplitudes(P, spots, targets);
+        // The best evaluation's fit is the fit at these positions (the same problem, the same start).
+        if (ctx.best_fit) fit = *ctx.best_fit;
+        else fit = fit_amplitudes(P, spots, targets, control);
         out.log.push_back(fmt::format("round {}: amplitudes alone could not meet the constraints; position search: {} fits, "
                                       "J {:.3f}, violation {:.3g}",
                                       round + 1, ctx.evaluations, fit.J, fit.violation));
       }
     }
+    if (control.is_cancelled) break;
     apply(fit, spots);
     {
       std::string amps;
@@ -622,6 +728,7 @@ OptimizerResult optimise_design(DesignSolver& solver, std::vector<Spot> spots, c
                                   out.state.radar.torque_nm.z(), out.state.radar.stability_n,
                                   out.state.max_requested_ratio, out.state.message));
     if (out.state.status.all_ok()) break;
+    if (control.should_stop()) break;  // out of time: the last solved state is the result
     if (!fit.ok && positions_searched && round > 0) break;  // infeasible: more rounds will not help
     // Next round: the deformed geometry.
     P.pos = out.state.skin_positions;
@@ -632,6 +739,8 @@ OptimizerResult optimise_design(DesignSolver& solver, std::vector<Spot> spots, c
   out.spots = spots;
   out.constraints_met = out.state.status.all_ok();
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  out.is_time_limited = control.is_timed_out && !control.is_cancelled;
+  if (control.is_cancelled) out.message = "cancelled";
   if (out.message != "cancelled") {
     if (out.constraints_met) {
       out.message = fmt::format("all constraints met after {} round(s) ({} amplitude fits, {:.1f} s); peak pressure "
@@ -664,7 +773,15 @@ OptimizerResult optimise_design(DesignSolver& solver, std::vector<Spot> spots, c
                           targets.force_tol_n, r.torque_nm.x(), r.torque_nm.y(), r.torque_nm.z(),
                           targets.torque_tol_nm);
       out.message = fmt::format("constraints not met after {} round(s): {}", out.rounds, why);
+      if (P.free.size() < 6)
+        out.message += fmt::format(" (only {} spot amplitude(s) may change, and balancing three forces and three "
+                                   "torques needs at least 6: add spots or let the optimiser change more amplitudes)",
+                                   P.free.size());
     }
+    if (out.is_time_limited)
+      out.message = fmt::format("stopped by the time limit of {:.3g} s after {:.1f} s and {} round(s) — {} (a longer "
+                                "time limit, or fewer spots, lets it finish)",
+                                options.time_limit_s, out.seconds, out.rounds, out.message);
   }
   report_progress(options.progress, 1.0, "design: optimised");
   return out;

@@ -18,6 +18,9 @@
 ///    the equilibrium, refit — until the radar of the solved stump meets the constraints (2–3
 ///    rounds), because the socket's pressures act on the deformed surface.
 /// When the constraints cannot all be met, the result says which one fails and by how much.
+/// With fewer than six free amplitudes the six equalities are fitted in the least-squares sense
+/// (½ Σ (residual / tolerance)²) under the same inequalities; the message then asks for more spots
+/// when the balance fails.
 
 #include <string>
 #include <vector>
@@ -70,6 +73,12 @@ struct OptimizerOptions {
     double min_share = 0.0;     ///< of F_z, [0, 1)
   };
   std::vector<RegionFloor> region_floors;
+  /// Wall-time bound of the whole optimisation [s], 0 = none. When it stops the search, the last
+  /// fitted layout is solved and returned with is_time_limited and a message that says so.
+  double time_limit_s = 0.0;
+  /// Called at every objective evaluation (the bar moves while a large fit runs); the stage ends
+  /// with a detail in parentheses ("design: optimising, round 1 (amplitude fit, 37 evaluations, 12 s)").
+  /// Returning false cancels: message "cancelled".
   ProgressCallback progress;
 };
 
@@ -83,6 +92,7 @@ struct OptimizerResult {
   double objective = 0.0;            ///< J of the last fit
   int model_caps = 0;                ///< zones where the stump model's stability limited the pressure
   double seconds = 0.0;
+  bool is_time_limited = false;      ///< stopped by OptimizerOptions::time_limit_s
   std::string message;               ///< "all constraints met …" or which constraint fails and why
   bool region_floors_met = true;     ///< every OptimizerOptions::region_floors held in the last fit
   std::vector<std::string> log;      ///< one line per round

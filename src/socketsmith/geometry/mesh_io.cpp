@@ -416,6 +416,17 @@ struct PlyTruncated {};
 struct PlyBadToken {
   const char* where;
 };
+/// A list count or an index stored as a float that is not a whole number of a sane size.
+struct PlyBadInteger {
+  double value;
+};
+
+/// A float read where an integer is meant (some writers store list counts or indices as floats):
+/// whole and below 2^53, else PlyBadInteger (casting 1.8e22 to long long is undefined behaviour).
+long long whole_number(double d) {
+  if (!std::isfinite(d) || d != std::floor(d) || std::abs(d) >= 9e15) throw PlyBadInteger{d};
+  return static_cast<long long>(d);
+}
 
 /// Binary body reader (little or big endian).
 struct PlyBinaryReader {
@@ -450,8 +461,8 @@ struct PlyBinaryReader {
       case PlyType::UInt16: return get<std::uint16_t>();
       case PlyType::Int32: return get<std::int32_t>();
       case PlyType::UInt32: return get<std::uint32_t>();
-      case PlyType::Float32: return static_cast<long long>(get<float>());
-      case PlyType::Float64: return static_cast<long long>(get<double>());
+      case PlyType::Float32: return whole_number(get<float>());
+      case PlyType::Float64: return whole_number(get<double>());
     }
     return 0;
   }
@@ -489,9 +500,12 @@ struct PlyAsciiReader {
     auto [r, ec] = std::from_chars(b, e, v);
     if (ec == std::errc() && r == e) return v;
     double d;  // some writers print integers as "3.0"
-    if (parse_double(tok.data(), e, d) && std::isfinite(d) && d == std::floor(d) && std::abs(d) < 9e15)
-      return static_cast<long long>(d);
-    throw PlyBadToken{tok.data()};
+    if (!parse_double(tok.data(), e, d)) throw PlyBadToken{tok.data()};
+    try {
+      return whole_number(d);
+    } catch (const PlyBadInteger&) {
+      throw PlyBadToken{tok.data()};
+    }
   }
   void skip(PlyType) { token(); }
 };
@@ -505,6 +519,9 @@ void read_ply_body(Reader& in, const std::vector<PlyElement>& elements, TriMesh&
   long long max_index_face = -1;
   for (const PlyElement& e : elements) {
     long long item = 0;
+    // Items without properties carry no data: nothing to read, whatever the count (the header's
+    // size check cannot bound their count, and 8e14 of them were looped over for ever).
+    if (e.props.empty() && e.name != "vertex" && e.name != "face") continue;
     try {
       if (e.name == "vertex") {
         int ix = -1, iy = -1, iz = -1;
@@ -600,6 +617,9 @@ void read_ply_body(Reader& in, const std::vector<PlyElement>& elements, TriMesh&
     } catch (const PlyTruncated&) {
       fail("read_mesh: '{}' ends inside element '{}' at item {} of {} (truncated {} PLY?)", src.name,
            e.name, item, e.count, binary ? "binary" : "ASCII");
+    } catch (const PlyBadInteger& bad) {
+      fail("read_mesh: '{}': element '{}' item {} has a count or index of {} stored as a float (expected a whole "
+           "number below 2^53)", src.name, e.name, item, bad.value);
     } catch (const PlyBadToken& bad) {
       fail("read_mesh: '{}' line {}: expected a number in element '{}', got '{}'", src.name,
            src.line_of(bad.where), e.name,
@@ -791,15 +811,19 @@ units::LengthUnit guess_length_unit(double raw_diagonal) {
 }
 
 TriMesh read_mesh(const fs::path& path, const MeshReadOptions& options, MeshReadInfo* info) {
+  // Read first: a folder given as a mesh is "a directory", not "an unsupported extension ''".
+  return read_mesh_data(read_file(path), path.string(), options, info);
+}
+
+TriMesh read_mesh_data(std::string_view data, const std::string& name, const MeshReadOptions& options,
+                       MeshReadInfo* info) {
   require(std::isfinite(options.weld_tol_m) && options.weld_tol_m >= 0.0,
           "read_mesh: weld_tol_m is {} (expected a finite value >= 0 metres)", options.weld_tol_m);
-  const std::string ext = lower(path.extension().string());
+  const std::string ext = lower(fs::path(name).extension().string());
   if (ext != ".stl" && ext != ".obj" && ext != ".ply" && ext != ".aop")
-    fail("read_mesh: '{}' has an unsupported extension '{}' (expected .stl, .obj, .ply or .aop)",
-         path.string(), path.extension().string());
-
-  const std::string data = read_file(path);
-  const Source src{path.string(), data};
+    fail("read_mesh: '{}' has an unsupported extension '{}' (expected .stl, .obj, .ply or .aop)", name,
+         fs::path(name).extension().string());
+  const Source src{name, data};
   if (data.empty()) fail("read_mesh: '{}' is empty (0 bytes); expected a mesh", src.name);
   if (std::all_of(data.begin(), data.end(), [](char c) { return is_space(c); }))
     fail("read_mesh: '{}' contains only whitespace; expected a mesh", src.name);

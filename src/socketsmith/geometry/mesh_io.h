@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "socketsmith/core/units.h"
@@ -54,6 +55,11 @@ struct MeshReadInfo {
 ///         format, is empty (0 triangles), has indices out of range, or NaN/inf coordinates.
 TriMesh read_mesh(const std::filesystem::path& path, const MeshReadOptions& options = {},
                   MeshReadInfo* info = nullptr);
+
+/// read_mesh of a file already in memory: @p data is its content, @p name its path (the
+/// extension picks the format; the name is shown in messages). Same checks and throws.
+TriMesh read_mesh_data(std::string_view data, const std::string& name, const MeshReadOptions& options = {},
+                       MeshReadInfo* info = nullptr);
 
 /// Output format of write_mesh (chosen from the extension when Auto).
 enum class MeshFormat { Auto, StlBinary, StlAscii, Obj, PlyBinary, PlyAscii, Aaop };

@@ -13,6 +13,7 @@
 #include "socketsmith/design/template_regions.h"
 #include "socketsmith/geometry/mesh_checks.h"
 #include "socketsmith/geometry/mesh_io.h"
+#include "socketsmith/pipeline/prosthetist_checks.h"
 #include "socketsmith/report/csv.h"
 #include "socketsmith/report/design_report.h"
 #include "socketsmith/report/vtk_writer.h"
@@ -120,6 +121,7 @@ design::OptimizerOptions optimizer_options(const design::CaseFile& c) {
   design::OptimizerOptions oo;
   oo.objective = c.objective;
   oo.model_pressure_limit = c.model_pressure_limit;
+  oo.time_limit_s = c.time_limit_s;
   return oo;
 }
 
@@ -327,6 +329,18 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
   const auto& spots = result.spots;
   const bool optimise = result.optimised;
   const bool met = result.constraints_met;
+  // A socket of an earlier run would sit beside this run's report as if it were this design's.
+  nlohmann::json removed = nlohmann::json::array();
+  if (!result.socket) {
+    std::error_code ec;
+    if (fs::remove(out / "socket.stl", ec)) {
+      removed.push_back("socket.stl");
+      log::warn("design: removed the earlier socket.stl from {}: this design has no socket", out.string());
+    } else if (ec) {
+      fail<IoError>("design: cannot remove the earlier socket.stl from {} ({}): remove it by hand, it is not this "
+                    "design's", out.string(), ec.message());
+    }
+  }
 
   // Outputs: surface nodes, stump fields, pictures, socket, report, case replay.
   const auto& skin = solver.skin();
@@ -416,7 +430,6 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
     rs.limb_volume_m3 = result.limb_volume_below_brim_m3;
     nlohmann::json levels = nlohmann::json::array();
     for (const auto& l : sock.levels) {
-      rs.circumferences.push_back({l.h_m, l.limb_circumference_m, l.inner_circumference_m});
       levels.push_back({{"h_mm", l.h_m * 1e3},
                         {"socket_mm", l.inner_circumference_m * 1e3},
                         {"limb_mm", l.limb_circumference_m * 1e3},
@@ -551,6 +564,8 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
                                  brim.name(), 100 * ischial_share_floor(setup),
                                  opt.region_floors_met ? "" : " — it could not be kept with the seven constraints");
   rd.socket = rs;
+  // What a prosthetist checks: the rectification chart and the slice measurements.
+  const nlohmann::json checks_json = write_prosthetist_checks(setup, result, prosthetist_checks(setup, result), out, rd);
   nlohmann::json closed_loop_json;
   if (result.closed_loop) closed_loop_json = write_closed_loop_outputs(setup, result, out, rd.delivery);
   rd.optimiser.has_run = optimise;
@@ -668,6 +683,7 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
       {"solver_message", state.message},
       {"follower_converged", !state.follower_capped},
       {"optimiser_seconds", opt.seconds},
+      {"optimiser_time_limited", opt.is_time_limited},
       {"model_caps", opt.model_caps},
       {"linearised", state.linearised || c.solve_mode == design::DesignSolveMode::Linear},
       {"solve_mode", design::to_string(c.solve_mode)},
@@ -682,7 +698,8 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
       {"anterior_estimated", model.frame.anterior_estimated},
       {"seconds", seconds},
       {"out", out.string()},
-      {"outputs", outputs}};
+      {"outputs", outputs},
+      {"removed", removed}};
   if (!socket_json.is_null()) j["socket"] = socket_json;
   j["frame"]["axis_source"] = model.axis_source;
   j["frame"]["anterior_source"] = model.anterior_source;
@@ -726,6 +743,9 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
                      {"estimated", l.estimated}});
     j["landmarks"] = lms;
   }
+  j["rectification"] = checks_json["rectification"];
+  j["slices"] = checks_json["slices"];
+  for (const char* o : {"rectification_map.png", "rectification.csv", "slices.csv"}) j["outputs"].push_back(o);
   j["template_regions"] = template_json;
   if (!closed_loop_json.is_null()) {
     j["closed_loop"] = closed_loop_json;

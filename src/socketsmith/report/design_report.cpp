@@ -4,13 +4,12 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
-#include <ostream>
-#include <sstream>
 
 #include <fmt/format.h>
 
 #include "socketsmith/core/atomic_file.h"
 #include "socketsmith/core/errors.h"
+#include "socketsmith/report/html.h"
 
 // The PNG encoder for embedded pictures: stb is header-only; static linkage keeps this copy
 // private to this file (raster.cpp compiles its own the same way).
@@ -32,33 +31,7 @@ constexpr Rgb kGrid{200, 200, 200};
 constexpr Rgb kTargetColour{30, 60, 150};
 constexpr Rgb kPolygonColour{70, 130, 220};
 
-// ---- number formatting ---------------------------------------------------------------------
-
-/// @p v with about @p digits significant digits, no exponent for ordinary magnitudes.
-std::string num(double v, int digits = 3) {
-  if (!std::isfinite(v)) return "n/a";
-  if (v == 0) return "0";
-  const double a = std::abs(v);
-  if (a >= std::pow(10.0, digits) && a < 1e9) return fmt::format("{:.0f}", v);
-  if (a >= 1e-3 && a < 1e9) {
-    const int decimals = std::max(0, digits - 1 - static_cast<int>(std::floor(std::log10(a))));
-    std::string s = fmt::format("{:.{}f}", v, decimals);
-    if (s.find('.') != std::string::npos) {
-      while (s.back() == '0') s.pop_back();
-      if (s.back() == '.') s.pop_back();
-    }
-    return s;
-  }
-  return fmt::format("{:.{}g}", v, digits);
-}
-
-/// The smallest of 1, 1.2, 1.5, 2, 2.5, 3, 4, 5, 6, 8 × 10^k that is ≥ @p v (> 0).
-double nice_ceil(double v) {
-  const double p = std::pow(10.0, std::floor(std::log10(v)));
-  for (double m : {1.0, 1.2, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 8.0, 10.0})
-    if (m * p >= v * (1 - 1e-12)) return m * p;
-  return 10 * p;
-}
+std::string num(double v, int digits = 3) { return format_number(v, digits); }
 
 // ---- 2-D drawing on an Image (anti-aliased by coverage) ------------------------------------
 
@@ -248,23 +221,9 @@ geometry::TriMesh brim_tube(const std::vector<Vector3d>& pts, double radius) {
 
 // ---- HTML ----------------------------------------------------------------------------------
 
-std::string png_uri(const Image& img) { return "data:image/png;base64," + base64_encode(encode_png(img)); }
-
 std::string deg(double rad) { return num(rad * 180 / kPi); }
 std::string mm(double m) { return num(m * 1e3); }
 std::string kpa(double pa) { return num(pa * 1e-3); }
-
-struct Html {
-  std::ostringstream out;
-  void text(std::string_view s) { out << html_escape(s); }
-  void raw(std::string_view s) { out << s; }
-  void row(const std::vector<std::string>& cells, bool header = false, std::string_view cls = "") {
-    out << (cls.empty() ? std::string("<tr>") : fmt::format("<tr class=\"{}\">", cls));
-    for (const auto& c : cells) out << (header ? "<th>" : "<td>") << html_escape(c) << (header ? "</th>" : "</td>");
-    out << "</tr>\n";
-  }
-  void kv(const std::string& k, const std::string& v) { row({k, v}); }
-};
 
 std::string spot_theta(const ReportSpot& s) {
   if (s.type == "cos2" || s.type == "cos-sig")
@@ -769,31 +728,61 @@ std::string encode_png(const Image& img) {
 
 // ==== HTML report ===========================================================================
 
-std::string render_design_report_html(const DesignReportData& d) {
-  Html h;
-  h.raw("<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>");
-  h.text(d.title);
-  h.raw(
-      "</title>\n<style>\n"
-      "body{font-family:sans-serif;max-width:1100px;margin:1em auto;padding:0 1em;color:#222}\n"
-      "h1{font-size:1.6em}h2{font-size:1.25em;border-bottom:1px solid #ccc;margin-top:1.6em}\n"
-      "table{border-collapse:collapse;margin:.5em 0}td,th{border:1px solid #ccc;padding:.25em .6em;"
-      "text-align:left}th{background:#f2f2f2}\n"
-      "tr.ok td:last-child{color:#1e963c;font-weight:bold}tr.fail td:last-child{color:#d22828;"
-      "font-weight:bold}\n"
-      "img{max-width:100%;height:auto;display:block;margin:.5em 0}\n"
-      ".warn{color:#a05a00}.note{white-space:pre-wrap;background:#fafafa;padding:.5em;border:1px "
-      "solid #eee}\n</style>\n</head>\n<body>\n<h1>");
-  h.text(d.title);
-  h.raw("</h1>\n");
-  if (!d.generated.empty()) {
-    h.raw("<p>");
-    h.text(d.generated);
-    h.raw("</p>\n");
+namespace {
+
+void rectification_section(HtmlWriter& h, const ReportRectification& r) {
+  if (!r.has_rectification) return;
+  h.heading("Rectification chart (socket minus limb)");
+  h.paragraph("How far " + r.source +
+              " lies from the limb's skin, in mm, along the ray from the limb axis (radially), or along the axis where "
+              "the skin faces down (the distal end): negative = indentation (the socket presses the tissue in), "
+              "positive = relief. Below the brim: mean " + mm(r.mean_m) + " mm, from " + mm(r.min_m) + " to " +
+              mm(r.max_m) + " mm.");
+  std::vector<std::vector<std::string>> rows;
+  for (const auto& p : r.landmarks) {
+    const double d = p.rectification_m;
+    const bool has = std::isfinite(d);
+    rows.push_back({p.code, p.name, deg(p.theta_rad), mm(p.h_m), has ? num(d * 1e3, 2) : "above the brim",
+                    has ? (d < 0 ? "indentation" : "relief") : "—", p.is_axial ? "along the axis" : "radial"});
   }
+  h.table({"landmark", "zone", "θ [°]", "h [mm]", "socket − limb [mm]", "", "measured"}, rows);
+  if (r.has_map)
+    h.image(png_data_uri(render_pressure_map(r.map)), r.map.title,
+            "Blue: the socket inside the skin (indentation); red: outside (relief); grey: above the brim.");
+}
+
+void sock_ply_section(HtmlWriter& h, const ReportSockPly& s) {
+  if (!s.has_study) return;
+  h.heading("Sock-ply sensitivity (the limb shrunk and grown)");
+  h.paragraph(s.summary);
+  std::vector<std::vector<std::string>> rows;
+  for (const auto& l : s.levels) {
+    const std::string name = l.volume_change == 0 ? "as designed" : fmt::format("{:+.0f} %", 100 * l.volume_change);
+    rows.push_back({name, num(l.skin_offset_m * 1e3, 2), l.stood ? num(l.stood_offset_m * 1e3, 3) : "—",
+                    l.stood ? num(l.sink_m * 1e3, 3) : "—", l.stood ? num(l.peak_ratio, 3) : "—",
+                    l.stood ? kpa(l.peak_pressure_pa) : "—", l.stood ? kpa(l.distal_mean_pa) : "—",
+                    l.stood ? kpa(l.distal_peak_pa) : "—", l.stood ? l.constraints : l.message});
+  }
+  h.table({"limb volume", "skin offset [mm]", "socket stood at [mm]", "limb sinks [mm]", "peak p/T", "peak [kPa]",
+           "distal mean [kPa]", "distal peak [kPa]", "constraints"},
+          rows);
+  h.paragraph("Skin offset: the uniform normal offset of the skin (bones fixed) that changes the limb's volume by the "
+              "given fraction. Socket stood at: where the socket carried half the body weight, along the axis from its "
+              "designed pose. Limb sinks: how much deeper than at the designed volume the limb sits in the socket "
+              "(negative: it rises). Constraints: the design's seven conditions evaluated on the delivered pressures.");
+  for (const auto& m : s.maps) h.image(png_data_uri(render_pressure_map(m)), m.title);
+  for (const auto& p : s.plots) h.image(svg_data_uri(render_svg(p)), p.title);
+}
+
+}  // namespace
+
+std::string render_design_report_html(const DesignReportData& d) {
+  HtmlWriter h(d.title);
+  if (!d.generated.empty()) h.paragraph(d.generated);
 
   if (!d.warnings.empty()) {
-    h.raw("<h2>Warnings</h2>\n<ul class=\"warn\">\n");
+    h.heading("Warnings");
+    h.raw("<ul class=\"warn\">\n");
     for (const auto& w : d.warnings) {
       h.raw("<li>");
       h.text(w);
@@ -804,69 +793,63 @@ std::string render_design_report_html(const DesignReportData& d) {
 
   // Patient.
   const ReportPatient& p = d.patient;
-  h.raw("<h2>Patient</h2>\n<table>\n");
-  if (!p.id.empty()) h.kv("patient", p.id);
-  h.kv("body mass", num(p.body_mass_kg) + " kg");
-  h.kv("prosthesis mass", num(p.prosthesis_mass_kg) + " kg");
-  h.kv("tissue Young's modulus E", kpa(p.tissue_youngs_modulus_pa) + " kPa");
-  h.kv("friction coefficient μ (skin–socket)", num(p.friction));
-  h.raw("</table>\n");
-  if (!p.note.empty()) {
-    h.raw("<div class=\"note\">");
-    h.text(p.note);
-    h.raw("</div>\n");
-  }
+  h.heading("Patient");
+  std::vector<std::pair<std::string, std::string>> patient;
+  if (!p.id.empty()) patient.push_back({"patient", p.id});
+  patient.push_back({"body mass", num(p.body_mass_kg) + " kg"});
+  patient.push_back({"prosthesis mass", num(p.prosthesis_mass_kg) + " kg"});
+  patient.push_back({"tissue Young's modulus E", kpa(p.tissue_youngs_modulus_pa) + " kPa"});
+  patient.push_back({"friction coefficient μ (skin–socket)", num(p.friction)});
+  h.table(patient);
+  if (!p.note.empty()) h.paragraph(p.note, "note");
 
   // Inputs.
-  h.raw("<h2>Inputs</h2>\n<table>\n");
-  h.kv("limb file", d.limb_file.empty() ? "—" : d.limb_file);
-  h.kv("limb", (d.limb_type.empty() ? std::string("—") : d.limb_type) +
-                   (d.side.empty() ? std::string() : ", " + d.side));
-  h.kv("mesh nodes", d.mesh_nodes > 0 ? std::to_string(d.mesh_nodes) : "—");
-  h.kv("tissue model", d.model.empty() ? "—" : d.model);
-  h.kv("brim template", d.brim_template.empty() ? "—" : d.brim_template);
-  h.raw("</table>\n");
+  h.heading("Inputs");
+  h.table({{"limb file", d.limb_file.empty() ? "—" : d.limb_file},
+           {"limb", (d.limb_type.empty() ? std::string("—") : d.limb_type) +
+                        (d.side.empty() ? std::string() : ", " + d.side)},
+           {"mesh nodes", d.mesh_nodes > 0 ? std::to_string(d.mesh_nodes) : "—"},
+           {"tissue model", d.model.empty() ? "—" : d.model},
+           {"brim template", d.brim_template.empty() ? "—" : d.brim_template}});
   if (!d.spots.empty()) {
-    h.raw("<h3>Pressure spots</h3>\n<table>\n");
-    h.row({"name", "type", "A [kPa]", "θ [°]", "h [mm]", "enabled"}, true);
+    h.heading("Pressure spots", 3);
+    std::vector<std::vector<std::string>> rows;
     for (const auto& s : d.spots)
-      h.row({s.name, s.type, kpa(s.amplitude_pa), spot_theta(s), spot_height(s),
-             s.is_enabled ? "yes" : "no"});
-    h.raw("</table>\n<p>θ: 0° anterior, +90° medial, 180° posterior; h above the distal end.</p>\n");
+      rows.push_back({s.name, s.type, kpa(s.amplitude_pa), spot_theta(s), spot_height(s), s.is_enabled ? "yes" : "no"});
+    h.table({"name", "type", "A [kPa]", "θ [°]", "h [mm]", "enabled"}, rows);
+    h.paragraph("θ: 0° anterior, +90° medial, 180° posterior; h above the distal end.");
   }
   if (!d.brim_key_points.empty()) {
-    h.raw("<h3>Brim key points</h3>\n<table>\n");
-    h.row({"θ [°]", "h [mm]"}, true);
-    for (const auto& k : d.brim_key_points) h.row({deg(k.theta_rad), mm(k.h_m)});
-    h.raw("</table>\n");
+    h.heading("Brim key points", 3);
+    std::vector<std::vector<std::string>> rows;
+    for (const auto& k : d.brim_key_points) rows.push_back({deg(k.theta_rad), mm(k.h_m)});
+    h.table({"θ [°]", "h [mm]"}, rows);
   }
 
   // Constraints.
   if (!d.radar.axes.empty()) {
-    const Image radar = render_radar_chart(d.radar);
     const int met = radar_axes_met(d.radar.axes);
     const int n = static_cast<int>(d.radar.axes.size());
-    h.raw("<h2>Constraints</h2>\n<p><strong>");
+    h.heading("Constraints");
+    h.raw("<p><strong>");
     h.text(met == n ? std::string("all constraints met") : fmt::format("{} of {} met", met, n));
-    h.raw("</strong></p>\n<img alt=\"radar chart of the constraints\" src=\"");
-    h.raw(png_uri(radar));
-    h.raw("\">\n<table>\n");
+    h.raw("</strong></p>\n");
+    h.image(png_data_uri(render_radar_chart(d.radar)), "radar chart of the constraints");
+    h.raw("<table>\n");
     h.row({"constraint", "value", "target", "normalised r", "status"}, true);
     for (const auto& a : d.radar.axes) {
       const std::string unit = a.unit.empty() ? "" : " " + a.unit;
       const std::string target = a.is_lower_bound ? "≥ " + num(a.target) + unit
                                                   : num(a.target) + " ± " + num(a.tolerance) + unit;
-      h.row({a.name, num(a.value) + unit, target, num(radar_radius(a)), a.is_ok ? "pass" : "FAIL"},
-            false, a.is_ok ? "ok" : "fail");
+      h.row({a.name, num(a.value) + unit, target, num(radar_radius(a)), a.is_ok ? "pass" : "FAIL"}, false,
+            a.is_ok ? "ok" : "fail");
     }
-    h.raw("</table>\n<p>Radius r = 1 + (value − target) / scale: the target circle is r = 1 for "
-          "every axis; scale = M g / 2 for forces and stability, M g / 2 × stump length for "
-          "torques.</p>\n");
+    h.raw("</table>\n");
+    h.paragraph("Radius r = 1 + (value − target) / scale: the target circle is r = 1 for every axis; scale = M g / 2 "
+                "for forces and stability, M g / 2 × stump length for torques.");
   }
 
   // Comfort.
-  h.raw("<h2>Comfort</h2>\n<table>\n");
-  h.kv("largest applied pressure", kpa(d.max_pressure_pa) + " kPa");
   std::string where = "—";
   if (d.has_max_ratio_position) {
     const auto& lms = !d.landmarks.empty() ? d.landmarks
@@ -880,13 +863,14 @@ std::string render_design_report_html(const DesignReportData& d) {
       }
     }
     if (lms.empty())
-      where = fmt::format("at ({}, {}, {}) mm", mm(d.max_ratio_position.x()),
-                          mm(d.max_ratio_position.y()), mm(d.max_ratio_position.z()));
+      where = fmt::format("at ({}, {}, {}) mm", mm(d.max_ratio_position.x()), mm(d.max_ratio_position.y()),
+                          mm(d.max_ratio_position.z()));
   }
-  h.kv("largest pressure / pain threshold", num(d.max_pressure_ratio) +
-                                                (d.max_pressure_ratio > 1 ? " (above the threshold)" : ""));
-  h.kv("where", where);
-  h.raw("</table>\n");
+  h.heading("Comfort");
+  h.table({{"largest applied pressure", kpa(d.max_pressure_pa) + " kPa"},
+           {"largest pressure / pain threshold",
+            num(d.max_pressure_ratio) + (d.max_pressure_ratio > 1 ? " (above the threshold)" : "")},
+           {"where", where}});
 
   // Axial load by region.
   if (!d.region_loads.empty()) {
@@ -907,127 +891,94 @@ std::string render_design_report_html(const DesignReportData& d) {
 
   // Maps.
   if (!d.maps.empty()) {
-    h.raw("<h2>Pressure maps</h2>\n");
+    h.heading("Pressure maps");
     for (const auto& m : d.maps) {
-      const Image img = render_pressure_map(m);
-      h.raw("<h3>");
-      h.text(m.title);
-      h.raw("</h3>\n<img alt=\"");
-      h.text(m.title);
-      h.raw("\" src=\"");
-      h.raw(png_uri(img));
-      h.raw("\">\n");
+      h.heading(m.title, 3);
+      h.image(png_data_uri(render_pressure_map(m)), m.title);
     }
-    h.raw("<p>Views: anterior, medial, posterior, lateral. Grey: no pressure (above the brim). "
-          "White markers: landmarks given; magenta: placed automatically.</p>\n");
+    h.paragraph("Views: anterior, medial, posterior, lateral. Grey: no pressure (above the brim). White markers: "
+                "landmarks given; magenta: placed automatically.");
   }
 
   // Profiles.
   if (!d.profiles.empty()) {
-    h.raw("<h2>Pressure along paths</h2>\n");
-    for (const auto& pr : d.profiles) {
-      const std::string svg = render_svg(path_profile_plot(pr));
-      h.raw("<img alt=\"");
-      h.text(pr.name);
-      h.raw("\" src=\"data:image/svg+xml;base64,");
-      h.raw(base64_encode(svg));
-      h.raw("\">\n");
-    }
+    h.heading("Pressure along paths");
+    for (const auto& pr : d.profiles) h.image(svg_data_uri(render_svg(path_profile_plot(pr))), pr.name);
   }
 
   // Socket.
   const ReportSocket& s = d.socket;
-  h.raw("<h2>Socket</h2>\n");
+  h.heading("Socket");
   if (!s.has_socket) {
-    h.raw("<p>No socket built.</p>\n");
+    h.paragraph("No socket built.");
   } else {
-    h.raw("<table>\n");
-    if (!s.stl_file.empty()) h.kv("socket file", s.stl_file);
-    h.kv("wall thickness", mm(s.thickness_m) + " mm");
+    std::vector<std::pair<std::string, std::string>> rows;
+    if (!s.stl_file.empty()) rows.push_back({"socket file", s.stl_file});
+    rows.push_back({"wall thickness", mm(s.thickness_m) + " mm"});
     if (s.max_thickness_m > 0)
-      h.kv("measured wall (min / median / max)",
-           mm(s.min_thickness_m) + " / " + mm(s.median_thickness_m) + " / " + mm(s.max_thickness_m) + " mm");
-    for (const auto& [k, v] : s.details) h.kv(k, v);
-    h.kv("limb volume (below the brim)", num(s.limb_volume_m3 * 1e6) + " cm³");
-    h.kv("socket inner volume", num(s.socket_volume_m3 * 1e6) + " cm³");
+      rows.push_back({"measured wall (min / median / max)",
+                      mm(s.min_thickness_m) + " / " + mm(s.median_thickness_m) + " / " + mm(s.max_thickness_m) + " mm"});
+    for (const auto& kv : s.details) rows.push_back(kv);
+    rows.push_back({"limb volume (below the brim)", num(s.limb_volume_m3 * 1e6) + " cm³"});
+    rows.push_back({"socket inner volume", num(s.socket_volume_m3 * 1e6) + " cm³"});
     if (s.limb_volume_m3 > 0)
-      h.kv("volume reduction",
-           num(100 * (s.limb_volume_m3 - s.socket_volume_m3) / s.limb_volume_m3) + " %");
-    h.raw("</table>\n");
-    if (s.has_thickness_map) {
-      const Image img = render_pressure_map(s.thickness_map);
-      h.raw("<img alt=\"wall thickness\" src=\"");
-      h.raw(png_uri(img));
-      h.raw("\">\n<p>Wall thickness: the distance from each point of the outer surface to the inner wall (grey: the "
-            "inner wall). The minimum leaves out the rounded brim edge.</p>\n");
-    }
+      rows.push_back({"volume reduction", num(100 * (s.limb_volume_m3 - s.socket_volume_m3) / s.limb_volume_m3) + " %"});
+    h.table(rows);
+    if (s.has_thickness_map)
+      h.image(png_data_uri(render_pressure_map(s.thickness_map)), "wall thickness",
+              "Wall thickness: the distance from each point of the outer surface to the inner wall (grey: the inner "
+              "wall). The minimum leaves out the rounded brim edge.");
     if (!s.circumferences.empty()) {
-      h.raw("<table>\n");
-      h.row({"h [mm]", "limb [mm]", "socket [mm]", "reduction [%]"}, true);
+      std::vector<std::vector<std::string>> circ;
       for (const auto& c : s.circumferences)
-        h.row({mm(c.height_m), mm(c.limb_m), mm(c.socket_m),
-               c.limb_m > 0 ? num(100 * (c.limb_m - c.socket_m) / c.limb_m) : "—"});
-      h.raw("</table>\n");
+        circ.push_back({mm(c.height_m), mm(c.limb_m), mm(c.socket_m),
+                        c.limb_m > 0 ? num(100 * (c.limb_m - c.socket_m) / c.limb_m) : "—"});
+      h.table({"h [mm]", "limb [mm]", "socket [mm]", "reduction [%]"}, circ);
     }
   }
+  rectification_section(h, d.rectification);
+  if (!d.slices.rows.empty()) append_slice_section(h, d.slices);
 
   // Delivered pressures.
   const ReportDelivery& dl = d.delivery;
   if (dl.has_delivery) {
-    h.raw("<h2>Delivered pressures (the socket donned and stood on)</h2>\n<p>");
-    h.text(dl.summary);
-    h.raw("</p>\n<table>\n");
-    h.row({"region", "socket", "nodes", "designed mean [kPa]", "delivered mean [kPa]", "MAE [kPa]",
-           "99th pct. error [kPa]", "max error [kPa]", "R", "designed SD [kPa]"},
-          true);
+    h.heading("Delivered pressures (the socket donned and stood on)");
+    h.paragraph(dl.summary);
+    std::vector<std::vector<std::string>> rows;
     for (const auto& a : dl.rows)
-      h.row({a.region, a.stage, std::to_string(a.count), kpa(a.target_mean_pa), kpa(a.delivered_mean_pa),
-             kpa(a.mae_pa), kpa(a.p99_pa), kpa(a.max_error_pa), std::isfinite(a.r) ? num(a.r, 3) : "—",
-             kpa(a.target_sd_pa)});
-    h.raw("</table>\n");
-    if (!dl.details.empty()) {
-      h.raw("<table>\n");
-      for (const auto& [k, v] : dl.details) h.kv(k, v);
-      h.raw("</table>\n");
-    }
+      rows.push_back({a.region, a.stage, std::to_string(a.count), kpa(a.target_mean_pa), kpa(a.delivered_mean_pa),
+                      kpa(a.mae_pa), kpa(a.p99_pa), kpa(a.max_error_pa), std::isfinite(a.r) ? num(a.r, 3) : "—",
+                      kpa(a.target_sd_pa)});
+    h.table({"region", "socket", "nodes", "designed mean [kPa]", "delivered mean [kPa]", "MAE [kPa]",
+             "99th pct. error [kPa]", "max error [kPa]", "R", "designed SD [kPa]"},
+            rows);
+    if (!dl.details.empty()) h.table(dl.details);
     for (const auto& m : dl.maps) {
-      h.raw("<h3>");
-      h.text(m.title);
-      h.raw("</h3>\n<img alt=\"");
-      h.text(m.title);
-      h.raw("\" src=\"");
-      h.raw(png_uri(render_pressure_map(m)));
-      h.raw("\">\n");
+      h.heading(m.title, 3);
+      h.image(png_data_uri(render_pressure_map(m)), m.title);
     }
-    for (const auto& pl : dl.plots) {
-      h.raw("<img alt=\"");
-      h.text(pl.title);
-      h.raw("\" src=\"data:image/svg+xml;base64,");
-      h.raw(base64_encode(render_svg(pl)));
-      h.raw("\">\n");
-    }
+    for (const auto& pl : dl.plots) h.image(svg_data_uri(render_svg(pl)), pl.title);
   }
+  sock_ply_section(h, d.sock_ply);
 
   // Runs.
   auto run_section = [&](const char* heading, const ReportRun& r) {
-    h.raw(fmt::format("<h2>{}</h2>\n", heading));
+    h.heading(heading);
     if (!r.has_run) {
-      h.raw("<p>Not run.</p>\n");
+      h.paragraph("Not run.");
       return;
     }
-    h.raw("<table>\n");
-    h.kv("converged", r.converged ? "yes" : "no");
-    h.kv("iterations", std::to_string(r.iterations));
-    h.kv("residual", num(r.residual, 4));
-    h.kv("time", num(r.seconds) + " s");
-    if (!r.message.empty()) h.kv("message", r.message);
-    for (const auto& [k, v] : r.details) h.kv(k, v);
-    h.raw("</table>\n");
+    std::vector<std::pair<std::string, std::string>> rows{{"converged", r.converged ? "yes" : "no"},
+                                                          {"iterations", std::to_string(r.iterations)},
+                                                          {"residual", num(r.residual, 4)},
+                                                          {"time", num(r.seconds) + " s"}};
+    if (!r.message.empty()) rows.push_back({"message", r.message});
+    for (const auto& kv : r.details) rows.push_back(kv);
+    h.table(rows);
   };
   run_section("Optimiser", d.optimiser);
   run_section("Solver", d.solver);
-  h.raw("</body>\n</html>\n");
-  return h.out.str();
+  return h.finish();
 }
 
 void write_design_report_html(const std::filesystem::path& path, const DesignReportData& data) {

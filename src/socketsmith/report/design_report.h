@@ -17,6 +17,7 @@
 #include "socketsmith/geometry/limb_frame.h"
 #include "socketsmith/geometry/tri_mesh.h"
 #include "socketsmith/report/raster.h"
+#include "socketsmith/report/slice_table.h"
 #include "socketsmith/report/svg_plot.h"
 
 namespace socketsmith::report {
@@ -346,6 +347,54 @@ struct ReportDelivery {
   std::vector<std::pair<std::string, std::string>> details;  ///< extra (name, value) rows
 };
 
+/// The rectification at one landmark: how far the socket's inner wall lies from the limb's skin,
+/// along the ray from the limb axis through the landmark (radially), or along the axis at the
+/// distal end.
+struct ReportRectificationPoint {
+  std::string code;              ///< "PT", ...
+  std::string name;              ///< "patellar tendon", ...
+  double theta_rad = 0, h_m = 0; ///< where, in the limb frame
+  double rectification_m = 0;    ///< socket − limb [m] (< 0: indentation); NaN above the brim (no wall)
+  bool is_axial = false;         ///< measured along the axis (the distal end)
+};
+
+/// The rectification chart: socket minus limb, radially (along the axis at the distal end); < 0:
+/// indentation, the socket presses the tissue in; > 0: relief.
+struct ReportRectification {
+  bool has_rectification = false;  ///< false = section omitted
+  std::string source;              ///< what the socket wall is ("the socket's inner wall", ...)
+  std::vector<ReportRectificationPoint> landmarks;
+  double min_m = 0, max_m = 0, mean_m = 0;  ///< over the skin below the brim (mean area-weighted) [m]
+  bool has_map = false;
+  PressureMapData map;             ///< the rectification on the skin [mm], a diverging colour map
+};
+
+/// One level of the sock-ply study: the designed socket donned on the limb shrunk or grown.
+struct ReportSockPlyLevel {
+  double volume_change = 0;       ///< fraction of the limb's volume (−0.04 = shrunk by 4 %)
+  double skin_offset_m = 0;       ///< the uniform normal offset of the skin that gives it [m]
+  bool stood = false;             ///< the socket took half the body weight
+  double stood_offset_m = 0;      ///< where it stood, relative to its designed pose along the axis [m]
+  double sink_m = 0;              ///< how much deeper the limb sits than at its designed volume [m] (< 0: it rises)
+  double peak_ratio = 0;          ///< max contact pressure / pain threshold below the brim
+  double peak_pressure_pa = 0;    ///< [Pa]
+  double distal_mean_pa = 0;      ///< area-weighted mean contact pressure over the distal end [Pa]
+  double distal_peak_pa = 0;      ///< [Pa]
+  int contact_nodes = 0;
+  std::string constraints;        ///< "all hold" or the failing ones
+  bool comfort_ok = false, stability_ok = false;
+  std::string message;            ///< why it did not stand, when it did not
+};
+
+/// The sock-ply sensitivity study.
+struct ReportSockPly {
+  bool has_study = false;         ///< false = section omitted
+  std::string summary;            ///< one line
+  std::vector<ReportSockPlyLevel> levels;  ///< ascending volume change, the designed volume (0) included
+  std::vector<PressureMapData> maps;       ///< contact pressure at chosen levels, one scale
+  std::vector<Plot> plots;                 ///< sink and peak ratio against the volume change
+};
+
 /// Everything in the report. Pictures are rendered from this data when the report is written.
 /// The axial load carried by one region of the skin (design/load_regions.h).
 struct ReportRegionLoad {
@@ -385,20 +434,23 @@ struct DesignReportData {
   std::vector<ReportRegionLoad> region_loads;  ///< "Axial load by region"; empty = section omitted
   std::string region_note;             ///< a line under that table (e.g. the template's floor)
   ReportSocket socket;
+  ReportRectification rectification;
+  SliceTable slices;               ///< limb against socket cavity; no rows = section omitted
   ReportDelivery delivery;
+  ReportSockPly sock_ply;
   ReportRun optimiser;
   ReportRun solver;
   std::vector<std::string> warnings;  ///< "bones estimated", "anterior estimated", ...
 };
 
 /// The report as one self-contained HTML5 document (pictures embedded as base64 PNG / SVG data
-/// URIs, inline CSS): patient, inputs (limb, mesh, model, spots in kPa/degrees/mm, brim), the
-/// radar chart and a table of the constraint values with targets and pass/fail, the largest
-/// pressure/threshold ratio and the nearest landmark zone, the axial load by region, pressure
-/// maps, path profiles,
-/// socket measurements (volume, circumferences with % reduction, thickness), the delivered
-/// pressures against the design (when the closed loop ran), optimiser and solver summaries,
-/// warnings. Every string is HTML-escaped.
+/// URIs, inline CSS with a print stylesheet for A4, html.h): patient, inputs (limb, mesh, model,
+/// spots in kPa/degrees/mm, brim), the radar chart and a table of the constraint values with
+/// targets and pass/fail, the largest pressure/threshold ratio and the nearest landmark zone,
+/// the axial load by region, pressure maps, path profiles, socket measurements (volume, circumferences with % reduction,
+/// thickness), the rectification chart, the slice measurements, the delivered pressures against
+/// the design (when the closed loop ran), the sock-ply study (when it ran), optimiser and solver
+/// summaries, warnings. Every string is HTML-escaped.
 /// @throws InvalidInputError as render_radar_chart / render_pressure_map / path_profile_plot.
 std::string render_design_report_html(const DesignReportData& data);
 

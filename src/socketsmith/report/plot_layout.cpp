@@ -108,7 +108,10 @@ LegendPosition best_legend_corner(const Plot& plot, const PlotLayout& l) {
   LegendPosition best = LegendPosition::TopRight;
   std::size_t fewest = std::numeric_limits<std::size_t>::max();
   for (LegendPosition corner : kCorners) {
-    const auto [x0, y0] = legend_origin(l, corner);
+    // Plain variables, not a structured binding: clang 14 (the fuzz and sanitizer builds) cannot
+    // capture a binding in a lambda.
+    const auto origin = legend_origin(l, corner);
+    const double x0 = origin.first, y0 = origin.second;
     const auto inside = [&](double u, double v) {
       return u >= x0 && u <= x0 + l.legend_w && v >= y0 && v <= y0 + l.legend_h;
     };

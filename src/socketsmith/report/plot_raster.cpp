@@ -181,7 +181,10 @@ void stroke_polyline(Coverage& cov, const std::vector<std::pair<double, double>>
     const double seg_start = start;
     start = std::isfinite(start + len) ? start + len : 0.0;
     if (!part || !std::isfinite(len)) continue;
-    const auto at = [&](double t) { return std::pair{ax + t * (bx - ax), ay + t * (by - ay)}; };
+    // Copies of the bindings: clang 14 (the fuzz and sanitizer builds) cannot capture a binding.
+    const auto at = [ax = ax, ay = ay, bx = bx, by = by](double t) {
+      return std::pair{ax + t * (bx - ax), ay + t * (by - ay)};
+    };
     if (!s.dashed || len == 0) {
       const auto [px0, py0] = at(part->first);
       const auto [px1, py1] = at(part->second);

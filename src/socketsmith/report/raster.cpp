@@ -56,6 +56,15 @@ constexpr std::array<Rgb, 9> kViridis{{{68, 1, 84},
 constexpr std::array<Rgb, 4> kPressure{
     {{35, 75, 205}, {50, 175, 80}, {250, 215, 45}, {205, 35, 35}}};
 constexpr std::array<Rgb, 2> kGreys{{{20, 20, 20}, {240, 240, 240}}};
+constexpr std::array<Rgb, 9> kDiverging{{{33, 102, 172},
+                                         {67, 147, 195},
+                                         {146, 197, 222},
+                                         {209, 229, 240},
+                                         {247, 247, 247},
+                                         {253, 219, 199},
+                                         {244, 165, 130},
+                                         {214, 96, 77},
+                                         {178, 24, 43}}};
 
 /// Half-open pixel rectangle [x0, x1) × [y0, y1).
 struct Rect {
@@ -442,6 +451,9 @@ Rgb colormap_colour(Colormap colormap, double t) {
       break;
     case Colormap::Greys:
       table = kGreys;
+      break;
+    case Colormap::Diverging:
+      table = kDiverging;
       break;
   }
   const double s = (t >= 0 ? std::min(t, 1.0) : 0.0) * double(table.size() - 1);

@@ -80,6 +80,7 @@ enum class Colormap {
   Viridis,   ///< perceptually uniform dark purple → blue → green → yellow
   Pressure,  ///< blue → green → yellow → red (Jet-like, the clinicians' pressure map)
   Greys,     ///< near black → near white
+  Diverging, ///< blue → white → red (ColorBrewer RdBu): signed fields centred on 0, e.g. deviations
 };
 
 /// Colour of @p colormap at @p t in [0, 1] (clamped; NaN gives the colour at 0).

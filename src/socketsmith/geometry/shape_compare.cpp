@@ -1,0 +1,357 @@
+#include "socketsmith/geometry/shape_compare.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <numbers>
+
+#include "socketsmith/core/errors.h"
+#include "socketsmith/geometry/mesh_checks.h"
+#include "socketsmith/geometry/socket_cavity.h"
+#include "socketsmith/geometry/surface_query.h"
+
+namespace socketsmith::geometry {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kRimMargin = 0.005;  // [m] the automatic crop lies this far below an opening
+
+std::string lower(std::string s) {
+  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::tolower(c); });
+  return s;
+}
+
+bool has_boundary(const TriMesh& m) { return !check_mesh(m).is_closed(); }
+
+/// The frame's 3×3 basis (anterior, anterior × axis, axis) as columns.
+Eigen::Matrix3d basis(const LimbFrame& f) {
+  Eigen::Matrix3d b;
+  const Vec3 ax = f.axis.normalized();
+  const Vec3 an = (f.anterior - f.anterior.dot(ax) * ax).normalized();
+  b.col(0) = an;
+  b.col(1) = ax.cross(an);
+  b.col(2) = ax;
+  return b;
+}
+
+/// The rigid transform that carries frame @p from onto frame @p to (origins and bases).
+RigidTransform frame_onto(const LimbFrame& from, const LimbFrame& to) {
+  RigidTransform t;
+  t.rotation = basis(to) * basis(from).transpose();
+  t.translation = to.origin - t.rotation * from.origin;
+  return t;
+}
+
+/// Area of the triangles around each vertex / 3.
+std::vector<double> vertex_areas(const TriMesh& m) {
+  std::vector<double> a(m.vertices.size(), 0.0);
+  for (int t = 0; t < m.num_triangles(); ++t)
+    for (int v : m.triangles[t]) a[v] += triangle_area(m, t) / 3.0;
+  return a;
+}
+
+double percentile(std::vector<double> v, double q) {
+  if (v.empty()) return kNaN;
+  std::sort(v.begin(), v.end());
+  const double pos = q * static_cast<double>(v.size() - 1);
+  const size_t i = static_cast<size_t>(std::floor(pos));
+  const double w = pos - static_cast<double>(i);
+  return i + 1 < v.size() ? (1 - w) * v[i] + w * v[i + 1] : v[i];
+}
+
+}  // namespace
+
+std::string to_string(ShapeKind kind) {
+  switch (kind) {
+    case ShapeKind::Auto: return "auto";
+    case ShapeKind::Surface: return "surface";
+    case ShapeKind::Socket: return "socket";
+  }
+  return "?";
+}
+
+ShapeKind parse_shape_kind(const std::string& text) {
+  for (ShapeKind k : {ShapeKind::Auto, ShapeKind::Surface, ShapeKind::Socket})
+    if (lower(text) == to_string(k)) return k;
+  fail("shape kind '{}' is not known (expected auto, surface or socket)", text);
+}
+
+std::string to_string(AlignmentSeed seed) {
+  switch (seed) {
+    case AlignmentSeed::Auto: return "auto";
+    case AlignmentSeed::Frames: return "frames";
+    case AlignmentSeed::Landmarks: return "landmarks";
+    case AlignmentSeed::Identity: return "identity";
+    case AlignmentSeed::None: return "none";
+  }
+  return "?";
+}
+
+AlignmentSeed parse_alignment_seed(const std::string& text) {
+  for (AlignmentSeed s : {AlignmentSeed::Auto, AlignmentSeed::Frames, AlignmentSeed::Landmarks, AlignmentSeed::Identity,
+                          AlignmentSeed::None})
+    if (lower(text) == to_string(s)) return s;
+  fail("alignment seed '{}' is not known (expected auto, frames, landmarks, identity or none)", text);
+}
+
+TriMesh largest_shell(const TriMesh& mesh, int* dropped) {
+  auto parts = split_components(mesh);
+  if (dropped) *dropped = std::max(0, static_cast<int>(parts.size()) - 1);
+  if (parts.size() <= 1) return mesh;
+  return *std::max_element(parts.begin(), parts.end(),
+                           [](const TriMesh& x, const TriMesh& y) { return surface_area(x) < surface_area(y); });
+}
+
+std::optional<double> radius_at(const SurfaceQuery& surface, const LimbFrame& frame, double theta_rad, double h_m) {
+  const auto hit = surface.first_hit(frame.on_axis(h_m), frame.radial(theta_rad));
+  if (!hit) return std::nullopt;
+  return hit->distance;
+}
+
+std::vector<double> signed_deviation(const TriMesh& from, const TriMesh& to, double max_distance_m,
+                                     const std::vector<char>& use) {
+  require(use.empty() || use.size() == from.vertices.size(), "signed_deviation: {} flags for {} vertices", use.size(),
+          from.vertices.size());
+  const SurfaceQuery q(to);
+  std::vector<Vec3> face_n(to.triangles.size());
+  for (int t = 0; t < to.num_triangles(); ++t) face_n[t] = triangle_normal(to, t);
+  const double cos_limit = std::cos(45.0 * std::numbers::pi / 180.0);
+  std::vector<double> out(from.vertices.size(), kNaN);
+  SurfaceHit hint;
+  for (size_t v = 0; v < from.vertices.size(); ++v) {
+    if (!use.empty() && !use[v]) continue;
+    const Vec3& p = from.vertices[v];
+    hint = hint.triangle >= 0 ? q.closest_point(p, hint) : q.closest_point(p);
+    if (hint.triangle < 0 || hint.distance > max_distance_m) continue;
+    const Vec3 d = p - hint.point;
+    const double nd = face_n[hint.triangle].dot(d);
+    if (hint.distance > 1e-9 && std::abs(nd) < cos_limit * hint.distance) continue;  // beyond the rim
+    out[v] = -nd;  // p inside `to` (d against its outward normal): `to` lies outside `from`
+  }
+  return out;
+}
+
+DeviationStats deviation_stats(const TriMesh& mesh, const std::vector<double>& values, const std::vector<char>& use) {
+  DeviationStats s;
+  const auto area = vertex_areas(mesh);
+  std::vector<double> vals;
+  double w = 0, m1 = 0, m2 = 0;
+  for (size_t v = 0; v < values.size(); ++v) {
+    if (!use[v]) continue;
+    ++s.points;
+    if (!std::isfinite(values[v])) continue;
+    ++s.covered;
+    vals.push_back(values[v]);
+    w += area[v];
+    m1 += area[v] * values[v];
+    m2 += area[v] * values[v] * values[v];
+  }
+  if (vals.empty() || w <= 0) return s;
+  s.mean_m = m1 / w;
+  s.rms_m = std::sqrt(m2 / w);
+  s.sd_m = std::sqrt(std::max(0.0, m2 / w - s.mean_m * s.mean_m));
+  s.min_m = *std::min_element(vals.begin(), vals.end());
+  s.max_m = *std::max_element(vals.begin(), vals.end());
+  s.p05_m = percentile(vals, 0.05);
+  s.p95_m = percentile(vals, 0.95);
+  return s;
+}
+
+ShapeComparison compare_shapes(const TriMesh& a_in, const TriMesh& b_in, const ShapeCompareOptions& o) {
+  require(!a_in.empty() && !b_in.empty(), "compare: shape {} has no triangles (expected a limb surface)",
+          a_in.empty() ? "A" : "B");
+  require(std::isfinite(o.slice_step_m) && o.slice_step_m > 0, "compare: slice step {} mm must be positive",
+          o.slice_step_m * 1e3);
+  require(o.rotation_seeds >= 1 && o.rotation_seeds <= 72, "compare: {} rotation seeds (expected 1-72)",
+          o.rotation_seeds);
+  require(std::isfinite(o.crop_height_m) && o.crop_height_m >= 0,
+          "compare: crop height {} mm must be positive (0: automatic)", o.crop_height_m * 1e3);
+  ShapeComparison r;
+  int dropped = 0;
+  r.a = largest_shell(a_in, &dropped);
+  if (dropped > 0) r.notes.push_back(fmt::format("A: kept its largest shell (the skin), {} other shell(s) left out", dropped));
+  try {
+    r.frame = estimate_limb_axis(r.a);
+  } catch (const InvalidInputError& e) {
+    fail("compare: shape A: {}", e.what());
+  }
+  if (!has_boundary(r.a)) r.notes.push_back("A is closed: its proximal cap is left out by the crop");
+  const double a_top = lowest_open_boundary_height(r.a, r.frame);
+  set_anterior(r.frame, estimate_anterior_from_skin(r.a, r.frame));
+
+  // B: a surface or a socket's cavity, with a frame of its own when it can have one.
+  r.b_kind = o.b_kind;
+  if (r.b_kind == ShapeKind::Auto) {
+    const bool closed = !has_boundary(b_in);
+    r.b_kind = closed && !SurfaceQuery(b_in).is_inside(bounding_box(b_in).center()) ? ShapeKind::Socket
+                                                                                     : ShapeKind::Surface;
+  }
+  TriMesh b;
+  std::optional<LimbFrame> frame_b;  // in B's own coordinates
+  bool b_in_a_coordinates = false;   // the socket surrounds A's axis where it is
+  if (r.b_kind == ShapeKind::Socket) {
+    const auto rep = check_mesh(b_in);
+    require(rep.is_closed() && rep.is_oriented(),
+            "compare: B is read as a socket but is not a closed, oriented solid ({} boundary edges): give the socket "
+            "solid, or --b-kind surface to compare it as a surface",
+            rep.boundary_edges);
+    b_in_a_coordinates = surrounds_axis(b_in, r.frame);
+    if (o.seed != AlignmentSeed::Identity && o.seed != AlignmentSeed::None) {
+      try {
+        frame_b = estimate_socket_frame(b_in);
+      } catch (const InvalidInputError& e) {
+        require(b_in_a_coordinates, "compare: B: {}", e.what());
+      }
+    }
+    require(b_in_a_coordinates || frame_b,
+            "compare: the socket B does not surround A's axis where it is: align them (--seed frames) or check the units");
+    b = cavity_surface(b_in, b_in_a_coordinates ? r.frame : *frame_b);
+    r.notes.push_back(fmt::format("B is a socket: its cavity ({} of its {} triangles) is compared", b.num_triangles(),
+                                  b_in.num_triangles()));
+  } else {
+    b = largest_shell(b_in, &dropped);
+    if (dropped > 0) r.notes.push_back(fmt::format("B: kept its largest shell, {} other shell(s) left out", dropped));
+    if (o.seed == AlignmentSeed::Frames || o.seed == AlignmentSeed::Auto) {
+      try {
+        LimbFrame f = estimate_limb_axis(b);
+        set_anterior(f, estimate_anterior_from_skin(b, f));
+        frame_b = f;
+      } catch (const InvalidInputError& e) {
+        require(o.seed != AlignmentSeed::Frames, "compare: shape B: {}", e.what());
+        r.notes.push_back(fmt::format("B has no limb frame of its own ({}): seeded by the identity only", e.what()));
+      }
+    }
+  }
+
+  // The crop: below A's opening (and B's, once aligned).
+  const double a_limit = a_top - kRimMargin;
+  require(a_limit > 2 * o.slice_step_m, "compare: A is only {:.0f} mm long below its opening: not a limb scan",
+          a_top * 1e3);
+  const auto h_of = [&r](const Vec3& p) { return (p - r.frame.origin).dot(r.frame.axis); };
+  double crop = o.crop_height_m > 0 ? std::min(o.crop_height_m, a_limit) : a_limit;
+  require(o.crop_height_m <= a_limit + 1e-9,
+          "compare: crop height {:.1f} mm is above A's opening less 5 mm ({:.1f} mm): lower --crop-mm", o.crop_height_m * 1e3,
+          a_limit * 1e3);
+  const SurfaceQuery qa(r.a);
+  const auto icp_with_crop = [&](const RigidTransform& from, const IcpOptions& io, double c) {
+    return align_icp(b, qa, from, io, [&h_of, c](const Vec3& x) { return h_of(x) < c; });
+  };
+
+  // Seeds, scored by a coarse ICP; the best refined.
+  std::vector<std::pair<std::string, RigidTransform>> seeds;
+  const AlignmentSeed seed = o.seed == AlignmentSeed::Auto && !o.landmarks_a.empty() && !o.landmarks_b.empty()
+                                 ? AlignmentSeed::Landmarks
+                                 : o.seed;
+  if (seed == AlignmentSeed::Landmarks) {
+    std::map<std::string, Vec3> la(o.landmarks_a.begin(), o.landmarks_a.end());
+    std::vector<Vec3> from, to;
+    std::string codes;
+    for (const auto& [code, p] : o.landmarks_b)
+      if (la.count(code)) {
+        from.push_back(p);
+        to.push_back(la[code]);
+        codes += (codes.empty() ? "" : ", ") + code;
+      }
+    require(from.size() >= 3,
+            "compare: {} landmark(s) common to A and B (expected at least 3 codes given for both, not on one line)",
+            from.size());
+    seeds.push_back({fmt::format("landmarks ({})", codes), kabsch(from, to)});
+  } else if (seed == AlignmentSeed::Identity || seed == AlignmentSeed::None) {
+    seeds.push_back({"identity (the shapes share their coordinates)", RigidTransform{}});
+  } else {
+    if (seed == AlignmentSeed::Auto) seeds.push_back({"identity (the shapes share their coordinates)", RigidTransform{}});
+    if (frame_b) {
+      const RigidTransform onto = frame_onto(*frame_b, r.frame);
+      for (int k = 0; k < o.rotation_seeds; ++k) {
+        const double turn = 2 * std::numbers::pi * k / o.rotation_seeds;
+        seeds.push_back({k == 0 ? std::string("limb frames")
+                                : fmt::format("limb frames, turned {:.0f}° about the axis", turn * 180 / std::numbers::pi),
+                         rotation_about(r.frame.origin, r.frame.axis, turn).after(onto)});
+      }
+    }
+  }
+  if (seed == AlignmentSeed::None) {
+    r.seed = "none (compared where they are)";
+  } else {
+    IcpOptions coarse = o.icp;
+    coarse.max_samples = std::min(coarse.max_samples, 1000);
+    coarse.max_iterations = std::min(coarse.max_iterations, 25);
+    coarse.convergence_m = std::max(coarse.convergence_m, 1e-6);
+    double best = std::numeric_limits<double>::infinity();
+    RigidTransform start;
+    for (const auto& [name, t] : seeds) {
+      if (seeds.size() == 1) {
+        r.seed = name;
+        start = t;
+        break;
+      }
+      IcpResult c;
+      try {
+        c = icp_with_crop(t, coarse, crop);
+      } catch (const InvalidInputError&) {
+        continue;  // this seed does not overlap
+      }
+      if (c.pairs < 12 || c.samples == 0) continue;
+      // Poor overlap is penalised: a seed that pairs few samples may fit those few well.
+      const double score = c.rms_m * static_cast<double>(c.samples) / c.pairs + c.rms_distance_m * 1e-3;
+      if (score < best) {
+        best = score;
+        r.seed = name;
+        start = c.transform;
+      }
+    }
+    require(std::isfinite(best) || seeds.size() == 1,
+            "compare: no seed brought B onto A (tried {}): give landmarks, or check the units and that both are limbs",
+            seeds.size());
+    if (seeds.size() > 1) r.notes.push_back(fmt::format("{} alignment seeds tried; best: {}", seeds.size(), r.seed));
+    r.icp = icp_with_crop(start, o.icp, crop);
+    r.transform = r.icp.transform;
+  }
+  r.b = transformed(b, r.transform);
+
+  // B's opening in A's frame lowers the crop: both must be closed below it.
+  if (has_boundary(r.b)) {
+    double b_top = std::numeric_limits<double>::infinity();
+    const TriMesh& bb = r.b;
+    const auto rep_edges = [&bb]() {
+      std::map<std::pair<int, int>, int> count;
+      for (const auto& t : bb.triangles)
+        for (int k = 0; k < 3; ++k) ++count[std::minmax(t[k], t[(k + 1) % 3])];
+      return count;
+    }();
+    for (const auto& [e, c] : rep_edges)
+      if (c == 1) b_top = std::min({b_top, h_of(bb.vertices[e.first]), h_of(bb.vertices[e.second])});
+    const double b_limit = b_top - kRimMargin;
+    require(b_limit > 2 * o.slice_step_m, "compare: B's opening lies {:.0f} mm above A's distal end: B does not cover A",
+            b_top * 1e3);
+    require(o.crop_height_m <= b_limit + 1e-9,
+            "compare: crop height {:.1f} mm is above B's opening less 5 mm ({:.1f} mm in A's frame): lower --crop-mm",
+            o.crop_height_m * 1e3, b_limit * 1e3);
+    if (b_limit < crop - 1e-3 && seed != AlignmentSeed::None) {
+      r.notes.push_back(fmt::format("crop lowered to {:.1f} mm, below B's opening", b_limit * 1e3));
+      crop = b_limit;
+      r.icp = icp_with_crop(r.transform, o.icp, crop);
+      r.transform = r.icp.transform;
+      r.b = transformed(b, r.transform);
+    }
+    crop = std::min(crop, b_limit);
+  }
+  r.crop_height_m = crop;
+
+  // Deviation at A's points below the crop; slices and volumes.
+  std::vector<char> use(r.a.vertices.size(), 0);
+  for (size_t v = 0; v < use.size(); ++v) use[v] = h_of(r.a.vertices[v]) < crop ? 1 : 0;
+  r.deviation_m = signed_deviation(r.a, r.b, o.icp.max_distance_m, use);
+  r.stats = deviation_stats(r.a, r.deviation_m, use);
+  const auto heights = slice_heights(o.slice_step_m, crop);
+  const auto sa = measure_slices(r.a, r.frame, heights);
+  const auto sb = measure_slices(r.b, r.frame, heights);
+  for (size_t k = 0; k < heights.size(); ++k) r.slices.push_back({heights[k], sa[k], sb[k]});
+  r.volume_a_m3 = sa.back().volume_below_m3;
+  r.volume_b_m3 = sb.back().volume_below_m3;
+  return r;
+}
+
+}  // namespace socketsmith::geometry
