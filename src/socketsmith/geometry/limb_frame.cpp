@@ -4,6 +4,7 @@
 #include <cctype>
 
 #include "socketsmith/core/errors.h"
+#include "socketsmith/geometry/mesh_checks.h"
 
 #include <fmt/format.h>
 
@@ -187,10 +188,18 @@ LimbFrame finish_frame(const TriMesh& skin, const Vec3& axis, const Vec3& centre
   const double top = lowest_open_boundary_height(skin, frame);
   const Slice s_mid = slice_surface(skin, frame.on_axis(0.5 * top), axis);
   const Slice s_end = slice_surface(skin, frame.on_axis(0.03 * top), axis);
-  require(s_mid.area != 0.0 && std::abs(s_end.area) < 0.75 * std::abs(s_mid.area),
-          "the surface does not taper to a rounded distal end (section area 3 % from the end is "
-          "{:.0f} % of mid-length): not a residual limb; check the file (a box or cylinder?)",
-          s_mid.area != 0.0 ? 100.0 * std::abs(s_end.area / s_mid.area) : 0.0);
+  if (s_mid.area != 0.0 && std::abs(s_end.area) < 0.75 * std::abs(s_mid.area)) return frame;
+  // Open at both ends (a tube: e.g. an AAOP shape whose first slice is a ring, not a point) is a
+  // different mistake from a box or a cylinder: say which.
+  const int loops = check_mesh(skin).boundary_loops;
+  require(loops < 2,
+          "the surface is open at both ends ({} open boundaries): a residual limb must be closed at its "
+          "distal end; close the distal opening (a scan or an AAOP shape whose first slice is a ring) and "
+          "give the file again",
+          loops);
+  fail("the surface does not taper to a rounded distal end (section area 3 % from the end is "
+       "{:.0f} % of mid-length): not a residual limb; check the file (a box or cylinder?)",
+       s_mid.area != 0.0 ? 100.0 * std::abs(s_end.area / s_mid.area) : 0.0);
   return frame;
 }
 
