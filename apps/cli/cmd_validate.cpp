@@ -361,9 +361,9 @@ void run_validate_design(const DesignFlags& f) {
       m.frame = report::surface_frame(d.frame);
       return report::render_pressure_map(m);
     };
-    const std::string ours = f.against_donning ? "socketsmith donning" : "socketsmith (designed)";
+    const std::string ours_label = f.against_donning ? "socketsmith donning" : "socketsmith (designed)";
     report::write_png(out / "comparison_map.png",
-                      report::stack_images({map(v_ss, ours + ": " + what, vmax), map(v_fe, "CalculiX: " + what, vmax),
+                      report::stack_images({map(v_ss, ours_label + ": " + what, vmax), map(v_fe, "CalculiX: " + what, vmax),
                                             map(v_err, "|CalculiX - socketsmith|", emax)}));
   }
   nlohmann::json j{{"case", f.demo ? std::string("demo") : f.case_file},

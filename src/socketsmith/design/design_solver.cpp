@@ -63,8 +63,7 @@ RadarValues compute_radar(const std::vector<Vec3>& pos, const std::vector<Vec3>&
     const Vec3 fi = -mag * normal[i];
     f += fi;
     t += (pos[i] - centre).cross(fi);
-    const double nz = normal[i].dot(ez);
-    fr += friction * mag * std::sqrt(std::max(0.0, 1.0 - nz * nz));
+    fr += axial_friction_n(p[i], area[i], normal[i], ez, friction);
   }
   RadarValues r;
   r.force_n = Vec3(f.dot(ex), f.dot(ey), f.dot(ez) + fr);

@@ -24,6 +24,8 @@
 /// 2–4 passes); when it oscillates or takes long, with Aitken relaxation. A state whose iteration
 /// did not converge within its cap does not meet its constraints (ConstraintStatus::follower_converged).
 
+#include <algorithm>
+#include <cmath>
 #include <functional>
 #include <memory>
 #include <string>
@@ -77,6 +79,20 @@ struct ConstraintStatus {
 };
 
 RadarTargets radar_targets(const PatientLoad& patient, double stump_length_m);
+
+/// The friction a skin node offers along the limb's @p axis (unit) in the design's model: sliding
+/// friction μ p A on the skin's tangent plane, its axial part μ p A |n × axis| [N] (@p normal the
+/// outward unit normal). The radar's stability S is the sum over the nodes.
+inline double axial_friction_n(double pressure_pa, double area_m2, const Vec3& normal, const Vec3& axis,
+                               double friction) {
+  const double nz = normal.dot(axis);
+  return friction * pressure_pa * area_m2 * std::sqrt(std::max(0.0, 1.0 - nz * nz));
+}
+
+/// A skin node's part of the radar's F_z: its normal force along the axis plus axial_friction_n [N].
+inline double axial_load_n(double pressure_pa, double area_m2, const Vec3& normal, const Vec3& axis, double friction) {
+  return -pressure_pa * area_m2 * normal.dot(axis) + axial_friction_n(pressure_pa, area_m2, normal, axis, friction);
+}
 
 /// Radar values of pressures @p p [Pa] on skin nodes at deformed @p pos with outward unit
 /// @p normal and nodal @p area, about @p centre. Pure function (the same formula a reader applies

@@ -95,7 +95,7 @@ std::vector<RegionLoad> region_loads(const std::vector<LoadRegion>& regions, con
     const double nz = state.skin_normals[i].dot(frame.axis);
     r.area_m2 += a;
     r.normal_axial_n += -p * a * nz;
-    r.friction_axial_n += friction * p * a * std::sqrt(std::max(0.0, 1.0 - nz * nz));
+    r.friction_axial_n += axial_friction_n(p, a, state.skin_normals[i], frame.axis, friction);
     r.mean_pressure_pa += p * a;
     r.peak_pressure_pa = std::max(r.peak_pressure_pa, p);
   }

@@ -149,8 +149,7 @@ struct AmplitudeProblem {
   Eigen::Matrix<double, 7, 1> unit_radar(size_t i, const geometry::LimbFrame& fr, double mu) const {
     const Vec3 f = -area[i] * normal[i];
     const Vec3 t = (pos[i] - centre).cross(f);
-    const double nz = normal[i].dot(fr.axis);
-    const double s = mu * area[i] * std::sqrt(std::max(0.0, 1.0 - nz * nz));
+    const double s = axial_friction_n(1.0, area[i], normal[i], fr.axis, mu);
     Eigen::Matrix<double, 7, 1> g;
     g << f.dot(fr.anterior), f.dot(fr.medial()), f.dot(fr.axis) + s, t.dot(fr.anterior), t.dot(fr.medial()),
         t.dot(fr.axis), s;

@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include "socketsmith/core/errors.h"
+#include "socketsmith/design/design_solver.h"
 
 namespace socketsmith::design {
 
@@ -55,9 +56,7 @@ TemplateCheck check_template(BrimTemplate kind, const std::vector<volume::Landma
   TemplateCheck c;
   c.template_name = to_string(kind);
   for (size_t i = 0; i < n; ++i) {
-    const double p = (*s.pressures_pa)[i], a = (*s.areas_m2)[i];
-    const double nz = (*s.normals)[i].dot(axis);
-    axial[i] = p * a * (-nz + friction * std::sqrt(std::max(0.0, 1.0 - nz * nz)));
+    axial[i] = axial_load_n((*s.pressures_pa)[i], (*s.areas_m2)[i], (*s.normals)[i], axis, friction);
     c.total_axial_n += axial[i];
   }
   const auto measure = [&](const std::string& key, const std::vector<char>& in, std::vector<std::string> codes) {

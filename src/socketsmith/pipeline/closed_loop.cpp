@@ -252,10 +252,7 @@ ClosedLoopResult close_design_loop(DesignSetup& setup, const DesignResult& resul
     // donned and stood, the socket mobilises a share of what its delivered pressures make available
     // (nodes stuck by the donning's friction history carry less).
     double available = 0;
-    for (int i : compared) {
-      const double nz = state.skin_normals[i].dot(axis);
-      available += mu * delivered[i] * state.skin_areas[i] * std::sqrt(std::max(0.0, 1 - nz * nz));
-    }
+    for (int i : compared) available += design::axial_friction_n(delivered[i], state.skin_areas[i], state.skin_normals[i], axis, mu);
     it.friction_utilisation = available > 0 ? it.axial_friction_n / available : 1.0;
     r.delivered_by_iteration.push_back(delivered);
     r.offset_by_iteration.push_back(offset);
