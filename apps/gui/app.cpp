@@ -413,10 +413,8 @@ void App::optimise(double time_limit_s) {
   if (!worker_) return;
   if (time_limit_s > 0) design::check_input(design::limits::kTimeLimit, time_limit_s, "optimise: time limit");
   push_history();
-  design::OptimizerOptions o;
+  design::OptimizerOptions o = pipeline::optimizer_options(*setup_, case_);
   o.time_limit_s = time_limit_s;
-  o.objective = case_.objective;
-  o.model_pressure_limit = case_.model_pressure_limit;
   DesignRequest r;
   r.spots = case_.spots;
   r.generation = ++generation_;
@@ -582,6 +580,7 @@ void App::update_feedback() {
   try {
     radar_ = pipeline::radar_axes(*setup_, st);
     profiles_ = pipeline::pressure_profiles(*setup_, st);
+    template_ = pipeline::template_check(*setup_, st);
   } catch (const Error& e) {
     show_error(e.what());
   }
@@ -908,6 +907,36 @@ void App::draw_patient_panel() {
   }
 }
 
+/// What the design means against its brim template: per region the mean and peak pressure and the
+/// share of the axial load, and the template's criteria (green when they hold).
+void App::draw_template_check() {
+  if (!template_ || !ImGui::CollapsingHeader("Template regions", ImGuiTreeNodeFlags_DefaultOpen)) return;
+  const design::TemplateCheck& t = *template_;
+  if (t.applies) {
+    ImGui::PushStyleColor(ImGuiCol_Text, t.met ? IM_COL32(90, 220, 110, 255) : IM_COL32(255, 120, 100, 255));
+    ImGui::TextWrapped("%s: %s", t.template_name.c_str(), t.met ? "means its template" : "does NOT mean its template");
+    ImGui::PopStyleColor();
+  }
+  if (ImGui::BeginTable("regions", 4, ImGuiTableFlags_Borders | ImGuiTableFlags_SizingStretchProp)) {
+    for (const char* h : {"region", "mean kPa", "peak kPa", "% of F_z"}) ImGui::TableSetupColumn(h);
+    ImGui::TableHeadersRow();
+    for (const design::ZoneLoad* r : {&t.tolerant, &t.sensitive, &t.distal_fifth, &t.below_brim}) {
+      if (r->nodes == 0) continue;
+      ImGui::TableNextRow();
+      ImGui::TableNextColumn();
+      ImGui::TextUnformatted(r->codes.empty() ? r->key.c_str() : fmt::format("{}", fmt::join(r->codes, " ")).c_str());
+      ImGui::TableNextColumn();
+      ImGui::Text("%.1f", r->mean_pa / 1e3);
+      ImGui::TableNextColumn();
+      ImGui::Text("%.1f", r->peak_pa / 1e3);
+      ImGui::TableNextColumn();
+      ImGui::Text("%.0f", 100 * r->axial_share);
+    }
+    ImGui::EndTable();
+  }
+  if (t.applies) ImGui::TextWrapped("%s", t.summary.c_str());
+}
+
 void App::draw_feedback_panel() {
   if (job_) {
     std::string stage;
@@ -945,6 +974,7 @@ void App::draw_feedback_panel() {
     ImGui::TextWrapped("Check %s: estimated from the skin", fmt::format("{}", fmt::join(estimated, ", ")).c_str());
     ImGui::PopStyleColor();
   }
+  draw_template_check();
   if (ImGui::CollapsingHeader("Log")) {
     ImGui::BeginChild("log", ImVec2(0, 160), true, ImGuiWindowFlags_HorizontalScrollbar);
     std::lock_guard lock(log_->mutex);

@@ -115,6 +115,8 @@ class App {
   bool has_state() const { return state_.has_value(); }
   const design::CaseFile& document() const { return case_; }
   const std::optional<design::DesignState>& state() const { return state_; }
+  /// The shown state read against its brim template (what the "Template regions" panel shows).
+  const std::optional<design::TemplateCheck>& template_check() const { return template_; }
   const std::vector<std::string>& errors() const { return errors_; }
   long solves_done() const { return worker_ ? worker_->solves_done() : 0; }
   OrbitCamera& camera() { return camera_; }
@@ -148,6 +150,7 @@ class App {
   void draw_design_panel();
   void draw_patient_panel();
   void draw_feedback_panel();
+  void draw_template_check();
   void draw_viewport_overlay(int x, int y, int width, int height);
   void draw_file_dialog();
   void draw_close_dialog();
@@ -179,6 +182,7 @@ class App {
   std::uint64_t generation_ = 0;
   std::optional<design::DesignState> state_;
   std::vector<report::RadarAxis> radar_;
+  std::optional<design::TemplateCheck> template_;  // the state read against its brim template
   std::vector<report::PathProfile> profiles_;
   std::string solve_status_;
   std::string optimiser_message_;

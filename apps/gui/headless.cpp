@@ -147,7 +147,14 @@ void HeadlessRunner::run_action(const json& a, int width, int height) {
                  {"max_pressure_ratio", st.max_requested_ratio},
                  {"max_displacement_mm", st.max_displacement_m * 1e3},
                  {"spots", spots}};
-    write_text_atomically(a.at("path").get<std::string>(), j.dump(2) + "\n");
+    json out = j;
+    if (const auto& t = app_.template_check())
+      out["template_regions"] = {{"template", t->template_name},
+                                 {"met", t->met},
+                                 {"tolerant_to_sensitive", t->tolerant_to_sensitive},
+                                 {"distal_fifth_share", t->distal_fifth.axial_share},
+                                 {"cv_below_brim", t->cv_below_brim}};
+    write_text_atomically(a.at("path").get<std::string>(), out.dump(2) + "\n");
   } else if (what == "wait_frames") {
     settle_ = std::max(settle_, a.at("count").get<int>());
   } else {

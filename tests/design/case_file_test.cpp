@@ -142,6 +142,18 @@ TEST(CaseFile, an_empty_document_is_the_default_case) {
   EXPECT_EQ(case_to_json(c)["design"]["spots"], "default");
 }
 
+TEST(CaseFile, following_the_template_and_the_uniform_objective_are_read_and_kept) {
+  EXPECT_TRUE(parse_case(json::object()).follow_template);  // the default: the optimiser aims at the template
+  const CaseFile c = parse_case(json::parse(R"({"design": {"follow_template": false, "objective": "uniform"}})"));
+  EXPECT_FALSE(c.follow_template);
+  EXPECT_EQ(c.objective, OptimizerOptions::Objective::Uniform);
+  const CaseFile again = parse_case(case_to_json(c));
+  EXPECT_FALSE(again.follow_template);
+  EXPECT_EQ(again.objective, OptimizerOptions::Objective::Uniform);
+  EXPECT_THROW(parse_case(json::parse(R"({"design": {"follow_template": "yes"}})")), InvalidInputError);
+  EXPECT_THROW(parse_case(json::parse(R"({"design": {"objective": "even"}})")), InvalidInputError);
+}
+
 void expect_error(const std::string& text, const std::string& needle) {
   try {
     parse_case(json::parse(text));

@@ -165,6 +165,13 @@ TEST_F(GuiSession, the_optimiser_changed_the_amplitudes_and_met_the_constraints)
   const json st = read_json(dir_ / "optimised_state.json");
   EXPECT_TRUE(st["constraints_met"].get<bool>()) << st.dump(2);
   EXPECT_LE(st["max_pressure_ratio"].get<double>(), 1.0 + 1e-9);
+  // The GUI's Optimise follows the brim template as `design` does (issue 22): PTB bears on the
+  // tolerant regions and keeps the distal fifth under 10 % of the axial load.
+  ASSERT_TRUE(st.contains("template_regions")) << st.dump(2);
+  EXPECT_EQ(st["template_regions"]["template"], "ptb");
+  EXPECT_TRUE(st["template_regions"]["met"].get<bool>()) << st["template_regions"].dump();
+  EXPECT_GE(st["template_regions"]["tolerant_to_sensitive"].get<double>(), 1.5);
+  EXPECT_LE(st["template_regions"]["distal_fifth_share"].get<double>(), 0.10);
 }
 
 /// Fraction of the view's centre that is not background, and the number of distinct colours.

@@ -89,6 +89,16 @@ TEST_F(DemoRun, RadarRecomputedFromSurfaceNodesEqualsTheReportAndTheSocketIsASol
     EXPECT_GT(tr["regions"][key]["axial_share"].get<double>(), 0.0) << key;
     EXPECT_LT(tr["regions"][key]["axial_share"].get<double>(), 1.0) << key;
   }
+  // The optimiser followed the PTB template (issue 22): the tolerant regions bear at least 1.5 ×
+  // the sensitive ones on average, and the distal fifth carries at most 10 % of the axial load
+  // (optimizer_test recomputes both from the solved state; without the template's constraints the
+  // same stump reads 0.8 × and 32 %).
+  EXPECT_TRUE(tr["optimiser_follows"].get<bool>());
+  EXPECT_TRUE(tr["optimiser_kept"].get<bool>());
+  EXPECT_TRUE(tr["met"].get<bool>()) << tr["summary"].get<std::string>();
+  EXPECT_GE(tr["regions"]["tolerant"]["mean_kpa"].get<double>(),
+            1.5 * tr["regions"]["sensitive"]["mean_kpa"].get<double>());
+  EXPECT_LE(tr["regions"]["distal_fifth"]["axial_share"].get<double>(), 0.10);
 
   // The socket: a closed manifold solid of the requested thickness.
   geometry::MeshReadOptions ro;
@@ -170,6 +180,38 @@ TEST(TransfemoralCase, RealLimbWithoutABrimGetsAnIschialContainment) {
   EXPECT_NE(report.find("Axial load by region"), std::string::npos);
   const auto socket = geometry::read_mesh(dir / "out" / "socket.stl", {});
   EXPECT_TRUE(geometry::check_mesh(socket).is_valid_closed_surface());
+}
+
+// A TSB brim means total surface bearing: the optimiser evens the pressure out over the whole skin
+// below the brim (objective "uniform", a contact row up to the brim). The coefficient of variation
+// is recomputed here from surface_nodes.csv.
+TEST(TsbCase, a_tsb_design_bears_on_the_whole_skin_below_the_brim) {
+  const fs::path dir = fs::path(SOCKETSMITH_BINARY_DIR) / "tests" / "pipeline_tsb";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  {
+    std::ofstream c(dir / "tsb.json");
+    c << nlohmann::json{{"socketsmith_case", 1},
+                        {"limb", {{"type", "transtibial"}, {"generate_seed", 3}}},
+                        {"brim", {{"template", "tsb"}}},
+                        {"mesh", {{"target_nodes", 3000}}}}
+             .dump();
+  }
+  const std::string cmd = std::string(SOCKETSMITH_BINARY_DIR) + "/socketsmith design " + (dir / "tsb.json").string() +
+                          " --out " + (dir / "out").string() + " > " + (dir / "log.txt").string() + " 2>&1";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << "see " << (dir / "log.txt").string();
+  std::ifstream in(dir / "out" / "design.json");
+  const auto j = nlohmann::json::parse(in);
+  EXPECT_TRUE(j["constraints_met"].get<bool>());
+  const auto t = report::read_csv(dir / "out" / "surface_nodes.csv");
+  const auto a = t.column("area_m2"), p = t.column("pressure_pa"), above = t.column("above_brim");
+  double area = 0, pa = 0, p2a = 0;
+  for (size_t i = 0; i < a.size(); ++i)
+    if (above[i] < 0.5) area += a[i], pa += p[i] * a[i], p2a += p[i] * p[i] * a[i];
+  const double mean = pa / area, cv = std::sqrt(std::max(0.0, p2a / area - mean * mean)) / mean;
+  EXPECT_LE(cv, 0.35);
+  EXPECT_NEAR(cv, j["template_regions"]["cv_below_brim"].get<double>(), 1e-6);
+  EXPECT_TRUE(j["template_regions"]["met"].get<bool>());
 }
 
 TEST(ModelOptions, a_case_files_tissue_model_and_poisson_ratio_reach_the_model) {

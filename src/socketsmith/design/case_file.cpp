@@ -70,7 +70,11 @@ Eigen::Vector3d vec3(const json& j, const std::string& where) {
 }
 
 std::string objective_name(OptimizerOptions::Objective o) {
-  return o == OptimizerOptions::Objective::Ratio ? "ratio" : "pressure";
+  switch (o) {
+    case OptimizerOptions::Objective::Ratio: return "ratio";
+    case OptimizerOptions::Objective::Uniform: return "uniform";
+    default: return "pressure";
+  }
 }
 }  // namespace
 
@@ -304,7 +308,7 @@ CaseFile parse_case(const json& doc, const std::filesystem::path& folder) {
   if (doc.contains("design")) {
     const auto& j = doc.at("design");
     check_keys(j, "design", {"spots", "optimise", "objective", "model_pressure_limit", "time_limit_s", "closed_loop",
-                             "closed_loop_donnings", "ischial_share_min"});
+                             "closed_loop_donnings", "ischial_share_min", "follow_template"});
     if (j.contains("ischial_share_min")) {
       const double v = number(j, "ischial_share_min", "design", 0.0);
       require(v >= 0.0 && v <= 0.9,
@@ -312,9 +316,13 @@ CaseFile parse_case(const json& doc, const std::filesystem::path& folder) {
       c.ischial_share_min = v;
     }
     c.optimise = flag(j, "optimise", "design", true);
+    c.follow_template = flag(j, "follow_template", "design", c.follow_template);
     const std::string obj = text(j, "objective", "design", "pressure");
-    require(obj == "pressure" || obj == "ratio", "case file: design.objective '{}' is not known (pressure or ratio)", obj);
-    c.objective = obj == "ratio" ? OptimizerOptions::Objective::Ratio : OptimizerOptions::Objective::Pressure;
+    require(obj == "pressure" || obj == "ratio" || obj == "uniform",
+            "case file: design.objective '{}' is not known (pressure, ratio or uniform)", obj);
+    c.objective = obj == "ratio"     ? OptimizerOptions::Objective::Ratio
+                  : obj == "uniform" ? OptimizerOptions::Objective::Uniform
+                                     : OptimizerOptions::Objective::Pressure;
     c.model_pressure_limit =
         limited(j, "model_pressure_limit", "design", c.model_pressure_limit, limits::kModelPressureLimit);
     c.time_limit_s = limited(j, "time_limit_s", "design", c.time_limit_s, limits::kTimeLimit);
@@ -409,7 +417,7 @@ json case_to_json(const CaseFile& c) {
   for (const auto& s : c.spots) spots.push_back(spot_to_json(s));
   json design{{"optimise", c.optimise}, {"objective", objective_name(c.objective)},
               {"model_pressure_limit", c.model_pressure_limit}, {"closed_loop", c.closed_loop},
-              {"closed_loop_donnings", c.closed_loop_donnings}};
+              {"closed_loop_donnings", c.closed_loop_donnings}, {"follow_template", c.follow_template}};
   if (c.ischial_share_min) design["ischial_share_min"] = *c.ischial_share_min;
   if (c.time_limit_s > 0) design["time_limit_s"] = c.time_limit_s;
   if (c.spots.empty()) design["spots"] = "default";

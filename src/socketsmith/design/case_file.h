@@ -69,6 +69,10 @@ struct CaseFile {
   /// Transfemoral: the least share of the axial load on the ischial/gluteal region the optimiser
   /// keeps, [0, 0.9]; not given: the brim template's (default_ischial_share).
   std::optional<double> ischial_share_min;
+  /// The optimiser aims at what the brim template means (design/template_regions.h): PTB family —
+  /// the tolerant regions' mean pressure ≥ 1.5 × the sensitive ones', the distal fifth ≤ 10 % of
+  /// the axial load. false: only the seven constraints and the most even pressure.
+  bool follow_template = true;
   double time_limit_s = 0.0;               ///< the optimiser's wall-time bound [s]; 0 = none
   /// Closed-loop design (pipeline/closed_loop.h): don and stand on the socket, correct its wall
   /// until it delivers the designed pressures, write the corrected socket.

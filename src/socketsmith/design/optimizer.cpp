@@ -52,7 +52,8 @@ Spot cos_sig(const std::string& name, double theta, double r_theta, double h1, d
 }
 }  // namespace
 
-std::vector<Spot> default_spots(geometry::LimbType type, const std::vector<volume::Landmark>& lms, double L) {
+std::vector<Spot> default_spots(geometry::LimbType type, const std::vector<volume::Landmark>& lms, double L,
+                                bool total_surface) {
   const auto need = [&](const char* code) -> const volume::Landmark& {
     const auto* l = find_landmark(lms, code);
     require(l != nullptr, "default spot layout: landmark {} is missing (place it in the case file's landmarks)", code);
@@ -91,8 +92,9 @@ std::vector<Spot> default_spots(geometry::LimbType type, const std::vector<volum
     s.push_back(cos_sig("medial wall", 90 * kDeg, 40 * kDeg, 0.3 * L, 0.7 * L, lam));
   }
   // Total contact: a background of broad COS2 spots tiled below the brim (8 around × 3 heights),
-  // so that the optimiser can spread the load where the landmark spots alone would peak.
-  for (int j = 0; j < 3; ++j)
+  // so that the optimiser can spread the load where the landmark spots alone would peak; a fourth
+  // row centred at 0.8 L reaches the brim for total surface bearing.
+  for (int j = 0; j < (total_surface ? 4 : 3); ++j)
     for (int i = 0; i < 8; ++i) {
       Spot c = cos2(fmt::format("contact {}/{}", i + 1, j + 1), wrap_angle((-180 + 45 * i) * kDeg), (0.2 + 0.2 * j) * L,
                     45 * kDeg, 0.2 * L);
@@ -130,6 +132,8 @@ struct AmplitudeProblem {
   Eigen::MatrixXd phi_obj;            // what J evens: φ_k(i) / T_i or φ_k(i) / kRef
   Eigen::VectorXd fixed_obj;
   bool by_ratio = false;
+  bool uniform = false;               // Objective::Uniform
+  double area_unloaded = 0;           // skin area below the brim no spot reaches (p = 0 there)
   Eigen::VectorXd fixed_ratio;        // |nodes|, pressure/threshold of the fixed-amplitude spots
   Eigen::VectorXd w;                  // |nodes|, area weights
   Eigen::MatrixXd R;                  // 7 × |free| radar per unit amplitude (Pa)
@@ -139,11 +143,12 @@ struct AmplitudeProblem {
   Eigen::Matrix<double, 6, 1> tolerance;  // of the six equalities [N, N m]
   double stability_min = 0;
   int evaluations = 0;
-  // Region floors: F_z per unit amplitude of each floor's nodes, its fixed part, and the floor [N].
-  const std::vector<OptimizerOptions::RegionFloor>* floors = nullptr;
-  bool use_floors = true;
-  Eigen::MatrixXd Rf;                 // |floors| × |free|
-  Eigen::VectorXd rf_fixed, rf_min;   // |floors|
+  // The template's region constraints (OptimizerOptions::region_shares, pressure_ratios) as rows
+  // g(a) = G a + g0 ≤ 0, each normalised (a share by F_z, a ratio by kRef) so 0.01 is 1 %.
+  const OptimizerOptions* options = nullptr;
+  bool use_regions = true;
+  Eigen::MatrixXd G;                  // |rows| × |free|
+  Eigen::VectorXd g0;                 // |rows|
 
   /// Radar contributions of unit pressure at skin node i: (F_x, F_y, F_z + friction, T, S).
   Eigen::Matrix<double, 7, 1> unit_radar(size_t i, const geometry::LimbFrame& fr, double mu) const {
@@ -166,16 +171,25 @@ struct AmplitudeProblem {
     for (size_t k = 0; k < spots.size(); ++k)
       if (spots[k].enabled && spots[k].optimise_amplitude) free.push_back(static_cast<int>(k));
     nodes.clear();
+    area_unloaded = 0;
     std::vector<double> rows;  // flattened φ
     std::vector<double> fixed;
     const size_t nf = free.size();
     std::vector<double> row(nf);
     R.setZero(7, static_cast<Eigen::Index>(nf));
     r_fixed.setZero();
-    const Eigen::Index nfl = floors ? static_cast<Eigen::Index>(floors->size()) : 0;
-    Rf.setZero(nfl, static_cast<Eigen::Index>(nf));
-    rf_fixed.setZero(nfl);
-    rf_min.setZero(nfl);
+    // Per region: F_z per unit amplitude (shares) and Σ A p per unit amplitude (ratios), with the
+    // fixed spots' parts in the last column.
+    const auto& shares = options->region_shares;
+    const auto& ratios = options->pressure_ratios;
+    const Eigen::Index nsh = static_cast<Eigen::Index>(shares.size()), nra = static_cast<Eigen::Index>(ratios.size());
+    Eigen::MatrixXd share_fz = Eigen::MatrixXd::Zero(nsh, static_cast<Eigen::Index>(nf) + 1);
+    Eigen::MatrixXd bear_ap = Eigen::MatrixXd::Zero(nra, static_cast<Eigen::Index>(nf) + 1), relief_ap = bear_ap;
+    Eigen::VectorXd bear_area = Eigen::VectorXd::Zero(nra), relief_area = Eigen::VectorXd::Zero(nra);
+    const auto add = [&](Eigen::MatrixXd& m, Eigen::Index r, double g, double pf) {
+      for (size_t j = 0; j < nf; ++j) m(r, static_cast<Eigen::Index>(j)) += g * row[j];
+      m(r, static_cast<Eigen::Index>(nf)) += g * pf;
+    };
     for (size_t i = 0; i < cyl.size(); ++i) {
       if (above[i]) continue;
       double pf = 0;
@@ -186,16 +200,27 @@ struct AmplitudeProblem {
       }
       for (size_t k = 0; k < spots.size(); ++k)
         if (spots[k].enabled && !spots[k].optimise_amplitude) pf += spot_pressure(spots[k], cyl[i].theta, cyl[i].h);
-      if (!any && pf == 0) continue;
+      // A ratio's means count every node of its regions, loaded or not.
+      for (Eigen::Index r = 0; r < nra; ++r) {
+        const auto& ra = ratios[static_cast<std::size_t>(r)];
+        if (ra.bearing[i]) {
+          bear_area[r] += area[i];
+          if (any || pf != 0) add(bear_ap, r, area[i], pf);
+        }
+        if (ra.relieved[i]) {
+          relief_area[r] += area[i];
+          if (any || pf != 0) add(relief_ap, r, area[i], pf);
+        }
+      }
+      if (!any && pf == 0) {
+        area_unloaded += area[i];
+        continue;
+      }
       const auto g = unit_radar(i, fr, mu);
       for (size_t j = 0; j < nf; ++j) R.col(static_cast<Eigen::Index>(j)) += g * row[j];
       r_fixed += g * pf;
-      for (Eigen::Index f = 0; f < nfl; ++f) {
-        const auto& mask = (*floors)[static_cast<std::size_t>(f)].nodes;
-        if (i >= mask.size() || !mask[i]) continue;
-        for (size_t j = 0; j < nf; ++j) Rf(f, static_cast<Eigen::Index>(j)) += g[2] * row[j];
-        rf_fixed[f] += g[2] * pf;
-      }
+      for (Eigen::Index r = 0; r < nsh; ++r)
+        if (shares[static_cast<std::size_t>(r)].nodes[i]) add(share_fz, r, g[2], pf);
       nodes.push_back(static_cast<int>(i));
       const double te = cap.empty() ? thr[i] : std::min(thr[i], cap[i]);
       for (size_t j = 0; j < nf; ++j) rows.push_back(row[j] / te);
@@ -231,13 +256,38 @@ struct AmplitudeProblem {
     target << 0, 0, t.fz_n, 0, 0, 0;
     tolerance << t.force_tol_n, t.force_tol_n, t.force_tol_n, t.torque_tol_nm, t.torque_tol_nm, t.torque_tol_nm;
     stability_min = t.stability_min_n;
-    for (Eigen::Index f = 0; f < nfl; ++f) rf_min[f] = (*floors)[static_cast<std::size_t>(f)].min_share * t.fz_n;
+    // The rows: a floor −(F_region − min F_z) / F_z, a ceiling (F_region − max F_z) / F_z, a ratio
+    // (k · mean_relieved − mean_bearing) / kRef; a region without nodes below the brim gives none.
+    std::vector<Eigen::VectorXd> rows_g;  // |free| + 1 (the constant last)
+    for (Eigen::Index r = 0; r < nsh; ++r) {
+      const auto& sh = shares[static_cast<std::size_t>(r)];
+      Eigen::VectorXd fz = share_fz.row(r).transpose() / t.fz_n;
+      if (sh.min_share > 0) {
+        Eigen::VectorXd v = -fz;
+        v[static_cast<Eigen::Index>(nf)] += sh.min_share;
+        rows_g.push_back(v);
+      }
+      if (sh.max_share < 1) {
+        Eigen::VectorXd v = fz;
+        v[static_cast<Eigen::Index>(nf)] -= sh.max_share;
+        rows_g.push_back(v);
+      }
+    }
+    for (Eigen::Index r = 0; r < nra; ++r) {
+      if (bear_area[r] <= 0 || relief_area[r] <= 0) continue;
+      const double k = ratios[static_cast<std::size_t>(r)].min_ratio;
+      rows_g.push_back((k * relief_ap.row(r) / relief_area[r] - bear_ap.row(r) / bear_area[r]).transpose() / kRef);
+    }
+    G.resize(static_cast<Eigen::Index>(rows_g.size()), static_cast<Eigen::Index>(nf));
+    g0.resize(static_cast<Eigen::Index>(rows_g.size()));
+    for (size_t r = 0; r < rows_g.size(); ++r) {
+      G.row(static_cast<Eigen::Index>(r)) = rows_g[r].head(static_cast<Eigen::Index>(nf)).transpose();
+      g0[static_cast<Eigen::Index>(r)] = rows_g[r][static_cast<Eigen::Index>(nf)];
+    }
   }
 
-  /// Shortfall of each region floor at amplitudes a, normalised by F_z (≤ 0: held).
-  Eigen::VectorXd floor_shortfall(const Eigen::VectorXd& a) const {
-    return (rf_min - (Rf * a + rf_fixed)) / scale[2];
-  }
+  /// The region constraints at amplitudes a (≤ 0: held; 0.01 = 1 % of F_z or of kRef short).
+  Eigen::VectorXd region_excess(const Eigen::VectorXd& a) const { return G * a + g0; }
 
   /// ½ Σ_k (e_k / tol_k)², e = the six radar residuals: the objective of a least-squares fit
   /// when fewer than six amplitudes are free (six equalities cannot all hold exactly).
@@ -270,6 +320,7 @@ struct AmplitudeProblem {
     ++evaluations;
     const Eigen::VectorXd a = amplitudes(z);
     const Eigen::VectorXd r = phi_obj * a + fixed_obj;
+    if (uniform) return squared_cv(r, a.size(), grad);
     const double W = w.sum();
     // Scaled by the largest ratio so that neither r^q nor J^(1−q) over- or underflows:
     // J = r_max (Σ w u^q / W)^(1/q), ∂J/∂a = (J / r_max)^(1−q) Σ w u^(q−1) φ / W, u = r / r_max.
@@ -304,6 +355,28 @@ struct AmplitudeProblem {
     return J;
   }
 
+  /// J of Objective::Uniform: CV² = W Σ w r² / (Σ w r)² − 1 over the skin below the brim (W its
+  /// area, the unloaded part included), r = p / kRef; its gradient in z.
+  double squared_cv(const Eigen::VectorXd& r, Eigen::Index n, double* grad) const {
+    const double W = w.sum() + area_unloaded;
+    const Eigen::VectorXd wr = w.cwiseProduct(r);
+    const double s1 = wr.sum(), s2 = wr.dot(r);
+    if (!(s1 > 0) || !std::isfinite(s2)) {  // no pressure: a direction that raises it
+      if (grad) {
+        const Eigen::VectorXd g = -phi_obj.transpose() * w / W;
+        for (Eigen::Index j = 0; j < n; ++j) grad[j] = g[j] * kRef;
+      }
+      return 1e3;
+    }
+    if (grad) {
+      // ∂/∂r_i = 2 W w_i r_i / s1² − 2 W s2 w_i / s1³
+      const Eigen::VectorXd d = (2 * W / (s1 * s1)) * wr - (2 * W * s2 / (s1 * s1 * s1)) * w;
+      const Eigen::VectorXd g = phi_obj.transpose() * d;
+      for (Eigen::Index j = 0; j < n; ++j) grad[j] = g[j] * kRef;
+    }
+    return W * s2 / (s1 * s1) - 1.0;
+  }
+
   /// Normalised radar residuals (6 equalities) and stability shortfall at amplitudes a.
   Eigen::Matrix<double, 7, 1> radar(const Eigen::VectorXd& a) const { return R * a + r_fixed; }
 
@@ -318,7 +391,7 @@ struct AmplitudeProblem {
     v = std::max(v, (t.stability_min_n - rv[6]) / t.force_tol_n);
     const Eigen::VectorXd r = phi * a + fixed_ratio;
     if (r.size() > 0) v = std::max(v, 100.0 * (r.maxCoeff() - 1.0));
-    if (use_floors && rf_min.size() > 0) v = std::max(v, floor_shortfall(a).maxCoeff() * scale[2] / t.force_tol_n);
+    if (use_regions && G.rows() > 0) v = std::max(v, 100.0 * region_excess(a).maxCoeff());
     return std::max(v, 0.0);
   }
 };
@@ -427,18 +500,18 @@ FitResult fit_amplitudes(AmplitudeProblem& P, const std::vector<Spot>& spots, co
         }
       },
       &eq, std::vector<double>(1 + P.nodes.size(), 1e-9));
-  if (P.use_floors && P.Rf.rows() > 0)
+  if (P.use_regions && P.G.rows() > 0)
     opt.add_inequality_mconstraint(
         [](unsigned m, double* result, unsigned nn, const double* z, double* grad, void* data) {
           const auto& Q = *static_cast<Eq*>(data)->P;
-          const Eigen::VectorXd sh = Q.floor_shortfall(Q.amplitudes(z));
+          const Eigen::VectorXd g = Q.region_excess(Q.amplitudes(z));
           for (unsigned f = 0; f < m; ++f) {
-            result[f] = sh[f];
+            result[f] = g[f];
             if (grad)
-              for (unsigned j = 0; j < nn; ++j) grad[f * nn + j] = -Q.Rf(f, j) * kRef / Q.scale[2];
+              for (unsigned j = 0; j < nn; ++j) grad[f * nn + j] = Q.G(f, j) * kRef;
           }
         },
-        &eq, std::vector<double>(static_cast<std::size_t>(P.Rf.rows()), 1e-9));
+        &eq, std::vector<double>(static_cast<std::size_t>(P.G.rows()), 1e-9));
   opt.set_xtol_rel(1e-8);
   opt.set_ftol_rel(1e-10);
   opt.set_maxeval(kMaxFitEvaluations);
@@ -462,9 +535,15 @@ FitResult fit_amplitudes(AmplitudeProblem& P, const std::vector<Spot>& spots, co
   return fr;
 }
 
-std::string floor_names(const std::vector<OptimizerOptions::RegionFloor>& floors) {
+/// The region constraints as the log names them: "ischial / gluteal ≥ 15 %, distal fifth ≤ 9 %, tolerant / sensitive ≥ 1.55 ×".
+std::string region_constraint_names(const OptimizerOptions& o) {
   std::string out;
-  for (const auto& f : floors) out += fmt::format("{}{} ≥ {:.0f} %", out.empty() ? "" : ", ", f.name, 100 * f.min_share);
+  const auto add = [&out](const std::string& s) { out += (out.empty() ? "" : ", ") + s; };
+  for (const auto& f : o.region_shares) {
+    if (f.min_share > 0) add(fmt::format("{} ≥ {:.0f} %", f.name, 100 * f.min_share));
+    if (f.max_share < 1) add(fmt::format("{} ≤ {:.0f} %", f.name, 100 * f.max_share));
+  }
+  for (const auto& r : o.pressure_ratios) add(fmt::format("{} ≥ {:.2f} ×", r.name, r.min_ratio));
   return out;
 }
 
@@ -495,14 +574,23 @@ OptimizerResult optimise_design(DesignSolver& solver, std::vector<Spot> spots, c
   for (const auto& s : spots) validate_spot(s, solver.stump_length_m());
   AmplitudeProblem P;
   P.solver = &solver;
-  P.floors = &options.region_floors;
-  for (const auto& f : options.region_floors)
-    require(f.min_share >= 0.0 && f.min_share < 1.0 && f.nodes.size() == solver.skin_cylindrical().size(),
-            "optimise_design: region floor '{}' asks {:.0f} % of F_z on {} nodes of {} (expected [0, 100) % and one flag "
-            "per skin node)",
-            f.name, 100 * f.min_share, f.nodes.size(), solver.skin_cylindrical().size());
+  P.options = &options;
+  const size_t n_skin = solver.skin_cylindrical().size();
+  for (const auto& f : options.region_shares)
+    require(f.min_share >= 0.0 && f.min_share < 1.0 && f.max_share > f.min_share && f.max_share <= 1.0 &&
+                f.nodes.size() == n_skin,
+            "optimise_design: region '{}' asks {:.0f}–{:.0f} % of F_z on {} nodes of {} (expected 0 ≤ min < max ≤ 100 % "
+            "and one flag per skin node)",
+            f.name, 100 * f.min_share, 100 * f.max_share, f.nodes.size(), n_skin);
+  for (const auto& r : options.pressure_ratios)
+    require(std::isfinite(r.min_ratio) && r.min_ratio > 0 && r.bearing.size() == n_skin && r.relieved.size() == n_skin,
+            "optimise_design: pressure ratio '{}' of {} asks {} and {} node flags of {} (expected a positive ratio and "
+            "one flag per skin node)",
+            r.name, r.min_ratio, r.bearing.size(), r.relieved.size(), n_skin);
+  const bool has_regions = !options.region_shares.empty() || !options.pressure_ratios.empty();
   P.q = options.softmax_power;
   P.by_ratio = options.objective == OptimizerOptions::Objective::Ratio;
+  P.uniform = options.objective == OptimizerOptions::Objective::Uniform;
   double tmax = 0;
   for (double t : solver.thresholds()) tmax = std::max(tmax, t);
   P.a_max = options.max_amplitude_ratio * tmax;
@@ -541,23 +629,23 @@ OptimizerResult optimise_design(DesignSolver& solver, std::vector<Spot> spots, c
     // starting amplitudes are solved, so there is always a state to report.
     if (!control.report(0.0, "starting") && (control.is_cancelled || round > 0)) break;
     P.build(spots);
-    // The region floors are the template's intent, not one of the seven constraints: a fit that
-    // cannot keep them and the constraints together drops them (said in the log).
-    P.use_floors = !options.region_floors.empty();
+    // The region constraints are the template's intent, not one of the seven constraints: a fit
+    // that cannot keep them and the constraints together drops them (said in the log).
+    P.use_regions = has_regions;
     FitResult fit = fit_amplitudes(P, spots, targets, control);
-    if (!fit.ok && P.use_floors) {
-      P.use_floors = false;
+    if (!fit.ok && P.use_regions) {
+      P.use_regions = false;
       const FitResult without = fit_amplitudes(P, spots, targets, control);
       if (without.ok) {
-        out.log.push_back(fmt::format("round {}: the region floors ({}) cannot be kept with the seven constraints: "
+        out.log.push_back(fmt::format("round {}: the template's regions ({}) cannot be kept with the seven constraints: "
                                       "dropped for this fit",
-                                      round + 1, floor_names(options.region_floors)));
+                                      round + 1, region_constraint_names(options)));
         fit = without;
       } else {
-        P.use_floors = true;
+        P.use_regions = true;
       }
     }
-    out.region_floors_met = P.use_floors || options.region_floors.empty();
+    out.region_constraints_met = P.use_regions || !has_regions;
     ++out.evaluations;
     out.slsqp_iterations += fit.evaluations;
     // Without friction no layout can hold the prosthesis: moving spots cannot help.

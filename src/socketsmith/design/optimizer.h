@@ -36,10 +36,11 @@ namespace socketsmith::design {
 /// lateral tibial sides, the posterior calf, a distal GRAD; transfemoral: the ischial seat (IS) and
 /// the gluteal band behind it, the ischial ramus (IR), the lateral wall over the trochanter (GT) and
 /// along the femur, Scarpa's triangle (ST), the anterior, posterior and medial walls, a distal
-/// GRAD), plus a total-contact background. Amplitudes start at 10 kPa. @throws InvalidInputError
-/// when a needed landmark is missing.
+/// GRAD), plus a total-contact background (8 around × 3 heights, up to 0.8 × the length; with
+/// @p total_surface, a fourth row up to the brim: a TSB socket bears on the whole skin). Amplitudes
+/// start at 10 kPa. @throws InvalidInputError when a needed landmark is missing.
 std::vector<Spot> default_spots(geometry::LimbType type, const std::vector<volume::Landmark>& landmarks,
-                                double stump_length_m);
+                                double stump_length_m, bool total_surface = false);
 
 struct OptimizerOptions {
   int max_rounds = 5;                ///< fit → solve → refit rounds on the deformed geometry
@@ -50,9 +51,11 @@ struct OptimizerOptions {
   double max_position_shift_m = 0.015;
   double softmax_power = 8.0;        ///< q of J
   /// What J evens out: Pressure (J of p_i / 10 kPa: the most even pressure, the smallest
-  /// deformation — the default) or Ratio (J of p_i / T_i: loads the tolerant zones more, the PTB
-  /// idea; larger peaks where thresholds are high, e.g. 190 kPa at the patellar tendon).
-  enum class Objective { Pressure, Ratio } objective = Objective::Pressure;
+  /// deformation — the default), Ratio (J of p_i / T_i: loads the tolerant zones more, the PTB
+  /// idea; larger peaks where thresholds are high, e.g. 190 kPa at the patellar tendon) or Uniform
+  /// (J = the squared coefficient of variation of the pressure over the whole skin below the
+  /// brim, unloaded nodes included: total surface bearing, what a TSB brim means).
+  enum class Objective { Pressure, Ratio, Uniform } objective = Objective::Pressure;
   double max_amplitude_ratio = 1.5;  ///< amplitude ≤ this × the largest threshold
   /// When the stump model finds no equilibrium under a fitted field (the lattice collapses where
   /// thin tissue is crushed, docs/tissue.md), the pressure around the collapsing element is capped
@@ -63,16 +66,31 @@ struct OptimizerOptions {
   /// more than ≈ 0.25–0.3 E (measured, docs/design.md); real tissue stiffens instead.
   double model_pressure_limit = 0.25;
   int max_model_caps = 6;
-  /// A region the brim template means to load (design/load_regions.h), e.g. the ischial/gluteal
-  /// region of an ischial containment: its skin nodes must carry at least `min_share` of F_z (their
-  /// normal forces' axial part plus the available friction on them). A floor the constraints cannot
-  /// meet together is dropped for that fit and said in the log.
-  struct RegionFloor {
+  /// What the brim template means, as linear constraints on the amplitudes beside the seven of the
+  /// radar (every one is linear in the amplitudes for a fixed skin geometry). They are the
+  /// template's intent, not the patient's safety: a fit that cannot keep them together with the
+  /// seven constraints drops them for that fit and says so in the log.
+  ///
+  /// A region's share of F_z (its skin nodes' normal forces' axial part plus the available
+  /// friction on them): at least `min_share` (the ischial seat of an ischial containment) and at
+  /// most `max_share` (the distal end of a PTB socket, design/template_regions.h).
+  struct RegionShare {
     std::string name;           ///< for the log: "ischial / gluteal"
     std::vector<char> nodes;    ///< per skin node (DesignSolver::skin order): 1 = in the region
     double min_share = 0.0;     ///< of F_z, [0, 1)
+    double max_share = 1.0;     ///< of F_z, (0, 1]; 1: no ceiling
   };
-  std::vector<RegionFloor> region_floors;
+  std::vector<RegionShare> region_shares;
+  /// The area-weighted mean pressure of the `bearing` nodes at least `min_ratio` × that of the
+  /// `relieved` ones (PTB: the patellar tendon, flares and popliteal area bear, the fibular head,
+  /// tibial crest and distal tibia are relieved). Means over every node of the region below the
+  /// brim, loaded or not — as design::check_template reads them.
+  struct PressureRatio {
+    std::string name;                 ///< for the log: "tolerant / sensitive"
+    std::vector<char> bearing, relieved;  ///< per skin node: 1 = in the region
+    double min_ratio = 1.0;           ///< > 0
+  };
+  std::vector<PressureRatio> pressure_ratios;
   /// Wall-time bound of the whole optimisation [s], 0 = none. When it stops the search, the last
   /// fitted layout is solved and returned with is_time_limited and a message that says so.
   double time_limit_s = 0.0;
@@ -94,7 +112,7 @@ struct OptimizerResult {
   double seconds = 0.0;
   bool is_time_limited = false;      ///< stopped by OptimizerOptions::time_limit_s
   std::string message;               ///< "all constraints met …" or which constraint fails and why
-  bool region_floors_met = true;     ///< every OptimizerOptions::region_floors held in the last fit
+  bool region_constraints_met = true;  ///< every region share and pressure ratio held in the last fit
   std::vector<std::string> log;      ///< one line per round
 };
 

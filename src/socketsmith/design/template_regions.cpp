@@ -25,20 +25,38 @@ namespace {
 
 /// The nodes of a region: below the brim, within the radius of any of @p codes' landmarks.
 std::vector<char> region_nodes(const std::vector<std::string>& codes, const std::vector<volume::Landmark>& landmarks,
-                               const SkinLoads& s, std::vector<std::string>& found) {
-  const size_t n = s.rest_positions->size();
-  std::vector<char> in(n, 0);
+                               const std::vector<Eigen::Vector3d>& rest, const std::vector<char>& above,
+                               std::vector<std::string>& found) {
+  std::vector<char> in(rest.size(), 0);
   for (const auto& code : codes)
     for (const auto& l : landmarks) {
       if (l.code != code) continue;
       found.push_back(code);
-      for (size_t i = 0; i < n; ++i)
-        if (!(*s.above_brim)[i] && ((*s.rest_positions)[i] - l.position).norm() <= l.radius_m) in[i] = 1;
+      for (size_t i = 0; i < rest.size(); ++i)
+        if (!above[i] && (rest[i] - l.position).norm() <= l.radius_m) in[i] = 1;
     }
   return in;
 }
 
 }  // namespace
+
+TemplateMasks template_masks(BrimTemplate kind, const std::vector<volume::Landmark>& landmarks,
+                             const std::vector<Eigen::Vector3d>& rest, const std::vector<char>& above,
+                             const geometry::LimbFrame& frame, double stump_length_m) {
+  require(rest.size() == above.size(), "template_masks: {} positions and {} brim flags (expected one each per skin node)",
+          rest.size(), above.size());
+  TemplateMasks m;
+  const TemplateRegions t = template_regions(kind);
+  m.tolerant = region_nodes(t.tolerant, landmarks, rest, above, m.tolerant_codes);
+  m.sensitive = region_nodes(t.sensitive, landmarks, rest, above, m.sensitive_codes);
+  m.distal_fifth.assign(rest.size(), 0);
+  m.below_brim.assign(rest.size(), 0);
+  for (size_t i = 0; i < rest.size(); ++i) {
+    m.below_brim[i] = above[i] ? 0 : 1;
+    m.distal_fifth[i] = frame.to_cylindrical(rest[i]).h <= 0.2 * stump_length_m ? 1 : 0;
+  }
+  return m;
+}
 
 TemplateCheck check_template(BrimTemplate kind, const std::vector<volume::Landmark>& landmarks, const SkinLoads& s,
                              const geometry::LimbFrame& frame, double stump_length_m, double friction) {
@@ -78,17 +96,11 @@ TemplateCheck check_template(BrimTemplate kind, const std::vector<volume::Landma
     return r;
   };
   const TemplateRegions t = template_regions(kind);
-  std::vector<std::string> tol_codes, sen_codes;
-  const auto tol = region_nodes(t.tolerant, landmarks, s, tol_codes);
-  const auto sen = region_nodes(t.sensitive, landmarks, s, sen_codes);
-  std::vector<char> distal(n, 0), below(n, 0);
-  for (size_t i = 0; i < n; ++i) {
-    below[i] = (*s.above_brim)[i] ? 0 : 1;
-    distal[i] = frame.to_cylindrical((*s.rest_positions)[i]).h <= 0.2 * stump_length_m ? 1 : 0;
-  }
-  c.tolerant = measure("tolerant", tol, tol_codes);
-  c.sensitive = measure("sensitive", sen, sen_codes);
-  c.distal_fifth = measure("distal_fifth", distal, {});
+  const TemplateMasks m = template_masks(kind, landmarks, *s.rest_positions, *s.above_brim, frame, stump_length_m);
+  const auto& below = m.below_brim;
+  c.tolerant = measure("tolerant", m.tolerant, m.tolerant_codes);
+  c.sensitive = measure("sensitive", m.sensitive, m.sensitive_codes);
+  c.distal_fifth = measure("distal_fifth", m.distal_fifth, {});
   c.below_brim = measure("below_brim", below, {});
   {
     double area = 0, var = 0;
@@ -104,8 +116,8 @@ TemplateCheck check_template(BrimTemplate kind, const std::vector<volume::Landma
   const std::string name = c.template_name;
   if (!t.tolerant.empty() && c.tolerant.nodes > 0 && c.sensitive.nodes > 0) {
     c.applies = true;
-    const bool bears = c.tolerant.mean_pa >= 1.5 * c.sensitive.mean_pa;
-    const bool distal_ok = c.distal_fifth.axial_share <= 0.10;
+    const bool bears = c.tolerant.mean_pa >= kMinTolerantToSensitive * c.sensitive.mean_pa;
+    const bool distal_ok = c.distal_fifth.axial_share <= kMaxDistalFifthShare;
     c.met = bears && distal_ok;
     c.summary = fmt::format("{}: tolerant regions {:.1f} kPa, {:.2f} × the sensitive ones ({:.1f} kPa; at least 1.5 ×: "
                             "{}), distal fifth {:.0f} % of the axial load (at most 10 %: {})",
@@ -113,7 +125,7 @@ TemplateCheck check_template(BrimTemplate kind, const std::vector<volume::Landma
                             bears ? "yes" : "no", 100 * c.distal_fifth.axial_share, distal_ok ? "yes" : "no");
   } else if (t.uniform) {
     c.applies = true;
-    c.met = c.cv_below_brim <= 0.35;
+    c.met = c.cv_below_brim <= kMaxCvBelowBrim;
     c.summary = fmt::format("{}: coefficient of variation below the brim {:.2f} (at most 0.35: {}), distal fifth {:.0f} % "
                             "of the axial load",
                             name, c.cv_below_brim, c.met ? "yes" : "no", 100 * c.distal_fifth.axial_share);

@@ -72,6 +72,22 @@ struct SkinLoads {
   const std::vector<char>* above_brim = nullptr;
 };
 
+/// The issue-22 first criteria, shared by the check and the optimiser that aims at them.
+inline constexpr double kMinTolerantToSensitive = 1.5;  ///< PTB family: tolerant mean ≥ this × sensitive mean
+inline constexpr double kMaxDistalFifthShare = 0.10;    ///< PTB family: distal fifth's share of F_z at most
+inline constexpr double kMaxCvBelowBrim = 0.35;         ///< TSB: pressure CV below the brim at most
+
+/// The skin nodes of a template's regions (one flag per skin node): a landmark's region is the
+/// nodes below the brim within the landmark's radius of it (rest positions); the distal fifth is
+/// the nodes at heights up to 0.2 × the stump length (limb frame).
+struct TemplateMasks {
+  std::vector<char> tolerant, sensitive, distal_fifth, below_brim;
+  std::vector<std::string> tolerant_codes, sensitive_codes;  ///< the landmarks found for each
+};
+TemplateMasks template_masks(BrimTemplate kind, const std::vector<volume::Landmark>& landmarks,
+                             const std::vector<Eigen::Vector3d>& rest_positions, const std::vector<char>& above_brim,
+                             const geometry::LimbFrame& frame, double stump_length_m);
+
 /// Reads the design @p skin against @p kind: a node is in a landmark's region when it lies below
 /// the brim within the landmark's radius of it (rest positions). @p stump_length_m sets the distal
 /// fifth (heights below 0.2 × length in the limb frame), @p friction the friction term.

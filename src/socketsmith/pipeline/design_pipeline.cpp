@@ -88,7 +88,7 @@ double ischial_share_floor(const DesignSetup& setup) {
   return setup.case_file.ischial_share_min.value_or(design::default_ischial_share(setup.brim.kind()));
 }
 
-std::optional<design::OptimizerOptions::RegionFloor> ischial_floor(const DesignSetup& setup) {
+std::optional<design::OptimizerOptions::RegionShare> ischial_floor(const DesignSetup& setup) {
   const double share = ischial_share_floor(setup);
   if (share <= 0.0) return std::nullopt;
   const auto which = design::region_of(setup.regions, setup.solver->skin_cylindrical());
@@ -96,7 +96,7 @@ std::optional<design::OptimizerOptions::RegionFloor> ischial_floor(const DesignS
   for (std::size_t i = 0; i < setup.regions.size(); ++i)
     if (setup.regions[i].key == "ischial_gluteal") k = static_cast<int>(i);
   if (k < 0) return std::nullopt;
-  design::OptimizerOptions::RegionFloor f;
+  design::OptimizerOptions::RegionShare f;
   f.name = setup.regions[static_cast<std::size_t>(k)].name;
   f.min_share = share;
   f.nodes.resize(which.size());
@@ -117,11 +117,53 @@ tissue::MassSpringOptions model_options(const design::CaseFile& c) {
   return o;
 }
 
-design::OptimizerOptions optimizer_options(const design::CaseFile& c) {
+namespace {
+
+/// Each skin node above setup.brim, by the solver's own test — from the setup's brim, not the
+/// solver's flags (the GUI's worker may be setting a new brim on its thread).
+std::vector<char> above_brim(const DesignSetup& setup) {
+  const auto& cyl = setup.solver->skin_cylindrical();
+  std::vector<char> above(cyl.size(), 0);
+  for (size_t i = 0; i < cyl.size(); ++i) above[i] = cyl[i].h > setup.brim.height(cyl[i].theta) ? 1 : 0;
+  return above;
+}
+
+/// What the brim template means, as optimiser constraints (see optimizer_options).
+void add_template_constraints(const DesignSetup& setup, const design::CaseFile& c, design::OptimizerOptions& options) {
+  if (!c.follow_template || !setup.solver) return;
+  const design::TemplateRegions t = design::template_regions(setup.brim.kind());
+  if (t.uniform && options.objective == design::OptimizerOptions::Objective::Pressure)
+    options.objective = design::OptimizerOptions::Objective::Uniform;
+  if (t.tolerant.empty()) return;
+  constexpr double kMargin = 0.05;
+  const auto& solver = *setup.solver;
+  auto m = design::template_masks(setup.brim.kind(), setup.model.landmarks, solver.skin().positions,
+                                  above_brim(setup), setup.model.frame, setup.model.length_m);
+  const auto any = [](const std::vector<char>& v) { return std::any_of(v.begin(), v.end(), [](char c) { return c != 0; }); };
+  if (any(m.tolerant) && any(m.sensitive)) {
+    design::OptimizerOptions::PressureRatio r;
+    r.name = "tolerant / sensitive";
+    r.bearing = std::move(m.tolerant);
+    r.relieved = std::move(m.sensitive);
+    r.min_ratio = design::kMinTolerantToSensitive * (1 + kMargin);
+    options.pressure_ratios.push_back(std::move(r));
+  }
+  design::OptimizerOptions::RegionShare d;
+  d.name = "distal fifth";
+  d.nodes = std::move(m.distal_fifth);
+  d.max_share = design::kMaxDistalFifthShare * (1 - kMargin);
+  options.region_shares.push_back(std::move(d));
+}
+
+}  // namespace
+
+design::OptimizerOptions optimizer_options(const DesignSetup& setup, const design::CaseFile& c) {
   design::OptimizerOptions oo;
   oo.objective = c.objective;
   oo.model_pressure_limit = c.model_pressure_limit;
   oo.time_limit_s = c.time_limit_s;
+  if (const auto floor = ischial_floor(setup)) oo.region_shares.push_back(*floor);
+  add_template_constraints(setup, c, oo);
   return oo;
 }
 
@@ -170,7 +212,10 @@ std::unique_ptr<DesignSetup> prepare_design(const design::CaseFile& c, const fs:
     s->brim = design::brim_from_key_points(c.brim_key_points, kind);
   }
   design::validate_brim(s->brim, model.skin, model.frame);
-  s->spots = c.spots.empty() ? design::default_spots(model.type, model.landmarks, model.length_m) : c.spots;
+  // A TSB brim bears on the whole skin: the background reaches the brim.
+  const bool total_surface = design::template_regions(s->brim.kind()).uniform;
+  s->spots =
+      c.spots.empty() ? design::default_spots(model.type, model.landmarks, model.length_m, total_surface) : c.spots;
   for (const auto& sp : s->spots) design::validate_spot(sp, model.length_m);
   s->regions = design::load_regions(model.type, model.landmarks, model.length_m);
 
@@ -201,8 +246,7 @@ DesignResult solve_design(DesignSetup& setup, bool optimise, const ProgressCallb
   DesignResult r;
   r.optimised = optimise;
   if (optimise) {
-    design::OptimizerOptions oo = optimizer_options(c);
-    if (const auto floor = ischial_floor(setup)) oo.region_floors.push_back(*floor);
+    design::OptimizerOptions oo = optimizer_options(setup, c);
     oo.progress = [&](double f, std::string_view stage) { return report_progress(progress, 0.9 * f, stage); };
     r.optimiser = design::optimise_design(solver, setup.spots, oo);
     r.spots = r.optimiser.spots;
@@ -269,6 +313,18 @@ std::vector<Vec3> brim_on_skin(const DesignSetup& setup, int samples) {
     poly.push_back(skin_point(setup, th, setup.brim.height(th)));
   }
   return poly;
+}
+
+design::TemplateCheck template_check(const DesignSetup& setup, const design::DesignState& state) {
+  const std::vector<char> above = above_brim(setup);
+  design::SkinLoads loads;
+  loads.rest_positions = &setup.solver->skin().positions;
+  loads.normals = &state.skin_normals;
+  loads.areas_m2 = &state.skin_areas;
+  loads.pressures_pa = &state.pressure_pa;
+  loads.above_brim = &above;
+  return design::check_template(setup.brim.kind(), setup.model.landmarks, loads, setup.model.frame,
+                                setup.model.length_m, setup.solver->patient().friction);
 }
 
 std::vector<report::RadarAxis> radar_axes(const DesignSetup& setup, const design::DesignState& state) {
@@ -562,7 +618,7 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
     rd.region_note = fmt::format("The {} template asks the optimiser for at least {:.0f} % on the ischial / gluteal "
                                  "region{}.",
                                  brim.name(), 100 * ischial_share_floor(setup),
-                                 opt.region_floors_met ? "" : " — it could not be kept with the seven constraints");
+                                 opt.region_constraints_met ? "" : " — it could not be kept with the seven constraints");
   rd.socket = rs;
   // What a prosthetist checks: the rectification chart and the slice measurements.
   const nlohmann::json checks_json = write_prosthetist_checks(setup, result, prosthetist_checks(setup, result), out, rd);
@@ -585,14 +641,7 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
   rd.solver.details.push_back({"max displacement", fmt::format("{:.2f} mm", state.max_displacement_m * 1e3)});
   rd.solver.details.push_back({"follower passes", std::to_string(state.follower_passes)});
   // The design read against its template (tolerant vs sensitive regions, the distal fifth's load).
-  design::SkinLoads loads;
-  loads.rest_positions = &skin.positions;
-  loads.normals = &state.skin_normals;
-  loads.areas_m2 = &state.skin_areas;
-  loads.pressures_pa = &state.pressure_pa;
-  loads.above_brim = &solver.above_brim();
-  const design::TemplateCheck tc =
-      design::check_template(brim.kind(), model.landmarks, loads, model.frame, model.length_m, c.patient.friction);
+  const design::TemplateCheck tc = template_check(setup, state);
   rd.solver.details.push_back({"template", tc.summary + (tc.applies ? (tc.met ? ": met" : ": NOT met") : "")});
   nlohmann::json regions_json = nlohmann::json::object();
   for (const design::ZoneLoad* r : {&tc.tolerant, &tc.sensitive, &tc.distal_fifth, &tc.below_brim}) {
@@ -614,7 +663,14 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
                                         {"tolerant_to_sensitive", tc.tolerant_to_sensitive},
                                         {"cv_below_brim", tc.cv_below_brim},
                                         {"total_axial_n", tc.total_axial_n},
-                                        {"regions", regions_json}};
+                                        {"regions", regions_json},
+                                        // whether the optimiser aimed at the template, and kept it
+                                        {"optimiser_follows", optimise && c.follow_template},
+                                        {"optimiser_kept", optimise && c.follow_template && opt.region_constraints_met}};
+  if (optimise && c.follow_template && !opt.region_constraints_met)
+    rd.warnings.push_back(fmt::format("the {} template's regions could not be kept together with the seven constraints: "
+                                      "the optimiser dropped them (see the optimiser's log)",
+                                      brim.name()));
   if (model.bones_estimated) rd.warnings.push_back("bones ESTIMATED from the skin (no bone surfaces given)");
   if (model.frame.anterior_estimated) rd.warnings.push_back("anterior direction ESTIMATED from the skin: check it");
   if (model.frame.side_estimated) rd.warnings.push_back("side ESTIMATED: check it");
@@ -726,7 +782,7 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
       if (r.key == "ischial_gluteal") j["ischial_gluteal_share"] = r.share;
     if (model.type == geometry::LimbType::Transfemoral) {
       j["ischial_share_min"] = ischial_share_floor(setup);
-      j["ischial_share_floor_met"] = opt.region_floors_met;
+      j["ischial_share_floor_met"] = opt.region_constraints_met;
     }
   }
   j["skin_extension_mm"] = model.skin_extension_m * 1e3;

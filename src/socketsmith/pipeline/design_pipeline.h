@@ -27,6 +27,7 @@
 #include "socketsmith/design/optimizer.h"
 #include "socketsmith/design/pain_map.h"
 #include "socketsmith/design/socket_builder.h"
+#include "socketsmith/design/template_regions.h"
 #include "socketsmith/geometry/tri_mesh.h"
 #include "socketsmith/pipeline/closed_loop.h"
 #include "socketsmith/report/design_report.h"
@@ -70,10 +71,16 @@ std::unique_ptr<DesignSetup> prepare_design(const design::CaseFile& c,
 /// the case's design.ischial_share_min, else the brim template's (design::default_ischial_share);
 /// 0 for a transtibial limb.
 double ischial_share_floor(const DesignSetup& setup);
-/// That floor as an optimiser region floor (nullopt when 0).
-std::optional<design::OptimizerOptions::RegionFloor> ischial_floor(const DesignSetup& setup);
-/// The optimiser's settings a case asks for (objective, model pressure limit).
-design::OptimizerOptions optimizer_options(const design::CaseFile& c);
+/// That floor as an optimiser region share (nullopt when 0).
+std::optional<design::OptimizerOptions::RegionShare> ischial_floor(const DesignSetup& setup);
+/// The optimiser's settings for case @p c on @p setup's stump (the CLI's design and the GUI's
+/// Optimise both take them from here): the case's objective, model pressure limit and time limit;
+/// a transfemoral limb's ischial floor; and, when the case follows its template
+/// (design.follow_template), what the brim template means (design/template_regions.h) — PTB family:
+/// the tolerant / sensitive mean pressure ≥ 1.5 × and the distal fifth ≤ 10 % of the axial load,
+/// each with a 5 % margin (the last fit is on the geometry of the round before it, the check reads
+/// the final one); TSB: the Uniform objective in place of the default Pressure one.
+design::OptimizerOptions optimizer_options(const DesignSetup& setup, const design::CaseFile& c);
 
 /// The MSS model options and material a case asks for.
 tissue::MassSpringOptions model_options(const design::CaseFile& c);
@@ -115,6 +122,11 @@ Eigen::Vector3d skin_point(const DesignSetup& setup, double theta, double h);
 /// The brim line drawn on the skin: @p samples points, each where the ray from the axis at
 /// (θ, brim(θ)) meets the skin (radius of the nearest skin node) [m]. For pictures and the GUI.
 std::vector<Eigen::Vector3d> brim_on_skin(const DesignSetup& setup, int samples);
+
+/// @p state read against the brim template (design::check_template): the tolerant and sensitive
+/// regions' mean and peak pressure and axial share, the distal fifth's, the CV below the brim, and
+/// whether the template's first criteria hold. The report, design.json and the GUI show it.
+design::TemplateCheck template_check(const DesignSetup& setup, const design::DesignState& state);
 
 /// The seven radar axes of @p state (report::seven_radar_axes with the case's patient and the
 /// state's verdict per axis in is_ok).
