@@ -221,9 +221,12 @@ geometry::TriMesh brim_tube(const std::vector<Vector3d>& pts, double radius) {
 
 // ---- HTML ----------------------------------------------------------------------------------
 
-std::string deg(double rad) { return num(rad * 180 / kPi); }
-std::string mm(double m) { return num(m * 1e3); }
-std::string kpa(double pa) { return num(pa * 1e-3); }
+// A value below 1e-9 of its display unit is round-off (an optimised angle of 5.8e-17°, an amplitude
+// of 9.4e-17 kPa: the browser showed them as such): shown as 0.
+double shown(double v) { return std::abs(v) < 1e-9 ? 0.0 : v; }
+std::string deg(double rad) { return num(shown(rad * 180 / kPi)); }
+std::string mm(double m) { return num(shown(m * 1e3)); }
+std::string kpa(double pa) { return num(shown(pa * 1e-3)); }
 
 std::string spot_theta(const ReportSpot& s) {
   if (s.type == "cos2" || s.type == "cos-sig")
