@@ -29,6 +29,7 @@
 #include "socketsmith/geometry/rigid_alignment.h"
 #include "socketsmith/pipeline/design_pipeline.h"
 #include "socketsmith/pipeline/shape_comparison.h"
+#include "socketsmith/pipeline/sock_ply.h"
 #include "socketsmith/volume/limb_generator.h"
 
 namespace socketsmith {
@@ -135,8 +136,8 @@ PageVerdict probe_page(const std::string& chromium, const fs::path& page) {
   EXPECT_NE(body_end, std::string::npos) << page << " has no </body>";
   PageVerdict v;
   if (head == std::string::npos || body_end == std::string::npos) return v;
-  html.insert(body_end, kProbe);
-  html.insert(head + 6, kErrorTrap);
+  html = html.substr(0, head + 6) + kErrorTrap + html.substr(head + 6, body_end - head - 6) + kProbe +
+         html.substr(body_end);
   const fs::path dir = page.parent_path();
   const fs::path probed = dir / (page.stem().string() + ".probed.html");
   std::ofstream(probed, std::ios::binary) << html;
@@ -225,7 +226,9 @@ std::vector<PdfPage> pdf_pages(const std::string& pdf) {
     }
     p.has_font_or_image = dict.find("/Font") != std::string::npos || dict.find("/XObject") != std::string::npos;
     if (std::regex_search(dict, m, contents_re)) {
-      const std::string obj = "\n" + m[1].str() + " 0 obj";
+      std::string obj = "\n";  // appended, not "\n" + …: g++ 12 warns falsely (-Wrestrict) on that
+      obj += m[1].str();
+      obj += " 0 obj";
       const size_t o = pdf.find(obj);
       if (o != std::string::npos) {
         const std::string head = pdf.substr(o, 200);
@@ -320,6 +323,23 @@ TEST(Browser, design_report_prints_to_a4_pdf) {
   ASSERT_TRUE(v.found);
   const int pages = expect_a4_pdf(chromium, page, v.images, v.tables);
   EXPECT_GE(pages, 3) << "a design report with " << v.images << " pictures fits on fewer than 3 A4 pages?";
+}
+
+TEST(Browser, sock_ply_report_renders_and_prints_to_a4_pdf) {
+  REQUIRE_CHROMIUM(chromium);
+  const fs::path dir = fresh_dir("sock_ply");
+  pipeline::DesignArtifacts art;
+  pipeline::run_design(pipeline::demo_case(1800), dir, true, {}, &art);
+  ASSERT_TRUE(art.result.socket.has_value());
+  pipeline::SockPlyOptions o;
+  o.volume_changes = {-0.04, 0.04};
+  art.result.sock_ply = pipeline::run_sock_ply_study(*art.setup, art.result, o);
+  pipeline::write_design_outputs(*art.setup, art.result, dir, 0.0);
+  ASSERT_NE(read_file(dir / "report.html").find("Sock-ply sensitivity"), std::string::npos);
+  PageVerdict v;
+  // The design's pictures and tables, and the study's: three maps, the plots, the table.
+  expect_renders(chromium, dir / "report.html", 14, 8, &v);
+  expect_a4_pdf(chromium, dir / "report.html", v.images, v.tables);
 }
 
 TEST(Browser, compare_page_renders_in_chromium) {

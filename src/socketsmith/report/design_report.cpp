@@ -772,7 +772,11 @@ void sock_ply_section(HtmlWriter& h, const ReportSockPly& s) {
   h.paragraph("Skin offset: the uniform normal offset of the skin (bones fixed) that changes the limb's volume by the "
               "given fraction. Socket stood at: where the socket carried half the body weight, along the axis from its "
               "designed pose. Limb sinks: how much deeper than at the designed volume the limb sits in the socket "
-              "(negative: it rises). Constraints: the design's seven conditions evaluated on the delivered pressures.");
+              "(negative: it rises). Peak p/T: the largest contact pressure over the pain threshold below the brim. Distal: "
+              "the contact pressure over the distal fifth of the stump. Constraints: the design's seven conditions and "
+              "comfort (p/T ≤ 1) evaluated on the delivered pressures with the design's tolerances (a failing one is "
+              "shown with its value and target: a donned socket delivers the design only approximately, so compare "
+              "with the row 'as designed').");
   for (const auto& m : s.maps) h.image(png_data_uri(render_pressure_map(m)), m.title);
   for (const auto& p : s.plots) h.image(svg_data_uri(render_svg(p)), p.title);
 }
