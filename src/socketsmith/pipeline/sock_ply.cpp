@@ -215,6 +215,12 @@ SockPlyResult run_sock_ply_study(DesignSetup& setup, const DesignResult& result,
     } catch (const SolverError& e) {
       d.completed = false;
       d.message = e.what();
+    } catch (const InvalidInputError& e) {
+      // A changed limb the socket cannot start below (it grips already): that level is reported as
+      // not donned; at the designed volume it is the design's problem and goes up.
+      if (lv.volume_change == 0) throw;
+      d.completed = false;
+      d.message = e.what();
     }
     lv.completed = d.completed;
     lv.stood = d.completed && d.stood;
