@@ -114,9 +114,11 @@ struct SockPlyResult {
 SockPlyResult run_sock_ply_study(DesignSetup& setup, const DesignResult& result, const SockPlyOptions& options = {});
 
 /// Writes sockply.csv (one row per level), sockply_nodes.csv (contact pressure per skin node and
-/// level), sockply.svg / sockply.png (sink and peak ratio against the volume change) and
-/// sockply_map.png (contact pressure at the extreme levels and the designed one, one scale) into
-/// @p out; fills the report's section; returns the JSON of design.json's "sock_ply".
+/// level), sockply.svg / sockply.png (sink, peak ratio and distal pressure against the volume
+/// change) and the contact pressure maps of the extreme levels and the designed one on one scale
+/// (sockply_map_-4pct.png, sockply_map_designed.png, sockply_map_+4pct.png) into @p out; fills the
+/// report's section (its maps refer to the result's donned skins, which must outlive the report's
+/// writing); returns the JSON of design.json's "sock_ply".
 /// @throws InvalidInputError when the result has no study.
 nlohmann::json write_sock_ply_outputs(const DesignSetup& setup, const DesignResult& result,
                                       const std::filesystem::path& out, report::ReportSockPly& section);
