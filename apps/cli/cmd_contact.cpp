@@ -1,5 +1,7 @@
 // `socketsmith simulate donning`: the designed (or a given) socket slides onto the stump with
 // friction, then the patient stands; contact pressures against the designed ones.
+// `socketsmith simulate sockply`: the designed socket donned on the limb shrunk and grown.
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <limits>
@@ -15,6 +17,7 @@
 #include "socketsmith/geometry/mesh_checks.h"
 #include "socketsmith/geometry/mesh_io.h"
 #include "socketsmith/pipeline/design_pipeline.h"
+#include "socketsmith/pipeline/sock_ply.h"
 #include "socketsmith/report/csv.h"
 #include "socketsmith/report/design_report.h"
 #include "socketsmith/report/field_comparison.h"
@@ -294,6 +297,65 @@ int run_donning(const DonningFlags& f) {
   return 0;
 }
 
+struct SockPlyFlags {
+  std::string case_file, out;
+  bool demo = false;
+  int target_nodes = 0;
+  std::vector<double> changes_pct = {-4, -2, 2, 4};
+  bool json = false;
+};
+
+int run_sock_ply(const SockPlyFlags& f) {
+  require(f.case_file.empty() == f.demo,
+          "simulate sockply: give a case file (--case CASE.json) or --demo, not {}", f.demo ? "both" : "neither");
+  require(!f.changes_pct.empty(), "simulate sockply: --volume-changes-pct is empty (e.g. -4,-2,2,4)");
+  pipeline::SockPlyOptions so;
+  so.volume_changes.clear();
+  for (double v : f.changes_pct) {
+    require(std::isfinite(v) && std::abs(v) <= 20,
+            "simulate sockply: volume change {} % is outside [-20, 20] % (e.g. --volume-changes-pct -4,-2,2,4)", v);
+    so.volume_changes.push_back(v / 100);
+  }
+  const fs::path out(f.out);
+  ensure_directory(out);
+  const auto t0 = std::chrono::steady_clock::now();
+  const auto progress = console_progress(1.0);
+  const auto stage = [&](double a, double b) {
+    return [&progress, a, b](double x, std::string_view s) { return report_progress(progress, a + (b - a) * x, s); };
+  };
+  design::CaseFile c = f.demo ? pipeline::demo_case() : design::read_case(f.case_file);
+  if (f.target_nodes > 0) c.target_nodes = f.target_nodes;
+  if (f.demo) design::write_case(out / "case.json", c);
+  auto setup = pipeline::prepare_design(c, c.limb.file.empty() ? out / "limb.stl" : fs::path(), stage(0.0, 0.08));
+  pipeline::DesignResult result = pipeline::solve_design(*setup, c.optimise, stage(0.08, 0.15));
+  if (!result.socket) {
+    pipeline::write_design_outputs(*setup, result, out, 0.0);
+    fail("simulate sockply: the case's design does not meet its constraints, so it has no socket to don (see {}); "
+         "fix the design first",
+         (out / "report.html").string());
+  }
+  so.progress = stage(0.15, 0.98);
+  result.sock_ply = pipeline::run_sock_ply_study(*setup, result, so);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const nlohmann::json j = pipeline::write_design_outputs(*setup, result, out, seconds);
+  report_progress(progress, 1.0, "sock ply: done");
+  if (f.json) {
+    print_json(j["sock_ply"]);
+    return 0;
+  }
+  for (const auto& l : result.sock_ply->levels)
+    log::info("sockply: limb {:+5.1f} % (skin {:+.3f} mm): {}", 100 * l.volume_change, l.skin_offset_m * 1e3,
+              l.stood ? fmt::format("socket at {:+.2f} mm, limb {} {:.2f} mm, peak p/T {:.3f} ({}), distal mean {:.1f} "
+                                    "kPa, peak {:.1f} kPa; constraints {}",
+                                    l.stood_offset_m * 1e3, l.sink_m >= 0 ? "sinks" : "rises", std::abs(l.sink_m) * 1e3,
+                                    l.peak_ratio, l.peak_zone, l.distal_mean_pa / 1e3, l.distal_peak_pa / 1e3,
+                                    l.status.all_ok() ? "all hold" : "fail: " + l.status.failing())
+                      : "did not stand: " + l.message);
+  log::info("sockply: done in {:.1f} s; outputs in {} (sockply.csv, design.json \"sock_ply\", sockply.png, report.html)",
+            seconds, out.string());
+  return 0;
+}
+
 }  // namespace
 
 void register_contact(CLI::App& app) {
@@ -329,6 +391,20 @@ void register_contact(CLI::App& app) {
   don->add_option("--out", f->out, "output directory")->required();
   don->add_flag("--json", f->json, "print the summary as JSON on stdout");
   don->callback([f] { run_donning(*f); });
+
+  auto g = std::make_shared<SockPlyFlags>();
+  auto* ply = sim->add_subcommand(
+      "sockply", "sock-ply sensitivity: the designed socket donned and stood on with the limb shrunk and grown");
+  ply->add_option("--case", g->case_file, "case file: design it, then don its socket on the changed limb");
+  ply->add_flag("--demo", g->demo, "the embedded sample case (generated limb, 8k nodes) instead of a case file");
+  ply->add_option("--target-nodes", g->target_nodes, "stump size (default: the case's)")
+      ->check(within(design::limits::kTargetNodes));
+  ply->add_option("--volume-changes-pct", g->changes_pct,
+                  "limb volume changes to try [%], each in [-20, 20] (default -4,-2,2,4; the designed volume is added)")
+      ->delimiter(',');
+  ply->add_option("--out", g->out, "output directory (the design's outputs, sockply.csv, report.html)")->required();
+  ply->add_flag("--json", g->json, "print the study as JSON on stdout");
+  ply->callback([g] { run_sock_ply(*g); });
 }
 
 }  // namespace socketsmith::cli

@@ -14,6 +14,9 @@
 #include "socketsmith/core/errors.h"
 #include "socketsmith/core/exit_status.h"
 #include "socketsmith/design/input_limits.h"
+#include "socketsmith/geometry/mesh_io.h"
+#include "socketsmith/geometry/shape_compare.h"
+#include "socketsmith/report/html.h"
 #include "socketsmith/core/log.h"
 #include "socketsmith/core/units.h"
 #include "socketsmith/report/raster.h"
@@ -24,20 +27,31 @@ namespace fs = std::filesystem;
 constexpr double kDeg = std::numbers::pi / 180.0;
 constexpr float kLeftPanel = 390, kRightPanel = 440;
 
+namespace {
+/// The colour map of a field: viridis for the thresholds, diverging (blue inside, red outside) for
+/// the deviation of a compared shape, the clinicians' pressure map for the rest.
+report::Colormap field_colormap(Field field) {
+  return field == Field::Threshold   ? report::Colormap::Viridis
+         : field == Field::Deviation ? report::Colormap::Diverging
+                                     : report::Colormap::Pressure;
+}
+}  // namespace
+
 const char* to_string(Field field) {
   switch (field) {
     case Field::Pressure: return "pressure";
     case Field::Threshold: return "threshold";
     case Field::Ratio: return "ratio";
     case Field::Displacement: return "displacement";
+    case Field::Deviation: return "deviation";
   }
   return "pressure";
 }
 
 Field parse_field(const std::string& text) {
-  for (Field f : {Field::Pressure, Field::Threshold, Field::Ratio, Field::Displacement})
+  for (Field f : {Field::Pressure, Field::Threshold, Field::Ratio, Field::Displacement, Field::Deviation})
     if (text == to_string(f)) return f;
-  fail("colour field '{}' is not known (use pressure, threshold, ratio or displacement)", text);
+  fail("colour field '{}' is not known (use pressure, threshold, ratio, displacement or deviation)", text);
 }
 
 App::App(GLFWwindow* window, bool is_headless)
@@ -185,6 +199,33 @@ void App::export_design(const fs::path& dir) {
                                   ? ""
                                   : " (the earlier socket.stl there was removed)");
   });
+}
+
+void App::compare_with(const fs::path& path) {
+  if (!setup_) {
+    show_error("compare: open a case first (the limb to compare with)");
+    return;
+  }
+  // Copies: the job must not read the setup, which a load may replace meanwhile.
+  start_job("comparing with " + path.string(),
+            [this, path, limb = setup_->limb, skin = skin_rest_](const ProgressCallback& progress) {
+              report_progress(progress, 0.1, "compare: reading the second shape");
+              const geometry::TriMesh b = geometry::read_mesh(path);
+              report_progress(progress, 0.3, "compare: aligning it onto the limb");
+              const geometry::ShapeComparison cmp = geometry::compare_shapes(limb, b);
+              report_progress(progress, 0.9, "compare: deviation on the stump's skin");
+              // The deviation at the stump's skin nodes (on the limb's surface), to B as aligned.
+              std::vector<double> dev = geometry::signed_deviation(skin, cmp.b, 0.05);
+              std::lock_guard lock(loaded_mutex_);
+              compared_label_ = fmt::format(
+                  "{} ({}) aligned by {}, ICP residual {:.2f} mm: deviation mean {:+.2f} mm, 5th-95th percentile "
+                  "{:+.2f} ... {:+.2f} mm below {:.0f} mm; volume change {:+.1f} %",
+                  path.filename().string(), geometry::to_string(cmp.b_kind), cmp.seed, cmp.icp.rms_m * 1e3,
+                  cmp.stats.mean_m * 1e3, cmp.stats.p05_m * 1e3, cmp.stats.p95_m * 1e3, cmp.crop_height_m * 1e3,
+                  cmp.volume_a_m3 > 0 ? 100 * (cmp.volume_b_m3 / cmp.volume_a_m3 - 1) : 0.0);
+              compared_file_ = path.filename().string();
+              compared_ = std::move(dev);
+            });
 }
 
 void App::push_history() {
@@ -456,6 +497,16 @@ void App::poll_jobs() {
   bool is_rebuild = false;
   {
     std::lock_guard lock(loaded_mutex_);
+    if (compared_) {
+      deviation_m_ = std::move(*compared_);
+      compared_.reset();
+      comparison_ = compared_label_;
+      comparison_file_ = compared_file_;
+      info_ = "compared with " + comparison_;
+      field_ = Field::Deviation;
+      is_auto_range_ = true;
+      colours_dirty_ = true;
+    }
     loaded = std::move(loaded_);
     c = loaded_case_;
     p = loaded_path_;
@@ -473,6 +524,10 @@ void App::poll_jobs() {
     is_dirty_ = dirty;
   } else {
     install_setup(std::move(loaded), std::move(c), std::move(p));
+    deviation_m_.clear();  // another limb: the comparison was of the one before
+    comparison_.clear();
+    comparison_file_.clear();
+    if (field_ == Field::Deviation) field_ = Field::Pressure;
   }
 }
 
@@ -550,16 +605,23 @@ void App::update_colours() {
       case Field::Displacement:
         if (state_) v[i] = state_->displacement_m[i] * 1e3;
         break;
+      case Field::Deviation:
+        if (i < deviation_m_.size()) v[i] = deviation_m_[i] * 1e3;
+        break;
     }
   }
   if (is_auto_range_) {
     double hi = 0;
     for (double x : v)
-      if (std::isfinite(x)) hi = std::max(hi, x);
+      if (std::isfinite(x)) hi = std::max(hi, field_ == Field::Deviation ? std::abs(x) : x);
     range_min_ = 0;
     range_max_ = field_ == Field::Ratio ? 1.2f : static_cast<float>(hi > 0 ? hi : 1.0);
+    if (field_ == Field::Deviation) {  // symmetric about 0: blue inside, red outside
+      range_max_ = static_cast<float>(report::nice_ceil(hi > 0 ? hi : 1.0));
+      range_min_ = -range_max_;
+    }
   }
-  const report::Colormap cm = field_ == Field::Threshold ? report::Colormap::Viridis : report::Colormap::Pressure;
+  const report::Colormap cm = field_colormap(field_);
   std::vector<Rgba> colours(n);
   const double span = std::max(1e-12, static_cast<double>(range_max_ - range_min_));
   for (size_t i = 0; i < n; ++i) {
@@ -612,6 +674,7 @@ void App::frame(int width, int height) {
       if (ImGui::IsKeyPressed(GLFW_KEY_2)) set_field(Field::Threshold);
       if (ImGui::IsKeyPressed(GLFW_KEY_3)) set_field(Field::Ratio);
       if (ImGui::IsKeyPressed(GLFW_KEY_4)) set_field(Field::Displacement);
+      if (ImGui::IsKeyPressed(GLFW_KEY_5) && !deviation_m_.empty()) set_field(Field::Deviation);
       if (ImGui::IsKeyPressed(GLFW_KEY_F) && setup_) camera_.frame(geometry::bounding_box(setup_->model.skin));
       if (ImGui::IsKeyPressed(GLFW_KEY_ESCAPE)) is_placing_spot_ = false;
     }
@@ -708,6 +771,7 @@ void App::draw_menu() {
     }
     if (ImGui::MenuItem("Save as...", nullptr, false, setup_ != nullptr)) dialog_ = Dialog::SaveAs;
     if (ImGui::MenuItem("Export socket and report...", nullptr, false, setup_ != nullptr)) dialog_ = Dialog::Export;
+    if (ImGui::MenuItem("Compare with a second shape...", nullptr, false, setup_ != nullptr)) dialog_ = Dialog::Compare;
     ImGui::Separator();
     if (ImGui::MenuItem("Quit")) glfwSetWindowShouldClose(window_, 1);
     ImGui::EndMenu();
@@ -1002,9 +1066,9 @@ void App::draw_viewport_overlay(int x, int y, int width, int height) {
   }
   const char* units = field_ == Field::Ratio ? "p/T [-]" : field_ == Field::Displacement ? "displacement [mm]"
                       : field_ == Field::Threshold                              ? "threshold [kPa]"
+                      : field_ == Field::Deviation                              ? "deviation [mm]"
                                                                                 : "pressure [kPa]";
-  colour_bar(dl, ImVec2(x + width - 70.0f, y + 60.0f), ImVec2(18, 240),
-             field_ == Field::Threshold ? report::Colormap::Viridis : report::Colormap::Pressure, range_min_, range_max_,
+  colour_bar(dl, ImVec2(x + width - 70.0f, y + 60.0f), ImVec2(18, 240), field_colormap(field_), range_min_, range_max_,
              "");
   dl->AddText(ImVec2(x + width - 160.0f, y + 36.0f), IM_COL32(20, 20, 20, 255), units);
   if (show_landmarks_) {
@@ -1039,13 +1103,19 @@ void App::draw_viewport_overlay(int x, int y, int width, int height) {
                ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoMove |
                    ImGuiWindowFlags_NoSavedSettings);
   int f = static_cast<int>(field_);
-  const char* fields[] = {"applied pressure [kPa]", "pain threshold [kPa]", "pressure / threshold", "displacement [mm]"};
+  const char* fields[] = {"applied pressure [kPa]", "pain threshold [kPa]", "pressure / threshold", "displacement [mm]",
+                          "deviation of the compared shape [mm]"};
   ImGui::SetNextItemWidth(200);
-  if (ImGui::Combo("colour", &f, fields, 4)) set_field(static_cast<Field>(f));
+  // The deviation is offered once a second shape was compared (File > Compare with a second shape).
+  if (ImGui::Combo("colour", &f, fields, deviation_m_.empty() ? 4 : 5)) set_field(static_cast<Field>(f));
+  if (field_ == Field::Deviation && !comparison_file_.empty())  // the whole line is in the feedback panel
+    ImGui::TextDisabled("vs %s (> 0: it lies outside the limb)", comparison_file_.c_str());
   if (ImGui::Checkbox("auto range", &is_auto_range_)) colours_dirty_ = true;
   if (!is_auto_range_) {
     ImGui::SetNextItemWidth(200);
-    if (ImGui::DragFloatRange2("range", &range_min_, &range_max_, 0.1f, 0.0f, 1000.0f)) colours_dirty_ = true;
+    if (ImGui::DragFloatRange2("range", &range_min_, &range_max_, 0.1f, field_ == Field::Deviation ? -100.0f : 0.0f,
+                               1000.0f))
+      colours_dirty_ = true;
   }
   ImGui::SetNextItemWidth(200);
   ImGui::SliderFloat("stump opacity", &stump_alpha_, 0.2f, 1.0f, "%.2f");
@@ -1139,7 +1209,8 @@ void App::handle_view_input(int x, int y, int width, int height) {
 
 void App::draw_file_dialog() {
   if (dialog_ == Dialog::None) return;
-  const char* titles[] = {"", "Open case", "Open limb scan", "Save case as", "Export to folder"};
+  const char* titles[] = {"", "Open case", "Open limb scan", "Save case as", "Export to folder",
+                          "Compare with a second shape (scan or socket)"};
   const char* title = titles[static_cast<int>(dialog_)];
   if (!ImGui::IsPopupOpen(title)) {
     ImGui::OpenPopup(title);
@@ -1174,13 +1245,17 @@ void App::draw_file_dialog() {
     }
     std::string ext = e.path().extension().string();
     std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char ch) { return std::tolower(ch); });
-    const bool wanted = dialog_ == Dialog::OpenLimb ? (ext == ".stl" || ext == ".obj" || ext == ".ply" || ext == ".aop")
+    const bool wanted = dialog_ == Dialog::OpenLimb || dialog_ == Dialog::Compare
+                            ? (ext == ".stl" || ext == ".obj" || ext == ".ply" || ext == ".aop")
                                                     : dialog_ != Dialog::Export && ext == ".json";
     if (wanted && ImGui::Selectable(name.c_str())) dialog_path_ = e.path().string();
   }
   ImGui::EndChild();
   if (dialog_ == Dialog::OpenLimb) ImGui::InputInt("mesh nodes", &dialog_target_nodes_, 1000, 5000);
-  const char* ok = dialog_ == Dialog::SaveAs ? "Save" : dialog_ == Dialog::Export ? "Export" : "Open";
+  const char* ok = dialog_ == Dialog::SaveAs   ? "Save"
+                   : dialog_ == Dialog::Export  ? "Export"
+                   : dialog_ == Dialog::Compare ? "Compare"
+                                                : "Open";
   if (ImGui::Button(ok, ImVec2(120, 0))) {
     const fs::path p = dialog_path_;
     switch (dialog_) {
@@ -1193,6 +1268,7 @@ void App::draw_file_dialog() {
         }
         break;
       case Dialog::Export: export_design(p); break;
+      case Dialog::Compare: compare_with(p); break;
       case Dialog::None: break;
     }
     dialog_ = Dialog::None;

@@ -29,10 +29,11 @@ struct GLFWwindow;
 
 namespace socketsmith::gui {
 
-/// The field the stump is coloured by.
-enum class Field { Pressure, Threshold, Ratio, Displacement };
+/// The field the stump is coloured by. Deviation: the signed distance from the stump's skin to a
+/// second shape (compare_with), > 0 where that shape lies outside.
+enum class Field { Pressure, Threshold, Ratio, Displacement, Deviation };
 const char* to_string(Field field);
-/// "pressure" | "threshold" | "ratio" | "displacement"; @throws InvalidInputError otherwise.
+/// "pressure" | "threshold" | "ratio" | "displacement" | "deviation"; @throws InvalidInputError otherwise.
 Field parse_field(const std::string& text);
 
 /// A background job (prepare a case, export) with its progress.
@@ -65,6 +66,14 @@ class App {
   /// pipeline::run_design on the case as edited, not optimised — the same as
   /// `socketsmith design CASE --no-optimise`.
   void export_design(const std::filesystem::path& dir);
+  /// Compares a second shape of the limb (a later scan, a socket solid: its cavity) with the open
+  /// limb on a worker thread, as `socketsmith compare LIMB SHAPE` does (geometry::compare_shapes:
+  /// aligned by the limb frames, ICP), and colours the stump by the deviation [mm] once done.
+  void compare_with(const std::filesystem::path& path);
+  /// Per skin node: the deviation of the compared shape [m] (NaN where it does not cover the skin);
+  /// empty before a comparison (and after another case is opened).
+  const std::vector<double>& deviation_m() const { return deviation_m_; }
+  const std::string& comparison() const { return comparison_; }  ///< what was compared, one line
   void undo();
   void redo();
 
@@ -178,6 +187,10 @@ class App {
   std::filesystem::path loaded_path_;
   bool loaded_is_rebuild_ = false;
   std::string job_message_;  // set by a finished job, shown by poll_jobs()
+  std::optional<std::vector<double>> compared_;  // handed over by a finished comparison job
+  std::string compared_label_, compared_file_;
+  std::vector<double> deviation_m_;  // the installed comparison, per skin node
+  std::string comparison_, comparison_file_;
   std::mutex loaded_mutex_;
   std::uint64_t generation_ = 0;
   std::optional<design::DesignState> state_;
@@ -224,7 +237,7 @@ class App {
   double drag_distance_px_ = 0;
 
   // Dialogs
-  enum class Dialog { None, OpenCase, OpenLimb, SaveAs, Export } dialog_ = Dialog::None;
+  enum class Dialog { None, OpenCase, OpenLimb, SaveAs, Export, Compare } dialog_ = Dialog::None;
   std::string dialog_path_;
   std::string dialog_folder_;
   int dialog_target_nodes_ = 8000;

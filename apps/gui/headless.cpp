@@ -119,6 +119,8 @@ void HeadlessRunner::run_action(const json& a, int width, int height) {
     app_.save_case(a.at("path").get<std::string>());
   } else if (what == "export") {
     app_.export_design(a.at("dir").get<std::string>());
+  } else if (what == "compare") {
+    app_.compare_with(a.at("file").get<std::string>());
   } else if (what == "view") {
     auto& cam = app_.camera();
     if (a.contains("yaw_deg")) cam.yaw_rad = a["yaw_deg"].get<double>() * std::numbers::pi / 180;
@@ -135,7 +137,7 @@ void HeadlessRunner::run_action(const json& a, int width, int height) {
     const auto& st = *app_.state();
     json spots = json::array();
     for (const auto& sp : app_.document().spots) spots.push_back(design::spot_to_json(sp));
-    const json j{{"radar",
+    json j{{"radar",
                   {{"fx_n", st.radar.force_n.x()},
                    {"fy_n", st.radar.force_n.y()},
                    {"fz_n", st.radar.force_n.z()},
@@ -147,19 +149,24 @@ void HeadlessRunner::run_action(const json& a, int width, int height) {
                  {"max_pressure_ratio", st.max_requested_ratio},
                  {"max_displacement_mm", st.max_displacement_m * 1e3},
                  {"spots", spots}};
-    json out = j;
     if (const auto& t = app_.template_check())
-      out["template_regions"] = {{"template", t->template_name},
-                                 {"met", t->met},
-                                 {"tolerant_to_sensitive", t->tolerant_to_sensitive},
-                                 {"distal_fifth_share", t->distal_fifth.axial_share},
-                                 {"cv_below_brim", t->cv_below_brim}};
-    write_text_atomically(a.at("path").get<std::string>(), out.dump(2) + "\n");
+      j["template_regions"] = {{"template", t->template_name},
+                               {"met", t->met},
+                               {"tolerant_to_sensitive", t->tolerant_to_sensitive},
+                               {"distal_fifth_share", t->distal_fifth.axial_share},
+                               {"cv_below_brim", t->cv_below_brim}};
+    if (!app_.deviation_m().empty()) {  // the compared shape's deviation on the skin [mm]
+      json dev = json::array();
+      for (double d : app_.deviation_m()) dev.push_back(std::isfinite(d) ? json(d * 1e3) : json());
+      j["deviation_mm"] = dev;
+      j["comparison"] = app_.comparison();
+    }
+    write_text_atomically(a.at("path").get<std::string>(), j.dump(2) + "\n");
   } else if (what == "wait_frames") {
     settle_ = std::max(settle_, a.at("count").get<int>());
   } else {
     fail("action '{}' is not known (add_spot, set, remove_spot, select_spot, field, optimise, cancel, patient, brim, "
-         "brim_key_point, thickness, undo, redo, save, export, view, screenshot, write_state, wait_frames)",
+         "brim_key_point, thickness, undo, redo, save, export, compare, view, screenshot, write_state, wait_frames)",
          what);
   }
 }

@@ -4,6 +4,7 @@
 // saved by the GUI replays through `socketsmith design` to the radar the window showed.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -11,6 +12,7 @@
 #include <set>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include <fcntl.h>
 #include <sys/file.h>
@@ -20,6 +22,9 @@
 #include <stb/stb_image.h>
 
 #include "socketsmith/design/case_file.h"
+#include "socketsmith/geometry/mesh_io.h"
+#include "socketsmith/geometry/rigid_alignment.h"
+#include "socketsmith/volume/limb_generator.h"
 
 namespace socketsmith {
 namespace {
@@ -310,6 +315,64 @@ TEST(GuiErrors, optimising_two_spots_is_not_an_error_and_its_export_removes_a_st
   const json summary = read_json(dir / "export" / "design.json");
   EXPECT_FALSE(summary["constraints_met"].get<bool>());
   EXPECT_EQ(summary["removed"], json::array({"socket.stl"}));
+}
+
+// File > Compare with a second shape (issue 23): the demo's limb against a copy of it offset
+// outward by 2 mm along its normals (a swollen limb, a later scan): the stump is coloured by the
+// deviation, +2 mm on the skin the copy covers, red on the diverging map.
+TEST(GuiCompare, a_second_shape_offset_by_2_mm_colours_the_stump_by_its_deviation) {
+  const fs::path dir = kBin / "tests" / "gui_compare";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  // The demo's limb (generated, seed 1), its skin moved 2 mm along the vertex normals.
+  geometry::TriMesh skin = volume::generate_limb(volume::default_params(geometry::LimbType::Transtibial, 1)).skin;
+  const auto normals = geometry::vertex_normals(skin);
+  for (size_t k = 0; k < skin.vertices.size(); ++k) skin.vertices[k] += 2e-3 * normals[k];
+  geometry::write_mesh(dir / "swollen.stl", skin);
+  const json script = {{"actions",
+                        {{{"do", "compare"}, {"file", (dir / "swollen.stl").string()}},
+                         {{"do", "screenshot"}, {"name", "deviation.png"}},
+                         {{"do", "write_state"}, {"path", (dir / "state.json").string()}}}}};
+  std::ofstream(dir / "script.json") << script.dump();
+  const int rc = run_gui("--headless --demo --target-nodes 1500 --script " + (dir / "script.json").string() +
+                             " --frames 1 --screenshot-dir " + dir.string(),
+                         dir / "gui.log");
+  const std::string log = read_text(dir / "gui.log");
+  ASSERT_EQ(rc, 0) << log;
+  const json state = read_json(dir / "state.json");
+  ASSERT_TRUE(state.contains("deviation_mm")) << log;
+  std::vector<double> dev;
+  for (const auto& d : state["deviation_mm"])
+    if (!d.is_null()) dev.push_back(d.get<double>());
+  const size_t nodes = state["deviation_mm"].size();
+  std::sort(dev.begin(), dev.end());
+  ASSERT_GT(dev.size(), nodes / 2) << "the copy covers most of the stump's skin";
+  const auto pct = [&](double q) { return dev[static_cast<size_t>(q * (dev.size() - 1))]; };
+  // The skin nodes lie on the limb's surface, the copy 2 mm outside it (the tibial crest's corner
+  // is no exact offset: 1.94 mm there, docs/prosthetist_checks.md).
+  EXPECT_NEAR(pct(0.5), 2.0, 0.05) << state["comparison"];
+  EXPECT_NEAR(pct(0.05), 2.0, 0.15) << state["comparison"];
+  EXPECT_NEAR(pct(0.95), 2.0, 0.15) << state["comparison"];
+  EXPECT_NE(state["comparison"].get<std::string>().find("swollen.stl"), std::string::npos);
+  // The screenshot: the stump drawn, red (outside) on the diverging map.
+  int w = 0, h = 0, n = 0;
+  unsigned char* px = stbi_load((dir / "deviation.png").string().c_str(), &w, &h, &n, 3);
+  ASSERT_NE(px, nullptr);
+  const int x0 = 390 + (w - 830) / 3, x1 = 390 + 2 * (w - 830) / 3, y0 = h / 3, y1 = 2 * h / 3;
+  long covered = 0, total = 0;
+  double red = 0, blue = 0;
+  for (int y = y0; y < y1; ++y)
+    for (int x = x0; x < x1; ++x) {
+      const unsigned char* p = px + 3 * (static_cast<size_t>(y) * w + x);
+      ++total;
+      if (std::abs(p[0] - 237) + std::abs(p[1] - 240) + std::abs(p[2] - 245) <= 12) continue;
+      ++covered;
+      red += p[0];
+      blue += p[2];
+    }
+  stbi_image_free(px);
+  ASSERT_GT(covered, total / 7) << "the stump fills the middle of the view";
+  EXPECT_GT((red - blue) / covered, 40.0) << "a limb 2 mm inside the compared shape is red on the diverging map";
 }
 
 }  // namespace

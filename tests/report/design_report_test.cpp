@@ -421,6 +421,54 @@ TEST_F(ReportFixture, html_has_the_values_escapes_text_and_embeds_pictures) {
   EXPECT_EQ(count_substr(html, "src=\"data:image/svg+xml;base64,"), 1u);
 }
 
+TEST_F(ReportFixture, round_off_is_shown_as_zero_in_clinical_units) {
+  auto d = data();
+  d.spots[0].theta0_rad = 1.0e-18;  // an optimised angle: 5.7e-17° printed as such before
+  d.spots[0].amplitude_pa = 9.4e-14;
+  const std::string html = render_design_report_html(d);
+  EXPECT_NE(html.find("θ0 0 ± 30"), std::string::npos);
+  EXPECT_NE(html.find("<td>0</td>"), std::string::npos);
+  EXPECT_EQ(html.find("e-17"), std::string::npos);
+  EXPECT_EQ(html.find("e-14"), std::string::npos);
+}
+
+TEST_F(ReportFixture, sock_ply_section_lists_every_level_with_its_verdict) {
+  auto d = data();
+  d.sock_ply.has_study = true;
+  d.sock_ply.summary = "study summary line";
+  for (double f : {-0.04, 0.0, 0.04}) {
+    ReportSockPlyLevel l;
+    l.volume_change = f;
+    l.skin_offset_m = f * 0.02;
+    l.stood = f < 0.03;
+    l.stood_offset_m = -f * 0.1;
+    l.sink_m = -f * 0.1;
+    l.peak_ratio = 0.5 - f;
+    l.peak_pressure_pa = 30e3;
+    l.distal_mean_pa = 12.5e3;
+    l.distal_peak_pa = 20e3;
+    l.constraints = f == 0 ? "all hold" : "fail: F_x";
+    l.message = "standing not reached";
+    d.sock_ply.levels.push_back(l);
+  }
+  Plot p;
+  p.title = "sink";
+  PlotSeries sink;
+  sink.x = {-4, 0};
+  sink.y = {4, 0};
+  p.series.push_back(sink);
+  d.sock_ply.plots = {p};
+  const std::string html = render_design_report_html(d);
+  EXPECT_NE(html.find("Sock-ply sensitivity"), std::string::npos);
+  EXPECT_NE(html.find("study summary line"), std::string::npos);
+  EXPECT_NE(html.find("<td>-4 %</td>"), std::string::npos);
+  EXPECT_NE(html.find("<td>as designed</td>"), std::string::npos);
+  EXPECT_NE(html.find("<td>4</td>"), std::string::npos);        // sinks 4 mm at −4 %
+  EXPECT_NE(html.find("<td>12.5</td>"), std::string::npos);     // distal mean [kPa]
+  EXPECT_NE(html.find("standing not reached"), std::string::npos);  // +4 % did not stand
+  EXPECT_EQ(count_substr(html, "src=\"data:image/svg+xml;base64,"), 2u);  // the profile and the study's plot
+}
+
 TEST_F(ReportFixture, an_error_leaves_no_file_and_keeps_the_previous_report) {
   const fs::path path = dir / "report.html";
   auto bad = data();

@@ -624,6 +624,8 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
   const nlohmann::json checks_json = write_prosthetist_checks(setup, result, prosthetist_checks(setup, result), out, rd);
   nlohmann::json closed_loop_json;
   if (result.closed_loop) closed_loop_json = write_closed_loop_outputs(setup, result, out, rd.delivery);
+  nlohmann::json sock_ply_json;
+  if (result.sock_ply) sock_ply_json = write_sock_ply_outputs(setup, result, out, rd.sock_ply);
   rd.optimiser.has_run = optimise;
   rd.optimiser.converged = opt.constraints_met;
   rd.optimiser.iterations = opt.rounds;
@@ -803,6 +805,10 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
   j["slices"] = checks_json["slices"];
   for (const char* o : {"rectification_map.png", "rectification.csv", "slices.csv"}) j["outputs"].push_back(o);
   j["template_regions"] = template_json;
+  if (!sock_ply_json.is_null()) {
+    j["sock_ply"] = sock_ply_json;
+    for (const auto& o : sock_ply_json["outputs"]) j["outputs"].push_back(o);
+  }
   if (!closed_loop_json.is_null()) {
     j["closed_loop"] = closed_loop_json;
     for (const auto& o : closed_loop_json["outputs"]) j["outputs"].push_back(o);

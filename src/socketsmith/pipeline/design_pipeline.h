@@ -30,6 +30,7 @@
 #include "socketsmith/design/template_regions.h"
 #include "socketsmith/geometry/tri_mesh.h"
 #include "socketsmith/pipeline/closed_loop.h"
+#include "socketsmith/pipeline/sock_ply.h"
 #include "socketsmith/report/design_report.h"
 #include "socketsmith/volume/hex_mesher.h"
 #include "socketsmith/volume/limb_model.h"
@@ -101,6 +102,9 @@ struct DesignResult {
   /// The closed loop (case `design.closed_loop`): the open-loop socket donned and stood on, its
   /// wall corrected; `socket` is then the corrected socket.
   std::optional<ClosedLoopResult> closed_loop;
+  /// The sock-ply study (`simulate sockply`, run_sock_ply_study): the socket donned on the limb
+  /// shrunk and grown; written with the design's outputs and in its report when present.
+  std::optional<SockPlyResult> sock_ply;
 };
 
 /// Stage 2. Optimises (or solves the setup's spots) and builds the socket when every constraint

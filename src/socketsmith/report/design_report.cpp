@@ -221,9 +221,12 @@ geometry::TriMesh brim_tube(const std::vector<Vector3d>& pts, double radius) {
 
 // ---- HTML ----------------------------------------------------------------------------------
 
-std::string deg(double rad) { return num(rad * 180 / kPi); }
-std::string mm(double m) { return num(m * 1e3); }
-std::string kpa(double pa) { return num(pa * 1e-3); }
+// A value below 1e-9 of its display unit is round-off (an optimised angle of 5.8e-17°, an amplitude
+// of 9.4e-17 kPa: the browser showed them as such): shown as 0.
+double shown(double v) { return std::abs(v) < 1e-9 ? 0.0 : v; }
+std::string deg(double rad) { return num(shown(rad * 180 / kPi)); }
+std::string mm(double m) { return num(shown(m * 1e3)); }
+std::string kpa(double pa) { return num(shown(pa * 1e-3)); }
 
 std::string spot_theta(const ReportSpot& s) {
   if (s.type == "cos2" || s.type == "cos-sig")
@@ -769,7 +772,11 @@ void sock_ply_section(HtmlWriter& h, const ReportSockPly& s) {
   h.paragraph("Skin offset: the uniform normal offset of the skin (bones fixed) that changes the limb's volume by the "
               "given fraction. Socket stood at: where the socket carried half the body weight, along the axis from its "
               "designed pose. Limb sinks: how much deeper than at the designed volume the limb sits in the socket "
-              "(negative: it rises). Constraints: the design's seven conditions evaluated on the delivered pressures.");
+              "(negative: it rises). Peak p/T: the largest contact pressure over the pain threshold below the brim. Distal: "
+              "the contact pressure over the distal fifth of the stump. Constraints: the design's seven conditions and "
+              "comfort (p/T ≤ 1) evaluated on the delivered pressures with the design's tolerances (a failing one is "
+              "shown with its value and target: a donned socket delivers the design only approximately, so compare "
+              "with the row 'as designed').");
   for (const auto& m : s.maps) h.image(png_data_uri(render_pressure_map(m)), m.title);
   for (const auto& p : s.plots) h.image(svg_data_uri(render_svg(p)), p.title);
 }
