@@ -24,6 +24,8 @@ packages=(
   libimgui-dev libglfw3-dev libgl-dev  # socketsmith-gui: Dear ImGui (with its GLFW/OpenGL3 back-ends), window, OpenGL
   xvfb xauth libgl1-mesa-dri  # GUI tests and screenshots headless: virtual X server, Mesa llvmpipe OpenGL
   chromium                # the reports' browser test: headless Chromium renders report.html and prints it to PDF
+  pybind11-dev python3-pybind11 python3-dev  # the Python package socketsmith (docs/python.md), built for /usr/bin/python3
+  python3-numpy python3-pytest  # its arrays and its tests (tests/python); the sweep test (tests/cli/sweep_test.py)
 )
 
 # --dev: ccache, and clang with its sanitizer/libFuzzer runtime for scripts/fuzz.sh.
