@@ -1,6 +1,7 @@
 // `socketsmith sweep SWEEP.json --out DIR [--workers N | --slurm]`, `socketsmith sweep collect DIR`
 // and `socketsmith sweep case DIR ID` (one case: what a local worker or a Slurm array task runs).
 // The sweep itself is pipeline/sweep.h; this file parses flags and prints.
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <string>
@@ -70,10 +71,20 @@ void run_sweep(const SweepFlags& f) {
                 script.string(), f.out);
       return;
     }
-    const std::string cmd = "'" + sbatch + "' '" + script.string() + "'";
-    const int rc = std::system(cmd.c_str());
-    require<IoError>(rc == 0, "sweep: sbatch failed (exit status {}) on {}: see its message above", rc, script.string());
-    log::info("sweep: submitted; when the array is done: socketsmith sweep collect {}", f.out);
+    // --parsable: sbatch prints the job id alone ("123" or "123;cluster").
+    const std::string cmd = "'" + sbatch + "' --parsable '" + script.string() + "'";
+    FILE* p = ::popen(cmd.c_str(), "r");
+    require<IoError>(p != nullptr, "sweep: cannot run {}", sbatch);
+    std::string answer;
+    char buf[256];
+    while (std::fgets(buf, sizeof buf, p)) answer += buf;
+    const int rc = ::pclose(p);
+    require<IoError>(rc == 0, "sweep: sbatch failed (status {}) on {}: see its message above; is the cluster up "
+                              "(sinfo)?", rc, script.string());
+    const std::string job = one_line(answer.substr(0, answer.find(';')));
+    log::info("sweep: submitted job array {} ({} tasks); when `squeue -j {}` is empty: socketsmith sweep collect {}", job,
+              pending, job, f.out);
+    if (f.json) print_json({{"job", job}, {"tasks", pending}, {"script", script.string()}, {"out", f.out}});
     return;
   }
   pipeline::SweepRunOptions o;
