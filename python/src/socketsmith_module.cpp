@@ -30,6 +30,7 @@
 #include "socketsmith/design/case_file.h"
 #include "socketsmith/geometry/mesh_checks.h"
 #include "socketsmith/geometry/mesh_io.h"
+#include "socketsmith/geometry/mesh_report.h"
 #include "socketsmith/pipeline/design_pipeline.h"
 
 namespace py = pybind11;
@@ -224,28 +225,7 @@ struct Donning {
   std::vector<double> pressure_pa;  ///< per candidate (skin) node
 };
 
-nlohmann::json check_json(const Mesh& m) {
-  const auto rep = geometry::check_mesh(m.mesh);
-  const auto box = geometry::bounding_box(m.mesh);
-  nlohmann::json j{{"file", m.file},
-                   {"format", m.info.format},
-                   {"unit", units::to_string(m.info.unit)},
-                   {"unit_guessed", m.info.unit_was_guessed},
-                   {"vertices", rep.num_vertices},
-                   {"triangles", rep.num_triangles},
-                   {"bounding_box_m", {box.extent().x(), box.extent().y(), box.extent().z()}},
-                   {"components", rep.connected_components},
-                   {"boundary_loops", rep.boundary_loops},
-                   {"boundary_edges", rep.boundary_edges},
-                   {"non_manifold_edges", rep.non_manifold_edges},
-                   {"inconsistently_oriented_edges", rep.inconsistently_oriented_edges},
-                   {"degenerate_triangles", rep.degenerate_triangles},
-                   {"closed", rep.is_closed()},
-                   {"signed_volume_m3", rep.signed_volume_m3},
-                   {"problems", rep.problems()}};
-  if (!m.info.warning.empty()) j["warning"] = m.info.warning;
-  return j;
-}
+nlohmann::json check_json(const Mesh& m) { return geometry::mesh_report_json(m.file, m.mesh, m.info); }
 
 geometry::MeshReadOptions read_options(const std::optional<std::string>& unit) {
   geometry::MeshReadOptions ro;

@@ -163,3 +163,21 @@ def test_donning_the_designed_socket(py_design):
         assert don.pressure_pa.max() > 0
     else:
         assert don.message
+
+
+def test_aaop_shape_file_with_its_landmarks_as_the_cli_reads_it(exe):
+    import os
+    import pathlib
+
+    aop = pathlib.Path(os.environ.get("SOCKETSMITH_SHARED_DATA_DIR", "/nonexistent")) / "aaop" / "example_transtibial.aop"
+    if not aop.exists():
+        pytest.skip(f"{aop} is not here (../shared/data)")
+    rc, out, err = run_cli(exe, "check", "mesh", aop, "--json")
+    assert rc == 0, err
+    cli = json.loads(out)
+    assert socketsmith.check_mesh(str(aop)) == cli
+    m = socketsmith.read_mesh(str(aop))
+    assert m.format == "aaop" and m.unit == cli["unit"]
+    assert "TIB" in m.landmarks
+    first_mm = next(lm for lm in cli["landmarks"] if lm["name"] == "TIB")["points_mm"][0]
+    np.testing.assert_allclose(m.landmarks["TIB"][0] * 1e3, first_mm, rtol=1e-12)
