@@ -4,7 +4,9 @@
 #include "socketsmith/pipeline/sweep.h"
 
 #include <filesystem>
+#include <fstream>
 #include <set>
+#include <sstream>
 
 #include <gtest/gtest.h>
 
@@ -125,6 +127,59 @@ TEST(Sweep, a_folder_holding_another_sweep_is_refused_and_the_same_sweep_is_kept
   EXPECT_EQ(read_case_status(dir, "c0000").status, "missing");
   fs::remove_all(dir);
   EXPECT_THROW(read_manifest(dir), InvalidInputError);
+}
+
+TEST(Sweep, a_case_process_that_crashes_or_exits_without_a_marker_is_a_failed_case_and_the_others_run) {
+  // A stand-in for the socketsmith program (`EXE sweep case DIR ID`): c0000 prints the CLI's error
+  // line and exits 3, c0001 is killed by SIGKILL, c0002 writes its own marker like the real one.
+  const fs::path dir = fs::temp_directory_path() / "socketsmith_sweep_test_crash";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const fs::path exe = dir / "fake_socketsmith.sh";
+  {
+    std::ofstream f(exe);
+    f << "#!/bin/sh\n"
+         "case \"$4\" in\n"
+         "  c0000) echo 'error: the solver diverged (try a smaller load)' >&2; exit 3 ;;\n"
+         "  c0001) kill -KILL $$ ;;\n"
+         "  *) printf '{\"id\": \"%s\", \"status\": \"ok\", \"exit_code\": 0, \"message\": \"\", \"seconds\": 1}' \"$4\" "
+         "> \"$3/cases/$4/done.json\" ;;\n"
+         "esac\n";
+  }
+  fs::permissions(exe, fs::perms::owner_all);
+  write_sweep(parse_sweep({{"grid", {{"friction", {0.3, 0.5, 0.7}}}}}, "/data"), dir / "sweep");
+  SweepRunOptions o;
+  o.workers = 2;
+  o.executable = exe.string();
+  const SweepRunResult r = run_sweep_local(dir / "sweep", o);
+  EXPECT_EQ(r.ran, 3);
+  EXPECT_EQ(r.ok, 1);
+  EXPECT_EQ(r.failed, 2);
+  const auto a = read_case_status(dir / "sweep", "c0000");
+  EXPECT_EQ(a.status, "failed");
+  EXPECT_EQ(a.exit_code, 3);
+  EXPECT_NE(a.message.find("exited with code 3 without a result (error: the solver diverged"), std::string::npos)
+      << a.message;
+  const auto b = read_case_status(dir / "sweep", "c0001");
+  EXPECT_EQ(b.status, "failed");
+  EXPECT_NE(b.message.find("killed by signal 9"), std::string::npos) << b.message;
+  EXPECT_NE(b.message.find("log.txt"), std::string::npos) << b.message;
+  // A rerun skips all three; --retry-failed runs the two failed ones again.
+  EXPECT_EQ(run_sweep_local(dir / "sweep", o).ran, 0);
+  o.retry_failed = true;
+  const SweepRunResult again = run_sweep_local(dir / "sweep", o);
+  EXPECT_EQ(again.skipped, 1);
+  EXPECT_EQ(again.ran, 2);
+  // collect: a row per case, the failures with their messages.
+  const SweepCollectResult c = collect_sweep(dir / "sweep");
+  EXPECT_EQ(c.rows, 3);
+  EXPECT_EQ(c.failed, 2);
+  EXPECT_EQ(c.ok, 1);
+  std::ifstream csv(c.csv);
+  std::stringstream text;
+  text << csv.rdbuf();
+  EXPECT_NE(text.str().find("killed by signal 9"), std::string::npos);
+  fs::remove_all(dir);
 }
 
 }  // namespace
