@@ -560,7 +560,12 @@ std::string number_cell(const json& v) {
 std::string parameter_cell(const std::string& column, const json& v) {
   if (column == "limb" && v.is_object()) {
     if (v.contains("file") && v["file"].is_string()) return fs::path(v["file"].get<std::string>()).filename().string();
-    return "generated " + v.value("type", std::string("transtibial"));
+    // A generated limb: its type and whatever else the sweep set ("generated transtibial side=left").
+    std::string label = "generated " + (v.contains("type") && v["type"].is_string() ? v["type"].get<std::string>()
+                                                                                      : std::string("transtibial"));
+    for (const auto& [k, x] : v.items())
+      if (k != "type") label += " " + k + "=" + (x.is_string() ? x.get<std::string>() : x.dump());
+    return label;
   }
   if (v.is_string()) return v.get<std::string>();
   if (v.is_number() || v.is_boolean()) return number_cell(v);
