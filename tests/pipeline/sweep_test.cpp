@@ -3,6 +3,10 @@
 // end to end through the command line (tests/cli/sweep_test.py).
 #include "socketsmith/pipeline/sweep.h"
 
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
 #include <filesystem>
 #include <fstream>
 #include <set>
@@ -164,6 +168,20 @@ TEST(Sweep, a_case_process_that_crashes_or_exits_without_a_marker_is_a_failed_ca
   EXPECT_EQ(b.status, "failed");
   EXPECT_NE(b.message.find("killed by signal 9"), std::string::npos) << b.message;
   EXPECT_NE(b.message.find("log.txt"), std::string::npos) << b.message;
+  // A second local run of the same folder while one holds it is refused.
+  {
+    const int fd = ::open((dir / "sweep" / "run.lock").c_str(), O_RDWR);
+    ASSERT_GE(fd, 0);
+    ASSERT_EQ(::flock(fd, LOCK_EX | LOCK_NB), 0);
+    try {
+      run_sweep_local(dir / "sweep", o);
+      ADD_FAILURE() << "two local runs of one sweep at once";
+    } catch (const InvalidInputError& e) {
+      EXPECT_NE(std::string(e.what()).find("another `socketsmith sweep` is running the cases of"), std::string::npos)
+          << e.what();
+    }
+    ::close(fd);
+  }
   // A rerun skips all three; --retry-failed runs the two failed ones again.
   EXPECT_EQ(run_sweep_local(dir / "sweep", o).ran, 0);
   o.retry_failed = true;

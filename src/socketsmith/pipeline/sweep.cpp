@@ -2,6 +2,7 @@
 
 #include <fcntl.h>
 #include <signal.h>
+#include <sys/file.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -37,6 +38,7 @@ using json = nlohmann::json;
 namespace {
 
 constexpr const char* kManifest = "manifest.json";
+constexpr const char* kRunLock = "run.lock";  ///< held (flock) by a local run
 
 // Axis names: the grid's (plural where it reads better) and the list's, and the column each fills.
 struct Axis {
@@ -425,6 +427,19 @@ SweepRunResult run_sweep_local(const fs::path& dir, const SweepRunOptions& o) {
   require(!o.executable.empty(), "run_sweep_local: no executable given (the socketsmith program)");
   const auto t0 = std::chrono::steady_clock::now();
   const json m = read_manifest(dir);
+  // One local run per folder: a second would start the same unfinished cases again.
+  struct Lock {
+    int fd = -1;
+    ~Lock() {
+      if (fd >= 0) ::close(fd);  // releases the flock
+    }
+  } lock;
+  const fs::path lock_path = dir / kRunLock;
+  lock.fd = ::open(lock_path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  require<IoError>(lock.fd >= 0, "sweep: cannot open '{}': {}", lock_path.string(), std::strerror(errno));
+  require(::flock(lock.fd, LOCK_EX | LOCK_NB) == 0,
+          "sweep: another `socketsmith sweep` is running the cases of '{}' ({} is locked): wait for it to end or stop it",
+          dir.string(), lock_path.string());
   SweepRunResult r;
   r.cases = static_cast<int>(m["cases"].size());
   std::vector<std::string> pending;

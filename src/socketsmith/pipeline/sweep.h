@@ -104,8 +104,10 @@ struct SweepRunResult {
 
 /// Runs every unfinished case of DIR in subprocesses (`EXECUTABLE sweep case DIR ID`, output in
 /// cases/<id>/log.txt), @p workers at a time. A process that ends without writing its marker
-/// (crash, signal) gets a failed marker naming its exit and its log.
-/// @throws InvalidInputError for bad options; IoError when a process cannot be started.
+/// (crash, signal) gets a failed marker naming its exit and its log. DIR/run.lock is held (flock)
+/// for the run.
+/// @throws InvalidInputError for bad options or when another local run holds DIR; IoError when a
+///         process cannot be started.
 SweepRunResult run_sweep_local(const std::filesystem::path& dir, const SweepRunOptions& options);
 
 /// Writes DIR/slurm/sweep.sbatch: a job array with one task per unfinished case (the sweep's
