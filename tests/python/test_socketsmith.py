@@ -181,3 +181,32 @@ def test_aaop_shape_file_with_its_landmarks_as_the_cli_reads_it(exe):
     assert "TIB" in m.landmarks
     first_mm = next(lm for lm in cli["landmarks"] if lm["name"] == "TIB")["points_mm"][0]
     np.testing.assert_allclose(m.landmarks["TIB"][0] * 1e3, first_mm, rtol=1e-12)
+
+
+def test_the_gil_is_released_while_the_cpp_works(demo_case):
+    # With a huge switch interval the interpreter never takes the GIL from a thread running Python:
+    # the main thread, woken by the first progress call, can only run while the worker is inside
+    # C++ with the GIL released. A later progress call then sees it has run. No timing involved.
+    import sys
+    import threading
+
+    woken = threading.Event()
+    main_ran = threading.Event()
+    seen_by_worker = []
+
+    def progress(fraction, stage):
+        woken.set()
+        seen_by_worker.append(main_ran.is_set())
+
+    old = sys.getswitchinterval()
+    sys.setswitchinterval(1000.0)
+    try:
+        worker = threading.Thread(target=lambda: socketsmith.prepare(demo_case, progress=progress))
+        worker.start()
+        woken.wait()
+        main_ran.set()
+        worker.join()
+    finally:
+        sys.setswitchinterval(old)
+    assert len(seen_by_worker) >= 2
+    assert any(seen_by_worker), "the main thread never ran while prepare() was working"
