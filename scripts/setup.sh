@@ -3,7 +3,8 @@
 # Idempotent: does nothing when everything is present. Runs apt-get as root (or via sudo).
 # `scripts/setup.sh --dev` also installs ccache (scripts/build.sh then uses it: rebuilds and builds
 # of other clones or worktrees under the same ccache base_dir take minutes instead of ~20) and
-# clang with libclang-rt-14-dev (libFuzzer, ASan, UBSan) for scripts/fuzz.sh.
+# clang with libclang-rt-14-dev (libFuzzer, ASan, UBSan) for scripts/fuzz.sh; `--slurm` installs
+# Slurm and munge for the single-node cluster of scripts/slurm_local.sh.
 set -euo pipefail
 
 packages=(
@@ -24,10 +25,19 @@ packages=(
   libimgui-dev libglfw3-dev libgl-dev  # socketsmith-gui: Dear ImGui (with its GLFW/OpenGL3 back-ends), window, OpenGL
   xvfb xauth libgl1-mesa-dri  # GUI tests and screenshots headless: virtual X server, Mesa llvmpipe OpenGL
   chromium                # the reports' browser test: headless Chromium renders report.html and prints it to PDF
+  pybind11-dev python3-pybind11 python3-dev  # the Python package socketsmith (docs/python.md), built for /usr/bin/python3
+  python3-numpy python3-pytest  # its arrays and its tests (tests/python); the sweep test (tests/cli/sweep_test.py)
 )
 
 # --dev: ccache, and clang with its sanitizer/libFuzzer runtime for scripts/fuzz.sh.
-if [ "${1:-}" = "--dev" ]; then packages+=(ccache clang libclang-rt-14-dev); fi
+# --slurm: Slurm and munge for scripts/slurm_local.sh (the slow test cli.sweep_slurm, docs/sweep.md).
+for arg in "$@"; do
+  case "$arg" in
+    --dev) packages+=(ccache clang libclang-rt-14-dev) ;;
+    --slurm) packages+=(slurmctld slurmd slurm-client munge) ;;
+    *) echo "setup: unknown option '$arg' (--dev, --slurm)" >&2; exit 1 ;;
+  esac
+done
 
 missing=()
 for p in "${packages[@]}"; do

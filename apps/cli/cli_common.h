@@ -50,5 +50,6 @@ void register_contact(CLI::App& app);  // cmd_contact.cpp: simulate donning
 void register_scan(CLI::App& app);  // cmd_scan.cpp: scan simulate, scan reconstruct
 void register_validate(CLI::App& app);  // cmd_validate.cpp: validate cube, validate design
 void register_compare(CLI::App& app);  // cmd_compare.cpp: compare A B
+void register_sweep(CLI::App& app);  // cmd_sweep.cpp: sweep, sweep collect, sweep case
 
 }  // namespace socketsmith::cli

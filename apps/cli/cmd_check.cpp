@@ -5,6 +5,7 @@
 #include "socketsmith/core/log.h"
 #include "socketsmith/geometry/mesh_checks.h"
 #include "socketsmith/geometry/mesh_io.h"
+#include "socketsmith/geometry/mesh_report.h"
 
 namespace socketsmith::cli {
 namespace {
@@ -23,32 +24,7 @@ void run(const CheckFlags& f) {
   const geometry::TriMesh mesh = geometry::read_mesh(f.file, ro, &info);
   const auto rep = geometry::check_mesh(mesh);
   const auto box = geometry::bounding_box(mesh);
-  nlohmann::json j{{"file", f.file},
-                   {"format", info.format},
-                   {"unit", units::to_string(info.unit)},
-                   {"unit_guessed", info.unit_was_guessed},
-                   {"vertices", rep.num_vertices},
-                   {"triangles", rep.num_triangles},
-                   {"bounding_box_m", {box.extent().x(), box.extent().y(), box.extent().z()}},
-                   {"components", rep.connected_components},
-                   {"boundary_loops", rep.boundary_loops},
-                   {"boundary_edges", rep.boundary_edges},
-                   {"non_manifold_edges", rep.non_manifold_edges},
-                   {"inconsistently_oriented_edges", rep.inconsistently_oriented_edges},
-                   {"degenerate_triangles", rep.degenerate_triangles},
-                   {"closed", rep.is_closed()},
-                   {"signed_volume_m3", rep.signed_volume_m3},
-                   {"problems", rep.problems()}};
-  if (!info.warning.empty()) j["warning"] = info.warning;
-  if (!info.landmarks.empty()) {
-    nlohmann::json lms = nlohmann::json::array();
-    for (const auto& lm : info.landmarks) {
-      nlohmann::json pts = nlohmann::json::array();
-      for (const auto& p : lm.points) pts.push_back({p.x() * 1e3, p.y() * 1e3, p.z() * 1e3});
-      lms.push_back({{"name", lm.name}, {"points_mm", pts}});
-    }
-    j["landmarks"] = lms;
-  }
+  const nlohmann::json j = geometry::mesh_report_json(f.file, mesh, info);
   if (f.json) {
     print_json(j);
   } else {

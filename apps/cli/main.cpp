@@ -29,6 +29,7 @@ int main(int argc, char** argv) {
   cli::register_contact(app);
   cli::register_validate(app);
   cli::register_compare(app);
+  cli::register_sweep(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
