@@ -14,6 +14,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <map>
 #include <memory>
@@ -67,7 +68,7 @@ double brim_height(const volume::LimbModel& m) {
   return 0.8 * m.length_m;
 }
 
-std::unique_ptr<design::DesignSolver> make_solver(int target_nodes, bool fe = false) {
+std::unique_ptr<design::DesignSolver> make_solver(int target_nodes, bool fe = false, bool neo_hookean = false) {
   const auto& m = design_limb();
   const auto& mesh = design_mesh(target_nodes);
   const auto skin = volume::extract_skin_surface(mesh);
@@ -78,8 +79,13 @@ std::unique_ptr<design::DesignSolver> make_solver(int target_nodes, bool fe = fa
   pl.body_mass_kg = 60;
   tissue::MassSpringOptions mo;
   if (fe) mo.kind = tissue::TissueModelKind::Fe;
+  design::DesignSolverOptions so;
+  if (neo_hookean) {
+    mo.kind = tissue::TissueModelKind::NeoHookean;
+    so.mode = design::DesignSolveMode::Nonlinear;
+  }
   auto solver = std::make_unique<design::DesignSolver>(mesh, mat, mo, m.frame, std::move(thr),
-                                                       pl, m.length_m);
+                                                       pl, m.length_m, so);
   const double h = brim_height(m);
   solver->set_brim([h](double) { return h; });
   return solver;
@@ -149,8 +155,46 @@ void BM_Optimise(benchmark::State& state) {
   state.counters["peak_ratio"] = res.state.max_requested_ratio;
 }
 
+/// The GUI's drag on the nonlinear neo-Hookean stump: DesignSolver::preview (the tangent step from
+/// the last equilibrium) per update, against the full nonlinear solve it stands in for.
+/// Counters: full_solve_s (one nonlinear solve of the optimised layout), factor_s (the tangent's
+/// factorisation, done once per equilibrium when the GUI is idle), median_ms / max_ms per preview.
+void BM_DesignPreview(benchmark::State& state) {
+  const auto& m = design_limb();
+  auto solver = make_solver(static_cast<int>(state.range(0)), false, true);
+  auto spots = design::default_spots(m.type, m.landmarks, m.length_m);
+  auto t0 = std::chrono::steady_clock::now();
+  solver->solve(spots);
+  const double full_s = seconds_since(t0);
+  t0 = std::chrono::steady_clock::now();
+  solver->prepare_preview();
+  const double factor_s = seconds_since(t0);
+  size_t k = 0;
+  for (size_t i = 0; i < spots.size(); ++i)
+    if (spots[i].name == "PT") k = i;
+  const double base = spots[k].amplitude_pa > 0 ? spots[k].amplitude_pa : 10e3;
+  std::vector<double> seconds;
+  long updates = 0;
+  for (auto _ : state) {
+    spots[k].amplitude_pa = base * (1.0 + 0.3 * std::sin(0.3 * static_cast<double>(updates)));
+    const auto st = solver->preview(spots);
+    benchmark::DoNotOptimize(st.radar);
+    seconds.push_back(st.seconds);
+    ++updates;
+  }
+  std::sort(seconds.begin(), seconds.end());
+  state.counters["nodes"] = solver->model().num_nodes();
+  state.counters["full_solve_s"] = full_s;
+  state.counters["factor_s"] = factor_s;
+  if (!seconds.empty()) {
+    state.counters["median_ms"] = 1e3 * seconds[seconds.size() / 2];
+    state.counters["max_ms"] = 1e3 * seconds.back();
+  }
+}
+
 }  // namespace
 
 // Second argument: 0 = MSS-CS (the default), 1 = the fe tissue model.
 BENCHMARK(BM_DesignUpdate)->ArgsProduct({{8000, 20000}, {0, 1}})->Unit(benchmark::kMillisecond)->Iterations(30);
 BENCHMARK(BM_Optimise)->Arg(8000)->Arg(20000)->Unit(benchmark::kMillisecond)->Iterations(1);
+BENCHMARK(BM_DesignPreview)->Arg(8000)->Arg(20000)->Unit(benchmark::kMillisecond)->Iterations(20);

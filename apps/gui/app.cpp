@@ -253,6 +253,12 @@ void App::begin_edit() {
   edit_start_ = case_;
 }
 
+void App::end_edit() {
+  if (!edit_start_) return;
+  edit_start_.reset();
+  if (worker_ && setup_ && setup_->solver->options().mode != design::DesignSolveMode::Linear) request_solve(false);
+}
+
 void App::edit(const std::function<void()>& change, bool brim_changed) {
   if (!setup_) fail("no case is open: open a case, a limb or the demo first");
   if (!edit_start_) push_history();
@@ -266,6 +272,7 @@ void App::request_solve(bool brim_changed) {
   DesignRequest r;
   r.spots = case_.spots;
   r.generation = ++generation_;
+  r.preview = edit_start_.has_value();  // a slider moves: the tangent answers, the release solves
   if (brim_changed) {
     try {
       const design::BrimTemplate kind = case_.brim.value_or(design::default_brim(setup_->model.type));

@@ -103,7 +103,8 @@ class App {
   void set_field(Field field) { field_ = field; colours_dirty_ = true; }
   /// A continuous edit (a slider drag) starts / ends: its changes make one undo step.
   void begin_edit();
-  void end_edit() { edit_start_.reset(); }
+  /// The end of a slider drag: the previews that served it are replaced by a full solve.
+  void end_edit();
   void set_view_toggles(bool bones, bool landmarks, bool socket, float stump_opacity) {
     stump_alpha_ = stump_opacity;
     show_bones_ = bones;

@@ -117,8 +117,18 @@ DesignOutcome DesignWorker::execute(Job& job) {
       solver_.set_brim([brim](double theta) { return brim.height(theta); });
     }
     if (job.kind == DesignOutcome::Kind::Solve) {
-      out.state = solver_.solve(job.request.spots);
+      out.state = job.request.preview ? solver_.preview(job.request.spots) : solver_.solve(job.request.spots);
       ++solves_done_;
+      // A full nonlinear solve: factorise its tangent now, while nothing waits, so the next
+      // drag's first preview does not pay for it.
+      if (!job.request.preview) {
+        bool idle = false;
+        {
+          std::lock_guard lock(mutex_);
+          idle = queue_.empty();
+        }
+        if (idle) solver_.prepare_preview();
+      }
     } else {
       auto options = job.options;
       options.progress = [this](double f, std::string_view stage) {

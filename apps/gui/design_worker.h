@@ -25,6 +25,9 @@ struct DesignRequest {
   std::vector<design::Spot> spots;
   std::optional<design::BrimLine> brim;  ///< set: the solver's brim is replaced first
   std::uint64_t generation = 0;          ///< the caller's edit counter, returned with the result
+  /// A slider is moving: the tangent's quick answer (DesignSolver::preview) serves it; the full
+  /// solve comes with the request made on release.
+  bool preview = false;
 };
 
 /// A finished job.

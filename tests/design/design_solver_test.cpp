@@ -755,6 +755,58 @@ TEST(DesignSolverStump, the_neo_hookean_stump_carries_the_default_layout_under_f
   }
 }
 
+TEST(DesignSolverStump, a_preview_is_the_tangent_step_from_the_last_equilibrium_second_order_accurate) {
+  // The GUI's drag on the nonlinear neo-Hookean stump: preview(B) = x*(A) + K_T⁻¹ Δf. Against the
+  // full solve of B its error must shrink with the square of the change (a first-order step with
+  // the exact tangent, the follower load's non-symmetric part included).
+  tissue::MassSpringOptions nh;
+  nh.kind = tissue::TissueModelKind::NeoHookean;
+  auto exact = mode_options(DesignSolveMode::Nonlinear);
+  exact.preview_tolerance = 1e-10;  // the exact tangent step (the GUI's default stops at 5 %)
+  auto solver = make_solver(exact, {}, nh);
+  const auto a = layout();
+  const auto base = solver->solve(a);
+  ASSERT_TRUE(base.converged);
+  const auto scaled = [&](double k) {
+    auto sp = a;
+    for (auto& s : sp) s.amplitude_pa *= k;
+    return sp;
+  };
+  const auto error = [&](double k, double& step) {
+    const auto pv = solver->preview(scaled(k));
+    EXPECT_TRUE(pv.is_preview);
+    EXPECT_NE(pv.message.find("preview"), std::string::npos);
+    auto fresh = make_solver(mode_options(DesignSolveMode::Nonlinear), {}, nh);
+    const auto full = fresh->solve(scaled(k));
+    step = (full.positions - base.positions).norm();
+    return (pv.positions - full.positions).norm();
+  };
+  double step1 = 0, step2 = 0;
+  const double e1 = error(1.2, step1), e2 = error(1.1, step2);
+  std::printf("[ info ] preview error: +20 %% %.3g of a %.3g step, +10 %% %.3g of %.3g (ratio %.2f)\n", e1, step1, e2,
+              step2, e1 / e2);
+  EXPECT_LT(e1, 0.02 * step1);  // measured 0.5 %
+  EXPECT_LT(e2, 0.01 * step2);  // measured 0.2 %
+  EXPECT_GT(e1 / e2, 3.5);      // 4 for a second-order error (measured 4.00; 2.05 with a symmetrised tangent)
+  // The default: one back-substitution of the symmetric part, first-order error, a few per cent.
+  auto quick = make_solver(mode_options(DesignSolveMode::Nonlinear), {}, nh);
+  quick->solve(a);
+  const auto pq = quick->preview(scaled(1.2));
+  auto fresh12 = make_solver(mode_options(DesignSolveMode::Nonlinear), {}, nh);
+  const double eq = (pq.positions - fresh12->solve(scaled(1.2)).positions).norm();
+  std::printf("[ info ] default preview tolerance: +20 %% error %.3g of the step\n", eq / step1);
+  EXPECT_LT(eq, 0.05 * step1);
+  // After previews, a full solve is still the equilibrium a fresh solver finds.
+  const auto again = solver->solve(scaled(1.1));
+  auto fresh = make_solver(mode_options(DesignSolveMode::Nonlinear), {}, nh);
+  EXPECT_LT((again.positions - fresh->solve(scaled(1.1)).positions).norm(), 1e-3 * step2);
+  EXPECT_FALSE(again.is_preview);
+  // Linear mode: a preview is the solve itself.
+  const auto pl = make_solver(mode_options(DesignSolveMode::Linear), {}, nh)->preview(a);
+  EXPECT_FALSE(pl.is_preview);
+  EXPECT_LT((pl.positions - make_solver(mode_options(DesignSolveMode::Linear), {}, nh)->solve(a).positions).norm(), 1e-12);
+}
+
 TEST(DesignSolverStump, auto_mode_reports_its_fallback_to_the_linearised_model) {
   // A field three times the default layout's (PT 30 kPa at E = 100 kPa) makes the nonlinear lattice
   // lose stability; a coarse load continuation finds that out quickly.

@@ -57,6 +57,41 @@ TEST(DesignWorker, requests_coalesce_and_the_newest_edit_is_solved_last) {
   EXPECT_NEAR(r.state->max_requested_ratio, direct.max_requested_ratio, 1e-6);
 }
 
+TEST(DesignWorker, a_drag_on_the_nonlinear_stump_is_served_by_previews_and_solved_in_full_on_release) {
+  auto c = pipeline::demo_case(1500);
+  c.model = "neo-hookean";
+  c.solve_mode = design::DesignSolveMode::Nonlinear;
+  auto setup = pipeline::prepare_design(c);
+  std::vector<design::Spot> spots = setup->spots;
+  std::vector<DesignOutcome> results;
+  {
+    DesignWorker w(*setup->solver);
+    w.solve({spots, std::nullopt, 1});  // the case opened: a full solve
+    for (auto& r : wait_all(w)) results.push_back(std::move(r));
+    for (int k = 2; k <= 6; ++k) {  // the drag
+      spots[0].amplitude_pa *= 1.05;
+      DesignRequest r{spots, std::nullopt, static_cast<std::uint64_t>(k)};
+      r.preview = true;
+      w.solve(r);
+      for (auto& o : wait_all(w)) results.push_back(std::move(o));
+    }
+    w.solve({spots, std::nullopt, 7});  // the release
+    for (auto& r : wait_all(w)) results.push_back(std::move(r));
+  }
+  ASSERT_EQ(results.size(), 7u);
+  for (const auto& r : results) ASSERT_TRUE(r.state.has_value()) << r.error;
+  EXPECT_FALSE(results.front().state->is_preview);
+  for (size_t k = 1; k + 1 < results.size(); ++k) EXPECT_TRUE(results[k].state->is_preview) << k;
+  const auto& last = *results.back().state;
+  EXPECT_FALSE(last.is_preview);
+  EXPECT_GT(last.newton_iterations, 0);
+  // The last preview and the full solve of the same spots are close (the tangent step's error is
+  // first order in the change from the first equilibrium: 28 % here).
+  const auto& pv = *results[results.size() - 2].state;
+  const double step = (last.positions - results.front().state->positions).norm();
+  EXPECT_LT((pv.positions - last.positions).norm(), 0.1 * step);
+}
+
 TEST(DesignWorker, a_cancelled_optimisation_returns_no_new_spots) {
   auto& s = stump();
   DesignWorker w(*s.solver);

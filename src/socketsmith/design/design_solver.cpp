@@ -132,6 +132,42 @@ struct DesignSolver::Impl {
                          "design solve: the stump's stiffness at rest is not positive definite (a free part of the "
                          "mesh? check the fixed bone nodes)");
   }
+  // preview(): the tangent at the last nonlinear equilibrium (x_eq under p_eq), factorised lazily.
+  bool has_equilibrium = false;
+  tissue::VectorXd x_eq;
+  std::vector<double> p_eq;
+  std::unique_ptr<Eigen::CholmodSupernodalLLT<tissue::SparseMatrix>> kt;  // its symmetric part; null: not factorised
+  tissue::SparseMatrix kt_full;  // the reduced tangent, follower load included
+  bool kt_failed = false;  // the tangent was not positive definite: previews solve in full
+  void factor_tangent() {
+    if (kt || kt_failed || !has_equilibrium) return;
+    tissue::SparseMatrix J, K;
+    model.jacobian(x_eq, tissue::JacobianKind::Exact, J);
+    tissue::FollowerPressure(skin, p_eq, model.num_nodes()).add_jacobian(x_eq, 1.0, J);
+    dofs.reduce_matrix(J, K);
+    K *= -1.0;
+    kt_full = K;
+    const tissue::SparseMatrix Ks = 0.5 * (tissue::SparseMatrix(K.transpose()) + K);
+    tissue::limit_solver_threads();
+    kt = std::make_unique<Eigen::CholmodSupernodalLLT<tissue::SparseMatrix>>();
+    kt->compute(Ks);
+    if (kt->info() != Eigen::Success) {
+      kt.reset();
+      kt_failed = true;
+    }
+  }
+  /// K_T⁻¹ b: the symmetric part's factor, refined against the whole (non-symmetric: the follower
+  /// load) tangent — u ← u + K_s⁻¹ (b − K_T u) while the residual is above
+  /// options.preview_tolerance × |b| (at most 6 refinements, each a back-substitution).
+  tissue::VectorXd tangent_solve(const tissue::VectorXd& b) const {
+    tissue::VectorXd u = kt->solve(b);
+    for (int k = 0; k < 6; ++k) {
+      const tissue::VectorXd r = b - kt_full * u;
+      if (r.norm() <= options.preview_tolerance * b.norm()) break;
+      u += kt->solve(r);
+    }
+    return u;
+  }
   tissue::VectorXd linear_solve(const tissue::VectorXd& f) {
     factor_linear();
     tissue::VectorXd positions = model.rest_positions();
@@ -232,10 +268,8 @@ std::vector<double> DesignSolver::normal_displacement(const std::vector<double>&
   return un;
 }
 
-DesignState DesignSolver::solve(const std::vector<Spot>& spots) {
-  auto& s = *impl_;
-  const auto t0 = std::chrono::steady_clock::now();
-  DesignState st;
+void DesignSolver::applied_pressure(const std::vector<Spot>& spots, DesignState& st) const {
+  const auto& s = *impl_;
   st.requested_pa = requested_pressure(spots);
   const size_t n = st.requested_pa.size();
   st.pressure_pa.resize(n);
@@ -249,6 +283,14 @@ DesignState DesignSolver::solve(const std::vector<Spot>& spots) {
     st.max_applied_ratio = std::max(st.max_applied_ratio, st.pressure_pa[i] / s.thresholds[i]);
     if (r > 1.0) ++st.saturated_nodes;
   }
+}
+
+DesignState DesignSolver::solve(const std::vector<Spot>& spots) {
+  auto& s = *impl_;
+  const auto t0 = std::chrono::steady_clock::now();
+  DesignState st;
+  applied_pressure(spots, st);
+  const size_t n = st.requested_pa.size();
   bool linear = s.options.mode == DesignSolveMode::Linear || s.fell_back;
   if (s.fell_back) {
     st.linearised = true;
@@ -365,8 +407,59 @@ DesignState DesignSolver::solve(const std::vector<Spot>& spots) {
     x += omega * r;
     f = forces_at(x);
   }
-  skin_geometry(x, pos, normal, area);
   s.x = x;  // warm start of the next solve
+  if (!linear) {  // a new nonlinear equilibrium: the previews' tangent is to be refactorised
+    s.has_equilibrium = true;
+    s.x_eq = x;
+    s.p_eq = st.pressure_pa;
+    s.kt.reset();
+    s.kt_failed = false;
+  }
+  finish_state(st, x, t0);
+  if (st.follower_capped)
+    st.message += fmt::format(" (the follower iteration did not converge: the forces still changed by {:.2g} after "
+                              "{} passes, tolerance {:.2g})",
+                              st.follower_change, st.follower_passes, s.options.follower_tolerance);
+  if (st.linearised && s.options.mode == DesignSolveMode::Auto)
+    st.message += " (shape from the linearised stump model: the nonlinear tissue model lost stability under this field)";
+  return st;
+}
+
+void DesignSolver::prepare_preview() { impl_->factor_tangent(); }
+
+DesignState DesignSolver::preview(const std::vector<Spot>& spots) {
+  auto& s = *impl_;
+  const bool linear = s.options.mode == DesignSolveMode::Linear || s.fell_back;
+  if (linear || !s.has_equilibrium) return solve(spots);
+  s.factor_tangent();
+  if (!s.kt) return solve(spots);
+  const auto t0 = std::chrono::steady_clock::now();
+  DesignState st;
+  applied_pressure(spots, st);
+  const size_t n = st.pressure_pa.size();
+  std::vector<Vec3> pos, normal;
+  std::vector<double> area;
+  skin_geometry(s.x_eq, pos, normal, area);
+  tissue::VectorXd df = tissue::VectorXd::Zero(s.model.num_dofs());
+  for (size_t i = 0; i < n; ++i)
+    df.segment<3>(3 * s.skin.nodes[i]) = -(st.pressure_pa[i] - s.p_eq[i]) * area[i] * normal[i];
+  tissue::VectorXd x = s.x_eq;
+  s.dofs.add_expanded(s.tangent_solve(s.dofs.restrict_vector(df)), x);
+  require<SolverError>(x.allFinite(), "design preview: the tangent step is not finite (solve in full)");
+  st.is_preview = true;
+  st.follower_passes = 0;
+  finish_state(st, x, t0);
+  st.message += " (preview: the tangent at the last equilibrium; the full solve follows)";
+  return st;
+}
+
+void DesignSolver::finish_state(DesignState& st, const tissue::VectorXd& x,
+                                std::chrono::steady_clock::time_point t0) const {
+  const auto& s = *impl_;
+  const size_t n = s.skin.nodes.size();
+  std::vector<Vec3> pos, normal;
+  std::vector<double> area;
+  skin_geometry(x, pos, normal, area);
   st.converged = true;
   st.positions = x;
   st.skin_positions = pos;
@@ -390,13 +483,6 @@ DesignState DesignSolver::solve(const std::vector<Spot>& spots) {
   st.status.follower_converged = !st.follower_capped;
   st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   st.message = st.status.all_ok() ? "all constraints met" : "not met: " + st.status.failing();
-  if (st.follower_capped)
-    st.message += fmt::format(" (the follower iteration did not converge: the forces still changed by {:.2g} after "
-                              "{} passes, tolerance {:.2g})",
-                              st.follower_change, st.follower_passes, s.options.follower_tolerance);
-  if (st.linearised && s.options.mode == DesignSolveMode::Auto)
-    st.message += " (shape from the linearised stump model: the nonlinear tissue model lost stability under this field)";
-  return st;
 }
 
 }  // namespace socketsmith::design
