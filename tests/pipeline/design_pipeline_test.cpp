@@ -182,6 +182,36 @@ TEST(TransfemoralCase, RealLimbWithoutABrimGetsAnIschialContainment) {
   EXPECT_TRUE(geometry::check_mesh(socket).is_valid_closed_surface());
 }
 
+// `design --axis --anterior` override the case file's limb.axis / limb.anterior: the design's frame
+// is the flags' (normalised), said to be given, and the replay case holds the flags' directions.
+TEST(DesignFlags, axis_and_anterior_flags_override_the_case_file) {
+  const fs::path dir = fs::path(SOCKETSMITH_BINARY_DIR) / "tests" / "pipeline_flags";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  {
+    std::ofstream c(dir / "case.json");
+    c << nlohmann::json{{"socketsmith_case", 1},
+                        {"limb", {{"generate_seed", 1}, {"axis", {0.3, 0.0, 1.0}}, {"anterior", {1.0, 0.0, 0.0}}}},
+                        {"mesh", {{"target_nodes", 1500}}}}
+             .dump();
+  }
+  const std::string cmd = std::string(SOCKETSMITH_BINARY_DIR) + "/socketsmith design " + (dir / "case.json").string() +
+                          " --axis 0,0,2 --anterior 0,3,0.5 --out " + (dir / "out").string() + " > " +
+                          (dir / "log.txt").string() + " 2>&1";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << "see " << (dir / "log.txt").string();
+  std::ifstream in(dir / "out" / "design.json");
+  const auto j = nlohmann::json::parse(in);
+  EXPECT_EQ(j["frame"]["axis_source"], "given");
+  EXPECT_EQ(j["frame"]["anterior_source"], "given");
+  EXPECT_LT((vec(j["frame"]["axis"]) - Eigen::Vector3d(0, 0, 1)).norm(), 1e-9);
+  // The front: the flag's direction made perpendicular to the axis.
+  EXPECT_LT((vec(j["frame"]["anterior"]) - Eigen::Vector3d(0, 1, 0)).norm(), 1e-9);
+  std::ifstream rc(dir / "out" / "design_case.json");
+  const auto replay = nlohmann::json::parse(rc);
+  EXPECT_LT((vec(replay["limb"]["axis"]) - Eigen::Vector3d(0, 0, 2)).norm(), 1e-12);
+  EXPECT_LT((vec(replay["limb"]["anterior"]) - Eigen::Vector3d(0, 3, 0.5)).norm(), 1e-12);
+}
+
 // A TSB brim means total surface bearing: the optimiser evens the pressure out over the whole skin
 // below the brim (objective "uniform", a contact row up to the brim). The coefficient of variation
 // is recomputed here from surface_nodes.csv.
