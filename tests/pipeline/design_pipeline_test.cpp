@@ -168,6 +168,15 @@ TEST(TransfemoralCase, RealLimbWithoutABrimGetsAnIschialContainment) {
     if (l["code"] == "IS") is_h = l["h_mm"].get<double>();
   ASSERT_GT(is_h, 0.0);
   EXPECT_GT(top_h, is_h + 25.0);
+  // And in 3D (design.json, socket.ischial_check): the bony tuberosity lies inside the socket's
+  // cavity — below the brim and within the inner wall.
+  const auto& ic = j["socket"]["ischial_check"];
+  EXPECT_EQ(ic["kind"], "containment");
+  EXPECT_TRUE(ic["inside_cavity"].get<bool>()) << ic["summary"];
+  EXPECT_TRUE(ic["met"].get<bool>());
+  EXPECT_GT(ic["cavity_margin_mm"].get<double>(), 5.0);
+  EXPECT_GT(ic["height_margin_mm"].get<double>(), 25.0);
+  EXPECT_FALSE(ic["tuberosity_estimated"].get<bool>());  // from the file's hemipelvis
   // The ischial/gluteal region carries at least the template's share, reported.
   EXPECT_GE(j["ischial_gluteal_share"].get<double>(), j["ischial_share_min"].get<double>() - 1e-3);
   EXPECT_GT(j["ischial_share_min"].get<double>(), 0.0);
@@ -178,6 +187,7 @@ TEST(TransfemoralCase, RealLimbWithoutABrimGetsAnIschialContainment) {
   std::ifstream html(dir / "out" / "report.html");
   const std::string report((std::istreambuf_iterator<char>(html)), std::istreambuf_iterator<char>());
   EXPECT_NE(report.find("Axial load by region"), std::string::npos);
+  EXPECT_NE(report.find("ischial tuberosity INSIDE the socket"), std::string::npos);
   const auto socket = geometry::read_mesh(dir / "out" / "socket.stl", {});
   EXPECT_TRUE(geometry::check_mesh(socket).is_valid_closed_surface());
 }

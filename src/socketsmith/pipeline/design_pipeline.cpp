@@ -303,6 +303,10 @@ DesignResult solve_design(DesignSetup& setup, bool optimise, const ProgressCallb
       log::info("design: closed loop: {}", r.closed_loop->message);
       r.socket = r.closed_loop->socket;
     }
+    // Transfemoral: where the built socket holds the bony ischial tuberosity, in 3D.
+    if (setup.model.transfemoral)
+      r.ischial_check = design::check_ischial_tuberosity(setup.brim, setup.model.frame,
+                                                         setup.model.transfemoral->ischial_tuberosity, *r.socket);
   }
   report_progress(progress, 1.0, "design: solved");
   return r;
@@ -568,6 +572,22 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
     rs.min_thickness_m = sock.min_thickness_m;
     rs.median_thickness_m = sock.median_thickness_m;
     rs.max_thickness_m = sock.max_thickness_m;
+    if (result.ischial_check && result.ischial_check->applies) {
+      const auto& ic = *result.ischial_check;
+      rs.details.push_back({"ischial tuberosity (3D)", ic.summary + (ic.met ? "" : " — NOT as the template means")});
+      socket_json["ischial_check"] = {
+          {"kind", ic.kind},
+          {"met", ic.met},
+          {"inside_cavity", ic.inside_cavity},
+          {"cavity_margin_mm", ic.cavity_margin_m * 1e3},
+          {"height_margin_mm", ic.height_margin_m * 1e3},
+          {"tuberosity_mm", vec_json(ic.tuberosity * 1e3)},
+          {"tuberosity_h_mm", ic.tuberosity_h_m * 1e3},
+          {"tuberosity_theta_deg", ic.tuberosity_theta_rad / units::deg},
+          {"tuberosity_estimated", setup.model.transfemoral && setup.model.transfemoral->estimated},
+          {"brim_h_mm", ic.brim_h_m * 1e3},
+          {"summary", ic.summary}};
+    }
     if (sock.platform.is_built) {
       rs.details.push_back({"distal platform", fmt::format("{:.0f} mm across, normal to the pylon (flexion {:.1f}°, "
                                                            "adduction {:.1f}°)",
@@ -697,6 +717,9 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
                                       "groin",
                                       model.skin_extension_m * 1e3, 100 * model.skin_extension_area_fraction));
   for (const auto& n : setup.brim_notes) rd.warnings.push_back(n);
+  if (result.ischial_check && result.ischial_check->applies && !result.ischial_check->met)
+    rd.warnings.push_back(fmt::format("the {} socket does not hold the ischial tuberosity as the template means: {}",
+                                      brim.name(), result.ischial_check->summary));
   if (state.linearised) rd.warnings.push_back("shape from the linearised stump model: " + state.nonlinear_failure);
   if (!met) rd.warnings.push_back("constraints not met: no socket written. " + (optimise ? opt.message : state.message));
   report::write_design_report_html(out / "report.html", rd);

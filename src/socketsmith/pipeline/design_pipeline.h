@@ -23,6 +23,7 @@
 #include "socketsmith/design/brim.h"
 #include "socketsmith/design/case_file.h"
 #include "socketsmith/design/design_solver.h"
+#include "socketsmith/design/ischial_check.h"
 #include "socketsmith/design/load_regions.h"
 #include "socketsmith/design/optimizer.h"
 #include "socketsmith/design/pain_map.h"
@@ -100,6 +101,9 @@ struct DesignResult {
   std::optional<design::SocketResult> socket;  ///< only when every constraint is met (the closed loop's when it ran)
   double limb_volume_below_brim_m3 = 0.0;      ///< the cavity measure on the undeformed skin
   std::vector<design::RegionLoad> region_loads; ///< the axial load by region (setup.regions) of `state`
+  /// Transfemoral limbs with a socket: the bony ischial tuberosity against the socket's cavity in 3D
+  /// (design/ischial_check.h: inside it for ICS, on the seat for quadrilateral).
+  std::optional<design::IschialCheck> ischial_check;
   /// The closed loop (case `design.closed_loop`): the open-loop socket donned and stood on, its
   /// wall corrected; `socket` is then the corrected socket.
   std::optional<ClosedLoopResult> closed_loop;
