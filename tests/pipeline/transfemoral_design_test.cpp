@@ -245,6 +245,10 @@ TEST_F(RealTransfemoral, a_quadrilateral_brim_seats_the_tuberosity_on_the_brim) 
   EXPECT_TRUE(ic["met"].get<bool>()) << ic["summary"];
   EXPECT_GE(ic["height_margin_mm"].get<double>(), -2.0);
   EXPECT_LE(ic["height_margin_mm"].get<double>(), 15.0);
+  // Where the ICS of the same limb wraps the tuberosity: its brim more than 25 mm above it.
+  ASSERT_TRUE(original_->ischial.has_value());
+  EXPECT_GT(original_->ischial->brim_h_m * 1e3, is_h + 25.0);
+  EXPECT_GT(original_->ischial->brim_h_m * 1e3, seat + 25.0);
   RecordProperty("quad", fmt::format("seat {:.1f} mm, IS {:.1f} mm, socket top near IS {:.1f} mm, ischial share {:.3f}, "
                                      "3D: {}",
                                      seat, is_h, top, j["ischial_gluteal_share"].get<double>(),

@@ -108,13 +108,15 @@ IschialCheck check_ischial_tuberosity(const BrimLine& brim, const geometry::Limb
   r.inside_cavity = cavity.is_inside(tuberosity);
   r.cavity_margin_m = std::abs(cavity.signed_distance(tuberosity)) * (r.inside_cavity ? 1.0 : -1.0);
   const double deg = 3.14159265358979323846 / 180.0;
+  // mm to one decimal, without a "-0.0" for a value a rounding error below zero.
+  const auto mm1 = [](double m) { return std::round(m * 1e4) / 10.0 + 0.0; };
   if (r.kind == "containment") {
     r.height_margin_m = r.brim_h_m - r.tuberosity_h_m;
     r.met = r.inside_cavity;
     r.summary = fmt::format("ischial tuberosity {} the socket's cavity: {:.1f} mm from its surface, the brim {:.1f} mm "
                             "above it at {:.0f}°",
-                            r.inside_cavity ? "INSIDE" : "OUTSIDE", std::abs(r.cavity_margin_m) * 1e3,
-                            r.height_margin_m * 1e3, q.theta / deg);
+                            r.inside_cavity ? "INSIDE" : "OUTSIDE", mm1(std::abs(r.cavity_margin_m)),
+                            mm1(r.height_margin_m), q.theta / deg);
   } else {
     r.height_margin_m = r.tuberosity_h_m - r.brim_h_m;
     const bool on_seat =
@@ -122,8 +124,8 @@ IschialCheck check_ischial_tuberosity(const BrimLine& brim, const geometry::Limb
     r.met = on_seat && !(r.inside_cavity && r.cavity_margin_m > options.seat_above_tolerance_m);
     r.summary = fmt::format("ischial tuberosity {} the seat: {:.1f} mm above the brim at {:.0f}° ({} the cavity, {:.1f} "
                             "mm from its surface)",
-                            r.met ? "ON" : "NOT on", r.height_margin_m * 1e3, q.theta / deg,
-                            r.inside_cavity ? "inside" : "outside", std::abs(r.cavity_margin_m) * 1e3);
+                            r.met ? "ON" : "NOT on", mm1(r.height_margin_m), q.theta / deg,
+                            r.inside_cavity ? "inside" : "outside", mm1(std::abs(r.cavity_margin_m)));
   }
   return r;
 }
