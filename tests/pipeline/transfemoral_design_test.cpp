@@ -168,6 +168,17 @@ TEST_F(RealTransfemoral, a_turned_and_shifted_copy_gets_the_same_design) {
   EXPECT_TRUE(b.ischial->met) << b.ischial->summary;
 }
 
+// An odd frame: nearly upside down (160° about an oblique axis) and 250 mm away.
+TEST_F(RealTransfemoral, an_upside_down_copy_far_away_gets_the_same_design) {
+  const Eigen::Matrix3d R =
+      Eigen::AngleAxisd(160.0 * std::numbers::pi / 180.0, Vector3d(1.0, 0.2, -0.4).normalized()).toRotationMatrix();
+  const auto limb = geometry::read_mesh(tf_file(), in_unit(units::LengthUnit::Metre));
+  const fs::path copy = work_dir("rigid_tf") / "tf_upside_down.stl";
+  geometry::write_mesh(copy, moved(limb, R, Vector3d(-0.15, 0.2, 0.0) / 0.45), units::LengthUnit::Metre);
+  const Outcome b = design_case(limb_case(copy, "m", 0.45, "transfemoral"));
+  expect_same_design(*original_, b, R, "upside_down_tf");
+}
+
 TEST_F(RealTransfemoral, the_same_limb_in_mm_gets_the_same_design) {
   const auto limb = geometry::read_mesh(tf_file(), in_unit(units::LengthUnit::Metre));
   geometry::TriMesh in_m = limb;
