@@ -1,6 +1,7 @@
 // `socketsmith design CASE`, `socketsmith run CASE`, `socketsmith demo`: the inverse socket design
 // from a case file — limb → stump model → pressure spots (optimised) → socket STL and report.
 #include <filesystem>
+#include <optional>
 
 #include "cli_common.h"
 #include "socketsmith/core/atomic_file.h"
@@ -23,7 +24,37 @@ struct DesignFlags {
   int closed_loop = -1;  ///< donnings of the closed loop (0: open loop; −1: as the case says)
   int target_nodes = 8000;
   double time_limit_s = 0;  // 0: the case's (design.time_limit_s), else none
+  std::string axis;         // --axis x,y,z: overrides the case's limb.axis
+  std::string anterior;     // --anterior x,y,z: overrides the case's limb.anterior
 };
+
+/// --axis, --anterior: the limb's directions, overriding the case file's limb.axis / limb.anterior.
+void add_directions(CLI::App* cmd, DesignFlags& f) {
+  cmd->add_option("--axis", f.axis,
+                  "long axis of the limb, distal to proximal, as x,y,z in the limb file's frame (overrides the case's "
+                  "limb.axis; default: the femur's shaft for a transfemoral limb, else from the skin)");
+  cmd->add_option("--anterior", f.anterior,
+                  "front of the limb as a direction x,y,z in the limb file's frame (overrides the case's limb.anterior)");
+}
+
+/// The flags' directions, checked by the case file's own check (design::parse_limb_direction)
+/// before the case is read, so a bad flag is the one error line whatever the case holds.
+struct Directions {
+  std::optional<Eigen::Vector3d> axis, anterior;
+};
+Directions parse_directions(const DesignFlags& f, const std::string& command) {
+  Directions d;
+  if (!f.axis.empty()) d.axis = design::parse_limb_direction(f.axis, design::LimbDirection::Axis, command + " --axis");
+  if (!f.anterior.empty())
+    d.anterior = design::parse_limb_direction(f.anterior, design::LimbDirection::Anterior, command + " --anterior");
+  return d;
+}
+
+design::CaseFile with_directions(design::CaseFile c, const Directions& d) {
+  if (d.axis) c.limb.axis = d.axis;
+  if (d.anterior) c.limb.anterior = d.anterior;
+  return c;
+}
 
 /// --time-limit: the optimiser's wall-time bound, checked like the case file's design.time_limit_s.
 void add_time_limit(CLI::App* cmd, DesignFlags& f) {
@@ -93,6 +124,7 @@ void register_design(CLI::App& app) {
   cmd->add_flag("--no-optimise", f->no_optimise, "solve the case's spots as given (no optimiser)");
   cmd->add_flag("--json", f->json, "print the summary as JSON on stdout");
   add_time_limit(cmd, *f);
+  add_directions(cmd, *f);
   cmd->add_option("--closed-loop", f->closed_loop,
                   "don and stand on the socket, correct its wall in up to N donnings (0: open loop; default: the case's "
                   "design.closed_loop)")
@@ -102,7 +134,8 @@ void register_design(CLI::App& app) {
           },
           "0 (open loop) or " + design::describe(design::limits::kClosedLoopDonnings)));
   cmd->callback([f] {
-    auto c = with_time_limit(design::read_case(f->case_file), *f);
+    const Directions dirs = parse_directions(*f, "design");
+    auto c = with_directions(with_time_limit(design::read_case(f->case_file), *f), dirs);
     if (f->closed_loop >= 0) {
       c.closed_loop = f->closed_loop > 0;
       if (f->closed_loop > 0) c.closed_loop_donnings = f->closed_loop;
@@ -116,8 +149,10 @@ void register_design(CLI::App& app) {
   run->add_option("--out", r->out, "output directory (default: <case name>_out beside the case file)");
   run->add_flag("--json", r->json, "print the summary as JSON on stdout");
   add_time_limit(run, *r);
+  add_directions(run, *r);
   run->callback([r] {
-    const auto c = with_time_limit(design::read_case(r->case_file), *r);
+    const Directions dirs = parse_directions(*r, "run");
+    const auto c = with_directions(with_time_limit(design::read_case(r->case_file), *r), dirs);
     const fs::path p(r->case_file);
     const fs::path out = r->out.empty() ? p.parent_path() / (p.stem().string() + "_out") : fs::path(r->out);
     finish(pipeline::run_design(c, out, c.optimise, console_progress(1.0)), r->json);

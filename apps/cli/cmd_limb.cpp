@@ -1,5 +1,6 @@
 // `socketsmith limb generate`: the parametric residual limb (skin + bones) as a multi-shell mesh
-// in mm, with a JSON sidecar (parameters, frame, landmarks).
+// in mm, with a JSON sidecar (parameters, frame, landmarks). `socketsmith limb brims`: the brim
+// templates placed on the generated limbs, as the docs' figure.
 #include <chrono>
 #include <cmath>
 #include <cstdint>
@@ -11,6 +12,7 @@
 #include "socketsmith/core/log.h"
 #include "socketsmith/geometry/mesh_checks.h"
 #include "socketsmith/geometry/mesh_io.h"
+#include "socketsmith/pipeline/brim_figure.h"
 #include "socketsmith/volume/limb_generator.h"
 
 namespace socketsmith::cli {
@@ -112,6 +114,20 @@ void register_limb(CLI::App& app) {
       ->required();
   gen->add_flag("--json", flags->json, "print the sidecar and a summary as JSON on stdout");
   gen->callback([flags] { run_generate(*flags); });
+
+  // The brim templates as placed on the generated limbs: docs/images/brim_templates.svg.
+  auto fig = std::make_shared<std::pair<std::string, std::uint64_t>>("", 0);
+  auto* brims = limb->add_subcommand(
+      "brims", "draw every brim template placed on the generated transtibial and transfemoral limbs (SVG figure)");
+  brims->add_option("--out", fig->first, "output SVG (docs/images/brim_templates.svg regenerates the docs' figure)")
+      ->required();
+  brims->add_option("--seed", fig->second, "seed of the generated limbs (default 0: the nominal limbs)");
+  brims->callback([fig] {
+    require(std::filesystem::path(fig->first).extension() == ".svg", "limb brims: --out '{}' must end in .svg",
+            fig->first);
+    pipeline::write_brim_template_figure(fig->first, fig->second);
+    log::info("limb brims: wrote {}", fig->first);
+  });
 }
 
 }  // namespace socketsmith::cli

@@ -10,6 +10,7 @@
 #include "socketsmith/core/log.h"
 #include "socketsmith/core/progress.h"
 #include "socketsmith/core/units.h"
+#include "socketsmith/design/case_file.h"
 #include "socketsmith/geometry/mesh_checks.h"
 #include "socketsmith/geometry/mesh_io.h"
 #include "socketsmith/report/limb_views.h"
@@ -43,15 +44,13 @@ struct MeshFlags {
   bool json = false;
 };
 
-/// Parses "x,y,z"; a direction must be non-zero, a point may be anything finite.
-Vec3 parse_vector(const std::string& text, const std::string& what, bool point = false) {
+/// Parses a point "x,y,z" (finite). Directions go through design::parse_limb_direction.
+Vec3 parse_point(const std::string& text, const std::string& what) {
   Vec3 v;
   char c1 = 0, c2 = 0;
   std::istringstream in(text);
   in >> v.x() >> c1 >> v.y() >> c2 >> v.z();
-  require(in && c1 == ',' && c2 == ',' && v.allFinite() && (point || v.norm() > 0),
-          "{} '{}' is not {} x,y,z (e.g. {})", what, text, point ? "a point" : "a direction",
-          point ? "12.5,-80,160" : "0,1,0");
+  require(in && c1 == ',' && c2 == ',' && v.allFinite(), "{} '{}' is not a point x,y,z (e.g. 12.5,-80,160)", what, text);
   return v;
 }
 
@@ -91,8 +90,10 @@ void run(const MeshFlags& f) {
   volume::LimbInputOptions lo;
   lo.type = geometry::parse_limb_type(f.type);
   if (f.bones != "auto" && f.bones != "estimate" && f.bones != "none") extra = read_scaled(f.bones, f);
-  if (!f.anterior.empty()) lo.anterior = parse_vector(f.anterior, "--anterior");
-  if (!f.axis.empty()) lo.axis = parse_vector(f.axis, "--axis");
+  // The case file's own check of limb.axis / limb.anterior (one validator for both).
+  if (!f.anterior.empty())
+    lo.anterior = design::parse_limb_direction(f.anterior, design::LimbDirection::Anterior, "mesh --anterior");
+  if (!f.axis.empty()) lo.axis = design::parse_limb_direction(f.axis, design::LimbDirection::Axis, "mesh --axis");
   lo.force_size = f.force_size;
   if (!f.side.empty()) lo.side = geometry::parse_side(f.side);
   if (f.cut_height_mm > 0) lo.cut_height_m = f.cut_height_mm * units::mm;
@@ -115,7 +116,7 @@ void run(const MeshFlags& f) {
     require(eq != std::string::npos && eq > 0, "--landmark '{}' is not CODE=x,y,z (e.g. PT=12.5,-80,160)", text);
     volume::Landmark given;
     given.code = text.substr(0, eq);
-    given.position = parse_vector(text.substr(eq + 1), "--landmark " + given.code, true) * file_unit_m * f.scale;
+    given.position = parse_point(text.substr(eq + 1), "--landmark " + given.code) * file_unit_m * f.scale;
     volume::override_landmark(model.landmarks, model.skin, model.frame, given);
     model.notes.push_back(fmt::format("landmark {} given by the user", given.code));
   }

@@ -50,6 +50,7 @@ TEST(BrimTemplate, names_round_trip_and_unknown_names_list_the_valid_ones) {
                  BrimTemplate::Quad, BrimTemplate::Ics, BrimTemplate::Custom})
     EXPECT_EQ(parse_brim_template(to_string(k)), k);
   EXPECT_EQ(parse_brim_template("PTB-SC"), BrimTemplate::PtbSc);
+  EXPECT_EQ(parse_brim_template("Quadrilateral"), BrimTemplate::Quad);  // the full name is the quad template
   const std::string msg = message_of([] { parse_brim_template("ptbb"); });
   EXPECT_NE(msg.find("'ptbb'"), std::string::npos) << msg;
   EXPECT_NE(msg.find("ptb, ptb-sc, ptb-scsp, kbm, tsb, quad, ics"), std::string::npos) << msg;

@@ -1,6 +1,7 @@
 // The case file: file units ↔ SI, round trip, and one-line errors for bad input.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 
@@ -268,6 +269,35 @@ TEST(CaseFile, limb_scale_axis_and_size_override_round_trip_and_are_checked) {
   expect_error(R"({"limb": {"scale": -1}})", "limb.scale = -1 must be positive");
   expect_error(R"({"limb": {"axis": [0, 0, 0]}})", "'limb.axis' is the zero vector");
   expect_error(R"({"design": {"ischial_share_min": 1.5}})", "design.ischial_share_min = 1.5 is outside");
+}
+
+// The command line's --axis / --anterior and the case file's limb.axis / limb.anterior go through
+// one check: the same values refused in the same words, the flag named.
+TEST(CaseFile, limb_directions_from_the_command_line_are_checked_like_the_case_file) {
+  EXPECT_EQ(parse_limb_direction("0,0,2", LimbDirection::Axis, "design --axis"), Eigen::Vector3d(0, 0, 2));
+  EXPECT_EQ(parse_limb_direction(" 0.5, -1 ,1e-3 ", LimbDirection::Anterior, "design --anterior"),
+            Eigen::Vector3d(0.5, -1, 1e-3));
+  const auto message = [](const std::string& text, LimbDirection which) {
+    try {
+      parse_limb_direction(text, which, "design --axis");
+    } catch (const InvalidInputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_NE(message("0,0", LimbDirection::Axis).find("design --axis '0,0' is not a direction x,y,z (the long axis"),
+            std::string::npos);
+  EXPECT_NE(message("0,0,1,4", LimbDirection::Axis).find("is not a direction x,y,z"), std::string::npos);
+  EXPECT_NE(message("a,b,c", LimbDirection::Axis).find("is not a direction x,y,z"), std::string::npos);
+  EXPECT_NE(message("nan,0,1", LimbDirection::Axis).find("is not a direction"), std::string::npos);
+  EXPECT_NE(message("1e400,0,1", LimbDirection::Axis).find("is not a direction"), std::string::npos);
+  EXPECT_NE(message("0,0,0", LimbDirection::Axis).find("design --axis '0,0,0' is the zero vector (give the long axis"),
+            std::string::npos);
+  EXPECT_NE(message("0,0,0", LimbDirection::Anterior).find("is the zero vector (give the front of the limb"),
+            std::string::npos);
+  // The case file's words are the same check's.
+  expect_error(R"({"limb": {"anterior": [0, 0, 0]}})", "case file: 'limb.anterior' is the zero vector (give the front");
+  EXPECT_THROW(check_limb_direction(Eigen::Vector3d(0, std::nan(""), 1), LimbDirection::Axis, "x"), InvalidInputError);
 }
 
 TEST(CaseFile, files_that_are_missing_or_not_json) {

@@ -12,6 +12,7 @@
 
 #include "socketsmith/core/errors.h"
 #include "socketsmith/core/units.h"
+#include "socketsmith/design/ischial_check.h"
 #include "socketsmith/design/socket_builder.h"
 #include "socketsmith/geometry/mesh_checks.h"
 #include "socketsmith/geometry/mesh_io.h"
@@ -396,7 +397,90 @@ TEST(SocketBuilder, bad_inputs_give_one_line_errors) {
   EXPECT_DOUBLE_EQ(bolt_diameter_m("M8"), 8 * kMm);
 }
 
+// The ischial check (ischial_check.h) on a capsule's socket, where every answer is known: the
+// cavity closed by the brim's own surface holds the volume below the brim; a point within the wall
+// and below the brim is contained, one beside the wall or above the brim is not (a height-only test
+// would call the one beside the wall contained); a quadrilateral seat holds a point resting on it.
+namespace ischial {
+BrimLine wavy(BrimTemplate kind) {
+  // High postero-medially (135°), low in front: an ICS-like line.
+  return BrimLine(kind, {{"", 0.0, 0.110}, {"", 0.5 * kPi, 0.130}, {"", 0.75 * kPi, 0.150}, {"", kPi, 0.130},
+                         {"", -0.5 * kPi, 0.115}});
+}
+Vec3 at(double theta_deg, double r, double h) {
+  const double t = theta_deg * kPi / 180;
+  // z_frame(): anterior +y, axis +z, right side: medial = axis × anterior = −x.
+  return r * std::cos(t) * Vec3::UnitY() + r * std::sin(t) * (-Vec3::UnitX()) + h * Vec3::UnitZ();
+}
+}  // namespace ischial
 
+TEST(IschialCheck, the_cavity_closed_by_the_brim_holds_the_volume_below_the_brim) {
+  const double R = 0.05, H = 0.2;
+  const TriMesh inner = capsule(R, H);
+  SocketOptions o;
+  o.undeformed_skin = &inner;
+  const BrimLine brim = ischial::wavy(BrimTemplate::Ics);
+  const SocketResult s = build_socket(inner, z_frame(), brim, o);
+  const TriMesh cavity = socket_cavity_surface(s, z_frame());
+  // Analytic: the hemisphere and, above it, (R²/2) ∫ (brim(θ) − R) dθ.
+  double integral = 0;
+  const int n = 3600;
+  for (int k = 0; k < n; ++k) integral += (brim.height(-kPi + 2 * kPi * (k + 0.5) / n) - R) * 2 * kPi / n;
+  const double expected = 2.0 / 3.0 * kPi * R * R * R + 0.5 * R * R * integral;
+  EXPECT_NEAR(geometry::signed_volume(cavity), expected, 0.01 * expected);
+  // A level brim: the same as the builder's own cavity measure (a fan to the rim's centroid).
+  const SocketResult level = build_socket(inner, z_frame(), flat_brim(0.13), o);
+  EXPECT_NEAR(geometry::signed_volume(socket_cavity_surface(level, z_frame())), level.cavity_volume_m3,
+              1e-3 * level.cavity_volume_m3);
+}
+
+TEST(IschialCheck, containment_is_3d_and_a_seat_holds_a_point_resting_on_it) {
+  const double R = 0.05, H = 0.2;
+  const TriMesh inner = capsule(R, H);
+  SocketOptions o;
+  o.undeformed_skin = &inner;
+  const BrimLine ics = ischial::wavy(BrimTemplate::Ics);
+  const SocketResult s = build_socket(inner, z_frame(), ics, o);
+  // Inside: 15 mm from the wall, 30 mm below the brim (150 mm at 135°).
+  IschialCheck c = check_ischial_tuberosity(ics, z_frame(), ischial::at(135, 0.035, 0.120), s);
+  EXPECT_TRUE(c.applies);
+  EXPECT_EQ(c.kind, "containment");
+  EXPECT_TRUE(c.inside_cavity) << c.summary;
+  EXPECT_TRUE(c.met);
+  EXPECT_NEAR(c.cavity_margin_m, 0.015, 0.0005);
+  EXPECT_NEAR(c.height_margin_m, 0.030, 1e-6);
+  // Beside the wall at the same height: below the brim (a height test would pass) but outside.
+  c = check_ischial_tuberosity(ics, z_frame(), ischial::at(135, 0.060, 0.120), s);
+  EXPECT_GT(c.height_margin_m, 0.0);
+  EXPECT_FALSE(c.inside_cavity);
+  EXPECT_FALSE(c.met);
+  EXPECT_NEAR(c.cavity_margin_m, -0.010, 0.0005);
+  // Above the brim in front (110 mm at 0°), half-way to the axis: outside (a cap fanned from the
+  // rim's centroid, ~124 mm high, would pass ~117 mm over this point and call it contained).
+  c = check_ischial_tuberosity(ics, z_frame(), ischial::at(0, 0.025, 0.114), s);
+  EXPECT_FALSE(c.inside_cavity);
+  EXPECT_FALSE(c.met);
+  EXPECT_LT(c.height_margin_m, 0.0);
+  // Another template: the check does not apply.
+  EXPECT_FALSE(check_ischial_tuberosity(flat_brim(0.13), z_frame(), ischial::at(135, 0.03, 0.1),
+                                        build_socket(inner, z_frame(), flat_brim(0.13), o))
+                   .applies);
+
+  // A level quadrilateral seat at 130 mm: a point 5 mm above it rests on it; one 20 mm below sits
+  // inside the socket, one 30 mm above floats over it.
+  const BrimLine quad(BrimTemplate::Quad, flat_brim(0.13).key_points());
+  const SocketResult q = build_socket(inner, z_frame(), quad, o);
+  c = check_ischial_tuberosity(quad, z_frame(), ischial::at(135, 0.035, 0.135), q);
+  EXPECT_EQ(c.kind, "seat");
+  EXPECT_TRUE(c.met) << c.summary;
+  EXPECT_NEAR(c.height_margin_m, 0.005, 1e-6);
+  EXPECT_FALSE(c.inside_cavity);
+  c = check_ischial_tuberosity(quad, z_frame(), ischial::at(135, 0.035, 0.110), q);
+  EXPECT_TRUE(c.inside_cavity);
+  EXPECT_FALSE(c.met) << c.summary;
+  c = check_ischial_tuberosity(quad, z_frame(), ischial::at(135, 0.035, 0.160), q);
+  EXPECT_FALSE(c.met) << c.summary;
+}
 
 }  // namespace
 }  // namespace socketsmith::design

@@ -168,6 +168,15 @@ TEST(TransfemoralCase, RealLimbWithoutABrimGetsAnIschialContainment) {
     if (l["code"] == "IS") is_h = l["h_mm"].get<double>();
   ASSERT_GT(is_h, 0.0);
   EXPECT_GT(top_h, is_h + 25.0);
+  // And in 3D (design.json, socket.ischial_check): the bony tuberosity lies inside the socket's
+  // cavity — below the brim and within the inner wall.
+  const auto& ic = j["socket"]["ischial_check"];
+  EXPECT_EQ(ic["kind"], "containment");
+  EXPECT_TRUE(ic["inside_cavity"].get<bool>()) << ic["summary"];
+  EXPECT_TRUE(ic["met"].get<bool>());
+  EXPECT_GT(ic["cavity_margin_mm"].get<double>(), 5.0);
+  EXPECT_GT(ic["height_margin_mm"].get<double>(), 25.0);
+  EXPECT_FALSE(ic["tuberosity_estimated"].get<bool>());  // from the file's hemipelvis
   // The ischial/gluteal region carries at least the template's share, reported.
   EXPECT_GE(j["ischial_gluteal_share"].get<double>(), j["ischial_share_min"].get<double>() - 1e-3);
   EXPECT_GT(j["ischial_share_min"].get<double>(), 0.0);
@@ -178,8 +187,39 @@ TEST(TransfemoralCase, RealLimbWithoutABrimGetsAnIschialContainment) {
   std::ifstream html(dir / "out" / "report.html");
   const std::string report((std::istreambuf_iterator<char>(html)), std::istreambuf_iterator<char>());
   EXPECT_NE(report.find("Axial load by region"), std::string::npos);
+  EXPECT_NE(report.find("ischial tuberosity INSIDE the socket"), std::string::npos);
   const auto socket = geometry::read_mesh(dir / "out" / "socket.stl", {});
   EXPECT_TRUE(geometry::check_mesh(socket).is_valid_closed_surface());
+}
+
+// `design --axis --anterior` override the case file's limb.axis / limb.anterior: the design's frame
+// is the flags' (normalised), said to be given, and the replay case holds the flags' directions.
+TEST(DesignFlags, axis_and_anterior_flags_override_the_case_file) {
+  const fs::path dir = fs::path(SOCKETSMITH_BINARY_DIR) / "tests" / "pipeline_flags";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  {
+    std::ofstream c(dir / "case.json");
+    c << nlohmann::json{{"socketsmith_case", 1},
+                        {"limb", {{"generate_seed", 1}, {"axis", {0.3, 0.0, 1.0}}, {"anterior", {1.0, 0.0, 0.0}}}},
+                        {"mesh", {{"target_nodes", 1500}}}}
+             .dump();
+  }
+  const std::string cmd = std::string(SOCKETSMITH_BINARY_DIR) + "/socketsmith design " + (dir / "case.json").string() +
+                          " --axis 0,0,2 --anterior 0,3,0.5 --out " + (dir / "out").string() + " > " +
+                          (dir / "log.txt").string() + " 2>&1";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << "see " << (dir / "log.txt").string();
+  std::ifstream in(dir / "out" / "design.json");
+  const auto j = nlohmann::json::parse(in);
+  EXPECT_EQ(j["frame"]["axis_source"], "given");
+  EXPECT_EQ(j["frame"]["anterior_source"], "given");
+  EXPECT_LT((vec(j["frame"]["axis"]) - Eigen::Vector3d(0, 0, 1)).norm(), 1e-9);
+  // The front: the flag's direction made perpendicular to the axis.
+  EXPECT_LT((vec(j["frame"]["anterior"]) - Eigen::Vector3d(0, 1, 0)).norm(), 1e-9);
+  std::ifstream rc(dir / "out" / "design_case.json");
+  const auto replay = nlohmann::json::parse(rc);
+  EXPECT_LT((vec(replay["limb"]["axis"]) - Eigen::Vector3d(0, 0, 2)).norm(), 1e-12);
+  EXPECT_LT((vec(replay["limb"]["anterior"]) - Eigen::Vector3d(0, 3, 0.5)).norm(), 1e-12);
 }
 
 // A TSB brim means total surface bearing: the optimiser evens the pressure out over the whole skin

@@ -72,7 +72,9 @@ BrimTemplate parse_brim_template(const std::string& text) {
   std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return std::tolower(c); });
   for (const auto& n : kNames)
     if (lower == n.name) return n.kind;
-  fail("brim template '{}' is not known (valid: ptb, ptb-sc, ptb-scsp, kbm, tsb, quad, ics, custom)", text);
+  if (lower == "quadrilateral") return BrimTemplate::Quad;  // the socket's full name, as prosthetists write it
+  fail("brim template '{}' is not known (valid: ptb, ptb-sc, ptb-scsp, kbm, tsb, quad, ics, custom; quadrilateral = quad)",
+       text);
 }
 
 LimbType limb_type_of(BrimTemplate kind) {

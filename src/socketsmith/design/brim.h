@@ -46,7 +46,7 @@ enum class BrimTemplate { Ptb, PtbSc, PtbScsp, Kbm, Tsb, Quad, Ics, Custom };
 
 /// "ptb" | "ptb-sc" | "ptb-scsp" | "kbm" | "tsb" | "quad" | "ics" | "custom".
 std::string to_string(BrimTemplate kind);
-/// Inverse of to_string, case-insensitive ("PTB-SC" works).
+/// Inverse of to_string, case-insensitive ("PTB-SC" works); "quadrilateral" is read as quad.
 /// @throws InvalidInputError naming the text and listing the valid names.
 BrimTemplate parse_brim_template(const std::string& text);
 /// The limb type a template is made for (Custom: none — throws InvalidInputError).

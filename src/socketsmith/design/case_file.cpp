@@ -206,6 +206,29 @@ json socket_attachment_json(const SocketOptions& s) {
 }
 }  // namespace
 
+namespace {
+const char* direction_hint(LimbDirection which) {
+  return which == LimbDirection::Axis ? "the long axis, distal to proximal, e.g. 0,0,1"
+                                      : "the front of the limb, e.g. 0,1,0";
+}
+}  // namespace
+
+Eigen::Vector3d check_limb_direction(const Eigen::Vector3d& v, LimbDirection which, const std::string& where) {
+  require(v.allFinite(), "{} is not finite (give {})", where, direction_hint(which));
+  require(v.norm() > 0.0, "{} is the zero vector (give {})", where, direction_hint(which));
+  return v;
+}
+
+Eigen::Vector3d parse_limb_direction(const std::string& text, LimbDirection which, const std::string& flag) {
+  Eigen::Vector3d v;
+  char c1 = 0, c2 = 0;
+  std::istringstream in(text);
+  in >> v.x() >> c1 >> v.y() >> c2 >> v.z();
+  const bool complete = in && c1 == ',' && c2 == ',' && (in >> std::ws).eof();
+  require(complete, "{} '{}' is not a direction x,y,z ({})", flag, text, direction_hint(which));
+  return check_limb_direction(v, which, fmt::format("{} '{}'", flag, text));
+}
+
 CaseFile parse_case(const json& doc, const std::filesystem::path& folder) {
   CaseFile c;
   c.folder = folder;
@@ -232,16 +255,13 @@ CaseFile parse_case(const json& doc, const std::filesystem::path& folder) {
             "with units m for a shape normalised to a 0.45 m femur)",
             c.limb.scale);
     c.limb.force_size = flag(j, "force_size", "limb", false);
-    if (j.contains("axis")) {
-      c.limb.axis = vec3(j.at("axis"), "limb.axis");
-      require(c.limb.axis->norm() > 0, "case file: 'limb.axis' is the zero vector (give the long axis, distal to proximal)");
-    }
+    if (j.contains("axis"))
+      c.limb.axis = check_limb_direction(vec3(j.at("axis"), "limb.axis"), LimbDirection::Axis, "case file: 'limb.axis'");
     c.limb.type = geometry::parse_limb_type(text(j, "type", "limb", "transtibial"));
     if (j.contains("side")) c.limb.side = geometry::parse_side(text(j, "side", "limb", ""));
-    if (j.contains("anterior")) {
-      c.limb.anterior = vec3(j.at("anterior"), "limb.anterior");
-      require(c.limb.anterior->norm() > 0, "case file: 'limb.anterior' is the zero vector (give the front direction)");
-    }
+    if (j.contains("anterior"))
+      c.limb.anterior =
+          check_limb_direction(vec3(j.at("anterior"), "limb.anterior"), LimbDirection::Anterior, "case file: 'limb.anterior'");
     if (j.contains("cut_height_mm")) c.limb.cut_height_m = limited(j, "cut_height_mm", "limb", 0, limits::kCutHeight) * 1e-3;
     if (j.contains("generate_seed")) {
       require(j.at("generate_seed").is_number_unsigned(), "case file: 'limb.generate_seed' must be a whole number ≥ 0");

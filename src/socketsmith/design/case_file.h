@@ -84,6 +84,24 @@ struct CaseFile {
   SocketOptions socket;
 };
 
+/// The limb's directions: `limb.axis` (the long axis, distal to proximal) and `limb.anterior`
+/// (the front). The case file and the command line's `--axis` / `--anterior` (`design`, `run`,
+/// `mesh`) check them with the two functions below, so both refuse the same values in the same words.
+enum class LimbDirection { Axis, Anterior };
+
+/// Checks a limb direction: finite, not the zero vector (its length does not matter).
+/// @param where names the value at the start of the message: "case file: 'limb.axis'",
+///        "design --axis '0,0,0'".
+/// @throws InvalidInputError with one line: "<where> is the zero vector (give the long axis, distal
+///         to proximal, e.g. 0,0,1)".
+Eigen::Vector3d check_limb_direction(const Eigen::Vector3d& v, LimbDirection which, const std::string& where);
+
+/// A limb direction from command-line text "x,y,z" (spaces allowed), then check_limb_direction.
+/// @param flag names the flag in the message: "design --axis".
+/// @throws InvalidInputError: "design --axis '0,0' is not a direction x,y,z (the long axis, distal
+///         to proximal, e.g. 0,0,1)", or the zero-vector line.
+Eigen::Vector3d parse_limb_direction(const std::string& text, LimbDirection which, const std::string& flag);
+
 /// Parses a case document. @p folder resolves relative paths.
 /// @throws InvalidInputError with one line naming the key and the fix (unknown key, wrong type,
 ///         negative mass, thickness ≤ 0, ...).

@@ -23,6 +23,7 @@
 #include "socketsmith/design/brim.h"
 #include "socketsmith/design/case_file.h"
 #include "socketsmith/design/design_solver.h"
+#include "socketsmith/design/ischial_check.h"
 #include "socketsmith/design/load_regions.h"
 #include "socketsmith/design/optimizer.h"
 #include "socketsmith/design/pain_map.h"
@@ -72,7 +73,8 @@ std::unique_ptr<DesignSetup> prepare_design(const design::CaseFile& c,
 /// the case's design.ischial_share_min, else the brim template's (design::default_ischial_share);
 /// 0 for a transtibial limb.
 double ischial_share_floor(const DesignSetup& setup);
-/// That floor as an optimiser region share (nullopt when 0).
+/// That floor as an optimiser region share (nullopt when 0), asked with a 5 % margin (floor × 1.05):
+/// the optimiser's last fit is on the geometry of the round before, the floor is read on the final state.
 std::optional<design::OptimizerOptions::RegionShare> ischial_floor(const DesignSetup& setup);
 /// The optimiser's settings for case @p c on @p setup's stump (the CLI's design and the GUI's
 /// Optimise both take them from here): the case's objective, model pressure limit and time limit;
@@ -99,6 +101,9 @@ struct DesignResult {
   std::optional<design::SocketResult> socket;  ///< only when every constraint is met (the closed loop's when it ran)
   double limb_volume_below_brim_m3 = 0.0;      ///< the cavity measure on the undeformed skin
   std::vector<design::RegionLoad> region_loads; ///< the axial load by region (setup.regions) of `state`
+  /// Transfemoral limbs with a socket: the bony ischial tuberosity against the socket's cavity in 3D
+  /// (design/ischial_check.h: inside it for ICS, on the seat for quadrilateral).
+  std::optional<design::IschialCheck> ischial_check;
   /// The closed loop (case `design.closed_loop`): the open-loop socket donned and stood on, its
   /// wall corrected; `socket` is then the corrected socket.
   std::optional<ClosedLoopResult> closed_loop;
@@ -112,6 +117,10 @@ struct DesignResult {
 /// constraints.
 /// @throws SolverError when the stump cannot be solved at all.
 DesignResult solve_design(DesignSetup& setup, bool optimise, const ProgressCallback& progress = {});
+
+/// True when @p result's final state keeps the ischial floor (its ischial/gluteal share ≥ the
+/// floor; always true without a floor) — design.json's ischial_share_floor_met.
+bool ischial_floor_holds(const DesignSetup& setup, const DesignResult& result);
 
 /// Stage 3. Writes surface_nodes.csv, stump.vtu, the maps, radar, profiles, socket.stl (when
 /// built), design_case.json (the replay), report.html and design.json into @p out (created).
