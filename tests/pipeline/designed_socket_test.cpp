@@ -6,15 +6,18 @@
 // (SOCKETSMITH_REAL_LIMBS) runs every limb of ../shared/data.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 
+#include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include "../design/socket_check.h"
 #include "socketsmith/core/units.h"
 #include "socketsmith/design/case_file.h"
+#include "socketsmith/design/template_regions.h"
 #include "socketsmith/geometry/mesh_io.h"
 #include "socketsmith/pipeline/design_pipeline.h"
 #include "socketsmith/volume/hex_mesher.h"
@@ -165,6 +168,89 @@ INSTANTIATE_TEST_SUITE_P(
                       RealLimb{"ampscan_tt", "transtibial/ampscan_limb_scan_mm.stl", "estimate", false},
                       RealLimb{"openlimb_tf", "transfemoral/openlimb_tf_mean_limb_normalised.stl", "auto", true}),
     [](const auto& param_info) { return std::string(param_info.param.name); });
+
+/// A design of the default case at 3k nodes on a generated limb (seed, type) or a shared
+/// transtibial file, with brim @p brim ("" = the type's default).
+struct TemplateCase {
+  std::string name;
+  std::string file;  // under ../shared/data/limbs; empty: generated
+  int seed = 1;
+  bool transfemoral = false;
+  std::string brim;
+};
+
+class EveryLimb : public ::testing::TestWithParam<TemplateCase> {};
+
+// Issue 22's "done when" on every transtibial limb of ../shared/data and 10 generated limbs of
+// both types: the designed socket keeps its wall (this file's own distances), and a PTB design
+// means PTB (tolerant ≥ 1.5 × sensitive mean pressure, distal fifth ≤ 10 % of the axial load) and
+// a TSB design bears evenly (CV below the brim ≤ 0.35) — recomputed here from the solved state.
+TEST_P(EveryLimb, the_socket_keeps_its_wall_and_the_design_means_its_template) {
+  const TemplateCase t = GetParam();
+  nlohmann::json limb = {{"type", t.transfemoral ? "transfemoral" : "transtibial"}};
+  if (t.file.empty()) {
+    limb["generate_seed"] = t.seed;
+  } else {
+    const fs::path file = fs::path(SOCKETSMITH_SHARED_DATA_DIR) / "limbs" / t.file;
+    if (!fs::exists(file)) GTEST_SKIP() << "shared data absent: " << file;
+    limb["file"] = file.string();
+    limb["units"] = "mm";
+  }
+  nlohmann::json doc = {{"limb", limb}, {"mesh", {{"target_nodes", 3000}}}};
+  if (!t.brim.empty()) doc["brim"] = {{"template", t.brim}};
+  const design::CaseFile c = design::parse_case(doc);
+  auto setup = pipeline::prepare_design(c);
+  const pipeline::DesignResult res = pipeline::solve_design(*setup, true);
+  ASSERT_TRUE(res.constraints_met) << t.name << ": " << res.state.message;
+  ASSERT_TRUE(res.socket.has_value());
+  const auto check = wall_check::check_socket(*res.socket, res.deformed_skin, setup->model.frame, setup->brim, c.socket);
+  EXPECT_TRUE(check.failures.empty()) << t.name << ": " << check.text();
+  print_measured(t.name, *res.socket, check);
+  if (t.transfemoral) return;
+  // The template, from the state: pressures, deformed normals and areas, rest positions.
+  const auto& st = res.state;
+  const auto& solver = *setup->solver;
+  const auto m = design::template_masks(setup->brim.kind(), setup->model.landmarks, solver.skin().positions,
+                                        solver.above_brim(), setup->model.frame, setup->model.length_m);
+  const Eigen::Vector3d ez = setup->model.frame.axis;
+  double all = 0, distal = 0, tol_pa = 0, tol_a = 0, sen_pa = 0, sen_a = 0, a = 0, pa = 0, p2a = 0;
+  for (size_t i = 0; i < st.pressure_pa.size(); ++i) {
+    const double p = st.pressure_pa[i], ar = st.skin_areas[i], cz = st.skin_normals[i].dot(ez);
+    const double axial = -p * ar * cz + c.patient.friction * p * ar * std::sqrt(std::max(0.0, 1 - cz * cz));
+    all += axial;
+    if (m.distal_fifth[i]) distal += axial;
+    if (m.tolerant[i]) tol_pa += p * ar, tol_a += ar;
+    if (m.sensitive[i]) sen_pa += p * ar, sen_a += ar;
+    if (!solver.above_brim()[i]) a += ar, pa += p * ar, p2a += p * p * ar;
+  }
+  const double mean = pa / a, cv = std::sqrt(std::max(0.0, p2a / a - mean * mean)) / mean;
+  if (t.brim == "tsb") {
+    std::printf("[ measured ] %s: CV below the brim %.3f\n", t.name.c_str(), cv);
+    EXPECT_LE(cv, 0.35) << t.name;
+  } else {
+    const double ratio = (tol_pa / tol_a) / (sen_pa / sen_a);
+    std::printf("[ measured ] %s: tolerant / sensitive %.2f, distal fifth %.1f %%\n", t.name.c_str(), ratio,
+                100 * distal / all);
+    EXPECT_GE(ratio, 1.5) << t.name;
+    EXPECT_LE(distal / all, 0.10) << t.name;
+  }
+}
+
+std::vector<TemplateCase> every_limb() {
+  std::vector<TemplateCase> v;
+  for (const char* brim : {"ptb", "tsb"}) {
+    for (int seed = 1; seed <= 10; ++seed)
+      v.push_back({fmt::format("generated_tt_{}_{}", seed, brim), "", seed, false, brim});
+    v.push_back({fmt::format("openlimb_tt_{}", brim), "transtibial/openlimb_tt_mean_limb_with_bones_mm.stl", 0, false, brim});
+    v.push_back({fmt::format("openlimb_tt_skin_{}", brim), "transtibial/openlimb_tt_mean_skin_mm.stl", 0, false, brim});
+    v.push_back({fmt::format("ampscan_tt_{}", brim), "transtibial/ampscan_limb_scan_mm.stl", 0, false, brim});
+  }
+  for (int seed = 1; seed <= 10; ++seed) v.push_back({fmt::format("generated_tf_{}", seed), "", seed, true, ""});
+  return v;
+}
+
+INSTANTIATE_TEST_SUITE_P(SharedAndGenerated, EveryLimb, ::testing::ValuesIn(every_limb()),
+                         [](const auto& param_info) { return param_info.param.name; });
 
 #endif
 
