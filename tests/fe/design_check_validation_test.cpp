@@ -16,12 +16,22 @@ namespace {
 
 namespace fs = std::filesystem;
 
+/// The demo case with the seven constraints only (design.follow_template false): the design these
+/// checks' bars were measured on. The template-following demo design (the default since issue 22)
+/// is more peaked at the patellar tendon; its figures against CalculiX are in docs/VALIDATION.md
+/// ("Designs that mean their template"): CalculiX's load step at ν 0.25 does not converge on it.
+design::CaseFile plain_demo_case(int nodes) {
+  design::CaseFile c = pipeline::demo_case(nodes);
+  c.follow_template = false;
+  return c;
+}
+
 struct Designed {
   pipeline::DesignArtifacts art;
   DesignedStump stump;
   Designed() {
     const fs::path out = fs::path(SOCKETSMITH_BINARY_DIR) / "fe_test_runs" / "design_3k";
-    pipeline::run_design(pipeline::demo_case(3000), out / "design", true, {}, &art);
+    pipeline::run_design(plain_demo_case(3000), out / "design", true, {}, &art);
     stump = designed_stump(art);
   }
 };
@@ -84,7 +94,7 @@ TEST(DesignCheckValidation, calculix_contact_pressure_in_the_designed_socket) {
 struct DesignedFe {
   pipeline::DesignArtifacts art;
   DesignedStump stump;
-  design::CaseFile c = pipeline::demo_case(3000);
+  design::CaseFile c = plain_demo_case(3000);
   DesignedFe() {
     c.model = "fe";
     const fs::path out = fs::path(SOCKETSMITH_BINARY_DIR) / "fe_test_runs" / "design_fe_3k";
@@ -167,7 +177,7 @@ TEST(DesignCheckValidation, a_neo_hookean_nonlinear_design_deforms_calculixs_neo
 DesignCheckResult donning_against_calculix(const std::string& name, int nodes, const std::string& model, double mu,
                                            bool linear_body, double nu, bool stand = false, bool small_strain = false) {
   const fs::path out = fs::path(SOCKETSMITH_BINARY_DIR) / "fe_test_runs" / name;
-  auto c = pipeline::demo_case(nodes);
+  auto c = plain_demo_case(nodes);
   c.model = model;
   pipeline::DesignArtifacts art;
   pipeline::run_design(c, out / "design", true, {}, &art);
