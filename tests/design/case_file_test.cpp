@@ -155,6 +155,13 @@ TEST(CaseFile, following_the_template_and_the_uniform_objective_are_read_and_kep
   EXPECT_THROW(parse_case(json::parse(R"({"design": {"objective": "even"}})")), InvalidInputError);
 }
 
+TEST(CaseFile, a_seed_built_in_code_is_a_seed_as_one_read_from_a_file) {
+  // nlohmann::json holds a positive int literal as a signed integer, a parsed one as unsigned.
+  EXPECT_EQ(parse_case(json{{"limb", {{"generate_seed", 3}}}}).limb.generate_seed, 3u);
+  EXPECT_EQ(parse_case(json::parse(R"({"limb": {"generate_seed": 3}})")).limb.generate_seed, 3u);
+  EXPECT_THROW(parse_case(json{{"limb", {{"generate_seed", -3}}}}), InvalidInputError);
+}
+
 void expect_error(const std::string& text, const std::string& needle) {
   try {
     parse_case(json::parse(text));

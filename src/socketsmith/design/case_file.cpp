@@ -264,7 +264,10 @@ CaseFile parse_case(const json& doc, const std::filesystem::path& folder) {
           check_limb_direction(vec3(j.at("anterior"), "limb.anterior"), LimbDirection::Anterior, "case file: 'limb.anterior'");
     if (j.contains("cut_height_mm")) c.limb.cut_height_m = limited(j, "cut_height_mm", "limb", 0, limits::kCutHeight) * 1e-3;
     if (j.contains("generate_seed")) {
-      require(j.at("generate_seed").is_number_unsigned(), "case file: 'limb.generate_seed' must be a whole number ≥ 0");
+      // A document built in code holds a positive int as a signed integer; a parsed file, unsigned.
+      const auto& seed = j.at("generate_seed");
+      require(seed.is_number_unsigned() || (seed.is_number_integer() && seed.get<long long>() >= 0),
+              "case file: 'limb.generate_seed' must be a whole number ≥ 0");
       c.limb.generate_seed = j.at("generate_seed").get<std::uint64_t>();
     }
   }
