@@ -493,14 +493,14 @@ LimbModel prepare_limb(const TriMesh& limb, const TriMesh& extra_bones, const Li
           frame.side = est.side;
           side_from_skin = true;
         }
-        model.notes.push_back(fmt::format("anterior direction ESTIMATED from the skin ({}); check it and give --anterior "
-                                          "x,y,z",
+        model.notes.push_back(fmt::format("anterior direction ESTIMATED from the skin ({}); check it and give the "
+                                          "front (limb.anterior in a case file, --anterior x,y,z on the command line)",
                                           est.how));
       } else {
         geometry::set_anterior(frame, geometry::estimate_anterior_from_skin(skin_mesh, frame));
         model.notes.push_back(fmt::format(
-            "anterior direction ESTIMATED from the skin shape for a {} limb (calf skewness); check it and give "
-            "--anterior x,y,z",
+            "anterior direction ESTIMATED from the skin shape for a {} limb (calf skewness); check it and give the "
+            "front (limb.anterior in a case file, --anterior x,y,z on the command line)",
             geometry::to_string(frame.side)));
       }
     }
@@ -522,7 +522,7 @@ LimbModel prepare_limb(const TriMesh& limb, const TriMesh& extra_bones, const Li
     } else {
       frame.side = geometry::Side::Right;
       frame.side_estimated = true;
-      model.notes.push_back("side unknown: assumed right (give --side left|right)");
+      model.notes.push_back("side unknown: assumed right (give it: limb.side in a case file, --side left|right on the command line)");
     }
   };
   if (tf) decide_front(shells, skin.mesh, rim);
@@ -577,7 +577,7 @@ LimbModel prepare_limb(const TriMesh& limb, const TriMesh& extra_bones, const Li
     require<TopologyError>(chk.is_closed() && chk.is_manifold() && chk.is_oriented(),
                            "skin is not closed below the cut ({} boundary loop(s), {} non-manifold edge(s)): "
                            "the scan has holes larger than the automatic repair fills; fill them in the scanner "
-                           "software or cut lower (--cut-height-mm)",
+                           "software or cut lower (limb.cut_height_mm in a case file, --cut-height-mm on the command line)",
                            chk.boundary_loops, chk.non_manifold_edges);
   }
   model.skin = std::move(trimmed.mesh);
