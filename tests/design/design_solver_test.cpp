@@ -605,16 +605,36 @@ TEST(DesignSolverStump, relaxation_converges_the_follower_loop_past_its_plain_pa
   EXPECT_LT((st.positions - ref.positions).lpNorm<Eigen::Infinity>(), 0.01 * ref.max_displacement_m);
 }
 
+// The cap forced: one plain pass, no relaxed ones. The layout moves the skin by millimetres, so a
+// single pass cannot reach the tolerance; the state must say it stopped at the cap, with the
+// change the test measures itself (the linearised residual K u − f(x) at the returned shape), and
+// fail its constraints. The same layout with the default cap converges (so the cap is the cause).
 TEST(DesignSolverStump, a_follower_loop_stopped_by_its_pass_cap_is_reported) {
   const Stump& s = stump();
-  auto solver = make_solver(DesignSolveMode::Linear);
-  solver->set_brim([&](double) { return s.pt_h + 15 * kMm; });
-  const auto st = solver->solve(layout());
-  const double change = linear_follower_change(*solver, st);
-  if (change > DesignSolverOptions{}.follower_tolerance * 1.001) {
-    EXPECT_FALSE(st.converged && st.message.find("follower") == std::string::npos)
-        << "follower change " << change << " after " << st.follower_passes << " passes, reported: " << st.message;
-  }
+  DesignSolverOptions o = mode_options(DesignSolveMode::Linear);
+  o.max_follower_passes = 1;
+  o.max_relaxed_passes = 0;
+  auto capped = make_solver(o);
+  capped->set_brim([&](double) { return s.pt_h + 15 * kMm; });
+  const auto st = capped->solve(layout());
+  const double change = linear_follower_change(*capped, st);
+  EXPECT_GT(change, 10 * o.follower_tolerance);
+  EXPECT_TRUE(st.follower_capped);
+  EXPECT_EQ(st.follower_passes, 1);
+  EXPECT_NEAR(st.follower_change, change, 0.02 * change);
+  EXPECT_FALSE(st.status.follower_converged);
+  EXPECT_FALSE(st.status.all_ok());
+  EXPECT_NE(st.message.find("the follower iteration did not converge: the forces still changed by"), std::string::npos)
+      << st.message;
+  EXPECT_NE(st.message.find("after 1 passes"), std::string::npos) << st.message;
+
+  auto free = make_solver(DesignSolveMode::Linear);
+  free->set_brim([&](double) { return s.pt_h + 15 * kMm; });
+  const auto ok = free->solve(layout());
+  EXPECT_FALSE(ok.follower_capped) << ok.message;
+  EXPECT_TRUE(ok.status.follower_converged);
+  EXPECT_LE(linear_follower_change(*free, ok), 1.5 * DesignSolverOptions{}.follower_tolerance);
+  EXPECT_EQ(ok.message.find("did not converge"), std::string::npos) << ok.message;
 }
 
 // Tissue too soft for its load: each follower pass's deformed skin carried larger forces until
