@@ -20,6 +20,7 @@ packages=(
   libspdlog-dev libfmt-dev  # logging sink, formatting
   libstb-dev              # PNG writing
   libgtest-dev libgmock-dev  # tests
+  libxml2-utils           # xmllint: the tests check the VTK and SVG files are well-formed XML (required in CI)
   libbenchmark-dev        # benchmarks
   libopencv-dev           # scan: 16-bit depth PNG IO, undistortion, Kinect calibration YAML (cv::FileStorage)
   libimgui-dev libglfw3-dev libgl-dev  # socketsmith-gui: Dear ImGui (with its GLFW/OpenGL3 back-ends), window, OpenGL

@@ -1,5 +1,5 @@
 // `socketsmith check mesh FILE`: reads a surface mesh and reports what a user must know before
-// using it (units, size, closed, manifold, orientation, components).
+// using it (units, size, closed, manifold, orientation, components, self-intersections).
 #include "cli_common.h"
 #include "socketsmith/core/errors.h"
 #include "socketsmith/core/log.h"
@@ -31,7 +31,7 @@ void run(const CheckFlags& f) {
     log::info("{}: {} vertices, {} triangles, {:.1f} x {:.1f} x {:.1f} mm, {} component(s), {}", f.file,
               rep.num_vertices, rep.num_triangles, box.extent().x() * 1e3, box.extent().y() * 1e3,
               box.extent().z() * 1e3, rep.connected_components, rep.is_closed() ? "closed" : "open");
-    for (const auto& p : rep.problems()) log::info("  {}", p);
+    for (const auto& p : j["problems"]) log::info("  {}", p.get<std::string>());  // with self-intersections
     for (const auto& lm : info.landmarks)
       log::info("  landmark {}: {} point(s), the first at ({:.1f}, {:.1f}, {:.1f}) mm", lm.name, lm.points.size(),
                 lm.points[0].x() * 1e3, lm.points[0].y() * 1e3, lm.points[0].z() * 1e3);

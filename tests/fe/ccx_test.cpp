@@ -40,6 +40,35 @@ TEST(CcxRunner, missing_ccx_names_the_package) {
   EXPECT_THROW(find_ccx("/nonexistent/ccx"), InvalidInputError);
 }
 
+// ccx runs in the job's folder: a relative --ccx path (typed against the user's folder) used to
+// fail there as "could not be executed" (exit 127). A stand-in ccx (a shell script that answers as
+// ccx does) found by a relative path must run and finish.
+TEST(CcxRunner, a_relative_executable_path_runs_from_the_job_folder) {
+  const auto base = work_dir("relative_exe");
+  fs::create_directories(base / "bin");
+  fs::create_directories(base / "job");
+  write_text_atomically(base / "bin" / "fake_ccx", "#!/bin/sh\necho ' STEP 1'\necho 'Job finished'\n");
+  fs::permissions(base / "bin" / "fake_ccx", fs::perms::owner_all);
+  write_text_atomically(base / "job" / "j.inp", "*HEADING\n");
+  const fs::path cwd = fs::current_path();
+  fs::current_path(base);
+  CcxOptions o;
+  o.executable = "bin/fake_ccx";
+  CcxRun run;
+  std::string found;
+  try {
+    found = find_ccx(o.executable);
+    run = run_ccx(base / "job", "j", o);
+  } catch (...) {
+    fs::current_path(cwd);
+    throw;
+  }
+  fs::current_path(cwd);
+  EXPECT_EQ(fs::path(found), (base / "bin" / "fake_ccx").lexically_normal());
+  EXPECT_TRUE(run.converged) << run.message;
+  EXPECT_EQ(run.exit_code, 0) << run.message;
+}
+
 TEST(CcxRunner, a_rejected_deck_is_reported_with_the_log_error_line) {
   if (!have_ccx()) GTEST_SKIP() << "ccx not installed (calculix-ccx)";
   const auto dir = work_dir("rejected");

@@ -55,7 +55,18 @@ TEST(DesignCheckValidation, designed_loads_in_calculix_balance_and_deform_the_st
   o.material.poisson_ratio = 0.25;  // the MSS lattice's own Poisson ratio
   const auto r = check_design(d.stump, o, run_dir("design_3k_load"));
   ASSERT_TRUE(r.converged) << r.message;
-  // Conservation: the bones carry exactly the designed load.
+  // The bones carry the patient's load: half the body weight less the share friction takes on the
+  // skin (the radar's S — load mode applies the pressures alone). Both come from the case and the
+  // design's radar, not from the arrays the deck was written from: comparing the reaction with the
+  // sum of those arrays (kept below) holds by equilibrium whatever they contain, so it could not
+  // catch a deck that applies the wrong loads (units, sign, nodes left out).
+  const double half_weight = 0.5 * d.art.setup->case_file.patient.body_mass_kg * units::kGravity;
+  const double pressure_share = half_weight - d.art.result.state.radar.stability_n;
+  ASSERT_GT(pressure_share, 0.05 * half_weight);
+  std::printf("[ info ] CalculiX bone reaction %.1f N; M g / 2 - S = %.1f - %.1f = %.1f N\n", r.fe_force_n, half_weight,
+              d.art.result.state.radar.stability_n, pressure_share);
+  EXPECT_NEAR(r.fe_force_n, pressure_share, 0.02 * half_weight);
+  // And every designed load reached the deck (equilibrium of what was applied).
   EXPECT_NEAR(r.fe_force_n, r.designed_force_n, 0.01 * r.designed_force_n);
   // Shape: FE and socketsmith displacements correlate on the socket.
   EXPECT_GT(r.all.r, 0.8);

@@ -218,6 +218,86 @@ fs::path shared_data_dir() { return fs::path(SOCKETSMITH_SHARED_DATA_DIR); }
                    << "' (expected ../shared/data next to the source folder); skipping asset test"; \
   } while (0)
 
+// find_self_intersections on pairs whose answer is known by construction, one rule each.
+TEST(SelfIntersections, triangle_pairs_by_what_they_share) {
+  auto count = [](const std::vector<Vec3>& v, const std::vector<std::array<int, 3>>& t) {
+    TriMesh m;
+    m.vertices = v;
+    m.triangles = t;
+    return find_self_intersections(m).pairs;
+  };
+  // No shared vertex: two triangles crossing like links of a chain; the same two apart.
+  const std::vector<Vec3> chain{{0, 0, 0}, {2, 0, 0}, {0, 2, 0}, {0.5, 0.5, -1}, {0.5, 0.5, 1}, {3, 3, 0}};
+  EXPECT_EQ(count(chain, {{0, 1, 2}, {3, 4, 5}}), 1);
+  std::vector<Vec3> apart = chain;
+  for (int i = 3; i < 6; ++i) apart[i] += Vec3(5, 0, 0);
+  EXPECT_EQ(count(apart, {{0, 1, 2}, {3, 4, 5}}), 0);
+  // One shared vertex: a fan around it meets only there; a triangle whose far edge pierces the other does not.
+  const std::vector<Vec3> fan{{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {-1, 0, 0.2}, {0, -1, 0.3}, {0.3, 0.3, -1}, {0.3, 0.3, 1}};
+  EXPECT_EQ(count(fan, {{0, 1, 2}, {0, 3, 4}}), 0);
+  EXPECT_EQ(count(fan, {{0, 1, 2}, {0, 5, 6}}), 1);
+  // One shared edge: a hinge at 90 degrees, flat on the other side, or folded onto the first.
+  const std::vector<Vec3> hinge{{0, 0, 0}, {1, 0, 0}, {0.5, 1, 0}, {0.5, 0, 1}, {0.5, -1, 0}, {0.5, 0.5, 0}};
+  EXPECT_EQ(count(hinge, {{0, 1, 2}, {1, 0, 3}}), 0);
+  EXPECT_EQ(count(hinge, {{0, 1, 2}, {1, 0, 4}}), 0);
+  EXPECT_EQ(count(hinge, {{0, 1, 2}, {0, 1, 5}}), 1);
+  // The same triangle twice.
+  EXPECT_EQ(count(hinge, {{0, 1, 2}, {2, 0, 1}}), 1);
+  // Skipped: a degenerate (collinear) triangle through the other, an index out of range.
+  EXPECT_EQ(count({{0, 0, 0}, {2, 0, 0}, {0, 2, 0}, {0.5, 0.5, -1}, {0.5, 0.5, 1}, {0.5, 0.5, 0}}, {{0, 1, 2}, {3, 4, 5}}), 0);
+  EXPECT_EQ(count(chain, {{0, 1, 2}, {3, 4, 99}}), 0);
+}
+
+// Shells: a sphere inside another does not cross it, two overlapping spheres do — as CGAL's own
+// does_self_intersect says (has_self_intersections, an independent implementation) — and the
+// first pair found lies on the circle where they cross; a rigid motion changes nothing.
+TEST(SelfIntersections, nested_spheres_do_not_cross_overlapping_ones_do) {
+  const TriMesh outer = make_icosphere(1.0, 3);
+  const TriMesh nested = test::merged(outer, make_icosphere(0.5, 3));
+  // The second sphere turned about its centre, so that no vertex of one lies exactly on the other
+  // (mirror-image tessellations touch on the plane between them).
+  Eigen::Isometry3d turn = test::random_rigid_motion(3);
+  turn.translation() = Vec3(1.0, 0, 0);
+  const TriMesh overlapping = test::merged(outer, test::transformed(make_icosphere(1.0, 3), turn));
+  EXPECT_EQ(find_self_intersections(outer).pairs, 0);
+  EXPECT_EQ(find_self_intersections(nested).pairs, 0);
+  EXPECT_FALSE(has_self_intersections(nested));
+  const SelfIntersections si = find_self_intersections(overlapping);
+  EXPECT_TRUE(has_self_intersections(overlapping));
+  // The spheres cross on the circle x = 0.5, radius sqrt(3)/2; level-3 icosphere edges are < 0.2.
+  ASSERT_GT(si.pairs, 0);
+  for (int t : {si.first_a, si.first_b}) {
+    const auto& tri = overlapping.triangles[t];
+    const Vec3 c = (overlapping.vertices[tri[0]] + overlapping.vertices[tri[1]] + overlapping.vertices[tri[2]]) / 3.0;
+    EXPECT_NEAR(c.x(), 0.5, 0.2);
+    EXPECT_NEAR(std::hypot(c.y(), c.z()), std::sqrt(3.0) / 2.0, 0.2);
+  }
+  // Every crossing pair has one triangle of each sphere: as many pairs as after a rigid motion.
+  EXPECT_EQ(find_self_intersections(test::transformed(overlapping, test::random_rigid_motion(7))).pairs, si.pairs);
+}
+
+// A sphere with one vertex pushed through to the far side folds through itself (CGAL agrees);
+// check_mesh counts it only when asked and then lists it as a problem.
+TEST(SelfIntersections, a_vertex_pushed_through_the_sphere_is_a_problem_check_mesh_reports) {
+  TriMesh m = make_icosphere(1.0, 2);
+  int top = 0;
+  for (int v = 0; v < m.num_vertices(); ++v)
+    if (m.vertices[v].z() > m.vertices[top].z()) top = v;
+  m.vertices[top] = Vec3(0.01, 0.02, -1.5);
+  EXPECT_TRUE(has_self_intersections(m));
+  EXPECT_GT(find_self_intersections(m).pairs, 0);
+  EXPECT_EQ(check_mesh(m).self_intersecting_pairs, -1);
+  MeshCheckOptions o;
+  o.find_self_intersections = true;
+  const MeshCheckReport r = check_mesh(m, o);
+  EXPECT_EQ(r.self_intersecting_pairs, find_self_intersections(m).pairs);
+  EXPECT_FALSE(r.is_valid_closed_surface());
+  const auto problems = r.problems();
+  ASSERT_FALSE(problems.empty());
+  EXPECT_TRUE(contains(problems.back(), "self-intersecting: ")) << problems.back();
+  EXPECT_TRUE(check_mesh(make_icosphere(1.0, 2), o).is_valid_closed_surface());
+}
+
 TEST(RealAssets, openlimb_transtibial_limb_with_bones) {
   const fs::path file = shared_data_dir() / "limbs/transtibial/openlimb_tt_mean_limb_with_bones_mm.stl";
   SKIP_WITHOUT_SHARED_DATA(file);

@@ -163,7 +163,7 @@ TEST(MeshIo, warns_when_the_declared_unit_gives_an_implausible_size) {
   MeshReadInfo info;
   read_mesh(dir / "limb.stl", as_metres, &info);
   EXPECT_NE(info.warning.find("limb.stl"), std::string::npos) << info.warning;
-  EXPECT_NE(info.warning.find("is it in millimetres? (use --units mm)"), std::string::npos) << info.warning;
+  EXPECT_NE(info.warning.find("is it in millimetres? (give the unit: limb.units \"mm\" in a case file, --units mm on the command line)"), std::string::npos) << info.warning;
   EXPECT_NE(info.warning.find("450 m across"), std::string::npos) << info.warning;  // diagonal 260*sqrt(3)
   EXPECT_TRUE(log.contains(log::Level::Warn, "is it in millimetres?"));
 
@@ -172,7 +172,7 @@ TEST(MeshIo, warns_when_the_declared_unit_gives_an_implausible_size) {
   MeshReadOptions as_mm;
   as_mm.unit = LengthUnit::Millimetre;
   read_mesh(dir / "small.stl", as_mm, &info);
-  EXPECT_NE(info.warning.find("is it in metres? (use --units m)"), std::string::npos) << info.warning;
+  EXPECT_NE(info.warning.find("is it in metres? (give the unit: limb.units \"m\" in a case file, --units m on the command line)"), std::string::npos) << info.warning;
 
   as_mm.warn_on_implausible_size = false;
   read_mesh(dir / "small.stl", as_mm, &info);

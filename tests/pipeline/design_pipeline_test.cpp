@@ -3,6 +3,7 @@
 // design::compute_radar), and the socket STL is a closed manifold solid of the requested wall.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -108,25 +109,39 @@ TEST_F(DemoRun, RadarRecomputedFromSurfaceNodesEqualsTheReportAndTheSocketIsASol
   EXPECT_TRUE(rep.is_valid_closed_surface()) << (rep.problems().empty() ? "" : rep.problems().front());
   EXPECT_EQ(rep.connected_components, 1);
   EXPECT_GT(rep.signed_volume_m3, 0.0);
-  // Wall: every socket vertex above the distal pad within 5 mm (+ tolerance) of the deformed
-  // stump surface (the inner wall lies on it, the outer wall 5 mm out); the pad below is built
-  // outward of the wall, a flat disc a few walls thick.
-  std::vector<Eigen::Vector3d> pts;
+  // Wall: measured along each stump node's outward normal — from the node (the inner wall lies on
+  // the deformed skin) to the first socket surface more than 1 mm out, the outer wall. Nodes 15 mm
+  // from any node above the brim (the rounded lip) and the lowest 20 mm (the pad, built outward)
+  // are left out. The demo asks for 5 mm (README: at least 4.75 mm everywhere but the brim edge);
+  // the median must be within 3 % of it and the 2nd percentile above 4.5 mm — a wall of 4 or 6 mm
+  // fails (it used to pass anything from about 4 to 11 mm).
+  const geometry::SurfaceQuery socket_q(socket);
+  std::vector<Eigen::Vector3d> above_brim;
   double lowest = 1e9;
   for (size_t i = 0; i < x.size(); ++i) {
-    pts.emplace_back(x[i], y[i], z[i]);
-    lowest = std::min(lowest, pts.back().dot(ez));
+    lowest = std::min(lowest, Eigen::Vector3d(x[i], y[i], z[i]).dot(ez));
+    if (above[i] > 0.5) above_brim.emplace_back(x[i], y[i], z[i]);
   }
-  double max_d = 0, max_pad = 0;
-  for (const auto& v : socket.vertices) {
-    double best = 1e9;
-    for (const auto& q : pts) best = std::min(best, (v - q).norm());
-    double& worst = v.dot(ez) > lowest + 0.02 ? max_d : max_pad;
-    worst = std::max(worst, best);
+  ASSERT_FALSE(above_brim.empty());
+  std::vector<double> wall;
+  for (size_t i = 0; i < x.size(); ++i) {
+    const Eigen::Vector3d q(x[i], y[i], z[i]), n(nx[i], ny[i], nz[i]);
+    if (above[i] > 0.5 || q.dot(ez) < lowest + 0.02) continue;
+    double near_brim = 1e9;
+    for (const auto& b : above_brim) near_brim = std::min(near_brim, (b - q).norm());
+    if (near_brim < 0.015) continue;
+    const auto hit = socket_q.first_hit(q + 1e-3 * n, n);
+    if (hit) wall.push_back(hit->distance + 1e-3);
   }
-  EXPECT_LT(max_d, 0.005 + 0.006);  // nodes are ~6 mm apart on a 3k stump
-  EXPECT_GT(max_d, 0.004);          // and the wall is really there
-  EXPECT_LT(max_pad, 0.03);
+  ASSERT_GT(wall.size(), 300u);
+  std::sort(wall.begin(), wall.end());
+  const double median = wall[wall.size() / 2], p2 = wall[wall.size() / 50];
+  std::printf("[ info ] wall along the skin normals at %zu nodes: 2nd percentile %.3f mm, median %.3f mm, max %.3f mm\n",
+              wall.size(), p2 * 1e3, median * 1e3, wall.back() * 1e3);
+  const double asked = j["socket"]["thickness_mm"].get<double>() * 1e-3;
+  EXPECT_DOUBLE_EQ(asked, 0.005);
+  EXPECT_NEAR(median, asked, 0.03 * asked);
+  EXPECT_GT(p2, 0.9 * asked);
 }
 
 // The real transfemoral limb (OpenLimbTF mean limb, scaled by a 0.45 m femur via limb.scale), a

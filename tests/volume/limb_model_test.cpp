@@ -262,6 +262,69 @@ TEST(LimbModel, BadInputGetsOneClearError) {
   EXPECT_THROW(prepare_limb(limb, {}, o), InvalidInputError);
 }
 
+// A triangle stuck to the skin along one of its edges (a fin, or a sliver a few µm wide) makes
+// that edge non-manifold and gives the skin a second open rim. It was read as the rim: a fin at
+// mid-height cut the stump there without a word, a sliver elsewhere ended in "not a residual
+// limb", "knee height outside the skin" or a cut height nobody gave. Now one line names it.
+TEST(LimbModel, AFinOrSliverOnTheSkinIsRefusedByName) {
+  const geometry::TriMesh limb = test::capsule(0.05, 0.25, true);
+  auto with_triangle_on_edge = [&](double h, double reach_m) {
+    geometry::TriMesh m = limb;
+    // The first skin triangle whose centroid is above h: its first edge gets a third triangle.
+    for (const auto& t : m.triangles) {
+      const Vec3 c = (m.vertices[t[0]] + m.vertices[t[1]] + m.vertices[t[2]]) / 3.0;
+      if (c.z() < h) continue;
+      const Vec3 mid = 0.5 * (m.vertices[t[0]] + m.vertices[t[1]]);
+      const Vec3 out(mid.x(), mid.y(), 0.0);
+      m.vertices.push_back(mid + reach_m * out.normalized() + Vec3(0, 0, 1e-6));
+      m.triangles.push_back({t[1], t[0], m.num_vertices() - 1});
+      return m;
+    }
+    ADD_FAILURE() << "no triangle above " << h;
+    return m;
+  };
+  auto message = [](const geometry::TriMesh& m) {
+    try {
+      LimbInputOptions o;
+      o.estimate_bones = false;
+      prepare_limb(m, {}, o);
+    } catch (const TopologyError& e) {
+      return std::string(e.what());
+    } catch (const std::exception& e) {
+      return std::string("wrong error type: ") + e.what();
+    }
+    return std::string("accepted");
+  };
+  for (const auto& [h, reach] : {std::pair{0.15, 0.03}, std::pair{0.01, 0.03}, std::pair{0.12, 2e-6}}) {
+    const std::string msg = message(with_triangle_on_edge(h, reach));
+    EXPECT_NE(msg.find("the skin has 1 non-manifold edge(s)"), std::string::npos) << "h " << h << ": " << msg;
+    EXPECT_NE(msg.find("a fin or sliver triangle"), std::string::npos) << msg;
+    EXPECT_EQ(msg.find('\n'), std::string::npos) << msg;
+  }
+  EXPECT_EQ(message(limb), "accepted");
+}
+
+// Two skins in one file (two scans, or a scan and its offset copy) were reported as "a bone shell
+// outside the skin".
+TEST(LimbModel, TwoOverlappingSkinsAreNamedAsSuch) {
+  const geometry::TriMesh limb = test::capsule(0.05, 0.25, true);
+  geometry::TriMesh two = limb;
+  const int n = two.num_vertices();
+  for (int i = 0; i < n; ++i) two.vertices.push_back(limb.vertices[i] + Vec3(0.015, 0, 0));
+  for (const auto& t : limb.triangles) two.triangles.push_back({t[0] + n, t[1] + n, t[2] + n});
+  LimbInputOptions o;
+  o.estimate_bones = false;
+  try {
+    prepare_limb(two, {}, o);
+    ADD_FAILURE() << "two skins accepted";
+  } catch (const InvalidInputError& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("the file holds two skins: a second surface of"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("(100 % of the skin's area)"), std::string::npos) << msg;
+    EXPECT_EQ(msg.find("bone shell"), std::string::npos) << msg;
+  }
+}
+
 TEST(LimbModel, InsideOutSkinIsFlippedAndSaid) {
   geometry::TriMesh limb = test::capsule(0.05, 0.25, true);
   geometry::flip_orientation(limb);

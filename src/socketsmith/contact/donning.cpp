@@ -140,8 +140,8 @@ DonningResult DonningSimulation::run() {
     const ContactStep st = solver.move_to(-o.start_offset_m * axis);
     require(st.contact_nodes == 0,
             "donning: {} skin nodes already touch the socket {:.0f} mm below its designed pose: start further "
-            "down (--offset-mm larger than {:.0f})",
-            st.contact_nodes, o.start_offset_m * 1e3, o.start_offset_m * 1e3);
+            "down ({} larger than {:.0f})",
+            st.contact_nodes, o.start_offset_m * 1e3, o.start_offset_name, o.start_offset_m * 1e3);
   }
   r.completed = true;
   // The path: fixed steps, or adaptive ones (DonningOptions::steps). A trial step is kept unless a
@@ -168,8 +168,8 @@ DonningResult DonningSimulation::run() {
       }
       r.completed = false;
       r.message = fmt::format("donning stalled at {:.1f} mm below the designed pose (step of {:.2f} mm): {}; try more "
-                              "--steps or a smaller --offset-mm",
-                              -target * 1e3, (target - offset) * 1e3, st.message);
+                              "--steps or a smaller {}",
+                              -target * 1e3, (target - offset) * 1e3, st.message, o.start_offset_name);
       break;
     }
     const int new_sticks = st.new_sticks;

@@ -23,6 +23,9 @@ struct DonningOptions {
   /// The socket starts this far distal of its designed pose [m]; 0 = automatic: its top 5 mm
   /// below the stump's distal end (nothing touches at the start).
   double start_offset_m = 0.0;
+  /// How the user sets start_offset_m, named in the messages that ask for another one
+  /// (simulate donning: "--offset-mm"; validate donning: "--travel-mm").
+  std::string start_offset_name = "--offset-mm";
   /// > 0: this many equal displacement steps to the designed pose. 0 (default): adaptive steps of
   /// at most step_m, halved (down to min_step_m) when a node that was sliding, or not touching,
   /// sticks at the end of a trial step — the path is then refined where friction's history needs

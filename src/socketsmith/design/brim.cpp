@@ -52,8 +52,9 @@ const volume::Landmark& landmark(const std::vector<volume::Landmark>& landmarks,
                                  BrimTemplate kind) {
   for (const auto& l : landmarks)
     if (l.code == code) return l;
-  fail("make_brim: template '{}' needs landmark {}, which the limb does not have; place it (--landmark {}=x,y,z)",
-       to_string(kind), code, code);
+  fail("make_brim: template '{}' needs landmark {}, which the limb does not have; place it (\"landmarks\": "
+       "{{\"{}\": [x, y, z]}} in a case file, --landmark {}=x,y,z on the command line)",
+       to_string(kind), code, code, code);
 }
 
 /// Key point (θ in degrees, h in metres).

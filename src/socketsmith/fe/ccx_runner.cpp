@@ -24,8 +24,10 @@ namespace fs = std::filesystem;
 std::string find_ccx(const std::string& executable) {
   const auto is_exec = [](const fs::path& p) { return ::access(p.c_str(), X_OK) == 0 && fs::is_regular_file(p); };
   const std::string fix = "install CalculiX (sudo apt-get install calculix-ccx, or scripts/setup.sh) or pass --ccx PATH";
+  // ccx runs in the job's folder (run_ccx changes into it), so a relative path is made absolute
+  // here, against the folder the user typed it in.
   if (executable.find('/') != std::string::npos) {
-    if (is_exec(executable)) return executable;
+    if (is_exec(executable)) return fs::absolute(executable).lexically_normal().string();
     fail("CalculiX executable '{}' is not found or not executable: {}", executable, fix);
   }
   const char* path = std::getenv("PATH");
@@ -33,8 +35,10 @@ std::string find_ccx(const std::string& executable) {
   std::string dir;
   while (std::getline(ss, dir, ':')) {
     const fs::path p = fs::path(dir.empty() ? "." : dir) / executable;
-    if (is_exec(p)) return p.string();
+    if (is_exec(p)) return fs::absolute(p).lexically_normal().string();
   }
+  if (is_exec(executable))
+    fail("CalculiX ('{}') is not on the PATH; to run the file in this folder, pass --ccx ./{}", executable, executable);
   fail("CalculiX ('{}') is not on the PATH: {}", executable, fix);
 }
 

@@ -299,7 +299,7 @@ LimbFrame estimate_limb_axis(const TriMesh& skin) {
     require(hi - lo >= 1.0 * width,
             "the surface is {:.0f} mm long and {:.0f} mm wide: not elongated like a residual limb "
             "(expected an open scan at least as long as it is wide); check that the file is a limb scan, or give "
-            "its long axis (--axis x,y,z)",
+            "its long axis (limb.axis in a case file, --axis x,y,z on the command line)",
             (hi - lo) * 1e3, width * 1e3);
   }
   return finish_frame(skin, axis, centre);

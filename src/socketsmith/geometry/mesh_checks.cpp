@@ -4,7 +4,9 @@
 #include <cmath>
 #include <numeric>
 
+#include <CGAL/Box_intersection_d/Box_with_info_d.h>
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/box_intersection_d.h>
 #include <CGAL/Polygon_mesh_processing/self_intersections.h>
 #include <CGAL/Surface_mesh.h>
 #include <fmt/format.h>
@@ -142,6 +144,12 @@ std::vector<std::string> MeshCheckReport::problems() const {
   if (degenerate_triangles > 0)
     out.push_back(fmt::format("{} (zero area or a repeated vertex)",
                               plural(degenerate_triangles, "degenerate triangle", "degenerate triangles")));
+  if (self_intersecting_pairs > 0)
+    out.push_back(fmt::format("self-intersecting: {} cross each other (the first near ({:.1f}, {:.1f}, {:.1f}) mm in "
+                              "the file's frame): two shells overlap or the surface folds through itself",
+                              plural(self_intersecting_pairs, "pair of triangles", "pairs of triangles"),
+                              first_self_intersection.x() * 1e3, first_self_intersection.y() * 1e3,
+                              first_self_intersection.z() * 1e3));
   if (is_valid_closed_surface() && signed_volume_m3 < 0.0)
     out.push_back(fmt::format("inside-out: normals point inward (signed volume {:.4g} m^3)", signed_volume_m3));
   return out;
@@ -207,7 +215,81 @@ MeshCheckReport check_mesh(const TriMesh& mesh, const MeshCheckOptions& options)
     if (include[t] && tri_sets.find(t) == t) ++r.connected_components;
   for (int v = 0; v < nv; ++v)
     if (on_boundary[v] && boundary_sets.find(v) == v) ++r.boundary_loops;
+  if (options.find_self_intersections) {
+    const SelfIntersections si = find_self_intersections(mesh);
+    r.self_intersecting_pairs = si.pairs;
+    if (si.first_a >= 0) {
+      const auto& t = mesh.triangles[si.first_a];
+      r.first_self_intersection = (mesh.vertices[t[0]] + mesh.vertices[t[1]] + mesh.vertices[t[2]]) / 3.0;
+    }
+  }
   return r;
+}
+
+SelfIntersections find_self_intersections(const TriMesh& mesh) {
+  using K = CGAL::Exact_predicates_inexact_constructions_kernel;
+  using P = K::Point_3;
+  using Box = CGAL::Box_intersection_d::Box_with_info_d<double, 3, int>;
+  const int nv = mesh.num_vertices();
+  auto point = [&](int v) {
+    const Vec3& p = mesh.vertices[v];
+    return P(p.x(), p.y(), p.z());
+  };
+  std::vector<Box> boxes;
+  boxes.reserve(mesh.triangles.size());
+  for (int t = 0; t < mesh.num_triangles(); ++t) {
+    const auto& tri = mesh.triangles[t];
+    if (!indices_in_range(tri, nv) || has_repeated_index(tri)) continue;
+    if (!is_finite(mesh.vertices[tri[0]]) || !is_finite(mesh.vertices[tri[1]]) || !is_finite(mesh.vertices[tri[2]]))
+      continue;
+    const P a = point(tri[0]), b = point(tri[1]), c = point(tri[2]);
+    if (CGAL::collinear(a, b, c)) continue;
+    boxes.emplace_back(a.bbox() + b.bbox() + c.bbox(), t);
+  }
+  SelfIntersections out;
+  auto crosses = [&](int ta, int tb) {
+    const auto& A = mesh.triangles[ta];
+    const auto& B = mesh.triangles[tb];
+    int shared = 0, ia = -1, ib = -1;  // ia/ib: the index in A/B of a shared vertex
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j)
+        if (A[i] == B[j]) {
+          ++shared;
+          ia = i;
+          ib = j;
+        }
+    const K::Triangle_3 ka(point(A[0]), point(A[1]), point(A[2]));
+    const K::Triangle_3 kb(point(B[0]), point(B[1]), point(B[2]));
+    if (shared == 0) return CGAL::do_intersect(ka, kb);
+    if (shared == 3) return true;  // the same triangle twice
+    if (shared == 1) {
+      const K::Segment_3 sa(point(A[(ia + 1) % 3]), point(A[(ia + 2) % 3]));
+      const K::Segment_3 sb(point(B[(ib + 1) % 3]), point(B[(ib + 2) % 3]));
+      return CGAL::do_intersect(sa, kb) || CGAL::do_intersect(sb, ka);
+    }
+    // Two shared vertices p, q: the triangles meet only along pq unless they are coplanar with
+    // their third vertices on the same side of pq (one folded onto the other).
+    int p = -1, q = -1, ra = -1, rb = -1;
+    for (int i = 0; i < 3; ++i) {
+      const bool in_b = A[i] == B[0] || A[i] == B[1] || A[i] == B[2];
+      if (!in_b) ra = A[i];
+      else if (p < 0) p = A[i];
+      else q = A[i];
+    }
+    for (int j = 0; j < 3; ++j)
+      if (B[j] != p && B[j] != q) rb = B[j];
+    const P pp = point(p), pq = point(q), pa = point(ra), pb = point(rb);
+    return CGAL::orientation(pp, pq, pa, pb) == CGAL::COPLANAR &&
+           CGAL::coplanar_orientation(pp, pq, pa, pb) == CGAL::POSITIVE;
+  };
+  CGAL::box_self_intersection_d(boxes.begin(), boxes.end(), [&](const Box& a, const Box& b) {
+    if (!crosses(a.info(), b.info())) return;
+    if (out.pairs++ == 0) {
+      out.first_a = std::min(a.info(), b.info());
+      out.first_b = std::max(a.info(), b.info());
+    }
+  });
+  return out;
 }
 
 void require_closed_surface(const TriMesh& mesh, const std::string& what) {

@@ -907,7 +907,7 @@ TriMesh read_mesh_data(std::string_view data, const std::string& name, const Mes
     if (diagonal_m > kMaxPlausibleSize_m) {
       inf.warning = inf.unit == units::LengthUnit::Metre
                         ? fmt::format("read_mesh: '{}' is {:.3g} m across in the {} unit '{}'; is it "
-                                      "in millimetres? (use --units mm)",
+                                      "in millimetres? (give the unit: limb.units \"mm\" in a case file, --units mm on the command line)",
                                       src.name, diagonal_m, how, unit)
                         : fmt::format("read_mesh: '{}' is {:.3g} m across in the {} unit '{}', larger "
                                       "than any body part; check the file's unit and scale",
@@ -915,7 +915,7 @@ TriMesh read_mesh_data(std::string_view data, const std::string& name, const Mes
     } else if (diagonal_m < kMinPlausibleSize_m) {
       inf.warning = inf.unit == units::LengthUnit::Millimetre
                         ? fmt::format("read_mesh: '{}' is {:.3g} m across in the {} unit '{}'; is it "
-                                      "in metres? (use --units m)",
+                                      "in metres? (give the unit: limb.units \"m\" in a case file, --units m on the command line)",
                                       src.name, diagonal_m, how, unit)
                         : fmt::format("read_mesh: '{}' is {:.3g} m across in the {} unit '{}', smaller "
                                       "than any body part; check the file's unit and scale",

@@ -6,7 +6,9 @@
 namespace socketsmith::geometry {
 
 nlohmann::json mesh_report_json(const std::string& file, const TriMesh& mesh, const MeshReadInfo& info) {
-  const auto rep = check_mesh(mesh);
+  MeshCheckOptions co;
+  co.find_self_intersections = true;
+  const auto rep = check_mesh(mesh, co);
   const auto box = bounding_box(mesh);
   nlohmann::json j{{"file", file},
                    {"format", info.format},
@@ -21,6 +23,7 @@ nlohmann::json mesh_report_json(const std::string& file, const TriMesh& mesh, co
                    {"non_manifold_edges", rep.non_manifold_edges},
                    {"inconsistently_oriented_edges", rep.inconsistently_oriented_edges},
                    {"degenerate_triangles", rep.degenerate_triangles},
+                   {"self_intersecting_pairs", rep.self_intersecting_pairs},
                    {"closed", rep.is_closed()},
                    {"signed_volume_m3", rep.signed_volume_m3},
                    {"problems", rep.problems()}};

@@ -5,6 +5,7 @@
 #include <limits>
 #include <map>
 #include <numbers>
+#include <optional>
 
 #include <Eigen/Eigenvalues>
 
@@ -34,6 +35,18 @@ struct Shell {
   Vec3 centroid = Vec3::Zero();
   std::string name;
 };
+
+/// The midpoint of the first edge shared by more than two triangles, or nullopt.
+std::optional<Vec3> first_non_manifold_edge(const TriMesh& mesh) {
+  std::map<std::pair<int, int>, int> uses;
+  for (const auto& t : mesh.triangles)
+    for (int k = 0; k < 3; ++k) {
+      const int a = t[k], b = t[(k + 1) % 3];
+      if (++uses[{std::min(a, b), std::max(a, b)}] == 3)
+        return 0.5 * (mesh.vertices[a] + mesh.vertices[b]);
+    }
+  return std::nullopt;
+}
 
 void measure(Shell& s, const LimbFrame& frame) {
   s.h_min = std::numeric_limits<double>::infinity();
@@ -372,6 +385,16 @@ LimbModel prepare_limb(const TriMesh& limb, const TriMesh& extra_bones, const Li
   shells.erase(shells.begin());
   const auto rep = geometry::repair_surface(skin.mesh);
   for (const auto& line : rep.changes()) model.notes.push_back("skin: " + line);
+  // A fin or a sliver triangle stuck to the skin along an edge makes that edge non-manifold and
+  // its free edges a second open rim: the axis, the rim and the cut would all be read from it
+  // ("not a residual limb", a cut height nobody gave, a stump cut at the fin). Refused by name.
+  if (const auto edge = first_non_manifold_edge(skin.mesh)) {
+    const auto chk = geometry::check_mesh(skin.mesh);
+    fail<TopologyError>("the skin has {} non-manifold edge(s) (edges of more than two triangles, the first at ({:.1f}, "
+                        "{:.1f}, {:.1f}) mm): a fin or sliver triangle is stuck to the scan; delete it in the scanner "
+                        "or mesh-editing software (socketsmith check mesh FILE counts them) and give the file again",
+                        chk.non_manifold_edges, edge->x() * 1e3, edge->y() * 1e3, edge->z() * 1e3);
+  }
   for (auto& s : shells) {
     geometry::repair_surface(s.mesh);
     if (geometry::signed_volume(s.mesh) < 0.0) geometry::flip_orientation(s.mesh);
@@ -470,14 +493,14 @@ LimbModel prepare_limb(const TriMesh& limb, const TriMesh& extra_bones, const Li
           frame.side = est.side;
           side_from_skin = true;
         }
-        model.notes.push_back(fmt::format("anterior direction ESTIMATED from the skin ({}); check it and give --anterior "
-                                          "x,y,z",
+        model.notes.push_back(fmt::format("anterior direction ESTIMATED from the skin ({}); check it and give the "
+                                          "front (limb.anterior in a case file, --anterior x,y,z on the command line)",
                                           est.how));
       } else {
         geometry::set_anterior(frame, geometry::estimate_anterior_from_skin(skin_mesh, frame));
         model.notes.push_back(fmt::format(
-            "anterior direction ESTIMATED from the skin shape for a {} limb (calf skewness); check it and give "
-            "--anterior x,y,z",
+            "anterior direction ESTIMATED from the skin shape for a {} limb (calf skewness); check it and give the "
+            "front (limb.anterior in a case file, --anterior x,y,z on the command line)",
             geometry::to_string(frame.side)));
       }
     }
@@ -499,7 +522,7 @@ LimbModel prepare_limb(const TriMesh& limb, const TriMesh& extra_bones, const Li
     } else {
       frame.side = geometry::Side::Right;
       frame.side_estimated = true;
-      model.notes.push_back("side unknown: assumed right (give --side left|right)");
+      model.notes.push_back("side unknown: assumed right (give it: limb.side in a case file, --side left|right on the command line)");
     }
   };
   if (tf) decide_front(shells, skin.mesh, rim);
@@ -554,7 +577,7 @@ LimbModel prepare_limb(const TriMesh& limb, const TriMesh& extra_bones, const Li
     require<TopologyError>(chk.is_closed() && chk.is_manifold() && chk.is_oriented(),
                            "skin is not closed below the cut ({} boundary loop(s), {} non-manifold edge(s)): "
                            "the scan has holes larger than the automatic repair fills; fill them in the scanner "
-                           "software or cut lower (--cut-height-mm)",
+                           "software or cut lower (limb.cut_height_mm in a case file, --cut-height-mm on the command line)",
                            chk.boundary_loops, chk.non_manifold_edges);
   }
   model.skin = std::move(trimmed.mesh);
@@ -622,6 +645,12 @@ LimbModel prepare_limb(const TriMesh& limb, const TriMesh& extra_bones, const Li
       worst = std::max(worst, d);
       outside += d > 1e-3 ? 1 : 0;
     }
+    // A second surface about as large as the skin is not a bone: two overlapping skins (two scans
+    // in one file, or a scan and its offset copy).
+    require(outside <= static_cast<int>(0.01 * tested) || s.area < 0.5 * skin.area,
+            "the file holds two skins: a second surface of {:.0f} cm^2 ({:.0f} % of the skin's area) has {:.0f} % of "
+            "its vertices outside the skin (up to {:.0f} mm); keep one skin (and the bones inside it) in the file",
+            s.area * 1e4, 100.0 * s.area / skin.area, 100.0 * outside / std::max(tested, 1), worst * 1e3);
     require(outside <= static_cast<int>(0.01 * tested),
             "a bone shell ({:.0f} cm^3) has {:.0f} % of its vertices outside the skin (up to {:.0f} mm): bones and "
             "skin must be in the same frame and units, bones inside the skin",
