@@ -140,6 +140,7 @@ void App::install_setup(std::unique_ptr<pipeline::DesignSetup> setup, design::Ca
   redo_.clear();
   is_dirty_ = false;
   state_.reset();
+  template_.reset();  // the last case's reading
   selected_spot_ = -1;
   worker_ = std::make_unique<DesignWorker>(*setup_->solver);
   skin_rest_ = setup_->solver->skin().triangles();

@@ -230,9 +230,16 @@ void DesignSolver::reset() {
 }
 Vec3 DesignSolver::last_failure_point() const { return impl_->failure_point; }
 
+std::vector<char> DesignSolver::above_brim_of(const std::function<double(double)>& brim_height_m) const {
+  const auto& s = *impl_;
+  std::vector<char> above(s.cyl.size(), 0);
+  if (brim_height_m)
+    for (size_t i = 0; i < s.cyl.size(); ++i) above[i] = s.cyl[i].h > brim_height_m(s.cyl[i].theta) ? 1 : 0;
+  return above;
+}
+
 void DesignSolver::set_brim(const std::function<double(double)>& brim_height_m) {
-  auto& s = *impl_;
-  for (size_t i = 0; i < s.cyl.size(); ++i) s.above[i] = brim_height_m ? (s.cyl[i].h > brim_height_m(s.cyl[i].theta)) : 0;
+  impl_->above = above_brim_of(brim_height_m);
 }
 
 std::vector<double> DesignSolver::requested_pressure(const std::vector<Spot>& spots) const {

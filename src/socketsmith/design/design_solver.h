@@ -188,8 +188,11 @@ class DesignSolver {
   const DesignSolverOptions& options() const;
   double stump_length_m() const;
 
-  /// Marks skin nodes above the brim (h > brim(θ), rest coordinates): no pressure there.
+  /// Marks skin nodes above the brim (above_brim_of): no pressure there.
   void set_brim(const std::function<double(double theta)>& brim_height_m);
+  /// Which skin nodes lie above @p brim_height_m (h > brim(θ), rest coordinates), without setting
+  /// it: the test set_brim applies, for a caller on another thread than the solves (the GUI).
+  std::vector<char> above_brim_of(const std::function<double(double theta)>& brim_height_m) const;
   const std::vector<char>& above_brim() const;
 
   /// The spots' field at the skin nodes (rest coordinates), 0 above the brim, not saturated [Pa].

@@ -205,11 +205,11 @@ struct AmplitudeProblem {
         const auto& ra = ratios[static_cast<std::size_t>(r)];
         if (ra.bearing[i]) {
           bear_area[r] += area[i];
-          if (any || pf != 0) add(bear_ap, r, area[i], pf);
+          add(bear_ap, r, area[i], pf);
         }
         if (ra.relieved[i]) {
           relief_area[r] += area[i];
-          if (any || pf != 0) add(relief_ap, r, area[i], pf);
+          add(relief_ap, r, area[i], pf);
         }
       }
       if (!any && pf == 0) {

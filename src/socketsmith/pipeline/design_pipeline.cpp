@@ -134,13 +134,11 @@ tissue::MassSpringOptions model_options(const design::CaseFile& c) {
 
 namespace {
 
-/// Each skin node above setup.brim, by the solver's own test — from the setup's brim, not the
-/// solver's flags (the GUI's worker may be setting a new brim on its thread).
+/// Each skin node above setup.brim — from the setup's brim, not the solver's flags (the GUI's
+/// worker may be setting a new brim on its thread).
 std::vector<char> above_brim(const DesignSetup& setup) {
-  const auto& cyl = setup.solver->skin_cylindrical();
-  std::vector<char> above(cyl.size(), 0);
-  for (size_t i = 0; i < cyl.size(); ++i) above[i] = cyl[i].h > setup.brim.height(cyl[i].theta) ? 1 : 0;
-  return above;
+  const design::BrimLine& brim = setup.brim;
+  return setup.solver->above_brim_of([&brim](double theta) { return brim.height(theta); });
 }
 
 /// What the brim template means, as optimiser constraints (see optimizer_options).
