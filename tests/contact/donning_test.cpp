@@ -27,6 +27,10 @@ class Donning : public ::testing::Test {
     // The socket these donning paths were tuned on (start offsets, step counts, the adaptive
     // step's rejection): the design with the seven constraints only.
     c_.follow_template = false;
+    // ... on the thesis's lattice, linearised (the default model is neo-Hookean since its
+    // end-to-end check; its donning is DonningNeoHookean's).
+    c_.model = "mss-cs";
+    c_.solve_mode = design::DesignSolveMode::Linear;
     pipeline::run_design(c_, fs::path(SOCKETSMITH_BINARY_DIR) / "tests" / "donning_design", true, {}, &art_);
   }
   /// The designed socket from @p offset_m below in @p steps, then standing with M g / 2.

@@ -25,7 +25,7 @@ namespace fs = std::filesystem;
 /// MAE, 99th percentile (nearest rank) and R of a against b over the nodes where use is 1, written
 /// out here independently of report::compare_fields.
 struct Agreement {
-  double mae = 0, p99 = 0, r = 0;
+  double mae = 0, p99 = 0, r = 0, mean_a = 0, mean_b = 0;
 };
 Agreement agreement(const std::vector<double>& a, const std::vector<double>& b, const std::vector<char>& use) {
   std::vector<double> e;
@@ -50,6 +50,8 @@ Agreement agreement(const std::vector<double>& a, const std::vector<double>& b, 
       cbb += db * db;
     }
   g.r = cab / std::sqrt(caa * cbb);
+  g.mean_a = sa / n;
+  g.mean_b = sb / n;
   return g;
 }
 
@@ -126,12 +128,17 @@ TEST_F(ClosedLoopRun, the_corrected_socket_delivers_the_design_better_than_the_o
   EXPECT_NEAR(loop.iterations[0].below_brim.mae, open.mae, 1e-6);
   EXPECT_NEAR(loop.iterations[loop.best].below_brim.mae, closed.mae, 1e-6);
   EXPECT_NEAR(loop.iterations[loop.best].below_brim.p99, closed.p99, 1e-6);
-  // Measured at 1.8k nodes (3 donnings, 3 refits each): MAE 1.88 → 0.57 kPa, 99th percentile 14.6 → 6.0 kPa,
-  // R 0.755 → 0.938.
-  EXPECT_LT(closed.mae, 0.7 * open.mae) << "open " << open.mae << " Pa, closed " << closed.mae << " Pa";
+  // Measured at 1.8k nodes (the default neo-Hookean stump, nonlinear, 3 donnings, 3 refits each):
+  // MAE 3.45 → 0.85 kPa, 99th percentile 13.8 → 5.4 kPa, R 0.830 → 0.965, means 12.02 vs 11.87 kPa
+  // designed (MSS-CS linearised: 1.88 → 0.57 kPa, 14.6 → 6.0 kPa, R 0.755 → 0.938). Bars: issue
+  // 20's MAE (1.5 kPa) and R (0.95) with a margin below them; its 99th percentile (4 kPa) is met at
+  // 3k and 8k nodes, not at 1.8k (docs/design.md).
+  EXPECT_LT(closed.mae, 0.5 * open.mae) << "open " << open.mae << " Pa, closed " << closed.mae << " Pa";
+  EXPECT_LT(closed.mae, 1.2e3);
   EXPECT_LT(closed.p99, open.p99);
   EXPECT_GT(closed.r, open.r);
-  EXPECT_GT(closed.r, 0.85);
+  EXPECT_GT(closed.r, 0.94);
+  EXPECT_NEAR(closed.mean_a, closed.mean_b, 0.05 * closed.mean_b);  // the level: no gap left
   // The socket kept is the socket written, and it delivers what the loop reported: don it again.
   ASSERT_TRUE(art_->result.socket.has_value());
   EXPECT_EQ(art_->result.socket->solid.num_triangles(), loop.socket.solid.num_triangles());
@@ -139,6 +146,7 @@ TEST_F(ClosedLoopRun, the_corrected_socket_delivers_the_design_better_than_the_o
   contact::DonningOptions o;
   o.friction = setup.case_file.patient.friction;
   o.stand_force_n = 0.5 * setup.case_file.patient.body_mass_kg * units::kGravity;
+  o.contact.linear_body = loop.linear_body;  // the body the loop donned (the design's)
   const auto& skin = setup.solver->skin();
   const auto d = contact::simulate_donning(setup.solver->model(), skin.nodes, skin.area_m2, art_->result.socket->solid,
                                            setup.model.frame, o);

@@ -81,7 +81,13 @@ TEST(DesignedSocket, the_demo_with_an_attachment_keeps_its_wall_and_is_drilled_w
 }
 
 TEST(DesignedSocket, a_design_whose_follower_iteration_cannot_converge_gets_no_socket) {
-  const design::CaseFile c = pipeline::demo_case(1500);
+  // The follower iteration is the linear solve's (the nonlinear one has the follower load in its
+  // Newton tangent): the demo's stump as the thesis's lattice, linearised, whose skin moves enough
+  // under the design's pressures that one pass cannot settle it (the nearly incompressible
+  // neo-Hookean stump moves less: one pass from rest meets the tolerance there).
+  design::CaseFile c = pipeline::demo_case(1500);
+  c.model = "mss-cs";
+  c.solve_mode = design::DesignSolveMode::Linear;
   auto setup = pipeline::prepare_design(c);
   // The same stump with a follower iteration capped at one pass (from rest, no relaxation).
   design::DesignSolverOptions capped;

@@ -229,6 +229,10 @@ Eigen::Vector3d parse_limb_direction(const std::string& text, LimbDirection whic
   return check_limb_direction(v, which, fmt::format("{} '{}'", flag, text));
 }
 
+DesignSolveMode default_solve_mode(const std::string& model) {
+  return model == "neo-hookean" ? DesignSolveMode::Nonlinear : DesignSolveMode::Linear;
+}
+
 CaseFile parse_case(const json& doc, const std::filesystem::path& folder) {
   CaseFile c;
   c.folder = folder;
@@ -316,7 +320,9 @@ CaseFile parse_case(const json& doc, const std::filesystem::path& folder) {
             "case file: tissue.constants '{}' is not known (cube-targets, recommended, thesis or cube-fit)", c.constants);
     c.youngs_modulus_pa = limited(j, "youngs_kpa", "tissue", c.youngs_modulus_pa / 1e3, limits::kYoungsModulus) * 1e3;
     c.density_kg_m3 = limited(j, "density_kg_m3", "tissue", c.density_kg_m3, limits::kDensity);
-    c.solve_mode = parse_design_solve_mode(text(j, "solve", "tissue", to_string(c.solve_mode)));
+    // A model named without a solve gets its own; neither named keeps the default pair.
+    const DesignSolveMode fallback = j.contains("model") ? default_solve_mode(c.model) : c.solve_mode;
+    c.solve_mode = parse_design_solve_mode(text(j, "solve", "tissue", to_string(fallback)));
   }
   if (doc.contains("mesh")) {
     const auto& j = doc.at("mesh");

@@ -50,14 +50,18 @@ struct CaseFile {
   PatientLoad patient;
   ThresholdTable thresholds;               ///< [Pa]; empty = the limb type's defaults
   // Tissue model
-  std::string model = "mss-cs";            ///< mss-cs | mss-cf | mss | fe | neo-hookean
+  /// neo-hookean (default: measured end to end against CalculiX, docs/design.md "Which tissue
+  /// model is the default") | mss-cs | mss-cf | mss | fe
+  std::string model = "neo-hookean";
   /// Poisson ratio of the fe model (default 0.45) or MSS-CF's target (default 0.49); not set =
   /// the model's default. MSS and MSS-CS have none of their own (their lattice's is 1/4).
   std::optional<double> poisson_ratio;
   std::string constants = "cube-targets";  ///< cube-targets | recommended | thesis | cube-fit
   double youngs_modulus_pa = 100e3;
   double density_kg_m3 = 1060.0;
-  DesignSolveMode solve_mode = DesignSolveMode::Linear;
+  /// The model's own when the case file does not say (default_solve_mode): nonlinear for
+  /// neo-hookean, linear for the lattices and fe, which collapse on the thin tissue over bone.
+  DesignSolveMode solve_mode = DesignSolveMode::Nonlinear;
   int target_nodes = 8000;
   // Landmarks moved by the user (world positions [m], projected onto the skin)
   std::map<std::string, Eigen::Vector3d> landmarks;
@@ -105,6 +109,10 @@ Eigen::Vector3d parse_limb_direction(const std::string& text, LimbDirection whic
 /// Parses a case document. @p folder resolves relative paths.
 /// @throws InvalidInputError with one line naming the key and the fix (unknown key, wrong type,
 ///         negative mass, thickness ≤ 0, ...).
+/// The design solve a tissue model gets when the case file names no `tissue.solve`: nonlinear
+/// for neo-hookean, linear for the others (docs/design.md, "Design solve").
+DesignSolveMode default_solve_mode(const std::string& model);
+
 CaseFile parse_case(const nlohmann::json& doc, const std::filesystem::path& folder = {});
 
 /// Reads and parses a case file. @throws IoError when it cannot be read, InvalidInputError when it

@@ -853,6 +853,17 @@ OptimizerResult optimise_design(DesignSolver& solver, std::vector<Spot> spots, c
         why = fmt::format("stability: available friction {:.1f} N is below the prosthesis weight {:.1f} N — raise the "
                           "friction coefficient or the wall pressures",
                           r.stability_n, targets.stability_min_n);
+      else if (const double peak = out.state.pressure_pa.empty()
+                                       ? 0.0
+                                       : *std::max_element(out.state.pressure_pa.begin(), out.state.pressure_pa.end());
+               model_limit > 0 && peak >= 0.95 * model_limit && r.force_n.z() < targets.fz_n - targets.force_tol_n)
+        // The load is short because every pressure is held under the tissue model's range, not
+        // because of where the spots are.
+        why = fmt::format("{}: F_z = {:.1f} N of {:.1f} N with the pressures at the tissue model's limit, {:.2g} × E = "
+                          "{:.3g} kPa (design.model_pressure_limit): the tissue (E = {:.3g} kPa) is too soft for this "
+                          "load — raise tissue.youngs_kpa, or design.model_pressure_limit if larger strains are meant",
+                          st.failing(), r.force_n.z(), targets.fz_n, options.model_pressure_limit, model_limit / 1e3,
+                          solver.model().material().youngs_modulus_pa / 1e3);
       else
         why = fmt::format("{}: F = ({:.1f}, {:.1f}, {:.1f}) N (target (0, 0, {:.1f}) ± {:.1f}), T = ({:.2f}, {:.2f}, "
                           "{:.2f}) N m (± {:.2f}) — the spot layout cannot balance the load: add or move spots",
