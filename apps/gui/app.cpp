@@ -29,11 +29,12 @@ constexpr float kLeftPanel = 390, kRightPanel = 440;
 
 namespace {
 /// The colour map of a field: viridis for the thresholds, diverging (blue inside, red outside) for
-/// the deviation of a compared shape, the clinicians' pressure map for the rest.
+/// the deviation of a compared shape and the rectification (as the report's), the clinicians'
+/// pressure map for the rest.
 report::Colormap field_colormap(Field field) {
-  return field == Field::Threshold   ? report::Colormap::Viridis
-         : field == Field::Deviation ? report::Colormap::Diverging
-                                     : report::Colormap::Pressure;
+  return field == Field::Threshold                                   ? report::Colormap::Viridis
+         : field == Field::Deviation || field == Field::Rectification ? report::Colormap::Diverging
+                                                                      : report::Colormap::Pressure;
 }
 }  // namespace
 
@@ -44,14 +45,26 @@ const char* to_string(Field field) {
     case Field::Ratio: return "ratio";
     case Field::Displacement: return "displacement";
     case Field::Deviation: return "deviation";
+    case Field::Rectification: return "rectification";
   }
   return "pressure";
 }
 
 Field parse_field(const std::string& text) {
-  for (Field f : {Field::Pressure, Field::Threshold, Field::Ratio, Field::Displacement, Field::Deviation})
+  for (Field f : {Field::Pressure, Field::Threshold, Field::Ratio, Field::Displacement, Field::Deviation,
+                  Field::Rectification})
     if (text == to_string(f)) return f;
-  fail("colour field '{}' is not known (use pressure, threshold, ratio, displacement or deviation)", text);
+  fail("colour field '{}' is not known (use pressure, threshold, ratio, displacement, deviation or rectification)",
+       text);
+}
+
+void App::set_field(Field field) {
+  field_ = field;
+  colours_dirty_ = true;
+  if (field == Field::Rectification) {
+    is_rectification_asked_ = true;
+    is_rectification_table_opening_ = true;
+  }
 }
 
 App::App(GLFWwindow* window, bool is_headless)
@@ -73,6 +86,7 @@ App::~App() {
   log::set_sink(nullptr);
   worker_.reset();  // joins the solve thread before the solver goes
   if (job_ && job_->done.valid()) job_->done.wait();
+  if (rectification_job_.valid()) rectification_job_.wait();
 }
 
 // ------------------------------------------------------------------------------------------------
@@ -141,6 +155,8 @@ void App::install_setup(std::unique_ptr<pipeline::DesignSetup> setup, design::Ca
   is_dirty_ = false;
   state_.reset();
   template_.reset();  // the last case's reading
+  rectification_.reset();  // the last limb's (a chart still computed for it is dropped when done)
+  ++setup_serial_;
   selected_spot_ = -1;
   worker_ = std::make_unique<DesignWorker>(*setup_->solver);
   skin_rest_ = setup_->solver->skin().triangles();
@@ -482,7 +498,12 @@ void App::show_error(const std::string& message) {
   if (errors_.size() > 20) errors_.erase(errors_.begin());
 }
 
-bool App::is_idle() const { return !job_ && !(worker_ && worker_->is_busy()) && !is_optimising_; }
+bool App::is_idle() const {
+  // A rectification chart asked for and not yet of the shown design counts as work to wait for.
+  const bool chart_due = is_rectification_asked_ && state_ &&
+                         (!rectification_ || rectification_->setup != setup_serial_ || rectification_->state != state_serial_);
+  return !job_ && !(worker_ && worker_->is_busy()) && !is_optimising_ && !rectification_job_.valid() && !chart_due;
+}
 
 // ------------------------------------------------------------------------------------------------
 // Results
@@ -561,6 +582,7 @@ void App::poll_worker() {
     if (!r.state) continue;
     // An older generation is shown too while a newer edit is solved: the radar follows the drag.
     state_ = std::move(r.state);
+    ++state_serial_;
     solve_status_ = fmt::format("{} ({:.0f} ms)", state_->message, r.seconds * 1e3);
     colours_dirty_ = true;
     update_meshes();
@@ -616,6 +638,10 @@ void App::update_colours() {
       case Field::Deviation:
         if (i < deviation_m_.size()) v[i] = deviation_m_[i] * 1e3;
         break;
+      case Field::Rectification:
+        if (const RectificationChart* c = rectification(); c && i < c->rectification.vertex_m.size())
+          v[i] = c->rectification.vertex_m[i] * 1e3;
+        break;
     }
   }
   if (is_auto_range_) {
@@ -626,6 +652,10 @@ void App::update_colours() {
     range_max_ = field_ == Field::Ratio ? 1.2f : static_cast<float>(hi > 0 ? hi : 1.0);
     if (field_ == Field::Deviation) {  // symmetric about 0: blue inside, red outside
       range_max_ = static_cast<float>(report::nice_ceil(hi > 0 ? hi : 1.0));
+      range_min_ = -range_max_;
+    }
+    if (const RectificationChart* c = rectification(); field_ == Field::Rectification && c) {  // the report's bar
+      range_max_ = static_cast<float>(pipeline::rectification_span_mm(c->rectification));
       range_min_ = -range_max_;
     }
   }
@@ -656,6 +686,61 @@ void App::update_feedback() {
   }
 }
 
+const RectificationChart* App::rectification() const {
+  return rectification_ && rectification_->setup == setup_serial_ && rectification_->error.empty() ? &*rectification_
+                                                                                                   : nullptr;
+}
+
+std::vector<RectificationRow> App::rectification_rows() const {
+  std::vector<RectificationRow> rows;
+  const RectificationChart* c = rectification();
+  if (!c) return rows;
+  for (const auto& l : c->rectification.landmarks) {
+    const double mm = l.rectification_m * 1e3;
+    rows.push_back({l.code, l.name, mm, std::isfinite(mm) ? fmt::format("{:+.2f}", mm) : "-",
+                    pipeline::rectification_kind(l.rectification_m), l.is_axial ? "along the axis" : "radially"});
+  }
+  return rows;
+}
+
+void App::poll_rectification() {
+  if (rectification_job_.valid()) {
+    if (rectification_job_.wait_for(std::chrono::seconds(0)) != std::future_status::ready) return;
+    RectificationChart c = rectification_job_.get();  // the job keeps its errors in c.error
+    if (c.setup == setup_serial_) {  // else it was of the limb before
+      if (!c.error.empty()) show_error("rectification chart: " + c.error);
+      rectification_ = std::move(c);
+      if (field_ == Field::Rectification) colours_dirty_ = true;
+    }
+  }
+  if (!is_rectification_asked_ || !setup_ || !state_) return;
+  if (rectification_ && rectification_->setup == setup_serial_ && rectification_->state == state_serial_) return;
+  // Once the shown design has settled: no solve waiting, no slider held, no optimisation running
+  // (then the state is a full solve under the current brim).
+  if ((worker_ && worker_->is_busy()) || edit_start_ || is_optimising_) return;
+  // Copies: the solver and the setup's brim go on changing on other threads meanwhile.
+  geometry::TriMesh designed = skin_rest_;
+  designed.vertices = state_->skin_positions;
+  rectification_job_ = std::async(
+      std::launch::async, [rest = skin_rest_, designed = std::move(designed), met = state_->status.all_ok(),
+                           frame = setup_->model.frame, brim = setup_->brim, landmarks = setup_->model.landmarks,
+                           socket = case_.socket, setup = setup_serial_, state = state_serial_] {
+        const auto t0 = std::chrono::steady_clock::now();
+        RectificationChart c;
+        c.setup = setup;
+        c.state = state;
+        try {
+          const pipeline::ChecksWall wall = pipeline::designed_wall(rest, designed, met, frame, brim, socket);
+          c.wall_source = wall.source;
+          c.rectification = pipeline::compute_rectification(rest, wall.wall, frame, brim, landmarks);
+        } catch (const std::exception& e) {
+          c.error = e.what();
+        }
+        c.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        return c;
+      });
+}
+
 // ------------------------------------------------------------------------------------------------
 // Frame
 // ------------------------------------------------------------------------------------------------
@@ -663,6 +748,7 @@ void App::update_feedback() {
 void App::frame(int width, int height) {
   poll_jobs();
   poll_worker();
+  poll_rectification();
   autosave();
   update_colours();
 
@@ -683,6 +769,7 @@ void App::frame(int width, int height) {
       if (ImGui::IsKeyPressed(GLFW_KEY_3)) set_field(Field::Ratio);
       if (ImGui::IsKeyPressed(GLFW_KEY_4)) set_field(Field::Displacement);
       if (ImGui::IsKeyPressed(GLFW_KEY_5) && !deviation_m_.empty()) set_field(Field::Deviation);
+      if (ImGui::IsKeyPressed(GLFW_KEY_6)) set_field(Field::Rectification);
       if (ImGui::IsKeyPressed(GLFW_KEY_F) && setup_) camera_.frame(geometry::bounding_box(setup_->model.skin));
       if (ImGui::IsKeyPressed(GLFW_KEY_ESCAPE)) is_placing_spot_ = false;
     }
@@ -1009,6 +1096,57 @@ void App::draw_template_check() {
   if (t.applies) ImGui::TextWrapped("%s", t.summary.c_str());
 }
 
+/// The rectification chart: socket minus limb at each landmark (indentation blue, relief red), the
+/// range below the brim, and the button that colours the stump by it.
+void App::draw_rectification() {
+  if (!state_) return;
+  if (is_rectification_table_opening_) ImGui::SetNextItemOpen(true);
+  is_rectification_table_opening_ = false;
+  if (!ImGui::CollapsingHeader("Rectification chart")) return;
+  if (!is_rectification_asked_ || field_ != Field::Rectification) {
+    if (ImGui::SmallButton("Colour the stump by socket - limb")) set_field(Field::Rectification);
+    if (!is_rectification_asked_) return;
+  }
+  if (rectification_ && rectification_->setup == setup_serial_ && !rectification_->error.empty()) {
+    ImGui::PushStyleColor(ImGuiCol_Text, IM_COL32(255, 110, 100, 255));
+    ImGui::TextWrapped("Not computed: %s", rectification_->error.c_str());
+    ImGui::PopStyleColor();
+    return;
+  }
+  const RectificationChart* c = rectification();
+  if (!c) {
+    ImGui::TextDisabled("computing the rectification...");
+    return;
+  }
+  const pipeline::Rectification& r = c->rectification;
+  ImGui::TextWrapped("Socket minus limb [mm]: %s against the skin at rest, radially (along the axis at the distal "
+                     "end); < 0 indentation, > 0 relief. Below the brim %+.2f ... %+.2f mm, mean %+.2f mm (%.1f s).",
+                     c->wall_source.c_str(), r.min_m * 1e3, r.max_m * 1e3, r.mean_m * 1e3, c->seconds);
+  if (c->state != state_serial_) ImGui::TextDisabled("(of the design before: updating)");
+  if (ImGui::BeginTable("rectification", 4, ImGuiTableFlags_Borders | ImGuiTableFlags_SizingStretchProp)) {
+    for (const char* h : {"landmark", "socket - limb [mm]", "", "measured"}) ImGui::TableSetupColumn(h);
+    ImGui::TableHeadersRow();
+    for (const RectificationRow& row : rectification_rows()) {
+      ImGui::TableNextRow();
+      ImGui::TableNextColumn();
+      ImGui::TextUnformatted(row.code.c_str());
+      if (ImGui::IsItemHovered()) ImGui::SetTooltip("%s", row.name.c_str());
+      ImGui::TableNextColumn();
+      ImGui::TextUnformatted(row.value.c_str());
+      ImGui::TableNextColumn();
+      const ImU32 colour = !std::isfinite(row.mm) ? IM_COL32(160, 160, 160, 255)
+                           : row.mm < 0            ? IM_COL32(110, 160, 255, 255)
+                                                   : IM_COL32(255, 120, 100, 255);
+      ImGui::PushStyleColor(ImGuiCol_Text, colour);
+      ImGui::TextUnformatted(row.kind.c_str());
+      ImGui::PopStyleColor();
+      ImGui::TableNextColumn();
+      ImGui::TextUnformatted(row.measured.c_str());
+    }
+    ImGui::EndTable();
+  }
+}
+
 void App::draw_feedback_panel() {
   if (job_) {
     std::string stage;
@@ -1047,6 +1185,7 @@ void App::draw_feedback_panel() {
     ImGui::PopStyleColor();
   }
   draw_template_check();
+  draw_rectification();
   if (ImGui::CollapsingHeader("Log")) {
     ImGui::BeginChild("log", ImVec2(0, 160), true, ImGuiWindowFlags_HorizontalScrollbar);
     std::lock_guard lock(log_->mutex);
@@ -1075,6 +1214,7 @@ void App::draw_viewport_overlay(int x, int y, int width, int height) {
   const char* units = field_ == Field::Ratio ? "p/T [-]" : field_ == Field::Displacement ? "displacement [mm]"
                       : field_ == Field::Threshold                              ? "threshold [kPa]"
                       : field_ == Field::Deviation                              ? "deviation [mm]"
+                      : field_ == Field::Rectification                          ? "socket - limb [mm]"
                                                                                 : "pressure [kPa]";
   colour_bar(dl, ImVec2(x + width - 70.0f, y + 60.0f), ImVec2(18, 240), field_colormap(field_), range_min_, range_max_,
              "");
@@ -1102,7 +1242,7 @@ void App::draw_viewport_overlay(int x, int y, int width, int height) {
   }
   const std::string help = is_placing_spot_ ? "click on the stump to place the spot (Esc: stop)"
                                             : "left drag: orbit   right/middle drag: pan   wheel: zoom   F: frame   "
-                                              "1-4: field";
+                                              "1-6: field";
   dl->AddText(ImVec2(x + 10.0f, y + height - 22.0f), IM_COL32(60, 60, 60, 255), help.c_str());
   // Field and range controls on the view.
   ImGui::SetNextWindowPos(ImVec2(x + 10.0f, y + 10.0f));
@@ -1110,19 +1250,28 @@ void App::draw_viewport_overlay(int x, int y, int width, int height) {
   ImGui::Begin("##view", nullptr,
                ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoMove |
                    ImGuiWindowFlags_NoSavedSettings);
-  int f = static_cast<int>(field_);
   const char* fields[] = {"applied pressure [kPa]", "pain threshold [kPa]", "pressure / threshold", "displacement [mm]",
-                          "deviation of the compared shape [mm]"};
+                          "deviation of the compared shape [mm]", "rectification [mm]"};
+  // The deviation is offered once a second shape was compared (File > Compare with a second shape),
+  // the rectification once a design is shown.
+  std::vector<Field> offered{Field::Pressure, Field::Threshold, Field::Ratio, Field::Displacement};
+  if (!deviation_m_.empty()) offered.push_back(Field::Deviation);
+  if (state_) offered.push_back(Field::Rectification);
   ImGui::SetNextItemWidth(200);
-  // The deviation is offered once a second shape was compared (File > Compare with a second shape).
-  if (ImGui::Combo("colour", &f, fields, deviation_m_.empty() ? 4 : 5)) set_field(static_cast<Field>(f));
+  if (ImGui::BeginCombo("colour", fields[static_cast<int>(field_)])) {
+    for (Field f : offered)
+      if (ImGui::Selectable(fields[static_cast<int>(f)], f == field_)) set_field(f);
+    ImGui::EndCombo();
+  }
   if (field_ == Field::Deviation && !comparison_file_.empty())  // the whole line is in the feedback panel
     ImGui::TextDisabled("vs %s (> 0: it lies outside the limb)", comparison_file_.c_str());
+  if (field_ == Field::Rectification)  // the table is in the feedback panel
+    ImGui::TextDisabled("blue: indentation, red: relief; grey above the brim");
   if (ImGui::Checkbox("auto range", &is_auto_range_)) colours_dirty_ = true;
   if (!is_auto_range_) {
     ImGui::SetNextItemWidth(200);
-    if (ImGui::DragFloatRange2("range", &range_min_, &range_max_, 0.1f, field_ == Field::Deviation ? -100.0f : 0.0f,
-                               1000.0f))
+    const bool is_signed = field_ == Field::Deviation || field_ == Field::Rectification;
+    if (ImGui::DragFloatRange2("range", &range_min_, &range_max_, 0.1f, is_signed ? -100.0f : 0.0f, 1000.0f))
       colours_dirty_ = true;
   }
   ImGui::SetNextItemWidth(200);
@@ -1166,6 +1315,10 @@ void App::handle_view_input(int x, int y, int width, int height) {
         text += fmt::format("\npressure {:.1f} kPa (p/T {:.2f})\ndisplacement {:.2f} mm", state_->pressure_pa[node] / 1e3,
                             state_->requested_pa[node] / setup_->solver->thresholds()[node],
                             state_->displacement_m[node] * 1e3);
+      if (const RectificationChart* rc = rectification();
+          field_ == Field::Rectification && rc && node < static_cast<int>(rc->rectification.vertex_m.size()) &&
+          std::isfinite(rc->rectification.vertex_m[node]))
+        text += fmt::format("\nsocket - limb {:+.2f} mm", rc->rectification.vertex_m[node] * 1e3);
       ImGui::SetTooltip("%s", text.c_str());
     }
   }

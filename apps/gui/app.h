@@ -15,6 +15,7 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -23,6 +24,7 @@
 #include "viewport.h"
 #include "socketsmith/design/case_file.h"
 #include "socketsmith/pipeline/design_pipeline.h"
+#include "socketsmith/pipeline/prosthetist_checks.h"
 #include "socketsmith/report/design_report.h"
 
 struct GLFWwindow;
@@ -30,11 +32,33 @@ struct GLFWwindow;
 namespace socketsmith::gui {
 
 /// The field the stump is coloured by. Deviation: the signed distance from the stump's skin to a
-/// second shape (compare_with), > 0 where that shape lies outside.
-enum class Field { Pressure, Threshold, Ratio, Displacement, Deviation };
+/// second shape (compare_with), > 0 where that shape lies outside. Rectification: socket minus
+/// limb (pipeline::compute_rectification), < 0 where the socket indents the tissue.
+enum class Field { Pressure, Threshold, Ratio, Displacement, Deviation, Rectification };
 const char* to_string(Field field);
-/// "pressure" | "threshold" | "ratio" | "displacement" | "deviation"; @throws InvalidInputError otherwise.
+/// "pressure" | "threshold" | "ratio" | "displacement" | "deviation" | "rectification";
+/// @throws InvalidInputError otherwise.
 Field parse_field(const std::string& text);
+
+/// One row of the rectification table as the window draws it.
+struct RectificationRow {
+  std::string code, name;  ///< the landmark
+  double mm = 0;           ///< socket − limb [mm]; NaN above the brim
+  std::string value;       ///< as shown: "-2.41", or "-" above the brim
+  std::string kind;        ///< pipeline::rectification_kind: indentation, relief, above the brim
+  std::string measured;    ///< "radially" or "along the axis"
+};
+
+/// The rectification chart of one design: socket minus limb on the skin and at each landmark, as
+/// the report computes it (pipeline::designed_wall, pipeline::compute_rectification).
+struct RectificationChart {
+  pipeline::Rectification rectification;
+  std::string wall_source;    ///< what the socket is ("the socket's inner wall", ...)
+  std::string error;          ///< set when it could not be computed
+  double seconds = 0;         ///< the time it took (socket and chart), on its own thread
+  std::uint64_t setup = 0;    ///< which setup and which shown state it belongs to
+  std::uint64_t state = 0;
+};
 
 /// A background job (prepare a case, export) with its progress.
 struct BackgroundJob {
@@ -100,7 +124,13 @@ class App {
   /// Optimises the spots on the worker; @p time_limit_s > 0 bounds its wall time [s].
   void optimise(double time_limit_s = 0);
   void cancel_optimise();
-  void set_field(Field field) { field_ = field; colours_dirty_ = true; }
+  /// Colours the stump by @p field; Rectification also asks for the rectification chart, kept up to
+  /// date after every design from then on.
+  void set_field(Field field);
+  /// The chart of the shown design, or nullptr while it is computed (or before it was asked for).
+  const RectificationChart* rectification() const;
+  /// The landmark table of rectification() as drawn (empty without a chart).
+  std::vector<RectificationRow> rectification_rows() const;
   /// A continuous edit (a slider drag) starts / ends: its changes make one undo step.
   void begin_edit();
   /// The end of a slider drag: the previews that served it are replaced by a full solve.
@@ -125,6 +155,9 @@ class App {
   bool has_state() const { return state_.has_value(); }
   const design::CaseFile& document() const { return case_; }
   const std::optional<design::DesignState>& state() const { return state_; }
+  Field field() const { return field_; }
+  /// The colour bar's range (the values at its bottom and top, in the field's unit).
+  std::pair<float, float> colour_range() const { return {range_min_, range_max_}; }
   /// The shown state read against its brim template (what the "Template regions" panel shows).
   const std::optional<design::TemplateCheck>& template_check() const { return template_; }
   const std::vector<std::string>& errors() const { return errors_; }
@@ -155,12 +188,16 @@ class App {
   void update_meshes();
   void update_colours();
   void update_feedback();
+  /// Installs a finished rectification chart and starts the next one when the shown design changed
+  /// (on a thread of its own, from copies: the solver goes on meanwhile).
+  void poll_rectification();
 
   void draw_menu();
   void draw_design_panel();
   void draw_patient_panel();
   void draw_feedback_panel();
   void draw_template_check();
+  void draw_rectification();
   void draw_viewport_overlay(int x, int y, int width, int height);
   void draw_file_dialog();
   void draw_close_dialog();
@@ -197,6 +234,11 @@ class App {
   std::optional<design::DesignState> state_;
   std::vector<report::RadarAxis> radar_;
   std::optional<design::TemplateCheck> template_;  // the state read against its brim template
+  std::uint64_t setup_serial_ = 0, state_serial_ = 0;  // bumped per installed setup / shown state
+  bool is_rectification_asked_ = false;
+  bool is_rectification_table_opening_ = false;  // set_field(Rectification) opens its table once
+  std::optional<RectificationChart> rectification_;    // of the shown state, or of an earlier one
+  std::future<RectificationChart> rectification_job_;
   std::vector<report::PathProfile> profiles_;
   std::string solve_status_;
   std::string optimiser_message_;

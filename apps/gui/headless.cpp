@@ -161,6 +161,24 @@ void HeadlessRunner::run_action(const json& a, int width, int height) {
       j["deviation_mm"] = dev;
       j["comparison"] = app_.comparison();
     }
+    j["field"] = to_string(app_.field());
+    j["colour_range"] = {app_.colour_range().first, app_.colour_range().second};
+    if (const RectificationChart* c = app_.rectification()) {  // the table as the window draws it
+      json rows = json::array();
+      for (const RectificationRow& r : app_.rectification_rows())
+        rows.push_back({{"code", r.code},
+                        {"name", r.name},
+                        {"rectification_mm", std::isfinite(r.mm) ? json(r.mm) : json()},
+                        {"shown", r.value},
+                        {"kind", r.kind},
+                        {"measured", r.measured}});
+      j["rectification"] = {{"wall", c->wall_source},
+                            {"min_mm", c->rectification.min_m * 1e3},
+                            {"max_mm", c->rectification.max_m * 1e3},
+                            {"mean_mm", c->rectification.mean_m * 1e3},
+                            {"seconds", c->seconds},
+                            {"landmarks", rows}};
+    }
     write_text_atomically(a.at("path").get<std::string>(), j.dump(2) + "\n");
   } else if (what == "wait_frames") {
     settle_ = std::max(settle_, a.at("count").get<int>());

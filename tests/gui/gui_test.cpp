@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -24,6 +25,7 @@
 #include "socketsmith/design/case_file.h"
 #include "socketsmith/geometry/mesh_io.h"
 #include "socketsmith/geometry/rigid_alignment.h"
+#include "socketsmith/report/raster.h"
 #include "socketsmith/volume/limb_generator.h"
 
 namespace socketsmith {
@@ -317,6 +319,17 @@ TEST(GuiErrors, optimising_two_spots_is_not_an_error_and_its_export_removes_a_st
   EXPECT_EQ(summary["removed"], json::array({"socket.stl"}));
 }
 
+/// Runs @p script headless on the 1.5k demo, screenshots into @p dir; returns the GUI's exit status,
+/// its output in @p log.
+int run_demo_script(const fs::path& dir, const json& script, std::string& log) {
+  std::ofstream(dir / "script.json") << script.dump();
+  const int rc = run_gui("--headless --demo --target-nodes 1500 --script " + (dir / "script.json").string() +
+                             " --frames 1 --screenshot-dir " + dir.string(),
+                         dir / "gui.log");
+  log = read_text(dir / "gui.log");
+  return rc;
+}
+
 // File > Compare with a second shape (issue 23): the demo's limb against a copy of it offset
 // outward by 2 mm along its normals (a swollen limb, a later scan): the stump is coloured by the
 // deviation, +2 mm on the skin the copy covers, red on the diverging map.
@@ -333,12 +346,8 @@ TEST(GuiCompare, a_second_shape_offset_by_2_mm_colours_the_stump_by_its_deviatio
                         {{{"do", "compare"}, {"file", (dir / "swollen.stl").string()}},
                          {{"do", "screenshot"}, {"name", "deviation.png"}},
                          {{"do", "write_state"}, {"path", (dir / "state.json").string()}}}}};
-  std::ofstream(dir / "script.json") << script.dump();
-  const int rc = run_gui("--headless --demo --target-nodes 1500 --script " + (dir / "script.json").string() +
-                             " --frames 1 --screenshot-dir " + dir.string(),
-                         dir / "gui.log");
-  const std::string log = read_text(dir / "gui.log");
-  ASSERT_EQ(rc, 0) << log;
+  std::string log;
+  ASSERT_EQ(run_demo_script(dir, script, log), 0) << log;
   const json state = read_json(dir / "state.json");
   ASSERT_TRUE(state.contains("deviation_mm")) << log;
   std::vector<double> dev;
@@ -373,6 +382,127 @@ TEST(GuiCompare, a_second_shape_offset_by_2_mm_colours_the_stump_by_its_deviatio
   stbi_image_free(px);
   ASSERT_GT(covered, total / 7) << "the stump fills the middle of the view";
   EXPECT_GT((red - blue) / covered, 40.0) << "a limb 2 mm inside the compared shape is red on the diverging map";
+}
+
+// The rectification chart in the window (issue 23): after a design (optimised: every constraint
+// met, so a socket is built and its inner wall is measured), colour by "rectification" shows socket
+// minus limb on the stump (the report's diverging map and colour bar) and a table per landmark. Its
+// values are the report's: the same design exported from the window writes design.json's chart
+// through the library (pipeline::write_prosthetist_checks), and each row the window draws — value,
+// indentation / relief, how it was measured — must be that row.
+TEST(GuiRectification, the_table_is_the_reports_and_the_stump_shows_it_on_a_diverging_map) {
+  const fs::path dir = kBin / "tests" / "gui_rectification";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const json script = {{"actions",
+                        {{{"do", "optimise"}},
+                         {{"do", "field"}, {"value", "rectification"}},
+                         {{"do", "view"}, {"bones", false}, {"socket", false}},
+                         {{"do", "screenshot"}, {"name", "rectification.png"}},
+                         {{"do", "write_state"}, {"path", (dir / "state.json").string()}},
+                         {{"do", "export"}, {"dir", (dir / "export").string()}}}}};
+  std::string log;
+  ASSERT_EQ(run_demo_script(dir, script, log), 0) << log;
+  const json state = read_json(dir / "state.json");
+  EXPECT_EQ(state["field"], "rectification");
+  ASSERT_TRUE(state.contains("rectification")) << "no chart in the window\n" << log;
+  ASSERT_TRUE(state["constraints_met"].get<bool>()) << log;
+  const json& gui = state["rectification"];
+  const json lib = read_json(dir / "export" / "design.json")["rectification"];
+  EXPECT_EQ(gui["wall"], "the socket's inner wall");
+  EXPECT_EQ(gui["wall"], lib["wall"]);
+  // The design in the window and its export are solved apart (the export prepares the case again
+  // and solves the optimised spots afresh): the same design to the solver's tolerance (measured:
+  // 0.003 mm at most), within the 0.01 mm the table shows.
+  constexpr double kTol = 0.01;  // [mm]
+  for (const char* k : {"min_mm", "max_mm", "mean_mm"})
+    EXPECT_NEAR(gui[k].get<double>(), lib[k].get<double>(), kTol) << k;
+  ASSERT_EQ(gui["landmarks"].size(), lib["landmarks"].size());
+  ASSERT_GE(gui["landmarks"].size(), 5u);
+  int below_brim = 0;
+  for (size_t k = 0; k < lib["landmarks"].size(); ++k) {
+    const json& g = gui["landmarks"][k];
+    const json& l = lib["landmarks"][k];
+    EXPECT_EQ(g["code"], l["code"]);
+    EXPECT_EQ(g["kind"], l["kind"]) << l["code"];
+    EXPECT_EQ(g["measured"], l["measured"]) << l["code"];
+    ASSERT_EQ(g["rectification_mm"].is_null(), l["rectification_mm"].is_null()) << l["code"];
+    if (l["rectification_mm"].is_null()) {
+      EXPECT_EQ(g["shown"], "-");
+      continue;
+    }
+    ++below_brim;
+    const double v = l["rectification_mm"].get<double>();
+    EXPECT_NEAR(g["rectification_mm"].get<double>(), v, kTol) << l["code"];
+    // What the table shows is that value in mm to 0.01 (a rounding boundary may differ by one).
+    EXPECT_NEAR(std::stod(g["shown"].get<std::string>()), v, 0.005 + kTol) << l["code"] << ": " << g["shown"];
+  }
+  EXPECT_GE(below_brim, 3);
+  // The colour bar is symmetric about 0 and covers the chart's range (report::nice_ceil of it).
+  const double lo = state["colour_range"][0].get<double>(), hi = state["colour_range"][1].get<double>();
+  const double extent = std::max(std::abs(lib["min_mm"].get<double>()), std::abs(lib["max_mm"].get<double>()));
+  EXPECT_DOUBLE_EQ(lo, -hi);
+  EXPECT_GE(hi, extent - 1e-6);
+  EXPECT_LE(hi, 2.5 * extent);
+
+  // The screenshot: the colour bar is the diverging one (red top, white middle, blue bottom; the
+  // pressure map's bar is red, green, blue) and the stump carries its colours.
+  int w = 0, h = 0, n = 0;
+  unsigned char* px = stbi_load((dir / "rectification.png").string().c_str(), &w, &h, &n, 3);
+  ASSERT_NE(px, nullptr);
+  const auto at = [&](int x, int y) { return px + 3 * (static_cast<size_t>(y) * w + x); };
+  // The bar: 18 × 240 px, 70 px from the view's right edge (the right panel is 440 px), 60 px under
+  // the view's top (the menu bar, ~19 px).
+  int bar_top = -1;
+  const int bar_x = w - 440 - 70 + 9;
+  for (int y = 40; y < 120 && bar_top < 0; ++y)
+    if (at(bar_x, y)[0] < 80 && at(bar_x, y)[1] < 80 && at(bar_x, y)[2] < 80) bar_top = y;  // its dark frame
+  ASSERT_GT(bar_top, 0) << "no colour bar frame found";
+  const unsigned char* top = at(bar_x, bar_top + 4);
+  const unsigned char* mid = at(bar_x, bar_top + 120);
+  const unsigned char* bottom = at(bar_x, bar_top + 236);
+  EXPECT_GT(top[0], top[2] + 50) << "top of the bar: red (relief)";
+  EXPECT_GT(bottom[2], bottom[0] + 50) << "bottom of the bar: blue (indentation)";
+  EXPECT_GT(static_cast<int>(std::min({mid[0], mid[1], mid[2]})), 200) << "middle of the bar: white (0 mm)";
+  // The stump: each pixel a shaded colour of the diverging map, s · c(t) (the view's headlight only
+  // scales the vertex colours), and t below the middle (blue: indentation) where the chart indents.
+  // A stump coloured by another map does not fit it; a missing chart is grey (t = 0.5); a chart
+  // with its sign turned is red.
+  const int x0 = 390 + (w - 830) / 3, x1 = 390 + 2 * (w - 830) / 3, y0 = h / 3, y1 = 2 * h / 3;
+  const long total_view_pixels = static_cast<long>(x1 - x0) * (y1 - y0);
+  std::vector<Eigen::Vector3d> map;
+  for (int k = 0; k <= 200; ++k) {
+    const report::Rgb c = report::colormap_colour(report::Colormap::Diverging, k / 200.0);
+    map.emplace_back(c.r, c.g, c.b);
+  }
+  long covered = 0, fitted = 0, blue = 0, red = 0;
+  for (int y = y0; y < y1; ++y)
+    for (int x = x0; x < x1; ++x) {
+      const unsigned char* p = at(x, y);
+      if (std::abs(p[0] - 237) + std::abs(p[1] - 240) + std::abs(p[2] - 245) <= 12) continue;
+      ++covered;
+      const Eigen::Vector3d q(p[0], p[1], p[2]);
+      double best = 1e9, t = 0;
+      for (size_t k = 0; k < map.size(); ++k) {
+        const double shade = std::clamp(q.dot(map[k]) / map[k].squaredNorm(), 0.15, 1.05);
+        if (const double d = (q - shade * map[k]).norm(); d < best) {
+          best = d;
+          t = k / 200.0;
+        }
+      }
+      if (best > 12) continue;  // the brim line, the landmarks and their labels, the tooltip
+      ++fitted;
+      if (t < 0.47) ++blue;
+      if (t > 0.53) ++red;
+    }
+  stbi_image_free(px);
+  ASSERT_GT(covered, total_view_pixels / 7) << "the stump fills the middle of the view";
+  std::printf("[ measured ] stump pixels: %ld, on the diverging map %.1f %%: blue %.1f %%, red %.1f %%\n", covered,
+              100.0 * fitted / covered, 100.0 * blue / covered, 100.0 * red / covered);
+  EXPECT_GT(static_cast<double>(fitted) / covered, 0.9) << "the stump is not on the diverging map";
+  ASSERT_LT(lib["mean_mm"].get<double>(), -0.5) << "the demo's socket indents on average";
+  EXPECT_GT(static_cast<double>(blue) / covered, 0.3);
+  EXPECT_GT(blue, 5 * red);
 }
 
 }  // namespace

@@ -14,6 +14,7 @@
 #include "socketsmith/design/case_file.h"
 #include "socketsmith/geometry/mesh_checks.h"
 #include "socketsmith/pipeline/design_pipeline.h"
+#include "socketsmith/pipeline/prosthetist_checks.h"
 #include "socketsmith/geometry/mesh_io.h"
 #include "socketsmith/geometry/surface_query.h"
 #include "socketsmith/report/csv.h"
@@ -284,6 +285,59 @@ TEST(ModelOptions, a_case_files_tissue_model_and_poisson_ratio_reach_the_model) 
   EXPECT_EQ(o.kind, tissue::TissueModelKind::NeoHookean);
   EXPECT_DOUBLE_EQ(o.fe_poisson_ratio, 0.45);
   EXPECT_EQ(c.solve_mode, design::DesignSolveMode::Nonlinear);
+}
+
+// The GUI's rectification chart (issue 23) is computed from a solved state before anything is
+// written: pipeline::designed_wall builds the socket as solve_design does and picks its wall as the
+// report does. On the optimised 1.5k demo (every constraint met, no closed loop) it must give the
+// report's chart to the last bit; a state that misses a constraint is measured on its designed skin.
+TEST(DesignedWall, the_chart_of_a_solved_state_is_the_reports) {
+  const fs::path dir = fs::path(SOCKETSMITH_BINARY_DIR) / "tests" / "pipeline_designed_wall";
+  fs::remove_all(dir);
+  pipeline::DesignArtifacts art;
+  pipeline::run_design(pipeline::demo_case(1500), dir, true, {}, &art);
+  ASSERT_TRUE(art.result.socket.has_value());
+  ASSERT_FALSE(art.result.closed_loop.has_value());
+  const pipeline::DesignSetup& setup = *art.setup;
+  const pipeline::ProsthetistChecks report = pipeline::prosthetist_checks(setup, art.result);
+  const pipeline::ChecksWall wall =
+      pipeline::designed_wall(art.result.rest_skin, art.result.deformed_skin, art.result.state.status.all_ok(),
+                              setup.model.frame, setup.brim, setup.case_file.socket);
+  EXPECT_EQ(wall.source, "the socket's inner wall");
+  EXPECT_EQ(wall.source, report.wall_source);
+  EXPECT_EQ(wall.closed_below_m, report.socket_closed_below_m);
+  ASSERT_EQ(wall.wall.vertices.size(), report.wall.vertices.size());
+  const pipeline::Rectification gui = pipeline::compute_rectification(art.result.rest_skin, wall.wall,
+                                                                        setup.model.frame, setup.brim,
+                                                                        setup.model.landmarks);
+  const pipeline::Rectification& lib = report.rectification;
+  ASSERT_EQ(gui.vertex_m.size(), lib.vertex_m.size());
+  int below_brim = 0;
+  for (size_t k = 0; k < lib.vertex_m.size(); ++k) {
+    ASSERT_EQ(std::isfinite(gui.vertex_m[k]), std::isfinite(lib.vertex_m[k])) << k;
+    if (!std::isfinite(lib.vertex_m[k])) continue;
+    ++below_brim;
+    EXPECT_EQ(gui.vertex_m[k], lib.vertex_m[k]) << k;
+  }
+  EXPECT_GT(below_brim, 300);
+  ASSERT_EQ(gui.landmarks.size(), lib.landmarks.size());
+  for (size_t k = 0; k < lib.landmarks.size(); ++k) {
+    EXPECT_EQ(gui.landmarks[k].code, lib.landmarks[k].code);
+    EXPECT_EQ(pipeline::rectification_kind(gui.landmarks[k].rectification_m),
+              pipeline::rectification_kind(lib.landmarks[k].rectification_m));
+  }
+  // The demo's socket indents: a negative mean, and its colour bar (± the span) holds the range.
+  EXPECT_LT(lib.mean_m, -0.5e-3);
+  const double span_mm = pipeline::rectification_span_mm(lib);
+  EXPECT_GE(span_mm, std::max(-lib.min_m, lib.max_m) * 1e3);
+  // Not met: no socket; the designed skin itself is the wall.
+  const pipeline::ChecksWall skin = pipeline::designed_wall(art.result.rest_skin, art.result.deformed_skin, false,
+                                                            setup.model.frame, setup.brim, setup.case_file.socket);
+  EXPECT_EQ(skin.source, "the designed skin (no socket was built)");
+  EXPECT_EQ(skin.wall.vertices, art.result.deformed_skin.vertices);
+  EXPECT_STREQ(pipeline::rectification_kind(-1e-3), "indentation");
+  EXPECT_STREQ(pipeline::rectification_kind(0.0), "relief");
+  EXPECT_STREQ(pipeline::rectification_kind(std::nan("")), "above the brim");
 }
 
 }  // namespace

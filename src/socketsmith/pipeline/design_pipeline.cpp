@@ -253,6 +253,13 @@ std::unique_ptr<DesignSetup> prepare_design(const design::CaseFile& c, const fs:
   return s;
 }
 
+design::SocketResult build_design_socket(const geometry::TriMesh& designed_skin, const geometry::TriMesh& rest_skin,
+                                         const geometry::LimbFrame& frame, const design::BrimLine& brim,
+                                         design::SocketOptions options) {
+  options.undeformed_skin = &rest_skin;  // the circumference reductions against the limb at rest
+  return design::build_socket(designed_skin, frame, brim, options);
+}
+
 DesignResult solve_design(DesignSetup& setup, bool optimise, const ProgressCallback& progress) {
   const design::CaseFile& c = setup.case_file;
   auto& solver = *setup.solver;
@@ -279,13 +286,11 @@ DesignResult solve_design(DesignSetup& setup, bool optimise, const ProgressCallb
   r.deformed_skin.vertices = r.state.skin_positions;
   if (r.constraints_met) {
     report_progress(progress, 0.92, "design: building the socket");
-    design::SocketOptions sopt = c.socket;
-    sopt.undeformed_skin = &r.rest_skin;
-    r.socket = design::build_socket(r.deformed_skin, setup.model.frame, setup.brim, sopt);
+    r.socket = build_design_socket(r.deformed_skin, r.rest_skin, setup.model.frame, setup.brim, c.socket);
     for (const auto& n : r.socket->notes) log::info("design: socket: {}", n);
     // Limb volume below the brim: the same cavity measure on the undeformed skin.
     try {
-      design::SocketOptions lopt = sopt;
+      design::SocketOptions lopt = c.socket;
       lopt.undeformed_skin = nullptr;
       lopt.distal_pad = false;  // the cavity alone: no platform, no holes
       lopt.attachment.enabled = false;

@@ -118,6 +118,14 @@ struct DesignResult {
 /// @throws SolverError when the stump cannot be solved at all.
 DesignResult solve_design(DesignSetup& setup, bool optimise, const ProgressCallback& progress = {});
 
+/// The socket solve_design builds on a designed skin before any closed loop: @p options (the
+/// case's `socket`) with @p rest_skin as the undeformed skin its circumference reductions are
+/// measured against. Needs no DesignSetup: the GUI builds it from copies on a thread of its own.
+/// @throws as design::build_socket.
+design::SocketResult build_design_socket(const geometry::TriMesh& designed_skin, const geometry::TriMesh& rest_skin,
+                                         const geometry::LimbFrame& frame, const design::BrimLine& brim,
+                                         design::SocketOptions options);
+
 /// True when @p result's final state keeps the ischial floor (its ischial/gluteal share ≥ the
 /// floor; always true without a floor) — design.json's ischial_share_floor_met.
 bool ischial_floor_holds(const DesignSetup& setup, const DesignResult& result);

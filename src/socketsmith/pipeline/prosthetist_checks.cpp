@@ -74,24 +74,49 @@ Rectification compute_rectification(const geometry::TriMesh& limb, const geometr
   return r;
 }
 
+const char* rectification_kind(double socket_minus_limb_m) {
+  return !std::isfinite(socket_minus_limb_m) ? "above the brim" : socket_minus_limb_m < 0 ? "indentation" : "relief";
+}
+
+double rectification_span_mm(const Rectification& r) {
+  return report::nice_ceil(std::max({std::abs(r.min_m), std::abs(r.max_m), 1e-4}) * 1e3);
+}
+
+ChecksWall checks_wall(const design::SocketResult* socket, bool closed_loop, const geometry::TriMesh& designed_skin,
+                       const design::BrimLine& brim) {
+  ChecksWall w;
+  if (socket) {
+    std::vector<int> inner;
+    for (size_t t = 0; t < socket->face_kind.size(); ++t)
+      if (socket->face_kind[t] == design::SocketFace::Inner) inner.push_back(static_cast<int>(t));
+    w.wall = geometry::submesh(socket->solid, inner);
+    geometry::flip_orientation(w.wall);  // the solid's inner wall faces the cavity: turn it to face out of it
+    w.source = closed_loop ? "the socket's inner wall (corrected by the closed loop)" : "the socket's inner wall";
+    w.closed_below_m = socket->rim_min_h_m;
+  } else {
+    w.wall = designed_skin;
+    w.source = "the designed skin (no socket was built)";
+    w.closed_below_m = brim.min_height();
+  }
+  return w;
+}
+
+ChecksWall designed_wall(const geometry::TriMesh& rest_skin, const geometry::TriMesh& designed_skin,
+                         bool constraints_met, const geometry::LimbFrame& frame, const design::BrimLine& brim,
+                         const design::SocketOptions& socket) {
+  if (!constraints_met) return checks_wall(nullptr, false, designed_skin, brim);
+  const design::SocketResult built = build_design_socket(designed_skin, rest_skin, frame, brim, socket);
+  return checks_wall(&built, false, designed_skin, brim);
+}
+
 ProsthetistChecks prosthetist_checks(const DesignSetup& setup, const DesignResult& result) {
   ProsthetistChecks c;
   const auto& frame = setup.model.frame;
-  if (result.socket) {
-    const auto& sock = *result.socket;
-    std::vector<int> inner;
-    for (size_t t = 0; t < sock.face_kind.size(); ++t)
-      if (sock.face_kind[t] == design::SocketFace::Inner) inner.push_back(static_cast<int>(t));
-    c.wall = geometry::submesh(sock.solid, inner);
-    geometry::flip_orientation(c.wall);  // the solid's inner wall faces the cavity: turn it to face out of it
-    c.wall_source = result.closed_loop ? "the socket's inner wall (corrected by the closed loop)"
-                                       : "the socket's inner wall";
-    c.socket_closed_below_m = sock.rim_min_h_m;
-  } else {
-    c.wall = result.deformed_skin;
-    c.wall_source = "the designed skin (no socket was built)";
-    c.socket_closed_below_m = setup.brim.min_height();
-  }
+  ChecksWall w = checks_wall(result.socket ? &*result.socket : nullptr, result.closed_loop.has_value(),
+                             result.deformed_skin, setup.brim);
+  c.wall = std::move(w.wall);
+  c.wall_source = std::move(w.source);
+  c.socket_closed_below_m = w.closed_below_m;
   c.rectification = compute_rectification(result.rest_skin, c.wall, frame, setup.brim, setup.model.landmarks);
 
   // Slices: the limb up to its cut, the cavity where its section is closed (below the brim's lowest point).
@@ -137,7 +162,7 @@ nlohmann::json write_prosthetist_checks(const DesignSetup& setup, const DesignRe
                    {"h_mm", l.h_m * 1e3},
                    {"measured", l.is_axial ? "along the axis" : "radially"},
                    {"rectification_mm", std::isfinite(d) ? nlohmann::json(d * 1e3) : nullptr},
-                   {"kind", !std::isfinite(d) ? "above the brim" : d < 0 ? "indentation" : "relief"}});
+                   {"kind", rectification_kind(d)}});
     csv += fmt::format("{},{:.3f},{:.3f},{:.4f},{}\n", l.code, l.theta_rad * 180 / std::numbers::pi, l.h_m * 1e3,
                        d * 1e3, l.is_axial ? "axial" : "radial");
   }
@@ -158,7 +183,7 @@ nlohmann::json write_prosthetist_checks(const DesignSetup& setup, const DesignRe
   m.frame = report::surface_frame(frame);
   for (const auto& l : setup.model.landmarks) m.landmarks.push_back({l.code, l.position, l.estimated});
   m.brim = brim_on_skin(setup, 180);
-  const double span = report::nice_ceil(std::max({std::abs(rect.min_m), std::abs(rect.max_m), 1e-4}) * 1e3);
+  const double span = rectification_span_mm(rect);
   m.value_min = -span;
   m.value_max = span;
   for (double v : rect.vertex_m) m.values.push_back(v * 1e3);

@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "socketsmith/design/brim.h"
+#include "socketsmith/design/socket_builder.h"
 #include "socketsmith/geometry/limb_frame.h"
 #include "socketsmith/geometry/tri_mesh.h"
 #include "socketsmith/report/design_report.h"
@@ -51,6 +52,34 @@ struct Rectification {
 Rectification compute_rectification(const geometry::TriMesh& limb, const geometry::TriMesh& wall,
                                      const geometry::LimbFrame& frame, const design::BrimLine& brim,
                                      const std::vector<volume::Landmark>& landmarks);
+
+/// "indentation" (< 0: the socket presses the tissue in), "relief" (≥ 0), or "above the brim" (NaN:
+/// no wall) for a rectification @p socket_minus_limb_m.
+const char* rectification_kind(double socket_minus_limb_m);
+
+/// The half-range of the rectification's diverging colour bar [mm]: the larger of |min| and |max|
+/// rounded up to a nice number (report::nice_ceil), at least 0.1 mm; the bar spans ± it.
+double rectification_span_mm(const Rectification& rectification);
+
+/// The surface a design's checks measure the socket by.
+struct ChecksWall {
+  geometry::TriMesh wall;          ///< oriented out of the cavity [m]
+  std::string source;              ///< "the socket's inner wall", ... (as the report names it)
+  double closed_below_m = 0.0;     ///< the cavity is a closed section below this h [m]
+};
+
+/// The socket's inner wall, turned to face out of the cavity, when @p socket is given (@p closed_loop:
+/// it is the closed loop's corrected socket), else @p designed_skin (the skin at the designed shape).
+ChecksWall checks_wall(const design::SocketResult* socket, bool closed_loop, const geometry::TriMesh& designed_skin,
+                       const design::BrimLine& brim);
+
+/// The wall of a solved but not yet written design (what the GUI measures after each design): the
+/// socket solve_design builds (build_design_socket, before any closed loop) when @p constraints_met,
+/// else @p designed_skin. Takes copies' references only, no DesignSetup, so it may run on a thread
+/// of its own while the solver goes on. @throws as design::build_socket.
+ChecksWall designed_wall(const geometry::TriMesh& rest_skin, const geometry::TriMesh& designed_skin,
+                         bool constraints_met, const geometry::LimbFrame& frame, const design::BrimLine& brim,
+                         const design::SocketOptions& socket);
 
 /// The checks of a design.
 struct ProsthetistChecks {
