@@ -216,6 +216,7 @@ ClosedLoopResult close_design_loop(DesignSetup& setup, const DesignResult& resul
       const std::string why = d.message.empty() ? "the standing load was not reached" : d.message;
       require<SolverError>(!r.iterations.empty(), "closed loop: the open-loop socket could not be donned and stood on: {}", why);
       if (refitted) {  // the refit lost its way: don the same socket from scratch instead
+        log::warn("closed loop: the refit of the corrected socket did not converge ({}); donning it from scratch", why);
         if (full_donnings >= options.max_donnings) {
           r.message = fmt::format("stopped: the corrected socket's refit failed ({}) and no donning is left", why);
           break;
