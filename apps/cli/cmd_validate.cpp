@@ -1,32 +1,23 @@
 // `socketsmith validate cube` and `socketsmith validate design CASE`: socketsmith against
 // CalculiX (an independent FE solver) on the same mesh — the thesis's FE checks (ch. 3.6, 5.5).
-#include <chrono>
-#include <cmath>
 #include <filesystem>
-#include <limits>
 
 #include "cli_common.h"
-#include "socketsmith/contact/donning.h"
 #include "socketsmith/core/atomic_file.h"
 #include "socketsmith/core/errors.h"
 #include "socketsmith/core/log.h"
 #include "socketsmith/core/progress.h"
-#include "socketsmith/core/units.h"
 #include "socketsmith/fe/cube_validation.h"
-#include "socketsmith/fe/design_artifacts.h"
+#include "socketsmith/fe/design_validation.h"
 #include "socketsmith/pipeline/design_pipeline.h"
 #include "socketsmith/report/csv.h"
-#include "socketsmith/report/design_report.h"
 #include "socketsmith/report/plot_raster.h"
-#include "socketsmith/report/raster.h"
 #include "socketsmith/report/svg_plot.h"
-#include "socketsmith/report/vtk_writer.h"
 
 namespace socketsmith::cli {
 namespace {
 
 namespace fs = std::filesystem;
-using fe::Vec3;
 
 struct CcxFlags {
   std::string solver = "calculix";
@@ -154,279 +145,39 @@ struct DesignFlags {
 };
 
 void run_validate_design(const DesignFlags& f) {
-  require(!f.against_donning || f.mode == "donning", "validate design: --against-donning needs --mode donning");
-  require(!f.stand || f.mode == "donning", "validate design: --stand needs --mode donning (the socket is donned, then stood on)");
-  require(!f.nonlinear_body || f.against_donning,
-          "validate design: --nonlinear-body sets socketsmith's donning body: use it with validate donning");
   const fs::path out(f.out);
-  ensure_directory(out);
   design::CaseFile c = f.demo ? pipeline::demo_case(f.target_nodes > 0 ? f.target_nodes : 3000)
                               : design::read_case(f.case_file);
   if (f.target_nodes > 0) c.target_nodes = f.target_nodes;
-  if (f.demo) design::write_case(out / "case.json", c);
-  // CalculiX's material: the case's continuum model's own ν and law (same material on both sides),
-  // else ν 0.45, the thesis's (the MSS lattices have none to give); the flags override.
-  fe::FeMaterial material = fe::fe_material(c);
-  if (f.poisson >= 0) material.poisson_ratio = f.poisson;
-  if (f.neo_hookean) material.is_neo_hookean = true;
-  require(!(material.is_neo_hookean && f.small_strain),
-          "validate design: --small-strain with a neo-Hookean tissue: the hyperelastic law is a large-strain model, "
-          "CalculiX runs it with NLGEOM (drop --small-strain, or use the fe model for a small-strain check)");
-  const double poisson = material.poisson_ratio;
-  const auto t0 = std::chrono::steady_clock::now();
-  pipeline::DesignArtifacts art;
-  const auto progress = console_progress(1.0);
-  log::info("validate design: designing the socket ({} nodes)", c.target_nodes);
-  pipeline::run_design(c, out / "design", c.optimise && !f.no_optimise, progress, &art);
-  const double ss_wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  const auto& setup = *art.setup;
-  const auto& state = art.result.state;
-  const auto& mesh = setup.mesh.mesh;
-
-  fe::DesignedStump d = fe::designed_stump(art);
-  double stand_force_n = 0, donning_force_n = 0;
-  // socketsmith's own donning of the socket written (the closed loop's kept donning when the design
-  // ran one, else a donning here): what CalculiX's donning is compared with (--against-donning), or
-  // beside the design (--stand: the delivered pressures three ways). Its force at the designed pose
-  // starts CalculiX's load step, so the reaction does not drop when the displacement is released.
-  std::optional<contact::DonningResult> ours;
-  bool ours_from_loop = false;
-  bool ours_linear = !f.nonlinear_body;
-  if (f.against_donning || f.stand) {
-    const double mu = f.friction >= 0 ? f.friction : c.patient.friction;
-    const auto& loop = art.result.closed_loop;
-    if (loop && !f.nonlinear_body && f.stand && std::abs(mu - c.patient.friction) < 1e-12) {
-      ours = loop->donning;
-      ours_from_loop = true;
-      ours_linear = loop->linear_body;
-      log::info("validate design: socketsmith's donning and standing of the socket: the closed loop's (donning {})",
-                loop->kept_donning);
-    } else {
-      contact::DonningOptions dopt;
-      dopt.start_offset_m = f.travel_mm * 1e-3;
-      dopt.start_offset_name = "--travel-mm";
-      dopt.friction = mu;
-      dopt.stand_force_n = f.stand ? 0.5 * c.patient.body_mass_kg * units::kGravity : 0.0;
-      dopt.progress = progress;
-      dopt.contact.linear_body = !f.nonlinear_body;
-      log::info("validate design: socketsmith's donning ({:.0f} mm, μ = {:.2f}, {} body)", f.travel_mm, dopt.friction,
-                f.nonlinear_body ? "nonlinear" : "linearised");
-      ours = fe::don_designed_socket(art, dopt);
-      log::info("validate design: socketsmith donning done in {:.1f} s, {} nodes in contact", ours->seconds,
-                ours->series.empty() ? 0 : ours->series.back().contact_nodes);
-    }
-    if (f.stand && ours->series.size() >= 2) {
-      // The FE's load step starts from the donning force at the designed pose (socketsmith's estimate).
-      stand_force_n = 0.5 * c.patient.body_mass_kg * units::kGravity;
-      donning_force_n = std::max(0.0, ours->series[ours->series.size() - 2].axial_force_n);
-    }
-    if (f.against_donning) fe::use_donning_pressures(*ours, d);
-  }
-
-  fe::DesignCheckOptions o;
+  fe::DesignValidationOptions o;
   o.mode = fe::parse_design_check_mode(f.mode);
-  o.material = material;
+  o.against_donning = f.against_donning;
+  o.stand = f.stand;
+  o.nonlinear_body = f.nonlinear_body;
+  o.optimise = !f.no_optimise;
+  o.poisson_ratio = f.poisson;
+  o.neo_hookean = f.neo_hookean;
+  o.small_strain = f.small_strain;
   o.element = fe::parse_element_type(f.element);
-  o.contact.penalty_pa_per_m = f.penalty;
-  o.contact.stick_slope_pa_per_m = f.stick_slope;
-  o.contact.friction = f.friction >= 0 ? f.friction : c.patient.friction;
+  o.penalty_pa_per_m = f.penalty;
+  o.stick_slope_pa_per_m = f.stick_slope;
+  o.friction = f.friction;
   o.clearance_m = f.clearance_mm * 1e-3;
+  o.travel_m = f.travel_mm * 1e-3;
   o.initial_increment = f.initial_increment;
-  o.donning_travel_m = f.travel_mm * 1e-3;
-  o.stand_force_n = stand_force_n;
-  o.donning_force_n = donning_force_n;
-  if (stand_force_n > 0)
-    log::info("validate donning: CalculiX step 2 pushes the socket with {:.1f} N (from {:.1f} N, socketsmith's donning "
-              "force)", stand_force_n, donning_force_n);
-  o.max_increment = std::max(0.1, f.initial_increment);
   o.fe_pressure = fe::parse_fe_pressure(f.fe_pressure);
-  o.nonlinear_geometry = !f.small_strain;
   o.ccx = ccx_options(f.ccx);
-  log::info("validate design: CalculiX {} check ({} nodes, {} elements, {}, {}, ν {}, {})", fe::to_string(o.mode),
-            mesh.num_nodes(), mesh.num_hexahedra(), fe::to_string(o.element),
-            material.is_neo_hookean ? "neo-Hookean" : "linear elastic", poisson, o.nonlinear_geometry ? "NLGEOM" : "small strain");
-  const auto r = fe::check_design(d, o, out, "design_fe");
-
-  // Outputs: per-node CSV, path profiles and a scatter (SVG), stump VTU, summary JSON.
-  const bool contact = o.mode != fe::DesignCheckMode::Load;
-  const double scale = contact ? 1e-3 : 1e3;  // kPa or mm
-  const std::string unit = contact ? "kPa" : "mm", suffix = contact ? "_kpa" : "_mm";
-  const std::string what = contact ? "contact pressure" : "displacement";
-  const auto& skin = *d.skin;
-  {
-    std::vector<std::vector<double>> rows;
-    for (size_t i = 0; i < skin.nodes.size(); ++i) {
-      const auto& p = skin.positions[i];
-      rows.push_back({static_cast<double>(i), static_cast<double>(skin.nodes[i] + 1), p.x(), p.y(), p.z(),
-                      static_cast<double>(std::min(r.brim_ring[i], 999)), r.socketsmith_value[i] * scale,
-                      r.fe_value[i] * scale, (r.fe_value[i] - r.socketsmith_value[i]) * scale,
-                      r.fe_penetration_m[i] * 1e3, r.socketsmith_value_smoothed[i] * scale,
-                      r.fe_value_smoothed[i] * scale,
-                      r.fe_cpress_pa.empty() ? 0.0 : r.fe_cpress_pa[i] * scale,
-                      r.fe_stress_pressure_pa.empty() ? 0.0 : r.fe_stress_pressure_pa[i] * scale,
-                      r.fe_force_pressure_pa.empty() ? 0.0 : r.fe_force_pressure_pa[i] * scale});
-    }
-    report::write_csv(out / "comparison.csv",
-                      {"skin_index", "ccx_node", "x_m", "y_m", "z_m", "rings_from_brim", "socketsmith_" + unit,
-                       "calculix_" + unit, "error_" + unit, "penetration_mm",
-                       "socketsmith_one_ring_" + unit, "calculix_one_ring_" + unit, "calculix_cpress_" + unit,
-                       "calculix_stress_" + unit, "calculix_force_" + unit},
-                      rows);
-  }
-  std::vector<report::Plot> panels;
-  nlohmann::json paths_json = nlohmann::json::object();
-  for (const auto& pc : r.paths) {
-    std::vector<double> a, b;
-    for (int i : pc.skin_index) {
-      a.push_back(r.socketsmith_value[i] * scale);
-      b.push_back(r.fe_value[i] * scale);
-    }
-    report::Plot p;
-    p.title = fmt::format("{}: MAE {:.2f} ± {:.2f} {}, R {:.2f}", pc.label, pc.stats.mae * scale, pc.stats.sd * scale,
-                          unit, pc.stats.r);
-    p.x_label = pc.is_vertical ? "height above the distal end [mm]" : "angle from the front line [deg]";
-    p.y_label = fmt::format("{} [{}]", what, unit);
-    p.series = {{"socketsmith (designed)", pc.s, a, "#0072B2", false, true, 2},
-                {"CalculiX", pc.s, b, "#D55E00", false, true, 2}};
-    report::write_svg(out / fmt::format("profile_{}.svg", pc.name), p);
-    report::write_plot_png(out / fmt::format("profile_{}.png", pc.name), p);
-    panels.push_back(p);
-    auto pj = report::to_json(pc.stats, scale, suffix);
-    pj["label"] = pc.label;
-    pj["smoothed"] = report::to_json(pc.smoothed, scale, suffix);
-    paths_json[pc.name] = pj;
-  }
-  {
-    std::vector<double> a, b;
-    for (size_t i = 0; i < skin.nodes.size(); ++i)
-      if (r.brim_ring[i] >= 1) {
-        a.push_back(r.socketsmith_value[i] * scale);
-        b.push_back(r.fe_value[i] * scale);
-      }
-    double hi = 0;
-    for (double v : a) hi = std::max(hi, v);
-    for (double v : b) hi = std::max(hi, v);
-    report::Plot p;
-    p.title = fmt::format("every socket node: R {:.2f}, MAE {:.2f} {}", r.all.r, r.all.mae * scale, unit);
-    p.x_label = fmt::format("socketsmith {} [{}]", what, unit);
-    p.y_label = fmt::format("CalculiX {} [{}]", what, unit);
-    p.series = {{"nodes", a, b, "#0072B2", false, true, 0}, {"y = x", {0, hi}, {0, hi}, "#999999", true, false, 1}};
-    report::write_svg(out / "scatter.svg", p);
-    report::write_plot_png(out / "scatter.png", p);
-    panels.push_back(p);
-  }
-  report::write_svg_grid(out / "comparison.svg", panels, 2);
-  report::write_plot_grid_png(out / "comparison.png", panels, 2);
-  {
-    const int nn = mesh.num_nodes();
-    std::vector<Vec3> u_ss(nn);
-    std::vector<double> v_ss(nn, 0.0), v_fe(nn, 0.0), err(nn, 0.0);
-    for (int n = 0; n < nn; ++n) u_ss[n] = d.designed_positions[n] - mesh.nodes[n];
-    for (size_t i = 0; i < skin.nodes.size(); ++i) {
-      v_ss[skin.nodes[i]] = r.socketsmith_value[i] * scale;
-      v_fe[skin.nodes[i]] = r.fe_value[i] * scale;
-      err[skin.nodes[i]] = (r.fe_value[i] - r.socketsmith_value[i]) * scale;
-    }
-    const std::string tag = contact ? "pressure_kpa" : "displacement_mm";
-    report::write_vtu(out / "stump_fe.vtu", mesh,
-                      {report::make_vector_field("displacement_socketsmith_m", u_ss),
-                       report::make_vector_field("displacement_calculix_m", r.fe_displacement_m),
-                       {"socketsmith_" + tag, 1, v_ss}, {"calculix_" + tag, 1, v_fe}, {"error_" + tag, 1, err}});
-  }
-  {
-    // Colour maps on the designed skin: socketsmith and CalculiX on one scale, one above the other,
-    // then the absolute error on its own scale (above the brim: no data).
-    geometry::TriMesh def_tri = skin.triangles();
-    for (size_t i = 0; i < skin.nodes.size(); ++i) def_tri.vertices[i] = d.designed_positions[skin.nodes[i]];
-    const double nan = std::numeric_limits<double>::quiet_NaN();
-    std::vector<double> v_ss(skin.nodes.size()), v_fe(skin.nodes.size()), v_err(skin.nodes.size());
-    double vmax = 0, emax = 0;
-    for (size_t i = 0; i < skin.nodes.size(); ++i) {
-      const bool in = r.brim_ring[i] >= 1;
-      v_ss[i] = in ? r.socketsmith_value[i] * scale : nan;
-      v_fe[i] = in ? r.fe_value[i] * scale : nan;
-      v_err[i] = in ? std::abs(r.fe_value[i] - r.socketsmith_value[i]) * scale : nan;
-      if (in) {
-        vmax = std::max({vmax, v_ss[i], v_fe[i]});
-        emax = std::max(emax, v_err[i]);
-      }
-    }
-    const auto map = [&](const std::vector<double>& v, const std::string& title, double hi) {
-      report::PressureMapData m;
-      m.surface = &def_tri;
-      m.values = v;
-      m.value_label = unit;
-      m.title = title;
-      m.value_min = 0;
-      m.value_max = std::max(hi, 1e-6);
-      m.frame = report::surface_frame(d.frame);
-      return report::render_pressure_map(m);
-    };
-    const std::string ours_label = f.against_donning ? "socketsmith donning" : "socketsmith (designed)";
-    report::write_png(out / "comparison_map.png",
-                      report::stack_images({map(v_ss, ours_label + ": " + what, vmax), map(v_fe, "CalculiX: " + what, vmax),
-                                            map(v_err, "|CalculiX - socketsmith|", emax)}));
-  }
-  nlohmann::json j{{"case", f.demo ? std::string("demo") : f.case_file},
-                   {"mode", fe::to_string(o.mode)},
-                   {"compared", what + " [" + unit + "]"},
-                   {"converged", r.converged},
-                   {"message", r.message},
-                   {"nodes", r.nodes},
-                   {"elements", r.elements},
-                   {"socket_elements", r.socket_elements},
-                   {"element", fe::to_string(o.element)},
-                   {"poisson_ratio", poisson},
-                   {"nlgeom", !f.small_strain},
-                   {"youngs_modulus_kpa", c.youngs_modulus_pa / 1e3},
-                   {"neo_hookean", material.is_neo_hookean},
-                   {"penalty_pa_per_m", o.contact.penalty_pa_per_m},
-                   {"stick_slope_pa_per_m", o.contact.stick_slope_pa_per_m},
-                   {"friction", o.contact.friction},
-                   {"against_donning", f.against_donning},
-                   {"socketsmith_body", ours_linear ? "linearised" : "nonlinear"},
-                   {"stand_force_n", stand_force_n},
-                   {"fe_load_step_starts_at_n", donning_force_n},
-                   {"designed_force_n", r.designed_force_n},
-                   {"fe_force_n", r.fe_force_n},
-                   {"mean_designed_kpa", r.mean_designed_pa / 1e3},
-                   {"mean_fe_kpa", r.mean_fe_pa / 1e3},
-                   {"fe_pressure", contact ? fe::to_string(r.fe_pressure) : "none"},
-                   {"mean_fe_cpress_kpa", r.all_cpress.mean_a / 1e3},
-                   {"all_cpress", report::to_json(r.all_cpress, scale, suffix)},
-                   {"all_stress", report::to_json(r.all_stress, scale, suffix)},
-                   {"all_force", report::to_json(r.all_force, scale, suffix)},
-                   {"max_penetration_mm", r.max_penetration_m * 1e3},
-                   {"all", report::to_json(r.all, scale, suffix)},
-                   {"one_ring_away", report::to_json(r.one_ring_away, scale, suffix)},
-                   {"away_from_brim", report::to_json(r.away_from_brim, scale, suffix)},
-                   {"all_smoothed", report::to_json(r.all_smoothed, scale, suffix)},
-                   {"away_from_brim_smoothed", report::to_json(r.away_from_brim_smoothed, scale, suffix)},
-                   {"paths", paths_json},
-                   {"ccx_wall_s", r.ccx.wall_s},
-                   {"ccx_increments", r.ccx.increments},
-                   {"socketsmith_wall_s", ss_wall},
-                   {"socketsmith_solve_s", state.seconds},
-                   {"deck", "design_fe.inp"},
-                   {"outputs",
-                    {"design_fe.inp", "design_fe.frd", "design_fe.dat", "design_fe.log", "comparison.csv", "comparison.svg",
-                     "comparison.png", "profile_front.svg", "profile_back.svg", "profile_mid.svg", "profile_front.png",
-                     "profile_back.png", "profile_mid.png", "scatter.svg", "scatter.png", "stump_fe.vtu", "comparison_map.png",
-                     "summary.json", "design/"}},
-                   {"out", out.string()}};
-  if (ours && !f.against_donning) {
-    // Delivered three ways on the socket nodes: CalculiX and socketsmith against the design, and
-    // against each other.
-    std::vector<int> socket_nodes;
-    std::vector<double> delivered(skin.nodes.size());
-    for (size_t i = 0; i < skin.nodes.size(); ++i) {
-      delivered[i] = ours->contacts[i].pressure_pa;
-      if (r.brim_ring[i] >= 1) socket_nodes.push_back(static_cast<int>(i));
-    }
-    j["socketsmith_delivered_vs_design"] = report::to_json(report::compare_fields(delivered, r.socketsmith_value, socket_nodes), scale, suffix);
-    j["calculix_vs_socketsmith_delivered"] = report::to_json(report::compare_fields(r.fe_value, delivered, socket_nodes), scale, suffix);
-    j["socketsmith_delivered_from"] = ours_from_loop ? "the closed loop's kept donning" : "a donning in this run";
-    if (!f.json) {
+  o.progress = console_progress(1.0);
+  o.case_label = f.demo ? std::string("demo") : f.case_file;
+  o.write_case = f.demo;
+  const auto v = fe::validate_design(c, o, out);
+  const auto& r = v.check;
+  const auto& j = v.summary;
+  if (f.json) print_json(j);
+  else {
+    const bool contact = r.mode != fe::DesignCheckMode::Load;
+    const auto [scale, unit, suffix, what] = fe::compared_quantity(r.mode);
+    if (j.contains("socketsmith_delivered_vs_design")) {
       const auto& a = j["socketsmith_delivered_vs_design"];
       const auto& b = j["calculix_vs_socketsmith_delivered"];
       log::info("validate design: socketsmith delivered vs design: MAE {:.2f} {}, p99 {:.2f}, R {:.3f}; CalculiX vs "
@@ -435,12 +186,8 @@ void run_validate_design(const DesignFlags& f) {
                 a["r"].is_null() ? 0.0 : a["r"].get<double>(), b["mae" + suffix].get<double>(),
                 b["p99" + suffix].get<double>(), b["r"].is_null() ? 0.0 : b["r"].get<double>());
     }
-  }
-  write_text_atomically(out / "summary.json", j.dump(2) + "\n");
-  if (f.json) print_json(j);
-  else {
     log::info("validate design: {}{} — CalculiX {:.1f} s vs socketsmith {:.1f} s (design solve {:.3f} s)",
-              r.converged ? "" : "PARTIAL ", what, r.ccx.wall_s, ss_wall, state.seconds);
+              r.converged ? "" : "PARTIAL ", what, r.ccx.wall_s, v.socketsmith_wall_s, v.artifacts.result.state.seconds);
     log::info("validate design: force designed {:.1f} N, CalculiX {:.1f} N; mean designed {:.2f}, CalculiX {:.2f}",
               r.designed_force_n, r.fe_force_n, r.all.mean_b * scale, r.all.mean_a * scale);
     const auto line = [&](const std::string& name, const report::ErrorStats& st) {

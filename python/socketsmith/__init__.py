@@ -11,7 +11,9 @@ Cases are dicts with the case file's schema (docs/case_file.md) or paths of case
 the CLI's, as exceptions: ``InvalidInputError`` (exit code 1), ``IoError`` (2), ``SolverError`` (3),
 ``TopologyError`` (4), ``InternalError`` (70), all ``socketsmith.Error``; ``str(e)`` is the line
 the CLI prints after ``error:``. Long calls take ``progress=callable(fraction, stage)``; returning
-False cancels. The library logs warnings to stderr: ``set_log_level("info")`` for more.
+False cancels. ``validate(case, out)`` checks a design in CalculiX (``socketsmith validate design``):
+the metrics as ``Validation.summary``, the fields as NumPy views. The library logs warnings to
+stderr: ``set_log_level("info")`` for more.
 """
 
 from ._core import (  # noqa: F401  (the public API)
@@ -25,6 +27,7 @@ from ._core import (  # noqa: F401  (the public API)
     SolverError,
     Stump,
     TopologyError,
+    Validation,
     check_mesh,
     demo_case,
     design,
@@ -33,6 +36,7 @@ from ._core import (  # noqa: F401  (the public API)
     read_mesh,
     set_log_level,
     solve,
+    validate,
 )
 
 RADAR_AXES = ("fx_n", "fy_n", "fz_n", "tx_nm", "ty_nm", "tz_nm", "stability_n")
@@ -40,6 +44,6 @@ RADAR_AXES = ("fx_n", "fy_n", "fz_n", "tx_nm", "ty_nm", "tz_nm", "stability_n")
 
 __all__ = [
     "Design", "Donning", "Error", "InternalError", "InvalidInputError", "IoError", "Mesh", "SolverError", "Stump",
-    "TopologyError", "check_mesh", "demo_case", "design", "normalise_case", "prepare", "read_mesh",
-    "set_log_level", "solve", "RADAR_AXES",
+    "TopologyError", "Validation", "check_mesh", "demo_case", "design", "normalise_case", "prepare", "read_mesh",
+    "set_log_level", "solve", "validate", "RADAR_AXES",
 ]

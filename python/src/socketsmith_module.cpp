@@ -1,6 +1,7 @@
 // The Python extension socketsmith._core: thin pybind11 bindings over the library calls the
 // `socketsmith` command makes (pipeline::prepare_design / solve_design / run_design /
-// write_design_outputs, geometry::read_mesh / check_mesh, contact::simulate_donning). No design
+// write_design_outputs, geometry::read_mesh / check_mesh, contact::simulate_donning,
+// fe::validate_design). No design
 // logic lives here: a design from Python is the CLI's design, number for number.
 //
 // Arrays: fields of a design are NumPy views (read-only) of the C++ vectors, kept alive by the
@@ -28,6 +29,7 @@
 #include "socketsmith/core/progress.h"
 #include "socketsmith/core/units.h"
 #include "socketsmith/design/case_file.h"
+#include "socketsmith/fe/design_validation.h"
 #include "socketsmith/geometry/mesh_checks.h"
 #include "socketsmith/geometry/mesh_io.h"
 #include "socketsmith/geometry/mesh_report.h"
@@ -225,6 +227,13 @@ struct Donning {
   std::vector<double> pressure_pa;  ///< per candidate (skin) node
 };
 
+/// A CalculiX validation (fe::validate_design) and the design it checked.
+struct Validation {
+  fe::DesignValidation run;
+  std::shared_ptr<Design> design;    ///< shares the run's stump and result
+  std::shared_ptr<Donning> donning;  ///< socketsmith's own donning, when one ran
+};
+
 nlohmann::json check_json(const Mesh& m) { return geometry::mesh_report_json(m.file, m.mesh, m.info); }
 
 geometry::MeshReadOptions read_options(const std::optional<std::string>& unit) {
@@ -328,6 +337,67 @@ std::shared_ptr<Donning> don(const std::shared_ptr<Design>& d, std::optional<dou
   });
   for (const auto& nc : out->result.contacts) out->pressure_pa.push_back(nc.pressure_pa);
   return out;
+}
+
+struct ValidateArgs {
+  std::string mode, element, fe_pressure, ccx;
+  bool against_donning = false, stand = false, nonlinear_body = false, neo_hookean = false, small_strain = false;
+  std::optional<bool> optimise;
+  std::optional<double> poisson, friction;
+  double penalty = 1e9, stick_slope = 5e7, clearance_mm = 1.0, travel_mm = 60.0, initial_increment = 0.05;
+  int ccx_threads = 1;
+  double ccx_time_limit_s = 3600;
+  std::optional<int> target_nodes;
+};
+
+std::shared_ptr<Validation> validate(const py::object& case_obj, const std::string& out, const ValidateArgs& a,
+                                     const py::object& progress, const std::optional<std::string>& folder) {
+  design::CaseFile c = to_case(case_obj, folder);
+  if (a.target_nodes) c.target_nodes = *a.target_nodes;
+  fe::DesignValidationOptions o;
+  o.mode = fe::parse_design_check_mode(a.mode);
+  o.against_donning = a.against_donning;
+  o.stand = a.stand;
+  o.nonlinear_body = a.nonlinear_body;
+  o.optimise = a.optimise.value_or(true);
+  o.poisson_ratio = a.poisson.value_or(-1.0);
+  o.neo_hookean = a.neo_hookean;
+  o.small_strain = a.small_strain;
+  o.element = fe::parse_element_type(a.element);
+  o.penalty_pa_per_m = a.penalty;
+  o.stick_slope_pa_per_m = a.stick_slope;
+  o.friction = a.friction.value_or(-1.0);
+  o.clearance_m = a.clearance_mm * 1e-3;
+  o.travel_m = a.travel_mm * 1e-3;
+  o.initial_increment = a.initial_increment;
+  o.fe_pressure = fe::parse_fe_pressure(a.fe_pressure);
+  o.ccx.executable = a.ccx;
+  o.ccx.threads = a.ccx_threads;
+  o.ccx.time_limit_s = a.ccx_time_limit_s;
+  o.case_label = py::isinstance<py::dict>(case_obj) ? "dict" : py::str(case_obj).cast<std::string>();
+  o.write_case = true;
+  auto v = std::make_shared<Validation>();
+  run_released(progress, [&](const ProgressCallback& cb) {
+    // The design (and socketsmith's donning) take the first 40 %, CalculiX the rest.
+    if (cb) {
+      o.progress = [&cb](double f, std::string_view st) { return report_progress(cb, 0.4 * f, st); };
+      o.ccx.progress = [&cb](double f, std::string_view st) { return report_progress(cb, 0.4 + 0.6 * f, st); };
+    }
+    v->run = fe::validate_design(c, o, out);
+  });
+  auto stump = std::make_shared<Stump>();
+  stump->setup = std::move(v->run.artifacts.setup);  // the run's stump refers to the setup, which stays where it is
+  v->design = std::make_shared<Design>();
+  v->design->stump = stump;
+  v->design->result = std::move(v->run.artifacts.result);
+  v->design->summary = v->run.design_summary;
+  if (v->run.donning) {
+    v->donning = std::make_shared<Donning>();
+    v->donning->stump = stump;
+    v->donning->result = *v->run.donning;
+    for (const auto& nc : v->donning->result.contacts) v->donning->pressure_pa.push_back(nc.pressure_pa);
+  }
+  return v;
 }
 
 }  // namespace
@@ -534,4 +604,106 @@ PYBIND11_MODULE(_core, m) {
                                py::arg("max_pressure_kpa") = s.max_pressure_pa / 1e3));
         return rows;
       }, "one dict per converged step");
+
+  // CalculiX validation (`socketsmith validate design` / `validate donning`).
+  py::class_<Validation, std::shared_ptr<Validation>> validation(m, "Validation",
+      "A design checked in CalculiX (fe::validate_design): the comparison per skin node and summarised.");
+  validation.def_property_readonly("summary", [](const Validation& v) { return from_json(v.run.summary); },
+                             "summary.json as a dict: means, MAE, SD, RMSE, bias, R, p95, p99 per region and path (kPa or mm)")
+      .def_property_readonly("converged", [](const Validation& v) { return v.run.check.converged; },
+                             "False: ccx stopped early and its last converged increment was compared")
+      .def_property_readonly("message", [](const Validation& v) { return v.run.check.message; })
+      .def_property_readonly("mode", [](const Validation& v) { return fe::to_string(v.run.check.mode); })
+      .def_property_readonly("unit", [](const Validation& v) {
+        return v.run.check.mode == fe::DesignCheckMode::Load ? "m" : "Pa"; },
+        "the unit of socketsmith_values / calculix_values: 'Pa' (contact pressure) or 'm' (displacement magnitude)")
+      .def_property_readonly("design", [](const Validation& v) { return v.design; }, "the Design that was checked")
+      .def_property_readonly("donning", [](const Validation& v) -> py::object {
+        return v.donning ? py::cast(v.donning) : py::object(py::none()); },
+        "socketsmith's own Donning (against_donning or stand), else None")
+      .def_property_readonly("skin_nodes", [](py::object self) {
+        return view_ints(self.cast<Validation&>().run.stump.skin->nodes, self); }, "(S,) the skin's node ids (the fields' order)")
+      .def_property_readonly("rings_from_brim", [](py::object self) {
+        return view_ints(self.cast<Validation&>().run.check.brim_ring, self); },
+        "(S,) rings of quads from the brim: 0 above it, >= 1 socket nodes (the summary's 'all')")
+      .def_property_readonly("calculix_displacement_m", [](py::object self) {
+        return view_vec3(self.cast<Validation&>().run.check.fe_displacement_m, self); }, "(N, 3) CalculiX's node displacements [m]")
+      .def_property_readonly("paths", [](py::object self) {
+        py::dict d;
+        for (const auto& pc : self.cast<Validation&>().run.check.paths)
+          d[py::str(pc.name)] = py::dict(py::arg("label") = pc.label, py::arg("skin_index") = view_ints(pc.skin_index, self),
+                                         py::arg("s") = view_doubles(pc.s, self), py::arg("vertical") = pc.is_vertical);
+        return d;
+      }, "{front|back|mid: {label, skin_index (skin nodes along it), s (mm up, or degrees round), vertical}}")
+      .def("__repr__", [](const Validation& v) {
+        return "<socketsmith.Validation " + fe::to_string(v.run.check.mode) + (v.run.check.converged ? "" : " PARTIAL") +
+               ": R " + std::to_string(v.run.check.all.r) + ">";
+      });
+  // The per-skin-node fields of fe::DesignCheckResult, as read-only views.
+  struct CheckField {
+    const char* name;
+    std::vector<double> fe::DesignCheckResult::*field;
+    const char* doc;
+  };
+  for (const CheckField& f : {
+           CheckField{"socketsmith_values", &fe::DesignCheckResult::socketsmith_value,
+                      "(S,) socketsmith's field per skin node: designed (or donned) pressure [Pa], or displacement [m] in load mode"},
+           CheckField{"calculix_values", &fe::DesignCheckResult::fe_value,
+                      "(S,) CalculiX's, the same quantity"},
+           CheckField{"socketsmith_values_one_ring", &fe::DesignCheckResult::socketsmith_value_smoothed,
+                      "(S,) socketsmith_values averaged over each node's one ring (area-weighted)"},
+           CheckField{"calculix_values_one_ring", &fe::DesignCheckResult::fe_value_smoothed,
+                      "(S,) calculix_values averaged over each node's one ring"},
+           CheckField{"penetration_m", &fe::DesignCheckResult::fe_penetration_m,
+                      "(S,) CalculiX's penetration [m] (contact)"},
+           CheckField{"calculix_force_pa", &fe::DesignCheckResult::fe_force_pressure_pa,
+                      "(S,) nodal force over nodal area [Pa] (empty in load mode)"},
+           CheckField{"calculix_stress_pa", &fe::DesignCheckResult::fe_stress_pressure_pa,
+                      "(S,) -n.sigma.n [Pa] (empty in load mode)"},
+           CheckField{"calculix_cpress_pa", &fe::DesignCheckResult::fe_cpress_pa,
+                      "(S,) nodal CPRESS [Pa] (empty in load mode)"}}) {
+    validation.def_property_readonly(f.name, [field = f.field](py::object self) {
+      return view_doubles(self.cast<Validation&>().run.check.*field, self); }, f.doc);
+  }
+  m.def("validate", [](const py::object& case_obj, const std::string& out, const std::string& mode, bool against_donning,
+                       bool stand, bool nonlinear_body, std::optional<bool> optimise, std::optional<double> poisson,
+                       bool neo_hookean, bool small_strain, const std::string& element, const std::string& fe_pressure,
+                       double penalty, double stick_slope, std::optional<double> friction, double clearance_mm,
+                       double travel_mm, double initial_increment, const std::string& ccx, int ccx_threads,
+                       double ccx_time_limit_s, std::optional<int> target_nodes, const py::object& progress,
+                       const std::optional<std::string>& folder) {
+        ValidateArgs a;
+        a.mode = mode;
+        a.against_donning = against_donning;
+        a.stand = stand;
+        a.nonlinear_body = nonlinear_body;
+        a.optimise = optimise;
+        a.poisson = poisson;
+        a.neo_hookean = neo_hookean;
+        a.small_strain = small_strain;
+        a.element = element;
+        a.fe_pressure = fe_pressure;
+        a.penalty = penalty;
+        a.stick_slope = stick_slope;
+        a.friction = friction;
+        a.clearance_mm = clearance_mm;
+        a.travel_mm = travel_mm;
+        a.initial_increment = initial_increment;
+        a.ccx = ccx;
+        a.ccx_threads = ccx_threads;
+        a.ccx_time_limit_s = ccx_time_limit_s;
+        a.target_nodes = target_nodes;
+        return validate(case_obj, out, a, progress, folder);
+      },
+      py::arg("case"), py::arg("out"), py::kw_only(), py::arg("mode") = "contact", py::arg("against_donning") = false,
+      py::arg("stand") = false, py::arg("nonlinear_body") = false, py::arg("optimise") = py::none(),
+      py::arg("poisson") = py::none(), py::arg("neo_hookean") = false, py::arg("small_strain") = false,
+      py::arg("element") = "c3d8", py::arg("fe_pressure") = "force", py::arg("penalty") = 1e9,
+      py::arg("stick_slope") = 5e7, py::arg("friction") = py::none(), py::arg("clearance_mm") = 1.0,
+      py::arg("travel_mm") = 60.0, py::arg("initial_increment") = 0.05, py::arg("ccx") = "ccx",
+      py::arg("ccx_threads") = 1, py::arg("ccx_time_limit_s") = 3600.0, py::arg("target_nodes") = py::none(),
+      py::arg("progress") = py::none(), py::arg("folder") = py::none(),
+      "`socketsmith validate design CASE --out OUT` (with against_donning=True and mode='donning': `validate donning`): "
+      "designs the case, checks it in CalculiX and writes the comparison into out; the metrics as Validation.summary, "
+      "the fields as NumPy views.");
 }

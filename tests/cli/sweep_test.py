@@ -84,13 +84,17 @@ png = (out / "summary.png").read_bytes()
 check(png[:8] == b"\x89PNG\r\n\x1a\n", "summary.png is a PNG")
 check("<svg" in (out / "summary.svg").read_text(), "summary.svg is an SVG")
 
-# 3. A rerun does no work: nothing runs, no marker or log is rewritten.
-stamps = {p: p.stat().st_mtime_ns for p in out.glob("cases/*/*") if p.is_file()}
+
+# 3. A rerun does no work: nothing runs, no marker, log or the manifest is rewritten.
+def stamps_of_the_sweep():
+    return {p: p.stat().st_mtime_ns for p in [out / "manifest.json", *out.glob("cases/*/*")] if p.is_file()}
+
+
+stamps = stamps_of_the_sweep()
 rc, stdout, err = run("sweep", work / "sweep.json", "--out", out, "--workers", 2, "--json")
 again = json.loads(stdout) if rc == 0 else {}
 check(rc == 0 and again.get("ran") == 0 and again.get("skipped") == 5, f"a rerun skips every case: {again}")
-check(stamps == {p: p.stat().st_mtime_ns for p in out.glob("cases/*/*") if p.is_file()},
-      "a rerun leaves every case file untouched")
+check(stamps == stamps_of_the_sweep(), "a rerun leaves the manifest and every case file untouched")
 
 # 4. --slurm without sbatch on the PATH: the array script of the unfinished cases, one line said.
 empty_path = work / "empty_path"

@@ -218,7 +218,25 @@ BrimLine make_brim(BrimTemplate kind, LimbType type, const std::vector<volume::L
                                    cut_height_m / kMm));
     q.h = h;
   }
-  return BrimLine(kind, std::move(p));
+  // Key points within [lo, hi] do not keep the curve there: the periodic Akima spline rises between
+  // two key points at the same height when steeper neighbours bend it (several clamped to hi on a
+  // short transtibial stump: 5.5 mm above hi, and the socket could not be built). The spline is
+  // affine in its values, so scaling the heights about lo by (hi − lo) / (max − lo) brings its top
+  // to hi; a second pass covers the sampling of max_height. Transtibial templates only: a
+  // transfemoral brim is placed from the ischial tuberosity, whose seat must stay where it is (on
+  // the OpenLimbTF limb a 1.3 % scaling of the quadrilateral brim took its ischial share from 30 %
+  // to 8 %), and its stump is continued 75 mm above the tuberosity, so no key point reaches hi.
+  BrimLine line(kind, p);
+  for (int pass = 0; type == LimbType::Transtibial && pass < 3 && line.max_height() > hi; ++pass) {
+    const double top = line.max_height(), f = (hi - lo) / (top - lo);
+    for (auto& q : p) q.h = lo + f * (q.h - lo);
+    if (notes && pass == 0)
+      notes->push_back(fmt::format("brim '{}': the curve between the key points rose to {:.1f} mm, above {:.1f} mm (the "
+                                   "top of the stump less {:.0f} mm): its heights scaled by {:.3f} about {:.0f} mm",
+                                   to_string(kind), top / kMm, hi / kMm, options.top_margin_m / kMm, f, lo / kMm));
+    line = BrimLine(kind, p);
+  }
+  return line;
 }
 
 BrimLine make_brim(BrimTemplate kind, const volume::LimbModel& model, const BrimOptions& options,

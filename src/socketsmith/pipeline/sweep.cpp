@@ -289,6 +289,7 @@ void write_sweep(const SweepSpec& spec, const fs::path& dir) {
     require(old.contains("cases") && old["cases"] == cases,
             "sweep: '{}' holds another sweep ('{}', {} cases): give another --out or delete that folder", dir.string(),
             old.value("name", std::string()), old.contains("cases") ? old["cases"].size() : 0);
+    if (old == manifest) return;  // a rerun: every case file is there, nothing to rewrite
   }
   ensure_directory(dir);
   for (const auto& c : spec.cases) {

@@ -1,0 +1,322 @@
+#include "socketsmith/fe/design_validation.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+#include "socketsmith/core/atomic_file.h"
+#include "socketsmith/core/errors.h"
+#include "socketsmith/core/log.h"
+#include "socketsmith/core/units.h"
+#include "socketsmith/fe/ccx_runner.h"
+#include "socketsmith/fe/design_artifacts.h"
+#include "socketsmith/report/csv.h"
+#include "socketsmith/report/design_report.h"
+#include "socketsmith/report/plot_raster.h"
+#include "socketsmith/report/raster.h"
+#include "socketsmith/report/svg_plot.h"
+#include "socketsmith/report/vtk_writer.h"
+
+namespace socketsmith::fe {
+namespace {
+
+namespace fs = std::filesystem;
+
+/// socketsmith's own donning of the design (the closed loop's kept donning when the design ran
+/// one with the same μ and body, else a donning here): what CalculiX's donning is compared with
+/// (against_donning), or shown beside the design (stand: the delivered pressures three ways).
+void run_own_donning(const design::CaseFile& c, const DesignValidationOptions& o, DesignValidation& v) {
+  const double mu = o.friction >= 0 ? o.friction : c.patient.friction;
+  const auto& loop = v.artifacts.result.closed_loop;
+  if (loop && !o.nonlinear_body && o.stand && std::abs(mu - c.patient.friction) < 1e-12) {
+    v.donning = loop->donning;
+    v.donning_from_closed_loop = true;
+    log::info("validate design: socketsmith's donning and standing of the socket: the closed loop's (donning {})",
+              loop->kept_donning);
+    return;
+  }
+  contact::DonningOptions dopt;
+  dopt.start_offset_m = o.travel_m;
+  dopt.start_offset_name = "--travel-mm";
+  dopt.friction = mu;
+  dopt.stand_force_n = o.stand ? 0.5 * c.patient.body_mass_kg * units::kGravity : 0.0;
+  dopt.progress = o.progress;
+  dopt.contact.linear_body = !o.nonlinear_body;
+  log::info("validate design: socketsmith's donning ({:.0f} mm, μ = {:.2f}, {} body)", o.travel_m * 1e3, dopt.friction,
+            o.nonlinear_body ? "nonlinear" : "linearised");
+  v.donning = don_designed_socket(v.artifacts, dopt);
+  log::info("validate design: socketsmith donning done in {:.1f} s, {} nodes in contact", v.donning->seconds,
+            v.donning->series.empty() ? 0 : v.donning->series.back().contact_nodes);
+}
+
+/// Per-node CSV, path profiles and a scatter (SVG, PNG), the stump's VTU and colour maps on the
+/// designed skin; returns the paths' statistics for the summary.
+nlohmann::json write_comparison_files(const DesignValidation& v, bool against_donning, const fs::path& out) {
+  const auto& r = v.check;
+  const auto& d = v.stump;
+  const auto& mesh = *d.mesh;
+  const bool contact = r.mode != DesignCheckMode::Load;
+  const auto [scale, unit, suffix, what] = compared_quantity(r.mode);
+  const auto& skin = *d.skin;
+  {
+    std::vector<std::vector<double>> rows;
+    for (size_t i = 0; i < skin.nodes.size(); ++i) {
+      const auto& p = skin.positions[i];
+      rows.push_back({static_cast<double>(i), static_cast<double>(skin.nodes[i] + 1), p.x(), p.y(), p.z(),
+                      static_cast<double>(std::min(r.brim_ring[i], 999)), r.socketsmith_value[i] * scale,
+                      r.fe_value[i] * scale, (r.fe_value[i] - r.socketsmith_value[i]) * scale,
+                      r.fe_penetration_m[i] * 1e3, r.socketsmith_value_smoothed[i] * scale,
+                      r.fe_value_smoothed[i] * scale,
+                      r.fe_cpress_pa.empty() ? 0.0 : r.fe_cpress_pa[i] * scale,
+                      r.fe_stress_pressure_pa.empty() ? 0.0 : r.fe_stress_pressure_pa[i] * scale,
+                      r.fe_force_pressure_pa.empty() ? 0.0 : r.fe_force_pressure_pa[i] * scale});
+    }
+    report::write_csv(out / "comparison.csv",
+                      {"skin_index", "ccx_node", "x_m", "y_m", "z_m", "rings_from_brim", "socketsmith_" + unit,
+                       "calculix_" + unit, "error_" + unit, "penetration_mm",
+                       "socketsmith_one_ring_" + unit, "calculix_one_ring_" + unit, "calculix_cpress_" + unit,
+                       "calculix_stress_" + unit, "calculix_force_" + unit},
+                      rows);
+  }
+  std::vector<report::Plot> panels;
+  nlohmann::json paths_json = nlohmann::json::object();
+  for (const auto& pc : r.paths) {
+    std::vector<double> a, b;
+    for (int i : pc.skin_index) {
+      a.push_back(r.socketsmith_value[i] * scale);
+      b.push_back(r.fe_value[i] * scale);
+    }
+    report::Plot p;
+    p.title = fmt::format("{}: MAE {:.2f} ± {:.2f} {}, R {:.2f}", pc.label, pc.stats.mae * scale, pc.stats.sd * scale,
+                          unit, pc.stats.r);
+    p.x_label = pc.is_vertical ? "height above the distal end [mm]" : "angle from the front line [deg]";
+    p.y_label = fmt::format("{} [{}]", what, unit);
+    p.series = {{"socketsmith (designed)", pc.s, a, "#0072B2", false, true, 2},
+                {"CalculiX", pc.s, b, "#D55E00", false, true, 2}};
+    report::write_svg(out / fmt::format("profile_{}.svg", pc.name), p);
+    report::write_plot_png(out / fmt::format("profile_{}.png", pc.name), p);
+    panels.push_back(p);
+    auto pj = report::to_json(pc.stats, scale, suffix);
+    pj["label"] = pc.label;
+    pj["smoothed"] = report::to_json(pc.smoothed, scale, suffix);
+    paths_json[pc.name] = pj;
+  }
+  {
+    std::vector<double> a, b;
+    for (size_t i = 0; i < skin.nodes.size(); ++i)
+      if (r.brim_ring[i] >= 1) {
+        a.push_back(r.socketsmith_value[i] * scale);
+        b.push_back(r.fe_value[i] * scale);
+      }
+    double hi = 0;
+    for (double x : a) hi = std::max(hi, x);
+    for (double x : b) hi = std::max(hi, x);
+    report::Plot p;
+    p.title = fmt::format("every socket node: R {:.2f}, MAE {:.2f} {}", r.all.r, r.all.mae * scale, unit);
+    p.x_label = fmt::format("socketsmith {} [{}]", what, unit);
+    p.y_label = fmt::format("CalculiX {} [{}]", what, unit);
+    p.series = {{"nodes", a, b, "#0072B2", false, true, 0}, {"y = x", {0, hi}, {0, hi}, "#999999", true, false, 1}};
+    report::write_svg(out / "scatter.svg", p);
+    report::write_plot_png(out / "scatter.png", p);
+    panels.push_back(p);
+  }
+  report::write_svg_grid(out / "comparison.svg", panels, 2);
+  report::write_plot_grid_png(out / "comparison.png", panels, 2);
+  {
+    const int nn = mesh.num_nodes();
+    std::vector<Vec3> u_ss(nn);
+    std::vector<double> v_ss(nn, 0.0), v_fe(nn, 0.0), err(nn, 0.0);
+    for (int n = 0; n < nn; ++n) u_ss[n] = d.designed_positions[n] - mesh.nodes[n];
+    for (size_t i = 0; i < skin.nodes.size(); ++i) {
+      v_ss[skin.nodes[i]] = r.socketsmith_value[i] * scale;
+      v_fe[skin.nodes[i]] = r.fe_value[i] * scale;
+      err[skin.nodes[i]] = (r.fe_value[i] - r.socketsmith_value[i]) * scale;
+    }
+    const std::string tag = contact ? "pressure_kpa" : "displacement_mm";
+    report::write_vtu(out / "stump_fe.vtu", mesh,
+                      {report::make_vector_field("displacement_socketsmith_m", u_ss),
+                       report::make_vector_field("displacement_calculix_m", r.fe_displacement_m),
+                       {"socketsmith_" + tag, 1, v_ss}, {"calculix_" + tag, 1, v_fe}, {"error_" + tag, 1, err}});
+  }
+  {
+    // Colour maps on the designed skin: socketsmith and CalculiX on one scale, one above the other,
+    // then the absolute error on its own scale (above the brim: no data).
+    geometry::TriMesh def_tri = skin.triangles();
+    for (size_t i = 0; i < skin.nodes.size(); ++i) def_tri.vertices[i] = d.designed_positions[skin.nodes[i]];
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    std::vector<double> v_ss(skin.nodes.size()), v_fe(skin.nodes.size()), v_err(skin.nodes.size());
+    double vmax = 0, emax = 0;
+    for (size_t i = 0; i < skin.nodes.size(); ++i) {
+      const bool in = r.brim_ring[i] >= 1;
+      v_ss[i] = in ? r.socketsmith_value[i] * scale : nan;
+      v_fe[i] = in ? r.fe_value[i] * scale : nan;
+      v_err[i] = in ? std::abs(r.fe_value[i] - r.socketsmith_value[i]) * scale : nan;
+      if (in) {
+        vmax = std::max({vmax, v_ss[i], v_fe[i]});
+        emax = std::max(emax, v_err[i]);
+      }
+    }
+    const auto map = [&](const std::vector<double>& values, const std::string& title, double hi) {
+      report::PressureMapData m;
+      m.surface = &def_tri;
+      m.values = values;
+      m.value_label = unit;
+      m.title = title;
+      m.value_min = 0;
+      m.value_max = std::max(hi, 1e-6);
+      m.frame = report::surface_frame(d.frame);
+      return report::render_pressure_map(m);
+    };
+    const std::string ours_label = against_donning ? "socketsmith donning" : "socketsmith (designed)";
+    report::write_png(out / "comparison_map.png",
+                      report::stack_images({map(v_ss, ours_label + ": " + what, vmax), map(v_fe, "CalculiX: " + what, vmax),
+                                            map(v_err, "|CalculiX - socketsmith|", emax)}));
+  }
+  return paths_json;
+}
+
+}  // namespace
+
+ComparedQuantity compared_quantity(DesignCheckMode mode) {
+  if (mode == DesignCheckMode::Load) return {1e3, "mm", "_mm", "displacement"};
+  return {};
+}
+
+DesignValidation validate_design(const design::CaseFile& c, const DesignValidationOptions& o, const fs::path& out) {
+  require(!o.against_donning || o.mode == DesignCheckMode::Donning,
+          "validate design: --against-donning needs --mode donning");
+  require(!o.stand || o.mode == DesignCheckMode::Donning,
+          "validate design: --stand needs --mode donning (the socket is donned, then stood on)");
+  require(!o.nonlinear_body || o.against_donning,
+          "validate design: --nonlinear-body sets socketsmith's donning body: use it with validate donning");
+  // CalculiX's material: the case's continuum model's own ν and law (same material on both sides),
+  // else ν 0.45, the thesis's (the MSS lattices have none to give); the options override.
+  FeMaterial material = fe_material(c);
+  if (o.poisson_ratio >= 0) material.poisson_ratio = o.poisson_ratio;
+  if (o.neo_hookean) material.is_neo_hookean = true;
+  require(!(material.is_neo_hookean && o.small_strain),
+          "validate design: --small-strain with a neo-Hookean tissue: the hyperelastic law is a large-strain model, "
+          "CalculiX runs it with NLGEOM (drop --small-strain, or use the fe model for a small-strain check)");
+  find_ccx(o.ccx.executable);  // before the design's minutes, not after
+  ensure_directory(out);
+
+  if (o.write_case) design::write_case(out / "case.json", c);
+
+  DesignValidation v;
+  const auto t0 = std::chrono::steady_clock::now();
+  log::info("validate design: designing the socket ({} nodes)", c.target_nodes);
+  v.design_summary = pipeline::run_design(c, out / "design", c.optimise && o.optimise, o.progress, &v.artifacts);
+  v.socketsmith_wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const auto& mesh = v.artifacts.setup->mesh.mesh;
+  v.stump = designed_stump(v.artifacts);
+
+  if (o.against_donning || o.stand) {
+    run_own_donning(c, o, v);
+    if (o.stand && v.donning->series.size() >= 2) {
+      // The FE's load step starts from the donning force at the designed pose (socketsmith's estimate).
+      v.stand_force_n = 0.5 * c.patient.body_mass_kg * units::kGravity;
+      v.donning_force_n = std::max(0.0, v.donning->series[v.donning->series.size() - 2].axial_force_n);
+    }
+    if (o.against_donning) use_donning_pressures(*v.donning, v.stump);
+  }
+
+  DesignCheckOptions& co = v.check_options;
+  co.mode = o.mode;
+  co.material = material;
+  co.element = o.element;
+  co.contact.penalty_pa_per_m = o.penalty_pa_per_m;
+  co.contact.stick_slope_pa_per_m = o.stick_slope_pa_per_m;
+  co.contact.friction = o.friction >= 0 ? o.friction : c.patient.friction;
+  co.clearance_m = o.clearance_m;
+  co.initial_increment = o.initial_increment;
+  co.donning_travel_m = o.travel_m;
+  co.stand_force_n = v.stand_force_n;
+  co.donning_force_n = v.donning_force_n;
+  if (v.stand_force_n > 0)
+    log::info("validate donning: CalculiX step 2 pushes the socket with {:.1f} N (from {:.1f} N, socketsmith's donning "
+              "force)", v.stand_force_n, v.donning_force_n);
+  co.max_increment = std::max(0.1, o.initial_increment);
+  co.fe_pressure = o.fe_pressure;
+  co.nonlinear_geometry = !o.small_strain;
+  co.ccx = o.ccx;
+  log::info("validate design: CalculiX {} check ({} nodes, {} elements, {}, {}, ν {}, {})", to_string(co.mode),
+            mesh.num_nodes(), mesh.num_hexahedra(), to_string(co.element),
+            material.is_neo_hookean ? "neo-Hookean" : "linear elastic", material.poisson_ratio,
+            co.nonlinear_geometry ? "NLGEOM" : "small strain");
+  v.check = check_design(v.stump, co, out, "design_fe");
+  const auto& r = v.check;
+
+  const nlohmann::json paths_json = write_comparison_files(v, o.against_donning, out);
+  const bool contact = co.mode != DesignCheckMode::Load;
+  const auto [scale, unit, suffix, what] = compared_quantity(co.mode);
+  const bool ours_linear = v.donning_from_closed_loop ? v.artifacts.result.closed_loop->linear_body : !o.nonlinear_body;
+  nlohmann::json j{{"case", o.case_label},
+                   {"mode", to_string(co.mode)},
+                   {"compared", what + " [" + unit + "]"},
+                   {"converged", r.converged},
+                   {"message", r.message},
+                   {"nodes", r.nodes},
+                   {"elements", r.elements},
+                   {"socket_elements", r.socket_elements},
+                   {"element", to_string(co.element)},
+                   {"poisson_ratio", material.poisson_ratio},
+                   {"nlgeom", co.nonlinear_geometry},
+                   {"youngs_modulus_kpa", c.youngs_modulus_pa / 1e3},
+                   {"neo_hookean", material.is_neo_hookean},
+                   {"penalty_pa_per_m", co.contact.penalty_pa_per_m},
+                   {"stick_slope_pa_per_m", co.contact.stick_slope_pa_per_m},
+                   {"friction", co.contact.friction},
+                   {"against_donning", o.against_donning},
+                   {"socketsmith_body", ours_linear ? "linearised" : "nonlinear"},
+                   {"stand_force_n", v.stand_force_n},
+                   {"fe_load_step_starts_at_n", v.donning_force_n},
+                   {"designed_force_n", r.designed_force_n},
+                   {"fe_force_n", r.fe_force_n},
+                   {"mean_designed_kpa", r.mean_designed_pa / 1e3},
+                   {"mean_fe_kpa", r.mean_fe_pa / 1e3},
+                   {"fe_pressure", contact ? to_string(r.fe_pressure) : "none"},
+                   {"mean_fe_cpress_kpa", r.all_cpress.mean_a / 1e3},
+                   {"all_cpress", report::to_json(r.all_cpress, scale, suffix)},
+                   {"all_stress", report::to_json(r.all_stress, scale, suffix)},
+                   {"all_force", report::to_json(r.all_force, scale, suffix)},
+                   {"max_penetration_mm", r.max_penetration_m * 1e3},
+                   {"all", report::to_json(r.all, scale, suffix)},
+                   {"one_ring_away", report::to_json(r.one_ring_away, scale, suffix)},
+                   {"away_from_brim", report::to_json(r.away_from_brim, scale, suffix)},
+                   {"all_smoothed", report::to_json(r.all_smoothed, scale, suffix)},
+                   {"away_from_brim_smoothed", report::to_json(r.away_from_brim_smoothed, scale, suffix)},
+                   {"paths", paths_json},
+                   {"ccx_wall_s", r.ccx.wall_s},
+                   {"ccx_increments", r.ccx.increments},
+                   {"socketsmith_wall_s", v.socketsmith_wall_s},
+                   {"socketsmith_solve_s", v.artifacts.result.state.seconds},
+                   {"deck", "design_fe.inp"},
+                   {"outputs",
+                    {"design_fe.inp", "design_fe.frd", "design_fe.dat", "design_fe.log", "comparison.csv", "comparison.svg",
+                     "comparison.png", "profile_front.svg", "profile_back.svg", "profile_mid.svg", "profile_front.png",
+                     "profile_back.png", "profile_mid.png", "scatter.svg", "scatter.png", "stump_fe.vtu", "comparison_map.png",
+                     "summary.json", "design/"}},
+                   {"out", out.string()}};
+  if (v.donning && !o.against_donning) {
+    // Delivered three ways on the socket nodes: CalculiX and socketsmith against the design, and
+    // against each other.
+    const auto& skin = *v.stump.skin;
+    std::vector<int> socket_nodes;
+    std::vector<double> delivered(skin.nodes.size());
+    for (size_t i = 0; i < skin.nodes.size(); ++i) {
+      delivered[i] = v.donning->contacts[i].pressure_pa;
+      if (r.brim_ring[i] >= 1) socket_nodes.push_back(static_cast<int>(i));
+    }
+    j["socketsmith_delivered_vs_design"] =
+        report::to_json(report::compare_fields(delivered, r.socketsmith_value, socket_nodes), scale, suffix);
+    j["calculix_vs_socketsmith_delivered"] =
+        report::to_json(report::compare_fields(r.fe_value, delivered, socket_nodes), scale, suffix);
+    j["socketsmith_delivered_from"] = v.donning_from_closed_loop ? "the closed loop's kept donning" : "a donning in this run";
+  }
+  write_text_atomically(out / "summary.json", j.dump(2) + "\n");
+  v.summary = std::move(j);
+  return v;
+}
+
+}  // namespace socketsmith::fe

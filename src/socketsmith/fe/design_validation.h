@@ -1,0 +1,88 @@
+#pragma once
+/// @file design_validation.h
+/// A whole CalculiX validation of a case (`socketsmith validate design` / `validate donning`,
+/// docs/validation_fe.md) as one library call, so the CLI and the Python package run the same
+/// code: the case is designed (pipeline::run_design into OUT/design), socketsmith's own donning
+/// runs when it is compared or stood on, the designed stump goes to CalculiX (check_design), and
+/// the comparison is written — comparison.csv, path profiles, scatter, colour maps, stump_fe.vtu,
+/// summary.json.
+
+#include <filesystem>
+#include <optional>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "socketsmith/contact/donning.h"
+#include "socketsmith/core/progress.h"
+#include "socketsmith/design/case_file.h"
+#include "socketsmith/fe/design_check.h"
+#include "socketsmith/pipeline/design_pipeline.h"
+
+namespace socketsmith::fe {
+
+/// What to check and how (the flags of `validate design`; every default is the CLI's).
+struct DesignValidationOptions {
+  DesignCheckMode mode = DesignCheckMode::Contact;
+  /// Donning mode: compare CalculiX's donning with socketsmith's own donning (contact solver, same
+  /// travel and μ) instead of with the designed pressures (thesis ch. 3; `validate donning`).
+  bool against_donning = false;
+  /// Donning mode: then push the socket with half the body weight in CalculiX (thesis step 2),
+  /// and compare socketsmith's own donned-and-stood pressures too.
+  bool stand = false;
+  /// socketsmith's donning with the nonlinear tissue model instead of its linearisation at rest
+  /// (against_donning only).
+  bool nonlinear_body = false;
+  bool optimise = true;                 ///< false: the case's spots as given; true: as the case says
+  double poisson_ratio = -1.0;          ///< CalculiX's ν, [0, 0.5); < 0: fe_material's (the case's model, else 0.45)
+  bool neo_hookean = false;             ///< neo-Hookean in CalculiX (automatic for a neo-hookean case)
+  bool small_strain = false;            ///< CalculiX without NLGEOM (not with a neo-Hookean tissue)
+  ElementType element = ElementType::C3D8;
+  double penalty_pa_per_m = 1e9;        ///< contact penalty [Pa/m], > 0
+  double stick_slope_pa_per_m = 5e7;    ///< CalculiX's friction stick slope [Pa/m], > 0
+  double friction = -1.0;               ///< μ, [0, 2]; < 0: the case's
+  double clearance_m = 1e-3;            ///< Contact: the fit starts this far outside the skin [m], > 0
+  double travel_m = 0.06;               ///< Donning: start this far distally [m], > 0
+  double initial_increment = 0.05;      ///< first ccx increment, a fraction of the step, (0, 1]
+  FePressure fe_pressure = FePressure::NodalForce;
+  CcxOptions ccx;                       ///< executable, threads, time limit, ccx's progress
+  ProgressCallback progress;            ///< the design and socketsmith's donning
+  std::string case_label = "case";      ///< summary.json's "case" (the case file's path, "demo")
+  bool write_case = false;              ///< also write the case as OUT/case.json (one made in memory, to replay it)
+};
+
+/// How a check's compared field is reported: contact pressure in kPa, or (Load) displacement in mm.
+struct ComparedQuantity {
+  double scale = 1e-3;             ///< SI → the reported unit
+  std::string unit = "kPa";        ///< "kPa" | "mm"
+  std::string suffix = "_kpa";     ///< of summary.json's keys: "_kpa" | "_mm"
+  std::string what = "contact pressure";  ///< "contact pressure" | "displacement"
+};
+ComparedQuantity compared_quantity(DesignCheckMode mode);
+
+/// A validation run: the design, socketsmith's donning when one ran, CalculiX's comparison.
+struct DesignValidation {
+  pipeline::DesignArtifacts artifacts;  ///< the design run (OUT/design)
+  nlohmann::json design_summary;        ///< its design.json
+  DesignedStump stump;                  ///< what went to CalculiX (refers to artifacts' setup)
+  DesignCheckOptions check_options;     ///< the check as run
+  DesignCheckResult check;              ///< the comparison, per skin node and summarised
+  std::optional<contact::DonningResult> donning;  ///< socketsmith's own (against_donning or stand)
+  bool donning_from_closed_loop = false;  ///< the closed loop's kept donning, not one run here
+  double stand_force_n = 0.0;           ///< CalculiX's step 2 force [N] (0 without stand)
+  double donning_force_n = 0.0;         ///< where CalculiX's step 2 starts [N]
+  double socketsmith_wall_s = 0.0;      ///< the whole design run [s]
+  nlohmann::json summary;               ///< summary.json
+};
+
+/// Designs @p c into @p out/design, checks it in CalculiX and writes the comparison into @p out.
+/// A CalculiX run that stops after some increments is compared on its last converged increment
+/// (result.check.converged false, summary "converged": false); the caller decides whether that is
+/// an error (the CLI exits 3).
+/// @throws InvalidInputError for inconsistent options (named as `validate design`'s flags), a
+///         missing ccx (before the design runs), a design without a socket to don; SolverError when socketsmith's donning
+///         does not complete or ccx gives no usable increment; IoError when @p out cannot be written.
+DesignValidation validate_design(const design::CaseFile& c, const DesignValidationOptions& options,
+                                 const std::filesystem::path& out);
+
+}  // namespace socketsmith::fe
