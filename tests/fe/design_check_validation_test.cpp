@@ -300,7 +300,7 @@ TEST(DesignCheckValidation, the_closed_loop_socket_donned_and_stood_on_in_calcul
 }
 
 // StandValidation (below) reduced for the default test run, which runs DesignCheckValidation.*: the
-// same two steps on the sample at 600 nodes (ccx ~45 s of CPU). Measured: 604 nodes, R 0.904, MAE
+// same two steps on the sample at 600 nodes (49 s of CPU, ccx included). Measured: 604 nodes, R 0.904, MAE
 // 1.46 kPa, means 12.59 (CalculiX) / 11.76 kPa, bone reaction 343.5 N, penetration 0.19 mm; the bars
 // are these with a margin, the reaction against M g / 2 of the sample's 70 kg.
 TEST(DesignCheckValidation, reduced_the_fe_models_donning_and_standing_agree_with_a_small_strain_calculix) {
