@@ -1,12 +1,14 @@
 #!/usr/bin/env bash
 # cli_sweep.sh SOCKETSMITH DIR... : every file of the DIRs through the command line — meshes
 # (.stl .obj .ply, or files under a folder named stl/obj/ply) with `check mesh`, anything else as a
-# case file with `design --time-limit 20` (the stump at most 1500 nodes) — each under a 60 s
-# timeout. Passes when no run crashed, hung, or exited 70, and every failure is one "error:" line
+# case file with `design --time-limit 20` (the stump at most 1500 nodes, or
+# $SOCKETSMITH_SWEEP_MAX_NODES for cheaper runs) — each under a 60 s timeout. Passes when no run crashed, hung, or exited 70, and every failure is one "error:" line
 # with a documented exit code (1-4). Prints the counts per exit code.
 # Example, on the corpora scripts/fuzz.sh grew: tests/fuzz/cli_sweep.sh build/socketsmith build-fuzz/corpus/*
+# or on 1,000 case files mutated from its seeds (docs/fuzzing.md): tests/fuzz/mutate_cases.py DIR 1000
 set -u
 bin=$1; shift
+max_nodes=${SOCKETSMITH_SWEEP_MAX_NODES:-1500}
 work=$(mktemp -d); trap 'rm -rf "$work"' EXIT
 declare -A count
 bad=0; n=0
@@ -18,14 +20,15 @@ for dir in "$@"; do
     case "$kind" in
       stl|obj|ply) cp "$f" "$work/in.$kind"; cmd=("$bin" check mesh "$work/in.$kind") ;;
       *)
-        # The case as given, with the stump capped at 1500 nodes so a valid case designs in seconds.
-        python3 - "$f" "$work/case.json" <<'PY' 2>/dev/null || cp "$f" "$work/case.json"
+        # The case as given, with the stump capped at max_nodes so a valid case designs in seconds.
+        python3 - "$f" "$work/case.json" "$max_nodes" <<'PY' 2>/dev/null || cp "$f" "$work/case.json"
 import json, sys
 d = json.load(open(sys.argv[1]))
 if isinstance(d, dict) and isinstance(d.get("mesh", {}), dict):
     m = d.setdefault("mesh", {})
     t = m.get("target_nodes", 8000)
-    if isinstance(t, (int, float)) and not isinstance(t, bool) and t > 1500: m["target_nodes"] = 1500
+    cap = int(sys.argv[3])
+    if isinstance(t, (int, float)) and not isinstance(t, bool) and t > cap: m["target_nodes"] = cap
 json.dump(d, open(sys.argv[2], "w"))
 PY
         cmd=("$bin" design "$work/case.json" --time-limit 20 --out "$work/out") ;;

@@ -3,9 +3,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
 
 #include "scan_fixtures.h"
 #include "socketsmith/core/log.h"
+#include "socketsmith/geometry/mesh_io.h"
 #include "socketsmith/volume/limb_generator.h"
 
 namespace socketsmith::scan {
@@ -48,13 +50,20 @@ geometry::TriMesh generated_skin() {
   return volume::generate_limb(volume::default_params(geometry::LimbType::Transtibial, 1)).skin;
 }
 
-TEST(LimbScan, noise_free_scan_of_the_generated_limb_is_watertight_and_sub_mm_and_a_wrong_pose_shows) {
-  const LimbScanResult r = run_limb_scan_experiment(generated_skin(), limb_options(0.0));
+/// @p limb scanned with limb_options(@p noise_scale): its accuracy logged as @p what, its surface
+/// checked closed.
+LimbScanResult scanned(const geometry::TriMesh& limb, double noise_scale, const char* what) {
+  LimbScanResult r = run_limb_scan_experiment(limb, limb_options(noise_scale));
   const ScanAccuracy& a = r.accuracy;
-  log::info("noise-free generated limb: symmetric RMS {:.3f} mm (max {:.2f}, signed {:+.3f}), seen {:.1f} %",
-            a.symmetric.rms_m * 1e3, a.symmetric.max_m * 1e3, a.symmetric.signed_mean_m * 1e3,
-            100 * a.seen_area_fraction);
-  EXPECT_TRUE(r.reconstruction.check.is_valid_closed_surface()) << r.reconstruction.message;
+  log::info("{}: symmetric RMS {:.3f} mm (max {:.2f}, signed {:+.3f}), seen {:.1f} %", what, a.symmetric.rms_m * 1e3,
+            a.symmetric.max_m * 1e3, a.symmetric.signed_mean_m * 1e3, 100 * a.seen_area_fraction);
+  EXPECT_TRUE(r.reconstruction.check.is_valid_closed_surface()) << what << ": " << r.reconstruction.message;
+  return r;
+}
+
+TEST(LimbScan, noise_free_scan_of_the_generated_limb_is_watertight_and_sub_mm_and_a_wrong_pose_shows) {
+  const LimbScanResult r = scanned(generated_skin(), 0.0, "noise-free generated limb");
+  const ScanAccuracy& a = r.accuracy;
   EXPECT_GT(a.seen_area_fraction, 0.9);
   EXPECT_LT(a.symmetric.rms_m, 0.8e-3);
   EXPECT_LT(a.symmetric.p95_m, 1.5e-3);
@@ -74,15 +83,33 @@ TEST(LimbScan, noise_free_scan_of_the_generated_limb_is_watertight_and_sub_mm_an
   EXPECT_GT(aw.symmetric.rms_m, 0.8e-3);
 }
 
-TEST(LimbScan, default_noise_scan_of_the_generated_limb_within_2_mm_rms) {
-  const LimbScanResult r = run_limb_scan_experiment(generated_skin(), limb_options(1.0));
+// Measured 1.636 mm RMS (signed −1.529 mm), seen 98.5 %: the validation's bar of 1.75 mm holds here.
+TEST(LimbScan, default_noise_scan_of_the_generated_limb_within_the_validation_bar) {
+  const LimbScanResult r = scanned(generated_skin(), 1.0, "default-noise generated limb");
   const ScanAccuracy& a = r.accuracy;
-  log::info("default-noise generated limb: symmetric RMS {:.3f} mm (max {:.2f}, signed {:+.3f})",
-            a.symmetric.rms_m * 1e3, a.symmetric.max_m * 1e3, a.symmetric.signed_mean_m * 1e3);
-  EXPECT_TRUE(r.reconstruction.check.is_valid_closed_surface()) << r.reconstruction.message;
-  EXPECT_LT(a.symmetric.rms_m, 2.0e-3);
+  EXPECT_LT(a.symmetric.rms_m, 1.75e-3);
+  EXPECT_GT(a.seen_area_fraction, 0.97);
   // Without compensation the error is mostly the sensors' depth bias: the surface shrinks.
   EXPECT_LT(a.symmetric.signed_mean_m, -0.5e-3);
+}
+
+// LimbScanValidation's real-limb check (label validation, 2 mm sampling) reduced for the default
+// run: OpenLimb's mean transtibial skin, real intrinsics, default errors, seed 1, samples every 4 mm.
+// Measured: 1.570 mm RMS (signed −1.475 mm), seen 98.2 % (at 2 mm: 1.57 / −1.48 mm, docs/VALIDATION.md).
+// The bars are these with a margin, the RMS's upper one the validation's 1.75 mm; a lower RMS than
+// 1.4 mm would mean the default errors were not applied (noise-free: 0.65 mm).
+TEST(LimbScan, reduced_default_noise_scan_of_openlimbs_mean_skin_meets_its_measured_bars) {
+  const auto path = test::shared_data() / "limbs" / "transtibial" / "openlimb_tt_mean_skin_mm.stl";
+  if (!std::filesystem::exists(path)) GTEST_SKIP() << "../shared/data is absent (needs openlimb_tt_mean_skin_mm.stl)";
+  if (test::rig_intrinsics().empty()) GTEST_SKIP() << "../shared/data is absent (needs kinect2_calibration)";
+  geometry::MeshReadOptions ro;
+  ro.unit = units::LengthUnit::Millimetre;
+  const LimbScanResult r = scanned(geometry::read_mesh(path, ro), 1.0, "default-noise OpenLimb mean skin");
+  const ScanAccuracy& a = r.accuracy;
+  EXPECT_GT(a.seen_area_fraction, 0.97);
+  EXPECT_LT(a.symmetric.rms_m, 1.75e-3);
+  EXPECT_GT(a.symmetric.rms_m, 1.4e-3);
+  EXPECT_NEAR(a.symmetric.signed_mean_m, -1.475e-3, 0.2e-3);
 }
 
 }  // namespace

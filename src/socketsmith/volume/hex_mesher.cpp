@@ -937,7 +937,8 @@ HexMesherResult mesh_limb(const HexMesherInput& in, const HexMesherOptions& opt)
   res.quality = hex_quality(b.mesh);
   require<TopologyError>(res.quality.inverted == 0,
                          "mesh_limb: {} element(s) remain inverted after optimisation (min scaled Jacobian "
-                         "{:.3f}); try another --target-nodes or check the skin for folds",
+                         "{:.3f}); try another stump size (mesh.target_nodes in a case file, --target-nodes on the "
+                         "command line) or check the skin for folds",
                          res.quality.inverted, res.quality.min_scaled_jacobian);
   const SurfaceQuery skin_query(in.skin);
   for (int n = 0; n < b.mesh.num_nodes(); ++n)
