@@ -214,7 +214,19 @@ DonningResult DonningSimulation::refit(const geometry::TriMesh& socket_solid) {
   r.socket_mass_kg = s.socket.mass_kg();
   r.start_offset_m = s.o.start_offset_m;
   const Vec3 t = s.socket.translation();
-  const ContactStep st = s.solver->move_to(t);
+  ContactStep st = s.solver->move_to(t);
+  // The new wall in one step from the worn state can be too much for Newton (OpenLimb's limb: every
+  // refit stalled at a residual of ~1.6 N). Then back the socket off along the axis, where the
+  // tapered wall is looser, and bring it up again through the path continuation, the friction
+  // history of the worn state kept.
+  for (const double back_m : {0.005, 0.015}) {
+    if (st.converged) break;
+    s.solver->discard();
+    const ContactStep down = s.solver->move_to(t - back_m * s.axis);
+    if (!down.converged) continue;
+    st = s.solver->move_to(t);
+    if (st.converged) log::debug("donning: refit reached after backing the socket off {:.0f} mm", back_m * 1e3);
+  }
   r.completed = st.converged;
   if (!st.converged) {
     r.message = fmt::format("the refitted socket found no equilibrium where the worn one stood: {}", st.message);
