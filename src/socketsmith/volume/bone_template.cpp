@@ -15,6 +15,7 @@
 
 #include "socketsmith/core/errors.h"
 #include "socketsmith/geometry/mesh_boolean.h"
+#include "socketsmith/geometry/surface_query.h"
 
 namespace socketsmith::volume {
 
@@ -175,148 +176,11 @@ TriMesh mesh_bone(const BoneShape& b, const LimbFrame& frame, double shrink) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Triangle index of a mesh for distance queries (uniform grid) and inside tests (parity of
-// horizontal rays, triangles bucketed in slabs along the frame axis).
-class TriangleIndex {
- public:
-  TriangleIndex(const TriMesh& mesh, const LimbFrame& frame, double cell_m) : mesh_(mesh), frame_(frame), cell_(cell_m) {
-    box_ = geometry::bounding_box(mesh);
-    for (int d = 0; d < 3; ++d)
-      dims_[d] = std::max(1, static_cast<int>(std::ceil((box_.max[d] - box_.min[d]) / cell_)) + 1);
-    const std::size_t ncells = static_cast<std::size_t>(dims_[0]) * dims_[1] * dims_[2];
-    // Grid: counting pass then fill (CSR).
-    std::vector<int> count(ncells + 1, 0);
-    auto for_cells = [&](int t, const std::function<void(std::size_t)>& f) {
-      const auto& tri = mesh_.triangles[static_cast<std::size_t>(t)];
-      Vec3 lo = mesh_.vertices[tri[0]], hi = lo;
-      for (int q = 1; q < 3; ++q) {
-        lo = lo.cwiseMin(mesh_.vertices[tri[q]]);
-        hi = hi.cwiseMax(mesh_.vertices[tri[q]]);
-      }
-      const auto c0 = cell_of(lo), c1 = cell_of(hi);
-      for (int x = c0[0]; x <= c1[0]; ++x)
-        for (int y = c0[1]; y <= c1[1]; ++y)
-          for (int z = c0[2]; z <= c1[2]; ++z) f(flat(x, y, z));
-    };
-    for (int t = 0; t < mesh_.num_triangles(); ++t) for_cells(t, [&](std::size_t c) { ++count[c + 1]; });
-    for (std::size_t c = 0; c < ncells; ++c) count[c + 1] += count[c];
-    cell_start_ = count;
-    cell_tris_.resize(static_cast<std::size_t>(count[ncells]));
-    for (int t = 0; t < mesh_.num_triangles(); ++t)
-      for_cells(t, [&](std::size_t c) { cell_tris_[static_cast<std::size_t>(count[c]++)] = t; });
-    // Slabs along the axis.
-    double hmin = kInf, hmax = -kInf;
-    heights_.resize(mesh_.vertices.size());
-    for (std::size_t v = 0; v < mesh_.vertices.size(); ++v) {
-      heights_[v] = (mesh_.vertices[v] - frame_.origin).dot(frame_.axis);
-      hmin = std::min(hmin, heights_[v]);
-      hmax = std::max(hmax, heights_[v]);
-    }
-    slab_h0_ = hmin;
-    num_slabs_ = std::max(1, static_cast<int>(std::ceil((hmax - hmin) / cell_)) + 1);
-    std::vector<int> scount(static_cast<std::size_t>(num_slabs_) + 1, 0);
-    auto slab_range = [&](int t) {
-      const auto& tri = mesh_.triangles[static_cast<std::size_t>(t)];
-      double lo = heights_[tri[0]], hi = lo;
-      for (int q = 1; q < 3; ++q) {
-        lo = std::min(lo, heights_[tri[q]]);
-        hi = std::max(hi, heights_[tri[q]]);
-      }
-      return std::pair<int, int>{slab_of(lo), slab_of(hi)};
-    };
-    for (int t = 0; t < mesh_.num_triangles(); ++t) {
-      const auto [s0, s1] = slab_range(t);
-      for (int s = s0; s <= s1; ++s) ++scount[static_cast<std::size_t>(s) + 1];
-    }
-    for (int s = 0; s < num_slabs_; ++s) scount[static_cast<std::size_t>(s) + 1] += scount[static_cast<std::size_t>(s)];
-    slab_start_ = scount;
-    slab_tris_.resize(static_cast<std::size_t>(scount.back()));
-    for (int t = 0; t < mesh_.num_triangles(); ++t) {
-      const auto [s0, s1] = slab_range(t);
-      for (int s = s0; s <= s1; ++s) slab_tris_[static_cast<std::size_t>(scount[static_cast<std::size_t>(s)]++)] = t;
-    }
-  }
-
-  const geometry::Aabb& box() const { return box_; }
-
-  /// min(limit, distance from p to the mesh).
-  double distance(const Vec3& p, double limit) const {
-    const Vec3 lo = p - Vec3::Constant(limit), hi = p + Vec3::Constant(limit);
-    if ((hi.array() < box_.min.array()).any() || (lo.array() > box_.max.array()).any()) return limit;
-    const auto c0 = cell_of(lo), c1 = cell_of(hi);
-    double best2 = limit * limit;
-    for (int x = c0[0]; x <= c1[0]; ++x)
-      for (int y = c0[1]; y <= c1[1]; ++y)
-        for (int z = c0[2]; z <= c1[2]; ++z) {
-          const std::size_t c = flat(x, y, z);
-          for (int i = cell_start_[c]; i < cell_start_[c + 1]; ++i) {
-            const auto& tri = mesh_.triangles[static_cast<std::size_t>(cell_tris_[static_cast<std::size_t>(i)])];
-            const Vec3 q = detail::closest_point_on_triangle(p, mesh_.vertices[tri[0]], mesh_.vertices[tri[1]],
-                                                             mesh_.vertices[tri[2]]);
-            best2 = std::min(best2, (q - p).squaredNorm());
-          }
-        }
-    return std::sqrt(best2);
-  }
-
-  /// Inside test: parity of the crossings of three horizontal rays (majority vote).
-  bool inside(const Vec3& p) const {
-    if ((p.array() < box_.min.array()).any() || (p.array() > box_.max.array()).any()) return false;
-    const double h = (p - frame_.origin).dot(frame_.axis);
-    const int s = slab_of(h);
-    const Vec3 medial = frame_.medial();
-    int votes = 0;
-    for (const double angle : {0.3183, 2.4142, 4.2361}) {
-      const Vec3 dir = std::cos(angle) * frame_.anterior + std::sin(angle) * medial;
-      int hits = 0;
-      for (int i = slab_start_[static_cast<std::size_t>(s)]; i < slab_start_[static_cast<std::size_t>(s) + 1]; ++i) {
-        const auto& tri = mesh_.triangles[static_cast<std::size_t>(slab_tris_[static_cast<std::size_t>(i)])];
-        if (ray_hits(p, dir, mesh_.vertices[tri[0]], mesh_.vertices[tri[1]], mesh_.vertices[tri[2]])) ++hits;
-      }
-      votes += hits % 2;
-    }
-    return votes >= 2;
-  }
-
- private:
-  std::array<int, 3> cell_of(const Vec3& p) const {
-    std::array<int, 3> c{};
-    for (int d = 0; d < 3; ++d)
-      c[static_cast<std::size_t>(d)] = std::clamp(static_cast<int>(std::floor((p[d] - box_.min[d]) / cell_)), 0, dims_[d] - 1);
-    return c;
-  }
-  std::size_t flat(int x, int y, int z) const {
-    return (static_cast<std::size_t>(z) * static_cast<std::size_t>(dims_[1]) + static_cast<std::size_t>(y)) *
-               static_cast<std::size_t>(dims_[0]) +
-           static_cast<std::size_t>(x);
-  }
-  int slab_of(double h) const { return std::clamp(static_cast<int>(std::floor((h - slab_h0_) / cell_)), 0, num_slabs_ - 1); }
-  /// Möller–Trumbore, hits with t > 0.
-  static bool ray_hits(const Vec3& o, const Vec3& d, const Vec3& a, const Vec3& b, const Vec3& c) {
-    const Vec3 e1 = b - a, e2 = c - a;
-    const Vec3 pv = d.cross(e2);
-    const double det = e1.dot(pv);
-    if (std::abs(det) < 1e-18) return false;
-    const double inv = 1.0 / det;
-    const Vec3 tv = o - a;
-    const double u = tv.dot(pv) * inv;
-    if (u < 0.0 || u > 1.0) return false;
-    const Vec3 qv = tv.cross(e1);
-    const double v = d.dot(qv) * inv;
-    if (v < 0.0 || u + v > 1.0) return false;
-    return e2.dot(qv) * inv > 0.0;
-  }
-
-  const TriMesh& mesh_;
-  LimbFrame frame_;
-  double cell_;
-  geometry::Aabb box_;
-  int dims_[3] = {1, 1, 1};
-  std::vector<int> cell_start_, cell_tris_;
-  std::vector<double> heights_;
-  double slab_h0_ = 0.0;
-  int num_slabs_ = 1;
-  std::vector<int> slab_start_, slab_tris_;
+/// A surface's query index and its bounding box (the clearance loops skip vertices by the box).
+struct IndexedSurface {
+  explicit IndexedSurface(const TriMesh& mesh) : query(mesh), box(geometry::bounding_box(mesh)) {}
+  geometry::SurfaceQuery query;
+  geometry::Aabb box;
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -610,14 +474,15 @@ struct ClearanceReport {
   std::vector<int> partner;   ///< per bone: the bone it comes closest to (-1: none within the limit)
 };
 
-ClearanceReport measure_clearances(const TriMesh& skin, const TriangleIndex& skin_index, const std::vector<NamedMesh>& bones,
-                                   const LimbFrame& frame, double skin_limit, double gap_limit) {
+ClearanceReport measure_clearances(const TriMesh& skin, const geometry::SurfaceQuery& skin_query,
+                                   const std::vector<NamedMesh>& bones, const LimbFrame& frame, double skin_limit,
+                                   double gap_limit) {
   const std::size_t nb = bones.size();
   ClearanceReport rep{std::vector<double>(nb, skin_limit), std::vector<double>(nb, gap_limit), std::vector<double>(nb, 0.0),
                       std::vector<int>(nb, -1)};
-  std::vector<TriangleIndex> indices;
+  std::vector<IndexedSurface> indices;
   indices.reserve(nb);
-  for (const auto& b : bones) indices.emplace_back(b.mesh, frame, 0.006);
+  for (const auto& b : bones) indices.emplace_back(b.mesh);
   for (std::size_t i = 0; i < nb; ++i) {
     const TriMesh& m = bones[i].mesh;
     double& best = rep.skin[i];
@@ -631,25 +496,28 @@ ClearanceReport measure_clearances(const TriMesh& skin, const TriangleIndex& ski
     // vertex within it; a sparse inside test then decides the side.
     for (std::size_t v = 0; v < m.vertices.size(); ++v) {
       const Vec3& p = m.vertices[v];
-      if (v % 16 == 0 && !skin_index.inside(p)) note(-std::max(skin_index.distance(p, 0.05), 1e-9), p);
-      if (best > 0.0) note(skin_index.distance(p, best), p);
+      // Rays across the axis: the skin may be open at its proximal cut.
+      if (v % 16 == 0 && !skin_query.is_inside_across(p, frame.axis))
+        note(-std::max(skin_query.distance_up_to(p, 0.05), 1e-9), p);
+      if (best > 0.0) note(skin_query.distance_up_to(p, best), p);
     }
-    const auto& box = indices[i].box();
+    const auto& box = indices[i].box;
     for (const Vec3& p : skin.vertices) {
       if (best <= 0.0) break;
       if ((p.array() < box.min.array() - best).any() || (p.array() > box.max.array() + best).any()) continue;
-      note(indices[i].distance(p, best), p);
+      note(indices[i].query.distance_up_to(p, best), p);
     }
     for (std::size_t j = 0; j < nb; ++j) {
       if (j == i) continue;
-      const auto& bj = indices[j].box();
+      const auto& bj = indices[j].box;
       double& gap = rep.gap[i];
       for (std::size_t v = 0; v < m.vertices.size(); ++v) {
         const Vec3& p = m.vertices[v];
         const double lim = std::max(gap, 0.0);
         if ((p.array() < bj.min.array() - lim).any() || (p.array() > bj.max.array() + lim).any()) continue;
-        double d = gap > 0.0 ? indices[j].distance(p, gap) : gap;
-        if (v % 8 == 0 && indices[j].inside(p)) d = -std::max(indices[j].distance(p, 0.05), 1e-9);
+        double d = gap > 0.0 ? indices[j].query.distance_up_to(p, gap) : gap;
+        if (v % 8 == 0 && indices[j].query.is_inside_across(p, frame.axis))
+          d = -std::max(indices[j].query.distance_up_to(p, 0.05), 1e-9);
         if (d < gap) {
           gap = d;
           rep.partner[i] = static_cast<int>(j);
@@ -989,10 +857,10 @@ namespace {
 /// kMinBoneGap_m from the other bones. It may leave the skin (it is clipped to the stump later).
 void add_hemipelvis(BoneFitResult& fit, const TriMesh& skin, const SkinRadii& radii, const LimbFrame& frame,
                     const BoneTemplateParams& params, BonePlacement placement, const Vec3& femur_point) {
-  const TriangleIndex skin_index(skin, frame, 0.006);
+  const geometry::SurfaceQuery skin_query(skin);
   for (int iter = 0; iter < 12; ++iter) {
     fit.bones.push_back(build_hemipelvis_template(radii, frame, params, placement, femur_point));
-    const ClearanceReport rep = measure_clearances(skin, skin_index, fit.bones, frame, 0.0, kMinBoneGap_m + 0.0005);
+    const ClearanceReport rep = measure_clearances(skin, skin_query, fit.bones, frame, 0.0, kMinBoneGap_m + 0.0005);
     if (rep.gap.back() >= kMinBoneGap_m + 0.0005 || placement.shrink < 0.3) {
       fit.shrink.push_back(placement.shrink);
       fit.min_bone_gap_m = std::min(fit.min_bone_gap_m, rep.gap.back());
@@ -1014,7 +882,7 @@ BoneFitResult fit_bone_template(const TriMesh& skin, const SkinRadii& radii, con
   // Vertex–triangle distances miss edge–edge closest pairs by a fraction of a millimetre on these
   // smooth shells: keep a margin so that the true surface distances honour the clearances.
   const double need_skin = min_clearance_m + 0.0005, need_gap = kMinBoneGap_m + 0.0005;
-  const TriangleIndex skin_index(skin, frame, 0.006);
+  const geometry::SurfaceQuery skin_query(skin);
   const auto shapes = template_shapes(radii, params, placement);
   const std::size_t nb = shapes.size();
   std::vector<double> shrink(nb, placement.shrink);
@@ -1028,7 +896,7 @@ BoneFitResult fit_bone_template(const TriMesh& skin, const SkinRadii& radii, con
         bones[i] = {shapes[i].name, mesh_bone(shapes[i], frame, shrink[i])};
         if (iter == 0) volume[i] = geometry::signed_volume(bones[i].mesh);
       }
-    last = measure_clearances(skin, skin_index, bones, frame, need_skin, need_gap);
+    last = measure_clearances(skin, skin_query, bones, frame, need_skin, need_gap);
     // Too close to the skin: shrink that bone; too close to another bone: shrink the smaller one.
     std::fill(dirty.begin(), dirty.end(), false);
     for (std::size_t i = 0; i < nb; ++i) {
@@ -1046,7 +914,7 @@ BoneFitResult fit_bone_template(const TriMesh& skin, const SkinRadii& radii, con
       stuck = stuck || shrink[i] < 0.25;
     }
     if (ok) {
-      const ClearanceReport full = measure_clearances(skin, skin_index, bones, frame, 0.02, 0.02);
+      const ClearanceReport full = measure_clearances(skin, skin_query, bones, frame, 0.02, 0.02);
       BoneFitResult result;
       result.shrink = shrink;
       result.min_skin_clearance_m = *std::min_element(full.skin.begin(), full.skin.end());
@@ -1193,41 +1061,6 @@ TriMesh mesh_ring_stack(const RingStack& stack, bool flip, std::vector<int>* ban
     for (int j = 0; j < n; ++j) tri(b0 + j, b0 + (j + 1) % n, top);
   }
   return mesh;
-}
-
-Vec3 closest_point_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
-  const Vec3 ab = b - a, ac = c - a, ap = p - a;
-  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
-  if (d1 <= 0.0 && d2 <= 0.0) return a;
-  const Vec3 bp = p - b;
-  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
-  if (d3 >= 0.0 && d4 <= d3) return b;
-  const double vc = d1 * d4 - d3 * d2;
-  if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) return a + (d1 / (d1 - d3)) * ab;
-  const Vec3 cp = p - c;
-  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
-  if (d6 >= 0.0 && d5 <= d6) return c;
-  const double vb = d5 * d2 - d1 * d6;
-  if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) return a + (d2 / (d2 - d6)) * ac;
-  const double va = d3 * d6 - d5 * d4;
-  if (va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0) return b + ((d4 - d3) / ((d4 - d3) + (d5 - d6))) * (c - b);
-  const double denom = 1.0 / (va + vb + vc);
-  return a + ab * (vb * denom) + ac * (vc * denom);
-}
-
-Vec3 closest_point_on_mesh(const TriMesh& mesh, const Vec3& p) {
-  require(!mesh.empty(), "closest_point_on_mesh: the mesh has no triangles");
-  Vec3 best = mesh.vertices[static_cast<std::size_t>(mesh.triangles[0][0])];
-  double best2 = kInf;
-  for (const auto& t : mesh.triangles) {
-    const Vec3 q = closest_point_on_triangle(p, mesh.vertices[t[0]], mesh.vertices[t[1]], mesh.vertices[t[2]]);
-    const double d2 = (q - p).squaredNorm();
-    if (d2 < best2) {
-      best2 = d2;
-      best = q;
-    }
-  }
-  return best;
 }
 
 TriMesh sweep_tube(const std::vector<Vec3>& control, const std::vector<double>& radii, int ring_vertices,

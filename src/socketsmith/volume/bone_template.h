@@ -241,13 +241,6 @@ class Pchip {
 /// angles from anterior towards medial must then be flipped to stay outward.
 bool is_left_handed(const geometry::LimbFrame& frame);
 
-/// Closest point to @p p on the triangle (a, b, c) (Ericson, Real-Time Collision Detection 5.1.5).
-geometry::Vec3 closest_point_on_triangle(const geometry::Vec3& p, const geometry::Vec3& a, const geometry::Vec3& b,
-                                         const geometry::Vec3& c);
-
-/// Closest point to @p p on @p mesh, by brute force over its triangles (for a few queries).
-geometry::Vec3 closest_point_on_mesh(const geometry::TriMesh& mesh, const geometry::Vec3& p);
-
 /// A closed tube swept along the uniform cubic B-spline of @p control points (clamped at both
 /// ends, so it starts and ends at the first and last point), with radius interpolated along the
 /// control polygon from @p radii (one per control point) [m], rounded hemispherical ends. Rings of

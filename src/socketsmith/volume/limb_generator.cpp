@@ -10,6 +10,7 @@
 
 #include "socketsmith/core/atomic_file.h"
 #include "socketsmith/core/errors.h"
+#include "socketsmith/geometry/surface_query.h"
 
 namespace socketsmith::volume {
 
@@ -231,12 +232,12 @@ double bone_size_factor(const LimbShapeParams& p) {
 
 Vec3 world(const LimbFrame& f, double theta, double rho, double h) { return f.from_cylindrical({rho, theta, h}); }
 
-Landmark make_landmark(const LimbFrame& frame, const TriMesh& skin, const char* code, const char* name, const Vec3& near,
-                       double radius_m) {
+Landmark make_landmark(const LimbFrame& frame, const geometry::SurfaceQuery& skin, const char* code, const char* name,
+                       const Vec3& near, double radius_m) {
   Landmark l;
   l.code = code;
   l.name = name;
-  l.position = detail::closest_point_on_mesh(skin, near);
+  l.position = skin.closest_point(near).point;
   l.cylindrical = frame.to_cylindrical(l.position);
   if (l.cylindrical.theta <= -kPi) l.cylindrical.theta += 2.0 * kPi;  // atan2(-0, -1): keep theta in (-pi, pi]
   l.radius_m = radius_m;
@@ -459,8 +460,9 @@ GeneratedLimb generate_limb(const LimbShapeParams& params) {
 
   // Landmarks: anatomical points projected onto the skin.
   auto on_skin = [&](double theta, double h) { return world(frame, theta, skin_model.radius(theta, h), h); };
+  const geometry::SurfaceQuery skin_query(limb.skin);
   auto add = [&](const char* code, const char* name, const Vec3& near, double radius) {
-    limb.landmarks.push_back(make_landmark(frame, limb.skin, code, name, near, radius));
+    limb.landmarks.push_back(make_landmark(frame, skin_query, code, name, near, radius));
   };
   auto height = [&](const Vec3& p) { return (p - frame.origin).dot(frame.axis); };
   auto lowest = [&](const TriMesh& m) {
