@@ -1,5 +1,5 @@
-#include "socketsmith/volume/shape_math.h"
 #include "socketsmith/volume/bone_template.h"
+#include "socketsmith/volume/shape_math.h"
 
 #include <algorithm>
 #include <numeric>
@@ -15,6 +15,8 @@
 
 #include "socketsmith/core/errors.h"
 #include "socketsmith/geometry/mesh_boolean.h"
+#include "socketsmith/geometry/pchip_spline.h"
+#include "socketsmith/geometry/ring_stack.h"
 #include "socketsmith/geometry/surface_query.h"
 
 namespace socketsmith::volume {
@@ -141,7 +143,7 @@ TriMesh mesh_bone(const BoneShape& b, const LimbFrame& frame, double shrink) {
       h_prev = e.h;
     }
   const double total = arc.back();
-  detail::RingStack stack;
+  geometry::RingStack stack;
   const Vec3 medial = frame.medial();
   auto world = [&](double a, double m, double h) -> Vec3 {
     return frame.origin + h * frame.axis + a * frame.anterior + m * medial;
@@ -172,7 +174,7 @@ TriMesh mesh_bone(const BoneShape& b, const LimbFrame& frame, double shrink) {
   stack.bottom_pole = world(cb0.x(), cb0.y(), hb0 - cb);
   stack.top_pole = world(ct0.x(), ct0.y(), ht0 + ct);
   stack.has_bottom_pole = stack.has_top_pole = true;
-  return detail::mesh_ring_stack(stack, detail::is_left_handed(frame));
+  return geometry::mesh_ring_stack(stack, frame.is_left_handed());
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -349,7 +351,7 @@ std::vector<BoneShape> transtibial_shapes(const SkinRadii& skin, const BoneTempl
       fm.push_back(l.ct.y() + d * dir.y());
       fk.push_back(r / l.rout);
     }
-    const detail::Pchip fib_a(fh, fa), fib_m(fh, fm), fib_k(fh, fk);
+    const geometry::PchipSpline fib_a(fh, fa), fib_m(fh, fm), fib_k(fh, fk);
     BoneShape fibula;
     fibula.name = bone_name("fibula", pl);
     fibula.h_bottom = f_end;
@@ -978,90 +980,6 @@ std::vector<NamedMesh> estimate_bones(const TriMesh& closed_skin, const LimbFram
 // detail
 
 namespace detail {
-
-Pchip::Pchip(std::vector<double> x, std::vector<double> y) : x_(std::move(x)), y_(std::move(y)), d_(x_.size(), 0.0) {
-  const std::size_t n = x_.size();
-  require(n >= 2 && y_.size() == n, "Pchip: {} knots and {} values (expected at least 2 of each, as many)", n, y_.size());
-  std::vector<double> h(n - 1), delta(n - 1);
-  for (std::size_t k = 0; k + 1 < n; ++k) {
-    h[k] = x_[k + 1] - x_[k];
-    require(h[k] > 0.0, "Pchip: knots must increase strictly (x[{}] = {}, x[{}] = {})", k, x_[k], k + 1, x_[k + 1]);
-    delta[k] = (y_[k + 1] - y_[k]) / h[k];
-  }
-  if (n == 2) {
-    d_[0] = d_[1] = delta[0];
-    return;
-  }
-  for (std::size_t k = 1; k + 1 < n; ++k) {
-    if (delta[k - 1] * delta[k] <= 0.0) continue;
-    const double w1 = 2.0 * h[k] + h[k - 1], w2 = h[k] + 2.0 * h[k - 1];
-    d_[k] = (w1 + w2) / (w1 / delta[k - 1] + w2 / delta[k]);
-  }
-  auto end_slope = [](double h0, double h1, double m0, double m1) {
-    double d = ((2.0 * h0 + h1) * m0 - h0 * m1) / (h0 + h1);
-    if (d * m0 <= 0.0) d = 0.0;
-    else if (m0 * m1 <= 0.0 && std::abs(d) > 3.0 * std::abs(m0)) d = 3.0 * m0;
-    return d;
-  };
-  d_[0] = end_slope(h[0], h[1], delta[0], delta[1]);
-  d_[n - 1] = end_slope(h[n - 2], h[n - 3], delta[n - 2], delta[n - 3]);
-}
-
-double Pchip::operator()(double x) const {
-  const std::size_t n = x_.size();
-  if (x <= x_[0]) return y_[0] + d_[0] * (x - x_[0]);
-  if (x >= x_[n - 1]) return y_[n - 1] + d_[n - 1] * (x - x_[n - 1]);
-  const std::size_t k = static_cast<std::size_t>(std::upper_bound(x_.begin(), x_.end(), x) - x_.begin()) - 1;
-  const double h = x_[k + 1] - x_[k], t = (x - x_[k]) / h;
-  const double t2 = t * t, t3 = t2 * t;
-  return (2 * t3 - 3 * t2 + 1) * y_[k] + (t3 - 2 * t2 + t) * h * d_[k] + (-2 * t3 + 3 * t2) * y_[k + 1] +
-         (t3 - t2) * h * d_[k + 1];
-}
-
-bool is_left_handed(const LimbFrame& frame) { return frame.anterior.cross(frame.medial()).dot(frame.axis) < 0.0; }
-
-TriMesh mesh_ring_stack(const RingStack& stack, bool flip, std::vector<int>* band_first_triangle) {
-  TriMesh mesh;
-  std::vector<int> first;  // first vertex index of each ring
-  if (stack.has_bottom_pole) mesh.vertices.push_back(stack.bottom_pole);
-  for (const auto& ring : stack.rings) {
-    SOCKETSMITH_ASSERT(ring.size() >= 3);
-    first.push_back(mesh.num_vertices());
-    mesh.vertices.insert(mesh.vertices.end(), ring.begin(), ring.end());
-  }
-  const int top = mesh.num_vertices();
-  if (stack.has_top_pole) mesh.vertices.push_back(stack.top_pole);
-  auto tri = [&](int a, int b, int c) { mesh.triangles.push_back(flip ? std::array<int, 3>{a, c, b} : std::array<int, 3>{a, b, c}); };
-  if (band_first_triangle) band_first_triangle->clear();
-  if (stack.has_bottom_pole && !stack.rings.empty()) {
-    const int n = static_cast<int>(stack.rings.front().size());
-    for (int j = 0; j < n; ++j) tri(0, first[0] + (j + 1) % n, first[0] + j);
-  }
-  for (std::size_t k = 0; k + 1 < stack.rings.size(); ++k) {
-    if (band_first_triangle) band_first_triangle->push_back(mesh.num_triangles());
-    const int na = static_cast<int>(stack.rings[k].size()), nb = static_cast<int>(stack.rings[k + 1].size());
-    const int a0 = first[k], b0 = first[k + 1];
-    int i = 0, j = 0;
-    while (i < na || j < nb) {
-      // Advance on A when its next vertex comes first in angle (ties: A first).
-      const bool advance_a = j == nb || (i < na && static_cast<double>(i + 1) / na <= static_cast<double>(j + 1) / nb);
-      if (advance_a) {
-        tri(a0 + i, a0 + (i + 1) % na, b0 + j % nb);
-        ++i;
-      } else {
-        tri(a0 + i % na, b0 + (j + 1) % nb, b0 + j);
-        ++j;
-      }
-    }
-  }
-  if (band_first_triangle) band_first_triangle->push_back(mesh.num_triangles());
-  if (stack.has_top_pole && !stack.rings.empty()) {
-    const int n = static_cast<int>(stack.rings.back().size());
-    const int b0 = first.back();
-    for (int j = 0; j < n; ++j) tri(b0 + j, b0 + (j + 1) % n, top);
-  }
-  return mesh;
-}
 
 TriMesh sweep_tube(const std::vector<Vec3>& control, const std::vector<double>& radii, int ring_vertices,
                    double spacing_m) {
