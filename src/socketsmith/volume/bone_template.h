@@ -19,7 +19,8 @@
 /// (postero-lateral, head below the lateral condyle, shorter than the tibia), and — when the skin
 /// extends above the joint line — the distal femur (condyles with the intercondylar notch) and
 /// the patella. Transfemoral: the residual femur (anterior-lateral of the centre, widening
-/// towards the trochanters, rounded cut).
+/// towards the trochanters, rounded cut). The shapes, their sizes and sources are in
+/// bone_anatomy.h; this file meshes them, measures the skin and fits the bones inside it.
 
 #include <string>
 #include <vector>
