@@ -17,6 +17,7 @@
 #include "socketsmith/geometry/mesh_io.h"
 #include "socketsmith/geometry/shape_compare.h"
 #include "socketsmith/report/html.h"
+#include "socketsmith/report/nice_number.h"
 #include "socketsmith/core/log.h"
 #include "socketsmith/core/units.h"
 #include "socketsmith/report/raster.h"

@@ -238,6 +238,67 @@ TEST(SurfaceQuery, is_inside_agrees_with_the_analytic_cube_including_axes_and_gr
   EXPECT_GT(checked - inside, 300);
 }
 
+TEST(SurfaceQuery, distance_up_to_is_the_distance_capped_at_the_limit) {
+  const TriMesh sphere = make_icosphere(0.04, 3, Vec3(0.01, -0.02, 0.03));
+  const SurfaceQuery query(sphere);
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-0.1, 0.1);
+  int capped = 0, exact = 0;
+  for (int i = 0; i < 500; ++i) {
+    const Vec3 p(u(rng), u(rng), u(rng));
+    const double d = brute_force_distance(sphere, p);
+    for (const double limit : {0.0, 0.005, 0.02, 0.2}) {
+      EXPECT_NEAR(query.distance_up_to(p, limit), std::min(d, limit), 1e-15) << p.transpose() << " limit " << limit;
+      (d < limit ? exact : capped)++;
+    }
+  }
+  EXPECT_GT(exact, 300);
+  EXPECT_GT(capped, 300);
+  EXPECT_THROW((void)query.distance_up_to(Vec3::Zero(), -1.0), InvalidInputError);
+  EXPECT_THROW((void)query.distance_up_to(Vec3::Constant(std::nan("")), 1.0), InvalidInputError);
+}
+
+// An open tube (a cylinder without its end caps, axis along a tilted direction): rays across the
+// axis see it as closed, so points inside the tube are inside at any height.
+TEST(SurfaceQuery, is_inside_across_an_axis_sees_a_tube_open_at_its_ends_as_closed) {
+  const Vec3 axis = Vec3(0.2, -0.3, 1.0).normalized();
+  const Vec3 u = axis.cross(Vec3::UnitX()).normalized(), v = axis.cross(u);
+  const double radius = 0.1, length = 0.04;  // a short wide band: most rays not across the axis leave through an end
+  const int n = 48, rings = 30;
+  TriMesh tube;
+  for (int r = 0; r <= rings; ++r)
+    for (int j = 0; j < n; ++j) {
+      const double a = 2 * M_PI * j / n;
+      tube.vertices.push_back(length * r / rings * axis + radius * (std::cos(a) * u + std::sin(a) * v));
+    }
+  for (int r = 0; r < rings; ++r)
+    for (int j = 0; j < n; ++j) {
+      const int a = r * n + j, b = r * n + (j + 1) % n;
+      tube.triangles.push_back({a, b, b + n});
+      tube.triangles.push_back({a, b + n, a + n});
+    }
+  const SurfaceQuery query(tube);
+  const double inner = radius * std::cos(M_PI / n);  // the polygon's smallest radius
+  std::mt19937 rng(13);
+  std::uniform_real_distribution<double> h(0.005, length - 0.005), a(0.0, 2 * M_PI), r(0.0, 2 * radius);
+  int inside = 0, outside = 0;
+  for (int i = 0; i < 1000; ++i) {
+    const double rr = r(rng), aa = a(rng);
+    if (std::abs(rr - radius) < 1e-3) continue;
+    const Vec3 p = h(rng) * axis + rr * (std::cos(aa) * u + std::sin(aa) * v);
+    const bool expected = rr < inner;
+    ASSERT_EQ(query.is_inside_across(p, 2.5 * axis), expected) << "r = " << rr;
+    (expected ? inside : outside)++;
+  }
+  EXPECT_GT(inside, 200);
+  EXPECT_GT(outside, 200);
+  // The plain test casts rays that leave through the open ends: it does not see the tube closed.
+  int plain_wrong = 0;
+  for (int i = 0; i < 200; ++i) plain_wrong += !query.is_inside(h(rng) * axis);
+  EXPECT_GT(plain_wrong, 0);
+  EXPECT_THROW((void)query.is_inside_across(Vec3::Zero(), Vec3::Zero()), InvalidInputError);
+}
+
 TEST(SurfaceQuery, is_inside_agrees_with_the_exact_polyhedron_of_an_icosphere) {
   const Vec3 c(0.02, 0.0, -0.1);
   const TriMesh sphere = make_icosphere(0.06, 3, c);

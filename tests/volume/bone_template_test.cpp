@@ -211,47 +211,5 @@ TEST(BoneTemplate, validate_rejects_out_of_range_params) {
   EXPECT_DOUBLE_EQ(scaled_bone_sizes(BoneTemplateParams{}, 1.1).tibia_shaft_radius_m, 1.1 * BoneTemplateParams{}.tibia_shaft_radius_m);
 }
 
-TEST(BoneTemplate, pchip_interpolates_and_preserves_monotonicity) {
-  const std::vector<double> x{0.0, 1.0, 2.0, 3.0, 4.0}, y{0.0, 0.1, 0.9, 1.0, 1.0};
-  const detail::Pchip f(x, y);
-  for (std::size_t i = 0; i < x.size(); ++i) EXPECT_NEAR(f(x[i]), y[i], 1e-14);
-  double prev = f(0.0);
-  for (double t = 0.01; t <= 4.0; t += 0.01) {
-    EXPECT_GE(f(t), prev - 1e-14);
-    EXPECT_LE(f(t), 1.0 + 1e-14);  // no overshoot on the plateau
-    prev = f(t);
-  }
-  // Linear continuation outside the knots.
-  EXPECT_NEAR(f(5.0) - f(4.0), f(6.0) - f(5.0), 1e-14);
-  EXPECT_THROW(detail::Pchip({0.0, 0.0}, {1.0, 2.0}), InvalidInputError);
-}
-
-TEST(BoneTemplate, ring_stack_with_uneven_rings_is_a_closed_oriented_surface) {
-  detail::RingStack stack;
-  stack.has_bottom_pole = stack.has_top_pole = true;
-  stack.bottom_pole = Vec3(0, 0, -0.01);
-  stack.top_pole = Vec3(0, 0, 0.05);
-  const int counts[] = {8, 13, 21, 21, 5};
-  for (int k = 0; k < 5; ++k) {
-    std::vector<Vec3> ring;
-    for (int j = 0; j < counts[k]; ++j) {
-      // Angles from anterior (+y) towards medial of a right limb (-x).
-      const double a = 2 * kPi * j / counts[k];
-      ring.emplace_back(-0.02 * std::sin(a), 0.02 * std::cos(a), 0.01 * k);
-    }
-    stack.rings.push_back(ring);
-  }
-  std::vector<int> bands;
-  const TriMesh m = detail::mesh_ring_stack(stack, false, &bands);
-  const auto rep = geometry::check_mesh(m);
-  EXPECT_TRUE(rep.is_valid_closed_surface());
-  EXPECT_GT(rep.signed_volume_m3, 0.0);
-  EXPECT_EQ(m.num_triangles(), 8 + (8 + 13) + (13 + 21) + (21 + 21) + (21 + 5) + 5);
-  ASSERT_EQ(bands.size(), 5u);
-  EXPECT_EQ(bands.front(), 8);
-  EXPECT_EQ(bands.back(), m.num_triangles() - 5);
-  EXPECT_LT(geometry::signed_volume(detail::mesh_ring_stack(stack, true)), 0.0);
-}
-
 }  // namespace
 }  // namespace socketsmith::volume

@@ -56,6 +56,9 @@ struct LimbFrame {
     return side == Side::Right ? Eigen::Vector3d(-patient_right()) : patient_right();
   }
   Eigen::Vector3d lateral() const { return -medial(); }
+  /// True when (anterior, medial, axis) is left-handed, as for a left limb: surfaces built with
+  /// angles from anterior towards medial must then be flipped to stay outward.
+  bool is_left_handed() const { return anterior.cross(medial()).dot(axis) < 0.0; }
 
   Cylindrical to_cylindrical(const Eigen::Vector3d& p) const {
     const Eigen::Vector3d d = p - origin;

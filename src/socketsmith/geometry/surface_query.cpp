@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <limits>
 #include <utility>
 #include <vector>
@@ -91,6 +92,10 @@ class NearestFirstSearch {
         best_d2_((query - surface_point).squaredNorm()),
         best_triangle_(triangle) {}
 
+  /// Searches only within @p limit of the query; triangle() stays @p none when nothing is nearer.
+  NearestFirstSearch(const Vec3& query, double limit, TriangleIterator none)
+      : query_(query), best_(query), best_d2_(limit * limit), best_triangle_(none) {}
+
   bool go_further() const { return true; }
 
   void intersection(const Point&, const Primitive& primitive) {
@@ -117,6 +122,7 @@ class NearestFirstSearch {
 
   const Vec3& point() const { return best_; }
   TriangleIterator triangle() const { return best_triangle_; }
+  double squared_distance() const { return best_d2_; }
 
  private:
   Vec3 query_;
@@ -271,6 +277,16 @@ struct SurfaceQuery::Impl {
       if (i == 0 || ts[i] - ts[i - 1] > kSameCrossing_m) ++count;
     return count;
   }
+
+  /// Majority of the parities of three rays: the third is cast only when the first two disagree.
+  bool majority_inside(const Vec3& p, const std::array<Vec3, 3>& directions) const {
+    int inside = 0, outside = 0;
+    for (const Vec3& d : directions) {
+      ++(crossings(p, d) % 2 == 1 ? inside : outside);
+      if (inside == 2 || outside == 2) break;
+    }
+    return inside == 2;
+  }
 };
 
 SurfaceQuery::SurfaceQuery(const TriMesh& mesh) : impl_(std::make_unique<Impl>()) {
@@ -358,15 +374,33 @@ std::optional<SurfaceHit> SurfaceQuery::first_hit(const Vec3& origin, const Vec3
   return hit;
 }
 
+double SurfaceQuery::distance_up_to(const Vec3& p, double limit_m) const {
+  require(is_finite(p), "SurfaceQuery::distance_up_to: query point ({}, {}, {}) is not finite", p.x(), p.y(), p.z());
+  require(std::isfinite(limit_m) && limit_m >= 0.0,
+          "SurfaceQuery::distance_up_to: limit_m = {} (expected a finite distance >= 0)", limit_m);
+  NearestFirstSearch search(p, limit_m, impl_->triangles.cend());
+  impl_->tree.traversal_with_priority(to_cgal(p), search);
+  return search.triangle() == impl_->triangles.cend() ? limit_m : (p - search.point()).norm();
+}
+
 bool SurfaceQuery::is_inside(const Vec3& p) const {
   require(is_finite(p), "SurfaceQuery::is_inside: query point ({}, {}, {}) is not finite", p.x(), p.y(), p.z());
-  // Majority of three rays: the third is cast only when the first two disagree.
-  int inside = 0, outside = 0;
-  for (const Vec3& d : impl_->inside_directions) {
-    ++(impl_->crossings(p, d) % 2 == 1 ? inside : outside);
-    if (inside == 2 || outside == 2) break;
-  }
-  return inside == 2;
+  return impl_->majority_inside(p, impl_->inside_directions);
+}
+
+bool SurfaceQuery::is_inside_across(const Vec3& p, const Vec3& axis) const {
+  require(is_finite(p), "SurfaceQuery::is_inside_across: query point ({}, {}, {}) is not finite", p.x(), p.y(), p.z());
+  require(is_finite(axis) && axis.squaredNorm() > 0.0,
+          "SurfaceQuery::is_inside_across: axis ({}, {}, {}) must be finite and non-zero", axis.x(), axis.y(), axis.z());
+  // Three rays in the plane across the axis, at angles that are no simple fraction of a turn (so a
+  // ray from a point of a ring-built surface rarely runs along an edge).
+  const Vec3 n = axis.normalized();
+  const Vec3 trial = std::abs(n.x()) < 0.9 ? Vec3::UnitX() : Vec3::UnitY();
+  const Vec3 u = (trial - trial.dot(n) * n).normalized(), v = n.cross(u);
+  std::array<Vec3, 3> directions;
+  const std::array<double, 3> angles{0.3183, 2.4142, 4.2361};
+  for (std::size_t i = 0; i < 3; ++i) directions[i] = std::cos(angles[i]) * u + std::sin(angles[i]) * v;
+  return impl_->majority_inside(p, directions);
 }
 
 double SurfaceQuery::signed_distance(const Vec3& p) const {

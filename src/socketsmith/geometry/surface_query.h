@@ -48,9 +48,20 @@ class SurfaceQuery {
   /// @throws InvalidInputError for a zero or non-finite direction.
   std::optional<SurfaceHit> first_hit(const Vec3& origin, const Vec3& direction) const;
 
+  /// min(@p limit_m, distance from @p p to the surface) [m]: the search skips every part of the
+  /// tree farther than limit_m, so clearance checks against a threshold cost little away from the
+  /// surface. @throws InvalidInputError for a non-finite point or a negative or non-finite limit.
+  double distance_up_to(const Vec3& p, double limit_m) const;
+
   /// Inside test for a closed surface: parity of ray crossings, majority vote over three
   /// non-axis-aligned rays (robust to rays that graze an edge or a vertex).
   bool is_inside(const Vec3& p) const;
+
+  /// The same vote over three rays perpendicular to @p axis (any length), for a surface that is
+  /// closed or open only where @p axis leaves it — a limb's skin open at its proximal cut: no ray
+  /// escapes through such an opening.
+  /// @throws InvalidInputError for a non-finite point or a zero or non-finite axis.
+  bool is_inside_across(const Vec3& p, const Vec3& axis) const;
 
   /// Distance to the surface, negative inside (closed surfaces only).
   double signed_distance(const Vec3& p) const;

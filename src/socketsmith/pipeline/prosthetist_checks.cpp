@@ -13,6 +13,7 @@
 #include "socketsmith/geometry/surface_query.h"
 #include "socketsmith/pipeline/design_pipeline.h"
 #include "socketsmith/report/html.h"
+#include "socketsmith/report/nice_number.h"
 
 namespace socketsmith::pipeline {
 namespace {

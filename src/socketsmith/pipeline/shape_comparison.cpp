@@ -10,6 +10,7 @@
 #include "socketsmith/core/log.h"
 #include "socketsmith/geometry/mesh_io.h"
 #include "socketsmith/report/html.h"
+#include "socketsmith/report/nice_number.h"
 #include "socketsmith/report/vtk_writer.h"
 
 namespace socketsmith::pipeline {

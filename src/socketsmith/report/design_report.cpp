@@ -9,14 +9,9 @@
 
 #include "socketsmith/core/atomic_file.h"
 #include "socketsmith/core/errors.h"
+#include "socketsmith/report/draw_2d.h"
 #include "socketsmith/report/html.h"
-
-// The PNG encoder for embedded pictures: stb is header-only; static linkage keeps this copy
-// private to this file (raster.cpp compiles its own the same way).
-#define STB_IMAGE_WRITE_IMPLEMENTATION
-#define STB_IMAGE_WRITE_STATIC
-#define STBI_WRITE_NO_STDIO
-#include <stb/stb_image_write.h>
+#include "socketsmith/report/nice_number.h"
 
 namespace socketsmith::report {
 namespace {
@@ -32,85 +27,6 @@ constexpr Rgb kTargetColour{30, 60, 150};
 constexpr Rgb kPolygonColour{70, 130, 220};
 
 std::string num(double v, int digits = 3) { return format_number(v, digits); }
-
-// ---- 2-D drawing on an Image (anti-aliased by coverage) ------------------------------------
-
-void blend_pixel(Image& img, int x, int y, Rgb c, double a) {
-  if (x < 0 || y < 0 || x >= img.width || y >= img.height || a <= 0) return;
-  Rgb& d = img.at(x, y);
-  if (a >= 1) {
-    d = c;
-    return;
-  }
-  auto mix = [a](std::uint8_t dst, std::uint8_t src) {
-    return static_cast<std::uint8_t>(std::lround((1 - a) * dst + a * src));
-  };
-  d = {mix(d.r, c.r), mix(d.g, c.g), mix(d.b, c.b)};
-}
-
-/// Calls f(x, y, px, py) for every pixel of the box [lo, hi] clipped to the image; (px, py) is
-/// the pixel centre.
-template <class F>
-void for_pixels(const Image& img, Vector2d lo, Vector2d hi, F&& f) {
-  const int x0 = std::max(0, static_cast<int>(std::floor(lo.x())));
-  const int y0 = std::max(0, static_cast<int>(std::floor(lo.y())));
-  const int x1 = std::min(img.width - 1, static_cast<int>(std::ceil(hi.x())));
-  const int y1 = std::min(img.height - 1, static_cast<int>(std::ceil(hi.y())));
-  for (int y = y0; y <= y1; ++y)
-    for (int x = x0; x <= x1; ++x) f(x, y, x + 0.5, y + 0.5);
-}
-
-/// A segment of @p width px (round caps).
-void draw_segment(Image& img, Vector2d p, Vector2d q, double width, Rgb c, double alpha = 1) {
-  const double r = 0.5 * width;
-  const Vector2d lo = p.cwiseMin(q).array() - r - 1, hi = p.cwiseMax(q).array() + r + 1;
-  const Vector2d d = q - p;
-  const double len2 = d.squaredNorm();
-  for_pixels(img, lo, hi, [&](int x, int y, double px, double py) {
-    const Vector2d v(px - p.x(), py - p.y());
-    const double t = len2 > 0 ? std::clamp(v.dot(d) / len2, 0.0, 1.0) : 0.0;
-    const double dist = (v - t * d).norm();
-    blend_pixel(img, x, y, c, alpha * std::clamp(r + 0.5 - dist, 0.0, 1.0));
-  });
-}
-
-/// A circle of @p radius px drawn with a line of @p width px.
-void draw_ring(Image& img, Vector2d centre, double radius, double width, Rgb c) {
-  const double r = radius + 0.5 * width + 1;
-  for_pixels(img, centre.array() - r, centre.array() + r, [&](int x, int y, double px, double py) {
-    const double dist = std::abs(std::hypot(px - centre.x(), py - centre.y()) - radius);
-    blend_pixel(img, x, y, c, std::clamp(0.5 * width + 0.5 - dist, 0.0, 1.0));
-  });
-}
-
-void fill_disc(Image& img, Vector2d centre, double radius, Rgb c) {
-  const double r = radius + 1;
-  for_pixels(img, centre.array() - r, centre.array() + r, [&](int x, int y, double px, double py) {
-    const double dist = std::hypot(px - centre.x(), py - centre.y());
-    blend_pixel(img, x, y, c, std::clamp(radius + 0.5 - dist, 0.0, 1.0));
-  });
-}
-
-/// Fills a simple polygon (even-odd rule at pixel centres) blended at @p alpha.
-void fill_polygon(Image& img, const std::vector<Vector2d>& pts, Rgb c, double alpha) {
-  if (pts.size() < 3) return;
-  Vector2d lo = pts[0], hi = pts[0];
-  for (const auto& p : pts) {
-    lo = lo.cwiseMin(p);
-    hi = hi.cwiseMax(p);
-  }
-  for_pixels(img, lo, hi, [&](int x, int y, double px, double py) {
-    bool inside = false;
-    for (std::size_t i = 0, j = pts.size() - 1; i < pts.size(); j = i++) {
-      const Vector2d& a = pts[i];
-      const Vector2d& b = pts[j];
-      if ((a.y() > py) != (b.y() > py) &&
-          px < (b.x() - a.x()) * (py - a.y()) / (b.y() - a.y()) + a.x())
-        inside = !inside;
-    }
-    if (inside) blend_pixel(img, x, y, c, alpha);
-  });
-}
 
 // ---- radar layout --------------------------------------------------------------------------
 
@@ -329,7 +245,7 @@ Image render_radar_chart(const RadarChart& chart) {
   draw_text(img, (l.width - text_width(title, kRadarTitleScale)) / 2, 12, title, kInk, kRadarTitleScale);
 
   // Grid rings, the value polygon, the axes, the target circle, ticks, points.
-  for (double r : {0.5, 1.5, kRadarMaxRadius}) draw_ring(img, l.centre, r * px_per_r, 1.0, kGrid);
+  for (double r : {0.5, 1.5, kRadarMaxRadius}) draw2d::stroke_circle(img, l.centre, r * px_per_r, 1.0, kGrid);
   std::vector<Vector2d> poly;
   std::vector<double> radii;
   for (int k = 0; k < n; ++k) {
@@ -337,12 +253,12 @@ Image render_radar_chart(const RadarChart& chart) {
     radii.push_back(r);
     poly.push_back(at(k, std::clamp(r, 0.0, kRadarMaxRadius)));
   }
-  fill_polygon(img, poly, kPolygonColour, 0.25);
+  draw2d::fill_polygon(img, poly, kPolygonColour, 0.25f);
   for (int k = 0; k < n; ++k) {
     const Rgb c = chart.axes[k].is_ok ? kRadarOkColour : kRadarFailColour;
-    draw_segment(img, l.centre, at(k, kRadarMaxRadius), 3.0, c);
+    draw2d::stroke_segment(img, l.centre, at(k, kRadarMaxRadius), 3.0, c);
   }
-  draw_ring(img, l.centre, px_per_r, 3.0, kTargetColour);
+  draw2d::stroke_circle(img, l.centre, px_per_r, 3.0, kTargetColour);
   for (int k = 0; k < n; ++k) {
     const RadarAxis& a = chart.axes[k];
     const Vector2d d = radar_direction(k, n), perp(-d.y(), d.x());
@@ -351,19 +267,19 @@ Image render_radar_chart(const RadarChart& chart) {
     for (double r : {lo, hi}) {
       if (r < 0 || r > kRadarMaxRadius) continue;
       const Vector2d p = at(k, r);
-      draw_segment(img, p - 7 * perp, p + 7 * perp, 2.0, kInk);
+      draw2d::stroke_segment(img, p - 7 * perp, p + 7 * perp, 2.0, kInk);
     }
   }
-  for (int k = 0; k < n; ++k) draw_segment(img, poly[k], poly[(k + 1) % n], 2.0, kPolygonColour);
+  for (int k = 0; k < n; ++k) draw2d::stroke_segment(img, poly[k], poly[(k + 1) % n], 2.0, kPolygonColour);
   for (int k = 0; k < n; ++k) {
     const Rgb c = chart.axes[k].is_ok ? kRadarOkColour : kRadarFailColour;
     const bool clamped = radii[k] < 0 || radii[k] > kRadarMaxRadius;
-    fill_disc(img, poly[k], 7.5, kInk);
+    draw2d::fill_disc(img, poly[k].x(), poly[k].y(), 7.5, kInk, draw2d::whole(img));
     if (clamped) {
-      fill_disc(img, poly[k], 5.5, kWhite);
-      draw_ring(img, poly[k], 4.0, 2.5, c);
+      draw2d::fill_disc(img, poly[k].x(), poly[k].y(), 5.5, kWhite, draw2d::whole(img));
+      draw2d::stroke_circle(img, poly[k], 4.0, 2.5, c);
     } else {
-      fill_disc(img, poly[k], 6.0, c);
+      draw2d::fill_disc(img, poly[k].x(), poly[k].y(), 6.0, c, draw2d::whole(img));
     }
   }
 
@@ -711,22 +627,6 @@ std::string base64_encode(std::string_view bytes) {
     out += '=';
   }
   return out;
-}
-
-std::string encode_png(const Image& img) {
-  require(img.width >= 1 && img.height >= 1 && img.width <= kMaxImageSide &&
-              img.height <= kMaxImageSide &&
-              img.pixels.size() == static_cast<std::size_t>(img.width) * img.height,
-          "encode_png: image {}×{} with {} pixels (expected width × height, sides 1..{})",
-          img.width, img.height, img.pixels.size(), kMaxImageSide);
-  std::string bytes;
-  auto append = [](void* context, void* data, int size) {
-    static_cast<std::string*>(context)->append(static_cast<const char*>(data), std::size_t(size));
-  };
-  if (stbi_write_png_to_func(append, &bytes, img.width, img.height, 3, img.pixels.data(),
-                             img.width * 3) == 0)
-    fail("encode_png: cannot encode the {}×{} image", img.width, img.height);
-  return bytes;
 }
 
 // ==== HTML report ===========================================================================

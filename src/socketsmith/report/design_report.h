@@ -468,8 +468,4 @@ std::string html_escape(std::string_view text);
 /// Standard base64 (RFC 4648, with '=' padding).
 std::string base64_encode(std::string_view bytes);
 
-/// The PNG encoding of @p img (8-bit RGB).
-/// @throws InvalidInputError when the pixel count is not width × height.
-std::string encode_png(const Image& img);
-
 }  // namespace socketsmith::report

@@ -54,13 +54,6 @@ std::string format_number(double v, int digits) {
   return fmt::format("{:.{}g}", v, digits);
 }
 
-double nice_ceil(double v) {
-  const double p = std::pow(10.0, std::floor(std::log10(v)));
-  for (double m : {1.0, 1.2, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 8.0, 10.0})
-    if (m * p >= v * (1 - 1e-12)) return m * p;
-  return 10 * p;
-}
-
 std::string png_data_uri(const Image& img) { return "data:image/png;base64," + base64_encode(encode_png(img)); }
 
 std::string svg_data_uri(const std::string& svg) { return "data:image/svg+xml;base64," + base64_encode(svg); }

@@ -19,10 +19,6 @@ namespace socketsmith::report {
 /// "n/a" when not finite.
 std::string format_number(double v, int digits = 3);
 
-/// The smallest of 1, 1.2, 1.5, 2, 2.5, 3, 4, 5, 6, 8 × 10^k that is ≥ @p v (> 0): a round top
-/// for an axis or a colour range.
-double nice_ceil(double v);
-
 /// A PNG data URI of @p img.
 std::string png_data_uri(const Image& img);
 /// An SVG data URI of the document @p svg.

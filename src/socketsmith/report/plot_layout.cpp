@@ -9,6 +9,7 @@
 #include <tuple>
 
 #include "socketsmith/core/errors.h"
+#include "socketsmith/report/nice_number.h"
 
 namespace socketsmith::report {
 namespace {
@@ -23,13 +24,10 @@ constexpr double kTickLengthPx = 5;
 constexpr double kEdgePadPx = 6;  // room for strokes and markers at automatic axis limits
 constexpr double kLegendInsetPx = 8;
 
-/// 1, 2 or 5 × 10^k closest above @p raw.
+/// 1, 2 or 5 × 10^k closest above @p raw; 1 when there is no finite positive step.
 double nice_step(double raw) {
   if (!(raw > 0) || !std::isfinite(raw)) return 1.0;
-  const double magnitude = std::pow(10.0, std::floor(std::log10(raw)));
-  const double f = raw / magnitude;
-  const double nice = f <= 1.0 + 1e-9 ? 1.0 : f <= 2.0 + 1e-9 ? 2.0 : f <= 5.0 + 1e-9 ? 5.0 : 10.0;
-  return nice * magnitude;
+  return nice_ceil(raw, NiceMantissas::OneTwoFive);
 }
 
 /// Axis limits and ticks from the finite data range [data_lo, data_hi] (empty when

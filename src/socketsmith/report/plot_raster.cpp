@@ -10,10 +10,18 @@
 #include <utility>
 
 #include "socketsmith/core/errors.h"
+#include "socketsmith/report/draw_2d.h"
 #include "socketsmith/report/plot_layout.h"
 
 namespace socketsmith::report {
 namespace {
+
+using draw2d::Coverage;
+using draw2d::fill_box;
+using draw2d::fill_disc;
+using draw2d::mix;
+using draw2d::PixelRect;
+using draw2d::pixels_within;
 
 constexpr Rgb kInk{0, 0, 0};
 constexpr Rgb kWhite{255, 255, 255};
@@ -72,70 +80,6 @@ std::optional<Rgb> parse_colour(std::string_view text) {
     if (name == lower) return rgb;
   return std::nullopt;
 }
-
-Rgb mix(Rgb dst, Rgb src, float a) {
-  const auto ch = [a](std::uint8_t d, std::uint8_t s) {
-    return static_cast<std::uint8_t>(std::lround((1 - a) * d + a * s));
-  };
-  return {ch(dst.r, src.r), ch(dst.g, src.g), ch(dst.b, src.b)};
-}
-
-/// Pixel rectangle [x0, x1) × [y0, y1).
-struct PixelRect {
-  int x0, y0, x1, y1;
-};
-
-/// Pixels of @p img whose centres lie in [x0, x1] × [y0, y1] (pixel coordinates).
-PixelRect pixels_within(const Image& img, double x0, double y0, double x1, double y1) {
-  const auto lo = [](double v, int n) {
-    return static_cast<int>(std::clamp(std::ceil(v - 0.5), 0.0, double(n)));
-  };
-  const auto hi = [](double v, int n) {
-    return static_cast<int>(std::clamp(std::floor(v - 0.5) + 1, 0.0, double(n)));
-  };
-  return {lo(x0, img.width), lo(y0, img.height), hi(x1, img.width), hi(y1, img.height)};
-}
-
-/// Per-pixel coverage of one series' strokes (the maximum over its pieces, so that joins and
-/// overlapping dashes are not darker), blended once.
-struct Coverage {
-  PixelRect clip;
-  int width;
-  std::vector<float> cover;
-  PixelRect dirty{0, 0, 0, 0};
-
-  Coverage(const Image& img, PixelRect c)
-      : clip(c), width(img.width), cover(img.pixels.size(), 0.0f), dirty{c.x1, c.y1, c.x0, c.y0} {}
-
-  /// A stroke of radius @p r [px] from @p a to @p b with round ends.
-  void capsule(double ax, double ay, double bx, double by, double r) {
-    const int x0 = std::max(clip.x0, int(std::floor(std::min(ax, bx) - r - 1)));
-    const int x1 = std::min(clip.x1, int(std::ceil(std::max(ax, bx) + r + 1)));
-    const int y0 = std::max(clip.y0, int(std::floor(std::min(ay, by) - r - 1)));
-    const int y1 = std::min(clip.y1, int(std::ceil(std::max(ay, by) + r + 1)));
-    const double dx = bx - ax, dy = by - ay, len2 = dx * dx + dy * dy;
-    for (int y = y0; y < y1; ++y)
-      for (int x = x0; x < x1; ++x) {
-        const double px = x + 0.5 - ax, py = y + 0.5 - ay;
-        const double t = len2 > 0 ? std::clamp((px * dx + py * dy) / len2, 0.0, 1.0) : 0.0;
-        const double d = std::hypot(px - t * dx, py - t * dy);
-        const auto c = static_cast<float>(std::clamp(r + 0.5 - d, 0.0, 1.0));
-        if (c <= 0) continue;
-        float& cell = cover[static_cast<std::size_t>(y) * width + x];
-        cell = std::max(cell, c);
-        dirty = {std::min(dirty.x0, x), std::min(dirty.y0, y), std::max(dirty.x1, x + 1),
-                 std::max(dirty.y1, y + 1)};
-      }
-  }
-
-  void blend_into(Image& img, Rgb colour) const {
-    for (int y = dirty.y0; y < dirty.y1; ++y)
-      for (int x = dirty.x0; x < dirty.x1; ++x) {
-        const float c = cover[static_cast<std::size_t>(y) * width + x];
-        if (c > 0) img.at(x, y) = mix(img.at(x, y), colour, c);
-      }
-  }
-};
 
 /// Clips the segment a→b to the rectangle (Liang–Barsky); the parameters [t0, t1] of the part
 /// inside, or nullopt when none is.
@@ -203,26 +147,6 @@ void stroke_polyline(Coverage& cov, const std::vector<std::pair<double, double>>
       cov.capsule(px0, py0, px1, py1, r);
     }
   }
-}
-
-/// Anti-aliased filled disc of radius @p r [px], clipped to @p clip.
-void fill_disc(Image& img, double cx, double cy, double r, Rgb colour, const PixelRect& clip) {
-  const int x0 = std::max(clip.x0, int(std::floor(cx - r - 1)));
-  const int x1 = std::min(clip.x1, int(std::ceil(cx + r + 1)));
-  const int y0 = std::max(clip.y0, int(std::floor(cy - r - 1)));
-  const int y1 = std::min(clip.y1, int(std::ceil(cy + r + 1)));
-  for (int y = y0; y < y1; ++y)
-    for (int x = x0; x < x1; ++x) {
-      const double c = std::clamp(r + 0.5 - std::hypot(x + 0.5 - cx, y + 0.5 - cy), 0.0, 1.0);
-      if (c > 0) img.at(x, y) = mix(img.at(x, y), colour, float(c));
-    }
-}
-
-/// Fills the pixel rectangle [x0, x1) × [y0, y1), clipped to the image, blending at @p alpha.
-void fill_box(Image& img, int x0, int y0, int x1, int y1, Rgb colour, float alpha = 1) {
-  for (int y = std::max(y0, 0); y < std::min(y1, img.height); ++y)
-    for (int x = std::max(x0, 0); x < std::min(x1, img.width); ++x)
-      img.at(x, y) = alpha >= 1 ? colour : mix(img.at(x, y), colour, alpha);
 }
 
 /// Column (row) of the 1-px line that an SVG stroke of width 1 at @p v mostly covers.

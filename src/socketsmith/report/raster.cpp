@@ -14,6 +14,7 @@
 
 #include "socketsmith/core/atomic_file.h"
 #include "socketsmith/core/errors.h"
+#include "socketsmith/report/nice_number.h"
 
 // stb is header-only: the PNG writer is compiled here, with static linkage so it cannot clash
 // with the copy inside Debian's libstb (which the GUI links for Dear ImGui). stb_easy_font is
@@ -137,14 +138,7 @@ void draw_label(Image& img, int x, int y, const std::string& text, int scale, co
 
 /// Ticks at multiples of the smallest 1, 2, 5 × 10^k step >= range / 5, with their labels.
 std::vector<std::pair<double, std::string>> nice_ticks(double vmin, double vmax) {
-  const double raw = (vmax - vmin) / 5;
-  const double p = std::pow(10.0, std::floor(std::log10(raw)));
-  double step = 10 * p;
-  for (double m : {1.0, 2.0, 5.0})
-    if (m * p >= raw * (1 - 1e-9)) {
-      step = m * p;
-      break;
-    }
+  const double step = nice_ceil((vmax - vmin) / 5, NiceMantissas::OneTwoFive);
   const int decimals = std::max(0, -int(std::floor(std::log10(step) + 1e-9)));
   std::vector<std::pair<double, std::string>> ticks;
   for (auto k = static_cast<long long>(std::ceil(vmin / step - 1e-9));
@@ -647,16 +641,21 @@ Image stack_images(const std::vector<Image>& images, Rgb background) {
   return out;
 }
 
-void write_png(const std::filesystem::path& path, const Image& img) {
-  require_consistent(img, "write_png");
+std::string encode_png(const Image& img) {
+  require_consistent(img, "encode_png");
   std::string bytes;
   auto append = [](void* context, void* data, int size) {
     static_cast<std::string*>(context)->append(static_cast<const char*>(data), std::size_t(size));
   };
   if (stbi_write_png_to_func(append, &bytes, img.width, img.height, 3, img.pixels.data(),
                              img.width * 3) == 0)
-    fail<IoError>("write_png: cannot encode the {}×{} image for '{}'", img.width, img.height,
-                  path.string());
+    fail<Error>("encode_png: cannot encode the {}×{} image", img.width, img.height);
+  return bytes;
+}
+
+void write_png(const std::filesystem::path& path, const Image& img) {
+  require_consistent(img, "write_png");
+  const std::string bytes = encode_png(img);
   write_file_atomically(
       path, [&](std::ostream& out) { out.write(bytes.data(), std::streamsize(bytes.size())); },
       true);

@@ -166,6 +166,11 @@ void draw_text(Image& img, int x, int y, const std::string& text, Rgb colour, in
 void draw_colour_bar(Image& img, int x, int y, int w, int h, Colormap colormap, double vmin,
                      double vmax, const std::string& unit_label);
 
+/// The PNG encoding of @p img (8-bit RGB), e.g. for a data URI.
+/// @throws InvalidInputError when the pixel count is not width × height or a side is outside
+///         1..kMaxImageSide.
+std::string encode_png(const Image& img);
+
 /// Writes @p img as an 8-bit RGB PNG, atomically (temporary file + rename).
 /// @throws InvalidInputError when the pixel count is not width × height or a side is outside
 ///         1..kMaxImageSide; IoError when the file cannot be written.

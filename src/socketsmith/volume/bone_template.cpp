@@ -1,5 +1,6 @@
-#include "socketsmith/volume/shape_math.h"
 #include "socketsmith/volume/bone_template.h"
+#include "socketsmith/volume/bone_anatomy.h"
+#include "socketsmith/volume/shape_math.h"
 
 #include <algorithm>
 #include <numeric>
@@ -7,7 +8,6 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
-#include <functional>
 #include <limits>
 #include <utility>
 
@@ -15,6 +15,9 @@
 
 #include "socketsmith/core/errors.h"
 #include "socketsmith/geometry/mesh_boolean.h"
+#include "socketsmith/geometry/pchip_spline.h"
+#include "socketsmith/geometry/ring_stack.h"
+#include "socketsmith/geometry/surface_query.h"
 
 namespace socketsmith::volume {
 
@@ -29,75 +32,9 @@ using shape::kPi;
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
 using shape::clamp01;
-using shape::gauss;
 using shape::lerp;
 using shape::smoothstep;
-using shape::wrap_angle;
-/// Polar radius of an ellipse with semi-axis @p semi_a along phi = 0 and @p semi_m along phi = pi/2.
-double ellipse_radius(double phi, double semi_a, double semi_m) {
-  const double c = std::cos(phi) / semi_a, s = std::sin(phi) / semi_m;
-  return 1.0 / std::sqrt(c * c + s * s);
-}
-
-void check_range(const char* field, double value, double lo, double hi) {
-  if (!std::isfinite(value) || value < lo || value > hi)
-    fail("BoneTemplateParams: {} = {} is out of range (expected {} to {})", field, value, lo, hi);
-}
-
-// ---------------------------------------------------------------------------------------------
-// A smooth centreline coordinate: least-squares polynomial (degree 1 or 2) in h over the control
-// heights, continued linearly (value and slope at the ends) outside them.
-class SmoothCurve {
- public:
-  SmoothCurve() = default;
-  SmoothCurve(const std::vector<double>& h, const std::vector<double>& y, int degree = 2) {
-    SOCKETSMITH_ASSERT(h.size() == y.size() && h.size() >= 3);
-    h0_ = *std::min_element(h.begin(), h.end());
-    h1_ = *std::max_element(h.begin(), h.end());
-    hm_ = 0.5 * (h0_ + h1_);
-    Eigen::MatrixXd A(static_cast<Eigen::Index>(h.size()), 3);
-    Eigen::VectorXd b(static_cast<Eigen::Index>(h.size()));
-    for (std::size_t i = 0; i < h.size(); ++i) {
-      const double x = h[i] - hm_;
-      A.row(static_cast<Eigen::Index>(i)) << 1.0, x, degree >= 2 ? x * x : 0.0;
-      b(static_cast<Eigen::Index>(i)) = y[i];
-    }
-    c_ = A.colPivHouseholderQr().solve(b);
-    if (degree < 2) c_(2) = 0.0;
-  }
-  /// Moves the curve by dy.
-  void shift(double dy) { c_(0) += dy; }
-  double operator()(double h) const {
-    const double hc = std::clamp(h, h0_, h1_);
-    const double x = hc - hm_;
-    const double v = c_(0) + c_(1) * x + c_(2) * x * x;
-    const double slope = c_(1) + 2.0 * c_(2) * x;
-    return v + slope * (h - hc);
-  }
-
- private:
-  double h0_ = 0, h1_ = 0, hm_ = 0;
-  Eigen::Vector3d c_ = Eigen::Vector3d::Zero();
-};
-
-// ---------------------------------------------------------------------------------------------
-// A bone as a generalised cylinder: centreline (a(h), m(h)), radius rho(phi, h) about it,
-// ellipsoidal caps, optional distal bevel (a shear h += bevel * (a - a_c) fading upwards).
-struct BoneShape {
-  std::string name;
-  double h_bottom = 0.0;    ///< apex of the distal cap [m]
-  double h_top = 0.0;       ///< apex of the proximal cap [m]
-  double cap_bottom = 0.005;
-  double cap_top = 0.005;
-  std::function<Vector2d(double)> centre;         ///< (a, m) at h [m]
-  std::function<double(double, double)> radius;   ///< rho(phi, h) [m]
-  double bevel = 0.0;
-  double bevel_fade_m = 0.02;
-  int columns = 48;
-  int rows = 40;
-};
-
-TriMesh mesh_bone(const BoneShape& b, const LimbFrame& frame, double shrink) {
+TriMesh mesh_bone(const detail::BoneShape& b, const LimbFrame& frame, double shrink) {
   const double s = shrink;
   const double body_nominal = std::max(0.0, (b.h_top - b.cap_top) - (b.h_bottom + b.cap_bottom));
   const double pull = (1.0 - s) * std::min(0.02, 0.25 * body_nominal);
@@ -140,7 +77,7 @@ TriMesh mesh_bone(const BoneShape& b, const LimbFrame& frame, double shrink) {
       h_prev = e.h;
     }
   const double total = arc.back();
-  detail::RingStack stack;
+  geometry::RingStack stack;
   const Vec3 medial = frame.medial();
   auto world = [&](double a, double m, double h) -> Vec3 {
     return frame.origin + h * frame.axis + a * frame.anterior + m * medial;
@@ -171,434 +108,16 @@ TriMesh mesh_bone(const BoneShape& b, const LimbFrame& frame, double shrink) {
   stack.bottom_pole = world(cb0.x(), cb0.y(), hb0 - cb);
   stack.top_pole = world(ct0.x(), ct0.y(), ht0 + ct);
   stack.has_bottom_pole = stack.has_top_pole = true;
-  return detail::mesh_ring_stack(stack, detail::is_left_handed(frame));
+  return geometry::mesh_ring_stack(stack, frame.is_left_handed());
 }
 
 // ---------------------------------------------------------------------------------------------
-// Triangle index of a mesh for distance queries (uniform grid) and inside tests (parity of
-// horizontal rays, triangles bucketed in slabs along the frame axis).
-class TriangleIndex {
- public:
-  TriangleIndex(const TriMesh& mesh, const LimbFrame& frame, double cell_m) : mesh_(mesh), frame_(frame), cell_(cell_m) {
-    box_ = geometry::bounding_box(mesh);
-    for (int d = 0; d < 3; ++d)
-      dims_[d] = std::max(1, static_cast<int>(std::ceil((box_.max[d] - box_.min[d]) / cell_)) + 1);
-    const std::size_t ncells = static_cast<std::size_t>(dims_[0]) * dims_[1] * dims_[2];
-    // Grid: counting pass then fill (CSR).
-    std::vector<int> count(ncells + 1, 0);
-    auto for_cells = [&](int t, const std::function<void(std::size_t)>& f) {
-      const auto& tri = mesh_.triangles[static_cast<std::size_t>(t)];
-      Vec3 lo = mesh_.vertices[tri[0]], hi = lo;
-      for (int q = 1; q < 3; ++q) {
-        lo = lo.cwiseMin(mesh_.vertices[tri[q]]);
-        hi = hi.cwiseMax(mesh_.vertices[tri[q]]);
-      }
-      const auto c0 = cell_of(lo), c1 = cell_of(hi);
-      for (int x = c0[0]; x <= c1[0]; ++x)
-        for (int y = c0[1]; y <= c1[1]; ++y)
-          for (int z = c0[2]; z <= c1[2]; ++z) f(flat(x, y, z));
-    };
-    for (int t = 0; t < mesh_.num_triangles(); ++t) for_cells(t, [&](std::size_t c) { ++count[c + 1]; });
-    for (std::size_t c = 0; c < ncells; ++c) count[c + 1] += count[c];
-    cell_start_ = count;
-    cell_tris_.resize(static_cast<std::size_t>(count[ncells]));
-    for (int t = 0; t < mesh_.num_triangles(); ++t)
-      for_cells(t, [&](std::size_t c) { cell_tris_[static_cast<std::size_t>(count[c]++)] = t; });
-    // Slabs along the axis.
-    double hmin = kInf, hmax = -kInf;
-    heights_.resize(mesh_.vertices.size());
-    for (std::size_t v = 0; v < mesh_.vertices.size(); ++v) {
-      heights_[v] = (mesh_.vertices[v] - frame_.origin).dot(frame_.axis);
-      hmin = std::min(hmin, heights_[v]);
-      hmax = std::max(hmax, heights_[v]);
-    }
-    slab_h0_ = hmin;
-    num_slabs_ = std::max(1, static_cast<int>(std::ceil((hmax - hmin) / cell_)) + 1);
-    std::vector<int> scount(static_cast<std::size_t>(num_slabs_) + 1, 0);
-    auto slab_range = [&](int t) {
-      const auto& tri = mesh_.triangles[static_cast<std::size_t>(t)];
-      double lo = heights_[tri[0]], hi = lo;
-      for (int q = 1; q < 3; ++q) {
-        lo = std::min(lo, heights_[tri[q]]);
-        hi = std::max(hi, heights_[tri[q]]);
-      }
-      return std::pair<int, int>{slab_of(lo), slab_of(hi)};
-    };
-    for (int t = 0; t < mesh_.num_triangles(); ++t) {
-      const auto [s0, s1] = slab_range(t);
-      for (int s = s0; s <= s1; ++s) ++scount[static_cast<std::size_t>(s) + 1];
-    }
-    for (int s = 0; s < num_slabs_; ++s) scount[static_cast<std::size_t>(s) + 1] += scount[static_cast<std::size_t>(s)];
-    slab_start_ = scount;
-    slab_tris_.resize(static_cast<std::size_t>(scount.back()));
-    for (int t = 0; t < mesh_.num_triangles(); ++t) {
-      const auto [s0, s1] = slab_range(t);
-      for (int s = s0; s <= s1; ++s) slab_tris_[static_cast<std::size_t>(scount[static_cast<std::size_t>(s)]++)] = t;
-    }
-  }
-
-  const geometry::Aabb& box() const { return box_; }
-
-  /// min(limit, distance from p to the mesh).
-  double distance(const Vec3& p, double limit) const {
-    const Vec3 lo = p - Vec3::Constant(limit), hi = p + Vec3::Constant(limit);
-    if ((hi.array() < box_.min.array()).any() || (lo.array() > box_.max.array()).any()) return limit;
-    const auto c0 = cell_of(lo), c1 = cell_of(hi);
-    double best2 = limit * limit;
-    for (int x = c0[0]; x <= c1[0]; ++x)
-      for (int y = c0[1]; y <= c1[1]; ++y)
-        for (int z = c0[2]; z <= c1[2]; ++z) {
-          const std::size_t c = flat(x, y, z);
-          for (int i = cell_start_[c]; i < cell_start_[c + 1]; ++i) {
-            const auto& tri = mesh_.triangles[static_cast<std::size_t>(cell_tris_[static_cast<std::size_t>(i)])];
-            const Vec3 q = detail::closest_point_on_triangle(p, mesh_.vertices[tri[0]], mesh_.vertices[tri[1]],
-                                                             mesh_.vertices[tri[2]]);
-            best2 = std::min(best2, (q - p).squaredNorm());
-          }
-        }
-    return std::sqrt(best2);
-  }
-
-  /// Inside test: parity of the crossings of three horizontal rays (majority vote).
-  bool inside(const Vec3& p) const {
-    if ((p.array() < box_.min.array()).any() || (p.array() > box_.max.array()).any()) return false;
-    const double h = (p - frame_.origin).dot(frame_.axis);
-    const int s = slab_of(h);
-    const Vec3 medial = frame_.medial();
-    int votes = 0;
-    for (const double angle : {0.3183, 2.4142, 4.2361}) {
-      const Vec3 dir = std::cos(angle) * frame_.anterior + std::sin(angle) * medial;
-      int hits = 0;
-      for (int i = slab_start_[static_cast<std::size_t>(s)]; i < slab_start_[static_cast<std::size_t>(s) + 1]; ++i) {
-        const auto& tri = mesh_.triangles[static_cast<std::size_t>(slab_tris_[static_cast<std::size_t>(i)])];
-        if (ray_hits(p, dir, mesh_.vertices[tri[0]], mesh_.vertices[tri[1]], mesh_.vertices[tri[2]])) ++hits;
-      }
-      votes += hits % 2;
-    }
-    return votes >= 2;
-  }
-
- private:
-  std::array<int, 3> cell_of(const Vec3& p) const {
-    std::array<int, 3> c{};
-    for (int d = 0; d < 3; ++d)
-      c[static_cast<std::size_t>(d)] = std::clamp(static_cast<int>(std::floor((p[d] - box_.min[d]) / cell_)), 0, dims_[d] - 1);
-    return c;
-  }
-  std::size_t flat(int x, int y, int z) const {
-    return (static_cast<std::size_t>(z) * static_cast<std::size_t>(dims_[1]) + static_cast<std::size_t>(y)) *
-               static_cast<std::size_t>(dims_[0]) +
-           static_cast<std::size_t>(x);
-  }
-  int slab_of(double h) const { return std::clamp(static_cast<int>(std::floor((h - slab_h0_) / cell_)), 0, num_slabs_ - 1); }
-  /// Möller–Trumbore, hits with t > 0.
-  static bool ray_hits(const Vec3& o, const Vec3& d, const Vec3& a, const Vec3& b, const Vec3& c) {
-    const Vec3 e1 = b - a, e2 = c - a;
-    const Vec3 pv = d.cross(e2);
-    const double det = e1.dot(pv);
-    if (std::abs(det) < 1e-18) return false;
-    const double inv = 1.0 / det;
-    const Vec3 tv = o - a;
-    const double u = tv.dot(pv) * inv;
-    if (u < 0.0 || u > 1.0) return false;
-    const Vec3 qv = tv.cross(e1);
-    const double v = d.dot(qv) * inv;
-    if (v < 0.0 || u + v > 1.0) return false;
-    return e2.dot(qv) * inv > 0.0;
-  }
-
-  const TriMesh& mesh_;
-  LimbFrame frame_;
-  double cell_;
-  geometry::Aabb box_;
-  int dims_[3] = {1, 1, 1};
-  std::vector<int> cell_start_, cell_tris_;
-  std::vector<double> heights_;
-  double slab_h0_ = 0.0;
-  int num_slabs_ = 1;
-  std::vector<int> slab_start_, slab_tris_;
+/// A surface's query index and its bounding box (the clearance loops skip vertices by the box).
+struct IndexedSurface {
+  explicit IndexedSurface(const TriMesh& mesh) : query(mesh), box(geometry::bounding_box(mesh)) {}
+  geometry::SurfaceQuery query;
+  geometry::Aabb box;
 };
-
-// ---------------------------------------------------------------------------------------------
-// Template bones.
-
-std::string bone_name(const char* base, const BonePlacement& placement) { return std::string(base) + placement.name_suffix; }
-
-std::vector<BoneShape> transtibial_shapes(const SkinRadii& skin, const BoneTemplateParams& p, const BonePlacement& pl) {
-  const double H = pl.knee_height_m, T = skin.top_m, B = skin.bottom_m;
-  auto S = [&](double theta, double h) { return skin.radius(theta, h); };
-  auto mid_ml = [&](double h) { return 0.5 * (S(0.5 * kPi, h) - S(-0.5 * kPi, h)); };
-  require(H > B + 0.05 && H <= T + 1e-9,
-          "build_bone_template: knee height {:.1f} mm is outside the skin (expected {:.1f} to {:.1f} mm above the "
-          "frame origin)",
-          H * 1e3, (B + 0.05) * 1e3, T * 1e3);
-  // Short stumps: the cut comes down to keep 40 mm of tibia, but stays 12 mm above the skin end.
-  const double h_end = std::min(B + p.tibia_end_height_m, H - 0.04);
-  require(h_end >= B + 0.012,
-          "build_bone_template: the knee at {:.1f} mm leaves no room for 40 mm of tibia 12 mm above the distal end "
-          "(expected a knee height of at least 52 mm)",
-          (H - B) * 1e3);
-  std::vector<BoneShape> shapes;
-
-  // Tibia.
-  const double W = p.tibia_plateau_width_m, D = p.tibia_plateau_depth_m;
-  const double tib_top = std::min(H, T - 0.006);
-  const double shaft_ref = H - 0.07;
-  auto tibia_radius = [=](double phi, double h) {
-    const double u = smoothstep((h - (H - 0.075)) / 0.062);
-    const double ts = clamp01((h - h_end) / std::max(1e-3, shaft_ref - h_end));
-    const double rs = lerp(p.tibia_distal_radius_m, p.tibia_shaft_radius_m, ts);
-    const double shaft = rs * (1.0 + 0.13 * std::cos(3.0 * phi));
-    const double plateau = ellipse_radius(phi, 0.5 * D, 0.5 * W) * (1.0 - 0.10 * gauss(wrap_angle(phi - kPi), 0.3));
-    return lerp(shaft, plateau, u);
-  };
-  auto tuberosity = [=](double phi, double h) { return 0.0045 * gauss(wrap_angle(phi), 0.35) * gauss(h - (H - 0.03), 0.010); };
-  const double crest_top = std::max(p.crest_tissue_m, 0.024);
-  auto crest_tissue = [=](double h) { return lerp(p.crest_tissue_m, crest_top, smoothstep((h - (H - 0.045)) / 0.04)); };
-  std::vector<double> hs, as, ms;
-  for (int i = 0; i <= 6; ++i) {
-    const double h = lerp(h_end + 0.015, tib_top - 0.005, i / 6.0);
-    hs.push_back(h);
-    as.push_back(S(0.0, h) - crest_tissue(h) - tibia_radius(0.0, h));
-    ms.push_back(mid_ml(h) + p.tibia_medial_shift_m);
-  }
-  // A straight tibia: the least-squares line, moved back so that no control height has less
-  // crest tissue than asked for.
-  SmoothCurve tib_a(hs, as, 1);
-  const SmoothCurve tib_m(hs, ms, 1);
-  double excess = 0.0;
-  for (std::size_t i = 0; i < hs.size(); ++i) excess = std::max(excess, tib_a(hs[i]) - as[i]);
-  tib_a.shift(-excess);
-  auto tib_centre = [=](double h) { return Vector2d(tib_a(h), tib_m(h)); };
-  BoneShape tibia;
-  tibia.name = bone_name("tibia", pl);
-  tibia.h_bottom = h_end;
-  tibia.h_top = tib_top;
-  tibia.cap_bottom = 0.006;
-  tibia.cap_top = 0.006;
-  tibia.centre = tib_centre;
-  tibia.radius = [=](double phi, double h) { return tibia_radius(phi, h) + tuberosity(phi, h); };
-  tibia.bevel = p.tibia_bevel;
-  tibia.columns = 48;
-  tibia.rows = 44;
-  shapes.push_back(tibia);
-
-  // Fibula: postero-lateral of the tibia, head just below the lateral condyle. Omitted when the
-  // residual tibia is too short to keep any fibula (as surgeons do on very short stumps).
-  const double f_end = h_end + p.fibula_shortening_m;
-  const double f_top = std::min(H - 0.016, T - 0.01);
-  if (f_top - f_end >= 0.03) {
-    const double rh = p.fibula_head_radius_m, rf = p.fibula_shaft_radius_m, phi_f = p.fibula_angle_rad;
-    auto fib_mean = [=](double h) {
-      return rf * lerp(0.85, 1.0, clamp01((h - f_end) / (f_top - f_end))) +
-             (rh - rf) * smoothstep((h - (f_top - 0.05)) / 0.028);
-    };
-    // In each plane section the fibula circle slides out from the tibia centre along one direction
-    // near phi_f; it must stay 3 mm from the tibia section (preferably the anatomical gap) and
-    // 6 mm (radially) inside the skin section. The direction closest to phi_f (within ±12°) where
-    // the nominal fibula fits at every height is used, else the roomiest one, with the fibula
-    // narrowed where it does not fit (at most to half size; the clearance fit shrinks further).
-    constexpr int kSection = 72;
-    struct Level {
-      double h, rout;
-      Vector2d ct;
-      std::array<Vector2d, kSection> tibia;
-    };
-    std::vector<Level> levels;
-    for (int i = 0; i <= 9; ++i) {
-      Level l;
-      l.h = lerp(f_end + 0.008, f_top - 0.006, i / 9.0);
-      l.ct = tib_centre(l.h);
-      l.rout = 1.08 * fib_mean(l.h);
-      for (int j = 0; j < kSection; ++j) {
-        const double phi = 2.0 * kPi * j / kSection;
-        l.tibia[static_cast<std::size_t>(j)] = l.ct + tibia.radius(phi, l.h) * Vector2d(std::cos(phi), std::sin(phi));
-      }
-      levels.push_back(l);
-    }
-    auto tibia_distance = [&](const Level& l, const Vector2d& q) {
-      double best = kInf;
-      for (int j = 0; j < kSection; ++j) {
-        const Vector2d& a0 = l.tibia[static_cast<std::size_t>(j)];
-        const Vector2d& a1 = l.tibia[static_cast<std::size_t>((j + 1) % kSection)];
-        const Vector2d e = a1 - a0;
-        const double t = std::clamp((q - a0).dot(e) / e.squaredNorm(), 0.0, 1.0);
-        best = std::min(best, (a0 + t * e - q).norm());
-      }
-      return best;
-    };
-    auto tissue = [&](const Level& l, const Vector2d& q, double r) {
-      double best = kInf;
-      for (int j = 0; j < 24; ++j) {
-        const double phi = 2.0 * kPi * j / 24;
-        const Vector2d x = q + r * Vector2d(std::cos(phi), std::sin(phi));
-        best = std::min(best, S(std::atan2(x.y(), x.x()), l.h) - x.norm());
-      }
-      return best;
-    };
-    // Along a ray the tibia distance grows and the tissue shrinks with the distance d.
-    auto bisect = [](const std::function<bool(double)>& ok_below, double lo, double hi) {
-      for (int it = 0; it < 40; ++it) {
-        const double mid = 0.5 * (lo + hi);
-        (ok_below(mid) ? lo : hi) = mid;
-      }
-      return lo;
-    };
-    struct Fit {
-      double d_min, d_max;
-    };
-    auto fit_along = [&](const Level& l, const Vector2d& dir, double r) {
-      return Fit{bisect([&](double d) { return tibia_distance(l, l.ct + d * dir) < 0.003 + r; }, 0.0, 0.2),
-                 bisect([&](double d) { return tissue(l, l.ct + d * dir, r) >= 0.006; }, 0.0, 0.2)};
-    };
-    auto direction = [&](int step) {
-      const double phi = phi_f + step * 4.0 * kPi / 180.0;
-      return Vector2d(std::cos(phi), std::sin(phi));
-    };
-    double best_slack = -kInf;
-    Vector2d dir = direction(0);
-    for (const int step : {0, 1, -1, 2, -2, 3, -3}) {
-      double slack = kInf;
-      for (const Level& l : levels) {
-        const Fit f = fit_along(l, direction(step), l.rout);
-        slack = std::min(slack, f.d_max - f.d_min);
-      }
-      if (slack > best_slack) {
-        best_slack = slack;
-        dir = direction(step);
-      }
-      if (best_slack >= 0.0) break;
-    }
-    std::vector<double> fh, fa, fm, fk;
-    for (const Level& l : levels) {
-      double r = l.rout;
-      Fit f = fit_along(l, dir, r);
-      if (f.d_max < f.d_min) {
-        r = bisect([&](double rr) { const Fit g = fit_along(l, dir, rr); return g.d_max >= g.d_min; }, 0.5 * l.rout, l.rout);
-        f = fit_along(l, dir, r);
-      }
-      const double gap_pref = lerp(0.010, 0.003, smoothstep((l.h - (f_top - 0.06)) / 0.04));
-      const double d_pref = bisect([&](double d) { return tibia_distance(l, l.ct + d * dir) < gap_pref + r; }, 0.0, 0.2);
-      const double d = std::clamp(d_pref, f.d_min, std::max(f.d_min, f.d_max));
-      fh.push_back(l.h);
-      fa.push_back(l.ct.x() + d * dir.x());
-      fm.push_back(l.ct.y() + d * dir.y());
-      fk.push_back(r / l.rout);
-    }
-    const detail::Pchip fib_a(fh, fa), fib_m(fh, fm), fib_k(fh, fk);
-    BoneShape fibula;
-    fibula.name = bone_name("fibula", pl);
-    fibula.h_bottom = f_end;
-    fibula.h_top = f_top;
-    fibula.cap_bottom = 0.004;
-    fibula.cap_top = std::min(0.009, 0.8 * rh);
-    fibula.centre = [=](double h) { return Vector2d(fib_a(h), fib_m(h)); };
-    fibula.radius = [=](double phi, double h) {
-      return std::clamp(fib_k(h), 0.5, 1.0) * fib_mean(h) * (1.0 + 0.08 * std::cos(3.0 * phi));
-    };
-    fibula.columns = 28;
-    fibula.rows = 48;
-    shapes.push_back(fibula);
-  }
-
-  // Patella and distal femur, when the skin extends above the joint line.
-  const bool has_femur = T - H >= 0.035;
-  const bool has_patella = T - H >= 0.012 + p.patella_height_m + 0.008;
-  Vector2d patella_centre(0.0, 0.0);
-  const double hp0 = H + 0.012, hp1 = hp0 + p.patella_height_m;
-  if (has_patella) {
-    const double hpc = 0.5 * (hp0 + hp1);
-    patella_centre = Vector2d(S(0.0, hpc) - p.patella_tissue_m - 0.5 * p.patella_thickness_m, mid_ml(hpc));
-    BoneShape patella;
-    patella.name = bone_name("patella", pl);
-    patella.h_bottom = hp0;
-    patella.h_top = hp1;
-    patella.cap_bottom = 0.55 * p.patella_height_m;  // the inferior pole (apex) is the pointed end
-    patella.cap_top = 0.45 * p.patella_height_m;
-    patella.centre = [=](double) { return patella_centre; };
-    patella.radius = [=](double phi, double) {
-      return ellipse_radius(phi, 0.5 * p.patella_thickness_m, 0.5 * p.patella_width_m);
-    };
-    patella.columns = 44;
-    patella.rows = 34;
-    shapes.push_back(patella);
-  }
-  if (has_femur) {
-    const double fem_bottom = H + 0.004, fem_top = T - 0.008;
-    const double Wf = p.femur_condyle_width_m, Df = p.femur_condyle_depth_m, rfs = p.femur_shaft_radius_m;
-    auto femur_radius = [=](double phi, double h) {
-      const double u = smoothstep((h - (H + 0.035)) / 0.045);
-      const double condyles = ellipse_radius(phi, 0.5 * Df, 0.5 * Wf) * (1.0 - 0.22 * gauss(wrap_angle(phi - kPi), 0.25)) *
-                              (1.0 - 0.06 * gauss(wrap_angle(phi), 0.3));
-      const double shaft = rfs * (1.0 + 0.08 * gauss(wrap_angle(phi - kPi), 0.3));
-      return lerp(condyles, shaft, u);
-    };
-    double a_f = tib_a(H) - 0.002;
-    if (has_patella)
-      for (int i = 0; i <= 8; ++i) {
-        const double h = lerp(hp0, hp1, i / 8.0);
-        a_f = std::min(a_f, patella_centre.x() - 0.5 * p.patella_thickness_m - 0.004 - femur_radius(0.0, h));
-      }
-    const Vector2d femur_centre(a_f, mid_ml(H + 0.03) + 0.002);
-    BoneShape femur;
-    femur.name = bone_name("femur", pl);
-    femur.h_bottom = fem_bottom;
-    femur.h_top = fem_top;
-    femur.cap_bottom = std::min(0.014, 0.5 * (fem_top - fem_bottom));
-    femur.cap_top = std::min(0.006, 0.25 * (fem_top - fem_bottom));
-    femur.centre = [=](double) { return femur_centre; };
-    femur.radius = femur_radius;
-    femur.columns = 48;
-    femur.rows = 32;
-    shapes.push_back(femur);
-  }
-  return shapes;
-}
-
-std::vector<BoneShape> transfemoral_shapes(const SkinRadii& skin, const BoneTemplateParams& p, const BonePlacement& pl) {
-  const double T = skin.top_m, B = skin.bottom_m;
-  auto S = [&](double theta, double h) { return skin.radius(theta, h); };
-  // Short stumps: the cut comes down to keep 50 mm of femur, but stays 15 mm above the skin end.
-  const double top = T - 0.008;
-  const double h_end = std::min(B + p.femur_end_height_m, top - 0.05);
-  require(h_end >= B + 0.015,
-          "build_bone_template: the skin is {:.1f} mm long, too short for 50 mm of femur 15 mm above the distal end "
-          "(expected at least 73 mm)",
-          (T - B) * 1e3);
-  const double rfs = p.femur_shaft_radius_m;
-  // Widening towards the trochanters: at the top of the skin, or from the ischial tuberosity's
-  // level up when it is known (the lesser trochanter lies about level with it).
-  const double hi_t = pl.ischial_height_m;
-  const bool has_trochanter = hi_t >= 0.0;
-  const double widen_from = has_trochanter ? hi_t - 0.01 : T - 0.07;
-  const double widen_over = has_trochanter ? 0.05 : 0.06;
-  auto mean = [=](double h) { return rfs * (1.0 + 0.35 * smoothstep((h - widen_from) / widen_over)); };
-  std::vector<double> hs, as, ms;
-  for (int i = 0; i <= 6; ++i) {
-    const double h = lerp(h_end + 0.01, top - 0.01, i / 6.0);
-    const double lat = lerp(0.5 * p.femur_lateral_fraction, p.femur_lateral_fraction, clamp01((h - h_end) / (top - h_end)));
-    hs.push_back(h);
-    as.push_back(p.femur_anterior_fraction * S(0.0, h));
-    ms.push_back(0.5 * (S(0.5 * kPi, h) - S(-0.5 * kPi, h)) - lat * S(-0.5 * kPi, h));
-  }
-  const SmoothCurve fa(hs, as), fm(hs, ms);
-  BoneShape femur;
-  femur.name = bone_name("femur", pl);
-  femur.h_bottom = h_end;
-  femur.h_top = top;
-  femur.cap_bottom = 0.008;
-  femur.cap_top = 0.008;
-  femur.centre = [=](double h) { return Vector2d(fa(h), fm(h)); };
-  const double h_gt = hi_t + p.trochanter_height_m, gt = has_trochanter ? p.trochanter_prominence_m : 0.0;
-  // The greater trochanter stands out postero-laterally (phi = -90° - 17°).
-  femur.radius = [=](double phi, double h) {
-    return mean(h) * (1.0 + 0.10 * gauss(wrap_angle(phi - kPi), 0.25)) +
-           gt * gauss(wrap_angle(phi + 0.5 * kPi + 0.3), 0.6) * gauss(h - h_gt, 0.014);
-  };
-  femur.columns = 40;
-  femur.rows = 60;
-  return {femur};
-}
 
 /// Clearances of each bone: to the skin (vertex–triangle both ways, plus inside tests) and to
 /// the other bones, as the smallest values found, capped at the limits. Queries use each bone's
@@ -610,14 +129,15 @@ struct ClearanceReport {
   std::vector<int> partner;   ///< per bone: the bone it comes closest to (-1: none within the limit)
 };
 
-ClearanceReport measure_clearances(const TriMesh& skin, const TriangleIndex& skin_index, const std::vector<NamedMesh>& bones,
-                                   const LimbFrame& frame, double skin_limit, double gap_limit) {
+ClearanceReport measure_clearances(const TriMesh& skin, const geometry::SurfaceQuery& skin_query,
+                                   const std::vector<NamedMesh>& bones, const LimbFrame& frame, double skin_limit,
+                                   double gap_limit) {
   const std::size_t nb = bones.size();
   ClearanceReport rep{std::vector<double>(nb, skin_limit), std::vector<double>(nb, gap_limit), std::vector<double>(nb, 0.0),
                       std::vector<int>(nb, -1)};
-  std::vector<TriangleIndex> indices;
+  std::vector<IndexedSurface> indices;
   indices.reserve(nb);
-  for (const auto& b : bones) indices.emplace_back(b.mesh, frame, 0.006);
+  for (const auto& b : bones) indices.emplace_back(b.mesh);
   for (std::size_t i = 0; i < nb; ++i) {
     const TriMesh& m = bones[i].mesh;
     double& best = rep.skin[i];
@@ -631,25 +151,28 @@ ClearanceReport measure_clearances(const TriMesh& skin, const TriangleIndex& ski
     // vertex within it; a sparse inside test then decides the side.
     for (std::size_t v = 0; v < m.vertices.size(); ++v) {
       const Vec3& p = m.vertices[v];
-      if (v % 16 == 0 && !skin_index.inside(p)) note(-std::max(skin_index.distance(p, 0.05), 1e-9), p);
-      if (best > 0.0) note(skin_index.distance(p, best), p);
+      // Rays across the axis: the skin may be open at its proximal cut.
+      if (v % 16 == 0 && !skin_query.is_inside_across(p, frame.axis))
+        note(-std::max(skin_query.distance_up_to(p, 0.05), 1e-9), p);
+      if (best > 0.0) note(skin_query.distance_up_to(p, best), p);
     }
-    const auto& box = indices[i].box();
+    const auto& box = indices[i].box;
     for (const Vec3& p : skin.vertices) {
       if (best <= 0.0) break;
       if ((p.array() < box.min.array() - best).any() || (p.array() > box.max.array() + best).any()) continue;
-      note(indices[i].distance(p, best), p);
+      note(indices[i].query.distance_up_to(p, best), p);
     }
     for (std::size_t j = 0; j < nb; ++j) {
       if (j == i) continue;
-      const auto& bj = indices[j].box();
+      const auto& bj = indices[j].box;
       double& gap = rep.gap[i];
       for (std::size_t v = 0; v < m.vertices.size(); ++v) {
         const Vec3& p = m.vertices[v];
         const double lim = std::max(gap, 0.0);
         if ((p.array() < bj.min.array() - lim).any() || (p.array() > bj.max.array() + lim).any()) continue;
-        double d = gap > 0.0 ? indices[j].distance(p, gap) : gap;
-        if (v % 8 == 0 && indices[j].inside(p)) d = -std::max(indices[j].distance(p, 0.05), 1e-9);
+        double d = gap > 0.0 ? indices[j].query.distance_up_to(p, gap) : gap;
+        if (v % 8 == 0 && indices[j].query.is_inside_across(p, frame.axis))
+          d = -std::max(indices[j].query.distance_up_to(p, 0.05), 1e-9);
         if (d < gap) {
           gap = d;
           rep.partner[i] = static_cast<int>(j);
@@ -661,19 +184,19 @@ ClearanceReport measure_clearances(const TriMesh& skin, const TriangleIndex& ski
 }
 
 /// The centreline point of a bone shape at height @p h (world) [m].
-Vec3 femur_point_at(const BoneShape& b, const LimbFrame& frame, double h) {
+Vec3 femur_point_at(const detail::BoneShape& b, const LimbFrame& frame, double h) {
   const Vector2d c = b.centre(h);
   return frame.origin + h * frame.axis + c.x() * frame.anterior + c.y() * frame.medial();
 }
 
-std::vector<BoneShape> template_shapes(const SkinRadii& skin, const BoneTemplateParams& params, const BonePlacement& placement) {
+std::vector<detail::BoneShape> template_shapes(const SkinRadii& skin, const BoneTemplateParams& params, const BonePlacement& placement) {
   validate(params);
   require(placement.shrink > 0.0 && placement.shrink <= 1.0,
           "build_bone_template: shrink = {} is out of range (expected (0, 1])", placement.shrink);
   require(skin.num_heights >= 2 && skin.num_angles >= 8 && skin.top_m > skin.bottom_m,
           "build_bone_template: the skin radii are empty (measure them with measure_skin_radii)");
-  return placement.type == geometry::LimbType::Transtibial ? transtibial_shapes(skin, params, placement)
-                                                           : transfemoral_shapes(skin, params, placement);
+  return placement.type == geometry::LimbType::Transtibial ? detail::transtibial_bone_shapes(skin, params, placement)
+                                                           : detail::transfemoral_bone_shapes(skin, params, placement);
 }
 
 }  // namespace
@@ -836,67 +359,6 @@ SkinRadii measure_skin_radii(const TriMesh& skin, const LimbFrame& frame, int nu
   return r;
 }
 
-// -------------------------------------------------------------------------------------------------
-// Template
-
-void validate(const BoneTemplateParams& p) {
-  check_range("tibia_plateau_width_m", p.tibia_plateau_width_m, 0.05, 0.10);
-  check_range("tibia_plateau_depth_m", p.tibia_plateau_depth_m, 0.035, 0.07);
-  check_range("tibia_shaft_radius_m", p.tibia_shaft_radius_m, 0.012, 0.026);
-  check_range("tibia_distal_radius_m", p.tibia_distal_radius_m, 0.008, 0.02);
-  check_range("tibia_end_height_m", p.tibia_end_height_m, 0.012, 0.06);
-  check_range("tibia_bevel", p.tibia_bevel, 0.0, 0.8);
-  check_range("crest_tissue_m", p.crest_tissue_m, 0.005, 0.03);
-  check_range("tibia_medial_shift_m", p.tibia_medial_shift_m, -0.01, 0.01);
-  check_range("fibula_head_radius_m", p.fibula_head_radius_m, 0.007, 0.016);
-  check_range("fibula_shaft_radius_m", p.fibula_shaft_radius_m, 0.003, 0.01);
-  check_range("fibula_shortening_m", p.fibula_shortening_m, 0.01, 0.06);
-  check_range("fibula_angle_rad", p.fibula_angle_rad, -2.8, -1.6);
-  check_range("femur_condyle_width_m", p.femur_condyle_width_m, 0.055, 0.105);
-  check_range("femur_condyle_depth_m", p.femur_condyle_depth_m, 0.04, 0.075);
-  check_range("patella_width_m", p.patella_width_m, 0.03, 0.055);
-  check_range("patella_height_m", p.patella_height_m, 0.03, 0.055);
-  check_range("patella_thickness_m", p.patella_thickness_m, 0.014, 0.026);
-  check_range("patella_tissue_m", p.patella_tissue_m, 0.004, 0.02);
-  check_range("femur_shaft_radius_m", p.femur_shaft_radius_m, 0.009, 0.02);
-  check_range("femur_end_height_m", p.femur_end_height_m, 0.02, 0.09);
-  check_range("femur_lateral_fraction", p.femur_lateral_fraction, 0.0, 0.6);
-  check_range("femur_anterior_fraction", p.femur_anterior_fraction, -0.2, 0.35);
-  check_range("trochanter_height_m", p.trochanter_height_m, 0.0, 0.07);
-  check_range("trochanter_prominence_m", p.trochanter_prominence_m, 0.005, 0.03);
-  check_range("ischium_radius_m", p.ischium_radius_m, 0.008, 0.02);
-  check_range("ischium_offset_m", p.ischium_offset_m, 0.045, 0.1);
-  check_range("ischium_angle_rad", p.ischium_angle_rad, -0.8, 0.4);
-  check_range("min_ischial_tissue_m", p.min_ischial_tissue_m, 0.005, 0.04);
-  check_range("pubic_ramus_length_m", p.pubic_ramus_length_m, 0.06, 0.12);
-  check_range("pubic_ramus_angle_rad", p.pubic_ramus_angle_rad, 0.2, 1.0);
-  check_range("pubic_ramus_rise_m", p.pubic_ramus_rise_m, 0.015, 0.06);
-}
-
-BoneTemplateParams scaled_bone_sizes(const BoneTemplateParams& params, double factor) {
-  require(std::isfinite(factor) && factor > 0.0, "scaled_bone_sizes: factor = {} (expected > 0)", factor);
-  BoneTemplateParams p = params;
-  auto scale = [&](double& v, double lo, double hi) { v = std::clamp(v * factor, lo, hi); };
-  scale(p.tibia_plateau_width_m, 0.05, 0.10);
-  scale(p.tibia_plateau_depth_m, 0.035, 0.07);
-  scale(p.tibia_shaft_radius_m, 0.012, 0.026);
-  scale(p.tibia_distal_radius_m, 0.008, 0.02);
-  scale(p.fibula_head_radius_m, 0.007, 0.016);
-  scale(p.fibula_shaft_radius_m, 0.003, 0.01);
-  scale(p.femur_condyle_width_m, 0.055, 0.105);
-  scale(p.femur_condyle_depth_m, 0.04, 0.075);
-  scale(p.patella_width_m, 0.03, 0.055);
-  scale(p.patella_height_m, 0.03, 0.055);
-  scale(p.patella_thickness_m, 0.014, 0.026);
-  scale(p.femur_shaft_radius_m, 0.009, 0.02);
-  scale(p.trochanter_prominence_m, 0.005, 0.03);
-  scale(p.ischium_radius_m, 0.008, 0.02);
-  scale(p.ischium_offset_m, 0.045, 0.1);
-  scale(p.pubic_ramus_length_m, 0.06, 0.12);
-  scale(p.pubic_ramus_rise_m, 0.015, 0.06);
-  return p;
-}
-
 NamedMesh build_hemipelvis_template(const SkinRadii& skin, const LimbFrame& frame, const BoneTemplateParams& p,
                                     const BonePlacement& pl, const Vec3& femur_axis_point) {
   validate(p);
@@ -907,7 +369,8 @@ NamedMesh build_hemipelvis_template(const SkinRadii& skin, const LimbFrame& fram
           hT * 1e3, (skin.bottom_m + 0.03) * 1e3, (skin.top_m - 0.005) * 1e3);
   const double s = pl.shrink;
   const double r = s * p.ischium_radius_m;
-  const double k = p.pubic_ramus_length_m / 0.09;  // the pelvis's proportions follow the ramus
+  // The pelvis's proportions follow the ramus.
+  const double k = p.pubic_ramus_length_m / detail::kReferencePubicRamus_m;
   const Vec3 medial = frame.medial();
   const Vec3 fd = femur_axis_point - frame.on_axis((femur_axis_point - frame.origin).dot(frame.axis));
   const Vector2d f_am(fd.dot(frame.anterior), fd.dot(medial));
@@ -924,18 +387,21 @@ NamedMesh build_hemipelvis_template(const SkinRadii& skin, const LimbFrame& fram
   }
   const Vector2d ramus(std::cos(p.pubic_ramus_angle_rad), std::sin(p.pubic_ramus_angle_rad));
   const Vector2d s_am = t_am + p.pubic_ramus_length_m * ramus;
-  const Vector2d a_am = t_am + k * Vector2d(0.038, -0.036);  // the ischial body rises towards the acetabulum
+  // The ischial body rises towards the acetabulum.
+  const Vector2d a_am = t_am + k * Vector2d(detail::kAcetabulumAnterior_m, detail::kAcetabulumMedial_m);
   auto world = [&](const Vector2d& am, double h) -> Vec3 {
     return frame.origin + h * frame.axis + am.x() * frame.anterior + am.y() * medial;
   };
   const double hc = hT + r;
-  const Vec3 T = world(t_am, hc), A = world(a_am, hc + k * 0.062);
+  const double h_acetabulum = hc + k * detail::kAcetabulumRise_m;
+  const Vec3 T = world(t_am, hc), A = world(a_am, h_acetabulum);
   const Vec3 S = world(s_am, hc + p.pubic_ramus_rise_m);
-  const Vec3 A_top = A + std::max(0.02, skin.top_m + 0.06 - (hc + k * 0.062)) * frame.axis;
+  const Vec3 A_top = A + std::max(0.02, skin.top_m + 0.06 - h_acetabulum) * frame.axis;
   // Two nearly straight tubes joined at the tuberosity (their round ends make its round bottom):
   // the ramus to the symphysis, and the ischial body up past the acetabulum.
-  const TriMesh ramus_tube = detail::sweep_tube({T, S}, {r, 0.6 * r}, 24, 0.003);
-  const TriMesh body_tube = detail::sweep_tube({T, A, A_top}, {r, 0.9 * r, 0.9 * r}, 24, 0.003);
+  const TriMesh ramus_tube = detail::sweep_tube({T, S}, {r, detail::kRamusRadiusFraction * r}, 24, 0.003);
+  const double r_body = detail::kIschialBodyRadiusFraction * r;
+  const TriMesh body_tube = detail::sweep_tube({T, A, A_top}, {r, r_body, r_body}, 24, 0.003);
   geometry::BooleanOptions bo;
   bo.check_operands = false;  // both tubes are valid by construction (straight or gently bent)
   TriMesh m = geometry::mesh_boolean(ramus_tube, body_tube, geometry::BooleanOperation::Union, bo);
@@ -969,7 +435,7 @@ NamedMesh build_hemipelvis_template(const SkinRadii& skin, const LimbFrame& fram
   double low_h = kInf;
   for (const auto& v : m.vertices) low_h = std::min(low_h, (v - frame.origin).dot(frame.axis));
   for (auto& v : m.vertices) v += (hT - low_h) * frame.axis;
-  return {bone_name("hemipelvis", pl), std::move(m)};
+  return {detail::bone_name("hemipelvis", pl), std::move(m)};
 }
 
 std::vector<NamedMesh> build_bone_template(const SkinRadii& skin, const LimbFrame& frame, const BoneTemplateParams& params,
@@ -989,10 +455,10 @@ namespace {
 /// kMinBoneGap_m from the other bones. It may leave the skin (it is clipped to the stump later).
 void add_hemipelvis(BoneFitResult& fit, const TriMesh& skin, const SkinRadii& radii, const LimbFrame& frame,
                     const BoneTemplateParams& params, BonePlacement placement, const Vec3& femur_point) {
-  const TriangleIndex skin_index(skin, frame, 0.006);
+  const geometry::SurfaceQuery skin_query(skin);
   for (int iter = 0; iter < 12; ++iter) {
     fit.bones.push_back(build_hemipelvis_template(radii, frame, params, placement, femur_point));
-    const ClearanceReport rep = measure_clearances(skin, skin_index, fit.bones, frame, 0.0, kMinBoneGap_m + 0.0005);
+    const ClearanceReport rep = measure_clearances(skin, skin_query, fit.bones, frame, 0.0, kMinBoneGap_m + 0.0005);
     if (rep.gap.back() >= kMinBoneGap_m + 0.0005 || placement.shrink < 0.3) {
       fit.shrink.push_back(placement.shrink);
       fit.min_bone_gap_m = std::min(fit.min_bone_gap_m, rep.gap.back());
@@ -1014,7 +480,7 @@ BoneFitResult fit_bone_template(const TriMesh& skin, const SkinRadii& radii, con
   // Vertex–triangle distances miss edge–edge closest pairs by a fraction of a millimetre on these
   // smooth shells: keep a margin so that the true surface distances honour the clearances.
   const double need_skin = min_clearance_m + 0.0005, need_gap = kMinBoneGap_m + 0.0005;
-  const TriangleIndex skin_index(skin, frame, 0.006);
+  const geometry::SurfaceQuery skin_query(skin);
   const auto shapes = template_shapes(radii, params, placement);
   const std::size_t nb = shapes.size();
   std::vector<double> shrink(nb, placement.shrink);
@@ -1028,7 +494,7 @@ BoneFitResult fit_bone_template(const TriMesh& skin, const SkinRadii& radii, con
         bones[i] = {shapes[i].name, mesh_bone(shapes[i], frame, shrink[i])};
         if (iter == 0) volume[i] = geometry::signed_volume(bones[i].mesh);
       }
-    last = measure_clearances(skin, skin_index, bones, frame, need_skin, need_gap);
+    last = measure_clearances(skin, skin_query, bones, frame, need_skin, need_gap);
     // Too close to the skin: shrink that bone; too close to another bone: shrink the smaller one.
     std::fill(dirty.begin(), dirty.end(), false);
     for (std::size_t i = 0; i < nb; ++i) {
@@ -1046,7 +512,7 @@ BoneFitResult fit_bone_template(const TriMesh& skin, const SkinRadii& radii, con
       stuck = stuck || shrink[i] < 0.25;
     }
     if (ok) {
-      const ClearanceReport full = measure_clearances(skin, skin_index, bones, frame, 0.02, 0.02);
+      const ClearanceReport full = measure_clearances(skin, skin_query, bones, frame, 0.02, 0.02);
       BoneFitResult result;
       result.shrink = shrink;
       result.min_skin_clearance_m = *std::min_element(full.skin.begin(), full.skin.end());
@@ -1110,125 +576,6 @@ std::vector<NamedMesh> estimate_bones(const TriMesh& closed_skin, const LimbFram
 // detail
 
 namespace detail {
-
-Pchip::Pchip(std::vector<double> x, std::vector<double> y) : x_(std::move(x)), y_(std::move(y)), d_(x_.size(), 0.0) {
-  const std::size_t n = x_.size();
-  require(n >= 2 && y_.size() == n, "Pchip: {} knots and {} values (expected at least 2 of each, as many)", n, y_.size());
-  std::vector<double> h(n - 1), delta(n - 1);
-  for (std::size_t k = 0; k + 1 < n; ++k) {
-    h[k] = x_[k + 1] - x_[k];
-    require(h[k] > 0.0, "Pchip: knots must increase strictly (x[{}] = {}, x[{}] = {})", k, x_[k], k + 1, x_[k + 1]);
-    delta[k] = (y_[k + 1] - y_[k]) / h[k];
-  }
-  if (n == 2) {
-    d_[0] = d_[1] = delta[0];
-    return;
-  }
-  for (std::size_t k = 1; k + 1 < n; ++k) {
-    if (delta[k - 1] * delta[k] <= 0.0) continue;
-    const double w1 = 2.0 * h[k] + h[k - 1], w2 = h[k] + 2.0 * h[k - 1];
-    d_[k] = (w1 + w2) / (w1 / delta[k - 1] + w2 / delta[k]);
-  }
-  auto end_slope = [](double h0, double h1, double m0, double m1) {
-    double d = ((2.0 * h0 + h1) * m0 - h0 * m1) / (h0 + h1);
-    if (d * m0 <= 0.0) d = 0.0;
-    else if (m0 * m1 <= 0.0 && std::abs(d) > 3.0 * std::abs(m0)) d = 3.0 * m0;
-    return d;
-  };
-  d_[0] = end_slope(h[0], h[1], delta[0], delta[1]);
-  d_[n - 1] = end_slope(h[n - 2], h[n - 3], delta[n - 2], delta[n - 3]);
-}
-
-double Pchip::operator()(double x) const {
-  const std::size_t n = x_.size();
-  if (x <= x_[0]) return y_[0] + d_[0] * (x - x_[0]);
-  if (x >= x_[n - 1]) return y_[n - 1] + d_[n - 1] * (x - x_[n - 1]);
-  const std::size_t k = static_cast<std::size_t>(std::upper_bound(x_.begin(), x_.end(), x) - x_.begin()) - 1;
-  const double h = x_[k + 1] - x_[k], t = (x - x_[k]) / h;
-  const double t2 = t * t, t3 = t2 * t;
-  return (2 * t3 - 3 * t2 + 1) * y_[k] + (t3 - 2 * t2 + t) * h * d_[k] + (-2 * t3 + 3 * t2) * y_[k + 1] +
-         (t3 - t2) * h * d_[k + 1];
-}
-
-bool is_left_handed(const LimbFrame& frame) { return frame.anterior.cross(frame.medial()).dot(frame.axis) < 0.0; }
-
-TriMesh mesh_ring_stack(const RingStack& stack, bool flip, std::vector<int>* band_first_triangle) {
-  TriMesh mesh;
-  std::vector<int> first;  // first vertex index of each ring
-  if (stack.has_bottom_pole) mesh.vertices.push_back(stack.bottom_pole);
-  for (const auto& ring : stack.rings) {
-    SOCKETSMITH_ASSERT(ring.size() >= 3);
-    first.push_back(mesh.num_vertices());
-    mesh.vertices.insert(mesh.vertices.end(), ring.begin(), ring.end());
-  }
-  const int top = mesh.num_vertices();
-  if (stack.has_top_pole) mesh.vertices.push_back(stack.top_pole);
-  auto tri = [&](int a, int b, int c) { mesh.triangles.push_back(flip ? std::array<int, 3>{a, c, b} : std::array<int, 3>{a, b, c}); };
-  if (band_first_triangle) band_first_triangle->clear();
-  if (stack.has_bottom_pole && !stack.rings.empty()) {
-    const int n = static_cast<int>(stack.rings.front().size());
-    for (int j = 0; j < n; ++j) tri(0, first[0] + (j + 1) % n, first[0] + j);
-  }
-  for (std::size_t k = 0; k + 1 < stack.rings.size(); ++k) {
-    if (band_first_triangle) band_first_triangle->push_back(mesh.num_triangles());
-    const int na = static_cast<int>(stack.rings[k].size()), nb = static_cast<int>(stack.rings[k + 1].size());
-    const int a0 = first[k], b0 = first[k + 1];
-    int i = 0, j = 0;
-    while (i < na || j < nb) {
-      // Advance on A when its next vertex comes first in angle (ties: A first).
-      const bool advance_a = j == nb || (i < na && static_cast<double>(i + 1) / na <= static_cast<double>(j + 1) / nb);
-      if (advance_a) {
-        tri(a0 + i, a0 + (i + 1) % na, b0 + j % nb);
-        ++i;
-      } else {
-        tri(a0 + i % na, b0 + (j + 1) % nb, b0 + j);
-        ++j;
-      }
-    }
-  }
-  if (band_first_triangle) band_first_triangle->push_back(mesh.num_triangles());
-  if (stack.has_top_pole && !stack.rings.empty()) {
-    const int n = static_cast<int>(stack.rings.back().size());
-    const int b0 = first.back();
-    for (int j = 0; j < n; ++j) tri(b0 + j, b0 + (j + 1) % n, top);
-  }
-  return mesh;
-}
-
-Vec3 closest_point_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
-  const Vec3 ab = b - a, ac = c - a, ap = p - a;
-  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
-  if (d1 <= 0.0 && d2 <= 0.0) return a;
-  const Vec3 bp = p - b;
-  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
-  if (d3 >= 0.0 && d4 <= d3) return b;
-  const double vc = d1 * d4 - d3 * d2;
-  if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) return a + (d1 / (d1 - d3)) * ab;
-  const Vec3 cp = p - c;
-  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
-  if (d6 >= 0.0 && d5 <= d6) return c;
-  const double vb = d5 * d2 - d1 * d6;
-  if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) return a + (d2 / (d2 - d6)) * ac;
-  const double va = d3 * d6 - d5 * d4;
-  if (va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0) return b + ((d4 - d3) / ((d4 - d3) + (d5 - d6))) * (c - b);
-  const double denom = 1.0 / (va + vb + vc);
-  return a + ab * (vb * denom) + ac * (vc * denom);
-}
-
-Vec3 closest_point_on_mesh(const TriMesh& mesh, const Vec3& p) {
-  require(!mesh.empty(), "closest_point_on_mesh: the mesh has no triangles");
-  Vec3 best = mesh.vertices[static_cast<std::size_t>(mesh.triangles[0][0])];
-  double best2 = kInf;
-  for (const auto& t : mesh.triangles) {
-    const Vec3 q = closest_point_on_triangle(p, mesh.vertices[t[0]], mesh.vertices[t[1]], mesh.vertices[t[2]]);
-    const double d2 = (q - p).squaredNorm();
-    if (d2 < best2) {
-      best2 = d2;
-      best = q;
-    }
-  }
-  return best;
-}
 
 TriMesh sweep_tube(const std::vector<Vec3>& control, const std::vector<double>& radii, int ring_vertices,
                    double spacing_m) {

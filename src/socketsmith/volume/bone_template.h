@@ -19,7 +19,8 @@
 /// (postero-lateral, head below the lateral condyle, shorter than the tibia), and — when the skin
 /// extends above the joint line — the distal femur (condyles with the intercondylar notch) and
 /// the patella. Transfemoral: the residual femur (anterior-lateral of the centre, widening
-/// towards the trochanters, rounded cut).
+/// towards the trochanters, rounded cut). The shapes, their sizes and sources are in
+/// bone_anatomy.h; this file meshes them, measures the skin and fits the bones inside it.
 
 #include <string>
 #include <vector>
@@ -205,48 +206,6 @@ std::vector<NamedMesh> estimate_bones(const geometry::TriMesh& closed_skin, cons
                                       geometry::LimbType type, const BoneEstimateOptions& options = {});
 
 namespace detail {
-
-/// Closed loops of vertices ("rings") stacked along a limb frame from the distal to the proximal
-/// end. Each ring is ordered by increasing angle about the axis (from anterior towards medial)
-/// and starts at angle 0; consecutive rings may have different vertex counts.
-struct RingStack {
-  std::vector<std::vector<geometry::Vec3>> rings;
-  bool has_bottom_pole = false;  ///< close the first ring with a fan to bottom_pole
-  geometry::Vec3 bottom_pole = geometry::Vec3::Zero();
-  bool has_top_pole = false;     ///< close the last ring with a fan to top_pole
-  geometry::Vec3 top_pole = geometry::Vec3::Zero();
-};
-
-/// Triangulates a RingStack: fans at the poles and, between consecutive rings, a zipper that
-/// advances on the ring whose next vertex has the smaller angle (n_k + n_(k+1) triangles).
-/// Vertices: bottom pole (if any), rings in order, top pole (if any). Triangles are outward for a
-/// right-handed (anterior, medial, axis) frame; pass @p flip = true for a left-handed one.
-/// @param band_first_triangle if not null, receives for each ring k the index of the first
-///        triangle of the band between ring k and ring k + 1 (the last entry: the top fan).
-geometry::TriMesh mesh_ring_stack(const RingStack& stack, bool flip, std::vector<int>* band_first_triangle = nullptr);
-
-/// Monotone piecewise-cubic Hermite interpolation (Fritsch–Carlson, as scipy's PCHIP) through
-/// knots with strictly increasing x, continued linearly (end value and slope) outside them.
-class Pchip {
- public:
-  /// @pre x.size() == y.size() >= 2, x strictly increasing.
-  Pchip(std::vector<double> x, std::vector<double> y);
-  double operator()(double x) const;
-
- private:
-  std::vector<double> x_, y_, d_;
-};
-
-/// True when (anterior, medial, axis) is left-handed, as for a left limb: meshes built with
-/// angles from anterior towards medial must then be flipped to stay outward.
-bool is_left_handed(const geometry::LimbFrame& frame);
-
-/// Closest point to @p p on the triangle (a, b, c) (Ericson, Real-Time Collision Detection 5.1.5).
-geometry::Vec3 closest_point_on_triangle(const geometry::Vec3& p, const geometry::Vec3& a, const geometry::Vec3& b,
-                                         const geometry::Vec3& c);
-
-/// Closest point to @p p on @p mesh, by brute force over its triangles (for a few queries).
-geometry::Vec3 closest_point_on_mesh(const geometry::TriMesh& mesh, const geometry::Vec3& p);
 
 /// A closed tube swept along the uniform cubic B-spline of @p control points (clamped at both
 /// ends, so it starts and ends at the first and last point), with radius interpolated along the

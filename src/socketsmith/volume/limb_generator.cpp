@@ -1,5 +1,5 @@
-#include "socketsmith/volume/shape_math.h"
 #include "socketsmith/volume/limb_generator.h"
+#include "socketsmith/volume/shape_math.h"
 
 #include <algorithm>
 #include <array>
@@ -10,6 +10,9 @@
 
 #include "socketsmith/core/atomic_file.h"
 #include "socketsmith/core/errors.h"
+#include "socketsmith/geometry/pchip_spline.h"
+#include "socketsmith/geometry/ring_stack.h"
+#include "socketsmith/geometry/surface_query.h"
 
 namespace socketsmith::volume {
 
@@ -184,7 +187,7 @@ class SkinModel {
   /// Relative circumference growth at dh above the ischial tuberosity (buttock and hip: +4.5 % at 90 mm).
   static double above_ischium_growth(double dh) { return 0.5 * dh; }
 
-  static detail::Pchip make_profile(const LimbShapeParams& p) {
+  static geometry::PchipSpline make_profile(const LimbShapeParams& p) {
     const bool tt = p.type == LimbType::Transtibial;
     const double hc = p.distal_cap_height_m, L = p.residual_length_m;
     const double rd = p.distal_circumference_m / (2.0 * kPi), rp = p.proximal_circumference_m / (2.0 * kPi);
@@ -207,13 +210,13 @@ class SkinModel {
         ys.push_back(rp * (1.0 + (tt ? above_knee_growth(dh) : above_ischium_growth(dh))));
       }
     }
-    return detail::Pchip(xs, ys);
+    return geometry::PchipSpline(xs, ys);
   }
 
   LimbShapeParams p_;
   bool tt_;
   double knee_, top_, cap_h_, cap_k_;
-  detail::Pchip profile_;
+  geometry::PchipSpline profile_;
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -231,12 +234,12 @@ double bone_size_factor(const LimbShapeParams& p) {
 
 Vec3 world(const LimbFrame& f, double theta, double rho, double h) { return f.from_cylindrical({rho, theta, h}); }
 
-Landmark make_landmark(const LimbFrame& frame, const TriMesh& skin, const char* code, const char* name, const Vec3& near,
-                       double radius_m) {
+Landmark make_landmark(const LimbFrame& frame, const geometry::SurfaceQuery& skin, const char* code, const char* name,
+                       const Vec3& near, double radius_m) {
   Landmark l;
   l.code = code;
   l.name = name;
-  l.position = detail::closest_point_on_mesh(skin, near);
+  l.position = skin.closest_point(near).point;
   l.cylindrical = frame.to_cylindrical(l.position);
   if (l.cylindrical.theta <= -kPi) l.cylindrical.theta += 2.0 * kPi;  // atan2(-0, -1): keep theta in (-pi, pi]
   l.radius_m = radius_m;
@@ -390,7 +393,7 @@ GeneratedLimb generate_limb(const LimbShapeParams& params) {
   // Rings slightly closer than the vertices around them: near-equilateral triangles.
   const double spacing = 0.9 * 2.0 * kPi * r_max / cols;
   const int rows = std::max(16, static_cast<int>(std::lround(fine_arc.back() / spacing)));
-  detail::RingStack stack;
+  geometry::RingStack stack;
   stack.has_bottom_pole = true;
   stack.bottom_pole = frame.origin;
   std::size_t k = 0;
@@ -413,8 +416,8 @@ GeneratedLimb generate_limb(const LimbShapeParams& params) {
     }
     stack.rings.push_back(std::move(ring));
   }
-  const bool flip = detail::is_left_handed(frame);
-  const TriMesh open_skin = detail::mesh_ring_stack(stack, flip);
+  const bool flip = frame.is_left_handed();
+  const TriMesh open_skin = geometry::mesh_ring_stack(stack, flip);
   // Planar cap: concentric rings shrinking to the axis in the cut plane.
   const std::size_t side_rings = stack.rings.size();
   const Vec3 centre = frame.on_axis(top);
@@ -437,7 +440,7 @@ GeneratedLimb generate_limb(const LimbShapeParams& params) {
   stack.has_top_pole = true;
   stack.top_pole = centre;
   std::vector<int> bands;
-  const TriMesh closed_skin = detail::mesh_ring_stack(stack, flip, &bands);
+  const TriMesh closed_skin = geometry::mesh_ring_stack(stack, flip, &bands);
   limb.skin_volume_m3 = geometry::signed_volume(closed_skin);
   if (params.open_proximal) {
     limb.skin = open_skin;
@@ -459,8 +462,9 @@ GeneratedLimb generate_limb(const LimbShapeParams& params) {
 
   // Landmarks: anatomical points projected onto the skin.
   auto on_skin = [&](double theta, double h) { return world(frame, theta, skin_model.radius(theta, h), h); };
+  const geometry::SurfaceQuery skin_query(limb.skin);
   auto add = [&](const char* code, const char* name, const Vec3& near, double radius) {
-    limb.landmarks.push_back(make_landmark(frame, limb.skin, code, name, near, radius));
+    limb.landmarks.push_back(make_landmark(frame, skin_query, code, name, near, radius));
   };
   auto height = [&](const Vec3& p) { return (p - frame.origin).dot(frame.axis); };
   auto lowest = [&](const TriMesh& m) {

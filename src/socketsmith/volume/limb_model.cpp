@@ -14,6 +14,7 @@
 #include "socketsmith/core/units.h"
 #include "socketsmith/geometry/mesh_boolean.h"
 #include "socketsmith/geometry/mesh_checks.h"
+#include "socketsmith/geometry/ring_stack.h"
 #include "socketsmith/geometry/surface_query.h"
 #include "socketsmith/volume/transfemoral_anatomy.h"
 
@@ -167,7 +168,7 @@ std::pair<int, int> transfemoral_roles(const std::vector<Shell>& shells) {
 /// less the clearance, from just above the distal end to the clearance below the top, closed by
 /// fans to the axis.
 TriMesh inset_region(const SkinRadii& r, const LimbFrame& frame, double clearance_m) {
-  detail::RingStack stack;
+  geometry::RingStack stack;
   const double h0 = r.h_lo_m + clearance_m, h1 = r.h_hi_m - clearance_m;
   const int rows = std::max(8, r.num_heights);
   for (int k = 0; k < rows; ++k) {
@@ -182,7 +183,7 @@ TriMesh inset_region(const SkinRadii& r, const LimbFrame& frame, double clearanc
   stack.has_bottom_pole = stack.has_top_pole = true;
   stack.bottom_pole = frame.on_axis(h0);
   stack.top_pole = frame.on_axis(h1);
-  return detail::mesh_ring_stack(stack, detail::is_left_handed(frame));
+  return geometry::mesh_ring_stack(stack, frame.is_left_handed());
 }
 
 /// The part of a hemipelvis that lies at least @p clearance_m inside the closed skin (exact
