@@ -152,7 +152,7 @@ void add_template_constraints(const DesignSetup& setup, const design::CaseFile& 
   const auto& solver = *setup.solver;
   auto m = design::template_masks(setup.brim.kind(), setup.model.landmarks, solver.skin().positions,
                                   above_brim(setup), setup.model.frame, setup.model.length_m);
-  const auto any = [](const std::vector<char>& v) { return std::any_of(v.begin(), v.end(), [](char c) { return c != 0; }); };
+  const auto any = [](const std::vector<char>& v) { return std::any_of(v.begin(), v.end(), [](char flag) { return flag != 0; }); };
   if (any(m.tolerant) && any(m.sensitive)) {
     design::OptimizerOptions::PressureRatio r;
     r.name = "tolerant / sensitive";
