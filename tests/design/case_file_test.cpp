@@ -140,9 +140,15 @@ TEST(CaseFile, a_model_named_without_a_solve_gets_its_own) {
   const CaseFile stiffer = parse_case(json{{"tissue", {{"youngs_kpa", 200}}}});
   EXPECT_EQ(stiffer.model, "neo-hookean");
   EXPECT_EQ(stiffer.solve_mode, DesignSolveMode::Nonlinear);
-  // What is written reads back the same.
+  // What is written reads back the same, and a written document whose model is then edited (a
+  // replay case, a Python dict) gets the new model's solve, as a hand-written one does.
   const CaseFile lattice = parse_case(json{{"tissue", {{"model", "mss-cs"}}}});
   EXPECT_EQ(parse_case(case_to_json(lattice)).solve_mode, DesignSolveMode::Linear);
+  const CaseFile lattice_nonlinear = parse_case(json{{"tissue", {{"model", "mss-cs"}, {"solve", "auto"}}}});
+  EXPECT_EQ(parse_case(case_to_json(lattice_nonlinear)).solve_mode, DesignSolveMode::Auto);
+  json edited = case_to_json(CaseFile{});
+  edited["tissue"]["model"] = "fe";
+  EXPECT_EQ(parse_case(edited).solve_mode, DesignSolveMode::Linear);
 }
 
 TEST(CaseFile, an_empty_document_is_the_default_case) {

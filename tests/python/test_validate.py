@@ -24,7 +24,6 @@ needs_ccx = pytest.mark.skipif(CCX is None, reason="CalculiX's ccx is not on the
 def tiny_fe_case():
     case = socketsmith.demo_case(target_nodes=600)
     case["tissue"]["model"] = "fe"
-    case["tissue"]["solve"] = "linear"  # the demo's dict names the default's nonlinear solve; fe's is linear
     case.setdefault("design", {})["follow_template"] = False
     return case
 

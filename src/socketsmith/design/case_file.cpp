@@ -471,8 +471,7 @@ json case_to_json(const CaseFile& c) {
             {{"model", c.model},
              {"constants", c.constants},
              {"youngs_kpa", c.youngs_modulus_pa / 1e3},
-             {"density_kg_m3", c.density_kg_m3},
-             {"solve", to_string(c.solve_mode)}}},
+             {"density_kg_m3", c.density_kg_m3}}},
            {"mesh", {{"target_nodes", c.target_nodes}}},
            {"design", design},
            {"brim", brim},
@@ -485,6 +484,9 @@ json case_to_json(const CaseFile& c) {
   doc["socket"].update(socket_attachment_json(c.socket));
   if (!lms.empty()) doc["landmarks"] = lms;
   if (c.poisson_ratio) doc["tissue"]["poisson"] = *c.poisson_ratio;
+  // The solve is written only when it is not the model's own, so that a document whose model is
+  // edited (a replay case, a Python dict) gets the new model's solve, as a hand-written one does.
+  if (c.solve_mode != default_solve_mode(c.model)) doc["tissue"]["solve"] = to_string(c.solve_mode);
   return doc;
 }
 
