@@ -56,7 +56,9 @@ TEST_F(DemoRun, RadarRecomputedFromSurfaceNodesEqualsTheReportAndTheSocketIsASol
              a = col("area_m2"), p = col("pressure_pa"), thr = col("threshold_pa"), above = col("above_brim");
   ASSERT_GT(x.size(), 500u);
   for (size_t i = 0; i < x.size(); ++i) {
-    if (above[i] > 0.5) EXPECT_EQ(p[i], 0.0) << "pressure above the brim at row " << i;
+    if (above[i] > 0.5) {
+      EXPECT_EQ(p[i], 0.0) << "pressure above the brim at row " << i;
+    }
     EXPECT_LE(p[i], thr[i] * (1 + 1e-9)) << "pressure above the threshold at row " << i;
     const Eigen::Vector3d n(nx[i], ny[i], nz[i]);
     const Eigen::Vector3d fi = -p[i] * a[i] * n;  // socket on stump: along the inward normal

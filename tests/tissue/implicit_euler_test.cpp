@@ -165,7 +165,9 @@ TEST(ImplicitEuler, the_per_step_scheme_redoes_a_step_that_outran_the_dead_zone_
       redone += r.law_retried;
     }
     EXPECT_EQ(ok, redo);
-    if (redo) EXPECT_GE(redone, 1);
+    if (redo) {
+      EXPECT_GE(redone, 1);
+    }
   }
 }
 

@@ -238,9 +238,10 @@ TEST(MassSpringModel, corrective_dead_zone_is_silent_below_d_and_exact_beyond) {
       const VectorXd x = scaled(dv);
       EXPECT_LT((m.elastic_forces(x) - g.elastic_forces(x)).norm(), 1e-12 * g.elastic_forces(x).norm() + 1e-15)
           << to_string(law) << " dv " << dv;
-      if (dv < 0 || law == CorrectiveLaw::Symmetric)
+      if (dv < 0 || law == CorrectiveLaw::Symmetric) {
         EXPECT_GT((n.elastic_forces(x) - g.elastic_forces(x)).norm(), 1e-6 * g.elastic_forces(x).norm())
             << "without the zone the corrective springs act at dv " << dv;
+      }
     }
     const VectorXd x = scaled(-0.06);
     EXPECT_GT((m.elastic_forces(x) - g.elastic_forces(x)).norm(), 1e-3 * g.elastic_forces(x).norm()) << to_string(law);

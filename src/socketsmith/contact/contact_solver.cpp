@@ -94,12 +94,26 @@ struct ContactSolver::Impl {
   /// and normals (lag_fn, lag_n): with them fixed, the step is the minimum of a convex potential
   /// (elastic energy + ½ k A g² for each penetration + a Huber slip potential per node), so Newton
   /// with a line search on Π converges from any start.
+  /// @p trial_point: a line search's trial point, which may have inverted an element (nonlinear body):
+  /// then the residual is NaN (rejected), where elsewhere the body's forces throw naming it.
   VectorXd evaluate(const VectorXd& xs, const Vec3& t, std::vector<NodeContact>& st, std::vector<Vec3>& trial_hist,
-                    std::vector<Eigen::Matrix3d>* blocks, double* energy, const VectorXd* Ku = nullptr) {
+                    std::vector<Eigen::Matrix3d>* blocks, double* energy, const VectorXd* Ku = nullptr,
+                    bool trial_point = false) {
     obstacle.set_translation(t);
     const bool conservative = opt.linear_body || model.has_energy();
-    VectorXd f_full = opt.linear_body ? VectorXd::Zero(xs.size()) : model.elastic_forces(xs);
+    VectorXd f_full = VectorXd::Zero(xs.size());
     double pi = 0.0;
+    if (!opt.linear_body) {
+      // The body's forces and energy in one pass (the continuum models), the inversion check in it.
+      if (!conservative) {
+        if (trial_point && model.has_inverted_element(xs))
+          return VectorXd::Constant(dofs.num_reduced(), std::numeric_limits<double>::quiet_NaN());
+        f_full = model.elastic_forces(xs);
+      } else if (!model.forces_and_energy(xs, f_full, pi)) {
+        if (trial_point) return VectorXd::Constant(dofs.num_reduced(), std::numeric_limits<double>::quiet_NaN());
+        f_full = model.elastic_forces(xs);  // throws SolverError naming the inverted element
+      }
+    }
     if (blocks) blocks->assign(nodes.size(), Eigen::Matrix3d::Zero());
     st.assign(nodes.size(), NodeContact{});
     trial_hist.assign(nodes.size(), Vec3::Zero());
@@ -177,8 +191,6 @@ struct ContactSolver::Impl {
       const VectorXd K0u = Ku ? *Ku : VectorXd(K0 * u);
       r -= K0u;
       pi += 0.5 * u.dot(K0u);
-    } else if (conservative) {
-      pi += model.energy(xs);
     }
     if (energy) *energy = conservative ? pi : std::numeric_limits<double>::quiet_NaN();
     return r;
@@ -189,7 +201,6 @@ struct ContactSolver::Impl {
   /// never changes and CHOLMOD orders it once. Linear body: K₀'s values are copied into that fixed
   /// pattern and the blocks added in place (block_at: where each block entry lives).
   void tangent(const VectorXd& xs, const std::vector<Eigen::Matrix3d>& blocks, SparseMatrix& K, bool psd_body = false) {
-    const auto& ri = dofs.reduced_index();
     if (opt.linear_body) {
       if (K.nonZeros() != K0c.nonZeros()) K = K0c;
       std::copy(K0c.valuePtr(), K0c.valuePtr() + K0c.nonZeros(), K.valuePtr());
@@ -204,21 +215,34 @@ struct ContactSolver::Impl {
     // where it is not in contact), so the pattern stays the same from one Newton iteration to the
     // next and CHOLMOD analyses it once. `psd_body`: the body's tangent projected on its positive
     // part per element (when the exact one is not positive definite away from equilibrium).
-    std::vector<Eigen::Triplet<double>> trip;
-    trip.reserve(9 * nodes.size());
+    model.jacobian(xs, psd_body ? tissue::JacobianKind::SymmetricPsd : tissue::JacobianKind::Exact, J_body);
+    dofs.reduce_matrix(J_body, K);  // the same pattern every time: DofMap maps the values
+    double* v = K.valuePtr();
+    for (Eigen::Index q = 0; q < K.nonZeros(); ++q) v[q] = -v[q];
+    // Every candidate node's own 3×3 block lies in the body's pattern (the node is in an element).
+    if (body_block_at.empty()) body_block_at = block_positions(K);
     for (size_t i = 0; i < nodes.size(); ++i)
       for (int a = 0; a < 3; ++a)
-        for (int b = 0; b < 3; ++b) {
-          const int ra = ri[3 * nodes[i] + a], rb = ri[3 * nodes[i] + b];
-          if (ra >= 0 && rb >= 0) trip.emplace_back(ra, rb, blocks[i](a, b));
-        }
-    SparseMatrix C(dofs.num_reduced(), dofs.num_reduced());
-    C.setFromTriplets(trip.begin(), trip.end());
-    SparseMatrix J, Kel;
-    model.jacobian(xs, psd_body ? tissue::JacobianKind::SymmetricPsd : tissue::JacobianKind::Exact, J);
-    dofs.reduce_matrix(J, Kel);
-    K = C - Kel;
-    K.makeCompressed();
+        for (int b = 0; b < 3; ++b)
+          if (body_block_at[9 * i + 3 * b + a] >= 0) v[body_block_at[9 * i + 3 * b + a]] += blocks[i](a, b);
+  }
+  SparseMatrix J_body;               // the body's Jacobian (nonlinear body), its pattern reused
+  std::vector<Eigen::Index> body_block_at;  // where each candidate block entry lives in K (nonlinear body)
+
+  /// Where entry (a, b) of each candidate node's 3×3 block lives in @p K's values (index 9i + 3b + a;
+  /// −1 for a fixed DOF).
+  std::vector<Eigen::Index> block_positions(const SparseMatrix& K) const {
+    const auto& ri = dofs.reduced_index();
+    std::vector<Eigen::Index> at(9 * nodes.size(), -1);
+    for (size_t i = 0; i < nodes.size(); ++i)
+      for (int b = 0; b < 3; ++b) {
+        const int col = ri[3 * nodes[i] + b];
+        if (col < 0) continue;
+        for (Eigen::Index q = K.outerIndexPtr()[col]; q < K.outerIndexPtr()[col + 1]; ++q)
+          for (int a = 0; a < 3; ++a)
+            if (ri[3 * nodes[i] + a] >= 0 && K.innerIndexPtr()[q] == ri[3 * nodes[i] + a]) at[9 * i + 3 * b + a] = q;
+      }
+    return at;
   }
 
   /// Gap against the wall. A node in contact at the last converged step keeps a wider acceptance
@@ -317,10 +341,9 @@ struct ContactSolver::Impl {
   bool try_step(const VectorXd& xs, const Vec3& t, const VectorXd& delta, double a, Trial& tr) {
     tr.x = xs;
     dofs.add_expanded(a * delta, tr.x);
-    if (!opt.linear_body && model.has_inverted_element(tr.x)) return false;
     VectorXd Ku;
     if (opt.linear_body) Ku = Ku0 + a * Kd;
-    tr.r = evaluate(tr.x, t, tr.st, tr.th, &tr.B, &tr.pi, opt.linear_body ? &Ku : nullptr);
+    tr.r = evaluate(tr.x, t, tr.st, tr.th, &tr.B, &tr.pi, opt.linear_body ? &Ku : nullptr, true);
     tr.rn = tr.r.norm();
     tr.slope = -tr.r.dot(delta);
     return std::isfinite(tr.rn);
@@ -728,16 +751,7 @@ ContactSolver::ContactSolver(const tissue::MassSpringModel& model, const tissue:
     Z.setFromTriplets(trip.begin(), trip.end());
     s.K0c = s.K0 + Z;
     s.K0c.makeCompressed();
-    s.block_at.assign(9 * s.nodes.size(), -1);
-    for (size_t i = 0; i < s.nodes.size(); ++i)
-      for (int b = 0; b < 3; ++b) {
-        const int col = ri[3 * s.nodes[i] + b];
-        if (col < 0) continue;
-        for (Eigen::Index q = s.K0c.outerIndexPtr()[col]; q < s.K0c.outerIndexPtr()[col + 1]; ++q)
-          for (int a = 0; a < 3; ++a)
-            if (s.K0c.innerIndexPtr()[q] == ri[3 * s.nodes[i] + a] && ri[3 * s.nodes[i] + a] >= 0)
-              s.block_at[9 * i + 3 * b + a] = q;
-      }
+    s.block_at = s.block_positions(s.K0c);
   }
 }
 

@@ -1,9 +1,13 @@
 #include "socketsmith/tissue/hex_fe.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
 #include <Eigen/Dense>
+#ifdef _OPENMP
+#include <omp.h>
+#endif
 
 #include "socketsmith/core/errors.h"
 #include "socketsmith/volume/hex_element.h"
@@ -47,6 +51,16 @@ Tangent determinant_hessian(const Matrix3d& F) {
 
 Vec9 vec(const Matrix3d& m) { return Eigen::Map<const Vec9>(m.data()); }
 
+/// J^(−2/3) by a cube root (a third of pow's cost; the assembly calls it at every Gauss point).
+double j_minus_two_thirds(double J) {
+  const double c = std::cbrt(J);
+  return 1.0 / (c * c);
+}
+
+/// Elements per parallel chunk: the chunk's element results are computed in parallel and then
+/// added in element order, so a sum is the same whatever the number of threads.
+constexpr int kChunk = 2048;
+
 }  // namespace
 
 Lame lame_constants(double E, double nu) {
@@ -69,7 +83,7 @@ double HyperelasticMaterial::energy_density(const Matrix3d& F) const {
   const double J = F.determinant();
   if (!(J > 0)) return std::numeric_limits<double>::infinity();
   // C10 (J^(−2/3) I1 − 3) + (J − 1)²/D1 with C10 = μ/2, 1/D1 = K/2.
-  return 0.5 * mu * (std::pow(J, -2.0 / 3.0) * F.squaredNorm() - 3.0) + 0.5 * bulk_modulus() * (J - 1) * (J - 1);
+  return 0.5 * mu * (j_minus_two_thirds(J) * F.squaredNorm() - 3.0) + 0.5 * bulk_modulus() * (J - 1) * (J - 1);
 }
 
 Matrix3d HyperelasticMaterial::first_piola(const Matrix3d& F) const {
@@ -81,7 +95,7 @@ Matrix3d HyperelasticMaterial::first_piola(const Matrix3d& F) const {
   // P = μ J^(−2/3) F − (μ/3) I1 J^(−5/3) H + K (J − 1) H, with H = ∂J/∂F.
   const double J = F.determinant();
   SOCKETSMITH_ASSERT(J > 0);
-  const double j23 = std::pow(J, -2.0 / 3.0);
+  const double j23 = j_minus_two_thirds(J);
   const Matrix3d H = cofactor(F);
   return mu * j23 * F + (bulk_modulus() * (J - 1) - mu / 3.0 * F.squaredNorm() * j23 / J) * H;
 }
@@ -108,7 +122,7 @@ Tangent HyperelasticMaterial::tangent(const Matrix3d& F, bool psd) const {
   }
   const double J = F.determinant();
   SOCKETSMITH_ASSERT(J > 0);
-  const double I1 = F.squaredNorm(), j23 = std::pow(J, -2.0 / 3.0), j53 = j23 / J, j83 = j53 / J;
+  const double I1 = F.squaredNorm(), j23 = j_minus_two_thirds(J), j53 = j23 / J, j83 = j53 / J;
   const double kappa = bulk_modulus();
   const Vec9 f = vec(F), h = vec(cofactor(F));
   A = (kappa * (J - 1) - mu / 3.0 * I1 * j53) * determinant_hessian(F);
@@ -194,7 +208,7 @@ HexFeElements::HexFeElements(const volume::HexMesh& mesh, double E, double nu, H
 
 Matrix3d HexFeElements::deformation_gradient(const volume::Hex& hex, const GaussPoint& gp, const Eigen::VectorXd& x) const {
   Matrix3d F = Matrix3d::Zero();
-  for (int a = 0; a < 8; ++a) F += x.segment<3>(3 * hex[a]) * gp.grad[a].transpose();
+  for (int a = 0; a < 8; ++a) F.noalias() += x.segment<3>(3 * hex[a]) * gp.grad[a].transpose();
   return F;
 }
 
@@ -211,20 +225,74 @@ Matrix3d HexFeElements::checked_deformation_gradient(size_t e, const GaussPoint&
 }
 
 void HexFeElements::add_forces(const Eigen::VectorXd& x, Eigen::VectorXd& f) const {
-  for (size_t e = 0; e < hexes_.size(); ++e) {
-    const auto& hex = hexes_[e];
-    for (const auto& gp : gauss_[e]) {
-      const Matrix3d P = material_.first_piola(checked_deformation_gradient(e, gp, x));
-      for (int a = 0; a < 8; ++a) f.segment<3>(3 * hex[a]) -= gp.weight * (P * gp.grad[a]);
+  double w = 0.0;
+  if (evaluate(x, &f, w)) return;
+  // Inverted somewhere: the serial pass names the element.
+  for (size_t e = 0; e < hexes_.size(); ++e)
+    for (const auto& gp : gauss_[e]) (void)checked_deformation_gradient(e, gp, x);
+}
+
+bool HexFeElements::evaluate(const Eigen::VectorXd& x, Eigen::VectorXd* f, double& energy) const {
+  const int ne = num_elements();
+  const bool check = material_.needs_positive_volume();
+  std::vector<double> w_e(static_cast<size_t>(ne), 0.0);
+  // Per element: its energy and its 24 nodal forces, then added in element order.
+  std::vector<Eigen::Matrix<double, 3, 8>> f_e(f ? static_cast<size_t>(std::min(ne, kChunk)) : 0);
+  Eigen::VectorXd sum;  // the forces, added to *f only when no Gauss point is inverted
+  if (f) sum = Eigen::VectorXd::Zero(f->size());
+  bool inverted = false;
+  for (int c0 = 0; c0 < ne && !inverted; c0 += kChunk) {
+    const int c1 = std::min(ne, c0 + kChunk);
+    int bad = 0;
+#pragma omp parallel for schedule(static) reduction(+ : bad)
+    for (int e = c0; e < c1; ++e) {
+      const auto ue = static_cast<size_t>(e);
+      const auto& hex = hexes_[ue];
+      double w = 0.0;
+      Eigen::Matrix<double, 3, 8> fe = Eigen::Matrix<double, 3, 8>::Zero();
+      for (const auto& gp : gauss_[ue]) {
+        const Matrix3d F = deformation_gradient(hex, gp, x);
+        if (check && !(F.determinant() > 0)) {
+          ++bad;
+          break;
+        }
+        w += gp.weight * material_.energy_density(F);
+        if (f) {
+          const Matrix3d P = material_.first_piola(F);
+          for (int a = 0; a < 8; ++a) fe.col(a).noalias() -= gp.weight * (P * gp.grad[a]);
+        }
+      }
+      w_e[ue] = w;
+      if (f) f_e[static_cast<size_t>(e - c0)] = fe;
     }
+    if (bad > 0) {
+      inverted = true;
+      break;
+    }
+    if (f)
+      for (int e = c0; e < c1; ++e) {
+        const auto& hex = hexes_[static_cast<size_t>(e)];
+        const auto& fe = f_e[static_cast<size_t>(e - c0)];
+        for (int a = 0; a < 8; ++a) sum.segment<3>(3 * hex[a]) += fe.col(a);
+      }
   }
+  if (inverted) {
+    energy = std::numeric_limits<double>::infinity();
+    return false;
+  }
+  if (f) *f += sum;
+  energy = 0.0;
+  for (double w : w_e) energy += w;
+  return true;
 }
 
 double HexFeElements::energy(const Eigen::VectorXd& x) const {
   double w = 0.0;
-  for (size_t e = 0; e < hexes_.size(); ++e)
-    for (const auto& gp : gauss_[e]) w += gp.weight * material_.energy_density(deformation_gradient(hexes_[e], gp, x));
-  return w;
+  if (!material_.needs_positive_volume()) {
+    (void)evaluate(x, nullptr, w);
+    return w;
+  }
+  return evaluate(x, nullptr, w) ? w : std::numeric_limits<double>::infinity();
 }
 
 void HexFeElements::element_stiffness(int e, const Eigen::VectorXd& x, bool psd, ElementMatrix& K) const {
@@ -240,18 +308,50 @@ void HexFeElements::element_stiffness(int e, const Eigen::VectorXd& x, bool psd,
       const Vector3d& g = gp.grad[a];
       for (int n = 0; n < 3; ++n) AG.col(3 * a + n) = A.col(n) * g[0] + A.col(n + 3) * g[1] + A.col(n + 6) * g[2];
     }
+    // K is symmetric: the blocks on and above the diagonal, mirrored below at the end.
     for (int a = 0; a < 8; ++a) {
       const Vector3d g = gp.weight * gp.grad[a];
-      K.middleRows<3>(3 * a) += g[0] * AG.topRows<3>() + g[1] * AG.middleRows<3>(3) + g[2] * AG.bottomRows<3>();
+      const int cols = 24 - 3 * a;
+      K.block(3 * a, 3 * a, 3, cols).noalias() += g[0] * AG.block(0, 3 * a, 3, cols) +
+                                                  g[1] * AG.block(3, 3 * a, 3, cols) +
+                                                  g[2] * AG.block(6, 3 * a, 3, cols);
     }
+  }
+  for (int a = 1; a < 8; ++a)
+    K.block(3 * a, 0, 3, 3 * a) = K.block(0, 3 * a, 3 * a, 3).transpose();
+}
+
+void HexFeElements::for_each_element_stiffness(const Eigen::VectorXd& x, bool psd,
+                                               const std::function<void(int, const ElementMatrix&)>& add) const {
+  const int ne = num_elements();
+  std::vector<ElementMatrix> k_e(static_cast<size_t>(std::min(ne, kChunk)));
+  for (int c0 = 0; c0 < ne; c0 += kChunk) {
+    const int c1 = std::min(ne, c0 + kChunk);
+    bool failed = false;
+#pragma omp parallel for schedule(static)
+    for (int e = c0; e < c1; ++e) {
+      try {
+        element_stiffness(e, x, psd, k_e[static_cast<size_t>(e - c0)]);
+      } catch (const Error&) {
+#pragma omp atomic write
+        failed = true;
+      }
+    }
+    if (failed)  // again on this thread, for the exception and its message
+      for (int e = c0; e < c1; ++e) element_stiffness(e, x, psd, k_e[static_cast<size_t>(e - c0)]);
+    for (int e = c0; e < c1; ++e) add(e, k_e[static_cast<size_t>(e - c0)]);
   }
 }
 
 double HexFeElements::min_gauss_jacobian(const Eigen::VectorXd& x) const {
+  const int ne = num_elements();
   double m = std::numeric_limits<double>::infinity();
-  for (size_t e = 0; e < hexes_.size(); ++e)
-    for (const auto& gp : gauss_[e])
-      m = std::min(m, 8.0 * gp.weight * deformation_gradient(hexes_[e], gp, x).determinant());
+#pragma omp parallel for schedule(static) reduction(min : m)
+  for (int e = 0; e < ne; ++e) {
+    const auto ue = static_cast<size_t>(e);
+    for (const auto& gp : gauss_[ue])
+      m = std::min(m, 8.0 * gp.weight * deformation_gradient(hexes_[ue], gp, x).determinant());
+  }
   return m;
 }
 

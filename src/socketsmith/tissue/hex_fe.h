@@ -17,6 +17,7 @@
 /// both laws share these loops.
 
 #include <array>
+#include <functional>
 #include <vector>
 
 #include <Eigen/Core>
@@ -111,6 +112,10 @@ class HexFeElements {
   /// Adds the internal forces −∂W/∂x at node positions @p x (3N, node-major) to @p f.
   /// @throws SolverError when the law needs J > 0 and some Gauss point has J ≤ 0.
   void add_forces(const Eigen::VectorXd& x, Eigen::VectorXd& f) const;
+  /// Energy and, when @p f is given, internal forces added to it, in one pass over the Gauss
+  /// points (a solver's trial point needs both, and the inversion check): false — @p f untouched,
+  /// @p energy +∞ — when the law needs J > 0 and some Gauss point has J ≤ 0.
+  bool evaluate(const Eigen::VectorXd& x, Eigen::VectorXd* f, double& energy) const;
   /// Strain energy W at @p x [J] (+∞ when the law needs J > 0 and some Gauss point has J ≤ 0).
   double energy(const Eigen::VectorXd& x) const;
   /// Stiffness K_e = ∂²W/∂x_e² of element @p e at @p x (24×24, node-major in the element's node
@@ -118,6 +123,11 @@ class HexFeElements {
   /// semi-definite (for CG and as a preconditioner).
   /// @throws SolverError when the law needs J > 0 and a Gauss point of @p e has J ≤ 0.
   void element_stiffness(int e, const Eigen::VectorXd& x, bool psd, ElementMatrix& K) const;
+  /// Calls @p add(e, K_e) for every element, in element order, with K_e computed in parallel
+  /// (OpenMP, chunks of elements): the sum a caller assembles is the same whatever the number of
+  /// threads. @throws as element_stiffness.
+  void for_each_element_stiffness(const Eigen::VectorXd& x, bool psd,
+                                  const std::function<void(int, const ElementMatrix&)>& add) const;
   /// Smallest det(∂x/∂ξ) over every element's Gauss points at @p x, times 8 so that it has the
   /// scale of volume::min_corner_jacobian (edge vectors rather than half-edges) [m³]; ≤ 0: some
   /// integration point is inverted.

@@ -329,6 +329,22 @@ double MassSpringModel::energy(const VectorXd& x) const {
   return w;
 }
 
+bool MassSpringModel::forces_and_energy(const VectorXd& x, VectorXd& f, double& w) const {
+  require<Error>(has_energy(), "energy: the MSS-CS corrective springs are not conservative (no energy exists)");
+  require(x.size() == num_dofs() && f.size() == num_dofs(), "forces_and_energy: {} / {} entries (expected 3N = {})",
+          x.size(), f.size(), num_dofs());
+  if (fe_) {
+    // Every Gauss point's J is seen by the pass: an inverted one fails it (neo-Hookean), and
+    // St Venant–Kirchhoff (defined for any F) still asks has_inverted_element's question.
+    if (!fe_->material().needs_positive_volume() && has_inverted_element(x)) return false;
+    return fe_->evaluate(x, &f, w);
+  }
+  if (has_inverted_element(x)) return false;
+  f += elastic_forces(x);
+  w = energy(x);
+  return true;
+}
+
 void MassSpringModel::jacobian(const VectorXd& x, JacobianKind kind, SparseMatrix& J,
                                const VectorXd* corrective_slopes) const {
   require(x.size() == num_dofs(), "jacobian: x has {} entries (expected 3N = {})", x.size(), num_dofs());
@@ -347,14 +363,12 @@ void MassSpringModel::jacobian(const VectorXd& x, JacobianKind kind, SparseMatri
     add_block(val, blocks[3], j, H);
   };
   if (fe_) {
-    HexFeElements::ElementMatrix Ke;
-    for (int e = 0; e < num_elements(); ++e) {
-      fe_->element_stiffness(e, x, psd, Ke);
+    fe_->for_each_element_stiffness(x, psd, [&](int e, const HexFeElements::ElementMatrix& Ke) {
       const int* eb = &element_blocks_[static_cast<size_t>(e) * 64];
       const auto& nodes = elements_[static_cast<size_t>(e)].nodes;
       for (int p = 0; p < 8; ++p)
         for (int q = 0; q < 8; ++q) add_block(val, eb[p * 8 + q], nodes[q], Ke.block<3, 3>(3 * p, 3 * q));
-    }
+    });
   } else {
     for (const auto& s : springs_)
       add_pair(s.blocks, s.i, s.j, spring_hessian(node(x, s.i), node(x, s.j), s.k, s.rest, psd));

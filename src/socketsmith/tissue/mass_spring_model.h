@@ -162,6 +162,11 @@ class MassSpringModel {
   bool has_energy() const { return options_.kind != TissueModelKind::MssCs; }
   /// Elastic energy [J]. @throws Error when has_energy() is false.
   double energy(const VectorXd& x) const;
+  /// The elastic forces added to @p f and the energy in @p energy, when the state is admissible:
+  /// false (@p f untouched) when has_inverted_element(x). One pass over the elements for the
+  /// continuum models (a line search's trial point needs all three); separate passes otherwise.
+  /// @throws Error when has_energy() is false.
+  bool forces_and_energy(const VectorXd& x, VectorXd& f, double& energy) const;
 
   /// Jacobian J = ∂f/∂x (3N × 3N) of the elastic forces, written into @p J (pattern reused).
   /// @param corrective_slopes MSS-CS only, optional (num_elements()): the slope dk'/dδv [N/m] of
