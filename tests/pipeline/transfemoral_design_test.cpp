@@ -17,6 +17,9 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <sstream>
+#include <string>
+#include <vector>
 #include <numbers>
 #include <optional>
 
@@ -371,6 +374,28 @@ TEST_P(TurnedGeneratedTransfemoral, gets_an_ischial_containment_a_prosthetist_wo
   EXPECT_GT(socket_top_theta, 90.0) << name;
   EXPECT_LT(socket_top_theta, 180.0) << name;
 
+  // The brim's top 30 mm bears (issue 21 found 0.1-0.7 kPa there under a flat, clamped brim):
+  // the area-weighted mean pressure of the skin nodes within 30 mm below the brim, from
+  // surface_nodes.csv (x, y, z, nx, ny, nz, area, pressure, threshold, above_brim).
+  double band_pa = 0, band_a = 0;
+  {
+    std::ifstream csv(dir / "out" / "surface_nodes.csv");
+    std::string line;
+    std::getline(csv, line);  // header
+    while (std::getline(csv, line)) {
+      std::vector<double> f;
+      std::stringstream ss(line);
+      for (std::string cell; std::getline(ss, cell, ',');) f.push_back(std::stod(cell));
+      ASSERT_EQ(f.size(), 10u) << line;
+      const auto q = frame.to_cylindrical(Vector3d(f[0], f[1], f[2]));
+      const double h_mm = q.h * 1e3, brim_mm = brim.height(q.theta);
+      if (f[9] == 0 && h_mm > brim_mm - 30.0) band_pa += f[7] * f[6], band_a += f[6];
+    }
+  }
+  ASSERT_GT(band_a, 0.0) << name;
+  const double band_kpa = band_pa / band_a * 1e-3;
+  EXPECT_GT(band_kpa, 1.5) << name;
+
   // The bony tuberosity (the file's hemipelvis) inside the socket's cavity.
   const auto& ic = j["socket"]["ischial_check"];
   EXPECT_EQ(ic["kind"], "containment") << name;
@@ -393,9 +418,9 @@ TEST_P(TurnedGeneratedTransfemoral, gets_an_ischial_containment_a_prosthetist_wo
   EXPECT_NE(page.find("ischial / gluteal"), std::string::npos) << name;
 
   std::printf("[ measured ] %s turned: constraints %s, watertight %s, anterior %.1f deg off, brim %.1f mm high, "
-              "highest at %.0f deg (socket %.0f deg), tuberosity %s (%.1f mm), ischial share %.1f %%\n",
+              "highest at %.0f deg (socket %.0f deg), top 30 mm %.2f kPa, tuberosity %s (%.1f mm), ischial share %.1f %%\n",
               name.c_str(), j["constraints_met"].get<bool>() ? "met" : "NOT met",
-              report.is_valid_closed_surface() ? "yes" : "NO", ant_err, hi - lo, top_theta, socket_top_theta,
+              report.is_valid_closed_surface() ? "yes" : "NO", ant_err, hi - lo, top_theta, socket_top_theta, band_kpa,
               ic["inside_cavity"].get<bool>() ? "inside" : "NOT inside", ic["cavity_margin_mm"].get<double>(),
               100 * share);
 }
