@@ -274,7 +274,9 @@ void register_mesh(CLI::App& app) {
   cmd->add_flag("--force-size", f->force_size,
                 "accept a limb whose size after units and --scale is outside the anatomical range of its type");
   cmd->add_option("--side", f->side, "right | left");
-  cmd->add_option("--cut-height-mm", f->cut_height_mm, "proximal cut above the distal end (default: just below the open rim)");
+  // The case file's range (a cut of 0 or below was silently read as "not given").
+  cmd->add_option("--cut-height-mm", f->cut_height_mm, "proximal cut above the distal end (default: just below the open rim)")
+      ->check(within(design::limits::kCutHeight));
   cmd->add_option("--target-nodes", f->target_nodes, "aimed-at node count (e.g. 3000, 8000, 20000)");
   cmd->add_option("--landmark", f->landmarks,
                   "move a landmark: CODE=x,y,z in the file's unit, projected onto the skin (repeatable)");

@@ -197,6 +197,31 @@ TEST(LimbModel, TransfemoralSkinFarOffItsPrincipalAxisMeshesWithTheAxisGiven) {
   EXPECT_NEAR(static_cast<double>(r.mesh.num_nodes()) / mo.target_nodes, 1.0, 0.15);
 }
 
+// A given cut above the scan's rim continues the skin with assumed walls only as far as the
+// highest containment needs (150 mm above the tuberosity); a cut of 900 mm (789 mm of wall on this
+// limb, accepted before with a note) is refused in one line that gives the highest cut.
+TEST(LimbModel, TransfemoralCutFarAboveTheScanIsRefused) {
+  const fs::path file = kData / "transfemoral/openlimb_tf_mean_limb_normalised.stl";
+  if (!fs::exists(file)) GTEST_SKIP() << "shared data absent: " << file;
+  const geometry::TriMesh limb = read_tf_metres(file);
+  LimbInputOptions o;
+  o.type = geometry::LimbType::Transfemoral;
+  o.cut_height_m = 0.9;
+  try {
+    prepare_limb(limb, {}, o);
+    ADD_FAILURE() << "a cut 789 mm above the scan's rim went through";
+  } catch (const InvalidInputError& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("give a cut at most 367 mm above the distal end"), std::string::npos) << msg;
+    EXPECT_EQ(msg.find('\n'), std::string::npos) << msg;
+  }
+  // The highest cut it names is accepted.
+  o.cut_height_m = 0.365;
+  const LimbModel m = prepare_limb(limb, {}, o);
+  EXPECT_NEAR(m.cut_height_m, 0.365, 1e-12);
+  EXPECT_GT(m.skin_extension_m, 0.2);
+}
+
 // Units: the normalised file read as metres is 0.3 m long... and 1000 x that read as mm; both
 // refused in one line naming the likely mistake unless scaled (or forced).
 TEST(LimbModel, TransfemoralSizeOutsideItsRangeNamesTheUnitMistake) {

@@ -26,6 +26,9 @@ using geometry::TriMesh;
 
 /// Tissue kept between the skin and a clipped hemipelvis [m].
 constexpr double kPelvisClearance_m = 0.005;
+/// The highest a transfemoral stump is continued above the ischial tuberosity (the upper bound of
+/// LimbInputOptions::containment_height_m) [m].
+constexpr double kMaxContainmentHeight = 0.15;
 
 struct Shell {
   TriMesh mesh;
@@ -359,7 +362,7 @@ LimbModel prepare_limb(const TriMesh& limb, const TriMesh& extra_bones, const Li
   require(!limb.empty(), "limb surface is empty (expected a scanned limb)");
   for (const auto& v : limb.vertices)
     require(v.allFinite(), "limb surface has a NaN or infinite vertex coordinate: re-export the scan");
-  require(opt.containment_height_m >= 0.03 && opt.containment_height_m <= 0.15,
+  require(opt.containment_height_m >= 0.03 && opt.containment_height_m <= kMaxContainmentHeight,
           "prepare_limb: containment height {:.0f} mm is outside 30-150 mm above the ischial tuberosity",
           opt.containment_height_m * 1e3);
   if (!opt.force_size) {
@@ -548,6 +551,17 @@ LimbModel prepare_limb(const TriMesh& limb, const TriMesh& extra_bones, const Li
   double cut = opt.cut_height_m.value_or(rim - opt.cut_margin_m);
   if (tf && !opt.cut_height_m && ischial_h > 0.0) cut = std::max(cut, ischial_h + opt.containment_height_m);
   const bool is_open = !rim_h.empty();
+  // A given cut above the rim is reached by continuing the skin with assumed walls: only as far as
+  // the highest containment needs (150 mm above the tuberosity). Beyond that the stump would be
+  // mostly wall (a cut of 900 mm on the OpenLimbTF limb added 789 mm of it without a word).
+  if (tf && is_open && opt.extend_skin && opt.cut_height_m && cut > rim && ischial_h > 0.0) {
+    const double top = std::max(rim, ischial_h + kMaxContainmentHeight);
+    require(cut <= top + 1e-9,
+            "cut height {:.0f} mm is above what a transfemoral stump is continued to: the scan's rim ends at {:.0f} mm "
+            "and the skin is continued above it only up to {:.0f} mm above the ischial tuberosity; give a cut at most "
+            "{:.0f} mm above the distal end (limb.cut_height_mm in a case file, --cut-height-mm on the command line)",
+            cut * 1e3, rim * 1e3, kMaxContainmentHeight * 1e3, top * 1e3);
+  }
   if (tf && is_open && opt.extend_skin && cut > rim) {
     const SkinExtension ext = extend_skin_to_height(skin.mesh, frame, cut + opt.cut_margin_m);
     model.skin_extension_m = cut - rim;
