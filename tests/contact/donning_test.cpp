@@ -2,6 +2,7 @@
 // FE, ch. 4.3): the path converges, no node goes deeper than 0.5 mm into the wall, the standing
 // load is carried (force balance on the socket), and the contact pressures follow the designed
 // ones below the brim.
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -316,6 +317,27 @@ TEST(DonningNeoHookean, a_frictionless_donning_of_a_nonlinear_design_gives_back_
   // Measured 2026-11-26: means 10.45 / 10.41 kPa, MAE 0.42 kPa, p99 1.67 kPa, R 0.984, 1.3 s.
   EXPECT_LT(a.mae, 0.06 * a.mean_b);
   EXPECT_GT(a.r, 0.97);
+}
+
+TEST_F(Donning, a_stalled_path_says_where_the_wall_holds_the_skin_and_names_flags_only_where_the_user_has_them) {
+  // Newton cut short (3 iterations, no residual accepted as a kink's): the path stalls at the
+  // first step that needs more (18 mm below the pose at 1.8k nodes, the skin in contact).
+  DonningOptions o = standing_path(15, 0.045);
+  o.contact.max_newton = 3;
+  o.contact.kink_rel_tol = 1e-12;
+  const DonningResult r = don(o);
+  ASSERT_FALSE(r.completed);
+  EXPECT_THAT(r.message, ::testing::ContainsRegex("^donning stalled at [0-9.]+ mm below the designed pose"));
+  EXPECT_THAT(r.message, ::testing::ContainsRegex(
+                             "at [0-9.]+ mm ([0-9]+ skin nodes touch the wall, the hardest at -?[0-9]+ mm above the "
+                             "distal end, (anterior|posterior|medial|lateral) \\(-?[0-9]+° from the front towards "
+                             "medial\\), [0-9.]+ kPa)"));
+  EXPECT_THAT(r.message, ::testing::HasSubstr("try more --steps or a smaller --offset-mm"));
+  o.start_offset_name.clear();  // the closed-loop design: no donning flags to suggest
+  const DonningResult q = don(o);
+  ASSERT_FALSE(q.completed);
+  EXPECT_THAT(q.message, ::testing::Not(::testing::HasSubstr("--")));
+  std::cout << r.message << "\n";
 }
 
 TEST_F(Donning, rejects_a_socket_that_grips_at_the_start_and_bad_options) {

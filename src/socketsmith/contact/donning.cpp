@@ -3,6 +3,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <numbers>
 
 #include "socketsmith/core/errors.h"
 #include "socketsmith/core/log.h"
@@ -34,11 +35,30 @@ DonningSample sample(const ContactStep& st, const std::vector<NodeContact>& cont
   return s;
 }
 
+/// Where the wall grips the skin hardest in @p contacts: "the wall grips the skin hardest at 118 mm
+/// above the distal end, posterior-lateral (152°), 45 kPa" — what a stalled path is stuck on.
+std::string hardest_grip(const std::vector<NodeContact>& contacts, const std::vector<int>& nodes,
+                         const tissue::VectorXd& x, const geometry::LimbFrame& frame) {
+  size_t k = contacts.size();
+  for (size_t i = 0; i < contacts.size(); ++i)
+    if (contacts[i].active && (k == contacts.size() || contacts[i].pressure_pa > contacts[k].pressure_pa)) k = i;
+  if (k == contacts.size()) return "no skin node touches the wall";
+  const auto cy = frame.to_cylindrical(x.segment<3>(3 * nodes[k]));
+  const double deg = cy.theta * 180.0 / std::numbers::pi;  // 0 anterior, +90 medial
+  const char* side = std::abs(deg) <= 45 ? "anterior" : std::abs(deg) >= 135 ? "posterior" : deg > 0 ? "medial" : "lateral";
+  int touching = 0;
+  for (const auto& c : contacts) touching += c.active ? 1 : 0;
+  return fmt::format("{} skin nodes touch the wall, the hardest at {:.0f} mm above the distal end, {} ({:.0f}° from "
+                     "the front towards medial), {:.1f} kPa",
+                     touching, cy.h * 1e3, side, deg, contacts[k].pressure_pa / 1e3);
+}
+
 }  // namespace
 
 struct DonningSimulation::Impl {
   const tissue::MassSpringModel& model;
   DonningOptions o;
+  geometry::LimbFrame frame;
   Vec3 axis;
   RigidSocket socket;
   tissue::DofMap dofs;
@@ -48,9 +68,9 @@ struct DonningSimulation::Impl {
   double last_step = 0.0;
 
   Impl(const tissue::MassSpringModel& m, const std::vector<int>& nodes, const std::vector<double>& areas,
-       const geometry::TriMesh& solid, const geometry::LimbFrame& frame, const DonningOptions& options)
-      : model(m), o(checked(options, m, nodes, solid, frame)), axis(frame.axis.normalized()),
-        socket(solid, frame, o.socket_density_kg_m3), dofs(tissue::fixed_node_dofs(m.mesh(), "donning")),
+       const geometry::TriMesh& solid, const geometry::LimbFrame& limb_frame, const DonningOptions& options)
+      : model(m), o(checked(options, m, nodes, solid, limb_frame)), frame(limb_frame), axis(limb_frame.axis.normalized()),
+        socket(solid, limb_frame, o.socket_density_kg_m3), dofs(tissue::fixed_node_dofs(m.mesh(), "donning")),
         skin_nodes(nodes) {
     socket.set_smooth_wall(o.smooth_wall);
     ContactOptions co = o.contact;
@@ -141,7 +161,8 @@ DonningResult DonningSimulation::run() {
     require(st.contact_nodes == 0,
             "donning: {} skin nodes already touch the socket {:.0f} mm below its designed pose: start further "
             "down ({} larger than {:.0f})",
-            st.contact_nodes, o.start_offset_m * 1e3, o.start_offset_name, o.start_offset_m * 1e3);
+            st.contact_nodes, o.start_offset_m * 1e3,
+            o.start_offset_name.empty() ? std::string("a start offset") : o.start_offset_name, o.start_offset_m * 1e3);
   }
   r.completed = true;
   // The path: fixed steps, or adaptive ones (DonningOptions::steps). A trial step is kept unless a
@@ -167,9 +188,13 @@ DonningResult DonningSimulation::run() {
         continue;
       }
       r.completed = false;
-      r.message = fmt::format("donning stalled at {:.1f} mm below the designed pose (step of {:.2f} mm): {}; try more "
-                              "--steps or a smaller {}",
-                              -target * 1e3, (target - offset) * 1e3, st.message, o.start_offset_name);
+      // The last converged state (the solver went back to it): where the socket holds the skin.
+      r.message = fmt::format("donning stalled at {:.1f} mm below the designed pose (step of {:.2f} mm): {}; at {:.1f} "
+                              "mm {}",
+                              -target * 1e3, (target - offset) * 1e3, st.message, -offset * 1e3,
+                              hardest_grip(solver.contacts(), s.skin_nodes, solver.positions(), s.frame));
+      if (!o.start_offset_name.empty())
+        r.message += fmt::format("; try more --steps or a smaller {}", o.start_offset_name);
       break;
     }
     const int new_sticks = st.new_sticks;

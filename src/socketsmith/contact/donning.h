@@ -24,7 +24,8 @@ struct DonningOptions {
   /// below the stump's distal end (nothing touches at the start).
   double start_offset_m = 0.0;
   /// How the user sets start_offset_m, named in the messages that ask for another one
-  /// (simulate donning: "--offset-mm"; validate donning: "--travel-mm").
+  /// (simulate donning: "--offset-mm"; validate donning: "--travel-mm"); empty where the user has
+  /// no such setting (the closed-loop design): the messages then name no flag.
   std::string start_offset_name = "--offset-mm";
   /// > 0: this many equal displacement steps to the designed pose. 0 (default): adaptive steps of
   /// at most step_m, halved (down to min_step_m) when a node that was sliding, or not touching,

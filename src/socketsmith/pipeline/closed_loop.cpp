@@ -160,6 +160,7 @@ ClosedLoopResult close_design_loop(DesignSetup& setup, const DesignResult& resul
   const size_t n = skin.nodes.size();
 
   contact::DonningOptions don = options.donning;
+  don.start_offset_name.clear();  // `design` has no donning flags to suggest
   if (!options.keep_donning_loads) {
     don.friction = c.patient.friction;
     don.stand_force_n = 0.5 * c.patient.body_mass_kg * units::kGravity;
@@ -214,7 +215,10 @@ ClosedLoopResult close_design_loop(DesignSetup& setup, const DesignResult& resul
   for (;;) {
     if (!d.completed || !d.stood) {
       const std::string why = d.message.empty() ? "the standing load was not reached" : d.message;
-      require<SolverError>(!r.iterations.empty(), "closed loop: the open-loop socket could not be donned and stood on: {}", why);
+      require<SolverError>(!r.iterations.empty(),
+                           "closed loop: the open-loop socket could not be donned and stood on: {} (design without "
+                           "\"closed_loop\" to keep the open-loop socket)",
+                           why);
       if (refitted) {  // the refit lost its way: don the same socket from scratch instead
         log::warn("closed loop: the refit of the corrected socket did not converge ({}); donning it from scratch", why);
         if (full_donnings >= options.max_donnings) {
