@@ -60,10 +60,14 @@ struct ClosedLoopOptions {
   /// Past iterates that Anderson acceleration combines (since the last donning from scratch), in
   /// [0, 10]; 0: the plain iteration δ ← δ + correction.
   int anderson_depth = 3;
-  /// Stop once the MAE below the brim is at most this [Pa], > 0, and the 99th percentile at most
-  /// p99_tolerance_pa.
-  double mae_tolerance_pa = 300.0;
-  double p99_tolerance_pa = 1500.0;  ///< [Pa], > 0
+  /// Stop once a socket donned from scratch delivers its design below the brim with an MAE of at
+  /// most this [Pa], > 0, and a 99th percentile of at most p99_tolerance_pa. Issue 20's bar for a
+  /// donned and stood socket is MAE ≤ 1.5 kPa and p99 ≤ 4 kPa; the MAE is asked three times
+  /// tighter. (0.3 / 1.5 kPa before: the node-scale 99th percentile never came under 2.8 kPa, so the
+  /// loop always ran all its donnings — at 8k nodes the fourth donning and its refits gained
+  /// nothing on the third.)
+  double mae_tolerance_pa = 500.0;
+  double p99_tolerance_pa = 4000.0;  ///< [Pa], > 0
   /// Passes of area-weighted averaging over each skin node's neighbours applied to the excess
   /// pressure before it becomes a correction, in [0, 50]. 0 by default: the corrections are moved
   /// to where each node touches the wall (see close_design_loop), and that alone keeps
