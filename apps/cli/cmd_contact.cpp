@@ -41,6 +41,7 @@ struct DonningFlags {
   double penalty_factor = 20;
   int reuse_cg = -1;
   std::string wall;  // "" = the default (DonningOptions::smooth_wall)
+  std::string body = "design";  // design | linearised | nonlinear
   bool no_stand = false;
   bool json = false;
 };
@@ -119,8 +120,13 @@ int run_donning(const DonningFlags& f) {
   o.contact.stick_stiffness_ratio = f.stick_stiffness;
   if (f.reuse_cg >= 0) o.contact.max_reuse_cg = f.reuse_cg;
   if (!f.wall.empty()) o.smooth_wall = f.wall == "smooth";
-  log::info("donning: {} onto a {}-node stump ({} skin nodes), from {} in {}, μ = {:.2f}{}",
-            socket_label, setup->mesh.mesh.num_nodes(), skin.nodes.size(),
+  // The donned stump: the design's (its tissue model as it was solved: the closed loop's rule), or
+  // as asked. MSS-CS has no energy, so its "nonlinear" body is the lattice's own Newton.
+  const bool design_linear = (designed && designed->state.linearised) || c.solve_mode == design::DesignSolveMode::Linear;
+  o.contact.linear_body = f.body == "linearised" || (f.body == "design" && design_linear);
+  log::info("donning: {} onto a {}-node {} stump ({} skin nodes), from {} in {}, μ = {:.2f}{}",
+            socket_label, setup->mesh.mesh.num_nodes(),
+            o.contact.linear_body ? "linearised" : fmt::format("nonlinear {}", c.model), skin.nodes.size(),
             f.offset_mm > 0 ? fmt::format("{:.0f} mm below", f.offset_mm) : std::string("below the stump"),
             f.steps > 0 ? fmt::format("{} steps", f.steps)
                         : fmt::format("adaptive steps of {:.1f} mm at most", f.step_mm),
@@ -254,6 +260,7 @@ int run_donning(const DonningFlags& f) {
                    {"stick_stiffness_ratio", o.contact.stick_stiffness_ratio},
                    {"start_offset_mm", r.start_offset_m * 1e3},
                    {"friction", mu},
+                   {"body", o.contact.linear_body ? "linearised" : "nonlinear"},
                    {"stand_force_n", o.stand_force_n},
                    {"final_offset_mm", r.final_offset_m * 1e3},
                    {"force_on_socket_n", {r.force_on_socket_n.x(), r.force_on_socket_n.y(), r.force_on_socket_n.z()}},
@@ -387,6 +394,10 @@ void register_contact(CLI::App& app) {
       ->check(CLI::Range(0, 1000));
   don->add_option("--wall", f->wall, "socket wall for contact: smooth (default; a smooth surface fitted to its facets) | faceted")
       ->check(CLI::IsMember({"smooth", "faceted"}));
+  don->add_option("--body", f->body,
+                  "the donned stump: design (default: the tissue model as the design solved it — the neo-Hookean "
+                  "default nonlinearly, a linear solve linearised at rest) | linearised | nonlinear")
+      ->check(CLI::IsMember({"design", "linearised", "nonlinear"}));
   don->add_flag("--no-stand", f->no_stand, "stop at the designed pose (no half-body-weight load)");
   don->add_option("--out", f->out, "output directory")->required();
   don->add_flag("--json", f->json, "print the summary as JSON on stdout");
