@@ -66,6 +66,7 @@ struct DonningSimulation::Impl {
   std::vector<int> skin_nodes;
   bool completed = false, stood = false;
   double last_step = 0.0;
+  double stand_stiffness = 0.0;  ///< d(axial force)/d(position) over the last standing push [N/m]; 0 unknown
 
   Impl(const tissue::MassSpringModel& m, const std::vector<int>& nodes, const std::vector<double>& areas,
        const geometry::TriMesh& solid, const geometry::LimbFrame& limb_frame, const DonningOptions& options)
@@ -108,17 +109,37 @@ struct DonningSimulation::Impl {
   /// step of the push from the reaction's slope over the last two samples (a little past the
   /// predicted position, so that it usually brackets the load at once); a 2 mm step overshot by
   /// 2–3× and its solve cost more than the bracket's.
+  ///
+  /// A refit has one sample (the refitted socket where the worn one stood): its push is predicted
+  /// from the axial stiffness the last standing measured — forwards as above, or, when the new
+  /// socket already carries more than the load, backwards by the predicted distance instead of a
+  /// whole donning step (the bracket's first end then lies next to the load).
   void stand(DonningResult& r) {
     try {
-      double first = 0;
+      double first = 0, max_step = last_step;
       const size_t ns = r.series.size();
+      const double pose_force = ns > 0 ? r.series.back().axial_force_n : 0.0;
       if (o.predict_stand_step && ns >= 2) {
         const auto &a = r.series[ns - 2], &b = r.series[ns - 1];
         const double slope = (b.axial_force_n - a.axial_force_n) / (b.offset_m - a.offset_m);
         if (slope > 0 && o.stand_force_n > b.axial_force_n) first = 1.1 * (o.stand_force_n - b.axial_force_n) / slope;
+      } else if (o.predict_stand_step && ns == 1 && stand_stiffness > 0) {
+        const double ds = (o.stand_force_n - pose_force) / stand_stiffness;
+        if (ds > 0) {
+          first = 1.1 * ds;
+          max_step = std::max(max_step, first);
+        } else {
+          max_step = std::clamp(1.1 * -ds, 1e-5, std::max(last_step, 1e-5));
+        }
       }
-      const ContactStep st = solver->push_with_force(axis, o.stand_force_n, 1e-3, last_step, first);
+      const double start_at = socket.translation().dot(axis);
+      const ContactStep st = solver->push_with_force(axis, o.stand_force_n, 1e-3, max_step, first);
       const double stood_at = socket.translation().dot(axis);
+      // The axial stiffness over this push, for the next refit's prediction.
+      if (std::abs(stood_at - start_at) > 1e-7) {
+        const double k = (o.stand_force_n - pose_force) / (stood_at - start_at);
+        if (k > 0) stand_stiffness = k;
+      }
       r.series.push_back(sample(st, solver->contacts(), axis, stood_at));
       r.newton_iterations += st.newton_iterations;
       r.force_on_socket_n = st.force_on_obstacle_n;
