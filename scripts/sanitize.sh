@@ -6,8 +6,9 @@
 #   SOCKETSMITH_SANITIZE_CMAKE_ARGS: more configure flags (e.g. -DSOCKETSMITH_BUILD_GUI=OFF)
 #   SOCKETSMITH_JOBS: build and test jobs (default: all cores)
 # Undefined behaviour stops the program that meets it (-fno-sanitize-recover), so a test cannot
-# pass over it. Leak checking is off (ASAN_OPTIONS=detect_leaks=0 unless set): this run is for
-# memory errors and UB. OpenMP is off: libgomp is not instrumented. The Python package is built
+# pass over it. ASan exits 99 (its default, 1, is the CLI's "bad input", which the CLI tests
+# expect). Leak checking is off (both unless ASAN_OPTIONS is set): this run is for memory errors
+# and UB. OpenMP is off: libgomp is not instrumented. The Python package is built
 # too when pybind11 is found; python.pytest then runs the plain interpreter with the sanitizer
 # runtimes preloaded (tests/CMakeLists.txt).
 set -euo pipefail
@@ -22,7 +23,7 @@ cmake -S . -B "$BUILD_DIR" -DSOCKETSMITH_SANITIZE=ON -DCMAKE_BUILD_TYPE=RelWithD
   || { cat "$BUILD_DIR.configure.log"; exit 1; }
 cmake --build "$BUILD_DIR" -j"$JOBS"
 cd "$BUILD_DIR"
-export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=0}
+export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=0:exitcode=99}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1}
 if [ $# -eq 0 ]; then set -- -LE "slow|validation"; fi
 ctest --output-on-failure -j"$JOBS" "$@"
