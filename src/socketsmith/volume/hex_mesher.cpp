@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <iterator>
 #include <map>
 #include <numeric>
 #include <queue>
@@ -906,6 +907,37 @@ HexMesherResult mesh_limb(const HexMesherInput& in, const HexMesherOptions& opt)
       h *= std::cbrt(ratio);
     }
   }
+  // Smoothing, bones and the quality check. At the coarsest sizes (a few hundred nodes: a bone's tip
+  // a cell or two from the skin) one grid can keep a few inverted elements where one 2 % finer or
+  // coarser does not, so a size chosen from target_nodes is retried with the cell nudged by ±2 %,
+  // ±4 %, ±6 % before giving up; a cell size the caller set is used as it is.
+  const double h_chosen = h;
+  constexpr double kRetryScales[] = {1.0, 0.98, 1.02, 0.96, 1.04, 0.94, 1.06};
+  const int attempts = opt.cell_size_m > 0.0 ? 1 : static_cast<int>(std::size(kRetryScales));
+  BoneReport bone_report;
+  for (int attempt = 0; attempt < attempts; ++attempt) {
+    if (attempt > 0) {
+      log::debug("mesh_limb: {} element(s) inverted at h = {:.2f} mm; retrying at {:.2f} mm", res.quality.inverted,
+                 h * 1e3, h_chosen * kRetryScales[attempt] * 1e3);
+      h = h_chosen * kRetryScales[attempt];
+      b = build_topology(in, parts, side_query, h, opt.core_offset, opt.presmooth_iterations);
+    }
+    report_progress(opt.progress, 0.45, "mesh: smoothing and optimising");
+    const Projector project{side_query, parts, b.grid, in.cut_height_m};
+    smooth(b, project, opt.smoothing_iterations, opt.quality_goal);
+
+    report_progress(opt.progress, 0.75, "mesh: bones");
+    bone_report = apply_bones(b.mesh, in.bones, b.kind, project, b.grid.h, opt.bone_quality_goal);
+    compact(b.mesh, b.kind);
+    res.quality = hex_quality(b.mesh);
+    if (res.quality.inverted == 0) {
+      if (attempt > 0)
+        res.notes.push_back(fmt::format("grid cell {:+.0f} % off the size for {} nodes: that size left inverted "
+                                        "elements",
+                                        100 * (kRetryScales[attempt] - 1.0), opt.target_nodes));
+      break;
+    }
+  }
   res.cell_size_m = h;
   res.core_hexahedra = b.core_hexahedra;
   res.pillow_hexahedra = b.pillow_hexahedra;
@@ -913,19 +945,11 @@ HexMesherResult mesh_limb(const HexMesherInput& in, const HexMesherOptions& opt)
     res.notes.push_back(fmt::format("{} grid cells added or removed to keep the core manifold", b.manifold_changes));
   if (b.components_dropped > 0)
     res.notes.push_back(fmt::format("{} small disconnected core part(s) dropped", b.components_dropped));
-
-  report_progress(opt.progress, 0.45, "mesh: smoothing and optimising");
-  const Projector project{side_query, parts, b.grid, in.cut_height_m};
-  smooth(b, project, opt.smoothing_iterations, opt.quality_goal);
-
-  report_progress(opt.progress, 0.75, "mesh: bones");
-  const BoneReport bone_report = apply_bones(b.mesh, in.bones, b.kind, project, b.grid.h, opt.bone_quality_goal);
   res.removed_bone_hexahedra = bone_report.removed;
   if (!in.bones.empty())
     res.notes.push_back(fmt::format("bones: {} nodes snapped onto bone surfaces, {} held in place (quality), {} "
                                     "elements inside bones removed",
                                     bone_report.snapped, bone_report.held, bone_report.removed));
-  compact(b.mesh, b.kind);
   for (int n = 0; n < b.mesh.num_nodes(); ++n) {
     if (b.kind[n] == kSkinNode) b.mesh.node_tags[n] |= kNodeSurface;
     if (b.kind[n] == kRimNode) b.mesh.node_tags[n] |= kNodeSurface | kNodeProximal;
@@ -934,7 +958,6 @@ HexMesherResult mesh_limb(const HexMesherInput& in, const HexMesherOptions& opt)
   }
 
   // Report.
-  res.quality = hex_quality(b.mesh);
   require<TopologyError>(res.quality.inverted == 0,
                          "mesh_limb: {} element(s) remain inverted after optimisation (min scaled Jacobian "
                          "{:.3f}); try another stump size (mesh.target_nodes in a case file, --target-nodes on the "

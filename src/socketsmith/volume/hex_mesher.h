@@ -37,7 +37,7 @@ struct HexMesherInput {
 };
 
 struct HexMesherOptions {
-  int target_nodes = 8000;      ///< aimed-at node count of the final mesh (±15 %)
+  int target_nodes = 8000;      ///< aimed-at node count of the final mesh (±15 %; ±25 % at a few hundred nodes)
   double cell_size_m = 0.0;     ///< > 0: use this grid size and ignore target_nodes
   double core_offset = 0.5;     ///< core corners at least this many cells from the skin
   int presmooth_iterations = 8;  ///< rounding of the core staircase before the pillow
