@@ -382,7 +382,9 @@ TEST(SocketBuilder, a_radially_shrunk_capsule_reads_a_3_percent_circumference_re
   for (const auto& l : r.levels) {
     EXPECT_NEAR(l.reduction_percent, 3.0, 0.01) << "h " << l.h_m / kMm << " mm";
     EXPECT_NEAR(l.inner_circumference_m, 0.97 * l.limb_circumference_m, 1e-6) << "h " << l.h_m / kMm << " mm";
-    if (l.h_m > R) EXPECT_NEAR(l.limb_circumference_m, 2 * kPi * R, 0.002 * 2 * kPi * R) << "h " << l.h_m / kMm;
+    if (l.h_m > R) {
+      EXPECT_NEAR(l.limb_circumference_m, 2 * kPi * R, 0.002 * 2 * kPi * R) << "h " << l.h_m / kMm;
+    }
   }
 }
 
