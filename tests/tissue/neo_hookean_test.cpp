@@ -156,6 +156,56 @@ TEST(NeoHookean, psd_tangent_is_symmetric_positive_semidefinite_where_the_exact_
   EXPECT_LT((K - Kp).norm(), 1e-12 * K.norm());
 }
 
+// The element loops run in parallel chunks of 2,048 elements summed in element order: on a
+// lattice of several chunks, the one-pass forces and energy (what a line search's trial point asks)
+// give the closed-form energy of a homogeneous deformation, no force on interior nodes (the patch
+// test across the chunks' seams), the separate passes' values, and refuse an inverted state
+// leaving the forces untouched.
+TEST(NeoHookean, one_pass_forces_and_energy_over_several_chunks_match_the_closed_form_and_refuse_inversion) {
+  const double edge = 0.07;
+  const int n = 14;  // 2,744 elements: two chunks
+  const auto mesh = small_lattice(n, edge);
+  MassSpringOptions o;
+  o.kind = TissueModelKind::NeoHookean;
+  o.fe_poisson_ratio = kNu;
+  const MassSpringModel m(mesh, {kE, 1060}, o);
+  ASSERT_GT(m.num_elements(), 2048);
+  Matrix3d F;
+  F << 1.08, 0.05, 0.0, -0.02, 0.85, 0.1, 0.03, 0.0, 0.9;
+  const Eigen::VectorXd x = mapped(mesh, F);
+  Eigen::VectorXd f = Eigen::VectorXd::Zero(x.size());
+  double w = 0.0;
+  ASSERT_TRUE(m.forces_and_energy(x, f, w));
+  const double expected = edge * edge * edge * neo_hookean_w(F, kE, kNu);
+  EXPECT_NEAR(w, expected, 1e-10 * expected);
+  EXPECT_NEAR(m.energy(x), w, 1e-12 * expected);
+  EXPECT_LT((m.elastic_forces(x) - f).norm(), 1e-12 * f.norm());
+  double boundary_max = 0.0, interior_max = 0.0;
+  for (int i = 0; i < mesh.num_nodes(); ++i) {
+    const auto& p = mesh.nodes[i];
+    const bool interior = p.minCoeff() > 1e-9 && p.maxCoeff() < edge - 1e-9;
+    (interior ? interior_max : boundary_max) = std::max(interior ? interior_max : boundary_max, f.segment<3>(3 * i).norm());
+  }
+  EXPECT_LT(interior_max, 1e-9 * boundary_max);
+  // The tangent assembled from the chunks: symmetric, and a rigid translation is a zero mode.
+  SparseMatrix J;
+  m.jacobian(x, JacobianKind::Exact, J);
+  EXPECT_LT(SparseMatrix(SparseMatrix(J.transpose()) - J).norm(), 1e-12 * J.norm());
+  Eigen::VectorXd shift(x.size());
+  for (int i = 0; i < mesh.num_nodes(); ++i) shift.segment<3>(3 * i) = Vector3d(0.3, -0.5, 0.8);
+  EXPECT_LT((J * shift).norm(), 1e-9 * J.norm() * shift.norm());
+  // An element turned inside out (a node of the second chunk pushed through its opposite face).
+  Eigen::VectorXd bad = x;
+  const int node = mesh.num_nodes() - 2 * (n + 1) * (n + 1) - (n + 1) - 2;  // interior, high z
+  bad[3 * node + 2] -= 3.0 * edge / n;
+  ASSERT_TRUE(m.has_inverted_element(bad));
+  Eigen::VectorXd g = Eigen::VectorXd::Constant(x.size(), 7.0);
+  EXPECT_FALSE(m.forces_and_energy(bad, g, w));
+  EXPECT_TRUE((g.array() == 7.0).all());
+  EXPECT_TRUE(std::isinf(m.energy(bad)));
+  EXPECT_THROW(m.elastic_forces(bad), SolverError);
+}
+
 TEST(NeoHookean, one_brick_has_exactly_the_six_rigid_zero_modes_at_rest) {
   const auto mesh = small_lattice(1, 0.01);
   const HexFeElements fe(mesh, kE, kNu, HyperelasticLaw::NeoHookean);

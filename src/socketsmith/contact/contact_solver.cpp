@@ -111,7 +111,10 @@ struct ContactSolver::Impl {
         f_full = model.elastic_forces(xs);
       } else if (!model.forces_and_energy(xs, f_full, pi)) {
         if (trial_point) return VectorXd::Constant(dofs.num_reduced(), std::numeric_limits<double>::quiet_NaN());
-        f_full = model.elastic_forces(xs);  // throws SolverError naming the inverted element
+        // Not a trial point: the continuum models throw SolverError naming the inverted element;
+        // the lattices are defined there and keep their forces and energy.
+        f_full = model.elastic_forces(xs);
+        pi = model.energy(xs);
       }
     }
     if (blocks) blocks->assign(nodes.size(), Eigen::Matrix3d::Zero());

@@ -288,11 +288,8 @@ bool HexFeElements::evaluate(const Eigen::VectorXd& x, Eigen::VectorXd* f, doubl
 
 double HexFeElements::energy(const Eigen::VectorXd& x) const {
   double w = 0.0;
-  if (!material_.needs_positive_volume()) {
-    (void)evaluate(x, nullptr, w);
-    return w;
-  }
-  return evaluate(x, nullptr, w) ? w : std::numeric_limits<double>::infinity();
+  (void)evaluate(x, nullptr, w);  // +∞ when a Gauss point is inverted for a law that needs J > 0
+  return w;
 }
 
 void HexFeElements::element_stiffness(int e, const Eigen::VectorXd& x, bool psd, ElementMatrix& K) const {
