@@ -22,9 +22,10 @@ AWKWARD = ["0", "-0", "-1", "1", "2", "0.5", "1e400", "-1e400", "1e-320", "1e20"
            "200", "199", "200000", "200001", "500", "-273"]
 
 
-def load_dictionary():
+def load_dictionary(name="case_file.dict"):
+    """The words of a libFuzzer dictionary of tests/fuzz, escapes decoded."""
     words = []
-    for line in (HERE / "case_file.dict").read_text().splitlines():
+    for line in (HERE / name).read_text().splitlines():
         line = line.strip()
         if line.startswith('"') and line.endswith('"'):
             words.append(line[1:-1].encode().decode("unicode_escape"))
