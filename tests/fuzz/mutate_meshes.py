@@ -25,12 +25,11 @@ Feed them to tests/fuzz/cli_sweep.sh (docs/fuzzing.md). Python's standard librar
 """
 import math
 import pathlib
-import random
 import re
 import struct
 import sys
 
-from mutate_cases import bytewise as byte_edits, load_dictionary
+from mutate_cases import arguments, bytewise as byte_edits, load_dictionary
 
 HERE = pathlib.Path(__file__).resolve().parent
 CORPUS = HERE / "corpus"
@@ -266,11 +265,9 @@ def bytewise(rng, data, other, words):
 
 
 def main(argv):
-    if len(argv) not in (2, 3):
-        print(__doc__)
+    if (args := arguments(argv, __doc__)) is None:
         return 2
-    out, count = pathlib.Path(argv[0]), int(argv[1])
-    rng = random.Random(int(argv[2]) if len(argv) == 3 else 1)
+    out, count, rng = args
     paths = [p for d in ("stl", "obj", "ply") for p in sorted((CORPUS / d).iterdir()) if p.is_file()]
     paths += sorted((CORPUS / "limb").glob("tiny_limb*"))
     seeds = [(p, p.read_bytes()) for p in paths]
