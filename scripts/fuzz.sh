@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # scripts/fuzz.sh [SECONDS] [TARGET...]: builds the libFuzzer targets (clang 14, ASan + UBSan,
 # SOCKETSMITH_FUZZ=ON) into build-fuzz/ and runs each for SECONDS (default 60) from its seed corpus
-# tests/fuzz/corpus/<target>/. Targets: stl obj ply case_file design (default: all).
+# tests/fuzz/corpus/<target>/. Targets: stl obj ply limb case_file design (default: all; limb: a limb
+# file of any format made into a limb model and meshed at 300 nodes, as `socketsmith mesh` does).
 # Prints, per target, the executions, the inputs in the grown corpus and the failures; a failing
 # input is saved as build-fuzz/findings/<target>/crash-* (or timeout-*, oom-*): copy it into
 # tests/fuzz/corpus/<target>/ with the fix, so fuzz_regression_tests replays it in every test run.
@@ -11,7 +12,7 @@ cd "$(dirname "$0")/.."
 seconds=${1:-60}
 shift || true
 targets=("$@")
-[ ${#targets[@]} -gt 0 ] || targets=(stl obj ply case_file design)
+[ ${#targets[@]} -gt 0 ] || targets=(stl obj ply limb case_file design)
 
 # The build packages, and clang with its sanitizer/libFuzzer runtime (Debian 12: clang 14).
 scripts/setup.sh --dev > /dev/null
@@ -34,7 +35,7 @@ for t in "${targets[@]}"; do
   mkdir -p "$corpus" "$findings"
   # Each run: -rss_limit_mb guards against inputs that ask for huge allocations, -timeout flags
   # inputs that hang (the design target runs the optimiser with a 1 s time limit).
-  timeout_s=10; [ "$t" = design ] && timeout_s=30
+  timeout_s=10; [ "$t" = design ] && timeout_s=30; [ "$t" = limb ] && timeout_s=30
   dict=tests/fuzz/mesh.dict; case "$t" in case_file|design) dict=tests/fuzz/case_file.dict ;; esac
   log="$BUILD/findings/$t.log"
   set +e

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <stdexcept>
 #include <string>
 
@@ -32,6 +33,32 @@ void mesh(std::string_view ext, const std::uint8_t* data, std::size_t size) {
   o.warn_on_implausible_size = false;
   const auto m = geometry::read_mesh_data(text_of(data, size), "fuzz." + std::string(ext), o);
   (void)geometry::check_mesh(m);
+}
+
+/// The format of a limb file by its content (the "limb" target has no file name): AAOP, PLY, a
+/// binary STL whose size matches its triangle count, an ASCII STL ("solid"), else OBJ.
+std::string limb_extension(std::string_view d) {
+  if (d.substr(0, 4) == "AAOP") return "aop";
+  if (d.substr(0, 3) == "ply") return "ply";
+  if (d.size() >= 84) {
+    std::uint32_t n = 0;
+    std::memcpy(&n, d.data() + 80, 4);
+    if (84 + 50 * static_cast<std::uint64_t>(n) == d.size()) return "stl";
+  }
+  return d.substr(0, 5) == "solid" ? "stl" : "obj";
+}
+
+/// What `socketsmith mesh --limb FILE --target-nodes 300` does with the file: read it, make the
+/// limb model (skin, bones given or estimated, frame, landmarks), mesh the stump.
+void limb(const std::uint8_t* data, std::size_t size) {
+  const std::string_view text = text_of(data, size);
+  geometry::MeshReadOptions o;
+  o.warn_on_implausible_size = false;
+  const auto m = geometry::read_mesh_data(text, "fuzz." + limb_extension(text), o);
+  const volume::LimbModel model = volume::prepare_limb(m, {}, {});
+  volume::HexMesherOptions mo;
+  mo.target_nodes = 300;
+  (void)volume::mesh_limb(volume::mesher_input(model), mo);
 }
 
 /// Equal documents, numbers within 1e-9 relative (mm -> m -> mm may move the last bit).
@@ -120,7 +147,7 @@ void design_case(const std::uint8_t* data, std::size_t size) {
 }  // namespace
 
 const std::vector<std::string_view>& targets() {
-  static const std::vector<std::string_view> all{"stl", "obj", "ply", "case_file", "design"};
+  static const std::vector<std::string_view> all{"stl", "obj", "ply", "limb", "case_file", "design"};
   return all;
 }
 
@@ -137,6 +164,7 @@ void run(std::string_view target, const std::uint8_t* data, std::size_t size) {
   };
   try {
     if (target == "stl" || target == "obj" || target == "ply") mesh(target, data, size);
+    else if (target == "limb") limb(data, size);
     else if (target == "case_file") case_file(data, size);
     else if (target == "design") design_case(data, size);
     else throw std::invalid_argument("fuzz: unknown target '" + std::string(target) + "'");

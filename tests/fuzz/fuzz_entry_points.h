@@ -15,7 +15,9 @@
 
 namespace socketsmith::fuzz {
 
-/// The targets: "stl", "obj", "ply" (the mesh readers and the mesh checks), "case_file" (the JSON
+/// The targets: "stl", "obj", "ply" (the mesh readers and the mesh checks), "limb" (a limb file of
+/// any of the four formats, told apart by its content, made into a limb model and meshed at 300
+/// nodes, as `socketsmith mesh` does), "case_file" (the JSON
 /// parser, the case validation and its round trip) and "design" (a case's patient, spots and brim
 /// on a tiny generated stump: the design solve and a time-limited optimisation).
 const std::vector<std::string_view>& targets();

@@ -38,7 +38,7 @@ TEST_P(FuzzRegression, every_corpus_file_ends_in_success_or_a_documented_error) 
   EXPECT_GT(files, 0) << "no corpus files in " << dir;
 }
 
-INSTANTIATE_TEST_SUITE_P(Corpus, FuzzRegression, ::testing::Values("stl", "obj", "ply", "case_file", "design"),
+INSTANTIATE_TEST_SUITE_P(Corpus, FuzzRegression, ::testing::Values("stl", "obj", "ply", "limb", "case_file", "design"),
                          [](const ::testing::TestParamInfo<std::string>& p) { return p.param; });
 
 }  // namespace

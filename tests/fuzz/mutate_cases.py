@@ -22,9 +22,10 @@ AWKWARD = ["0", "-0", "-1", "1", "2", "0.5", "1e400", "-1e400", "1e-320", "1e20"
            "200", "199", "200000", "200001", "500", "-273"]
 
 
-def load_dictionary():
+def load_dictionary(name="case_file.dict"):
+    """The words of a libFuzzer dictionary of tests/fuzz, escapes decoded."""
     words = []
-    for line in (HERE / "case_file.dict").read_text().splitlines():
+    for line in (HERE / name).read_text().splitlines():
         line = line.strip()
         if line.startswith('"') and line.endswith('"'):
             words.append(line[1:-1].encode().decode("unicode_escape"))
@@ -95,12 +96,18 @@ def bytewise(rng, data, other, words):
     return bytes(data)
 
 
-def main(argv):
+def arguments(argv, doc):
+    """OUT_DIR COUNT [SEED] as (folder, count, random generator), or None after printing @p doc."""
     if len(argv) not in (2, 3):
-        print(__doc__)
+        print(doc)
+        return None
+    return pathlib.Path(argv[0]), int(argv[1]), random.Random(int(argv[2]) if len(argv) == 3 else 1)
+
+
+def main(argv):
+    if (args := arguments(argv, __doc__)) is None:
         return 2
-    out, count = pathlib.Path(argv[0]), int(argv[1])
-    rng = random.Random(int(argv[2]) if len(argv) == 3 else 1)
+    out, count, rng = args
     seeds = [p.read_bytes() for d in ("case_file", "design") for p in sorted((HERE / "corpus" / d).iterdir())]
     words = load_dictionary()
     out.mkdir(parents=True, exist_ok=True)

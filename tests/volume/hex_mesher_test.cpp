@@ -129,5 +129,22 @@ TEST(HexMesher, ExplicitCellSizeAndBadOptions) {
   EXPECT_THROW(mesh_limb(in, cell(0.2)), TopologyError);
 }
 
+// Bones that fill the skin leave no tissue: the grid size from the target node count came out
+// negative and `mesh` ended in "internal error: cannot create std::vector larger than max_size()"
+// (issue 26, a fuzzed limb whose second copy 0.5 mm off was taken for the tibia).
+TEST(HexMesher, BonesThatFillTheSkinAreRefusedByName) {
+  HexMesherInput in = capsule_input(false);
+  in.bones.push_back(in.skin);
+  for (auto& v : in.bones[0].vertices) v = Vec3(1.01 * v.x(), 1.01 * v.y(), v.z());
+  try {
+    mesh_limb(in, nodes(300));
+    ADD_FAILURE() << "bones filling the skin meshed";
+  } catch (const InvalidInputError& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("the bones (102 % of the skin's volume) leave no tissue to mesh"), std::string::npos) << msg;
+    EXPECT_EQ(msg.find('\n'), std::string::npos) << msg;
+  }
+}
+
 }  // namespace
 }  // namespace socketsmith::volume

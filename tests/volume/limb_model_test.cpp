@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <functional>
 #include <limits>
 
 #include <Eigen/Geometry>
@@ -348,6 +349,35 @@ TEST(LimbModel, TwoOverlappingSkinsAreNamedAsSuch) {
     EXPECT_NE(msg.find("(100 % of the skin's area)"), std::string::npos) << msg;
     EXPECT_EQ(msg.find("bone shell"), std::string::npos) << msg;
   }
+}
+
+// A second skin that lies within 1 mm of the first (its copy 0.5 mm off, or shrunk 1 %) passed
+// the outside test and was taken for the tibia: `mesh` then ended in an internal error (issue 26,
+// found by tests/fuzz/mutate_meshes.py). A shell that holds most of the skin's volume is no bone.
+TEST(LimbModel, ASecondSkinWithinAMillimetreIsNamedAsSuch) {
+  const geometry::TriMesh limb = test::capsule(0.05, 0.25, true);
+  auto message = [&](const std::function<Vec3(const Vec3&)>& move) {
+    geometry::TriMesh two = limb;
+    const int n = two.num_vertices();
+    for (int i = 0; i < n; ++i) two.vertices.push_back(move(limb.vertices[i]));
+    for (const auto& t : limb.triangles) two.triangles.push_back({t[0] + n, t[1] + n, t[2] + n});
+    try {
+      prepare_limb(two, {}, {});
+    } catch (const InvalidInputError& e) {
+      return std::string(e.what());
+    } catch (const std::exception& e) {
+      return std::string("wrong error type: ") + e.what();
+    }
+    return std::string("accepted");
+  };
+  const std::string shifted = message([](const Vec3& v) { return Vec3(v + Vec3(0.0005, 0, 0)); });
+  const std::string shrunk = message([](const Vec3& v) { return Vec3(0.99 * v.x(), 0.99 * v.y(), v.z()); });
+  for (const std::string& msg : {shifted, shrunk}) {
+    EXPECT_NE(msg.find("the file holds two skins: a second surface of"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("% of the skin's volume, too much for a bone"), std::string::npos) << msg;
+    EXPECT_EQ(msg.find('\n'), std::string::npos) << msg;
+  }
+  EXPECT_NE(shrunk.find("(99 % of the skin's area) encloses 98 % of the skin's volume"), std::string::npos) << shrunk;
 }
 
 TEST(LimbModel, InsideOutSkinIsFlippedAndSaid) {

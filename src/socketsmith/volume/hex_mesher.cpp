@@ -889,6 +889,11 @@ HexMesherResult mesh_limb(const HexMesherInput& in, const HexMesherOptions& opt)
   const double tissue_estimate = res.skin_volume_m3 - res.bone_volume_m3;
   require(res.skin_volume_m3 > 0.0, "mesh_limb: the skin encloses a volume of {:.3g} m^3 (inside-out?)",
           res.skin_volume_m3);
+  // The grid size comes from the tissue's volume: bones that fill the skin would make it 0 or NaN.
+  require(res.bone_volume_m3 < 0.9 * res.skin_volume_m3,
+          "mesh_limb: the bones ({:.0f} % of the skin's volume) leave no tissue to mesh: bones must lie inside the "
+          "skin and fill less than 90 % of it",
+          100.0 * res.bone_volume_m3 / res.skin_volume_m3);
 
   // Grid size: from the target node count, refined by building the topology.
   double h = opt.cell_size_m;

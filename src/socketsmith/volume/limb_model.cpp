@@ -618,6 +618,7 @@ LimbModel prepare_limb(const TriMesh& limb, const TriMesh& extra_bones, const Li
 
   // Bones: trimmed, inside the skin (the hemipelvis: clipped to the stump).
   const geometry::SurfaceQuery skin_query(model.skin);
+  const double skin_volume = geometry::signed_volume(model.skin);
   std::vector<Shell> bones;
   for (auto& s : shells) {
     if (s.name == "hemipelvis") {
@@ -670,6 +671,12 @@ LimbModel prepare_limb(const TriMesh& limb, const TriMesh& extra_bones, const Li
             "a bone shell ({:.0f} cm^3) has {:.0f} % of its vertices outside the skin (up to {:.0f} mm): bones and "
             "skin must be in the same frame and units, bones inside the skin",
             s.volume * 1e6, 100.0 * outside / std::max(tested, 1), worst * 1e3);
+    // Nor is a surface within a millimetre of the skin that holds most of its volume (a copy of the
+    // skin slightly moved or shrunk): taken for the tibia, it left the mesher no tissue.
+    require(s.volume < 0.5 * skin_volume,
+            "the file holds two skins: a second surface of {:.0f} cm^2 ({:.0f} % of the skin's area) encloses {:.0f} % "
+            "of the skin's volume, too much for a bone; keep one skin (and the bones inside it) in the file",
+            s.area * 1e4, 100.0 * s.area / skin.area, 100.0 * s.volume / skin_volume);
     s.outside_m = worst;
     bones.push_back(std::move(s));
   }
