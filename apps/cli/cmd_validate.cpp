@@ -8,8 +8,8 @@
 #include "socketsmith/core/log.h"
 #include "socketsmith/core/progress.h"
 #include "socketsmith/fe/cube_validation.h"
-#include "socketsmith/fe/design_validation.h"
 #include "socketsmith/pipeline/design_pipeline.h"
+#include "socketsmith/pipeline/design_validation.h"
 #include "socketsmith/report/csv.h"
 #include "socketsmith/report/plot_raster.h"
 #include "socketsmith/report/svg_plot.h"
@@ -149,7 +149,7 @@ void run_validate_design(const DesignFlags& f) {
   design::CaseFile c = f.demo ? pipeline::demo_case(f.target_nodes > 0 ? f.target_nodes : 3000)
                               : design::read_case(f.case_file);
   if (f.target_nodes > 0) c.target_nodes = f.target_nodes;
-  fe::DesignValidationOptions o;
+  pipeline::DesignValidationOptions o;
   o.mode = fe::parse_design_check_mode(f.mode);
   o.against_donning = f.against_donning;
   o.stand = f.stand;
@@ -170,13 +170,13 @@ void run_validate_design(const DesignFlags& f) {
   o.progress = console_progress(1.0);
   o.case_label = f.demo ? std::string("demo") : f.case_file;
   o.write_case = f.demo;
-  const auto v = fe::validate_design(c, o, out);
+  const auto v = pipeline::validate_design(c, o, out);
   const auto& r = v.check;
   const auto& j = v.summary;
   if (f.json) print_json(j);
   else {
     const bool contact = r.mode != fe::DesignCheckMode::Load;
-    const auto [scale, unit, suffix, what] = fe::compared_quantity(r.mode);
+    const auto [scale, unit, suffix, what] = pipeline::compared_quantity(r.mode);
     if (j.contains("socketsmith_delivered_vs_design")) {
       const auto& a = j["socketsmith_delivered_vs_design"];
       const auto& b = j["calculix_vs_socketsmith_delivered"];

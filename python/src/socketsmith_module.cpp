@@ -1,7 +1,7 @@
 // The Python extension socketsmith._core: thin pybind11 bindings over the library calls the
 // `socketsmith` command makes (pipeline::prepare_design / solve_design / run_design /
 // write_design_outputs, geometry::read_mesh / check_mesh, contact::simulate_donning,
-// fe::validate_design). No design
+// pipeline::validate_design). No design
 // logic lives here: a design from Python is the CLI's design, number for number.
 //
 // Arrays: fields of a design are NumPy views (read-only) of the C++ vectors, kept alive by the
@@ -29,11 +29,11 @@
 #include "socketsmith/core/progress.h"
 #include "socketsmith/core/units.h"
 #include "socketsmith/design/case_file.h"
-#include "socketsmith/fe/design_validation.h"
 #include "socketsmith/geometry/mesh_checks.h"
 #include "socketsmith/geometry/mesh_io.h"
 #include "socketsmith/geometry/mesh_report.h"
 #include "socketsmith/pipeline/design_pipeline.h"
+#include "socketsmith/pipeline/design_validation.h"
 
 namespace py = pybind11;
 namespace fs = std::filesystem;
@@ -227,9 +227,9 @@ struct Donning {
   std::vector<double> pressure_pa;  ///< per candidate (skin) node
 };
 
-/// A CalculiX validation (fe::validate_design) and the design it checked.
+/// A CalculiX validation (pipeline::validate_design) and the design it checked.
 struct Validation {
-  fe::DesignValidation run;
+  pipeline::DesignValidation run;
   std::shared_ptr<Design> design;    ///< shares the run's stump and result
   std::shared_ptr<Donning> donning;  ///< socketsmith's own donning, when one ran
 };
@@ -354,7 +354,7 @@ std::shared_ptr<Validation> validate(const py::object& case_obj, const std::stri
                                      const py::object& progress, const std::optional<std::string>& folder) {
   design::CaseFile c = to_case(case_obj, folder);
   if (a.target_nodes) c.target_nodes = *a.target_nodes;
-  fe::DesignValidationOptions o;
+  pipeline::DesignValidationOptions o;
   o.mode = fe::parse_design_check_mode(a.mode);
   o.against_donning = a.against_donning;
   o.stand = a.stand;
@@ -383,7 +383,7 @@ std::shared_ptr<Validation> validate(const py::object& case_obj, const std::stri
       o.progress = [&cb](double f, std::string_view st) { return report_progress(cb, 0.4 * f, st); };
       o.ccx.progress = [&cb](double f, std::string_view st) { return report_progress(cb, 0.4 + 0.6 * f, st); };
     }
-    v->run = fe::validate_design(c, o, out);
+    v->run = pipeline::validate_design(c, o, out);
   });
   auto stump = std::make_shared<Stump>();
   stump->setup = std::move(v->run.artifacts.setup);  // the run's stump refers to the setup, which stays where it is
@@ -607,7 +607,7 @@ PYBIND11_MODULE(_core, m) {
 
   // CalculiX validation (`socketsmith validate design` / `validate donning`).
   py::class_<Validation, std::shared_ptr<Validation>> validation(m, "Validation",
-      "A design checked in CalculiX (fe::validate_design): the comparison per skin node and summarised.");
+      "A design checked in CalculiX (pipeline::validate_design): the comparison per skin node and summarised.");
   validation.def_property_readonly("summary", [](const Validation& v) { return from_json(v.run.summary); },
                              "summary.json as a dict: means, MAE, SD, RMSE, bias, R, p95, p99 per region and path (kPa or mm)")
       .def_property_readonly("converged", [](const Validation& v) { return v.run.check.converged; },
