@@ -355,7 +355,7 @@ std::shared_ptr<Validation> validate(const py::object& case_obj, const std::stri
   design::CaseFile c = to_case(case_obj, folder);
   if (a.target_nodes) c.target_nodes = *a.target_nodes;
   pipeline::DesignValidationOptions o;
-  o.mode = fe::parse_design_check_mode(a.mode);
+  o.mode = calculix::parse_design_check_mode(a.mode);
   o.against_donning = a.against_donning;
   o.stand = a.stand;
   o.nonlinear_body = a.nonlinear_body;
@@ -363,14 +363,14 @@ std::shared_ptr<Validation> validate(const py::object& case_obj, const std::stri
   o.poisson_ratio = a.poisson.value_or(-1.0);
   o.neo_hookean = a.neo_hookean;
   o.small_strain = a.small_strain;
-  o.element = fe::parse_element_type(a.element);
+  o.element = calculix::parse_element_type(a.element);
   o.penalty_pa_per_m = a.penalty;
   o.stick_slope_pa_per_m = a.stick_slope;
   o.friction = a.friction.value_or(-1.0);
   o.clearance_m = a.clearance_mm * 1e-3;
   o.travel_m = a.travel_mm * 1e-3;
   o.initial_increment = a.initial_increment;
-  o.fe_pressure = fe::parse_fe_pressure(a.fe_pressure);
+  o.fe_pressure = calculix::parse_fe_pressure(a.fe_pressure);
   o.ccx.executable = a.ccx;
   o.ccx.threads = a.ccx_threads;
   o.ccx.time_limit_s = a.ccx_time_limit_s;
@@ -613,9 +613,9 @@ PYBIND11_MODULE(_core, m) {
       .def_property_readonly("converged", [](const Validation& v) { return v.run.check.converged; },
                              "False: ccx stopped early and its last converged increment was compared")
       .def_property_readonly("message", [](const Validation& v) { return v.run.check.message; })
-      .def_property_readonly("mode", [](const Validation& v) { return fe::to_string(v.run.check.mode); })
+      .def_property_readonly("mode", [](const Validation& v) { return calculix::to_string(v.run.check.mode); })
       .def_property_readonly("unit", [](const Validation& v) {
-        return v.run.check.mode == fe::DesignCheckMode::Load ? "m" : "Pa"; },
+        return v.run.check.mode == calculix::DesignCheckMode::Load ? "m" : "Pa"; },
         "the unit of socketsmith_values / calculix_values: 'Pa' (contact pressure) or 'm' (displacement magnitude)")
       .def_property_readonly("design", [](const Validation& v) { return v.design; }, "the Design that was checked")
       .def_property_readonly("donning", [](const Validation& v) -> py::object {
@@ -636,31 +636,31 @@ PYBIND11_MODULE(_core, m) {
         return d;
       }, "{front|back|mid: {label, skin_index (skin nodes along it), s (mm up, or degrees round), vertical}}")
       .def("__repr__", [](const Validation& v) {
-        return "<socketsmith.Validation " + fe::to_string(v.run.check.mode) + (v.run.check.converged ? "" : " PARTIAL") +
+        return "<socketsmith.Validation " + calculix::to_string(v.run.check.mode) + (v.run.check.converged ? "" : " PARTIAL") +
                ": R " + std::to_string(v.run.check.all.r) + ">";
       });
-  // The per-skin-node fields of fe::DesignCheckResult, as read-only views.
+  // The per-skin-node fields of calculix::DesignCheckResult, as read-only views.
   struct CheckField {
     const char* name;
-    std::vector<double> fe::DesignCheckResult::*field;
+    std::vector<double> calculix::DesignCheckResult::*field;
     const char* doc;
   };
   for (const CheckField& f : {
-           CheckField{"socketsmith_values", &fe::DesignCheckResult::socketsmith_value,
+           CheckField{"socketsmith_values", &calculix::DesignCheckResult::socketsmith_value,
                       "(S,) socketsmith's field per skin node: designed (or donned) pressure [Pa], or displacement [m] in load mode"},
-           CheckField{"calculix_values", &fe::DesignCheckResult::fe_value,
+           CheckField{"calculix_values", &calculix::DesignCheckResult::fe_value,
                       "(S,) CalculiX's, the same quantity"},
-           CheckField{"socketsmith_values_one_ring", &fe::DesignCheckResult::socketsmith_value_smoothed,
+           CheckField{"socketsmith_values_one_ring", &calculix::DesignCheckResult::socketsmith_value_smoothed,
                       "(S,) socketsmith_values averaged over each node's one ring (area-weighted)"},
-           CheckField{"calculix_values_one_ring", &fe::DesignCheckResult::fe_value_smoothed,
+           CheckField{"calculix_values_one_ring", &calculix::DesignCheckResult::fe_value_smoothed,
                       "(S,) calculix_values averaged over each node's one ring"},
-           CheckField{"penetration_m", &fe::DesignCheckResult::fe_penetration_m,
+           CheckField{"penetration_m", &calculix::DesignCheckResult::fe_penetration_m,
                       "(S,) CalculiX's penetration [m] (contact)"},
-           CheckField{"calculix_force_pa", &fe::DesignCheckResult::fe_force_pressure_pa,
+           CheckField{"calculix_force_pa", &calculix::DesignCheckResult::fe_force_pressure_pa,
                       "(S,) nodal force over nodal area [Pa] (empty in load mode)"},
-           CheckField{"calculix_stress_pa", &fe::DesignCheckResult::fe_stress_pressure_pa,
+           CheckField{"calculix_stress_pa", &calculix::DesignCheckResult::fe_stress_pressure_pa,
                       "(S,) -n.sigma.n [Pa] (empty in load mode)"},
-           CheckField{"calculix_cpress_pa", &fe::DesignCheckResult::fe_cpress_pa,
+           CheckField{"calculix_cpress_pa", &calculix::DesignCheckResult::fe_cpress_pa,
                       "(S,) nodal CPRESS [Pa] (empty in load mode)"}}) {
     validation.def_property_readonly(f.name, [field = f.field](py::object self) {
       return view_doubles(self.cast<Validation&>().run.check.*field, self); }, f.doc);

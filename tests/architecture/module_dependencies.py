@@ -10,8 +10,9 @@ checked. Every `#include "socketsmith/<m>/..."` in src/socketsmith/<module>/ and
 `socketsmith::<m>` / `socketsmith_<m>` a module target links in src/socketsmith/CMakeLists.txt must
 name the module itself or an allowed one; each violation is one line naming the file and line.
 
-`--self-test` first adds a back edge in memory (fe/calculix_deck.h including pipeline, the fe target
-linking pipeline) and requires both to be reported, so the check cannot pass by reading nothing.
+`--self-test` first adds a back edge in memory (calculix/calculix_deck.h including pipeline, the
+calculix target linking pipeline) and requires both to be reported, so the check cannot pass by
+reading nothing.
 
 Usage: module_dependencies.py SOURCE_DIR [--self-test]   (standard library only)
 """
@@ -177,15 +178,15 @@ def check(tree):
 
 def self_test(root):
     """A back edge added in memory must be reported with its file and line."""
-    header = "src/socketsmith/fe/calculix_deck.h"
+    header = "src/socketsmith/calculix/calculix_deck.h"
     text = (root / header).read_text(encoding="utf-8")
     lines = text.splitlines()
     at = next(i for i, l in enumerate(lines) if INCLUDE.match(l))
     lines.insert(at, '#include "socketsmith/pipeline/design_pipeline.h"')
     cmake = (root / CMAKE).read_text(encoding="utf-8")
-    cmake = cmake.replace("socketsmith_module(fe\n", "socketsmith_module(fe\n  PRIVATE_DEPS socketsmith::pipeline\n", 1)
+    cmake = cmake.replace("socketsmith_module(calculix\n", "socketsmith_module(calculix\n  PRIVATE_DEPS socketsmith::pipeline\n", 1)
     errors, _, _, _ = check(Tree(root, {header: "\n".join(lines) + "\n", CMAKE: cmake}))
-    expected = [f"{header}:{at + 1}: fe includes pipeline", "the fe target links socketsmith::pipeline"]
+    expected = [f"{header}:{at + 1}: calculix includes pipeline", "the calculix target links socketsmith::pipeline"]
     missing = [e for e in expected if not any(e in x for x in errors)]
     for e in missing:
         print(f"self-test: a back edge was not reported: expected a line with '{e}'", file=sys.stderr)

@@ -9,7 +9,7 @@
 #include "socketsmith/core/errors.h"
 #include "socketsmith/core/log.h"
 #include "socketsmith/core/units.h"
-#include "socketsmith/fe/ccx_runner.h"
+#include "socketsmith/calculix/ccx_runner.h"
 #include "socketsmith/pipeline/validation_inputs.h"
 #include "socketsmith/report/csv.h"
 #include "socketsmith/report/design_report.h"
@@ -57,7 +57,7 @@ nlohmann::json write_comparison_files(const DesignValidation& v, bool against_do
   const auto& r = v.check;
   const auto& d = v.stump;
   const auto& mesh = *d.mesh;
-  const bool contact = r.mode != fe::DesignCheckMode::Load;
+  const bool contact = r.mode != calculix::DesignCheckMode::Load;
   const auto [scale, unit, suffix, what] = compared_quantity(r.mode);
   const auto& skin = *d.skin;
   {
@@ -179,27 +179,27 @@ nlohmann::json write_comparison_files(const DesignValidation& v, bool against_do
 
 }  // namespace
 
-ComparedQuantity compared_quantity(fe::DesignCheckMode mode) {
-  if (mode == fe::DesignCheckMode::Load) return {1e3, "mm", "_mm", "displacement"};
+ComparedQuantity compared_quantity(calculix::DesignCheckMode mode) {
+  if (mode == calculix::DesignCheckMode::Load) return {1e3, "mm", "_mm", "displacement"};
   return {};
 }
 
 DesignValidation validate_design(const design::CaseFile& c, const DesignValidationOptions& o, const fs::path& out) {
-  require(!o.against_donning || o.mode == fe::DesignCheckMode::Donning,
+  require(!o.against_donning || o.mode == calculix::DesignCheckMode::Donning,
           "validate design: --against-donning needs --mode donning");
-  require(!o.stand || o.mode == fe::DesignCheckMode::Donning,
+  require(!o.stand || o.mode == calculix::DesignCheckMode::Donning,
           "validate design: --stand needs --mode donning (the socket is donned, then stood on)");
   require(!o.nonlinear_body || o.against_donning,
           "validate design: --nonlinear-body sets socketsmith's donning body: use it with validate donning");
   // CalculiX's material: the case's continuum model's own ν and law (same material on both sides),
   // else ν 0.45, the thesis's (the MSS lattices have none to give); the options override.
-  fe::FeMaterial material = fe_material(c);
+  calculix::FeMaterial material = fe_material(c);
   if (o.poisson_ratio >= 0) material.poisson_ratio = o.poisson_ratio;
   if (o.neo_hookean) material.is_neo_hookean = true;
   require(!(material.is_neo_hookean && o.small_strain),
           "validate design: --small-strain with a neo-Hookean tissue: the hyperelastic law is a large-strain model, "
           "CalculiX runs it with NLGEOM (drop --small-strain, or use the fe model for a small-strain check)");
-  fe::find_ccx(o.ccx.executable);  // before the design's minutes, not after
+  calculix::find_ccx(o.ccx.executable);  // before the design's minutes, not after
   ensure_directory(out);
 
   if (o.write_case) design::write_case(out / "case.json", c);
@@ -222,7 +222,7 @@ DesignValidation validate_design(const design::CaseFile& c, const DesignValidati
     if (o.against_donning) use_donning_pressures(*v.donning, v.stump);
   }
 
-  fe::DesignCheckOptions& co = v.check_options;
+  calculix::DesignCheckOptions& co = v.check_options;
   co.mode = o.mode;
   co.material = material;
   co.element = o.element;
@@ -245,11 +245,11 @@ DesignValidation validate_design(const design::CaseFile& c, const DesignValidati
             mesh.num_nodes(), mesh.num_hexahedra(), to_string(co.element),
             material.is_neo_hookean ? "neo-Hookean" : "linear elastic", material.poisson_ratio,
             co.nonlinear_geometry ? "NLGEOM" : "small strain");
-  v.check = fe::check_design(v.stump, co, out, "design_fe");
+  v.check = calculix::check_design(v.stump, co, out, "design_fe");
   const auto& r = v.check;
 
   const nlohmann::json paths_json = write_comparison_files(v, o.against_donning, out);
-  const bool contact = co.mode != fe::DesignCheckMode::Load;
+  const bool contact = co.mode != calculix::DesignCheckMode::Load;
   const auto [scale, unit, suffix, what] = compared_quantity(co.mode);
   const bool ours_linear = v.donning_from_closed_loop ? v.artifacts.result.closed_loop->linear_body : !o.nonlinear_body;
   nlohmann::json j{{"case", o.case_label},

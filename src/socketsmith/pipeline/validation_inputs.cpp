@@ -4,8 +4,8 @@
 
 namespace socketsmith::pipeline {
 
-fe::FeMaterial fe_material(const design::CaseFile& c) {
-  fe::FeMaterial m;
+calculix::FeMaterial fe_material(const design::CaseFile& c) {
+  calculix::FeMaterial m;
   m.youngs_modulus_pa = c.youngs_modulus_pa;
   m.density_kg_m3 = c.density_kg_m3;
   const auto model = model_options(c);
@@ -14,7 +14,7 @@ fe::FeMaterial fe_material(const design::CaseFile& c) {
   return m;
 }
 
-fe::DesignedStump designed_stump(const DesignArtifacts& artifacts) {
+calculix::DesignedStump designed_stump(const DesignArtifacts& artifacts) {
   require(artifacts.setup != nullptr && artifacts.setup->solver != nullptr,
           "designed_stump: the design artifacts are empty (run pipeline::run_design with artifacts first)");
   const auto& setup = *artifacts.setup;
@@ -22,7 +22,7 @@ fe::DesignedStump designed_stump(const DesignArtifacts& artifacts) {
   const auto& state = artifacts.result.state;
   require(state.positions.size() == 3 * mesh.num_nodes(), "designed_stump: the design state has {} coordinates for {} nodes",
           state.positions.size(), mesh.num_nodes());
-  fe::DesignedStump d;
+  calculix::DesignedStump d;
   d.mesh = &mesh;
   d.skin = &setup.solver->skin();
   for (int n = 0; n < mesh.num_nodes(); ++n) {
@@ -61,7 +61,7 @@ contact::DonningResult don_designed_socket(const DesignArtifacts& artifacts,
   return r;
 }
 
-void use_donning_pressures(const contact::DonningResult& donning, fe::DesignedStump& stump) {
+void use_donning_pressures(const contact::DonningResult& donning, calculix::DesignedStump& stump) {
   require(donning.contacts.size() == stump.pressure_pa.size(),
           "use_donning_pressures: {} contact nodes for {} skin nodes", donning.contacts.size(), stump.pressure_pa.size());
   for (size_t i = 0; i < donning.contacts.size(); ++i) stump.pressure_pa[i] = donning.contacts[i].pressure_pa;

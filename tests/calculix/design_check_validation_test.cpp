@@ -11,7 +11,7 @@
 #include "socketsmith/pipeline/validation_inputs.h"
 #include "socketsmith/report/field_comparison.h"
 
-namespace socketsmith::fe {
+namespace socketsmith::calculix {
 namespace {
 
 namespace fs = std::filesystem;
@@ -342,4 +342,4 @@ TEST(StandValidation, the_fe_models_donning_and_standing_agree_with_a_small_stra
 }
 
 }  // namespace
-}  // namespace socketsmith::fe
+}  // namespace socketsmith::calculix

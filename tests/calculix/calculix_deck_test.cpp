@@ -1,5 +1,5 @@
-#include "socketsmith/fe/calculix_deck.h"
-#include "socketsmith/fe/design_check.h"
+#include "socketsmith/calculix/calculix_deck.h"
+#include "socketsmith/calculix/design_check.h"
 
 #include <map>
 #include <sstream>
@@ -12,7 +12,7 @@
 #include "socketsmith/volume/box_mesher.h"
 #include "box_with_top.h"
 
-namespace socketsmith::fe {
+namespace socketsmith::calculix {
 namespace {
 
 /// The deck's keyword blocks: keyword line → data lines.
@@ -254,4 +254,4 @@ TEST(CalculixDeck, bad_input_names_the_field) {
 }
 
 }  // namespace
-}  // namespace socketsmith::fe
+}  // namespace socketsmith::calculix
