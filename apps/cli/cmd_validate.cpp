@@ -7,9 +7,9 @@
 #include "socketsmith/core/errors.h"
 #include "socketsmith/core/log.h"
 #include "socketsmith/core/progress.h"
-#include "socketsmith/fe/cube_validation.h"
-#include "socketsmith/fe/design_validation.h"
+#include "socketsmith/calculix/cube_validation.h"
 #include "socketsmith/pipeline/design_pipeline.h"
+#include "socketsmith/pipeline/design_validation.h"
 #include "socketsmith/report/csv.h"
 #include "socketsmith/report/plot_raster.h"
 #include "socketsmith/report/svg_plot.h"
@@ -33,8 +33,8 @@ void add_ccx_flags(CLI::App& cmd, CcxFlags& f) {
   cmd.add_option("--ccx-time-limit", f.time_limit_s, "wall-time limit of ccx [s] (default 3600)")->check(positive());
 }
 
-fe::CcxOptions ccx_options(const CcxFlags& f) {
-  fe::CcxOptions o;
+calculix::CcxOptions ccx_options(const CcxFlags& f) {
+  calculix::CcxOptions o;
   o.executable = f.ccx;
   o.threads = f.threads;
   o.time_limit_s = f.time_limit_s;
@@ -55,16 +55,16 @@ struct CubeFlags {
 void run_validate_cube(const CubeFlags& f) {
   const fs::path out(f.out);
   ensure_directory(out);
-  fe::CubeFeOptions o;
+  calculix::CubeFeOptions o;
   o.edge_m = f.edge_mm * 1e-3;
   o.divisions = f.divisions;
   o.youngs_modulus_pa = f.youngs_kpa * 1e3;
   o.poisson_ratio = f.poisson;
   o.max_force_n = f.max_force;
   o.increments = f.increments;
-  o.element = fe::parse_element_type(f.element);
+  o.element = calculix::parse_element_type(f.element);
   o.ccx = ccx_options(f.ccx);
-  const auto r = fe::run_cube_fe(o, out);
+  const auto r = calculix::run_cube_fe(o, out);
   std::vector<std::vector<double>> rows;
   for (size_t k = 0; k < r.force_n.size(); ++k)
     rows.push_back({r.force_n[k], r.fe_displacement_m[k] * 1e3, r.analytic_displacement_m[k] * 1e3,
@@ -92,7 +92,7 @@ void run_validate_cube(const CubeFlags& f) {
   report::write_plot_grid_png(out / "cube_fe.png", {pd, pp}, 2);
   nlohmann::json j{{"nodes", r.nodes},
                    {"elements", r.elements},
-                   {"element", fe::to_string(o.element)},
+                   {"element", calculix::to_string(o.element)},
                    {"youngs_modulus_kpa", f.youngs_kpa},
                    {"poisson_ratio", f.poisson},
                    {"max_force_n", r.force_n.back()},
@@ -111,7 +111,7 @@ void run_validate_cube(const CubeFlags& f) {
     print_json(j);
     return;
   }
-  log::info("validate cube: {} nodes, {} elements ({}), ccx {:.1f} s", r.nodes, r.elements, fe::to_string(o.element),
+  log::info("validate cube: {} nodes, {} elements ({}), ccx {:.1f} s", r.nodes, r.elements, calculix::to_string(o.element),
             r.ccx.wall_s);
   log::info("validate cube: top displacement max error {:.2f} % of analytic; contact pressure max error {:.2f} %, "
             "nodal R {:.4f}, MAE {:.3f} kPa",
@@ -149,8 +149,8 @@ void run_validate_design(const DesignFlags& f) {
   design::CaseFile c = f.demo ? pipeline::demo_case(f.target_nodes > 0 ? f.target_nodes : 3000)
                               : design::read_case(f.case_file);
   if (f.target_nodes > 0) c.target_nodes = f.target_nodes;
-  fe::DesignValidationOptions o;
-  o.mode = fe::parse_design_check_mode(f.mode);
+  pipeline::DesignValidationOptions o;
+  o.mode = calculix::parse_design_check_mode(f.mode);
   o.against_donning = f.against_donning;
   o.stand = f.stand;
   o.nonlinear_body = f.nonlinear_body;
@@ -158,25 +158,25 @@ void run_validate_design(const DesignFlags& f) {
   o.poisson_ratio = f.poisson;
   o.neo_hookean = f.neo_hookean;
   o.small_strain = f.small_strain;
-  o.element = fe::parse_element_type(f.element);
+  o.element = calculix::parse_element_type(f.element);
   o.penalty_pa_per_m = f.penalty;
   o.stick_slope_pa_per_m = f.stick_slope;
   o.friction = f.friction;
   o.clearance_m = f.clearance_mm * 1e-3;
   o.travel_m = f.travel_mm * 1e-3;
   o.initial_increment = f.initial_increment;
-  o.fe_pressure = fe::parse_fe_pressure(f.fe_pressure);
+  o.fe_pressure = calculix::parse_fe_pressure(f.fe_pressure);
   o.ccx = ccx_options(f.ccx);
   o.progress = console_progress(1.0);
   o.case_label = f.demo ? std::string("demo") : f.case_file;
   o.write_case = f.demo;
-  const auto v = fe::validate_design(c, o, out);
+  const auto v = pipeline::validate_design(c, o, out);
   const auto& r = v.check;
   const auto& j = v.summary;
   if (f.json) print_json(j);
   else {
-    const bool contact = r.mode != fe::DesignCheckMode::Load;
-    const auto [scale, unit, suffix, what] = fe::compared_quantity(r.mode);
+    const bool contact = r.mode != calculix::DesignCheckMode::Load;
+    const auto [scale, unit, suffix, what] = pipeline::compared_quantity(r.mode);
     if (j.contains("socketsmith_delivered_vs_design")) {
       const auto& a = j["socketsmith_delivered_vs_design"];
       const auto& b = j["calculix_vs_socketsmith_delivered"];
@@ -196,8 +196,8 @@ void run_validate_design(const DesignFlags& f) {
     };
     if (contact) {
       log::info("validate design: CalculiX pressure compared: {}",
-                r.fe_pressure == fe::FePressure::SurfaceStress ? "-n.sigma.n of the stump's stress"
-                : r.fe_pressure == fe::FePressure::NodalForce  ? "the stump's nodal force over the nodal area"
+                r.fe_pressure == calculix::FePressure::SurfaceStress ? "-n.sigma.n of the stump's stress"
+                : r.fe_pressure == calculix::FePressure::NodalForce  ? "the stump's nodal force over the nodal area"
                                                                : "nodal CPRESS");
       line("every node, nodal force", r.all_force);
       line("every node, -n.sigma.n", r.all_stress);

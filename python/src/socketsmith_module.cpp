@@ -1,7 +1,7 @@
 // The Python extension socketsmith._core: thin pybind11 bindings over the library calls the
 // `socketsmith` command makes (pipeline::prepare_design / solve_design / run_design /
 // write_design_outputs, geometry::read_mesh / check_mesh, contact::simulate_donning,
-// fe::validate_design). No design
+// pipeline::validate_design). No design
 // logic lives here: a design from Python is the CLI's design, number for number.
 //
 // Arrays: fields of a design are NumPy views (read-only) of the C++ vectors, kept alive by the
@@ -29,11 +29,11 @@
 #include "socketsmith/core/progress.h"
 #include "socketsmith/core/units.h"
 #include "socketsmith/design/case_file.h"
-#include "socketsmith/fe/design_validation.h"
 #include "socketsmith/geometry/mesh_checks.h"
 #include "socketsmith/geometry/mesh_io.h"
 #include "socketsmith/geometry/mesh_report.h"
 #include "socketsmith/pipeline/design_pipeline.h"
+#include "socketsmith/pipeline/design_validation.h"
 
 namespace py = pybind11;
 namespace fs = std::filesystem;
@@ -227,9 +227,9 @@ struct Donning {
   std::vector<double> pressure_pa;  ///< per candidate (skin) node
 };
 
-/// A CalculiX validation (fe::validate_design) and the design it checked.
+/// A CalculiX validation (pipeline::validate_design) and the design it checked.
 struct Validation {
-  fe::DesignValidation run;
+  pipeline::DesignValidation run;
   std::shared_ptr<Design> design;    ///< shares the run's stump and result
   std::shared_ptr<Donning> donning;  ///< socketsmith's own donning, when one ran
 };
@@ -354,8 +354,8 @@ std::shared_ptr<Validation> validate(const py::object& case_obj, const std::stri
                                      const py::object& progress, const std::optional<std::string>& folder) {
   design::CaseFile c = to_case(case_obj, folder);
   if (a.target_nodes) c.target_nodes = *a.target_nodes;
-  fe::DesignValidationOptions o;
-  o.mode = fe::parse_design_check_mode(a.mode);
+  pipeline::DesignValidationOptions o;
+  o.mode = calculix::parse_design_check_mode(a.mode);
   o.against_donning = a.against_donning;
   o.stand = a.stand;
   o.nonlinear_body = a.nonlinear_body;
@@ -363,14 +363,14 @@ std::shared_ptr<Validation> validate(const py::object& case_obj, const std::stri
   o.poisson_ratio = a.poisson.value_or(-1.0);
   o.neo_hookean = a.neo_hookean;
   o.small_strain = a.small_strain;
-  o.element = fe::parse_element_type(a.element);
+  o.element = calculix::parse_element_type(a.element);
   o.penalty_pa_per_m = a.penalty;
   o.stick_slope_pa_per_m = a.stick_slope;
   o.friction = a.friction.value_or(-1.0);
   o.clearance_m = a.clearance_mm * 1e-3;
   o.travel_m = a.travel_mm * 1e-3;
   o.initial_increment = a.initial_increment;
-  o.fe_pressure = fe::parse_fe_pressure(a.fe_pressure);
+  o.fe_pressure = calculix::parse_fe_pressure(a.fe_pressure);
   o.ccx.executable = a.ccx;
   o.ccx.threads = a.ccx_threads;
   o.ccx.time_limit_s = a.ccx_time_limit_s;
@@ -383,7 +383,7 @@ std::shared_ptr<Validation> validate(const py::object& case_obj, const std::stri
       o.progress = [&cb](double f, std::string_view st) { return report_progress(cb, 0.4 * f, st); };
       o.ccx.progress = [&cb](double f, std::string_view st) { return report_progress(cb, 0.4 + 0.6 * f, st); };
     }
-    v->run = fe::validate_design(c, o, out);
+    v->run = pipeline::validate_design(c, o, out);
   });
   auto stump = std::make_shared<Stump>();
   stump->setup = std::move(v->run.artifacts.setup);  // the run's stump refers to the setup, which stays where it is
@@ -607,15 +607,15 @@ PYBIND11_MODULE(_core, m) {
 
   // CalculiX validation (`socketsmith validate design` / `validate donning`).
   py::class_<Validation, std::shared_ptr<Validation>> validation(m, "Validation",
-      "A design checked in CalculiX (fe::validate_design): the comparison per skin node and summarised.");
+      "A design checked in CalculiX (pipeline::validate_design): the comparison per skin node and summarised.");
   validation.def_property_readonly("summary", [](const Validation& v) { return from_json(v.run.summary); },
                              "summary.json as a dict: means, MAE, SD, RMSE, bias, R, p95, p99 per region and path (kPa or mm)")
       .def_property_readonly("converged", [](const Validation& v) { return v.run.check.converged; },
                              "False: ccx stopped early and its last converged increment was compared")
       .def_property_readonly("message", [](const Validation& v) { return v.run.check.message; })
-      .def_property_readonly("mode", [](const Validation& v) { return fe::to_string(v.run.check.mode); })
+      .def_property_readonly("mode", [](const Validation& v) { return calculix::to_string(v.run.check.mode); })
       .def_property_readonly("unit", [](const Validation& v) {
-        return v.run.check.mode == fe::DesignCheckMode::Load ? "m" : "Pa"; },
+        return v.run.check.mode == calculix::DesignCheckMode::Load ? "m" : "Pa"; },
         "the unit of socketsmith_values / calculix_values: 'Pa' (contact pressure) or 'm' (displacement magnitude)")
       .def_property_readonly("design", [](const Validation& v) { return v.design; }, "the Design that was checked")
       .def_property_readonly("donning", [](const Validation& v) -> py::object {
@@ -636,31 +636,31 @@ PYBIND11_MODULE(_core, m) {
         return d;
       }, "{front|back|mid: {label, skin_index (skin nodes along it), s (mm up, or degrees round), vertical}}")
       .def("__repr__", [](const Validation& v) {
-        return "<socketsmith.Validation " + fe::to_string(v.run.check.mode) + (v.run.check.converged ? "" : " PARTIAL") +
+        return "<socketsmith.Validation " + calculix::to_string(v.run.check.mode) + (v.run.check.converged ? "" : " PARTIAL") +
                ": R " + std::to_string(v.run.check.all.r) + ">";
       });
-  // The per-skin-node fields of fe::DesignCheckResult, as read-only views.
+  // The per-skin-node fields of calculix::DesignCheckResult, as read-only views.
   struct CheckField {
     const char* name;
-    std::vector<double> fe::DesignCheckResult::*field;
+    std::vector<double> calculix::DesignCheckResult::*field;
     const char* doc;
   };
   for (const CheckField& f : {
-           CheckField{"socketsmith_values", &fe::DesignCheckResult::socketsmith_value,
+           CheckField{"socketsmith_values", &calculix::DesignCheckResult::socketsmith_value,
                       "(S,) socketsmith's field per skin node: designed (or donned) pressure [Pa], or displacement [m] in load mode"},
-           CheckField{"calculix_values", &fe::DesignCheckResult::fe_value,
+           CheckField{"calculix_values", &calculix::DesignCheckResult::fe_value,
                       "(S,) CalculiX's, the same quantity"},
-           CheckField{"socketsmith_values_one_ring", &fe::DesignCheckResult::socketsmith_value_smoothed,
+           CheckField{"socketsmith_values_one_ring", &calculix::DesignCheckResult::socketsmith_value_smoothed,
                       "(S,) socketsmith_values averaged over each node's one ring (area-weighted)"},
-           CheckField{"calculix_values_one_ring", &fe::DesignCheckResult::fe_value_smoothed,
+           CheckField{"calculix_values_one_ring", &calculix::DesignCheckResult::fe_value_smoothed,
                       "(S,) calculix_values averaged over each node's one ring"},
-           CheckField{"penetration_m", &fe::DesignCheckResult::fe_penetration_m,
+           CheckField{"penetration_m", &calculix::DesignCheckResult::fe_penetration_m,
                       "(S,) CalculiX's penetration [m] (contact)"},
-           CheckField{"calculix_force_pa", &fe::DesignCheckResult::fe_force_pressure_pa,
+           CheckField{"calculix_force_pa", &calculix::DesignCheckResult::fe_force_pressure_pa,
                       "(S,) nodal force over nodal area [Pa] (empty in load mode)"},
-           CheckField{"calculix_stress_pa", &fe::DesignCheckResult::fe_stress_pressure_pa,
+           CheckField{"calculix_stress_pa", &calculix::DesignCheckResult::fe_stress_pressure_pa,
                       "(S,) -n.sigma.n [Pa] (empty in load mode)"},
-           CheckField{"calculix_cpress_pa", &fe::DesignCheckResult::fe_cpress_pa,
+           CheckField{"calculix_cpress_pa", &calculix::DesignCheckResult::fe_cpress_pa,
                       "(S,) nodal CPRESS [Pa] (empty in load mode)"}}) {
     validation.def_property_readonly(f.name, [field = f.field](py::object self) {
       return view_doubles(self.cast<Validation&>().run.check.*field, self); }, f.doc);

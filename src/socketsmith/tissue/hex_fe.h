@@ -6,7 +6,7 @@
 ///    W = λ/2 tr(E)² + μ E:E — CalculiX's `*ELASTIC` under NLGEOM;
 ///  - compressible neo-Hookean: W = C10 (Ī1 − 3) + (1/D1)(J − 1)², Ī1 = J^(−2/3) tr(FᵀF),
 ///    C10 = μ/2, D1 = 2/K (K = E/(3(1 − 2ν)) the bulk modulus) — CalculiX's `*HYPERELASTIC,
-///    NEO HOOKE` (C10, D1), the constants fe/calculix_deck.cpp writes.
+///    NEO HOOKE` (C10, D1), the constants calculix/calculix_deck.cpp writes.
 /// On the same mesh socketsmith and CalculiX then solve the same discrete problem; at rest both
 /// materials have the small-strain linear elastic tangent of the element (λ = K − 2μ/3).
 ///

@@ -7,11 +7,11 @@
 #include <gtest/gtest.h>
 
 #include "socketsmith/core/units.h"
-#include "socketsmith/fe/design_artifacts.h"
 #include "socketsmith/pipeline/closed_loop.h"
+#include "socketsmith/pipeline/validation_inputs.h"
 #include "socketsmith/report/field_comparison.h"
 
-namespace socketsmith::fe {
+namespace socketsmith::calculix {
 namespace {
 
 namespace fs = std::filesystem;
@@ -36,7 +36,7 @@ struct Designed {
   Designed() {
     const fs::path out = fs::path(SOCKETSMITH_BINARY_DIR) / "fe_test_runs" / "design_3k";
     pipeline::run_design(plain_demo_case(3000), out / "design", true, {}, &art);
-    stump = designed_stump(art);
+    stump = pipeline::designed_stump(art);
   }
 };
 
@@ -114,7 +114,7 @@ struct DesignedFe {
     c.model = "fe";
     const fs::path out = fs::path(SOCKETSMITH_BINARY_DIR) / "fe_test_runs" / "design_fe_3k";
     pipeline::run_design(c, out / "design", true, {}, &art);
-    stump = designed_stump(art);
+    stump = pipeline::designed_stump(art);
   }
 };
 
@@ -169,10 +169,10 @@ TEST(DesignCheckValidation, a_neo_hookean_nonlinear_design_deforms_calculixs_neo
   pipeline::DesignArtifacts art;
   pipeline::run_design(c, run_dir("design_nh_2k") / "design", true, {}, &art);
   ASSERT_FALSE(art.result.state.linearised);
-  const DesignedStump stump = designed_stump(art);
+  const DesignedStump stump = pipeline::designed_stump(art);
   DesignCheckOptions o;
   o.mode = DesignCheckMode::Load;
-  o.material = fe_material(c);
+  o.material = pipeline::fe_material(c);
   ASSERT_TRUE(o.material.is_neo_hookean);
   ASSERT_TRUE(o.nonlinear_geometry);
   const auto r = check_design(stump, o, run_dir("design_nh_2k_load"));
@@ -196,14 +196,14 @@ DesignCheckResult donning_against_calculix(const std::string& name, int nodes, c
   c.model = model;
   pipeline::DesignArtifacts art;
   pipeline::run_design(c, out / "design", true, {}, &art);
-  DesignedStump d = designed_stump(art);
+  DesignedStump d = pipeline::designed_stump(art);
   contact::DonningOptions don;
   don.start_offset_m = 0.06;
   don.friction = mu;
   don.contact.linear_body = linear_body;
   don.stand_force_n = stand ? 0.5 * c.patient.body_mass_kg * units::kGravity : 0.0;
-  const auto ours = don_designed_socket(art, don);
-  use_donning_pressures(ours, d);
+  const auto ours = pipeline::don_designed_socket(art, don);
+  pipeline::use_donning_pressures(ours, d);
   DesignCheckOptions o;
   if (stand) {
     o.stand_force_n = don.stand_force_n;
@@ -272,11 +272,11 @@ TEST(DesignCheckValidation, the_closed_loop_socket_donned_and_stood_on_in_calcul
   const auto& loop = *art.result.closed_loop;
   EXPECT_FALSE(loop.linear_body);
   ASSERT_GE(loop.donning.series.size(), 2u);
-  const DesignedStump d = designed_stump(art);
+  const DesignedStump d = pipeline::designed_stump(art);
   ASSERT_EQ(d.wall_positions.size(), d.pressure_pa.size());  // CalculiX gets the corrected wall
   DesignCheckOptions o;
   o.mode = DesignCheckMode::Donning;
-  o.material = fe_material(c);
+  o.material = pipeline::fe_material(c);
   ASSERT_TRUE(o.material.is_neo_hookean);
   o.contact.friction = c.patient.friction;
   o.donning_travel_m = 0.06;
@@ -342,4 +342,4 @@ TEST(StandValidation, the_fe_models_donning_and_standing_agree_with_a_small_stra
 }
 
 }  // namespace
-}  // namespace socketsmith::fe
+}  // namespace socketsmith::calculix

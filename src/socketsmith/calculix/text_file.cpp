@@ -1,11 +1,11 @@
-#include "socketsmith/fe/text_file.h"
+#include "socketsmith/calculix/text_file.h"
 
 #include <fstream>
 #include <sstream>
 
 #include "socketsmith/core/errors.h"
 
-namespace socketsmith::fe {
+namespace socketsmith::calculix {
 
 std::string read_text_file(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);
@@ -15,4 +15,4 @@ std::string read_text_file(const std::filesystem::path& path) {
   return ss.str();
 }
 
-}  // namespace socketsmith::fe
+}  // namespace socketsmith::calculix

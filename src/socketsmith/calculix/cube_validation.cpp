@@ -1,14 +1,14 @@
-#include "socketsmith/fe/cube_validation.h"
+#include "socketsmith/calculix/cube_validation.h"
 
 #include <cmath>
 
 #include "socketsmith/core/atomic_file.h"
 #include "socketsmith/core/errors.h"
-#include "socketsmith/fe/dat_reader.h"
-#include "socketsmith/fe/frd_reader.h"
+#include "socketsmith/calculix/dat_reader.h"
+#include "socketsmith/calculix/frd_reader.h"
 #include "socketsmith/volume/box_mesher.h"
 
-namespace socketsmith::fe {
+namespace socketsmith::calculix {
 
 CubeFeResult run_cube_fe(const CubeFeOptions& o, const std::filesystem::path& dir) {
   require(o.edge_m > 0 && std::isfinite(o.edge_m), "run_cube_fe: edge {} m (expected > 0)", o.edge_m);
@@ -128,4 +128,4 @@ CubeFeResult run_cube_fe(const CubeFeOptions& o, const std::filesystem::path& di
   return res;
 }
 
-}  // namespace socketsmith::fe
+}  // namespace socketsmith::calculix

@@ -16,11 +16,11 @@
 #include <string>
 #include <vector>
 
-#include "socketsmith/fe/calculix_deck.h"
-#include "socketsmith/fe/ccx_runner.h"
+#include "socketsmith/calculix/calculix_deck.h"
+#include "socketsmith/calculix/ccx_runner.h"
 #include "socketsmith/report/field_comparison.h"
 
-namespace socketsmith::fe {
+namespace socketsmith::calculix {
 
 struct CubeFeOptions {
   double edge_m = 0.05;            ///< [m], > 0
@@ -55,4 +55,4 @@ struct CubeFeResult {
 ///         when ccx fails — the deck and log are kept in @p dir.
 CubeFeResult run_cube_fe(const CubeFeOptions& options, const std::filesystem::path& dir);
 
-}  // namespace socketsmith::fe
+}  // namespace socketsmith::calculix

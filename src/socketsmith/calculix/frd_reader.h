@@ -12,7 +12,7 @@
 
 #include <Eigen/Core>
 
-namespace socketsmith::fe {
+namespace socketsmith::calculix {
 
 /// One nodal result block of one increment.
 struct FrdBlock {
@@ -46,4 +46,4 @@ FrdResults parse_frd(std::string_view text, const std::string& source = "frd");
 /// Reads and parses an .frd file. @throws IoError when it cannot be read; as parse_frd.
 FrdResults read_frd(const std::filesystem::path& path);
 
-}  // namespace socketsmith::fe
+}  // namespace socketsmith::calculix

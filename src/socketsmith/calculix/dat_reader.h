@@ -11,7 +11,7 @@
 #include <string_view>
 #include <vector>
 
-namespace socketsmith::fe {
+namespace socketsmith::calculix {
 
 /// One printed block.
 struct DatBlock {
@@ -33,4 +33,4 @@ std::vector<DatBlock> read_dat(const std::filesystem::path& path);
 /// null when there is none.
 const DatBlock* last_block(const std::vector<DatBlock>& blocks, std::string_view title_prefix, std::string_view set);
 
-}  // namespace socketsmith::fe
+}  // namespace socketsmith::calculix

@@ -1,4 +1,4 @@
-#include "socketsmith/fe/surface_pressure.h"
+#include "socketsmith/calculix/surface_pressure.h"
 
 #include <cmath>
 #include <functional>
@@ -12,7 +12,7 @@
 #include "socketsmith/volume/box_mesher.h"
 #include "box_with_top.h"
 
-namespace socketsmith::fe {
+namespace socketsmith::calculix {
 namespace {
 
 using Box = testing::BoxWithTop;
@@ -142,4 +142,4 @@ TEST(SurfacePressure, missing_components_and_bad_sizes_are_errors) {
 }
 
 }  // namespace
-}  // namespace socketsmith::fe
+}  // namespace socketsmith::calculix

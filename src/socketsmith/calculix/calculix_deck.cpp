@@ -1,4 +1,4 @@
-#include "socketsmith/fe/calculix_deck.h"
+#include "socketsmith/calculix/calculix_deck.h"
 
 #include <algorithm>
 #include <cctype>
@@ -9,7 +9,7 @@
 
 #include "socketsmith/core/errors.h"
 
-namespace socketsmith::fe {
+namespace socketsmith::calculix {
 namespace {
 
 bool finite(const Vec3& v) { return std::isfinite(v.x()) && std::isfinite(v.y()) && std::isfinite(v.z()); }
@@ -346,4 +346,4 @@ RigidShell extrude_shell(const std::vector<Vec3>& points, const std::vector<Vec3
   return sh;
 }
 
-}  // namespace socketsmith::fe
+}  // namespace socketsmith::calculix

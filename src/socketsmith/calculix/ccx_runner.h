@@ -9,7 +9,7 @@
 
 #include "socketsmith/core/progress.h"
 
-namespace socketsmith::fe {
+namespace socketsmith::calculix {
 
 struct CcxOptions {
   std::string executable = "ccx";  ///< name on the PATH or a path
@@ -45,4 +45,4 @@ std::string find_ccx(const std::string& executable = "ccx");
 ///         non-convergence, time limit) is returned with converged = false and a message.
 CcxRun run_ccx(const std::filesystem::path& job_dir, const std::string& job, const CcxOptions& options = {});
 
-}  // namespace socketsmith::fe
+}  // namespace socketsmith::calculix

@@ -6,10 +6,10 @@
 
 #include "socketsmith/core/atomic_file.h"
 #include "socketsmith/core/errors.h"
-#include "socketsmith/fe/ccx_runner.h"
-#include "socketsmith/fe/cube_validation.h"
+#include "socketsmith/calculix/ccx_runner.h"
+#include "socketsmith/calculix/cube_validation.h"
 
-namespace socketsmith::fe {
+namespace socketsmith::calculix {
 namespace {
 
 namespace fs = std::filesystem;
@@ -108,4 +108,4 @@ TEST(CubeFe, calculix_matches_the_analytic_uniaxial_solution) {
 }
 
 }  // namespace
-}  // namespace socketsmith::fe
+}  // namespace socketsmith::calculix

@@ -1,4 +1,4 @@
-#include "socketsmith/fe/ccx_runner.h"
+#include "socketsmith/calculix/ccx_runner.h"
 
 #include <fcntl.h>
 #include <poll.h>
@@ -18,7 +18,7 @@
 
 #include "socketsmith/core/errors.h"
 
-namespace socketsmith::fe {
+namespace socketsmith::calculix {
 namespace fs = std::filesystem;
 
 std::string find_ccx(const std::string& executable) {
@@ -179,4 +179,4 @@ CcxRun run_ccx(const fs::path& job_dir, const std::string& job, const CcxOptions
   return run;
 }
 
-}  // namespace socketsmith::fe
+}  // namespace socketsmith::calculix

@@ -14,12 +14,12 @@
 
 #include <vector>
 
-#include "socketsmith/fe/calculix_deck.h"
-#include "socketsmith/fe/dat_reader.h"
-#include "socketsmith/fe/frd_reader.h"
+#include "socketsmith/calculix/calculix_deck.h"
+#include "socketsmith/calculix/dat_reader.h"
+#include "socketsmith/calculix/frd_reader.h"
 #include "socketsmith/volume/hex_mesh.h"
 
-namespace socketsmith::fe {
+namespace socketsmith::calculix {
 
 /// Outward unit normals of the deformed surface at @p nodes (mesh ids): for each node the sum
 /// of the area vectors of the @p faces that use it (a quarter of each face's area vector, the face
@@ -55,4 +55,4 @@ std::vector<double> nodal_force_pressure(const volume::HexMesh& mesh, const std:
                                          const DatBlock& stresses, const std::vector<int>& nodes,
                                          const std::vector<Vec3>& normals, const std::vector<double>& areas);
 
-}  // namespace socketsmith::fe
+}  // namespace socketsmith::calculix

@@ -23,13 +23,13 @@
 #include <string>
 #include <vector>
 
-#include "socketsmith/fe/calculix_deck.h"
-#include "socketsmith/fe/ccx_runner.h"
+#include "socketsmith/calculix/calculix_deck.h"
+#include "socketsmith/calculix/ccx_runner.h"
 #include "socketsmith/geometry/limb_frame.h"
 #include "socketsmith/report/field_comparison.h"
 #include "socketsmith/volume/hex_mesher.h"
 
-namespace socketsmith::fe {
+namespace socketsmith::calculix {
 
 /// The designed state, as plain data (from the design pipeline).
 struct DesignedStump {
@@ -143,4 +143,4 @@ struct DesignCheckResult {
 DesignCheckResult check_design(const DesignedStump& stump, const DesignCheckOptions& options,
                                const std::filesystem::path& dir, const std::string& job = "design");
 
-}  // namespace socketsmith::fe
+}  // namespace socketsmith::calculix

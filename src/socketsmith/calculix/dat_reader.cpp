@@ -1,13 +1,13 @@
-#include "socketsmith/fe/dat_reader.h"
+#include "socketsmith/calculix/dat_reader.h"
 
 #include <algorithm>
 #include <cctype>
 #include <cstdlib>
 
 #include "socketsmith/core/errors.h"
-#include "socketsmith/fe/text_file.h"
+#include "socketsmith/calculix/text_file.h"
 
-namespace socketsmith::fe {
+namespace socketsmith::calculix {
 namespace {
 
 std::string lower(std::string_view s) {
@@ -92,4 +92,4 @@ const DatBlock* last_block(const std::vector<DatBlock>& blocks, std::string_view
   return nullptr;
 }
 
-}  // namespace socketsmith::fe
+}  // namespace socketsmith::calculix

@@ -1,4 +1,4 @@
-#include "socketsmith/fe/design_check.h"
+#include "socketsmith/calculix/design_check.h"
 
 #include <algorithm>
 #include <cmath>
@@ -7,12 +7,12 @@
 
 #include "socketsmith/core/atomic_file.h"
 #include "socketsmith/core/errors.h"
-#include "socketsmith/fe/dat_reader.h"
-#include "socketsmith/fe/frd_reader.h"
-#include "socketsmith/fe/surface_pressure.h"
+#include "socketsmith/calculix/dat_reader.h"
+#include "socketsmith/calculix/frd_reader.h"
+#include "socketsmith/calculix/surface_pressure.h"
 #include "socketsmith/report/design_report.h"
 
-namespace socketsmith::fe {
+namespace socketsmith::calculix {
 namespace {
 
 /// Neighbours of each skin node along the quads' edges.
@@ -328,4 +328,4 @@ DesignCheckResult check_design(const DesignedStump& d, const DesignCheckOptions&
   return res;
 }
 
-}  // namespace socketsmith::fe
+}  // namespace socketsmith::calculix

@@ -2,7 +2,7 @@
 /// @file design_validation.h
 /// A whole CalculiX validation of a case (`socketsmith validate design` / `validate donning`,
 /// docs/validation_fe.md) as one library call, so the CLI and the Python package run the same
-/// code: the case is designed (pipeline::run_design into OUT/design), socketsmith's own donning
+/// code: the case is designed (run_design into OUT/design), socketsmith's own donning
 /// runs when it is compared or stood on, the designed stump goes to CalculiX (check_design), and
 /// the comparison is written — comparison.csv, path profiles, scatter, colour maps, stump_fe.vtu,
 /// summary.json.
@@ -16,14 +16,14 @@
 #include "socketsmith/contact/donning.h"
 #include "socketsmith/core/progress.h"
 #include "socketsmith/design/case_file.h"
-#include "socketsmith/fe/design_check.h"
+#include "socketsmith/calculix/design_check.h"
 #include "socketsmith/pipeline/design_pipeline.h"
 
-namespace socketsmith::fe {
+namespace socketsmith::pipeline {
 
 /// What to check and how (the flags of `validate design`; every default is the CLI's).
 struct DesignValidationOptions {
-  DesignCheckMode mode = DesignCheckMode::Contact;
+  calculix::DesignCheckMode mode = calculix::DesignCheckMode::Contact;
   /// Donning mode: compare CalculiX's donning with socketsmith's own donning (contact solver, same
   /// travel and μ) instead of with the designed pressures (thesis ch. 3; `validate donning`).
   bool against_donning = false;
@@ -37,15 +37,15 @@ struct DesignValidationOptions {
   double poisson_ratio = -1.0;          ///< CalculiX's ν, [0, 0.5); < 0: fe_material's (the case's model, else 0.45)
   bool neo_hookean = false;             ///< neo-Hookean in CalculiX (automatic for a neo-hookean case)
   bool small_strain = false;            ///< CalculiX without NLGEOM (not with a neo-Hookean tissue)
-  ElementType element = ElementType::C3D8;
+  calculix::ElementType element = calculix::ElementType::C3D8;
   double penalty_pa_per_m = 1e9;        ///< contact penalty [Pa/m], > 0
   double stick_slope_pa_per_m = 5e7;    ///< CalculiX's friction stick slope [Pa/m], > 0
   double friction = -1.0;               ///< μ, [0, 2]; < 0: the case's
   double clearance_m = 1e-3;            ///< Contact: the fit starts this far outside the skin [m], > 0
   double travel_m = 0.06;               ///< Donning: start this far distally [m], > 0
   double initial_increment = 0.05;      ///< first ccx increment, a fraction of the step, (0, 1]
-  FePressure fe_pressure = FePressure::NodalForce;
-  CcxOptions ccx;                       ///< executable, threads, time limit, ccx's progress
+  calculix::FePressure fe_pressure = calculix::FePressure::NodalForce;
+  calculix::CcxOptions ccx;             ///< executable, threads, time limit, ccx's progress
   ProgressCallback progress;            ///< the design and socketsmith's donning
   std::string case_label = "case";      ///< summary.json's "case" (the case file's path, "demo")
   bool write_case = false;              ///< also write the case as OUT/case.json (one made in memory, to replay it)
@@ -58,15 +58,15 @@ struct ComparedQuantity {
   std::string suffix = "_kpa";     ///< of summary.json's keys: "_kpa" | "_mm"
   std::string what = "contact pressure";  ///< "contact pressure" | "displacement"
 };
-ComparedQuantity compared_quantity(DesignCheckMode mode);
+ComparedQuantity compared_quantity(calculix::DesignCheckMode mode);
 
 /// A validation run: the design, socketsmith's donning when one ran, CalculiX's comparison.
 struct DesignValidation {
-  pipeline::DesignArtifacts artifacts;  ///< the design run (OUT/design)
+  DesignArtifacts artifacts;            ///< the design run (OUT/design)
   nlohmann::json design_summary;        ///< its design.json
-  DesignedStump stump;                  ///< what went to CalculiX (refers to artifacts' setup)
-  DesignCheckOptions check_options;     ///< the check as run
-  DesignCheckResult check;              ///< the comparison, per skin node and summarised
+  calculix::DesignedStump stump;        ///< what went to CalculiX (refers to artifacts' setup)
+  calculix::DesignCheckOptions check_options; ///< the check as run
+  calculix::DesignCheckResult check;    ///< the comparison, per skin node and summarised
   std::optional<contact::DonningResult> donning;  ///< socketsmith's own (against_donning or stand)
   bool donning_from_closed_loop = false;  ///< the closed loop's kept donning, not one run here
   double stand_force_n = 0.0;           ///< CalculiX's step 2 force [N] (0 without stand)
@@ -85,4 +85,4 @@ struct DesignValidation {
 DesignValidation validate_design(const design::CaseFile& c, const DesignValidationOptions& options,
                                  const std::filesystem::path& out);
 
-}  // namespace socketsmith::fe
+}  // namespace socketsmith::pipeline

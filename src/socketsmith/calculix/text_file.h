@@ -5,9 +5,9 @@
 #include <filesystem>
 #include <string>
 
-namespace socketsmith::fe {
+namespace socketsmith::calculix {
 
 /// The whole file as text. @throws IoError naming the file when it cannot be opened.
 std::string read_text_file(const std::filesystem::path& path);
 
-}  // namespace socketsmith::fe
+}  // namespace socketsmith::calculix

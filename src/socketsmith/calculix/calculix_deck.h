@@ -19,7 +19,7 @@
 
 #include "socketsmith/volume/hex_mesh.h"
 
-namespace socketsmith::fe {
+namespace socketsmith::calculix {
 
 using Vec3 = Eigen::Vector3d;
 
@@ -127,4 +127,4 @@ std::vector<HexFace> faces_of_quads(const volume::HexMesh& mesh,
 RigidShell extrude_shell(const std::vector<Vec3>& points, const std::vector<Vec3>& normals,
                          const std::vector<std::array<int, 4>>& quads, double thickness_m);
 
-}  // namespace socketsmith::fe
+}  // namespace socketsmith::calculix

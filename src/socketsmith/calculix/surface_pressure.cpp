@@ -1,4 +1,4 @@
-#include "socketsmith/fe/surface_pressure.h"
+#include "socketsmith/calculix/surface_pressure.h"
 
 #include <algorithm>
 
@@ -7,7 +7,7 @@
 #include "socketsmith/core/errors.h"
 #include "socketsmith/volume/hex_element.h"
 
-namespace socketsmith::fe {
+namespace socketsmith::calculix {
 
 std::vector<Vec3> deformed_surface_normals(const volume::HexMesh& mesh, const std::vector<Vec3>& positions,
                                            const std::vector<HexFace>& faces, const std::vector<int>& nodes,
@@ -140,4 +140,4 @@ std::vector<double> nodal_force_pressure(const volume::HexMesh& mesh, const std:
   return p;
 }
 
-}  // namespace socketsmith::fe
+}  // namespace socketsmith::calculix

@@ -1,4 +1,4 @@
-#include "socketsmith/fe/design_validation.h"
+#include "socketsmith/pipeline/design_validation.h"
 
 #include <algorithm>
 #include <chrono>
@@ -9,8 +9,8 @@
 #include "socketsmith/core/errors.h"
 #include "socketsmith/core/log.h"
 #include "socketsmith/core/units.h"
-#include "socketsmith/fe/ccx_runner.h"
-#include "socketsmith/fe/design_artifacts.h"
+#include "socketsmith/calculix/ccx_runner.h"
+#include "socketsmith/pipeline/validation_inputs.h"
 #include "socketsmith/report/csv.h"
 #include "socketsmith/report/design_report.h"
 #include "socketsmith/report/plot_raster.h"
@@ -18,10 +18,11 @@
 #include "socketsmith/report/svg_plot.h"
 #include "socketsmith/report/vtk_writer.h"
 
-namespace socketsmith::fe {
+namespace socketsmith::pipeline {
 namespace {
 
 namespace fs = std::filesystem;
+using Vec3 = Eigen::Vector3d;
 
 /// socketsmith's own donning of the design (the closed loop's kept donning when the design ran
 /// one with the same μ and body, else a donning here): what CalculiX's donning is compared with
@@ -56,7 +57,7 @@ nlohmann::json write_comparison_files(const DesignValidation& v, bool against_do
   const auto& r = v.check;
   const auto& d = v.stump;
   const auto& mesh = *d.mesh;
-  const bool contact = r.mode != DesignCheckMode::Load;
+  const bool contact = r.mode != calculix::DesignCheckMode::Load;
   const auto [scale, unit, suffix, what] = compared_quantity(r.mode);
   const auto& skin = *d.skin;
   {
@@ -178,27 +179,27 @@ nlohmann::json write_comparison_files(const DesignValidation& v, bool against_do
 
 }  // namespace
 
-ComparedQuantity compared_quantity(DesignCheckMode mode) {
-  if (mode == DesignCheckMode::Load) return {1e3, "mm", "_mm", "displacement"};
+ComparedQuantity compared_quantity(calculix::DesignCheckMode mode) {
+  if (mode == calculix::DesignCheckMode::Load) return {1e3, "mm", "_mm", "displacement"};
   return {};
 }
 
 DesignValidation validate_design(const design::CaseFile& c, const DesignValidationOptions& o, const fs::path& out) {
-  require(!o.against_donning || o.mode == DesignCheckMode::Donning,
+  require(!o.against_donning || o.mode == calculix::DesignCheckMode::Donning,
           "validate design: --against-donning needs --mode donning");
-  require(!o.stand || o.mode == DesignCheckMode::Donning,
+  require(!o.stand || o.mode == calculix::DesignCheckMode::Donning,
           "validate design: --stand needs --mode donning (the socket is donned, then stood on)");
   require(!o.nonlinear_body || o.against_donning,
           "validate design: --nonlinear-body sets socketsmith's donning body: use it with validate donning");
   // CalculiX's material: the case's continuum model's own ν and law (same material on both sides),
   // else ν 0.45, the thesis's (the MSS lattices have none to give); the options override.
-  FeMaterial material = fe_material(c);
+  calculix::FeMaterial material = fe_material(c);
   if (o.poisson_ratio >= 0) material.poisson_ratio = o.poisson_ratio;
   if (o.neo_hookean) material.is_neo_hookean = true;
   require(!(material.is_neo_hookean && o.small_strain),
           "validate design: --small-strain with a neo-Hookean tissue: the hyperelastic law is a large-strain model, "
           "CalculiX runs it with NLGEOM (drop --small-strain, or use the fe model for a small-strain check)");
-  find_ccx(o.ccx.executable);  // before the design's minutes, not after
+  calculix::find_ccx(o.ccx.executable);  // before the design's minutes, not after
   ensure_directory(out);
 
   if (o.write_case) design::write_case(out / "case.json", c);
@@ -206,7 +207,7 @@ DesignValidation validate_design(const design::CaseFile& c, const DesignValidati
   DesignValidation v;
   const auto t0 = std::chrono::steady_clock::now();
   log::info("validate design: designing the socket ({} nodes)", c.target_nodes);
-  v.design_summary = pipeline::run_design(c, out / "design", c.optimise && o.optimise, o.progress, &v.artifacts);
+  v.design_summary = run_design(c, out / "design", c.optimise && o.optimise, o.progress, &v.artifacts);
   v.socketsmith_wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const auto& mesh = v.artifacts.setup->mesh.mesh;
   v.stump = designed_stump(v.artifacts);
@@ -221,7 +222,7 @@ DesignValidation validate_design(const design::CaseFile& c, const DesignValidati
     if (o.against_donning) use_donning_pressures(*v.donning, v.stump);
   }
 
-  DesignCheckOptions& co = v.check_options;
+  calculix::DesignCheckOptions& co = v.check_options;
   co.mode = o.mode;
   co.material = material;
   co.element = o.element;
@@ -244,11 +245,11 @@ DesignValidation validate_design(const design::CaseFile& c, const DesignValidati
             mesh.num_nodes(), mesh.num_hexahedra(), to_string(co.element),
             material.is_neo_hookean ? "neo-Hookean" : "linear elastic", material.poisson_ratio,
             co.nonlinear_geometry ? "NLGEOM" : "small strain");
-  v.check = check_design(v.stump, co, out, "design_fe");
+  v.check = calculix::check_design(v.stump, co, out, "design_fe");
   const auto& r = v.check;
 
   const nlohmann::json paths_json = write_comparison_files(v, o.against_donning, out);
-  const bool contact = co.mode != DesignCheckMode::Load;
+  const bool contact = co.mode != calculix::DesignCheckMode::Load;
   const auto [scale, unit, suffix, what] = compared_quantity(co.mode);
   const bool ours_linear = v.donning_from_closed_loop ? v.artifacts.result.closed_loop->linear_body : !o.nonlinear_body;
   nlohmann::json j{{"case", o.case_label},
@@ -319,4 +320,4 @@ DesignValidation validate_design(const design::CaseFile& c, const DesignValidati
   return v;
 }
 
-}  // namespace socketsmith::fe
+}  // namespace socketsmith::pipeline

@@ -3,10 +3,10 @@
 #include <gtest/gtest.h>
 
 #include "socketsmith/core/errors.h"
-#include "socketsmith/fe/dat_reader.h"
-#include "socketsmith/fe/frd_reader.h"
+#include "socketsmith/calculix/dat_reader.h"
+#include "socketsmith/calculix/frd_reader.h"
 
-namespace socketsmith::fe {
+namespace socketsmith::calculix {
 namespace {
 
 const char* kFrd = R"(    1C
@@ -151,4 +151,4 @@ TEST(DatReader, node_prints_and_contact_statistics) {
 }
 
 }  // namespace
-}  // namespace socketsmith::fe
+}  // namespace socketsmith::calculix

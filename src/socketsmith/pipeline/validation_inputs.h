@@ -1,25 +1,28 @@
 #pragma once
-/// @file design_artifacts.h
-/// The designed state of a pipeline run as the FE check's input.
+/// @file validation_inputs.h
+/// The designed state of a pipeline run as the CalculiX check's input (calculix::DesignedStump,
+/// calculix::FeMaterial), and socketsmith's own donning of its socket for the ch. 3 comparison. They
+/// live in `pipeline`, above both the design run and the CalculiX bridge, so `calculix` needs neither
+/// `pipeline` nor `contact`.
 
 #include "socketsmith/contact/donning.h"
-#include "socketsmith/fe/design_check.h"
+#include "socketsmith/calculix/design_check.h"
 #include "socketsmith/pipeline/design_pipeline.h"
 
-namespace socketsmith::fe {
+namespace socketsmith::pipeline {
 
 /// The stump, its fixed (bone and cut) nodes, frame, designed positions, pressures, deformed
 /// normals and areas, brim flags, front-line angle (PT landmark) and length of a design run, and
 /// the socket's wall when the closed loop corrected it.
 /// The result refers to @p artifacts' mesh and skin: keep them alive.
 /// @throws InvalidInputError when the artifacts hold no setup.
-DesignedStump designed_stump(const pipeline::DesignArtifacts& artifacts);
+calculix::DesignedStump designed_stump(const DesignArtifacts& artifacts);
 
 /// CalculiX's twin of a case's tissue: E and ρ of the case; for the continuum models their own
 /// ν and law (fe: *ELASTIC, St Venant–Kirchhoff under NLGEOM; neo-hookean: *HYPERELASTIC, NEO
 /// HOOKE with the same C10 and D1), so both sides solve the same problem; for the MSS lattices,
 /// which have no continuum twin, ν = 0.45 (the thesis's Abaqus check) and *ELASTIC.
-FeMaterial fe_material(const design::CaseFile& c);
+calculix::FeMaterial fe_material(const design::CaseFile& c);
 
 /// socketsmith's own donning of a design run's socket onto its stump (the thesis's ch. 3 check:
 /// the side that CalculiX's donning is compared with): the contact solver on the run's linearised
@@ -27,11 +30,11 @@ FeMaterial fe_material(const design::CaseFile& c);
 /// @throws InvalidInputError when the run has no socket (its constraints were not met);
 ///         SolverError when the donning does not complete, or when a standing load was asked
 ///         (options.stand_force_n > 0) and not reached.
-contact::DonningResult don_designed_socket(const pipeline::DesignArtifacts& artifacts,
+contact::DonningResult don_designed_socket(const DesignArtifacts& artifacts,
                                            const contact::DonningOptions& options);
 
 /// @p stump with its pressures replaced by @p donning's final contact pressures (same skin nodes).
 /// @throws InvalidInputError when the sizes differ.
-void use_donning_pressures(const contact::DonningResult& donning, DesignedStump& stump);
+void use_donning_pressures(const contact::DonningResult& donning, calculix::DesignedStump& stump);
 
-}  // namespace socketsmith::fe
+}  // namespace socketsmith::pipeline

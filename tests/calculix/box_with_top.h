@@ -1,15 +1,15 @@
 #pragma once
 /// @file box_with_top.h
-/// Test fixture of the fe tests: a 20 mm box of 2 × 2 × 2 hexahedra and its top face as skin
+/// Test fixture of the calculix tests: a 20 mm box of 2 × 2 × 2 hexahedra and its top face as skin
 /// quads / faces (the smallest stump with a skin).
 
 #include <array>
 #include <vector>
 
-#include "socketsmith/fe/calculix_deck.h"
+#include "socketsmith/calculix/calculix_deck.h"
 #include "socketsmith/volume/box_mesher.h"
 
-namespace socketsmith::fe::testing {
+namespace socketsmith::calculix::testing {
 
 struct BoxWithTop {
   volume::BoxMeshOptions options;
@@ -31,4 +31,4 @@ struct BoxWithTop {
   }
 };
 
-}  // namespace socketsmith::fe::testing
+}  // namespace socketsmith::calculix::testing

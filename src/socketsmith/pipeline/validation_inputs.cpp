@@ -1,20 +1,20 @@
-#include "socketsmith/fe/design_artifacts.h"
+#include "socketsmith/pipeline/validation_inputs.h"
 
 #include "socketsmith/core/errors.h"
 
-namespace socketsmith::fe {
+namespace socketsmith::pipeline {
 
-FeMaterial fe_material(const design::CaseFile& c) {
-  FeMaterial m;
+calculix::FeMaterial fe_material(const design::CaseFile& c) {
+  calculix::FeMaterial m;
   m.youngs_modulus_pa = c.youngs_modulus_pa;
   m.density_kg_m3 = c.density_kg_m3;
-  const auto model = pipeline::model_options(c);
+  const auto model = model_options(c);
   m.poisson_ratio = tissue::is_continuum(model.kind) ? model.fe_poisson_ratio : 0.45;
   m.is_neo_hookean = model.kind == tissue::TissueModelKind::NeoHookean;
   return m;
 }
 
-DesignedStump designed_stump(const pipeline::DesignArtifacts& artifacts) {
+calculix::DesignedStump designed_stump(const DesignArtifacts& artifacts) {
   require(artifacts.setup != nullptr && artifacts.setup->solver != nullptr,
           "designed_stump: the design artifacts are empty (run pipeline::run_design with artifacts first)");
   const auto& setup = *artifacts.setup;
@@ -22,7 +22,7 @@ DesignedStump designed_stump(const pipeline::DesignArtifacts& artifacts) {
   const auto& state = artifacts.result.state;
   require(state.positions.size() == 3 * mesh.num_nodes(), "designed_stump: the design state has {} coordinates for {} nodes",
           state.positions.size(), mesh.num_nodes());
-  DesignedStump d;
+  calculix::DesignedStump d;
   d.mesh = &mesh;
   d.skin = &setup.solver->skin();
   for (int n = 0; n < mesh.num_nodes(); ++n) {
@@ -45,7 +45,7 @@ DesignedStump designed_stump(const pipeline::DesignArtifacts& artifacts) {
   return d;
 }
 
-contact::DonningResult don_designed_socket(const pipeline::DesignArtifacts& artifacts,
+contact::DonningResult don_designed_socket(const DesignArtifacts& artifacts,
                                            const contact::DonningOptions& options) {
   require(artifacts.setup != nullptr && artifacts.setup->solver != nullptr,
           "don_designed_socket: the design artifacts are empty (run pipeline::run_design with artifacts first)");
@@ -61,10 +61,10 @@ contact::DonningResult don_designed_socket(const pipeline::DesignArtifacts& arti
   return r;
 }
 
-void use_donning_pressures(const contact::DonningResult& donning, DesignedStump& stump) {
+void use_donning_pressures(const contact::DonningResult& donning, calculix::DesignedStump& stump) {
   require(donning.contacts.size() == stump.pressure_pa.size(),
           "use_donning_pressures: {} contact nodes for {} skin nodes", donning.contacts.size(), stump.pressure_pa.size());
   for (size_t i = 0; i < donning.contacts.size(); ++i) stump.pressure_pa[i] = donning.contacts[i].pressure_pa;
 }
 
-}  // namespace socketsmith::fe
+}  // namespace socketsmith::pipeline

@@ -1,4 +1,4 @@
-#include "socketsmith/fe/frd_reader.h"
+#include "socketsmith/calculix/frd_reader.h"
 
 #include <algorithm>
 #include <charconv>
@@ -8,9 +8,9 @@
 #include <fmt/format.h>
 
 #include "socketsmith/core/errors.h"
-#include "socketsmith/fe/text_file.h"
+#include "socketsmith/calculix/text_file.h"
 
-namespace socketsmith::fe {
+namespace socketsmith::calculix {
 namespace {
 
 std::string_view trim(std::string_view s) {
@@ -164,4 +164,4 @@ FrdResults parse_frd(std::string_view text, const std::string& source) {
 
 FrdResults read_frd(const std::filesystem::path& path) { return parse_frd(read_text_file(path), path.string()); }
 
-}  // namespace socketsmith::fe
+}  // namespace socketsmith::calculix

@@ -1,6 +1,5 @@
-#include "socketsmith/fe/calculix_deck.h"
-#include "socketsmith/fe/design_artifacts.h"
-#include "socketsmith/fe/design_check.h"
+#include "socketsmith/calculix/calculix_deck.h"
+#include "socketsmith/calculix/design_check.h"
 
 #include <map>
 #include <sstream>
@@ -8,11 +7,12 @@
 #include <gtest/gtest.h>
 
 #include "socketsmith/core/errors.h"
+#include "socketsmith/pipeline/validation_inputs.h"
 #include "socketsmith/tissue/hex_fe.h"
 #include "socketsmith/volume/box_mesher.h"
 #include "box_with_top.h"
 
-namespace socketsmith::fe {
+namespace socketsmith::calculix {
 namespace {
 
 /// The deck's keyword blocks: keyword line → data lines.
@@ -107,7 +107,7 @@ TEST(CalculixDeck, the_cases_tissue_model_picks_calculixs_material) {
   Box b;
   DeckSpec s = loaded_box(b);
   auto c = design::parse_case(nlohmann::json::parse(R"({"tissue": {"model": "neo-hookean", "poisson": 0.47, "youngs_kpa": 80}})"));
-  s.material = fe_material(c);
+  s.material = pipeline::fe_material(c);
   EXPECT_TRUE(s.material.is_neo_hookean);
   auto blocks = parse_blocks(write_deck(s));
   ASSERT_EQ(blocks.count("*HYPERELASTIC, NEO HOOKE"), 1u);
@@ -118,11 +118,11 @@ TEST(CalculixDeck, the_cases_tissue_model_picks_calculixs_material) {
   EXPECT_NEAR(v[0], nh.c10(), 1e-8 * nh.c10());
   EXPECT_NEAR(v[1], nh.d1(), 1e-8 * nh.d1());
   c = design::parse_case(nlohmann::json::parse(R"({"tissue": {"model": "fe", "poisson": 0.47, "youngs_kpa": 80}})"));
-  s.material = fe_material(c);
+  s.material = pipeline::fe_material(c);
   blocks = parse_blocks(write_deck(s));
   EXPECT_EQ(numbers(blocks.find("*ELASTIC")->second.at(0)), (std::vector<double>{80e3, 0.47}));
   c = design::parse_case(nlohmann::json::parse(R"({"tissue": {"model": "mss-cs", "youngs_kpa": 80}})"));
-  s.material = fe_material(c);
+  s.material = pipeline::fe_material(c);
   EXPECT_FALSE(s.material.is_neo_hookean);
   EXPECT_DOUBLE_EQ(s.material.poisson_ratio, 0.45);
 }
@@ -254,4 +254,4 @@ TEST(CalculixDeck, bad_input_names_the_field) {
 }
 
 }  // namespace
-}  // namespace socketsmith::fe
+}  // namespace socketsmith::calculix
