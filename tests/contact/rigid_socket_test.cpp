@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <iostream>
 #include <numbers>
 
 #include "socketsmith/contact/rigid_socket.h"
@@ -165,6 +166,107 @@ TEST(RigidSocket, smoothed_wall_follows_the_facets_and_turns_smoothly_across_the
     EXPECT_NEAR(dir.dot(g.stiffness_shape * dir), std::pow(g.gradient_norm * g.normal.dot(dir), 2), 1e-9);
   }
   EXPECT_NEAR(g.gradient_norm, 1.0, 0.05);
+}
+
+// A coarse, strongly curved wall (a hexagonal pipe: its facets' normals 60° apart, each vertex's
+// support reaching the next corner): the smoothed gap stays continuous, with the gradient it reports,
+// where the closest facet switches. Choosing the vertices by the closest facet's normal made it jump
+// there by up to a tenth of a millimetre, and a donning's Newton stalled on the jump.
+TEST(RigidSocket, smoothed_wall_is_continuous_where_the_closest_facet_switches_on_a_coarse_wall) {
+  const double ri = 0.05, H = 0.2;
+  const int seg = 6;
+  RigidSocket s(ringed_pipe(ri, 0.056, H, seg, 4), z_frame());
+  s.set_smooth_wall(true);
+  const double apothem = ri * std::cos(std::numbers::pi / seg);
+  // 1.5 mm beyond the hexagon's wall at angle phi (the wall's distance from the axis varies; the
+  // smoothed wall rounds the corners off by about 0.5 mm).
+  const auto beyond = [&](double phi) -> Vec3 {
+    const double sector = 2 * std::numbers::pi / seg;
+    const double rel = phi - sector * (std::floor(phi / sector) + 0.5);  // from the face's middle
+    return (apothem / std::cos(rel) + 1.5e-3) * Vec3(std::cos(phi), std::sin(phi), 0) + Vec3(0, 0, 0.1);
+  };
+  const int n = 6000;
+  double worst_slope = 0, worst_fd = 0, gap_min = 1, gap_max = -1;
+  Vec3 p_prev = beyond(0.0);
+  Gap g_prev = s.gap(p_prev);
+  for (int i = 1; i <= n; ++i) {
+    const Vec3 p = beyond(2 * std::numbers::pi * i / n);
+    const Gap g = s.gap(p);
+    ASSERT_TRUE(std::isfinite(g.gap_m)) << i;
+    gap_min = std::min(gap_min, g.gap_m);
+    gap_max = std::max(gap_max, g.gap_m);
+    // The change of the gap between neighbouring points (52 µm apart, and 0.26 µm apart where it is
+    // steep): bounded by the gradient's size (≈ 1); a jump of 1 µm gives a slope of 4 there.
+    const double slope = std::abs(g.gap_m - g_prev.gap_m) / (p - p_prev).norm();
+    if (slope > 0.3) {
+      // Steep here: look between the two points 200 times closer (a jump's slope grows with it).
+      Gap sub_prev = g_prev;
+      for (int k = 1; k <= 200; ++k) {
+        const Vec3 q = beyond(2 * std::numbers::pi * (i - 1 + k / 200.0) / n);
+        const Gap sub = s.gap(q);
+        worst_slope = std::max(worst_slope, std::abs(sub.gap_m - sub_prev.gap_m) / ((p - p_prev).norm() / 200));
+        sub_prev = sub;
+      }
+    }
+    worst_slope = std::max(worst_slope, slope);
+    if (i % 50 == 0) {
+      // The reported gradient is the gap's: central differences in three directions.
+      for (int a = 0; a < 3; ++a) {
+        const double h = 1e-7;
+        const Vec3 e = Vec3::Unit(a);
+        const double fd = (s.gap(p + h * e).gap_m - s.gap(p - h * e).gap_m) / (2 * h);
+        worst_fd = std::max(worst_fd, std::abs(fd - g.gradient_norm * g.normal[a]));
+      }
+    }
+    p_prev = p;
+    g_prev = g;
+  }
+  std::cout << "gap " << gap_min << " .. " << gap_max << " m, slope " << worst_slope << ", gradient error " << worst_fd << "\n";
+  EXPECT_LT(worst_slope, 2.0);
+  EXPECT_LT(worst_fd, 1e-4);
+}
+
+// Over the rim the smoothed wall's contact fades out smoothly: the penalty energy weight · ½ gap²
+// is continuous from fully facing the wall to past its rim, and its gradient is the force the
+// contact solver applies (weight · gap ∇gap + ½ gap² ∇weight).
+TEST(RigidSocket, smoothed_wall_contact_fades_smoothly_past_the_rim) {
+  const double ri = 0.05, H = 0.2;
+  RigidSocket s(ringed_pipe(ri, 0.055, H, 48, 40), z_frame());
+  s.set_smooth_wall(true);
+  const auto energy = [&](const Vec3& p) {
+    const Gap g = s.gap(p);
+    return g.valid && g.gap_m < 0 ? g.weight * 0.5 * g.gap_m * g.gap_m : 0.0;
+  };
+  // A point 1 mm beyond the wall, moving up past the rim at z = H (to 5 mm above it).
+  const Vec3 dir(std::cos(0.3), std::sin(0.3), 0);
+  double w_min = 1, w_max = 0, worst_step = 0, worst_fd = 0;
+  const int n = 4000;
+  double e_prev = energy((ri + 1e-3) * dir + Vec3(0, 0, H - 0.004));
+  for (int i = 1; i <= n; ++i) {
+    const Vec3 p = (ri + 1e-3) * dir + Vec3(0, 0, H - 0.004 + 0.009 * i / n);
+    const Gap g = s.gap(p);
+    const double e = energy(p);
+    worst_step = std::max(worst_step, std::abs(e - e_prev));
+    e_prev = e;
+    if (!g.valid) continue;
+    w_min = std::min(w_min, g.weight);
+    w_max = std::max(w_max, g.weight);
+    if (i % 20 == 0 && g.gap_m < 0) {
+      const Vec3 force_dir = g.weight * (-g.gap_m) * g.gradient_norm * g.normal - 0.5 * g.gap_m * g.gap_m * g.weight_gradient;
+      for (int a = 0; a < 3; ++a) {
+        const double h = 1e-8;
+        const Vec3 e3 = Vec3::Unit(a);
+        const double fd = -(energy(p + h * e3) - energy(p - h * e3)) / (2 * h);
+        worst_fd = std::max(worst_fd, std::abs(fd - force_dir[a]) / 1e-3);  // relative to gap · 1
+      }
+    }
+  }
+  EXPECT_EQ(w_max, 1.0);            // below the rim: fully facing the wall
+  EXPECT_LT(w_min, 0.05);           // past it: (nearly) no contact
+  // ½ (1 mm)² = 5e-7 fades over ~2 mm of the path (steps of 2.25 µm: ~1e-9 each); a jump is 5e-7.
+  EXPECT_LT(worst_step, 1e-8);
+  EXPECT_LT(worst_fd, 1e-4);
+  EXPECT_FALSE(s.gap((ri + 1e-3) * dir + Vec3(0, 0, H + 0.006)).valid);
 }
 
 TEST(RigidSocket, rejects_open_and_misplaced_sockets) {

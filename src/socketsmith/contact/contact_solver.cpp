@@ -152,13 +152,15 @@ struct ContactSolver::Impl {
         s.active = true;
         s.gap_m = g.gap_m;
         s.normal = g.normal;
-        s.normal_force_n = kA * (-g.gap_m) * g.gradient_norm;
+        // weight: how far the node faces the wall (1 but at the rim, see Gap::weight).
+        s.normal_force_n = g.weight * kA * (-g.gap_m) * g.gradient_norm;
         s.pressure_pa = s.normal_force_n / areas[i];
-        pi += 0.5 * kA * g.gap_m * g.gap_m;
-        f += s.normal_force_n * g.normal;
+        const double e = 0.5 * kA * g.gap_m * g.gap_m;
+        pi += g.weight * e;
+        f += s.normal_force_n * g.normal - e * g.weight_gradient;
         // Inside a face: stiffness along the normal only; on an edge or a vertex the force points to
         // a fixed point of the wall (f = kA (c − x)), stiff in every direction.
-        B += kA * g.stiffness_shape;
+        B += g.weight * kA * g.stiffness_shape;
       }
       // Friction: nodes that carried a normal force at the lag (μ f̄ > 0) resist slip relative to
       // the wall with an elastic stick (stiffness kT) capped at μ f̄ (return mapping).
@@ -248,11 +250,12 @@ struct ContactSolver::Impl {
     return at;
   }
 
-  /// Gap against the wall. A node in contact at the last converged step keeps a wider acceptance
-  /// cone, so that a node at the wall's rim does not chatter in and out of contact.
+  /// Gap against the wall. On the faceted wall, whose validity is all or nothing, a node in contact
+  /// at the last converged step keeps a wider acceptance cone, so that a node at the wall's rim does
+  /// not chatter in and out of contact (the smoothed wall's weight falls smoothly there instead).
   Gap wall_gap(size_t i, const Vec3& p) const {
     Gap g = obstacle.gap(p);
-    if (!g.valid && was_active[i] && g.gap_m < 0) {
+    if (!g.valid && !g.graded && was_active[i] && g.gap_m < 0) {
       const Vec3 dd = p - g.point;
       g.valid = (dd - g.gap_m * g.normal).norm() <= 2.0 * std::abs(g.gap_m) + 1e-4;
     }

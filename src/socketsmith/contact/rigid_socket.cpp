@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 #include "socketsmith/core/errors.h"
 #include "socketsmith/geometry/mesh_checks.h"
@@ -11,11 +12,22 @@ namespace socketsmith::contact {
 
 namespace {
 constexpr double kSmoothBand = 0.003;  // [m] the smoothed wall's gap within this distance of the facets
+constexpr double kBlendBand = 0.001;   // [m] beyond it, blended into the facets' distance over this width
 // Support radius of a vertex / the mean length of its edges. The 7.5k donning (with the earlier
 // standing push): 1.25 / 1.5 / 1.75 gave 214 / 234 / 250 factorisations, R against the design
 // 0.718 / 0.717 / 0.715 (facets: 387, 0.720); below ~1.25 a point inside a long triangle can fall
 // outside every vertex's support (then the facets' gap is used there: a seam), so 1.5.
 constexpr double kSupport = 1.5;
+// The smoothed wall counts a vertex fully when its normal is within ~60° of the wall's mean normal
+// at the point (cos ≥ 0.5), not at all beyond ~78° (cos ≤ 0.2), smoothly in between.
+constexpr double kAgreeLow = 0.2, kAgreeHigh = 0.5;
+// Below this |Σ w_j n_j| / Σ w_j the mean normal is ill-defined (both sides of a thin cavity).
+constexpr double kMeanNormalFloor = 0.3;
+// A point faces the smoothed wall fully while its foot on the smoothed wall is within 1 mm of the
+// facets (the smoothed wall lies within ~1.5 sagittas of them: 0.1–0.5 mm on a socket), not at all
+// from 3 mm (past the rim), smoothly in between.
+constexpr double kRimFull = 0.001, kRimNone = 0.003;
+constexpr double kWeightStep = 1e-6;  // [m] the central differences of the weight's gradient
 }  // namespace
 
 RigidSocket::~RigidSocket() = default;
@@ -174,10 +186,10 @@ RigidSocket::RigidSocket(geometry::TriMesh solid, const geometry::LimbFrame& fra
         if (j0 < 0 || j1 < 0) continue;
         Gap on;
         on.triangle = i;
-        const Gap gs = smooth_gap(0.5 * (inner_.vertices[t[k]] + inner_.vertices[t[(k + 1) % 3]]), on);
-        if (gs.normal.isZero()) continue;
+        const std::optional<Gap> gs = smooth_gap(0.5 * (inner_.vertices[t[k]] + inner_.vertices[t[(k + 1) % 3]]), on);
+        if (!gs) continue;
         for (const int j : {j0, j1}) {
-          sum[j] += gs.gap_m;
+          sum[j] += gs->gap_m;
           ++cnt[j];
         }
       }
@@ -186,40 +198,73 @@ RigidSocket::RigidSocket(geometry::TriMesh solid, const geometry::LimbFrame& fra
   }
 }
 
-Gap RigidSocket::smooth_gap(const Vec3& q, Gap g) const {
-  // Σ w_j, Σ w_j a_j with a_j = d·n_j − ½ dᵀ H_j d − c_j (d = q − v_j: the height over vertex j's
-  // quadric), and their gradients, over the vertices whose support contains q and whose normal
-  // agrees with the closest facet's. The stiffness is ∇g ∇gᵀ (the term g ∇²g is of the order of
-  // the penetration over the wall's radius of curvature: negligible).
+std::optional<Gap> RigidSocket::smooth_gap(const Vec3& q, Gap g) const {
+  // Σ W_j, Σ W_j a_j with a_j = d·n_j − ½ dᵀ H_j d − c_j (d = q − v_j: the height over vertex j's
+  // quadric), and their gradients, over the vertices whose support contains q. W_j = w_j s_j: the
+  // support weight w_j = (1 − |d|²/ρ_j²)⁴ times a smooth ramp s_j of how far n_j agrees with the
+  // wall's mean normal n̄ at q (n̄ = Σ w_j n_j normalised), so that vertices across a crease or the
+  // cavity do not count. n̄ and the ramp are smooth in q, so the gap is too: a choice of vertices by
+  // the closest facet's normal changed with the facet, and the gap jumped by up to 0.1 mm where the
+  // closest facet switched on a strongly curved wall (Newton's line search then stalled there). The
+  // gradient is exact (the ramp's and n̄'s derivatives included); the stiffness is ∇g ∇gᵀ (the term
+  // g ∇²g is of the order of the penetration over the wall's radius of curvature: negligible).
   Eigen::Vector3i c;
   for (int a = 0; a < 3; ++a) c[a] = static_cast<int>(std::floor((q[a] - grid_lo_[a]) / cell_));
+  const Eigen::Vector3i lo = (c.array() - 1).max(0), hi = (c + Eigen::Vector3i::Ones()).cwiseMin(grid_dim_ - Eigen::Vector3i::Ones());
+  const auto for_support = [&](auto&& visit) {
+    for (int z = lo[2]; z <= hi[2]; ++z)
+      for (int y = lo[1]; y <= hi[1]; ++y)
+        for (int x = lo[0]; x <= hi[0]; ++x) {
+          const int cell = (z * grid_dim_[1] + y) * grid_dim_[0] + x;
+          for (int k = cell_start_[cell]; k < cell_start_[cell + 1]; ++k) {
+            const int j = cell_items_[k];
+            const Vec3 d = q - wall_v_[j];
+            const double u = 1.0 - d.squaredNorm() / wall_rho2_[j];
+            if (u > 0) visit(j, d, u);
+          }
+        }
+  };
+  // The mean normal n̄ and its gradient ∂n̄/∂q = (I − n̄n̄ᵀ) Σ n_j ∇w_jᵀ / |m|.
+  Vec3 m = Vec3::Zero();
+  Eigen::Matrix3d dm = Eigen::Matrix3d::Zero();
+  double wsum = 0;
+  for_support([&](int j, const Vec3& d, double u) {
+    const double u3 = u * u * u;
+    m += u3 * u * wall_n_[j];
+    dm += wall_n_[j] * ((-8.0 * u3 / wall_rho2_[j]) * d).transpose();
+    wsum += u3 * u;
+  });
+  Vec3 ref;
+  Eigen::Matrix3d dref = Eigen::Matrix3d::Zero();
+  if (m.norm() >= kMeanNormalFloor * wsum && m.norm() > 0) {
+    ref = m.normalized();
+    dref = (Eigen::Matrix3d::Identity() - ref * ref.transpose()) * dm / m.norm();
+  } else if (g.triangle >= 0) {
+    ref = inner_normals_[g.triangle];  // both sides of a thin cavity in the support: the facet decides
+  } else {
+    return std::nullopt;
+  }
   double S = 0, N = 0;
   Vec3 dS = Vec3::Zero(), dN = Vec3::Zero();
-  const Vec3 face = g.triangle >= 0 ? inner_normals_[g.triangle] : Vec3::Zero();
-  for (int z = std::max(c[2] - 1, 0); z <= std::min(c[2] + 1, grid_dim_[2] - 1); ++z)
-    for (int y = std::max(c[1] - 1, 0); y <= std::min(c[1] + 1, grid_dim_[1] - 1); ++y)
-      for (int x = std::max(c[0] - 1, 0); x <= std::min(c[0] + 1, grid_dim_[0] - 1); ++x) {
-        const int cell = (z * grid_dim_[1] + y) * grid_dim_[0] + x;
-        for (int k = cell_start_[cell]; k < cell_start_[cell + 1]; ++k) {
-          const int j = cell_items_[k];
-          const Vec3 d = q - wall_v_[j];
-          const double u = 1.0 - d.squaredNorm() / wall_rho2_[j];
-          if (u <= 0 || wall_n_[j].dot(face) < 0.5) continue;  // (not across a crease or the cavity)
-          const double u3 = u * u * u, w = u3 * u;
-          const Vec3 dw = (-8.0 * u3 / wall_rho2_[j]) * d;
-          const Vec3 Hd = wall_h_[j] * d;
-          const double a = d.dot(wall_n_[j]) - 0.5 * d.dot(Hd) - wall_c_[j];
-          S += w;
-          N += w * a;
-          dS += dw;
-          dN += dw * a + w * (wall_n_[j] - Hd);
-        }
-      }
-  if (S <= 1e-12) return g;  // too far from any vertex: the facets' gap
+  for_support([&](int j, const Vec3& d, double u) {
+    const double t = std::clamp((wall_n_[j].dot(ref) - kAgreeLow) / (kAgreeHigh - kAgreeLow), 0.0, 1.0);
+    if (t <= 0) return;
+    const double s = t * t * (3 - 2 * t), ds = 6 * t * (1 - t) / (kAgreeHigh - kAgreeLow);
+    const double u3 = u * u * u, w = u3 * u;
+    const Vec3 dw = (-8.0 * u3 / wall_rho2_[j]) * d;
+    const Vec3 Hd = wall_h_[j] * d;
+    const double a = d.dot(wall_n_[j]) - 0.5 * d.dot(Hd) - wall_c_[j];
+    const Vec3 dW = s * dw + (w * ds) * (dref.transpose() * wall_n_[j]);
+    S += w * s;
+    N += w * s * a;
+    dS += dW;
+    dN += dW * a + (w * s) * (wall_n_[j] - Hd);
+  });
+  if (S <= 1e-12) return std::nullopt;  // too far from any vertex
   const double gap = N / S;
   const Vec3 grad = (dN - gap * dS) / S;
   const double gn = grad.norm();
-  if (!(gn > 1e-6)) return g;
+  if (!(gn > 1e-6)) return std::nullopt;
   g.gap_m = gap;
   g.normal = grad / gn;
   g.gradient_norm = gn;
@@ -281,8 +326,56 @@ Gap RigidSocket::gap(const Vec3& p) const {
     g.gap_m = 0.0;
     g.normal = n;
   }
-  if (smooth_ && dist < kSmoothBand) return smooth_gap(q, g);
-  return g;
+  if (!smooth_) return g;
+  const std::optional<Gap> smoothed = smooth_gap(q, g);
+  if (!smoothed) return g;  // no vertex's support covers q: the facets' gap and validity
+  const Gap& s = *smoothed;
+  // The smoothed gap within kSmoothBand of the facets, the facets' distance beyond kSmoothBand +
+  // kBlendBand, blended smoothly in between (share: the smoothed gap's), so that the gap is
+  // continuous where the band ends.
+  const double tb = std::clamp((dist - kSmoothBand) / kBlendBand, 0.0, 1.0);
+  const double share = 1.0 - tb * tb * (3 - 2 * tb), db = -6 * tb * (1 - tb) / kBlendBand;
+  const Vec3 grad_s = s.gradient_norm * s.normal, grad_f = g.normal;  // ∇ of the facets' gap: its normal
+  const Vec3 grad = share * grad_s + (1 - share) * grad_f + (s.gap_m - g.gap_m) * db * (d / dist);
+  Gap out = g;
+  out.gap_m = share * s.gap_m + (1 - share) * g.gap_m;
+  out.gradient_norm = grad.norm();
+  if (!(out.gradient_norm > 1e-6)) return g;
+  out.normal = grad / out.gradient_norm;
+  out.on_face = share == 1.0 || g.on_face;
+  out.stiffness_shape = share * grad * grad.transpose() + (1 - share) * g.stiffness_shape;
+  // Whether the point faces the wall: its foot on the smoothed wall (q moved along the smoothed
+  // normal by the smoothed gap) lies on the facets where the point faces the wall, and past the rim
+  // (where the smoothed surface runs on beyond the facets) as far from them as the point is past it.
+  // The weight falls smoothly with that distance L. Everything here is continuous in q — the
+  // smoothed gap and normal, and the distance to the facets (also where the closest point jumps
+  // from one part of the wall to another): a choice by the facets' closest point and its angle
+  // jumped there.
+  out.graded = true;
+  out.weight = 1.0;
+  out.weight_gradient = Vec3::Zero();
+  if (out.gap_m >= 0) return out;  // only a penetrating point's energy carries the weight
+  const auto fade_at = [&](const Gap& sm, const Vec3& x) {  // (L − kRimFull) / (kRimNone − kRimFull), clamped
+    const Vec3 foot = x - (sm.gap_m / sm.gradient_norm) * sm.normal;
+    const geometry::SurfaceHit at = query_->closest_point(foot);
+    const double L = at.triangle >= 0 ? (foot - at.point).norm() : 0.0;
+    return std::clamp((L - kRimFull) / (kRimNone - kRimFull), 0.0, 1.0);
+  };
+  const auto weight_of = [](double t) { return 1.0 - t * t * (3 - 2 * t); };
+  const double t = fade_at(s, q);
+  out.weight = weight_of(t);
+  if (t > 0 && t < 1) {
+    // The weight's gradient by central differences (it moves with the smoothed normal, whose
+    // derivative is not at hand): only points fading at the rim pay the six extra queries.
+    for (int k = 0; k < 3; ++k) {
+      const Vec3 h = kWeightStep * Vec3::Unit(k);
+      const std::optional<Gap> sp = smooth_gap(q + h, g), sn = smooth_gap(q - h, g);
+      if (!sp || !sn) continue;
+      out.weight_gradient[k] = (weight_of(fade_at(*sp, q + h)) - weight_of(fade_at(*sn, q - h))) / (2 * kWeightStep);
+    }
+  }
+  out.valid = out.weight > 0;
+  return out;
 }
 
 }  // namespace socketsmith::contact

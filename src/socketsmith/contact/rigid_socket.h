@@ -9,6 +9,7 @@
 /// against both walls would push deep nodes the wrong way).
 
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include <Eigen/Core>
@@ -38,6 +39,14 @@ struct Gap {
   /// exact distance): the penalty force is k A (−gap) |∇gap| along the normal, the gradient of
   /// ½ k A gap² (stiffness_shape is then ∇gap ∇gapᵀ).
   double gradient_norm = 1.0;
+  /// How far the point faces the wall, in [0, 1] (the smoothed wall): 1 where its foot on the
+  /// smoothed wall lies within 1 mm of the facets, 0 from 3 mm (past the rim), smooth in between;
+  /// the penalty energy is weight · ½ k A gap², so a node sliding over the rim meets no jump of the
+  /// potential. `valid` is weight > 0. The faceted wall's validity is all or nothing (weight 1 when
+  /// valid, `graded` false).
+  double weight = 1.0;
+  Vec3 weight_gradient = Vec3::Zero();  ///< ∇weight [1/m] (the wall's normal held fixed)
+  bool graded = false;
 };
 
 /// A rigid obstacle the stump's nodes may touch, at a translation from its rest pose.
@@ -109,12 +118,14 @@ class RigidSocket : public Obstacle {
   /// at v_j). Planar parts of the wall are reproduced exactly, curved ones within a fraction of
   /// their facets' sagitta; the gap's gradient turns smoothly where the facets' normals jump, so a
   /// node sliding along the wall does not cross kinks (Newton stalled at them: docs/contact.md).
-  /// Whether a point faces the wall (Gap::valid) is still decided on the facets.
+  /// Whether a point faces the wall (Gap::weight) is decided by how far its foot on the smoothed
+  /// wall lies from the facets, falling smoothly to 0 past the rim.
   void set_smooth_wall(bool on) { smooth_ = on; }
   bool smooth_wall() const { return smooth_; }
 
  private:
-  Gap smooth_gap(const Vec3& q, Gap g) const;
+  /// The smoothed gap at @p q (g: the facets' gap there), or nothing where no vertex's support covers q.
+  std::optional<Gap> smooth_gap(const Vec3& q, Gap g) const;
 
   geometry::LimbFrame frame_;
   double density_ = 0.0;
