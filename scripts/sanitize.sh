@@ -5,12 +5,16 @@
 # given instead, e.g. `scripts/sanitize.sh -R 'MeshIo|cli\.'`. docs/fuzzing.md has what it found.
 #   SOCKETSMITH_SANITIZE_CMAKE_ARGS: more configure flags (e.g. -DSOCKETSMITH_BUILD_GUI=OFF)
 #   SOCKETSMITH_JOBS: build and test jobs (default: all cores)
+#   SOCKETSMITH_SANITIZE_TARGETS: build only these targets (e.g. "scan_tests tissue_tests"; default: all)
 # Undefined behaviour stops the program that meets it (-fno-sanitize-recover), so a test cannot
-# pass over it. ASan exits 99 (its default, 1, is the CLI's "bad input", which the CLI tests
-# expect). Leak checking is off (both unless ASAN_OPTIONS is set): this run is for memory errors
-# and UB. OpenMP is off: libgomp is not instrumented. The Python package is built
-# too when pybind11 is found; python.pytest then runs the plain interpreter with the sanitizer
-# runtimes preloaded (tests/CMakeLists.txt).
+# pass over it. ASan and UBSan exit 99 (their default, 1, is the CLI's "bad input", which the CLI
+# tests expect; UBSan does not take ASan's exitcode, it needs its own). UBSan reads
+# scripts/ubsan.supp (third-party findings only, each with why) and halts on every report it does
+# not suppress (halt_on_error=1: the one file compiled to recover from a check still stops on any
+# other report). Leak checking is off (both options unless set): this run is for memory errors
+# and UB. OpenMP is off: libgomp is not instrumented. The Python package is built too when
+# pybind11 is found; python.pytest then runs the plain interpreter with the sanitizer runtimes
+# preloaded (tests/CMakeLists.txt).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 BUILD_DIR=${SOCKETSMITH_BUILD_DIR:-build-asan}
@@ -21,9 +25,12 @@ if command -v ccache > /dev/null 2>&1; then LAUNCHER=(-DCMAKE_CXX_COMPILER_LAUNC
 cmake -S . -B "$BUILD_DIR" -DSOCKETSMITH_SANITIZE=ON -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSOCKETSMITH_USE_OPENMP=OFF \
   -DSOCKETSMITH_BUILD_BENCHMARKS=OFF "${LAUNCHER[@]}" ${SOCKETSMITH_SANITIZE_CMAKE_ARGS:-} > "$BUILD_DIR.configure.log" 2>&1 \
   || { cat "$BUILD_DIR.configure.log"; exit 1; }
-cmake --build "$BUILD_DIR" -j"$JOBS"
+TARGETS=()
+for t in ${SOCKETSMITH_SANITIZE_TARGETS:-}; do TARGETS+=(--target "$t"); done
+cmake --build "$BUILD_DIR" -j"$JOBS" "${TARGETS[@]}"
+SUPP=$PWD/scripts/ubsan.supp
 cd "$BUILD_DIR"
 export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=0:exitcode=99}
-export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1}
+export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1:exitcode=99:suppressions=$SUPP}
 if [ $# -eq 0 ]; then set -- -LE "slow|validation"; fi
 ctest --output-on-failure -j"$JOBS" "$@"
