@@ -7,8 +7,8 @@
 #   SOCKETSMITH_JOBS: build and test jobs (default: all cores)
 #   SOCKETSMITH_SANITIZE_TARGETS: build only these targets (e.g. "scan_tests fe_tests"), not all
 # Undefined behaviour stops the program that meets it (-fno-sanitize-recover), so a test cannot
-# pass over it. ASan exits 99 (its default, 1, is the CLI's "bad input", which the CLI tests
-# expect). Leak checking is off (both unless ASAN_OPTIONS is set): this run is for memory errors
+# pass over it. ASan and UBSan exit 99 (their default, 1, is the CLI's "bad input", which the CLI tests
+# expect; UBSan ignores ASan's exitcode). Leak checking is off (both unless ASAN_OPTIONS is set): this run is for memory errors
 # and UB. UBSan stops at any report (halt_on_error=1, also for the one check built recoverable)
 # except those scripts/ubsan.supp suppresses: UB inside third-party headers (CGAL), each entry with
 # its reason. OpenMP is off: libgomp is not instrumented. The Python package is built
@@ -29,6 +29,6 @@ cmake --build "$BUILD_DIR" -j"$JOBS" ${SOCKETSMITH_SANITIZE_TARGETS:+--target $S
 SUPPRESSIONS="$PWD/scripts/ubsan.supp"
 cd "$BUILD_DIR"
 export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=0:exitcode=99}
-export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1:suppressions=$SUPPRESSIONS}
+export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1:exitcode=99:suppressions=$SUPPRESSIONS}
 if [ $# -eq 0 ]; then set -- -LE "slow|validation"; fi
 ctest --output-on-failure -j"$JOBS" "$@"
