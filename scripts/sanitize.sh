@@ -5,7 +5,7 @@
 # given instead, e.g. `scripts/sanitize.sh -R 'MeshIo|cli\.'`. docs/fuzzing.md has what it found.
 #   SOCKETSMITH_SANITIZE_CMAKE_ARGS: more configure flags (e.g. -DSOCKETSMITH_BUILD_GUI=OFF)
 #   SOCKETSMITH_JOBS: build and test jobs (default: all cores)
-#   SOCKETSMITH_SANITIZE_TARGETS: build only these targets (e.g. "scan_tests fe_tests"), not all
+#   SOCKETSMITH_SANITIZE_TARGETS: build only these targets (e.g. "scan_tests calculix_tests"), not all
 # Undefined behaviour stops the program that meets it (-fno-sanitize-recover), so a test cannot
 # pass over it. ASan and UBSan exit 99 (their default, 1, is the CLI's "bad input", which the CLI tests
 # expect; UBSan ignores ASan's exitcode). Leak checking is off (both unless ASAN_OPTIONS is set): this run is for memory errors
