@@ -327,6 +327,9 @@ Gap RigidSocket::gap(const Vec3& p) const {
     g.normal = n;
   }
   if (!smooth_) return g;
+  // Beyond the blend and inside the cavity the gap is the facets' and no contact can act: no
+  // smoothed wall (most queries of a donning are such points, for nodes not yet near the wall).
+  if (dist >= kSmoothBand + kBlendBand && along_signed >= 0) return g;
   const std::optional<Gap> smoothed = smooth_gap(q, g);
   if (!smoothed) return g;  // no vertex's support covers q: the facets' gap and validity
   const Gap& s = *smoothed;
