@@ -63,64 +63,20 @@ double load_average() {
   return l;
 }
 
-design::SpotType spot_type(const json& a) { return design::parse_spot_type(a.value("type", std::string("cos2"))); }
-
 }  // namespace
 
 void HeadlessRunner::run_action(const json& a, int width, int height) {
   const std::string what = a["do"].get<std::string>();
-  const auto spot_of = [&](const json& s) {
-    if (s.is_number_integer()) return s.get<int>();
-    const int k = app_.spot_index(s.get<std::string>());
-    require(k >= 0, "no spot named '{}'", s.get<std::string>());
-    return k;
-  };
-  if (what == "add_spot") {
-    const double kpa = a.value("amplitude_kpa", 20.0);
-    if (a.contains("landmark")) {
-      app_.add_spot_at_landmark(a["landmark"].get<std::string>(), spot_type(a), kpa * 1e3);
-    } else {
-      const auto p = a.at("point_mm").get<std::vector<double>>();
-      require(p.size() == 3, "add_spot: point_mm needs 3 numbers");
-      app_.add_spot_at(Vec3(p[0], p[1], p[2]) * 1e-3, spot_type(a), kpa * 1e3);
-    }
-  } else if (what == "set") {
-    app_.set_spot_value(spot_of(a.at("spot")), a.at("field").get<std::string>(), a.at("value").get<double>());
-  } else if (what == "remove_spot") {
-    app_.remove_spot(spot_of(a.at("spot")));
+  const pipeline::DesignSession& session = app_.session();
+  if (pipeline::DesignSession::is_edit_action(what)) {  // the case's edits: the session's own actions
+    app_.apply(a);
   } else if (what == "select_spot") {
-    app_.select_spot(spot_of(a.at("spot")));
+    const json& s = a.at("spot");
+    const int k = s.is_number_integer() ? s.get<int>() : session.spot_index(s.get<std::string>());
+    if (!s.is_number_integer()) require(k >= 0, "no spot named '{}'", s.get<std::string>());
+    app_.select_spot(k);
   } else if (what == "field") {
     app_.set_field(parse_field(a.at("value").get<std::string>()));
-  } else if (what == "optimise") {
-    app_.optimise(a.value("time_limit_s", 0.0));
-  } else if (what == "patient") {
-    // The patient panel's fields, checked as the panel checks them.
-    design::PatientLoad p = app_.document().patient;
-    p.body_mass_kg = a.value("body_mass_kg", p.body_mass_kg);
-    p.prosthesis_mass_kg = a.value("prosthesis_mass_kg", p.prosthesis_mass_kg);
-    p.friction = a.value("friction", p.friction);
-    const double e_kpa = a.value("youngs_kpa", app_.document().youngs_modulus_pa / 1e3);
-    app_.set_patient(p, e_kpa * 1e3, app_.document().thresholds);
-  } else if (what == "cancel") {
-    app_.cancel_optimise();
-  } else if (what == "brim") {
-    app_.set_brim_template(design::parse_brim_template(a.at("template").get<std::string>()));
-  } else if (what == "brim_key_point") {
-    app_.move_brim_key_point(a.at("index").get<int>(), a.at("theta_deg").get<double>() * std::numbers::pi / 180,
-                             a.at("h_mm").get<double>() * 1e-3);
-  } else if (what == "thickness") {
-    app_.set_thickness(a.at("mm").get<double>() * 1e-3);
-  } else if (what == "undo") {
-    app_.undo();
-  } else if (what == "redo") {
-    app_.redo();
-  } else if (what == "save") {
-    app_.save_case(a.at("path").get<std::string>());
-  } else if (what == "export") {
-    app_.export_design(a.at("dir").get<std::string>());
-  } else if (what == "compare") {
-    app_.compare_with(a.at("file").get<std::string>());
   } else if (what == "view") {
     auto& cam = app_.camera();
     if (a.contains("yaw_deg")) cam.yaw_rad = a["yaw_deg"].get<double>() * std::numbers::pi / 180;
@@ -133,10 +89,10 @@ void HeadlessRunner::run_action(const json& a, int width, int height) {
     app_.screenshot(options_.screenshot_dir / a.at("name").get<std::string>(), width, height);
   } else if (what == "write_state") {
     // The live design as the window shows it (for tests: compare with `socketsmith design`).
-    require(app_.state().has_value(), "write_state: no design solved yet");
-    const auto& st = *app_.state();
+    require(session.state().has_value(), "write_state: no design solved yet");
+    const auto& st = *session.state();
     json spots = json::array();
-    for (const auto& sp : app_.document().spots) spots.push_back(design::spot_to_json(sp));
+    for (const auto& sp : session.document().spots) spots.push_back(design::spot_to_json(sp));
     json j{{"radar",
                   {{"fx_n", st.radar.force_n.x()},
                    {"fy_n", st.radar.force_n.y()},
@@ -149,23 +105,23 @@ void HeadlessRunner::run_action(const json& a, int width, int height) {
                  {"max_pressure_ratio", st.max_requested_ratio},
                  {"max_displacement_mm", st.max_displacement_m * 1e3},
                  {"spots", spots}};
-    if (const auto& t = app_.template_check())
+    if (const auto& t = session.template_check())
       j["template_regions"] = {{"template", t->template_name},
                                {"met", t->met},
                                {"tolerant_to_sensitive", t->tolerant_to_sensitive},
                                {"distal_fifth_share", t->distal_fifth.axial_share},
                                {"cv_below_brim", t->cv_below_brim}};
-    if (!app_.deviation_m().empty()) {  // the compared shape's deviation on the skin [mm]
+    if (!session.deviation_m().empty()) {  // the compared shape's deviation on the skin [mm]
       json dev = json::array();
-      for (double d : app_.deviation_m()) dev.push_back(std::isfinite(d) ? json(d * 1e3) : json());
+      for (double d : session.deviation_m()) dev.push_back(std::isfinite(d) ? json(d * 1e3) : json());
       j["deviation_mm"] = dev;
-      j["comparison"] = app_.comparison();
+      j["comparison"] = session.comparison();
     }
     j["field"] = to_string(app_.field());
     j["colour_range"] = {app_.colour_range().first, app_.colour_range().second};
-    if (const RectificationChart* c = app_.rectification()) {  // the table as the window draws it
+    if (const pipeline::RectificationChart* c = session.rectification()) {  // the table as the window draws it
       json rows = json::array();
-      for (const RectificationRow& r : app_.rectification_rows())
+      for (const pipeline::RectificationRow& r : session.rectification_rows())
         rows.push_back({{"code", r.code},
                         {"name", r.name},
                         {"rectification_mm", std::isfinite(r.mm) ? json(r.mm) : json()},
@@ -183,8 +139,9 @@ void HeadlessRunner::run_action(const json& a, int width, int height) {
   } else if (what == "wait_frames") {
     settle_ = std::max(settle_, a.at("count").get<int>());
   } else {
-    fail("action '{}' is not known (add_spot, set, remove_spot, select_spot, field, optimise, cancel, patient, brim, "
-         "brim_key_point, thickness, undo, redo, save, export, compare, view, screenshot, write_state, wait_frames)",
+    fail("action '{}' is not known (add_spot, set, remove_spot, select_spot, field, optimise, cancel, patient, rebuild, "
+         "brim, brim_key_point, thickness, undo, redo, begin_edit, end_edit, save, export, compare, view, screenshot, "
+         "write_state, wait_frames)",
          what);
   }
 }
@@ -192,8 +149,8 @@ void HeadlessRunner::run_action(const json& a, int width, int height) {
 bool HeadlessRunner::after_frame(int width, int height) {
   if (finished_) return true;
   // An error shown by the application fails the run (the message is already on stderr).
-  if (app_.errors().size() > errors_seen_) {
-    errors_seen_ = app_.errors().size();
+  if (app_.session().errors().size() > errors_seen_) {
+    errors_seen_ = app_.session().errors().size();
     failed_ = true;
   }
   if (settle_ > 0) {
@@ -209,7 +166,7 @@ bool HeadlessRunner::after_frame(int width, int height) {
     return finished_;
   }
   if (!loaded_) {
-    if (!app_.has_design() || !app_.has_state()) {
+    if (!app_.session().has_design() || !app_.session().state()) {
       if (app_.is_idle()) fail_run("the case could not be opened (the error is above)");
       return finished_;
     }
@@ -248,7 +205,7 @@ bool HeadlessRunner::after_frame(int width, int height) {
 bool HeadlessRunner::bench_frame() {
   const auto now = std::chrono::steady_clock::now();
   if (bench_ == Bench::Off) {
-    const auto& spots = app_.document().spots;
+    const auto& spots = app_.session().document().spots;
     for (size_t k = 0; k < spots.size(); ++k)
       if (spots[k].enabled && (options_.bench_spot.empty() || spots[k].name == options_.bench_spot)) {
         bench_spot_ = static_cast<int>(k);
@@ -260,7 +217,7 @@ bool HeadlessRunner::bench_frame() {
     }
     bench_base_kpa_ = std::max(5.0, spots[bench_spot_].amplitude_pa / 1e3);
     app_.select_spot(bench_spot_);
-    app_.begin_edit();
+    app_.session().begin_edit();
     bench_ = Bench::Warmup;
     bench_t0_ = now;
     return false;
@@ -270,7 +227,7 @@ bool HeadlessRunner::bench_frame() {
     bench_ = Bench::Running;
     bench_t0_ = now;
     bench_frames_ = 0;
-    bench_solves0_ = app_.solves_done();
+    bench_solves0_ = app_.session().solves_done();
     bench_cpu0_ = process_cpu_seconds();
     bench_load0_ = load_average();
     frame_ms_.clear();
@@ -279,16 +236,16 @@ bool HeadlessRunner::bench_frame() {
   }
   // The drag: the amplitude swings ±30 % around its value, a new value every frame (as a mouse
   // moving a slider), each one a solve request that the worker coalesces.
-  app_.set_spot_value(bench_spot_, "amplitude_kpa",
+  app_.session().set_spot_value(bench_spot_, "amplitude_kpa",
                       bench_base_kpa_ * (1.0 + 0.3 * std::sin(2 * std::numbers::pi * t / 2.0)));
   if (bench_ == Bench::Warmup) return false;
   ++bench_frames_;
   frame_ms_.push_back(std::chrono::duration<double, std::milli>(now - last_frame_).count());
   last_frame_ = now;
   if (t < options_.bench_drag_seconds) return false;
-  app_.end_edit();
+  app_.session().end_edit();
   bench_ = Bench::Done;
-  const long solves = app_.solves_done() - bench_solves0_;
+  const long solves = app_.session().solves_done() - bench_solves0_;
   const double cpu = process_cpu_seconds() - bench_cpu0_;
   std::sort(frame_ms_.begin(), frame_ms_.end());
   const double p95 = frame_ms_.empty() ? 0 : frame_ms_[static_cast<size_t>(0.95 * (frame_ms_.size() - 1))];
@@ -301,8 +258,8 @@ bool HeadlessRunner::bench_frame() {
                     {"cpu_ms_per_frame", 1e3 * cpu / std::max(1L, bench_frames_)},
                     {"cpu_cores_used", cpu / t},
                     {"load_average_1min", {bench_load0_, load_average()}},
-                    {"skin_nodes", app_.state() ? app_.state()->pressure_pa.size() : 0},
-                    {"nodes", app_.state() ? app_.state()->positions.size() / 3 : 0}};
+                    {"skin_nodes", app_.session().state() ? app_.session().state()->pressure_pa.size() : 0},
+                    {"nodes", app_.session().state() ? app_.session().state()->positions.size() / 3 : 0}};
   std::cout << result.dump() << std::endl;
   if (!options_.bench_json.empty()) write_text_atomically(options_.bench_json, result.dump(2) + "\n");
   return false;

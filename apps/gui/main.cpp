@@ -68,9 +68,9 @@ int run(const Flags& f) {
   int status = 0;
   {
     gui::App app(window, f.headless);
-    if (!f.case_file.empty()) app.open_case(f.case_file);
-    else if (!f.limb_file.empty()) app.open_limb(f.limb_file, f.target_nodes);
-    else if (f.demo) app.open_demo(f.target_nodes);
+    if (!f.case_file.empty()) app.session().open_case(f.case_file);
+    else if (!f.limb_file.empty()) app.session().open_limb(f.limb_file, f.target_nodes);
+    else if (f.demo) app.session().open_demo(f.target_nodes);
     std::unique_ptr<gui::HeadlessRunner> runner;
     if (f.headless) {
       gui::HeadlessOptions ho;

@@ -1,8 +1,9 @@
 #pragma once
 /// @file design_worker.h
-/// Runs the design solves and the optimiser of one stump on a worker thread, so the window never
-/// freezes. Solve requests coalesce: while a solve runs, newer requests replace the pending one
-/// (latest wins), so a dragged slider costs one solve per solve time, not one per frame.
+/// Runs the design solves and the optimiser of one stump on a worker thread, so the caller (the
+/// window's thread, through DesignSession) never waits. Solve requests coalesce: while a solve
+/// runs, newer requests replace the pending one (latest wins), so a dragged slider costs one solve
+/// per solve time, not one per frame.
 /// The worker is the only thread that touches the DesignSolver after construction.
 
 #include <atomic>
@@ -18,7 +19,7 @@
 #include "socketsmith/design/design_solver.h"
 #include "socketsmith/design/optimizer.h"
 
-namespace socketsmith::gui {
+namespace socketsmith::pipeline {
 
 /// What to solve: the spots and, when it changed, the brim.
 struct DesignRequest {
@@ -90,4 +91,4 @@ class DesignWorker {
   std::thread thread_;
 };
 
-}  // namespace socketsmith::gui
+}  // namespace socketsmith::pipeline

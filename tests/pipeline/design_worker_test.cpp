@@ -1,4 +1,4 @@
-// The GUI's solve worker (no window needed): requests made faster than the stump can be solved
+// The design session's solve worker (no window needed): requests made faster than the stump can be solved
 // coalesce (latest wins) and the last result is that of the newest edit, equal to a direct
 // solve; a cancelled optimisation leaves the spots alone; a failing solve comes back as an error.
 #include <gtest/gtest.h>
@@ -6,10 +6,10 @@
 #include <chrono>
 #include <thread>
 
-#include "design_worker.h"
+#include "socketsmith/pipeline/design_worker.h"
 #include "socketsmith/pipeline/design_pipeline.h"
 
-namespace socketsmith::gui {
+namespace socketsmith::pipeline {
 namespace {
 
 pipeline::DesignSetup& stump() {
@@ -123,4 +123,4 @@ TEST(DesignWorker, a_bad_spot_comes_back_as_an_error_line) {
 }
 
 }  // namespace
-}  // namespace socketsmith::gui
+}  // namespace socketsmith::pipeline

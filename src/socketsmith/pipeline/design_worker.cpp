@@ -1,4 +1,4 @@
-#include "design_worker.h"
+#include "socketsmith/pipeline/design_worker.h"
 
 #include <dlfcn.h>
 
@@ -6,7 +6,7 @@
 
 #include "socketsmith/core/errors.h"
 
-namespace socketsmith::gui {
+namespace socketsmith::pipeline {
 
 DesignWorker::DesignWorker(design::DesignSolver& solver) : solver_(solver), thread_([this] { run(); }) {}
 
@@ -159,4 +159,4 @@ DesignOutcome DesignWorker::execute(Job& job) {
   return out;
 }
 
-}  // namespace socketsmith::gui
+}  // namespace socketsmith::pipeline
