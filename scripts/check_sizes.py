@@ -236,6 +236,19 @@ def function_name(header):
     return None
 
 
+def matching_brace(code, i):
+    """The index of the brace that closes the one at i (len(code) when it is never closed)."""
+    depth = 0
+    for j in range(i, len(code)):
+        if code[j] == "{":
+            depth += 1
+        elif code[j] == "}":
+            depth -= 1
+            if depth == 0:
+                return j
+    return len(code)
+
+
 def functions(text):
     """[(name, first line, last line)] of the function bodies at namespace or class level."""
     code = blank_out(text)
@@ -281,27 +294,11 @@ def functions(text):
         if re.search(r"\)\s*(?:const\s*)?(?:noexcept\s*)?:\s*(?!:)", flat) and \
                 (before[-1:].isalnum() or before[-1:] in "_>"):
             # A brace initialiser of a constructor's member list: part of the signature.
-            depth, j = 0, i
-            while j < n:
-                if code[j] == "{":
-                    depth += 1
-                elif code[j] == "}":
-                    depth -= 1
-                    if depth == 0:
-                        break
-                j += 1
+            j = matching_brace(code, i)
             i = j + 1
             continue
         # A function body: find its closing brace.
-        depth, j = 0, i
-        while j < n:
-            if code[j] == "{":
-                depth += 1
-            elif code[j] == "}":
-                depth -= 1
-                if depth == 0:
-                    break
-            j += 1
+        j = matching_brace(code, i)
         lead = len(header) - len(header.lstrip())
         first = code.count("\n", 0, header_start + lead) + 1
         last = code.count("\n", 0, min(j, n)) + 1
