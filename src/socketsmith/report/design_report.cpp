@@ -9,16 +9,24 @@
 
 #include "socketsmith/core/atomic_file.h"
 #include "socketsmith/core/errors.h"
+#include "socketsmith/report/design_report_detail.h"
 #include "socketsmith/report/draw_2d.h"
 #include "socketsmith/report/html.h"
 #include "socketsmith/report/nice_number.h"
 
+// GCC 12 warns -Wrestrict on std::string copies it inlines into the radar's label code (GCC bug
+// 105329, a false positive: no overlapping copy is made); this file alone inlines them since the
+// paths and the page moved out.
+#if defined(__GNUC__) && !defined(__clang__) && __GNUC__ == 12
+#pragma GCC diagnostic ignored "-Wrestrict"
+#endif
+
 namespace socketsmith::report {
+using namespace design_report_detail;
 namespace {
 
 using Eigen::Vector2d;
 using Eigen::Vector3d;
-constexpr double kPi = std::numbers::pi;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr Rgb kWhite{255, 255, 255};
 constexpr Rgb kInk{30, 30, 30};
@@ -26,7 +34,6 @@ constexpr Rgb kGrid{200, 200, 200};
 constexpr Rgb kTargetColour{30, 60, 150};
 constexpr Rgb kPolygonColour{70, 130, 220};
 
-std::string num(double v, int digits = 3) { return format_number(v, digits); }
 
 // ---- radar layout --------------------------------------------------------------------------
 
@@ -76,7 +83,6 @@ Vector2d radar_direction(int k, int n) {
   return {std::cos(a), std::sin(a)};
 }
 
-double radar_radius(const RadarAxis& a) { return 1 + (a.value - a.target) / a.scale; }
 
 std::string radar_value_text(const RadarAxis& a) {
   return a.unit.empty() ? num(a.value) : num(a.value) + " " + a.unit;
@@ -84,24 +90,7 @@ std::string radar_value_text(const RadarAxis& a) {
 
 // ---- frame checks --------------------------------------------------------------------------
 
-void validate_frame(const SurfaceFrame& f, const char* fn) {
-  const bool finite = f.origin.allFinite() && f.axis.allFinite() && f.anterior.allFinite() &&
-                      f.medial.allFinite();
-  require(finite, "{}: the frame has a non-finite origin or direction", fn);
-  constexpr double tol = 1e-4;
-  const bool ortho = std::abs(f.axis.norm() - 1) < tol && std::abs(f.anterior.norm() - 1) < tol &&
-                     std::abs(f.medial.norm() - 1) < tol && std::abs(f.axis.dot(f.anterior)) < tol &&
-                     std::abs(f.axis.dot(f.medial)) < tol && std::abs(f.anterior.dot(f.medial)) < tol;
-  require(ortho,
-          "{}: the frame's axis, anterior and medial are not orthonormal (|a|={:.4g}, |ant|={:.4g}, "
-          "|med|={:.4g}; use surface_frame() of a LimbFrame)",
-          fn, f.axis.norm(), f.anterior.norm(), f.medial.norm());
-}
 
-double wrap_pi(double a) {
-  a = std::remainder(a, 2 * kPi);  // [-π, π]
-  return a <= -kPi ? a + 2 * kPi : a;
-}
 
 /// A dark tube of 6 sides along the closed polyline @p pts.
 geometry::TriMesh brim_tube(const std::vector<Vector3d>& pts, double radius) {
@@ -135,33 +124,31 @@ geometry::TriMesh brim_tube(const std::vector<Vector3d>& pts, double radius) {
   return m;
 }
 
-// ---- HTML ----------------------------------------------------------------------------------
-
-// A value below 1e-9 of its display unit is round-off (an optimised angle of 5.8e-17°, an amplitude
-// of 9.4e-17 kPa: the browser showed them as such): shown as 0.
-double shown(double v) { return std::abs(v) < 1e-9 ? 0.0 : v; }
-std::string deg(double rad) { return num(shown(rad * 180 / kPi)); }
-std::string mm(double m) { return num(shown(m * 1e3)); }
-std::string kpa(double pa) { return num(shown(pa * 1e-3)); }
-
-std::string spot_theta(const ReportSpot& s) {
-  if (s.type == "cos2" || s.type == "cos-sig")
-    return fmt::format("θ0 {} ± {}", deg(s.theta0_rad), deg(s.r_theta_rad));
-  if (s.type == "sig2")
-    return fmt::format("{} … {} (λ {} /°)", deg(s.theta1_rad), deg(s.theta2_rad),
-                       num(s.lambda_theta_per_rad * kPi / 180));
-  return "all";
-}
-
-std::string spot_height(const ReportSpot& s) {
-  if (s.type == "cos2") return fmt::format("h0 {} ± {}", mm(s.h0_m), mm(s.r_h_m));
-  if (s.type == "sig2" || s.type == "cos-sig")
-    return fmt::format("{} … {} (λ {} /mm)", mm(s.h1_m), mm(s.h2_m), num(s.lambda_h_per_m * 1e-3));
-  if (s.type == "grad") return fmt::format("full below {}, none above {}", mm(s.h1_m), mm(s.h2_m));
-  return "";
-}
-
 }  // namespace
+
+
+// ---- shared with the paths and the HTML report (design_report_detail.h) ---------------------
+
+void design_report_detail::validate_frame(const SurfaceFrame& f, const char* fn) {
+  const bool finite = f.origin.allFinite() && f.axis.allFinite() && f.anterior.allFinite() &&
+                      f.medial.allFinite();
+  require(finite, "{}: the frame has a non-finite origin or direction", fn);
+  constexpr double tol = 1e-4;
+  const bool ortho = std::abs(f.axis.norm() - 1) < tol && std::abs(f.anterior.norm() - 1) < tol &&
+                     std::abs(f.medial.norm() - 1) < tol && std::abs(f.axis.dot(f.anterior)) < tol &&
+                     std::abs(f.axis.dot(f.medial)) < tol && std::abs(f.anterior.dot(f.medial)) < tol;
+  require(ortho,
+          "{}: the frame's axis, anterior and medial are not orthonormal (|a|={:.4g}, |ant|={:.4g}, "
+          "|med|={:.4g}; use surface_frame() of a LimbFrame)",
+          fn, f.axis.norm(), f.anterior.norm(), f.medial.norm());
+}
+
+double design_report_detail::wrap_pi(double a) {
+  a = std::remainder(a, 2 * kPi);  // [-π, π]
+  return a <= -kPi ? a + 2 * kPi : a;
+}
+
+double design_report_detail::radar_radius(const RadarAxis& a) { return 1 + (a.value - a.target) / a.scale; }
 
 // ==== radar =================================================================================
 
@@ -400,497 +387,6 @@ Image render_pressure_map(const PressureMapData& data) {
 
 void write_pressure_map(const std::filesystem::path& path, const PressureMapData& data) {
   write_png(path, render_pressure_map(data));
-}
-
-// ==== paths =================================================================================
-
-std::vector<PathSample> sample_path(const std::vector<Eigen::Vector3d>& points,
-                                    const std::vector<double>& values, const SurfaceFrame& frame,
-                                    const PathSpec& path) {
-  require(values.empty() || values.size() == points.size(),
-          "sample_path: {} values for {} points (expected one per point or none)", values.size(),
-          points.size());
-  validate_frame(frame, "sample_path");
-  require(std::isfinite(path.band_m) && path.band_m > 0,
-          "sample_path: band {} m (expected > 0, e.g. half a node spacing)", path.band_m);
-  require(std::isfinite(path.bin_m) && path.bin_m >= 0, "sample_path: bin {} m (expected ≥ 0)",
-          path.bin_m);
-  require(std::isfinite(path.theta_rad) && std::isfinite(path.height_m),
-          "sample_path: path angle {} rad / height {} m (expected finite)", path.theta_rad,
-          path.height_m);
-  const bool vertical = path.kind == PathKind::Vertical;
-  std::vector<PathSample> out;
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    require(points[i].allFinite(), "sample_path: point {} is not finite", i);
-    const Vector3d d = points[i] - frame.origin;
-    const double h = d.dot(frame.axis);
-    const double a = d.dot(frame.anterior), m = d.dot(frame.medial);
-    const double rho = std::hypot(a, m);
-    const double theta = std::atan2(m, a);
-    PathSample s;
-    s.index = static_cast<int>(i);
-    s.value = values.empty() ? kNaN : values[i];
-    s.rho_m = rho;
-    s.theta_rad = theta;
-    s.h_m = h;
-    if (vertical) {
-      s.distance_m = std::abs(wrap_pi(theta - path.theta_rad)) * rho;
-      s.s = h;
-    } else {
-      s.distance_m = std::abs(h - path.height_m);
-      double phi = std::fmod(theta - path.theta_rad, 2 * kPi);
-      if (phi < 0) phi += 2 * kPi;
-      if (phi >= 2 * kPi) phi = 0;
-      s.s = phi;
-    }
-    if (s.distance_m <= path.band_m) out.push_back(s);
-  }
-  auto by_s = [](const PathSample& x, const PathSample& y) {
-    return x.s != y.s ? x.s < y.s : x.distance_m < y.distance_m;
-  };
-  std::sort(out.begin(), out.end(), by_s);
-  if (path.bin_m > 0 && !out.empty()) {
-    // Length along the path: h, or the mean radius × angle on a circumference.
-    double rho_mean = 0;
-    for (const auto& s : out) rho_mean += s.rho_m;
-    rho_mean /= static_cast<double>(out.size());
-    const double length_per_s = vertical ? 1.0 : rho_mean;
-    // Greedy bins: a bin starts at its first sample and holds the samples less than bin_m
-    // further along (robust to nodes lying exactly on a grid of bin_m).
-    std::vector<PathSample> thinned;
-    double bin_start = -std::numeric_limits<double>::infinity();
-    for (const auto& s : out) {
-      const double len = s.s * length_per_s;
-      if (len >= bin_start + path.bin_m) {
-        thinned.push_back(s);
-        bin_start = len;
-      } else if (s.distance_m < thinned.back().distance_m) {
-        thinned.back() = s;
-      }
-    }
-    out = std::move(thinned);
-  }
-  return out;
-}
-
-std::vector<NamedPath> thesis_paths(double front_theta_rad, double mid_height_m,
-                                    const std::vector<double>& node_areas_m2) {
-  double spacing = 0;
-  for (double a : node_areas_m2) spacing += std::sqrt(a) / static_cast<double>(node_areas_m2.size());
-  const auto make = [&](std::string key, std::string label, PathKind kind, double theta, double h) {
-    NamedPath p{std::move(key), std::move(label), {}};
-    p.spec.kind = kind;
-    p.spec.theta_rad = theta;
-    p.spec.height_m = h;
-    p.spec.band_m = 0.75 * spacing;
-    p.spec.bin_m = 0.8 * spacing;
-    return p;
-  };
-  return {make("front", "front line (through the patellar tendon)", PathKind::Vertical, front_theta_rad, 0),
-          make("back", "back line", PathKind::Vertical, std::remainder(front_theta_rad + std::numbers::pi, 2 * std::numbers::pi), 0),
-          make("mid", "circumference at mid-stump", PathKind::Circumferential, 0, mid_height_m)};
-}
-
-double interpolate_path(const std::vector<PathSample>& samples, double s) {
-  if (samples.empty() || !std::isfinite(s) || s < samples.front().s || s > samples.back().s)
-    return kNaN;
-  const auto it = std::lower_bound(samples.begin(), samples.end(), s,
-                                   [](const PathSample& a, double x) { return a.s < x; });
-  if (it == samples.begin()) return it->value;
-  const PathSample& b = *it;
-  const PathSample& a = *(it - 1);
-  if (b.s == a.s) return b.value;
-  const double t = (s - a.s) / (b.s - a.s);
-  return (1 - t) * a.value + t * b.value;
-}
-
-PathProfile make_path_profile(const std::string& name, PathKind kind,
-                              const std::vector<PathSample>& samples,
-                              const std::vector<double>& pressure_pa,
-                              const std::vector<double>& threshold_pa) {
-  PathProfile p;
-  p.name = name;
-  const bool vertical = kind == PathKind::Vertical;
-  p.s_label = vertical ? "height above the distal end [mm]"
-                       : "angle along the circumference from its start, towards medial [deg]";
-  if (!vertical) {
-    p.s_min = 0;
-    p.s_max = 360;
-  }
-  for (const auto& s : samples) {
-    require(s.index >= 0 && static_cast<std::size_t>(s.index) < pressure_pa.size(),
-            "make_path_profile: '{}' sample index {} outside the {} pressures", name, s.index,
-            pressure_pa.size());
-    require(threshold_pa.empty() || static_cast<std::size_t>(s.index) < threshold_pa.size(),
-            "make_path_profile: '{}' sample index {} outside the {} thresholds", name, s.index,
-            threshold_pa.size());
-    p.s.push_back(vertical ? s.s * 1e3 : s.s * 180 / kPi);
-    p.pressure_kpa.push_back(pressure_pa[s.index] * 1e-3);
-    if (!threshold_pa.empty()) p.threshold_kpa.push_back(threshold_pa[s.index] * 1e-3);
-  }
-  return p;
-}
-
-Plot path_profile_plot(const PathProfile& profile) {
-  require(profile.pressure_kpa.size() == profile.s.size() &&
-              (profile.threshold_kpa.empty() || profile.threshold_kpa.size() == profile.s.size()),
-          "path_profile_plot: '{}' has {} coordinates, {} pressures, {} thresholds (expected the "
-          "same count, or no thresholds)",
-          profile.name, profile.s.size(), profile.pressure_kpa.size(), profile.threshold_kpa.size());
-  Plot plot;
-  plot.title = profile.name;
-  plot.x_label = profile.s_label;
-  plot.y_label = "pressure [kPa]";
-  plot.width_px = 640;
-  plot.height_px = 360;
-  PlotSeries pressure;
-  pressure.name = "applied pressure";
-  pressure.x = profile.s;
-  pressure.y = profile.pressure_kpa;
-  pressure.color = "#0072B2";
-  pressure.markers = true;
-  plot.series.push_back(pressure);
-  if (!profile.threshold_kpa.empty()) {
-    PlotSeries threshold;
-    threshold.name = "pain threshold";
-    threshold.x = profile.s;
-    threshold.y = profile.threshold_kpa;
-    threshold.color = "#D55E00";
-    threshold.dashed = true;
-    plot.series.push_back(threshold);
-  }
-  double ymax = -std::numeric_limits<double>::infinity();
-  int finite_x = 0;
-  double xmin = std::numeric_limits<double>::infinity(), xmax = -xmin;
-  for (std::size_t i = 0; i < profile.s.size(); ++i) {
-    if (std::isfinite(profile.s[i])) {
-      ++finite_x;
-      xmin = std::min(xmin, profile.s[i]);
-      xmax = std::max(xmax, profile.s[i]);
-    }
-    if (std::isfinite(profile.pressure_kpa[i])) ymax = std::max(ymax, profile.pressure_kpa[i]);
-    if (!profile.threshold_kpa.empty() && std::isfinite(profile.threshold_kpa[i]))
-      ymax = std::max(ymax, profile.threshold_kpa[i]);
-  }
-  plot.y_min = 0.0;
-  plot.y_max = nice_ceil(ymax > 0 ? 1.1 * ymax : 1.0);
-  if (std::isfinite(profile.s_min) && std::isfinite(profile.s_max) && profile.s_max > profile.s_min) {
-    plot.x_min = profile.s_min;
-    plot.x_max = profile.s_max;
-  } else if (finite_x == 0 || !(xmax > xmin)) {  // nothing to span: an explicit unit range
-    const double c = finite_x == 0 ? 0.0 : xmin;
-    plot.x_min = c - 0.5;
-    plot.x_max = c + 0.5;
-  }
-  return plot;
-}
-
-// ==== helpers ===============================================================================
-
-std::string html_escape(std::string_view text) {
-  std::string out;
-  out.reserve(text.size());
-  for (char c : text) {
-    switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      case '\'': out += "&#39;"; break;
-      default: out += c;
-    }
-  }
-  return out;
-}
-
-std::string base64_encode(std::string_view bytes) {
-  static constexpr char kAlphabet[] =
-      "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-  std::string out;
-  out.reserve((bytes.size() + 2) / 3 * 4);
-  std::size_t i = 0;
-  auto byte = [&](std::size_t k) { return static_cast<std::uint32_t>(static_cast<unsigned char>(bytes[k])); };
-  for (; i + 3 <= bytes.size(); i += 3) {
-    const std::uint32_t v = byte(i) << 16 | byte(i + 1) << 8 | byte(i + 2);
-    out += kAlphabet[v >> 18 & 63];
-    out += kAlphabet[v >> 12 & 63];
-    out += kAlphabet[v >> 6 & 63];
-    out += kAlphabet[v & 63];
-  }
-  const std::size_t rest = bytes.size() - i;
-  if (rest > 0) {
-    std::uint32_t v = byte(i) << 16;
-    if (rest == 2) v |= byte(i + 1) << 8;
-    out += kAlphabet[v >> 18 & 63];
-    out += kAlphabet[v >> 12 & 63];
-    out += rest == 2 ? kAlphabet[v >> 6 & 63] : '=';
-    out += '=';
-  }
-  return out;
-}
-
-// ==== HTML report ===========================================================================
-
-namespace {
-
-void rectification_section(HtmlWriter& h, const ReportRectification& r) {
-  if (!r.has_rectification) return;
-  h.heading("Rectification chart (socket minus limb)");
-  h.paragraph("How far " + r.source +
-              " lies from the limb's skin, in mm, along the ray from the limb axis (radially), or along the axis where "
-              "the skin faces down (the distal end): negative = indentation (the socket presses the tissue in), "
-              "positive = relief. Below the brim: mean " + mm(r.mean_m) + " mm, from " + mm(r.min_m) + " to " +
-              mm(r.max_m) + " mm.");
-  std::vector<std::vector<std::string>> rows;
-  for (const auto& p : r.landmarks) {
-    const double d = p.rectification_m;
-    const bool has = std::isfinite(d);
-    rows.push_back({p.code, p.name, deg(p.theta_rad), mm(p.h_m), has ? num(d * 1e3, 2) : "above the brim",
-                    has ? (d < 0 ? "indentation" : "relief") : "—", p.is_axial ? "along the axis" : "radial"});
-  }
-  h.table({"landmark", "zone", "θ [°]", "h [mm]", "socket − limb [mm]", "", "measured"}, rows);
-  if (r.has_map)
-    h.image(png_data_uri(render_pressure_map(r.map)), r.map.title,
-            "Blue: the socket inside the skin (indentation); red: outside (relief); grey: above the brim.");
-}
-
-void sock_ply_section(HtmlWriter& h, const ReportSockPly& s) {
-  if (!s.has_study) return;
-  h.heading("Sock-ply sensitivity (the limb shrunk and grown)");
-  h.paragraph(s.summary);
-  std::vector<std::vector<std::string>> rows;
-  for (const auto& l : s.levels) {
-    const std::string name = l.volume_change == 0 ? "as designed" : fmt::format("{:+.0f} %", 100 * l.volume_change);
-    rows.push_back({name, num(l.skin_offset_m * 1e3, 2), l.stood ? num(l.stood_offset_m * 1e3, 3) : "—",
-                    l.stood ? num(l.sink_m * 1e3, 3) : "—", l.stood ? num(l.peak_ratio, 3) : "—",
-                    l.stood ? kpa(l.peak_pressure_pa) : "—", l.stood ? kpa(l.distal_mean_pa) : "—",
-                    l.stood ? kpa(l.distal_peak_pa) : "—", l.stood ? l.constraints : l.message});
-  }
-  h.table({"limb volume", "skin offset [mm]", "socket stood at [mm]", "limb sinks [mm]", "peak p/T", "peak [kPa]",
-           "distal mean [kPa]", "distal peak [kPa]", "constraints"},
-          rows);
-  h.paragraph("Skin offset: the uniform normal offset of the skin (bones fixed) that changes the limb's volume by the "
-              "given fraction. Socket stood at: where the socket carried half the body weight, along the axis from its "
-              "designed pose. Limb sinks: how much deeper than at the designed volume the limb sits in the socket "
-              "(negative: it rises). Peak p/T: the largest contact pressure over the pain threshold below the brim. Distal: "
-              "the contact pressure over the distal fifth of the stump. Constraints: the design's seven conditions and "
-              "comfort (p/T ≤ 1) evaluated on the delivered pressures with the design's tolerances (a failing one is "
-              "shown with its value and target: a donned socket delivers the design only approximately, so compare "
-              "with the row 'as designed').");
-  for (const auto& m : s.maps) h.image(png_data_uri(render_pressure_map(m)), m.title);
-  for (const auto& p : s.plots) h.image(svg_data_uri(render_svg(p)), p.title);
-}
-
-}  // namespace
-
-std::string render_design_report_html(const DesignReportData& d) {
-  HtmlWriter h(d.title);
-  if (!d.generated.empty()) h.paragraph(d.generated);
-
-  if (!d.warnings.empty()) {
-    h.heading("Warnings");
-    h.raw("<ul class=\"warn\">\n");
-    for (const auto& w : d.warnings) {
-      h.raw("<li>");
-      h.text(w);
-      h.raw("</li>\n");
-    }
-    h.raw("</ul>\n");
-  }
-
-  // Patient.
-  const ReportPatient& p = d.patient;
-  h.heading("Patient");
-  std::vector<std::pair<std::string, std::string>> patient;
-  if (!p.id.empty()) patient.push_back({"patient", p.id});
-  patient.push_back({"body mass", num(p.body_mass_kg) + " kg"});
-  patient.push_back({"prosthesis mass", num(p.prosthesis_mass_kg) + " kg"});
-  patient.push_back({"tissue Young's modulus E", kpa(p.tissue_youngs_modulus_pa) + " kPa"});
-  patient.push_back({"friction coefficient μ (skin–socket)", num(p.friction)});
-  h.table(patient);
-  if (!p.note.empty()) h.paragraph(p.note, "note");
-
-  // Inputs.
-  h.heading("Inputs");
-  h.table({{"limb file", d.limb_file.empty() ? "—" : d.limb_file},
-           {"limb", (d.limb_type.empty() ? std::string("—") : d.limb_type) +
-                        (d.side.empty() ? std::string() : ", " + d.side)},
-           {"mesh nodes", d.mesh_nodes > 0 ? std::to_string(d.mesh_nodes) : "—"},
-           {"tissue model", d.model.empty() ? "—" : d.model},
-           {"brim template", d.brim_template.empty() ? "—" : d.brim_template}});
-  if (!d.spots.empty()) {
-    h.heading("Pressure spots", 3);
-    std::vector<std::vector<std::string>> rows;
-    for (const auto& s : d.spots)
-      rows.push_back({s.name, s.type, kpa(s.amplitude_pa), spot_theta(s), spot_height(s), s.is_enabled ? "yes" : "no"});
-    h.table({"name", "type", "A [kPa]", "θ [°]", "h [mm]", "enabled"}, rows);
-    h.paragraph("θ: 0° anterior, +90° medial, 180° posterior; h above the distal end.");
-  }
-  if (!d.brim_key_points.empty()) {
-    h.heading("Brim key points", 3);
-    std::vector<std::vector<std::string>> rows;
-    for (const auto& k : d.brim_key_points) rows.push_back({deg(k.theta_rad), mm(k.h_m)});
-    h.table({"θ [°]", "h [mm]"}, rows);
-  }
-
-  // Constraints.
-  if (!d.radar.axes.empty()) {
-    const int met = radar_axes_met(d.radar.axes);
-    const int n = static_cast<int>(d.radar.axes.size());
-    h.heading("Constraints");
-    h.raw("<p><strong>");
-    h.text(met == n ? std::string("all constraints met") : fmt::format("{} of {} met", met, n));
-    h.raw("</strong></p>\n");
-    h.image(png_data_uri(render_radar_chart(d.radar)), "radar chart of the constraints");
-    h.raw("<table>\n");
-    h.row({"constraint", "value", "target", "normalised r", "status"}, true);
-    for (const auto& a : d.radar.axes) {
-      const std::string unit = a.unit.empty() ? "" : " " + a.unit;
-      const std::string target = a.is_lower_bound ? "≥ " + num(a.target) + unit
-                                                  : num(a.target) + " ± " + num(a.tolerance) + unit;
-      h.row({a.name, num(a.value) + unit, target, num(radar_radius(a)), a.is_ok ? "pass" : "FAIL"}, false,
-            a.is_ok ? "ok" : "fail");
-    }
-    h.raw("</table>\n");
-    h.paragraph("Radius r = 1 + (value − target) / scale: the target circle is r = 1 for every axis; scale = M g / 2 "
-                "for forces and stability, M g / 2 × stump length for torques.");
-  }
-
-  // Comfort.
-  std::string where = "—";
-  if (d.has_max_ratio_position) {
-    const auto& lms = !d.landmarks.empty() ? d.landmarks
-                                           : (d.maps.empty() ? d.landmarks : d.maps.front().landmarks);
-    double best = std::numeric_limits<double>::infinity();
-    for (const auto& lm : lms) {
-      const double dist = (lm.position - d.max_ratio_position).norm();
-      if (dist < best) {
-        best = dist;
-        where = fmt::format("nearest landmark zone {} ({} mm away)", lm.code, mm(dist));
-      }
-    }
-    if (lms.empty())
-      where = fmt::format("at ({}, {}, {}) mm", mm(d.max_ratio_position.x()), mm(d.max_ratio_position.y()),
-                          mm(d.max_ratio_position.z()));
-  }
-  h.heading("Comfort");
-  h.table({{"largest applied pressure", kpa(d.max_pressure_pa) + " kPa"},
-           {"largest pressure / pain threshold",
-            num(d.max_pressure_ratio) + (d.max_pressure_ratio > 1 ? " (above the threshold)" : "")},
-           {"where", where}});
-
-  // Axial load by region.
-  if (!d.region_loads.empty()) {
-    h.raw("<h2>Axial load by region</h2>\n<table>\n");
-    h.row({"region", "share of F_z", "axial [N]", "of which friction [N]", "loaded area [cm²]", "mean [kPa]",
-           "peak [kPa]"},
-          true);
-    for (const auto& r : d.region_loads)
-      h.row({r.name, num(100 * r.share) + " %", num(r.axial_n), num(r.friction_n), num(r.area_m2 * 1e4),
-             kpa(r.mean_pressure_pa), kpa(r.peak_pressure_pa)},
-            false, r.is_highlighted ? "ok" : "");
-    h.raw("</table>\n<p>");
-    h.text("Axial: the normal forces' component along the limb axis plus the available friction μ p A cos θ "
-           "(the thesis's F_z, eq. 42), summed over the region's skin below the brim." +
-           (d.region_note.empty() ? std::string() : " " + d.region_note));
-    h.raw("</p>\n");
-  }
-
-  // Maps.
-  if (!d.maps.empty()) {
-    h.heading("Pressure maps");
-    for (const auto& m : d.maps) {
-      h.heading(m.title, 3);
-      h.image(png_data_uri(render_pressure_map(m)), m.title);
-    }
-    h.paragraph("Views: anterior, medial, posterior, lateral. Grey: no pressure (above the brim). White markers: "
-                "landmarks given; magenta: placed automatically.");
-  }
-
-  // Profiles.
-  if (!d.profiles.empty()) {
-    h.heading("Pressure along paths");
-    for (const auto& pr : d.profiles) h.image(svg_data_uri(render_svg(path_profile_plot(pr))), pr.name);
-  }
-
-  // Socket.
-  const ReportSocket& s = d.socket;
-  h.heading("Socket");
-  if (!s.has_socket) {
-    h.paragraph("No socket built.");
-  } else {
-    std::vector<std::pair<std::string, std::string>> rows;
-    if (!s.stl_file.empty()) rows.push_back({"socket file", s.stl_file});
-    rows.push_back({"wall thickness", mm(s.thickness_m) + " mm"});
-    if (s.max_thickness_m > 0)
-      rows.push_back({"measured wall (min / median / max)",
-                      mm(s.min_thickness_m) + " / " + mm(s.median_thickness_m) + " / " + mm(s.max_thickness_m) + " mm"});
-    for (const auto& kv : s.details) rows.push_back(kv);
-    rows.push_back({"limb volume (below the brim)", num(s.limb_volume_m3 * 1e6) + " cm³"});
-    rows.push_back({"socket inner volume", num(s.socket_volume_m3 * 1e6) + " cm³"});
-    if (s.limb_volume_m3 > 0)
-      rows.push_back({"volume reduction", num(100 * (s.limb_volume_m3 - s.socket_volume_m3) / s.limb_volume_m3) + " %"});
-    h.table(rows);
-    if (s.has_thickness_map)
-      h.image(png_data_uri(render_pressure_map(s.thickness_map)), "wall thickness",
-              "Wall thickness: the distance from each point of the outer surface to the inner wall (grey: the inner "
-              "wall). The minimum leaves out the rounded brim edge.");
-    if (!s.circumferences.empty()) {
-      std::vector<std::vector<std::string>> circ;
-      for (const auto& c : s.circumferences)
-        circ.push_back({mm(c.height_m), mm(c.limb_m), mm(c.socket_m),
-                        c.limb_m > 0 ? num(100 * (c.limb_m - c.socket_m) / c.limb_m) : "—"});
-      h.table({"h [mm]", "limb [mm]", "socket [mm]", "reduction [%]"}, circ);
-    }
-  }
-  rectification_section(h, d.rectification);
-  if (!d.slices.rows.empty()) append_slice_section(h, d.slices);
-
-  // Delivered pressures.
-  const ReportDelivery& dl = d.delivery;
-  if (dl.has_delivery) {
-    h.heading("Delivered pressures (the socket donned and stood on)");
-    h.paragraph(dl.summary);
-    std::vector<std::vector<std::string>> rows;
-    for (const auto& a : dl.rows)
-      rows.push_back({a.region, a.stage, std::to_string(a.count), kpa(a.target_mean_pa), kpa(a.delivered_mean_pa),
-                      kpa(a.mae_pa), kpa(a.p99_pa), kpa(a.max_error_pa), std::isfinite(a.r) ? num(a.r, 3) : "—",
-                      kpa(a.target_sd_pa)});
-    h.table({"region", "socket", "nodes", "designed mean [kPa]", "delivered mean [kPa]", "MAE [kPa]",
-             "99th pct. error [kPa]", "max error [kPa]", "R", "designed SD [kPa]"},
-            rows);
-    if (!dl.details.empty()) h.table(dl.details);
-    for (const auto& m : dl.maps) {
-      h.heading(m.title, 3);
-      h.image(png_data_uri(render_pressure_map(m)), m.title);
-    }
-    for (const auto& pl : dl.plots) h.image(svg_data_uri(render_svg(pl)), pl.title);
-  }
-  sock_ply_section(h, d.sock_ply);
-
-  // Runs.
-  auto run_section = [&](const char* heading, const ReportRun& r) {
-    h.heading(heading);
-    if (!r.has_run) {
-      h.paragraph("Not run.");
-      return;
-    }
-    std::vector<std::pair<std::string, std::string>> rows{{"converged", r.converged ? "yes" : "no"},
-                                                          {"iterations", std::to_string(r.iterations)},
-                                                          {"residual", num(r.residual, 4)},
-                                                          {"time", num(r.seconds) + " s"}};
-    if (!r.message.empty()) rows.push_back({"message", r.message});
-    for (const auto& kv : r.details) rows.push_back(kv);
-    h.table(rows);
-  };
-  run_section("Optimiser", d.optimiser);
-  run_section("Solver", d.solver);
-  return h.finish();
-}
-
-void write_design_report_html(const std::filesystem::path& path, const DesignReportData& data) {
-  const std::string html = render_design_report_html(data);  // any error: nothing written
-  write_text_atomically(path, html);
 }
 
 }  // namespace socketsmith::report
