@@ -49,7 +49,6 @@ ALLOWED_FILES = {
     "src/socketsmith/contact/contact_solver.cpp": 888,
     "src/socketsmith/pipeline/sweep.cpp": 747,
     "src/socketsmith/report/raster.cpp": 721,
-    "src/socketsmith/volume/bone_template.cpp": 712,
     "src/socketsmith/volume/limb_generator.cpp": 653,
     "src/socketsmith/volume/limb_model.cpp": 756,
 }
@@ -111,12 +110,12 @@ ALLOWED_FUNCTIONS = {
     "src/socketsmith/tissue/static_solver.cpp:StaticSolver::newton": 153,
     "src/socketsmith/tissue/static_solver.cpp:StaticSolver::solve_load": 96,
     "src/socketsmith/volume/bone_anatomy.cpp:transtibial_bone_shapes": 230,
-    "src/socketsmith/volume/bone_template.cpp:measure_skin_radii": 133,
-    "src/socketsmith/volume/bone_template.cpp:sweep_tube": 129,
+    "src/socketsmith/volume/bone_tube.cpp:sweep_tube": 129,
     "src/socketsmith/volume/hex_mesher.cpp:mesh_limb": 94,
     "src/socketsmith/volume/limb_generator.cpp:generate_limb": 181,
     "src/socketsmith/volume/limb_generator.cpp:limb_sidecar_json": 101,
     "src/socketsmith/volume/limb_model.cpp:prepare_limb": 387,
+    "src/socketsmith/volume/skin_radii.cpp:measure_skin_radii": 133,
 }
 
 

@@ -1,0 +1,182 @@
+// The skin's radius about the limb axis, tabulated over heights and angles (SkinRadii, measured
+// by rays against the skin): what the bone template is sized and fitted from. Apart from
+// bone_template.cpp because measuring the skin is not building bones.
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "socketsmith/core/errors.h"
+#include "socketsmith/volume/bone_template.h"
+#include "socketsmith/volume/shape_math.h"
+
+namespace socketsmith::volume {
+
+using geometry::LimbFrame;
+using geometry::TriMesh;
+using geometry::Vec3;
+using Eigen::Vector2d;
+
+namespace {
+using shape::kPi;
+using shape::clamp01;
+using shape::lerp;
+constexpr double kInf = std::numeric_limits<double>::infinity();
+}  // namespace
+
+double SkinRadii::radius(double theta, double h) const {
+  require(num_heights >= 2 && num_angles >= 3 &&
+              radius_m.size() == static_cast<std::size_t>(num_heights) * static_cast<std::size_t>(num_angles),
+          "SkinRadii::radius: the table is empty or inconsistent ({} heights × {} angles, {} values; measure it with "
+          "measure_skin_radii)",
+          num_heights, num_angles, radius_m.size());
+  const double th = std::fmod(theta, 2.0 * kPi) + (theta < 0 ? 2.0 * kPi : 0.0);
+  const double u = th / (2.0 * kPi) * num_angles;
+  int j0 = static_cast<int>(std::floor(u));
+  const double tu = u - j0;
+  j0 = ((j0 % num_angles) + num_angles) % num_angles;
+  const int j1 = (j0 + 1) % num_angles;
+  const double v = clamp01((h - h_lo_m) / (h_hi_m - h_lo_m)) * (num_heights - 1);
+  const int k0 = std::min(static_cast<int>(std::floor(v)), num_heights - 2);
+  const double tv = v - k0;
+  auto at = [&](int k, int j) { return radius_m[static_cast<std::size_t>(k) * static_cast<std::size_t>(num_angles) + static_cast<std::size_t>(j)]; };
+  return lerp(lerp(at(k0, j0), at(k0, j1), tu), lerp(at(k0 + 1, j0), at(k0 + 1, j1), tu), tv);
+}
+
+double SkinRadii::width_ml(double h) const { return radius(0.5 * kPi, h) + radius(-0.5 * kPi, h); }
+
+SkinRadii measure_skin_radii(const TriMesh& skin, const LimbFrame& frame, int num_heights, int num_angles) {
+  require(!skin.empty(), "measure_skin_radii: the skin has no triangles (expected a closed limb surface)");
+  require(num_heights >= 2 && num_angles >= 8, "measure_skin_radii: {} heights × {} angles (expected at least 2 × 8)",
+          num_heights, num_angles);
+  const int nv = skin.num_vertices();
+  std::vector<double> hv(static_cast<std::size_t>(nv)), av(hv.size()), mv(hv.size());
+  const Vec3 medial = frame.medial();
+  double bottom = kInf, top_closed = -kInf;
+  for (int v = 0; v < nv; ++v) {
+    const Vec3& p = skin.vertices[static_cast<std::size_t>(v)];
+    require(p.allFinite(), "measure_skin_radii: skin vertex {} has a non-finite coordinate", v);
+    const Vec3 d = p - frame.origin;
+    hv[static_cast<std::size_t>(v)] = d.dot(frame.axis);
+    av[static_cast<std::size_t>(v)] = d.dot(frame.anterior);
+    mv[static_cast<std::size_t>(v)] = d.dot(medial);
+    bottom = std::min(bottom, hv[static_cast<std::size_t>(v)]);
+    top_closed = std::max(top_closed, hv[static_cast<std::size_t>(v)]);
+  }
+  // Boundary edges (used once): the proximal end of an open skin.
+  std::vector<std::uint64_t> edges;
+  edges.reserve(static_cast<std::size_t>(3 * skin.num_triangles()));
+  for (const auto& t : skin.triangles)
+    for (int e = 0; e < 3; ++e) {
+      const int a = t[static_cast<std::size_t>(e)], b = t[static_cast<std::size_t>((e + 1) % 3)];
+      require(a >= 0 && a < nv && b >= 0 && b < nv, "measure_skin_radii: a triangle refers to vertex {} of {}",
+              std::max(a, b), nv);
+      edges.push_back((static_cast<std::uint64_t>(std::min(a, b)) << 32) | static_cast<std::uint64_t>(std::max(a, b)));
+    }
+  std::sort(edges.begin(), edges.end());
+  double boundary_low = kInf;
+  for (std::size_t i = 0; i < edges.size();) {
+    std::size_t j = i;
+    while (j < edges.size() && edges[j] == edges[i]) ++j;
+    if (j - i == 1) {
+      boundary_low = std::min({boundary_low, hv[static_cast<std::size_t>(edges[i] >> 32)],
+                               hv[static_cast<std::size_t>(edges[i] & 0xffffffffu)]});
+    }
+    i = j;
+  }
+  const double length = top_closed - bottom;
+  require(length > 0.02, "measure_skin_radii: the skin is {:.1f} mm long along the axis (expected a limb, > 20 mm)",
+          length * 1e3);
+  require(boundary_low == kInf || boundary_low >= bottom + 0.5 * length,
+          "measure_skin_radii: the skin is open at h = {:.1f} mm, in its distal half (expected a closed surface, or "
+          "one open only at its proximal cut)",
+          (boundary_low - bottom) * 1e3);
+  SkinRadii r;
+  r.bottom_m = bottom;
+  r.top_m = std::min(top_closed, boundary_low);
+  r.h_lo_m = bottom + std::min(0.002, 0.05 * (r.top_m - bottom));
+  r.h_hi_m = r.top_m - std::min(0.002, 0.05 * (r.top_m - bottom));
+  r.num_heights = num_heights;
+  r.num_angles = num_angles;
+  r.radius_m.assign(static_cast<std::size_t>(num_heights) * static_cast<std::size_t>(num_angles), -1.0);
+  std::vector<double> ca(static_cast<std::size_t>(num_angles)), sa(ca.size());
+  for (int j = 0; j < num_angles; ++j) {
+    ca[static_cast<std::size_t>(j)] = std::cos(2.0 * kPi * j / num_angles);
+    sa[static_cast<std::size_t>(j)] = std::sin(2.0 * kPi * j / num_angles);
+  }
+  std::vector<std::array<Vector2d, 2>> segments;
+  bool any = false;
+  for (int k = 0; k < num_heights; ++k) {
+    const double h = lerp(r.h_lo_m, r.h_hi_m, static_cast<double>(k) / (num_heights - 1));
+    // Plane section: one segment per triangle crossing h (vertices at h count as above).
+    segments.clear();
+    for (const auto& t : skin.triangles) {
+      Vector2d pts[2];
+      int n = 0;
+      for (int e = 0; e < 3 && n < 2; ++e) {
+        const auto i0 = static_cast<std::size_t>(t[static_cast<std::size_t>(e)]);
+        const auto i1 = static_cast<std::size_t>(t[static_cast<std::size_t>((e + 1) % 3)]);
+        const bool above0 = hv[i0] >= h, above1 = hv[i1] >= h;
+        if (above0 == above1) continue;
+        const double s = (h - hv[i0]) / (hv[i1] - hv[i0]);
+        pts[n++] = Vector2d(lerp(av[i0], av[i1], s), lerp(mv[i0], mv[i1], s));
+      }
+      if (n == 2) segments.push_back({pts[0], pts[1]});
+    }
+    for (int j = 0; j < num_angles; ++j) {
+      const Vector2d d(ca[static_cast<std::size_t>(j)], sa[static_cast<std::size_t>(j)]);
+      double best = kInf;
+      for (const auto& sg : segments) {
+        const Vector2d e = sg[1] - sg[0];
+        const double den = d.x() * e.y() - d.y() * e.x();
+        if (std::abs(den) < 1e-18) continue;
+        // Solve t d = p0 + u e.
+        const double t = (sg[0].x() * e.y() - sg[0].y() * e.x()) / den;
+        const double u = (sg[0].x() * d.y() - sg[0].y() * d.x()) / den;
+        // A ray through a shared endpoint must hit one of its two segments despite rounding.
+        if (t > 0.0 && u >= -1e-9 && u <= 1.0 + 1e-9) best = std::min(best, t);
+      }
+      if (best < kInf) {
+        r.radius_m[static_cast<std::size_t>(k) * static_cast<std::size_t>(num_angles) + static_cast<std::size_t>(j)] = best;
+        any = true;
+      }
+    }
+  }
+  require(any, "measure_skin_radii: no ray from the limb axis meets the skin (is the frame placed on this limb?)");
+  // Fill the misses: nearest hit in the same row, then nearest complete row.
+  std::vector<bool> row_ok(static_cast<std::size_t>(num_heights), false);
+  for (int k = 0; k < num_heights; ++k) {
+    double* row = &r.radius_m[static_cast<std::size_t>(k) * static_cast<std::size_t>(num_angles)];
+    std::vector<double> orig(row, row + num_angles);
+    bool has = false;
+    for (int j = 0; j < num_angles; ++j) has = has || orig[static_cast<std::size_t>(j)] > 0;
+    if (!has) continue;
+    row_ok[static_cast<std::size_t>(k)] = true;
+    for (int j = 0; j < num_angles; ++j) {
+      if (orig[static_cast<std::size_t>(j)] > 0) continue;
+      for (int off = 1; off <= num_angles / 2; ++off) {
+        const double l = orig[static_cast<std::size_t>((j - off + num_angles) % num_angles)];
+        const double rr = orig[static_cast<std::size_t>((j + off) % num_angles)];
+        if (l > 0 || rr > 0) {
+          row[j] = (l > 0 && rr > 0) ? 0.5 * (l + rr) : std::max(l, rr);
+          break;
+        }
+      }
+    }
+  }
+  for (int k = 0; k < num_heights; ++k) {
+    if (row_ok[static_cast<std::size_t>(k)]) continue;
+    for (int off = 1; off < num_heights; ++off) {
+      int src = -1;
+      if (k - off >= 0 && row_ok[static_cast<std::size_t>(k - off)]) src = k - off;
+      else if (k + off < num_heights && row_ok[static_cast<std::size_t>(k + off)]) src = k + off;
+      if (src < 0) continue;
+      std::copy_n(&r.radius_m[static_cast<std::size_t>(src) * static_cast<std::size_t>(num_angles)], num_angles,
+                  &r.radius_m[static_cast<std::size_t>(k) * static_cast<std::size_t>(num_angles)]);
+      break;
+    }
+  }
+  return r;
+}
+
+}  // namespace socketsmith::volume
