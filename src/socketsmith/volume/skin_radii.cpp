@@ -42,8 +42,7 @@ double SkinRadii::radius(double theta, double h) const {
 
 double SkinRadii::width_ml(double h) const { return radius(0.5 * kPi, h) + radius(-0.5 * kPi, h); }
 
-SkinRadii measure_skin_radii(const geometry::TriMesh& skin, const geometry::LimbFrame& frame, int num_heights,
-                             int num_angles) {
+SkinRadii measure_skin_radii(const geometry::TriMesh& skin, const geometry::LimbFrame& frame, int num_heights, int num_angles) {
   require(!skin.empty(), "measure_skin_radii: the skin has no triangles (expected a closed limb surface)");
   require(num_heights >= 2 && num_angles >= 8, "measure_skin_radii: {} heights × {} angles (expected at least 2 × 8)",
           num_heights, num_angles);

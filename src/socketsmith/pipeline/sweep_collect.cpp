@@ -1,0 +1,254 @@
+// Collecting a sweep: every case's design.json into one CSV (radar, peak ratios, volumes, timings,
+// failures) and a summary plot (sweep_detail.h says why this is apart).
+#include "socketsmith/pipeline/sweep.h"
+#include "socketsmith/pipeline/sweep_detail.h"
+
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/file.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <thread>
+
+#include <fmt/format.h>
+
+#include "socketsmith/core/atomic_file.h"
+#include "socketsmith/core/errors.h"
+#include "socketsmith/core/exit_status.h"
+#include "socketsmith/core/json_input.h"
+#include "socketsmith/core/log.h"
+#include "socketsmith/design/case_file.h"
+#include "socketsmith/pipeline/design_pipeline.h"
+#include "socketsmith/report/plot_raster.h"
+#include "socketsmith/report/svg_plot.h"
+
+extern char** environ;
+
+namespace socketsmith::pipeline {
+using namespace sweep_detail;
+
+namespace {
+
+std::string csv_cell(const std::string& t) {
+  if (t.find_first_of(",\"\n\r") == std::string::npos && (t.empty() || (t.front() != ' ' && t.back() != ' '))) return t;
+  std::string q = "\"";
+  for (char c : t) q += c == '"' ? std::string("\"\"") : std::string(1, c == '\n' || c == '\r' ? ' ' : c);
+  return q + "\"";
+}
+
+std::string number_cell(const json& v) {
+  if (v.is_number()) {
+    const double d = v.get<double>();
+    return std::isfinite(d) ? fmt::format("{:.10g}", d) : std::string();
+  }
+  if (v.is_boolean()) return v.get<bool>() ? "1" : "0";
+  return {};
+}
+
+/// A parameter's value as a cell: numbers and strings as they are, a limb as its file name or
+/// "generated <type>".
+std::string parameter_cell(const std::string& column, const json& v) {
+  if (column == "limb" && v.is_object()) {
+    if (v.contains("file") && v["file"].is_string()) return fs::path(v["file"].get<std::string>()).filename().string();
+    // A generated limb: its type and whatever else the sweep set ("generated transtibial side=left").
+    std::string label = "generated " + (v.contains("type") && v["type"].is_string() ? v["type"].get<std::string>()
+                                                                                      : std::string("transtibial"));
+    for (const auto& [k, x] : v.items())
+      if (k != "type") label += " " + k + "=" + (x.is_string() ? x.get<std::string>() : x.dump());
+    return label;
+  }
+  if (v.is_string()) return v.get<std::string>();
+  if (v.is_number() || v.is_boolean()) return number_cell(v);
+  return v.dump();
+}
+
+const json& at_path(const json& j, const std::vector<std::string>& keys) {
+  static const json null;
+  const json* p = &j;
+  for (const auto& k : keys) {
+    if (!p->is_object() || !p->contains(k)) return null;
+    p = &(*p)[k];
+  }
+  return *p;
+}
+
+/// A result column of results.csv: its name and where it is in design.json.
+struct ResultColumn {
+  const char* name;
+  std::vector<std::string> path;  ///< keys into design.json
+};
+
+const std::vector<ResultColumn>& result_columns() {
+  static const std::vector<ResultColumn> cols = {
+      {"nodes", {"nodes"}},
+      {"fx_n", {"radar", "fx_n"}},
+      {"fy_n", {"radar", "fy_n"}},
+      {"fz_n", {"radar", "fz_n"}},
+      {"tx_nm", {"radar", "tx_nm"}},
+      {"ty_nm", {"radar", "ty_nm"}},
+      {"tz_nm", {"radar", "tz_nm"}},
+      {"stability_n", {"radar", "stability_n"}},
+      {"target_fz_n", {"targets", "fz_n"}},
+      {"stability_min_n", {"targets", "stability_min_n"}},
+      {"constraints_met", {"constraints_met"}},
+      {"max_pressure_ratio", {"max_pressure_ratio"}},
+      {"max_pressure_kpa", {"max_pressure_kpa"}},
+      {"max_displacement_mm", {"max_displacement_mm"}},
+      {"cavity_volume_cm3", {"socket", "cavity_volume_cm3"}},
+      {"limb_volume_below_brim_cm3", {"socket", "limb_volume_below_brim_cm3"}},
+      {"volume_reduction_percent", {"socket", "volume_reduction_percent"}},
+      {"min_thickness_mm", {"socket", "min_thickness_mm"}},
+      {"design_seconds", {"seconds"}},
+      {"optimiser_seconds", {"optimiser_seconds"}},
+  };
+  return cols;
+}
+
+/// design.json of an ok or unmet case (null otherwise, or when it cannot be read).
+json case_design(const fs::path& dir, const std::string& id, const SweepCaseStatus& s) {
+  json d;
+  if (s.status == "ok" || s.status == "unmet") {
+    const fs::path p = case_dir(dir, id) / "out" / "design.json";
+    try {
+      if (fs::exists(p)) d = read_json_file(p, "design summary");
+    } catch (const Error&) {
+      d = json();
+    }
+  }
+  return d;
+}
+
+/// The case's row of results.csv: id, status, exit code, message, parameters, failing, results, time.
+std::string case_row(const std::string& id, const SweepCaseStatus& s, const json& c, const json& d,
+                     const std::vector<std::string>& params, const std::vector<ResultColumn>& cols) {
+  std::string row = csv_cell(id) + "," + s.status + "," + (s.status == "missing" ? "" : std::to_string(s.exit_code)) +
+                    "," + csv_cell(s.status == "missing" && s.message.empty()
+                                       ? "not run yet (or still running): run the sweep again to finish it"
+                                       : s.message);
+  for (const auto& p : params) {
+    row += ',';
+    row += csv_cell(c["parameters"].contains(p) ? parameter_cell(p, c["parameters"][p]) : std::string());
+  }
+  row += "," + csv_cell(d.is_object() ? d.value("failing", std::string()) : std::string());
+  for (const auto& col : cols) {
+    row += ',';
+    row += number_cell(at_path(d, col.path));
+  }
+  row += "," + (s.status == "missing" ? std::string() : fmt::format("{:.3f}", s.seconds));
+  return row;
+}
+
+}  // namespace
+
+SweepCollectResult collect_sweep(const fs::path& dir) {
+  const json m = read_manifest(dir);
+  // Parameter columns: the swept ones, in axis order.
+  std::vector<std::string> params;
+  for (const auto& a : kAxes)
+    for (const auto& c : m["cases"])
+      if (c["parameters"].contains(a.column)) {
+        params.emplace_back(a.column);
+        break;
+      }
+  const std::vector<ResultColumn>& cols = result_columns();
+  std::string text = "id,status,exit_code,message";
+  for (const auto& p : params) text += "," + p;
+  text += ",failing";
+  for (const auto& c : cols) text += std::string(",") + c.name;
+  text += ",case_seconds\n";
+
+  SweepCollectResult r;
+  std::vector<double> x_ok, ratio_ok, x_unmet, ratio_unmet, x_failed, zero_failed, x_vol, vol, x_t, t;
+  for (size_t k = 0; k < m["cases"].size(); ++k) {
+    const json& c = m["cases"][k];
+    const std::string id = c["id"].get<std::string>();
+    const SweepCaseStatus s = read_case_status(dir, id);
+    const json d = case_design(dir, id, s);
+    const std::string row = case_row(id, s, c, d, params, cols);
+    text += row + "\n";
+    ++r.rows;
+    const double x = static_cast<double>(k);
+    const json& ratio = at_path(d, {"max_pressure_ratio"});
+    if (s.status == "ok") {
+      ++r.ok;
+      if (ratio.is_number()) x_ok.push_back(x), ratio_ok.push_back(ratio.get<double>());
+      if (const json& v = at_path(d, {"socket", "cavity_volume_cm3"}); v.is_number()) x_vol.push_back(x), vol.push_back(v.get<double>());
+    } else if (s.status == "unmet") {
+      ++r.unmet;
+      if (ratio.is_number()) x_unmet.push_back(x), ratio_unmet.push_back(ratio.get<double>());
+    } else {
+      s.status == "missing" ? ++r.missing : ++r.failed;
+      x_failed.push_back(x), zero_failed.push_back(0.0);
+    }
+    if (s.status != "missing") x_t.push_back(x), t.push_back(s.seconds);
+  }
+  r.csv = dir / "results.csv";
+  write_text_atomically(r.csv, text);
+
+  // Summary figure: peak pressure ratio, cavity volume and time per case.
+  const double n = static_cast<double>(std::max<size_t>(1, m["cases"].size()));
+  const auto panel = [&](const std::string& title, const std::string& y_label) {
+    report::Plot p;
+    p.title = title;
+    p.x_label = "case";
+    p.y_label = y_label;
+    p.x_min = -0.5;
+    p.x_max = n - 0.5;
+    p.width_px = 900;
+    p.height_px = 300;
+    return p;
+  };
+  const auto scatter = [](const std::string& name, std::vector<double> x, std::vector<double> y, const char* color) {
+    report::PlotSeries s;
+    s.name = name;
+    s.x = std::move(x);
+    s.y = std::move(y);
+    s.color = color;
+    s.markers = true;
+    s.line_width = 0;
+    return s;
+  };
+  std::vector<report::Plot> panels;
+  {
+    auto p = panel(fmt::format("{}: {} ok, {} constraints not met, {} failed, {} not run", m.value("name", std::string()),
+                               r.ok, r.unmet, r.failed, r.missing),
+                   "peak pressure / threshold");
+    p.series.push_back(scatter("ok", x_ok, ratio_ok, "#0072B2"));
+    p.series.push_back(scatter("constraints not met", x_unmet, ratio_unmet, "#E69F00"));
+    p.series.push_back(scatter("failed or not run (at 0)", x_failed, zero_failed, "#D55E00"));
+    p.y_min = 0.0;
+    if (ratio_ok.empty() && ratio_unmet.empty()) p.y_max = 1.0;
+    panels.push_back(p);
+  }
+  {
+    auto p = panel("socket cavity", "volume [cm^3]");
+    p.series.push_back(scatter("ok", x_vol, vol, "#0072B2"));
+    if (vol.empty()) p.y_min = 0.0, p.y_max = 1.0;
+    p.legend = report::LegendPosition::None;
+    panels.push_back(p);
+  }
+  {
+    auto p = panel("time per case", "wall time [s]");
+    p.series.push_back(scatter("", x_t, t, "#009E73"));
+    p.y_min = 0.0;
+    if (t.empty()) p.y_max = 1.0;
+    p.legend = report::LegendPosition::None;
+    panels.push_back(p);
+  }
+  r.svg = dir / "summary.svg";
+  r.png = dir / "summary.png";
+  report::write_svg_grid(r.svg, panels, 1);
+  report::write_plot_grid_png(r.png, panels, 1);
+  return r;
+}
+
+}  // namespace socketsmith::pipeline
