@@ -15,6 +15,7 @@
 #include "socketsmith/core/atomic_file.h"
 #include "socketsmith/core/errors.h"
 #include "socketsmith/report/nice_number.h"
+#include "socketsmith/report/raster_detail.h"
 
 // stb is header-only: the PNG writer is compiled here, with static linkage so it cannot clash
 // with the copy inside Debian's libstb (which the GUI links for Dear ImGui). stb_easy_font is
@@ -22,10 +23,10 @@
 #define STB_IMAGE_WRITE_IMPLEMENTATION
 #define STB_IMAGE_WRITE_STATIC
 #define STBI_WRITE_NO_STDIO
-#include <stb/stb_easy_font.h>
 #include <stb/stb_image_write.h>
 
 namespace socketsmith::report {
+using namespace raster_detail;
 namespace {
 
 using Eigen::Vector3d;
@@ -39,10 +40,6 @@ constexpr double kBackFaceDim = 0.6;         // inside of an open surface
 constexpr double kCreaseCos = 0.766;         // cos 40°: sharper edges keep the face normal
 constexpr std::int64_t kSub = 256;           // sub-pixel steps per pixel (fixed-point vertices)
 constexpr double kMaxOffscreenPx = 1 << 20;  // keeps the fixed-point edge products in int64
-constexpr Rgb kInk{30, 30, 30};              // text, outlines
-constexpr Rgb kWhite{255, 255, 255};
-constexpr int kBytesPerGlyph = 11 * 64;  // stb_easy_font: at most 11 quads of 64 bytes
-constexpr int kUnitLabelRows = 15;       // font rows between a colour bar's unit label and the bar
 
 // Colormap tables, sampled at equal steps.
 constexpr std::array<Rgb, 9> kViridis{{{68, 1, 84},
@@ -67,11 +64,6 @@ constexpr std::array<Rgb, 9> kDiverging{{{33, 102, 172},
                                          {214, 96, 77},
                                          {178, 24, 43}}};
 
-/// Half-open pixel rectangle [x0, x1) × [y0, y1).
-struct Rect {
-  int x0, y0, x1, y1;
-};
-
 inline std::uint8_t to_byte(float v) {
   return static_cast<std::uint8_t>(std::clamp(v, 0.0f, 255.0f) + 0.5f);
 }
@@ -83,71 +75,7 @@ inline Rgb to_rgb(const Vector3f& v) { return {to_byte(v.x()), to_byte(v.y()), t
 /// (1 - a) * dst + a * src.
 Rgb blend(Rgb dst, Rgb src, float a) { return to_rgb(to_vec(dst) * (1 - a) + to_vec(src) * a); }
 
-void require_consistent(const Image& img, const char* fn) {
-  require(img.width >= 1 && img.height >= 1 && img.width <= kMaxImageSide &&
-              img.height <= kMaxImageSide,
-          "{}: image size {}×{} (expected 1..{} per side)", fn, img.width, img.height,
-          kMaxImageSide);
-  require(img.pixels.size() == static_cast<std::size_t>(img.width) * img.height,
-          "{}: image has {} pixels for {}×{} (expected width × height)", fn, img.pixels.size(),
-          img.width, img.height);
-}
 
-void fill_rect(Image& img, Rect r, Rgb colour, const Rect& clip) {
-  r = {std::max(r.x0, clip.x0), std::max(r.y0, clip.y0), std::min(r.x1, clip.x1),
-       std::min(r.y1, clip.y1)};
-  for (int y = r.y0; y < r.y1; ++y)
-    for (int x = r.x0; x < r.x1; ++x) img.at(x, y) = colour;
-}
-
-// ---- text -----------------------------------------------------------------------------------
-
-/// stb_easy_font indexes its glyph table with (char - 32): anything outside printable ASCII
-/// (UTF-8 bytes, tabs) would read outside the table, so it becomes '?'.
-std::string printable(const std::string& text) {
-  std::string out = text;
-  for (char& c : out)
-    if (c != '\n' && (c < 32 || c > 126)) c = '?';
-  return out;
-}
-
-void draw_text_clipped(Image& img, int x, int y, const std::string& text, Rgb colour, int scale,
-                       const Rect& clip) {
-  std::string chars = printable(text);
-  std::vector<unsigned char> quads(chars.size() * kBytesPerGlyph + 64);
-  const int n = stb_easy_font_print(0, 0, chars.data(), nullptr, quads.data(), int(quads.size()));
-  for (int q = 0; q < n; ++q) {
-    // Each quad is an axis-aligned rectangle; vertex 0 and 2 are opposite corners.
-    std::array<float, 2> a{}, b{};
-    std::memcpy(a.data(), quads.data() + q * 64, sizeof(a));
-    std::memcpy(b.data(), quads.data() + q * 64 + 32, sizeof(b));
-    fill_rect(img,
-              {x + scale * int(std::lround(a[0])), y + scale * int(std::lround(a[1])),
-               x + scale * int(std::lround(b[0])), y + scale * int(std::lround(b[1]))},
-              colour, clip);
-  }
-}
-
-/// Dark text with a one-pixel white halo, readable over any mesh colour.
-void draw_label(Image& img, int x, int y, const std::string& text, int scale, const Rect& clip) {
-  for (int dy = -1; dy <= 1; ++dy)
-    for (int dx = -1; dx <= 1; ++dx)
-      if (dx != 0 || dy != 0) draw_text_clipped(img, x + dx, y + dy, text, kWhite, scale, clip);
-  draw_text_clipped(img, x, y, text, kInk, scale, clip);
-}
-
-/// Ticks at multiples of the smallest 1, 2, 5 × 10^k step >= range / 5, with their labels.
-std::vector<std::pair<double, std::string>> nice_ticks(double vmin, double vmax) {
-  const double step = nice_ceil((vmax - vmin) / 5, NiceMantissas::OneTwoFive);
-  const int decimals = std::max(0, -int(std::floor(std::log10(step) + 1e-9)));
-  std::vector<std::pair<double, std::string>> ticks;
-  for (auto k = static_cast<long long>(std::ceil(vmin / step - 1e-9));
-       k * step <= vmax + 1e-9 * step; ++k) {
-    const double v = double(k) * step;
-    ticks.emplace_back(v, fmt::format("{:.{}f}", v, decimals));
-  }
-  return ticks;
-}
 
 // ---- rasterization ----------------------------------------------------------------------------
 
@@ -385,6 +313,23 @@ void validate_scene(const char* fn, const std::vector<MeshLayer>& layers,
 
 }  // namespace
 
+void raster_detail::require_consistent(const Image& img, const char* fn) {
+  require(img.width >= 1 && img.height >= 1 && img.width <= kMaxImageSide &&
+              img.height <= kMaxImageSide,
+          "{}: image size {}×{} (expected 1..{} per side)", fn, img.width, img.height,
+          kMaxImageSide);
+  require(img.pixels.size() == static_cast<std::size_t>(img.width) * img.height,
+          "{}: image has {} pixels for {}×{} (expected width × height)", fn, img.pixels.size(),
+          img.width, img.height);
+}
+
+void raster_detail::fill_rect(Image& img, Rect r, Rgb colour, const Rect& clip) {
+  r = {std::max(r.x0, clip.x0), std::max(r.y0, clip.y0), std::min(r.x1, clip.x1),
+       std::min(r.y1, clip.y1)};
+  for (int y = r.y0; y < r.y1; ++y)
+    for (int x = r.x0; x < r.x1; ++x) img.at(x, y) = colour;
+}
+
 // ---- public API -------------------------------------------------------------------------------
 
 Image::Image(int w, int h, Rgb background) : width(w), height(h) {
@@ -553,74 +498,6 @@ void render(Image& img, const Camera& cam, const std::vector<MeshLayer>& layers,
       draw_label(img, x, int(std::lround(q.y())) - 4 * kScale, marker.label, kScale, viewport);
     }
   }
-}
-
-std::string to_ascii(std::string_view text) {
-  static const std::pair<std::string_view, std::string_view> kMap[] = {
-      {"·", "."}, {"μ", "u"}, {"µ", "u"}, {"θ", "theta"}, {"°", "deg"}, {"≥", ">="},
-      {"≤", "<="}, {"²", "^2"}, {"³", "^3"}, {"×", "x"}, {"−", "-"}, {"Δ", "d"},
-      {"ρ", "rho"}, {"λ", "lambda"}, {"±", "+/-"}, {"…", "..."}, {"–", "-"}, {"—", "-"}, {"ν", "nu"}, {"ε", "eps"},
-      {"σ", "sigma"}, {"≈", "~"}};
-  std::string out;
-  for (std::size_t i = 0; i < text.size();) {
-    const auto c = static_cast<unsigned char>(text[i]);
-    if (c < 0x80) {
-      out += text[i++];
-      continue;
-    }
-    bool mapped = false;
-    for (const auto& [from, to] : kMap)
-      if (text.substr(i, from.size()) == from) {
-        out += to;
-        i += from.size();
-        mapped = true;
-        break;
-      }
-    if (mapped) continue;
-    // Skip one UTF-8 sequence (lead byte + continuation bytes).
-    ++i;
-    while (i < text.size() && (static_cast<unsigned char>(text[i]) & 0xC0) == 0x80) ++i;
-    out += '?';
-  }
-  return out;
-}
-
-int text_width(const std::string& text, int scale) {
-  std::string chars = printable(text);
-  return scale * stb_easy_font_width(chars.data());
-}
-
-int text_height(const std::string& text, int scale) {
-  std::string chars = printable(text);
-  return scale * stb_easy_font_height(chars.data());
-}
-
-void draw_text(Image& img, int x, int y, const std::string& text, Rgb colour, int scale) {
-  require_consistent(img, "draw_text");
-  require(scale >= 1 && scale <= 16, "draw_text: scale {} (expected 1..16)", scale);
-  draw_text_clipped(img, x, y, text, colour, scale, {0, 0, img.width, img.height});
-}
-
-void draw_colour_bar(Image& img, int x, int y, int w, int h, Colormap colormap, double vmin,
-                     double vmax, const std::string& unit_label) {
-  require_consistent(img, "draw_colour_bar");
-  require(x >= 0 && y >= 0 && w >= 2 && h >= 8 && x + w <= img.width && y + h <= img.height,
-          "draw_colour_bar: bar at ({}, {}) of {}×{} px is not inside the {}×{} image (or is "
-          "smaller than 2×8)",
-          x, y, w, h, img.width, img.height);
-  require(std::isfinite(vmin) && std::isfinite(vmax) && vmin < vmax,
-          "draw_colour_bar: value range [{}, {}] (expected finite vmin < vmax)", vmin, vmax);
-  const Rect all{0, 0, img.width, img.height};
-  fill_rect(img, {x - 1, y - 1, x + w + 1, y + h + 1}, kInk, all);
-  for (int j = 0; j < h; ++j)
-    fill_rect(img, {x, y + j, x + w, y + j + 1}, colormap_colour(colormap, 1 - (j + 0.5) / h), all);
-  constexpr int kScale = 2;
-  for (const auto& [value, label] : nice_ticks(vmin, vmax)) {
-    const int ty = y + int(std::lround((1 - (value - vmin) / (vmax - vmin)) * (h - 1)));
-    fill_rect(img, {x + w, ty, x + w + 5, ty + 1}, kInk, all);
-    draw_text_clipped(img, x + w + 8, ty - 4 * kScale, label, kInk, kScale, all);
-  }
-  draw_text_clipped(img, x, y - kUnitLabelRows * kScale, unit_label, kInk, kScale, all);
 }
 
 Image stack_images(const std::vector<Image>& images, Rgb background) {
