@@ -47,7 +47,6 @@ DATA_TABLES = {
 ALLOWED_FILES = {
     "apps/gui/app.cpp": 998,
     "src/socketsmith/contact/contact_solver.cpp": 888,
-    "src/socketsmith/volume/limb_generator.cpp": 653,
     "src/socketsmith/volume/limb_model.cpp": 756,
 }
 
@@ -111,8 +110,8 @@ ALLOWED_FUNCTIONS = {
     "src/socketsmith/volume/bone_tube.cpp:sweep_tube": 129,
     "src/socketsmith/volume/hex_mesher.cpp:mesh_limb": 94,
     "src/socketsmith/volume/limb_generator.cpp:generate_limb": 181,
-    "src/socketsmith/volume/limb_generator.cpp:limb_sidecar_json": 101,
     "src/socketsmith/volume/limb_model.cpp:prepare_limb": 387,
+    "src/socketsmith/volume/limb_sidecar.cpp:limb_sidecar_json": 101,
     "src/socketsmith/volume/skin_radii.cpp:measure_skin_radii": 133,
 }
 
