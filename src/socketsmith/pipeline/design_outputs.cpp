@@ -281,16 +281,16 @@ nlohmann::json template_regions_json(const DesignSetup& setup, const DesignResul
                                              r->peak_pa / 1e3, 100 * r->axial_share)});
   }
   return {{"template", tc.template_name},
-                                        {"applies", tc.applies},
-                                        {"met", tc.met},
-                                        {"summary", tc.summary},
-                                        {"tolerant_to_sensitive", tc.tolerant_to_sensitive},
-                                        {"cv_below_brim", tc.cv_below_brim},
-                                        {"total_axial_n", tc.total_axial_n},
-                                        {"regions", regions_json},
-                                        // whether the optimiser aimed at the template, and kept it
-                                        {"optimiser_follows", optimise && c.follow_template},
-                                        {"optimiser_kept", optimise && c.follow_template && opt.region_constraints_met}};
+          {"applies", tc.applies},
+          {"met", tc.met},
+          {"summary", tc.summary},
+          {"tolerant_to_sensitive", tc.tolerant_to_sensitive},
+          {"cv_below_brim", tc.cv_below_brim},
+          {"total_axial_n", tc.total_axial_n},
+          {"regions", regions_json},
+          // whether the optimiser aimed at the template, and kept it
+          {"optimiser_follows", optimise && c.follow_template},
+          {"optimiser_kept", optimise && c.follow_template && opt.region_constraints_met}};
 }
 
 /// What the report warns of: estimated frame or bones, a continued skin, a template or constraints

@@ -29,20 +29,20 @@ nlohmann::json socket_json(const design::CaseFile& c, const design::SocketResult
                       {"reduction_percent", l.reduction_percent}});
   }
   nlohmann::json socket_json = {{"file", "socket.stl"},
-                 {"triangles", sock.solid.num_triangles()},
-                 {"thickness_mm", c.socket.thickness_m * 1e3},
-                 {"min_thickness_mm", sock.min_thickness_m * 1e3},
-                 {"median_thickness_mm", sock.median_thickness_m * 1e3},
-                 {"max_thickness_mm", sock.max_thickness_m * 1e3},
-                 {"min_thickness_ratio", sock.min_thickness_ratio},
-                 {"thickness_map", "thickness_map.png"},
-                 {"thickness_field", "socket.vtp"},
-                 {"shell_volume_cm3", sock.shell_volume_m3 * 1e6},
-                 {"cavity_volume_cm3", sock.cavity_volume_m3 * 1e6},
-                 {"limb_volume_below_brim_cm3", rs.limb_volume_m3 * 1e6},
-                 {"volume_reduction_percent",
-                  rs.limb_volume_m3 > 0 ? 100 * (1 - sock.cavity_volume_m3 / rs.limb_volume_m3) : 0.0},
-                 {"levels", levels}};
+                                {"triangles", sock.solid.num_triangles()},
+                                {"thickness_mm", c.socket.thickness_m * 1e3},
+                                {"min_thickness_mm", sock.min_thickness_m * 1e3},
+                                {"median_thickness_mm", sock.median_thickness_m * 1e3},
+                                {"max_thickness_mm", sock.max_thickness_m * 1e3},
+                                {"min_thickness_ratio", sock.min_thickness_ratio},
+                                {"thickness_map", "thickness_map.png"},
+                                {"thickness_field", "socket.vtp"},
+                                {"shell_volume_cm3", sock.shell_volume_m3 * 1e6},
+                                {"cavity_volume_cm3", sock.cavity_volume_m3 * 1e6},
+                                {"limb_volume_below_brim_cm3", rs.limb_volume_m3 * 1e6},
+                                {"volume_reduction_percent",
+                                 rs.limb_volume_m3 > 0 ? 100 * (1 - sock.cavity_volume_m3 / rs.limb_volume_m3) : 0.0},
+                                {"levels", levels}};
   if (c.socket.distal_thickness_m > 0 || c.socket.brim_thickness_m > 0)
     socket_json["asked_thickness_mm"] = {
         {"distal", design::asked_thickness_m(c.socket, 0.0, 1.0) * 1e3},
