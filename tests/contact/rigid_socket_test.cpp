@@ -226,47 +226,62 @@ TEST(RigidSocket, smoothed_wall_is_continuous_where_the_closest_facet_switches_o
   EXPECT_LT(worst_fd, 1e-4);
 }
 
-// Over the rim the smoothed wall's contact fades out smoothly: the penalty energy weight · ½ gap²
-// is continuous from fully facing the wall to past its rim, and its gradient is the force the
-// contact solver applies (weight · gap ∇gap + ½ gap² ∇weight).
-TEST(RigidSocket, smoothed_wall_contact_fades_smoothly_past_the_rim) {
+// Past the rim the wall ends in its lip, a half-round of half the wall's thickness: a node pressed
+// into the wall just below the rim and moving up over it is pushed by the wall, then by the lip,
+// with no jump of the penalty energy ½ gap² and with the force its gradient; above the lip nothing
+// touches it (the inner wall's extension does not reach past the rim).
+TEST(RigidSocket, smoothed_wall_hands_over_to_the_lip_past_the_rim) {
   const double ri = 0.05, H = 0.2;
   RigidSocket s(ringed_pipe(ri, 0.055, H, 48, 40), z_frame());
   s.set_smooth_wall(true);
+  EXPECT_NEAR(s.lip_radius_m(), 0.0025, 1e-4);  // half the 5 mm wall
+  const double r = s.lip_radius_m();
   const auto energy = [&](const Vec3& p) {
     const Gap g = s.gap(p);
-    return g.valid && g.gap_m < 0 ? g.weight * 0.5 * g.gap_m * g.gap_m : 0.0;
+    return g.valid && g.gap_m < 0 ? 0.5 * g.gap_m * g.gap_m : 0.0;
   };
-  // A point 1 mm beyond the wall, moving up past the rim at z = H (to 5 mm above it).
-  const Vec3 dir(std::cos(0.3), std::sin(0.3), 0);
-  double w_min = 1, w_max = 0, worst_step = 0, worst_fd = 0;
+  // 1 mm behind the wall along a direction through a vertex of the 48-gon (there the facets lie
+  // cos(π/48) · 1 mm from the point), from 4 mm below the rim (z = H) to 5 mm above it.
+  const Vec3 dir(std::cos(4 * std::numbers::pi / 48), std::sin(4 * std::numbers::pi / 48), 0);
+  const double behind = 1e-3 * std::cos(std::numbers::pi / 48);
+  double worst_step = 0, worst_fd = 0, worst_lip = 0;
   const int n = 4000;
   double e_prev = energy((ri + 1e-3) * dir + Vec3(0, 0, H - 0.004));
   for (int i = 1; i <= n; ++i) {
-    const Vec3 p = (ri + 1e-3) * dir + Vec3(0, 0, H - 0.004 + 0.009 * i / n);
+    const double z = -0.004 + 0.009 * i / n;  // above the rim
+    const Vec3 p = (ri + 1e-3) * dir + Vec3(0, 0, H + z);
     const Gap g = s.gap(p);
     const double e = energy(p);
     worst_step = std::max(worst_step, std::abs(e - e_prev));
     e_prev = e;
-    if (!g.valid) continue;
-    w_min = std::min(w_min, g.weight);
-    w_max = std::max(w_max, g.weight);
-    if (i % 20 == 0 && g.gap_m < 0) {
-      const Vec3 force_dir = g.weight * (-g.gap_m) * g.gradient_norm * g.normal - 0.5 * g.gap_m * g.gap_m * g.weight_gradient;
+    if (z < -0.002) {
+      EXPECT_NEAR(g.gap_m, -behind, 1e-4) << z;  // the wall
+    }
+    if (z > 0.001) {  // the lip: a tube of radius r about the rim moved r into the wall
+      const double lip = std::hypot(r - 1e-3, z) - r;  // 1 mm behind the rim's vertex
+      worst_lip = std::max(worst_lip, std::abs((g.valid ? g.gap_m : 1.0) - lip));
+    }
+    if (i % 20 == 0 && g.valid && g.gap_m < 0) {
+      const Vec3 force = -g.gap_m * g.gradient_norm * g.normal;
       for (int a = 0; a < 3; ++a) {
         const double h = 1e-8;
         const Vec3 e3 = Vec3::Unit(a);
         const double fd = -(energy(p + h * e3) - energy(p - h * e3)) / (2 * h);
-        worst_fd = std::max(worst_fd, std::abs(fd - force_dir[a]) / 1e-3);  // relative to gap · 1
+        worst_fd = std::max(worst_fd, std::abs(fd - force[a]) / 1e-3);  // relative to gap · 1
       }
     }
   }
-  EXPECT_EQ(w_max, 1.0);            // below the rim: fully facing the wall
-  EXPECT_LT(w_min, 0.05);           // past it: (nearly) no contact
-  // ½ (1 mm)² = 5e-7 fades over ~2 mm of the path (steps of 2.25 µm: ~1e-9 each); a jump is 5e-7.
+  std::cout << "energy step " << worst_step << ", force error " << worst_fd << ", lip gap error " << worst_lip << " m\n";
+  // ½ (1 mm)² = 5e-7 falls to 0 over ~2 mm of the path (steps of 2.25 µm: ~1e-9 each); a jump is ~1e-7.
   EXPECT_LT(worst_step, 1e-8);
   EXPECT_LT(worst_fd, 1e-4);
-  EXPECT_FALSE(s.gap((ri + 1e-3) * dir + Vec3(0, 0, H + 0.006)).valid);
+  EXPECT_LT(worst_lip, 1e-4);
+  const Gap above = s.gap((ri + 1e-3) * dir + Vec3(0, 0, H + 0.006));
+  EXPECT_FALSE(above.valid && above.gap_m < 0);
+  // Far behind the wall's extension, 5 mm above the rim (where a limb widens above the brim): the
+  // lip is 8 mm away, no contact (the facets' closest point, on the rim, counted it 13 mm deep).
+  const Gap wide = s.gap((ri + 0.012) * dir + Vec3(0, 0, H + 0.005));
+  EXPECT_FALSE(wide.valid && wide.gap_m < 0) << wide.gap_m;
 }
 
 TEST(RigidSocket, rejects_open_and_misplaced_sockets) {

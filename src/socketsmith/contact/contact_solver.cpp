@@ -152,15 +152,13 @@ struct ContactSolver::Impl {
         s.active = true;
         s.gap_m = g.gap_m;
         s.normal = g.normal;
-        // weight: how far the node faces the wall (1 but at the rim, see Gap::weight).
-        s.normal_force_n = g.weight * kA * (-g.gap_m) * g.gradient_norm;
+        s.normal_force_n = kA * (-g.gap_m) * g.gradient_norm;
         s.pressure_pa = s.normal_force_n / areas[i];
-        const double e = 0.5 * kA * g.gap_m * g.gap_m;
-        pi += g.weight * e;
-        f += s.normal_force_n * g.normal - e * g.weight_gradient;
+        pi += 0.5 * kA * g.gap_m * g.gap_m;
+        f += s.normal_force_n * g.normal;
         // Inside a face: stiffness along the normal only; on an edge or a vertex the force points to
         // a fixed point of the wall (f = kA (c − x)), stiff in every direction.
-        B += g.weight * kA * g.stiffness_shape;
+        B += kA * g.stiffness_shape;
       }
       // Friction: nodes that carried a normal force at the lag (μ f̄ > 0) resist slip relative to
       // the wall with an elastic stick (stiffness kT) capped at μ f̄ (return mapping).
@@ -575,8 +573,10 @@ struct ContactSolver::Impl {
           std::vector<Vec3> h1, h2;
           double p0 = 0, p1 = 0;
           const VectorXd r0 = evaluate(xs, t, s1, h1, nullptr, &p0);
-          const VectorXd r1 = evaluate(xp, t, s2, h2, nullptr, &p1);
-          const bool better = std::isfinite(p0) ? p1 < p0 : r1.norm() < r0.norm();
+          // A trial point: the extrapolation may turn a strongly compressed element inside out
+          // (AmpScan's limb, where the brim passes the tibial tuberosity); then it is not taken.
+          const VectorXd r1 = evaluate(xp, t, s2, h2, nullptr, &p1, nullptr, true);
+          const bool better = r1.allFinite() && (std::isfinite(p0) ? p1 < p0 : r1.norm() < r0.norm());
           if (better) xs = std::move(xp);
         }
       }
@@ -678,8 +678,8 @@ struct ContactSolver::Impl {
     std::vector<Vec3> h1, h2;
     double p0 = 0, p1 = 0;
     const VectorXd r0 = evaluate(x, t, s1, h1, nullptr, &p0);
-    const VectorXd r1 = evaluate(guess, t, s2, h2, nullptr, &p1);
-    if (std::isfinite(p0) ? p1 < p0 : r1.norm() < r0.norm()) x = guess;
+    const VectorXd r1 = evaluate(guess, t, s2, h2, nullptr, &p1, nullptr, true);  // may be inverted
+    if (r1.allFinite() && (std::isfinite(p0) ? p1 < p0 : r1.norm() < r0.norm())) x = guess;
   }
 
   /// solve(t), and when it fails, path continuation: reach t through 2, 4, … 64 equal sub-steps

@@ -10,6 +10,7 @@
 
 #include <memory>
 #include <optional>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -39,13 +40,8 @@ struct Gap {
   /// exact distance): the penalty force is k A (−gap) |∇gap| along the normal, the gradient of
   /// ½ k A gap² (stiffness_shape is then ∇gap ∇gapᵀ).
   double gradient_norm = 1.0;
-  /// How far the point faces the wall, in [0, 1] (the smoothed wall): 1 where its foot on the
-  /// smoothed wall lies within 1 mm of the facets, 0 from 3 mm (past the rim), smooth in between;
-  /// the penalty energy is weight · ½ k A gap², so a node sliding over the rim meets no jump of the
-  /// potential. `valid` is weight > 0. The faceted wall's validity is all or nothing (weight 1 when
-  /// valid, `graded` false).
-  double weight = 1.0;
-  Vec3 weight_gradient = Vec3::Zero();  ///< ∇weight [1/m] (the wall's normal held fixed)
+  /// Whether the point faces the wall is decided continuously (the smoothed wall and its lip: the
+  /// gap itself is continuous over the rim), not by the faceted wall's all-or-nothing cone.
   bool graded = false;
 };
 
@@ -118,14 +114,29 @@ class RigidSocket : public Obstacle {
   /// at v_j). Planar parts of the wall are reproduced exactly, curved ones within a fraction of
   /// their facets' sagitta; the gap's gradient turns smoothly where the facets' normals jump, so a
   /// node sliding along the wall does not cross kinks (Newton stalled at them: docs/contact.md).
-  /// Whether a point faces the wall (Gap::weight) is decided by how far its foot on the smoothed
-  /// wall lies from the facets, falling smoothly to 0 past the rim.
+  /// Past the rim the wall ends in its lip, a half-round of lip_radius_m() along the rim (the
+  /// sockets socket_builder makes have one): a point there is in contact when it is inside that
+  /// tube, and the wall's gap hands over to the lip's smoothly just past the rim.
   void set_smooth_wall(bool on) { smooth_ = on; }
+  /// The lip's radius: half the wall's thickness (median from the inner wall), 1–5 mm [m].
+  double lip_radius_m() const { return lip_radius_; }
   bool smooth_wall() const { return smooth_; }
 
  private:
   /// The smoothed gap at @p q (g: the facets' gap there), or nothing where no vertex's support covers q.
   std::optional<Gap> smooth_gap(const Vec3& q, Gap g) const;
+  /// The closest point of @p q (solid coordinates) on the lip: the rounded edge along the inner
+  /// wall's rims, a tube of lip_radius_ about the rim moved lip_radius_ into the wall.
+  struct LipHit {
+    Vec3 centre, normal, beyond, direction;  // closest point on the centre line; wall normal, past-the-rim direction there; (q − centre)/|q − centre|
+    double gap_m = 0.0;                      // |q − centre| − radius
+    double past_m = 0.0;                     // (q − centre) · beyond: > 0 past the rim
+  };
+  std::optional<LipHit> lip_hit(const Vec3& q) const;
+  void build_lip(const std::vector<int>& wall_of);
+  /// @p wall: the wall's gap at q (valid where q faces it); @p on_rim: q's closest point on the
+  /// facets is on the rim. The gap with the lip taken over past the rim.
+  Gap with_lip(const Vec3& q, Gap wall, bool on_rim) const;
 
   geometry::LimbFrame frame_;
   double density_ = 0.0;
@@ -142,6 +153,14 @@ class RigidSocket : public Obstacle {
   Vec3 grid_lo_ = Vec3::Zero();
   Eigen::Vector3i grid_dim_ = Eigen::Vector3i::Zero();
   std::vector<int> cell_start_, cell_items_;
+  // The lip: its centre line per rim vertex (the rim moved lip_radius_ along −normal), the wall's
+  // normal and the past-the-rim direction there, and the rim's segments.
+  std::vector<Vec3> lip_o_, lip_n_, lip_b_;
+  std::vector<std::pair<int, int>> lip_seg_;
+  std::vector<Vec3> lip_t_;                     // unit tangent of the centre line at each vertex
+  std::vector<int> lip_seg_next_, lip_seg_prev_;  // the neighbouring segments along the rim (−1: none)
+  double lip_radius_ = 0.002;
+  std::vector<char> rim_vertex_;  // per mesh vertex: on the inner wall's boundary
   double mass_ = 0.0;
   Vec3 com_ = Vec3::Zero();
   Eigen::Matrix3d inertia_ = Eigen::Matrix3d::Zero();
