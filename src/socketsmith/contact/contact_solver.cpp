@@ -350,10 +350,8 @@ struct ContactSolver::Impl {
     tr.r = evaluate(tr.x, t, tr.st, tr.th, &tr.B, &tr.pi, opt.linear_body ? &Ku : nullptr, true);
     tr.rn = tr.r.norm();
     tr.slope = -tr.r.dot(delta);
-    if (!std::isfinite(tr.rn)) ++inverted_trials;
     return std::isfinite(tr.rn);
   }
-  long inverted_trials = 0;  // line-search trial points that turned an element inside out (debug log)
 
   /// Line search along the Newton direction @p delta from xs (residual r, potential pi); on
   /// success moves xs and its state to the accepted point and returns true.
@@ -515,9 +513,7 @@ struct ContactSolver::Impl {
       double step = 0;
       const bool accepted = line_search(xs, t, delta, r, rn, pi, st, th, B, conservative, step);
       if (!accepted) {
-        log::debug("contact: line search failed at Newton {} (residual {:.3g} N; {} trial points so far turned an "
-                   "element inside out)",
-                   it, rn, inverted_trials);
+        log::debug("contact: line search failed at Newton {} (residual {:.3g} N)", it, rn);
         at_kink = rn <= kink_tolerance(st);
         return at_kink;
       }
