@@ -279,8 +279,8 @@ void RigidSocket::build_lip(const std::vector<int>& wall_of) {
   for (size_t v = 0; v < lip_o_.size(); ++v) {
     const Vec3 from = seg_in[v] >= 0 ? lip_o_[lip_seg_[seg_in[v]].first] : lip_o_[v];
     const Vec3 to = seg_out[v] >= 0 ? lip_o_[lip_seg_[seg_out[v]].second] : lip_o_[v];
-    const Vec3 t = to - from;
-    lip_t_[v] = t.norm() > 0 ? Vec3(t.normalized()) : Vec3::Zero();
+    const Vec3 along = to - from;
+    lip_t_[v] = along.norm() > 0 ? Vec3(along.normalized()) : Vec3::Zero();
   }
 }
 
