@@ -250,7 +250,7 @@ struct ContactSolver::Impl {
 
   /// Gap against the wall. On the faceted wall, whose validity is all or nothing, a node in contact
   /// at the last converged step keeps a wider acceptance cone, so that a node at the wall's rim does
-  /// not chatter in and out of contact (the smoothed wall's weight falls smoothly there instead).
+  /// not chatter in and out of contact (the smoothed wall hands over to the brim's lip there instead).
   Gap wall_gap(size_t i, const Vec3& p) const {
     Gap g = obstacle.gap(p);
     if (!g.valid && !g.graded && was_active[i] && g.gap_m < 0) {

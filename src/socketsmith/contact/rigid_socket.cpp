@@ -4,6 +4,7 @@
 #include <cmath>
 #include <map>
 #include <optional>
+#include <set>
 
 #include <Eigen/Eigenvalues>
 
@@ -83,8 +84,8 @@ RigidSocket::RigidSocket(geometry::TriMesh solid, const geometry::LimbFrame& fra
           "the socket does not surround the limb: from the limb's axis at 30-70 % of the socket's height only {} of 8 "
           "directions meet its inner wall (place it around the stump, check its units and the limb frame)",
           facing);
-  // Inner wall: triangles visible from the limb axis (the cavity is star-shaped about its axis).
-  for (int i : geometry::cavity_triangles(solid_, frame)) {
+  const std::vector<int> cavity = geometry::cavity_triangles(solid_, frame);  // inner wall: seen from the axis
+  for (int i : cavity) {
     inner_.triangles.push_back(solid_.triangles[i]);
     inner_normals_.push_back(geometry::triangle_normal(solid_, i));
   }
@@ -200,19 +201,19 @@ RigidSocket::RigidSocket(geometry::TriMesh solid, const geometry::LimbFrame& fra
     for (size_t j = 0; j < wall_c_.size(); ++j)
       if (cnt[j] > 0) wall_c_[j] += sum[j] / cnt[j];
   }
-  build_lip(wall_of);
+  build_lip(wall_of, cavity);
 }
 
-void RigidSocket::build_lip(const std::vector<int>& wall_of) {
+void RigidSocket::build_lip(const std::vector<int>& wall_of, const std::vector<int>& cavity) {
   // The inner wall's boundary edges (a directed edge whose twin is not in the wall): the brim's
   // rim, and the rims of any holes. Beyond an edge a → b lies the direction (b − a) × n, n the
   // wall's normal into the cavity (the triangle is counter-clockwise seen from the cavity).
-  std::map<std::pair<int, int>, int> directed;
+  std::set<std::pair<int, int>> directed;
   for (const auto& t : inner_.triangles)
-    for (int k = 0; k < 3; ++k) ++directed[{t[k], t[(k + 1) % 3]}];
+    for (int k = 0; k < 3; ++k) directed.insert({t[k], t[(k + 1) % 3]});
   std::map<int, int> lip_of;  // mesh vertex → index into lip_o_
   std::vector<std::pair<int, int>> edges;
-  for (const auto& [e, count] : directed) {
+  for (const auto& e : directed) {
     if (directed.count({e.second, e.first}) > 0) continue;
     edges.push_back(e);
     for (const int v : {e.first, e.second})
@@ -239,7 +240,7 @@ void RigidSocket::build_lip(const std::vector<int>& wall_of) {
   geometry::TriMesh rest;
   rest.vertices = solid_.vertices;
   std::vector<char> in_wall(solid_.triangles.size(), 0);
-  for (int i : geometry::cavity_triangles(solid_, frame_)) in_wall[i] = 1;
+  for (int i : cavity) in_wall[i] = 1;
   for (size_t i = 0; i < solid_.triangles.size(); ++i)
     if (!in_wall[i]) rest.triangles.push_back(solid_.triangles[i]);
   std::vector<double> thickness;

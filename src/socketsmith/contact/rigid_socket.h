@@ -3,10 +3,11 @@
 /// A rigid socket for contact: a closed socket solid (inner wall, outer wall, brim lip), its mass
 /// properties, the inner wall that touches the stump, and gap queries of points against that wall.
 ///
-/// Only the **inner wall** is a contact surface: a node of the stump that has passed through it —
-/// however deep, even beyond the outer wall — is pushed back towards the cavity along the inner
-/// wall's normal, never out through the outer wall (the thesis's node-to-triangle test, eqs. 11–12,
-/// against both walls would push deep nodes the wrong way).
+/// The **inner wall** is the contact surface (and, on the smoothed wall, the brim's lip past its
+/// rim): a node of the stump that has passed through it — however deep, even beyond the outer
+/// wall — is pushed back towards the cavity along the inner wall's normal, never out through the
+/// outer wall (the thesis's node-to-triangle test, eqs. 11–12, against both walls would push deep
+/// nodes the wrong way).
 
 #include <memory>
 #include <optional>
@@ -133,7 +134,9 @@ class RigidSocket : public Obstacle {
     double past_m = 0.0;                     // (q − centre) · beyond: > 0 past the rim
   };
   std::optional<LipHit> lip_hit(const Vec3& q) const;
-  void build_lip(const std::vector<int>& wall_of);
+  /// @p wall_of: each solid vertex's index among the wall's vertices (−1: none); @p cavity: the
+  /// solid's triangles that form the inner wall.
+  void build_lip(const std::vector<int>& wall_of, const std::vector<int>& cavity);
   /// @p wall: the wall's gap at q (valid where q faces it); @p on_rim: q's closest point on the
   /// facets is on the rim. The gap with the lip taken over past the rim.
   Gap with_lip(const Vec3& q, Gap wall, bool on_rim) const;
