@@ -63,7 +63,6 @@ ALLOWED_FUNCTIONS = {
     "src/socketsmith/contact/contact_solver.cpp:evaluate": 104,
     "src/socketsmith/contact/contact_solver.cpp:newton": 88,
     "src/socketsmith/contact/contact_solver.cpp:solve": 94,
-    "src/socketsmith/contact/donning.cpp:DonningSimulation::run": 85,
     "src/socketsmith/contact/rigid_socket.cpp:RigidSocket::RigidSocket": 157,
     "src/socketsmith/contact/rigid_socket.cpp:RigidSocket::gap": 107,
     "src/socketsmith/design/amplitude_fit.cpp:AmplitudeProblem::build": 124,

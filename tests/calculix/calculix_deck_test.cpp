@@ -164,6 +164,20 @@ TEST(CalculixDeck, socket_contact_and_the_two_steps_follow_calculix_md) {
   for (auto it = el_print.first; it != el_print.second; ++it) EXPECT_EQ(it->second, std::vector<std::string>{"S"});
 }
 
+TEST(CalculixDeck, a_socket_carrying_more_than_the_load_after_donning_is_unloaded_gradually) {
+  BoxAndPlate bp(0.02);
+  FeSteps& st = bp.spec.steps;
+  st.donning_travel_m = Vec3(0, 0, 0.03);
+  st.axial_load_n = 300;
+  st.donning_force_n = 405;
+  const auto blocks = parse_blocks(write_deck(bp.spec));
+  // The step-2 load starts at the donning force (405 N = 1.35 × 300) and comes down to 300 N.
+  const auto a = numbers(blocks.find("*AMPLITUDE, NAME=A2")->second.at(0));
+  ASSERT_EQ(a.size(), 4u);
+  EXPECT_DOUBLE_EQ(a[1], 1.35);
+  EXPECT_EQ(a[3], 1.0);
+}
+
 TEST(CalculixDeck, a_load_along_a_slanted_axis_gets_a_local_frame_on_the_reference_node) {
   BoxAndPlate bp(0.02);
   DeckSpec& s = bp.spec;

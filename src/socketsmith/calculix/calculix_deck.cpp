@@ -58,8 +58,8 @@ void check_spec(const DeckSpec& s) {
           "write_deck: maximum increment {} (expected in [initial increment {}, 1])", st.max_increment, st.initial_increment);
   require(st.max_increments > 0, "write_deck: max_increments {} (expected > 0)", st.max_increments);
   require(finite(st.donning_travel_m), "write_deck: the donning travel is not finite");
-  require(st.axial_load_n >= 0 && std::isfinite(st.axial_load_n), "write_deck: axial load {} N (expected ≥ 0)",
-          st.axial_load_n);
+  require(st.axial_load_n >= 0 && std::isfinite(st.axial_load_n) && std::isfinite(st.donning_force_n),
+          "write_deck: axial load {} N, donning force {} N (expected finite, the load ≥ 0)", st.axial_load_n, st.donning_force_n);
   if (s.socket) {
     const auto& sh = *s.socket;
     require(!sh.hexahedra.empty() && !sh.contact_faces.empty(),
@@ -226,7 +226,7 @@ std::string write_deck(const DeckSpec& s) {
   const auto& st = s.steps;
   const bool load_step = s.socket && st.axial_load_n > 0;
   if (load_step) {
-    const double a0 = std::clamp(st.donning_force_n / st.axial_load_n, 0.0, 1.0);
+    const double a0 = std::max(st.donning_force_n / st.axial_load_n, 0.0);
     out += fmt::format("*AMPLITUDE, NAME=A2\n0., {:.9g}, 1., 1.\n", a0);
   }
   // Step 1: nodal forces, or donning under displacement control.

@@ -78,6 +78,9 @@ struct FeSteps {
   int max_increments = 1000;        ///< > 0
   /// > 0: a second step applies this force on the socket's reference node along
   /// load_direction (CALCULIX.md: amplitude from donning_force_n so the reaction does not drop).
+  /// The load ramps from donning_force_n to axial_load_n, downwards too: a socket that already
+  /// carries more than the load at the end of step 1 is unloaded gradually (a sudden drop stopped
+  /// CalculiX on cutbacks: OpenLimb's mean transtibial limb, 405 N at the pose for a 343 N stand).
   double axial_load_n = 0.0;
   Vec3 load_direction = Vec3::UnitZ();  ///< unit
   double donning_force_n = 0.0;         ///< step-1 reaction along load_direction [N], ≥ 0
