@@ -54,7 +54,6 @@ ALLOWED_FUNCTIONS = {
     "apps/cli/cmd_contact.cpp:run_donning": 248,
     "apps/cli/cmd_mesh.cpp:run": 176,
     "apps/cli/cmd_simulate.cpp:run_cube": 149,
-    "src/socketsmith/calculix/calculix_deck.cpp:write_deck": 175,
     "src/socketsmith/calculix/ccx_runner.cpp:run_ccx": 100,
     "src/socketsmith/calculix/cube_validation.cpp:run_cube_fe": 117,
     "src/socketsmith/calculix/design_check.cpp:check_design": 210,
