@@ -62,18 +62,20 @@ void check_spec(const DeckSpec& s) {
           "write_deck: axial load {} N, donning force {} N (expected finite, the load ≥ 0)", st.axial_load_n, st.donning_force_n);
   if (s.socket) {
     const auto& sh = *s.socket;
-    require(!sh.hexahedra.empty() && !sh.contact_faces.empty(),
-            "write_deck: the socket has {} elements and {} contact faces (expected a shell facing the stump)",
-            sh.hexahedra.size(), sh.contact_faces.size());
+    const int nh = static_cast<int>(sh.hexahedra.size()), nel = nh + static_cast<int>(sh.wedges.size());
+    require(nel > 0 && !sh.contact_faces.empty(),
+            "write_deck: the socket has {} elements and {} contact faces (expected a shell facing the stump)", nel,
+            sh.contact_faces.size());
     require(!s.skin_faces.empty(), "write_deck: a socket needs the stump's skin faces (DeckSpec::skin_faces is empty)");
     for (const auto& p : sh.nodes) require(finite(p), "write_deck: a socket node has a non-finite coordinate");
-    for (const auto& h : sh.hexahedra)
-      for (int v : h)
-        require(v >= 0 && v < static_cast<int>(sh.nodes.size()), "write_deck: a socket element uses node {} (socket has {})",
-                v, sh.nodes.size());
-    for (const auto& f : sh.contact_faces)
-      require(f.hexahedron >= 0 && f.hexahedron < static_cast<int>(sh.hexahedra.size()) && f.local_face >= 0 &&
-                  f.local_face < 6,
+    std::vector<int> used;
+    for (const auto& h : sh.hexahedra) used.insert(used.end(), h.begin(), h.end());
+    for (const auto& w : sh.wedges) used.insert(used.end(), w.begin(), w.end());
+    for (int v : used)
+      require(v >= 0 && v < static_cast<int>(sh.nodes.size()), "write_deck: a socket element uses node {} (socket has {})",
+              v, sh.nodes.size());
+    for (const auto& f : sh.contact_faces)  // a hexahedron has 6 faces, a wedge 5
+      require(f.hexahedron >= 0 && f.hexahedron < nel && f.local_face >= 0 && f.local_face < (f.hexahedron < nh ? 6 : 5),
               "write_deck: socket contact face ({}, {}) is out of range", f.hexahedron, f.local_face);
     require(s.socket_node_displacements.empty() || s.socket_node_displacements.size() == sh.nodes.size(),
             "write_deck: {} socket node displacements for {} socket nodes", s.socket_node_displacements.size(),
@@ -186,10 +188,18 @@ void write_elements_and_sets(std::string& out, const DeckSpec& s, const DeckLayo
                        h[5] + 1, h[6] + 1, h[7] + 1);
   }
   if (s.socket) {
-    out += "*ELEMENT, TYPE=C3D8, ELSET=SOCKET\n";
-    for (size_t e = 0; e < s.socket->hexahedra.size(); ++e) {
+    const auto& sh = *s.socket;
+    // One card per element type (a set named on two *ELEMENT cards gathers both).
+    if (!sh.hexahedra.empty()) out += "*ELEMENT, TYPE=C3D8, ELSET=SOCKET\n";
+    for (size_t e = 0; e < sh.hexahedra.size(); ++e) {
       out += fmt::format("{}", L.sock_elem0 + static_cast<int>(e));
-      for (int v : s.socket->hexahedra[e]) out += fmt::format(", {}", L.sock_node0 + v);
+      for (int v : sh.hexahedra[e]) out += fmt::format(", {}", L.sock_node0 + v);
+      out += "\n";
+    }
+    if (!sh.wedges.empty()) out += "*ELEMENT, TYPE=C3D6, ELSET=SOCKET\n";
+    for (size_t e = 0; e < sh.wedges.size(); ++e) {
+      out += fmt::format("{}", L.sock_elem0 + static_cast<int>(sh.hexahedra.size() + e));
+      for (int v : sh.wedges[e]) out += fmt::format(", {}", L.sock_node0 + v);
       out += "\n";
     }
   }
@@ -354,6 +364,42 @@ std::vector<HexFace> faces_of_quads(const volume::HexMesh& mesh, const std::vect
     faces.push_back(it->second);
   }
   return faces;
+}
+
+RigidShell extrude_wall(const std::vector<Vec3>& vertices, const std::vector<std::array<int, 3>>& triangles,
+                        double thickness_m) {
+  require(thickness_m > 0 && std::isfinite(thickness_m), "extrude_wall: thickness {} m (expected > 0)", thickness_m);
+  require(!triangles.empty(), "extrude_wall: no triangles");
+  const int nv = static_cast<int>(vertices.size());
+  std::vector<int> node(nv, -1);
+  RigidShell sh;
+  for (const auto& t : triangles)
+    for (int v : t) {
+      require(v >= 0 && v < nv, "extrude_wall: triangle uses vertex {} ({} vertices)", v, nv);
+      require(finite(vertices[v]), "extrude_wall: vertex {} is not finite", v);
+      if (node[v] < 0) {
+        node[v] = static_cast<int>(sh.nodes.size());
+        sh.nodes.push_back(vertices[v]);
+        sh.source_points.push_back(v);
+      }
+    }
+  Vec3 centre = Vec3::Zero();
+  for (const auto& p : sh.nodes) centre += p;
+  sh.reference_point = centre / static_cast<double>(sh.nodes.size());
+  for (size_t k = 0; k < triangles.size(); ++k) {
+    const auto& t = triangles[k];
+    const Vec3 n = (vertices[t[1]] - vertices[t[0]]).cross(vertices[t[2]] - vertices[t[0]]);  // into the cavity
+    require(n.norm() > 0, "extrude_wall: triangle {} has no area", k);
+    // Each wedge behind its own triangle, along the triangle's normal: a right prism, never
+    // inverted where the wall curves tighter than the thickness (the lip); the rigid body ties them.
+    const int o = static_cast<int>(sh.nodes.size());
+    for (int v : {t[0], t[2], t[1]}) sh.nodes.push_back(vertices[v] - thickness_m * n.normalized());
+    // C3D6 wants 0-1-2 counter-clockwise seen from 3-4-5 (behind the wall): the triangle reversed.
+    // Its face S1 then faces the cavity.
+    sh.contact_faces.push_back({static_cast<int>(sh.wedges.size()), 0});
+    sh.wedges.push_back({node[t[0]], node[t[2]], node[t[1]], o, o + 1, o + 2});
+  }
+  return sh;
 }
 
 RigidShell extrude_shell(const std::vector<Vec3>& points, const std::vector<Vec3>& normals,

@@ -42,6 +42,11 @@ calculix::DesignedStump designed_stump(const DesignArtifacts& artifacts) {
     for (size_t i = 0; i < state.skin_positions.size(); ++i)
       d.wall_positions.push_back(state.skin_positions[i] + loop->wall_offset_m[i] * state.skin_normals[i]);
   }
+  // The socket that is written (the closed loop's kept one, else the open-loop socket): its inner
+  // wall, brim and lip as built, is what the donning check dons.
+  const auto& loop = artifacts.result.closed_loop;
+  const design::SocketResult* socket = loop ? &loop->socket : artifacts.result.socket ? &*artifacts.result.socket : nullptr;
+  if (socket) d.socket_wall = contact::RigidSocket(socket->solid, setup.model.frame).inner_wall();
   return d;
 }
 
