@@ -233,7 +233,7 @@ DesignValidation validate_design(const design::CaseFile& c, const DesignValidati
   v.design_summary = run_design(c, out / "design", c.optimise && o.optimise, o.progress, &v.artifacts);
   v.socketsmith_wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const auto& mesh = v.artifacts.setup->mesh.mesh;
-  v.stump = designed_stump(v.artifacts);
+  v.stump = designed_stump(v.artifacts, o.printed_wall);
 
   if (o.against_donning || o.stand) {
     run_own_donning(c, o, v);

@@ -14,7 +14,7 @@ calculix::FeMaterial fe_material(const design::CaseFile& c) {
   return m;
 }
 
-calculix::DesignedStump designed_stump(const DesignArtifacts& artifacts) {
+calculix::DesignedStump designed_stump(const DesignArtifacts& artifacts, bool printed_wall) {
   require(artifacts.setup != nullptr && artifacts.setup->solver != nullptr,
           "designed_stump: the design artifacts are empty (run pipeline::run_design with artifacts first)");
   const auto& setup = *artifacts.setup;
@@ -46,7 +46,7 @@ calculix::DesignedStump designed_stump(const DesignArtifacts& artifacts) {
   // wall, brim and lip as built, is what the donning check dons.
   const auto& loop = artifacts.result.closed_loop;
   const design::SocketResult* socket = loop ? &loop->socket : artifacts.result.socket ? &*artifacts.result.socket : nullptr;
-  if (socket) d.socket_wall = contact::RigidSocket(socket->solid, setup.model.frame).inner_wall();
+  if (socket && printed_wall) d.socket_wall = contact::RigidSocket(socket->solid, setup.model.frame).inner_wall();
   return d;
 }
 
