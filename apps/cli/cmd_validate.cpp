@@ -242,7 +242,7 @@ void add_case_flags(CLI::App& cmd, DesignFlags& f) {
                "tissue model, the two displacement fields agree to round-off)");
   cmd.add_flag("--printed-wall", f.printed_wall,
                "donning: CalculiX dons the printed socket's inner wall (brim and lip as built, C3D6 wedges; instead of a "
-               "C3D8 shell on the skin below the brim; ccx has not yet converged with it on the demo or OpenLimb's limb, "
+               "C3D8 shell on the skin below the brim; ccx has not yet stood a socket on with it, on the demo or OpenLimb's limb, "
                "docs/VALIDATION.md)");
   cmd.add_option("--penalty", f.penalty, "contact penalty stiffness [Pa/m] (default 1e9)")->check(positive());
   cmd.add_option("--stick-slope", f.stick_slope,
