@@ -255,7 +255,7 @@ int run_donning(const DonningFlags& f) {
                    {"nodes", setup->mesh.mesh.num_nodes()},
                    {"skin_nodes", ns},
                    {"steps", r.series.size()},
-                   {"rejected_steps", r.rejected_steps},
+                   {"rejected_steps", r.rejected_steps}, {"max_sidestep_mm", r.max_sidestep_m * 1e3},
                    {"max_step_mm", o.step_m * 1e3},
                    {"stick_stiffness_ratio", o.contact.stick_stiffness_ratio},
                    {"start_offset_mm", r.start_offset_m * 1e3},

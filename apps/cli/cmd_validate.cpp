@@ -137,6 +137,7 @@ struct DesignFlags {
   double initial_increment = 0.05;
   bool neo_hookean = false;
   bool small_strain = false;
+  bool printed_wall = false;
   bool nonlinear_body = false;  // validate donning: socketsmith's donning with the nonlinear tissue model
   bool against_donning = false;
   std::string fe_pressure = "force";
@@ -158,6 +159,7 @@ void run_validate_design(const DesignFlags& f) {
   o.poisson_ratio = f.poisson;
   o.neo_hookean = f.neo_hookean;
   o.small_strain = f.small_strain;
+  o.printed_wall = f.printed_wall;
   o.element = calculix::parse_element_type(f.element);
   o.penalty_pa_per_m = f.penalty;
   o.stick_slope_pa_per_m = f.stick_slope;
@@ -238,6 +240,10 @@ void add_case_flags(CLI::App& cmd, DesignFlags& f) {
   cmd.add_flag("--small-strain", f.small_strain,
                "CalculiX without NLGEOM: the problem of socketsmith's linear design solve (with --mode load and the fe "
                "tissue model, the two displacement fields agree to round-off)");
+  cmd.add_flag("--printed-wall", f.printed_wall,
+               "donning: CalculiX dons the printed socket's inner wall (brim and lip as built, C3D6 wedges; instead of a "
+               "C3D8 shell on the skin below the brim; ccx has not yet stood a socket on with it, on the demo or OpenLimb's limb, "
+               "docs/VALIDATION.md)");
   cmd.add_option("--penalty", f.penalty, "contact penalty stiffness [Pa/m] (default 1e9)")->check(positive());
   cmd.add_option("--stick-slope", f.stick_slope,
                  "CalculiX's friction stick slope [Pa/m] (default 5e7, CALCULIX.md; socketsmith's stick is 0.2 x its penalty)")

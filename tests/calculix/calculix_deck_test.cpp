@@ -2,6 +2,7 @@
 #include "socketsmith/calculix/design_check.h"
 
 #include <map>
+#include <numbers>
 #include <sstream>
 
 #include <gtest/gtest.h>
@@ -164,6 +165,20 @@ TEST(CalculixDeck, socket_contact_and_the_two_steps_follow_calculix_md) {
   for (auto it = el_print.first; it != el_print.second; ++it) EXPECT_EQ(it->second, std::vector<std::string>{"S"});
 }
 
+TEST(CalculixDeck, a_socket_carrying_more_than_the_load_after_donning_is_unloaded_gradually) {
+  BoxAndPlate bp(0.02);
+  FeSteps& st = bp.spec.steps;
+  st.donning_travel_m = Vec3(0, 0, 0.03);
+  st.axial_load_n = 300;
+  st.donning_force_n = 405;
+  const auto blocks = parse_blocks(write_deck(bp.spec));
+  // The step-2 load starts at the donning force (405 N = 1.35 × 300) and comes down to 300 N.
+  const auto a = numbers(blocks.find("*AMPLITUDE, NAME=A2")->second.at(0));
+  ASSERT_EQ(a.size(), 4u);
+  EXPECT_DOUBLE_EQ(a[1], 1.35);
+  EXPECT_EQ(a[3], 1.0);
+}
+
 TEST(CalculixDeck, a_load_along_a_slanted_axis_gets_a_local_frame_on_the_reference_node) {
   BoxAndPlate bp(0.02);
   DeckSpec& s = bp.spec;
@@ -222,6 +237,79 @@ TEST(CalculixDeck, extruded_shell_elements_are_not_inverted_and_face_the_body) {
   const Vec3 a = m.nodes[sh.hexahedra[0][f[0]]], b = m.nodes[sh.hexahedra[0][f[1]]], c = m.nodes[sh.hexahedra[0][f[2]]];
   EXPECT_LT((b - a).cross(c - a).z(), 0);
   for (int k = 0; k < 4; ++k) EXPECT_EQ(m.nodes[sh.hexahedra[0][f[k]]].z(), 0.0);
+}
+
+/// Signed volume of a C3D6 wedge (three tetrahedra; > 0 when 0-1-2 turns counter-clockwise seen
+/// from 3-4-5, CalculiX's positive orientation).
+double wedge_volume(const RigidShell& sh, const std::array<int, 6>& w) {
+  const auto tet = [&](int a, int b, int c, int d) {
+    const Vec3 &p = sh.nodes[w[a]], &q = sh.nodes[w[b]], &r = sh.nodes[w[c]], &t = sh.nodes[w[d]];
+    return (q - p).cross(r - p).dot(t - p) / 6.0;
+  };
+  return tet(0, 1, 2, 3) + tet(1, 2, 3, 4) + tet(2, 3, 4, 5);
+}
+
+TEST(CalculixDeck, a_triangulated_wall_becomes_wedges_that_are_not_inverted_and_face_the_body) {
+  // A square wall over a body below it, its two triangles facing the body (−z): a socket's inner
+  // wall facing its cavity.
+  const std::vector<Vec3> v{{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {5, 5, 5}};  // the last one unused
+  const RigidShell sh = extrude_wall(v, {{0, 2, 1}, {0, 3, 2}}, 0.1);
+  ASSERT_EQ(sh.wedges.size(), 2u);
+  EXPECT_TRUE(sh.hexahedra.empty());
+  EXPECT_EQ(sh.nodes.size(), 10u);  // four wall vertices and three behind each triangle
+  double volume = 0;
+  for (const auto& w : sh.wedges) {
+    EXPECT_GT(wedge_volume(sh, w), 0);
+    volume += wedge_volume(sh, w);
+    // Face S1 (nodes 0-1-2) lies on the wall; its outward normal, against 0-1-2's turn, faces the body.
+    for (int k = 0; k < 3; ++k) EXPECT_EQ(sh.nodes[w[k]].z(), 0.0);
+    for (int k = 3; k < 6; ++k) EXPECT_NEAR(sh.nodes[w[k]].z(), 0.1, 1e-12);
+    const Vec3 outward = -(sh.nodes[w[1]] - sh.nodes[w[0]]).cross(sh.nodes[w[2]] - sh.nodes[w[0]]);
+    EXPECT_LT(outward.z(), 0);
+  }
+  EXPECT_NEAR(volume, 0.1, 1e-12);
+  ASSERT_EQ(sh.contact_faces.size(), 2u);
+  EXPECT_EQ(sh.contact_faces[1].hexahedron, 1);
+  EXPECT_EQ(sh.contact_faces[1].local_face, 0);
+  // A wall curving tighter than the thickness (the lip: a tube of 1 mm radius facing out, 3 mm
+  // thick behind it): every wedge still has the volume of its triangle times the thickness.
+  std::vector<Vec3> tube;
+  std::vector<std::array<int, 3>> tris;
+  for (int k = 0; k < 8; ++k) {
+    const double a = k * std::numbers::pi / 4;
+    tube.push_back(Vec3(1e-3 * std::cos(a), 1e-3 * std::sin(a), 0));
+    tube.push_back(Vec3(1e-3 * std::cos(a), 1e-3 * std::sin(a), 1e-3));
+  }
+  for (int k = 0; k < 8; ++k) {
+    const int a = 2 * k, b = 2 * ((k + 1) % 8);
+    tris.push_back({a, b, b + 1});
+    tris.push_back({a, b + 1, a + 1});
+  }
+  const RigidShell lip = extrude_wall(tube, tris, 3e-3);
+  for (size_t k = 0; k < lip.wedges.size(); ++k) {
+    const auto& t = tris[k];
+    const double area = 0.5 * (tube[t[1]] - tube[t[0]]).cross(tube[t[2]] - tube[t[0]]).norm();
+    EXPECT_NEAR(wedge_volume(lip, lip.wedges[k]), area * 3e-3, 1e-6 * area * 3e-3);
+  }
+  EXPECT_THROW(extrude_wall(v, {{0, 2, 9}}, 0.1), InvalidInputError);
+  EXPECT_THROW(extrude_wall(v, {{0, 2, 1}}, 0.0), InvalidInputError);
+  EXPECT_THROW(extrude_wall(v, {}, 0.1), InvalidInputError);
+}
+
+TEST(CalculixDeck, a_wedge_socket_is_written_as_c3d6_with_its_contact_faces) {
+  BoxAndPlate bp(0.02);
+  const std::vector<Vec3> v{{-0.01, -0.01, 0.02}, {0.03, -0.01, 0.02}, {0.03, 0.03, 0.02}, {-0.01, 0.03, 0.02}};
+  const RigidShell wall = extrude_wall(v, {{0, 2, 1}, {0, 3, 2}}, 0.002);
+  bp.spec.socket = &wall;
+  bp.spec.steps.donning_travel_m = Vec3(0, 0, 0.03);
+  const auto blocks = parse_blocks(write_deck(bp.spec));
+  EXPECT_EQ(blocks.count("*ELEMENT, TYPE=C3D8, ELSET=SOCKET"), 0u);
+  const auto& wedges = blocks.find("*ELEMENT, TYPE=C3D6, ELSET=SOCKET")->second;
+  ASSERT_EQ(wedges.size(), 2u);
+  EXPECT_EQ(numbers(wedges[0]).size(), 7u);  // id and six nodes
+  EXPECT_EQ(numbers(wedges[0])[0], 9);       // after the box's 8 elements
+  EXPECT_EQ(blocks.find("*SURFACE, NAME=SSOCK, TYPE=ELEMENT")->second, (std::vector<std::string>{"9, S1", "10, S1"}));
+  EXPECT_EQ(blocks.find("*NODE, NSET=NSOCK")->second.size(), 10u);
 }
 
 TEST(CalculixDeck, bad_input_names_the_field) {

@@ -58,22 +58,24 @@ void check_spec(const DeckSpec& s) {
           "write_deck: maximum increment {} (expected in [initial increment {}, 1])", st.max_increment, st.initial_increment);
   require(st.max_increments > 0, "write_deck: max_increments {} (expected > 0)", st.max_increments);
   require(finite(st.donning_travel_m), "write_deck: the donning travel is not finite");
-  require(st.axial_load_n >= 0 && std::isfinite(st.axial_load_n), "write_deck: axial load {} N (expected ≥ 0)",
-          st.axial_load_n);
+  require(st.axial_load_n >= 0 && std::isfinite(st.axial_load_n) && std::isfinite(st.donning_force_n),
+          "write_deck: axial load {} N, donning force {} N (expected finite, the load ≥ 0)", st.axial_load_n, st.donning_force_n);
   if (s.socket) {
     const auto& sh = *s.socket;
-    require(!sh.hexahedra.empty() && !sh.contact_faces.empty(),
-            "write_deck: the socket has {} elements and {} contact faces (expected a shell facing the stump)",
-            sh.hexahedra.size(), sh.contact_faces.size());
+    const int nh = static_cast<int>(sh.hexahedra.size()), nel = nh + static_cast<int>(sh.wedges.size());
+    require(nel > 0 && !sh.contact_faces.empty(),
+            "write_deck: the socket has {} elements and {} contact faces (expected a shell facing the stump)", nel,
+            sh.contact_faces.size());
     require(!s.skin_faces.empty(), "write_deck: a socket needs the stump's skin faces (DeckSpec::skin_faces is empty)");
     for (const auto& p : sh.nodes) require(finite(p), "write_deck: a socket node has a non-finite coordinate");
-    for (const auto& h : sh.hexahedra)
-      for (int v : h)
-        require(v >= 0 && v < static_cast<int>(sh.nodes.size()), "write_deck: a socket element uses node {} (socket has {})",
-                v, sh.nodes.size());
-    for (const auto& f : sh.contact_faces)
-      require(f.hexahedron >= 0 && f.hexahedron < static_cast<int>(sh.hexahedra.size()) && f.local_face >= 0 &&
-                  f.local_face < 6,
+    std::vector<int> used;
+    for (const auto& h : sh.hexahedra) used.insert(used.end(), h.begin(), h.end());
+    for (const auto& w : sh.wedges) used.insert(used.end(), w.begin(), w.end());
+    for (int v : used)
+      require(v >= 0 && v < static_cast<int>(sh.nodes.size()), "write_deck: a socket element uses node {} (socket has {})",
+              v, sh.nodes.size());
+    for (const auto& f : sh.contact_faces)  // a hexahedron has 6 faces, a wedge 5
+      require(f.hexahedron >= 0 && f.hexahedron < nel && f.local_face >= 0 && f.local_face < (f.hexahedron < nh ? 6 : 5),
               "write_deck: socket contact face ({}, {}) is out of range", f.hexahedron, f.local_face);
     require(s.socket_node_displacements.empty() || s.socket_node_displacements.size() == sh.nodes.size(),
             "write_deck: {} socket node displacements for {} socket nodes", s.socket_node_displacements.size(),
@@ -116,63 +118,88 @@ ElementType parse_element_type(const std::string& text) {
   fail("element type '{}' is not known (expected c3d8, c3d8i or c3d8r)", text);
 }
 
-std::string write_deck(const DeckSpec& s) {
-  check_spec(s);
-  const auto& m = *s.stump;
-  const int nn = m.num_nodes(), ne = m.num_hexahedra();
-  std::string out;
-  out.reserve(static_cast<size_t>(nn) * 60 + static_cast<size_t>(ne) * 70 + 4096);
-  out += fmt::format("** {}\n** written by socketsmith (fe/calculix_deck); SI units (m, N, Pa)\n", s.title);
-  out += "*NODE, NSET=NLIMB\n";
-  for (int i = 0; i < nn; ++i)
-    out += fmt::format("{}, {:.12g}, {:.12g}, {:.12g}\n", i + 1, m.nodes[i].x(), m.nodes[i].y(), m.nodes[i].z());
-  const int sock_node0 = nn + 1, sock_elem0 = ne + 1;
-  const bool rigid = s.socket && s.socket_node_displacements.empty();
+namespace {
+
+/// Numbering and frames shared by the deck's parts.
+struct DeckLayout {
+  int nn = 0, ne = 0;                ///< stump nodes and elements
+  int sock_node0 = 0, sock_elem0 = 0;  ///< first socket node and element id (1-based)
+  bool rigid = false;                ///< the socket is a rigid body on a reference node
+  bool ref_local = false;            ///< the reference node has a local frame (a slanted load)
+  Vec3 load_dir = Vec3::UnitZ();
+  Eigen::Matrix3d ref_axes = Eigen::Matrix3d::Identity();  ///< columns e1, e2, load_dir with e1 × e2 = load_dir
+};
+
+DeckLayout layout_of(const DeckSpec& s) {
+  DeckLayout L;
+  L.nn = s.stump->num_nodes();
+  L.ne = s.stump->num_hexahedra();
+  L.sock_node0 = L.nn + 1;
+  L.sock_elem0 = L.ne + 1;
+  L.rigid = s.socket && s.socket_node_displacements.empty();
   // A load step along a direction that is not a coordinate axis: the reference node gets a local
-  // frame (columns e1, e2, d with e1 × e2 = d) and its boundary conditions are written in it.
-  const Vec3 load_dir = s.steps.load_direction.normalized();
-  const bool ref_local = rigid && s.steps.axial_load_n > 0 && load_dir.cwiseAbs().maxCoeff() < 1.0 - 1e-12;
-  Eigen::Matrix3d ref_axes = Eigen::Matrix3d::Identity();
-  if (ref_local) {
+  // frame and its boundary conditions are written in it.
+  L.load_dir = s.steps.load_direction.normalized();
+  L.ref_local = L.rigid && s.steps.axial_load_n > 0 && L.load_dir.cwiseAbs().maxCoeff() < 1.0 - 1e-12;
+  if (L.ref_local) {
     Eigen::Index k = 0;
-    load_dir.cwiseAbs().minCoeff(&k);
-    Vec3 e1 = Vec3::Unit(k) - Vec3::Unit(k).dot(load_dir) * load_dir;
+    L.load_dir.cwiseAbs().minCoeff(&k);
+    Vec3 e1 = Vec3::Unit(k) - Vec3::Unit(k).dot(L.load_dir) * L.load_dir;
     e1.normalize();
-    ref_axes.col(0) = e1;
-    ref_axes.col(1) = load_dir.cross(e1);
-    ref_axes.col(2) = load_dir;
+    L.ref_axes.col(0) = e1;
+    L.ref_axes.col(1) = L.load_dir.cross(e1);
+    L.ref_axes.col(2) = L.load_dir;
   }
-  if (s.socket) {
-    out += "*NODE, NSET=NSOCK\n";
-    for (size_t i = 0; i < s.socket->nodes.size(); ++i) {
-      const auto& p = s.socket->nodes[i];
-      out += fmt::format("{}, {:.12g}, {:.12g}, {:.12g}\n", sock_node0 + static_cast<int>(i), p.x(), p.y(), p.z());
-    }
-    const auto& r = s.socket->reference_point;
-    if (rigid) {
-      out += fmt::format("*NODE, NSET=REF\n{}, {:.12g}, {:.12g}, {:.12g}\n", kRefNode, r.x(), r.y(), r.z());
-      out += fmt::format("*NODE, NSET=ROT\n{}, {:.12g}, {:.12g}, {:.12g}\n", kRotNode, r.x(), r.y(), r.z());
-      if (ref_local) {
-        // The reference node's degrees of freedom in a frame whose local z is the load direction,
-        // so that step 2 can hold the socket across the axis and push it along (CALCULIX.md).
-        out += fmt::format("*TRANSFORM, NSET=REF, TYPE=R\n{:.12g}, {:.12g}, {:.12g}, {:.12g}, {:.12g}, {:.12g}\n",
-                           ref_axes.col(0).x(), ref_axes.col(0).y(), ref_axes.col(0).z(), ref_axes.col(1).x(),
-                           ref_axes.col(1).y(), ref_axes.col(1).z());
-      }
-    }
+  return L;
+}
+
+/// The stump's and the socket's nodes, the rigid body's reference nodes and their frame.
+void write_nodes(std::string& out, const DeckSpec& s, const DeckLayout& L) {
+  const auto& m = *s.stump;
+  out += "*NODE, NSET=NLIMB\n";
+  for (int i = 0; i < L.nn; ++i)
+    out += fmt::format("{}, {:.12g}, {:.12g}, {:.12g}\n", i + 1, m.nodes[i].x(), m.nodes[i].y(), m.nodes[i].z());
+  if (!s.socket) return;
+  out += "*NODE, NSET=NSOCK\n";
+  for (size_t i = 0; i < s.socket->nodes.size(); ++i) {
+    const auto& p = s.socket->nodes[i];
+    out += fmt::format("{}, {:.12g}, {:.12g}, {:.12g}\n", L.sock_node0 + static_cast<int>(i), p.x(), p.y(), p.z());
   }
+  if (!L.rigid) return;
+  const auto& r = s.socket->reference_point;
+  out += fmt::format("*NODE, NSET=REF\n{}, {:.12g}, {:.12g}, {:.12g}\n", kRefNode, r.x(), r.y(), r.z());
+  out += fmt::format("*NODE, NSET=ROT\n{}, {:.12g}, {:.12g}, {:.12g}\n", kRotNode, r.x(), r.y(), r.z());
+  if (L.ref_local) {
+    // The reference node's degrees of freedom in a frame whose local z is the load direction,
+    // so that step 2 can hold the socket across the axis and push it along (CALCULIX.md).
+    const auto& a = L.ref_axes;
+    out += fmt::format("*TRANSFORM, NSET=REF, TYPE=R\n{:.12g}, {:.12g}, {:.12g}, {:.12g}, {:.12g}, {:.12g}\n",
+                       a.col(0).x(), a.col(0).y(), a.col(0).z(), a.col(1).x(), a.col(1).y(), a.col(1).z());
+  }
+}
+
+/// The elements, the bone's node set, the skin's element set and the contact surfaces.
+void write_elements_and_sets(std::string& out, const DeckSpec& s, const DeckLayout& L) {
+  const auto& m = *s.stump;
   out += fmt::format("*ELEMENT, TYPE={}, ELSET=LIMB\n", to_string(s.element));
-  for (int e = 0; e < ne; ++e) {
+  for (int e = 0; e < L.ne; ++e) {
     const auto& h = m.hexahedra[e];
     out += fmt::format("{}, {}, {}, {}, {}, {}, {}, {}, {}\n", e + 1, h[0] + 1, h[1] + 1, h[2] + 1, h[3] + 1, h[4] + 1,
                        h[5] + 1, h[6] + 1, h[7] + 1);
   }
   if (s.socket) {
-    out += "*ELEMENT, TYPE=C3D8, ELSET=SOCKET\n";
-    for (size_t e = 0; e < s.socket->hexahedra.size(); ++e) {
-      const auto& h = s.socket->hexahedra[e];
-      out += fmt::format("{}", sock_elem0 + static_cast<int>(e));
-      for (int v : h) out += fmt::format(", {}", sock_node0 + v);
+    const auto& sh = *s.socket;
+    // One card per element type (a set named on two *ELEMENT cards gathers both).
+    if (!sh.hexahedra.empty()) out += "*ELEMENT, TYPE=C3D8, ELSET=SOCKET\n";
+    for (size_t e = 0; e < sh.hexahedra.size(); ++e) {
+      out += fmt::format("{}", L.sock_elem0 + static_cast<int>(e));
+      for (int v : sh.hexahedra[e]) out += fmt::format(", {}", L.sock_node0 + v);
+      out += "\n";
+    }
+    if (!sh.wedges.empty()) out += "*ELEMENT, TYPE=C3D6, ELSET=SOCKET\n";
+    for (size_t e = 0; e < sh.wedges.size(); ++e) {
+      out += fmt::format("{}", L.sock_elem0 + static_cast<int>(sh.hexahedra.size() + e));
+      for (int v : sh.wedges[e]) out += fmt::format(", {}", L.sock_node0 + v);
       out += "\n";
     }
   }
@@ -188,7 +215,7 @@ std::string write_deck(const DeckSpec& s) {
     for (const auto& f : s.skin_faces)
       for (int k = 0; k < 4; ++k) on_skin[m.hexahedra[f.hexahedron][volume::kHexFaces[f.local_face][k]]] = 1;
     std::vector<int> ids;
-    for (int e = 0; e < ne; ++e)
+    for (int e = 0; e < L.ne; ++e)
       if (std::any_of(m.hexahedra[e].begin(), m.hexahedra[e].end(), [&](int v) { return on_skin[v] != 0; }))
         ids.push_back(e + 1);
     out += "*ELSET, ELSET=SKINEL\n";
@@ -201,8 +228,12 @@ std::string write_deck(const DeckSpec& s) {
   if (s.socket) {
     out += "*SURFACE, NAME=SSOCK, TYPE=ELEMENT\n";
     for (const auto& f : s.socket->contact_faces)
-      out += fmt::format("{}, S{}\n", sock_elem0 + f.hexahedron, f.local_face + 1);
+      out += fmt::format("{}, S{}\n", L.sock_elem0 + f.hexahedron, f.local_face + 1);
   }
+}
+
+/// The tissue's material (its twin of the tissue model), the rigid socket and the contact pair.
+void write_materials_and_contact(std::string& out, const DeckSpec& s, const DeckLayout& L) {
   const auto& mat = s.material;
   out += "*MATERIAL, NAME=TISSUE\n";
   if (mat.is_neo_hookean) {
@@ -214,28 +245,42 @@ std::string write_deck(const DeckSpec& s) {
   }
   out += fmt::format("*DENSITY\n{:.9g}\n", mat.density_kg_m3);
   out += "*SOLID SECTION, ELSET=LIMB, MATERIAL=TISSUE\n";
+  if (!s.socket) return;
+  out += "*MATERIAL, NAME=RIGIDMAT\n*ELASTIC\n2e11, 0.3\n*SOLID SECTION, ELSET=SOCKET, MATERIAL=RIGIDMAT\n";
+  if (L.rigid) out += fmt::format("*RIGID BODY, NSET=NSOCK, REF NODE={}, ROT NODE={}\n", kRefNode, kRotNode);
+  out += "*SURFACE INTERACTION, NAME=SI\n*SURFACE BEHAVIOR, PRESSURE-OVERCLOSURE=LINEAR\n";
+  out += fmt::format("{:.9g}, 0.1\n", s.contact.penalty_pa_per_m);
+  if (s.contact.friction > 0)
+    out += fmt::format("*FRICTION\n{:.9g}, {:.9g}\n", s.contact.friction, s.contact.stick_slope_pa_per_m);
+  out += "*CONTACT PAIR, INTERACTION=SI, TYPE=SURFACE TO SURFACE\nSLIMB, SSOCK\n";
+}
+
+/// What every step writes: displacements, the tissue's stress, contact, reactions.
+std::string step_outputs(const DeckSpec& s, const DeckLayout& L) {
+  std::string o = "*NODE FILE\nU\n";
   if (s.socket) {
-    out += "*MATERIAL, NAME=RIGIDMAT\n*ELASTIC\n2e11, 0.3\n*SOLID SECTION, ELSET=SOCKET, MATERIAL=RIGIDMAT\n";
-    if (rigid) out += fmt::format("*RIGID BODY, NSET=NSOCK, REF NODE={}, ROT NODE={}\n", kRefNode, kRotNode);
-    out += "*SURFACE INTERACTION, NAME=SI\n*SURFACE BEHAVIOR, PRESSURE-OVERCLOSURE=LINEAR\n";
-    out += fmt::format("{:.9g}, 0.1\n", s.contact.penalty_pa_per_m);
-    if (s.contact.friction > 0)
-      out += fmt::format("*FRICTION\n{:.9g}, {:.9g}\n", s.contact.friction, s.contact.stick_slope_pa_per_m);
-    out += "*CONTACT PAIR, INTERACTION=SI, TYPE=SURFACE TO SURFACE\nSLIMB, SSOCK\n";
+    // The tissue's stress: the contact pressure is read as −n·σ·n at the skin (surface_pressure.h),
+    // not from CPRESS, which follows where a node sits on the socket's facets.
+    o += "*EL FILE\nS\n";
+    if (!s.skin_faces.empty()) o += "*EL PRINT, ELSET=SKINEL\nS\n";
+    o += "*CONTACT FILE\nCDIS, CSTR\n";
+    if (L.rigid) o += "*NODE PRINT, NSET=REF\nU, RF\n";
+    o += "*CONTACT PRINT, SLAVE=SLIMB, MASTER=SSOCK\nCF\n";
   }
+  if (!s.fixed_nodes.empty()) o += "*NODE PRINT, NSET=BONE, TOTALS=ONLY\nRF\n";
+  o += "*END STEP\n";
+  return o;
+}
+
+/// Step 1: nodal forces, or donning under displacement control.
+void write_first_step(std::string& out, const DeckSpec& s, const DeckLayout& L) {
   const auto& st = s.steps;
-  const bool load_step = s.socket && st.axial_load_n > 0;
-  if (load_step) {
-    const double a0 = std::clamp(st.donning_force_n / st.axial_load_n, 0.0, 1.0);
-    out += fmt::format("*AMPLITUDE, NAME=A2\n0., {:.9g}, 1., 1.\n", a0);
-  }
-  // Step 1: nodal forces, or donning under displacement control.
   out += static_card(st);
   out += "*BOUNDARY\n";
   if (!s.fixed_nodes.empty()) out += "BONE, 1, 3\n";
   for (const auto& [v, c] : s.fixed_components) out += fmt::format("{}, {}, {}\n", v + 1, c + 1, c + 1);
-  if (rigid) {
-    Vec3 travel = ref_axes.transpose() * st.donning_travel_m;  // in the reference node's frame
+  if (L.rigid) {
+    Vec3 travel = L.ref_axes.transpose() * st.donning_travel_m;  // in the reference node's frame
     for (int c = 0; c < 3; ++c)
       if (std::abs(travel[c]) < 1e-12 * st.donning_travel_m.norm()) travel[c] = 0.0;  // round-off across the axis
     for (int c = 0; c < 3; ++c) out += fmt::format("{}, {}, {}, {:.12g}\n", kRefNode, c + 1, c + 1, travel[c]);
@@ -243,7 +288,7 @@ std::string write_deck(const DeckSpec& s) {
   }
   for (size_t i = 0; i < s.socket_node_displacements.size(); ++i)
     for (int c = 0; c < 3; ++c)
-      out += fmt::format("{}, {}, {}, {:.12g}\n", sock_node0 + static_cast<int>(i), c + 1, c + 1,
+      out += fmt::format("{}, {}, {}, {:.12g}\n", L.sock_node0 + static_cast<int>(i), c + 1, c + 1,
                          s.socket_node_displacements[i][c]);
   if (!s.nodal_forces.empty()) {
     out += "*CLOAD\n";
@@ -251,44 +296,53 @@ std::string write_deck(const DeckSpec& s) {
       for (int c = 0; c < 3; ++c)
         if (f[c] != 0) out += fmt::format("{}, {}, {:.12g}\n", v + 1, c + 1, f[c]);
   }
-  const auto outputs = [&] {
-    std::string o = "*NODE FILE\nU\n";
-    if (s.socket) {
-      // The tissue's stress: the contact pressure is read as −n·σ·n at the skin (surface_pressure.h),
-      // not from CPRESS, which follows where a node sits on the socket's facets.
-      o += "*EL FILE\nS\n";
-      if (!s.skin_faces.empty()) o += "*EL PRINT, ELSET=SKINEL\nS\n";
-      o += "*CONTACT FILE\nCDIS, CSTR\n";
-      if (rigid) o += "*NODE PRINT, NSET=REF\nU, RF\n";
-      o += "*CONTACT PRINT, SLAVE=SLIMB, MASTER=SSOCK\nCF\n";
-    }
-    if (!s.fixed_nodes.empty()) o += "*NODE PRINT, NSET=BONE, TOTALS=ONLY\nRF\n";
-    o += "*END STEP\n";
-    return o;
-  };
-  out += outputs();
+  out += step_outputs(s, L);
+}
+
+/// Step 2 (standing): the socket pushed along the load direction with the axial load, ramped by
+/// amplitude A2 from step 1's reaction.
+void write_load_step(std::string& out, const DeckSpec& s, const DeckLayout& L) {
+  const auto& st = s.steps;
+  FeSteps st2 = st;
+  st2.initial_increment = std::min(st.initial_increment, 0.02);
+  st2.max_increment = std::max(st2.initial_increment, std::min(st.max_increment, 0.05));
+  // Not below 1e-3: when step 2 diverges (an ill-posed push, CALCULIX.md) it should say so in
+  // minutes, not after dozens of 60-iteration cutbacks.
+  st2.min_increment = std::min(std::max(st.min_increment, 1e-3), st2.initial_increment);
+  out += static_card(st2);
+  out += "*BOUNDARY, OP=NEW\n";
+  if (!s.fixed_nodes.empty()) out += "BONE, 1, 3\n";
+  for (const auto& [v, c] : s.fixed_components) out += fmt::format("{}, {}, {}\n", v + 1, c + 1, c + 1);
+  out += fmt::format("{}, 1, 3\n", kRotNode);
+  // The reference node is free along the load and held in the two directions across it (in its
+  // local frame when the load is not along a coordinate axis).
+  const Vec3 d = L.ref_axes.transpose() * L.load_dir;  // (0, 0, 1) in a local frame
+  for (int c = 0; c < 3; ++c)
+    if (std::abs(d[c]) < 1e-12) out += fmt::format("{}, {}, {}\n", kRefNode, c + 1, c + 1);
+  out += "*CLOAD, AMPLITUDE=A2\n";
+  for (int c = 0; c < 3; ++c)
+    if (std::abs(d[c]) >= 1e-12) out += fmt::format("{}, {}, {:.12g}\n", kRefNode, c + 1, st.axial_load_n * d[c]);
+  out += step_outputs(s, L);
+}
+
+}  // namespace
+
+std::string write_deck(const DeckSpec& s) {
+  check_spec(s);
+  const DeckLayout L = layout_of(s);
+  std::string out;
+  out.reserve(static_cast<size_t>(L.nn) * 60 + static_cast<size_t>(L.ne) * 70 + 4096);
+  out += fmt::format("** {}\n** written by socketsmith (calculix/calculix_deck); SI units (m, N, Pa)\n", s.title);
+  write_nodes(out, s, L);
+  write_elements_and_sets(out, s, L);
+  write_materials_and_contact(out, s, L);
+  const bool load_step = s.socket && s.steps.axial_load_n > 0;
   if (load_step) {
-    FeSteps st2 = st;
-    st2.initial_increment = std::min(st.initial_increment, 0.02);
-    st2.max_increment = std::max(st2.initial_increment, std::min(st.max_increment, 0.05));
-    // Not below 1e-3: when step 2 diverges (an ill-posed push, CALCULIX.md) it should say so in
-    // minutes, not after dozens of 60-iteration cutbacks.
-    st2.min_increment = std::min(std::max(st.min_increment, 1e-3), st2.initial_increment);
-    out += static_card(st2);
-    out += "*BOUNDARY, OP=NEW\n";
-    if (!s.fixed_nodes.empty()) out += "BONE, 1, 3\n";
-    for (const auto& [v, c] : s.fixed_components) out += fmt::format("{}, {}, {}\n", v + 1, c + 1, c + 1);
-    out += fmt::format("{}, 1, 3\n", kRotNode);
-    // The reference node is free along the load and held in the two directions across it (in its
-    // local frame when the load is not along a coordinate axis).
-    const Vec3 d = ref_axes.transpose() * load_dir;  // (0, 0, 1) in a local frame
-    for (int c = 0; c < 3; ++c)
-      if (std::abs(d[c]) < 1e-12) out += fmt::format("{}, {}, {}\n", kRefNode, c + 1, c + 1);
-    out += "*CLOAD, AMPLITUDE=A2\n";
-    for (int c = 0; c < 3; ++c)
-      if (std::abs(d[c]) >= 1e-12) out += fmt::format("{}, {}, {:.12g}\n", kRefNode, c + 1, st.axial_load_n * d[c]);
-    out += outputs();
+    const double a0 = std::max(s.steps.donning_force_n / s.steps.axial_load_n, 0.0);
+    out += fmt::format("*AMPLITUDE, NAME=A2\n0., {:.9g}, 1., 1.\n", a0);
   }
+  write_first_step(out, s, L);
+  if (load_step) write_load_step(out, s, L);
   return out;
 }
 
@@ -310,6 +364,42 @@ std::vector<HexFace> faces_of_quads(const volume::HexMesh& mesh, const std::vect
     faces.push_back(it->second);
   }
   return faces;
+}
+
+RigidShell extrude_wall(const std::vector<Vec3>& vertices, const std::vector<std::array<int, 3>>& triangles,
+                        double thickness_m) {
+  require(thickness_m > 0 && std::isfinite(thickness_m), "extrude_wall: thickness {} m (expected > 0)", thickness_m);
+  require(!triangles.empty(), "extrude_wall: no triangles");
+  const int nv = static_cast<int>(vertices.size());
+  std::vector<int> node(nv, -1);
+  RigidShell sh;
+  for (const auto& t : triangles)
+    for (int v : t) {
+      require(v >= 0 && v < nv, "extrude_wall: triangle uses vertex {} ({} vertices)", v, nv);
+      require(finite(vertices[v]), "extrude_wall: vertex {} is not finite", v);
+      if (node[v] < 0) {
+        node[v] = static_cast<int>(sh.nodes.size());
+        sh.nodes.push_back(vertices[v]);
+        sh.source_points.push_back(v);
+      }
+    }
+  Vec3 centre = Vec3::Zero();
+  for (const auto& p : sh.nodes) centre += p;
+  sh.reference_point = centre / static_cast<double>(sh.nodes.size());
+  for (size_t k = 0; k < triangles.size(); ++k) {
+    const auto& t = triangles[k];
+    const Vec3 n = (vertices[t[1]] - vertices[t[0]]).cross(vertices[t[2]] - vertices[t[0]]);  // into the cavity
+    require(n.norm() > 0, "extrude_wall: triangle {} has no area", k);
+    // Each wedge behind its own triangle, along the triangle's normal: a right prism, never
+    // inverted where the wall curves tighter than the thickness (the lip); the rigid body ties them.
+    const int o = static_cast<int>(sh.nodes.size());
+    for (int v : {t[0], t[2], t[1]}) sh.nodes.push_back(vertices[v] - thickness_m * n.normalized());
+    // C3D6 wants 0-1-2 counter-clockwise seen from 3-4-5 (behind the wall): the triangle reversed.
+    // Its face S1 then faces the cavity.
+    sh.contact_faces.push_back({static_cast<int>(sh.wedges.size()), 0});
+    sh.wedges.push_back({node[t[0]], node[t[2]], node[t[1]], o, o + 1, o + 2});
+  }
+  return sh;
 }
 
 RigidShell extrude_shell(const std::vector<Vec3>& points, const std::vector<Vec3>& normals,

@@ -50,11 +50,16 @@ struct HexFace {
   int local_face = -1;
 };
 
-/// A rigid socket: one layer of hexahedra (its own nodes), the faces that touch the stump.
+/// A rigid socket: one layer of hexahedra (C3D8) or of wedges (C3D6, a triangulated wall), its own
+/// nodes, and the faces that touch the stump.
 struct RigidShell {
   std::vector<Vec3> nodes;                ///< [m]
   std::vector<volume::Hex> hexahedra;     ///< indices into nodes
-  std::vector<HexFace> contact_faces;     ///< faces of the shell's hexahedra facing the stump
+  /// C3D6 wedges (indices into nodes; 0-1-2 the face on the wall, 3-4-5 behind it), numbered after
+  /// the hexahedra.
+  std::vector<std::array<int, 6>> wedges;
+  /// Faces facing the stump: element index (hexahedra first, then wedges) and local face (0: S1).
+  std::vector<HexFace> contact_faces;
   Vec3 reference_point = Vec3::Zero();    ///< reference node position [m]
   std::vector<int> source_points;         ///< extrude_shell: input point of inner node k (outer node = k + #inner)
 };
@@ -78,6 +83,9 @@ struct FeSteps {
   int max_increments = 1000;        ///< > 0
   /// > 0: a second step applies this force on the socket's reference node along
   /// load_direction (CALCULIX.md: amplitude from donning_force_n so the reaction does not drop).
+  /// The load ramps from donning_force_n to axial_load_n, downwards too: a socket that already
+  /// carries more than the load at the end of step 1 is unloaded gradually (a sudden drop stopped
+  /// CalculiX on cutbacks: OpenLimb's mean transtibial limb, 405 N at the pose for a 343 N stand).
   double axial_load_n = 0.0;
   Vec3 load_direction = Vec3::UnitZ();  ///< unit
   double donning_force_n = 0.0;         ///< step-1 reaction along load_direction [N], ≥ 0
@@ -124,6 +132,17 @@ std::vector<HexFace> faces_of_quads(const volume::HexMesh& mesh,
 /// the body) extruded by @p thickness_m along the per-point @p normals (away from the body).
 /// The contact faces are the quads themselves (face S1 of each shell element).
 /// @throws InvalidInputError when sizes differ, an index is out of range, or thickness ≤ 0.
+/// A rigid shell from a triangulated wall facing a body — a socket's inner wall as built, brim and
+/// lip included, its triangles' normals pointing into the cavity (towards the body): each triangle
+/// extruded by @p thickness_m away from the cavity along its own normal, a C3D6 wedge whose face S1
+/// is the triangle (the wall's vertices shared, each wedge's back nodes its own: no wedge inverts
+/// where the wall curves tighter than the thickness). Only the vertices the triangles use become
+/// wall nodes; source_points maps them to @p vertices.
+/// @throws InvalidInputError for no triangles, an index out of range, a non-finite vertex or
+///         thickness ≤ 0.
+RigidShell extrude_wall(const std::vector<Vec3>& vertices, const std::vector<std::array<int, 3>>& triangles,
+                        double thickness_m);
+
 RigidShell extrude_shell(const std::vector<Vec3>& points, const std::vector<Vec3>& normals,
                          const std::vector<std::array<int, 4>>& quads, double thickness_m);
 

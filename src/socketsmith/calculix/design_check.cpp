@@ -66,8 +66,26 @@ std::vector<int> brim_rings(const std::vector<std::vector<int>>& adj, const std:
   return ring;
 }
 
+/// The designed socket as a shell on the skin quads below the brim (at the closed loop's wall
+/// positions when given), moved by @p down.
+RigidShell donned_skin_shell(const DesignedStump& d, const std::vector<std::array<int, 4>>& socket_quads,
+                             const Vec3& down, double thickness_m) {
+  const auto& skin = *d.skin;
+  const int ns = static_cast<int>(skin.nodes.size());
+  require(d.wall_positions.empty() || static_cast<int>(d.wall_positions.size()) == ns,
+          "check_design: {} wall positions for {} skin nodes", d.wall_positions.size(), ns);
+  std::vector<Vec3> inner(ns), normal(ns);
+  for (int i = 0; i < ns; ++i) {
+    inner[i] = (d.wall_positions.empty() ? d.designed_positions[skin.nodes[i]] : d.wall_positions[i]) + down;
+    normal[i] = d.skin_normals[i].normalized();
+  }
+  return extrude_shell(inner, normal, socket_quads, thickness_m);
+}
+
 void check_input(const DesignedStump& d, const DesignCheckOptions& o) {
   require(d.mesh && d.skin, "check_design: no stump mesh or skin surface");
+  require(!o.printed_wall || o.mode == DesignCheckMode::Donning,
+          "check_design: the printed socket's wall is the donning check's socket (--printed-wall needs --mode donning)");
   const size_t nn = d.mesh->nodes.size(), ns = d.skin->nodes.size();
   require(d.designed_positions.size() == nn, "check_design: {} designed positions for {} nodes", d.designed_positions.size(), nn);
   require(d.pressure_pa.size() == ns && d.skin_normals.size() == ns && d.skin_areas_m2.size() == ns && d.above_brim.size() == ns,
@@ -165,15 +183,15 @@ DesignCheckResult check_design(const DesignedStump& d, const DesignCheckOptions&
     if (o.mode == DesignCheckMode::Donning) {
       require(o.donning_travel_m > 0, "check_design: donning travel {} m (expected > 0)", o.donning_travel_m);
       // The designed socket, rigid, moved distally; pushed back up by the reference node.
-      std::vector<Vec3> inner(ns), normal(ns);
       const Vec3 down = -o.donning_travel_m * d.frame.axis.normalized();
-      require(d.wall_positions.empty() || static_cast<int>(d.wall_positions.size()) == ns,
-              "check_design: {} wall positions for {} skin nodes", d.wall_positions.size(), ns);
-      for (int i = 0; i < ns; ++i) {
-        inner[i] = (d.wall_positions.empty() ? d.designed_positions[skin.nodes[i]] : d.wall_positions[i]) + down;
-        normal[i] = d.skin_normals[i].normalized();
+      if (o.printed_wall) {
+        require(!d.socket_wall.empty(), "check_design: the printed socket's wall is empty (DesignedStump::socket_wall)");
+        std::vector<Vec3> moved = d.socket_wall.vertices;
+        for (auto& v : moved) v += down;
+        shell = extrude_wall(moved, d.socket_wall.triangles, o.socket_thickness_m);
+      } else {
+        shell = donned_skin_shell(d, socket_quads, down, o.socket_thickness_m);
       }
-      shell = extrude_shell(inner, normal, socket_quads, o.socket_thickness_m);
       spec.steps.donning_travel_m = -down;
       if (o.stand_force_n > 0) {
         spec.steps.axial_load_n = o.stand_force_n;

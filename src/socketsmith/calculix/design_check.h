@@ -11,8 +11,9 @@
 ///   one layer of C3D8; each socket node starts `clearance_m` outside the rest skin along its
 ///   normal and is moved onto its designed position (a prescribed fit, step 1, NLGEOM), with
 ///   surface-to-surface penalty contact and friction μ. Compared: −n·σ·n of the stump's stress (or nodal CPRESS) vs designed p.
-/// - Donning (the thesis's procedure, step 1 only): the designed socket as a rigid body (one
-///   layer of C3D8 outside the designed skin, tied to a reference node) starts
+/// - Donning (the thesis's procedure, step 1 only): the designed socket as a rigid body (the
+///   printed socket's inner wall when given, else one layer of C3D8 outside the designed skin;
+///   tied to a reference node) starts
 ///   `donning_travel_m` distally along the limb axis and is pushed up by that travel under
 ///   displacement control. Compared as Contact.
 /// - Load: the designed pressures as nodal forces p A (−n) at the designed geometry (what the
@@ -26,6 +27,7 @@
 #include "socketsmith/calculix/calculix_deck.h"
 #include "socketsmith/calculix/ccx_runner.h"
 #include "socketsmith/geometry/limb_frame.h"
+#include "socketsmith/geometry/tri_mesh.h"
 #include "socketsmith/report/field_comparison.h"
 #include "socketsmith/volume/hex_mesher.h"
 
@@ -46,6 +48,11 @@ struct DesignedStump {
   /// loop moved it by δ along the designed normals); empty: the designed skin is the wall. The
   /// donning check's rigid socket is built on it.
   std::vector<Vec3> wall_positions;
+  /// The printed socket's inner wall as built (cavity, brim and lip; triangles facing the cavity)
+  /// at its designed pose [m]. When set, the donning check dons this wall (C3D6 wedges on its
+  /// triangles: extrude_wall) — the socket that is written — instead of a shell of C3D8 on the skin
+  /// quads below the brim at wall_positions, whose rim is the quads' staircase with a sharp edge.
+  geometry::TriMesh socket_wall;
   double front_theta_rad = 0;                  ///< angle of the front line (through PT)
   double stump_length_m = 0;                   ///< for the mid-stump circumference
 };
@@ -91,6 +98,11 @@ struct DesignCheckOptions {
   /// NLGEOM (large displacements; St Venant–Kirchhoff for the linear elastic material). false: a
   /// small-strain step, the same problem as socketsmith's linear design solve.
   bool nonlinear_geometry = true;
+  /// Donning: don the printed socket's inner wall (DesignedStump::socket_wall, C3D6 wedges) instead
+  /// of the C3D8 shell on the skin quads below the brim. Not the default: on the demo the shell's
+  /// run converges where the printed wall's stalled at the pose, and on OpenLimb's mean limb the
+  /// printed wall diverged early in the donning (docs/VALIDATION.md, issue 20).
+  bool printed_wall = false;
   CcxOptions ccx;
 };
 

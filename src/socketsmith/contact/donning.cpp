@@ -1,5 +1,6 @@
 #include "socketsmith/contact/donning.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -67,6 +68,10 @@ struct DonningSimulation::Impl {
   bool completed = false, stood = false;
   double last_step = 0.0;
   double stand_stiffness = 0.0;  ///< d(axial force)/d(position) over the last standing push [N/m]; 0 unknown
+  // The guided path: the socket's offset across the axis is `shift` at `shift_from_m` along the
+  // axis and fades linearly to 0 at the designed pose (no sidestep: shift_from_m = 0).
+  Vec3 shift = Vec3::Zero();
+  double shift_from_m = 0.0;
 
   Impl(const tissue::MassSpringModel& m, const std::vector<int>& nodes, const std::vector<double>& areas,
        const geometry::TriMesh& solid, const geometry::LimbFrame& limb_frame, const DonningOptions& options)
@@ -78,6 +83,39 @@ struct DonningSimulation::Impl {
     co.friction = o.friction;
     socket.set_translation(-o.start_offset_m * axis);
     solver = std::make_unique<ContactSolver>(model, dofs, nodes, areas, socket, co);
+  }
+
+  /// The socket's translation at @p offset along the axis on the (guided) path.
+  Vec3 at(double offset) const {
+    if (shift_from_m >= 0) return offset * axis;
+    return offset * axis + std::clamp(offset / shift_from_m, 0.0, 1.0) * shift;
+  }
+
+  /// The path stalled beyond @p offset (the last converged position): sidesteps the socket across
+  /// the axis there, in the direction the skin pushes it (@p force_on_socket), by 2 mm, else 4 mm,
+  /// within max_sidestep_m in all; true when a sidestep converged (the path then goes on from it).
+  bool sidestep(double offset, const Vec3& force_on_socket, DonningResult& r) {
+    const Vec3 lateral = force_on_socket - force_on_socket.dot(axis) * axis;
+    if (o.max_sidestep_m <= 0 || lateral.norm() < 1e-3 * std::max(force_on_socket.norm(), 1.0)) return false;
+    const Vec3 now = at(offset) - offset * axis;
+    for (const double d : {0.002, 0.004}) {
+      const Vec3 to = now + d * lateral.normalized();
+      if (to.norm() > o.max_sidestep_m + 1e-9) break;
+      const ContactStep st = solver->try_move_to(offset * axis + to);
+      if (!st.converged) {
+        solver->discard();
+        continue;
+      }
+      solver->commit();
+      shift = to;
+      shift_from_m = offset;
+      r.max_sidestep_m = std::max(r.max_sidestep_m, to.norm());
+      log::info("donning: stalled above {:.1f} mm below the designed pose; the socket sidesteps {:.1f} mm across the "
+                "axis (where the skin pushes it) and comes back to the axis by its pose",
+                -offset * 1e3, to.norm() * 1e3);
+      return true;
+    }
+    return false;
   }
 
   /// The options checked, with the automatic start offset resolved.
@@ -103,6 +141,17 @@ struct DonningSimulation::Impl {
       o.start_offset_m = std::max(top - bottom + 0.005, o.step_m);
     }
     return o;
+  }
+
+  /// Where the path starts, nothing may be gripped already: a node inside the wall at the start
+  /// means the offset is too small for this socket (it would start half donned).
+  void check_start() {
+    const ContactStep st = solver->move_to(-o.start_offset_m * axis);
+    require(st.contact_nodes == 0,
+            "donning: {} skin nodes already touch the socket {:.0f} mm below its designed pose: start further "
+            "down ({} larger than {:.0f})",
+            st.contact_nodes, o.start_offset_m * 1e3,
+            o.start_offset_name.empty() ? std::string("a start offset") : o.start_offset_name, o.start_offset_m * 1e3);
   }
 
   /// Pushes the socket along the axis until its axial reaction is the standing force. The first
@@ -175,16 +224,7 @@ DonningResult DonningSimulation::run() {
   r.start_offset_m = o.start_offset_m;
   r.nodes = s.skin_nodes;
   r.socket_mass_kg = s.socket.mass_kg();
-  // Where the path starts, nothing may be gripped already: a node inside the wall at the start
-  // means the offset is too small for this socket (it would start half donned).
-  {
-    const ContactStep st = solver.move_to(-o.start_offset_m * axis);
-    require(st.contact_nodes == 0,
-            "donning: {} skin nodes already touch the socket {:.0f} mm below its designed pose: start further "
-            "down ({} larger than {:.0f})",
-            st.contact_nodes, o.start_offset_m * 1e3,
-            o.start_offset_name.empty() ? std::string("a start offset") : o.start_offset_name, o.start_offset_m * 1e3);
-  }
+  s.check_start();
   r.completed = true;
   // The path: fixed steps, or adaptive ones (DonningOptions::steps). A trial step is kept unless a
   // node that was sliding or free sticks in it; then it is tried again at the shortest step (and at
@@ -199,7 +239,7 @@ DonningResult DonningSimulation::run() {
     const bool refinable = adaptive && step > o.min_step_m * (1 + 1e-9);
     // A step that can be refined is tried and kept or refined; one that cannot is solved and
     // committed at once (move_to, whose sub-steps when it fails are committed: a path refinement).
-    const ContactStep st = refinable ? solver.try_move_to(target * axis, true) : solver.move_to(target * axis);
+    const ContactStep st = refinable ? solver.try_move_to(s.at(target), true) : solver.move_to(s.at(target));
     if (!st.converged) {
       solver.discard();
       if (refinable) {  // a node started sticking: the shortest step; no convergence: half the step
@@ -208,12 +248,14 @@ DonningResult DonningSimulation::run() {
         ++r.rejected_steps;
         continue;
       }
+      if (s.sidestep(offset, r.force_on_socket_n, r)) continue;
       r.completed = false;
       // The last converged state (the solver went back to it): where the socket holds the skin.
       r.message = fmt::format("donning stalled at {:.1f} mm below the designed pose (step of {:.2f} mm): {}; at {:.1f} "
                               "mm {}",
                               -target * 1e3, (target - offset) * 1e3, st.message, -offset * 1e3,
                               hardest_grip(solver.contacts(), s.skin_nodes, solver.positions(), s.frame));
+      if (r.max_sidestep_m > 0) r.message += fmt::format(", after a sidestep of {:.0f} mm", r.max_sidestep_m * 1e3);
       if (!o.start_offset_name.empty())
         r.message += fmt::format("; try more --steps or a smaller {}", o.start_offset_name);
       break;

@@ -45,6 +45,12 @@ struct DonningOptions {
   /// The standing push's first step predicted from the reaction's slope over the last donning step
   /// (false: one full step, which overshoots the load).
   bool predict_stand_step = true;
+  /// A path that stalls at its shortest step (the brim meeting a bulge such as a prominent tibial
+  /// tuberosity head-on) is guided around it: the socket sidesteps across the axis, in the direction
+  /// the skin pushes it, by 2 mm and then 2 mm more, up to this much in all [m], and goes on from
+  /// there on a straight line back to the axis at the designed pose (a prosthetist guides the socket
+  /// on the same way). 0: the socket moves along the axis only and such a path stalls.
+  double max_sidestep_m = 0.006;
   /// Contact against the smoothed inner wall (RigidSocket::set_smooth_wall) instead of its facets:
   /// nodes sliding along the wall no longer cross its kinks (7.5k nodes: 203 instead of 390
   /// factorisations; below the brim R 0.742 / MAE 1.91 kPa against the design vs 0.750 / 1.84 on the
@@ -109,6 +115,9 @@ struct DonningResult {
   int newton_iterations = 0;
   double seconds = 0.0;
   int rejected_steps = 0;  ///< adaptive trial steps refined because a node started sticking in them
+  /// The largest sidestep of the socket across the axis on the way (DonningOptions::max_sidestep_m)
+  /// [m]; 0: the path stayed on the axis.
+  double max_sidestep_m = 0.0;
 };
 
 /// Simulates donning @p socket_solid (closed, [m], at its designed pose) onto the stump @p mesh

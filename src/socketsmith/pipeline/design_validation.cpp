@@ -177,6 +177,29 @@ nlohmann::json write_comparison_files(const DesignValidation& v, bool against_do
   return paths_json;
 }
 
+/// CalculiX's check of @p v's socket as the flags @p o ask.
+calculix::DesignCheckOptions check_options(const design::CaseFile& c, const DesignValidationOptions& o,
+                                           const calculix::FeMaterial& material, const DesignValidation& v) {
+  calculix::DesignCheckOptions co;
+  co.mode = o.mode;
+  co.material = material;
+  co.element = o.element;
+  co.contact.penalty_pa_per_m = o.penalty_pa_per_m;
+  co.contact.stick_slope_pa_per_m = o.stick_slope_pa_per_m;
+  co.contact.friction = o.friction >= 0 ? o.friction : c.patient.friction;
+  co.clearance_m = o.clearance_m;
+  co.initial_increment = o.initial_increment;
+  co.donning_travel_m = o.travel_m;
+  co.stand_force_n = v.stand_force_n;
+  co.donning_force_n = v.donning_force_n;
+  co.max_increment = std::max(0.1, o.initial_increment);
+  co.fe_pressure = o.fe_pressure;
+  co.nonlinear_geometry = !o.small_strain;
+  co.printed_wall = o.printed_wall;
+  co.ccx = o.ccx;
+  return co;
+}
+
 }  // namespace
 
 ComparedQuantity compared_quantity(calculix::DesignCheckMode mode) {
@@ -187,8 +210,8 @@ ComparedQuantity compared_quantity(calculix::DesignCheckMode mode) {
 DesignValidation validate_design(const design::CaseFile& c, const DesignValidationOptions& o, const fs::path& out) {
   require(!o.against_donning || o.mode == calculix::DesignCheckMode::Donning,
           "validate design: --against-donning needs --mode donning");
-  require(!o.stand || o.mode == calculix::DesignCheckMode::Donning,
-          "validate design: --stand needs --mode donning (the socket is donned, then stood on)");
+  require((!o.stand && !o.printed_wall) || o.mode == calculix::DesignCheckMode::Donning,
+          "validate design: {} needs --mode donning (the socket is donned, then stood on)", o.stand ? "--stand" : "--printed-wall");
   require(!o.nonlinear_body || o.against_donning,
           "validate design: --nonlinear-body sets socketsmith's donning body: use it with validate donning");
   // CalculiX's material: the case's continuum model's own ν and law (same material on both sides),
@@ -210,7 +233,7 @@ DesignValidation validate_design(const design::CaseFile& c, const DesignValidati
   v.design_summary = run_design(c, out / "design", c.optimise && o.optimise, o.progress, &v.artifacts);
   v.socketsmith_wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const auto& mesh = v.artifacts.setup->mesh.mesh;
-  v.stump = designed_stump(v.artifacts);
+  v.stump = designed_stump(v.artifacts, o.printed_wall);
 
   if (o.against_donning || o.stand) {
     run_own_donning(c, o, v);
@@ -222,25 +245,11 @@ DesignValidation validate_design(const design::CaseFile& c, const DesignValidati
     if (o.against_donning) use_donning_pressures(*v.donning, v.stump);
   }
 
-  calculix::DesignCheckOptions& co = v.check_options;
-  co.mode = o.mode;
-  co.material = material;
-  co.element = o.element;
-  co.contact.penalty_pa_per_m = o.penalty_pa_per_m;
-  co.contact.stick_slope_pa_per_m = o.stick_slope_pa_per_m;
-  co.contact.friction = o.friction >= 0 ? o.friction : c.patient.friction;
-  co.clearance_m = o.clearance_m;
-  co.initial_increment = o.initial_increment;
-  co.donning_travel_m = o.travel_m;
-  co.stand_force_n = v.stand_force_n;
-  co.donning_force_n = v.donning_force_n;
+  v.check_options = check_options(c, o, material, v);
+  const calculix::DesignCheckOptions& co = v.check_options;
   if (v.stand_force_n > 0)
     log::info("validate donning: CalculiX step 2 pushes the socket with {:.1f} N (from {:.1f} N, socketsmith's donning "
               "force)", v.stand_force_n, v.donning_force_n);
-  co.max_increment = std::max(0.1, o.initial_increment);
-  co.fe_pressure = o.fe_pressure;
-  co.nonlinear_geometry = !o.small_strain;
-  co.ccx = o.ccx;
   log::info("validate design: CalculiX {} check ({} nodes, {} elements, {}, {}, ν {}, {})", to_string(co.mode),
             mesh.num_nodes(), mesh.num_hexahedra(), to_string(co.element),
             material.is_neo_hookean ? "neo-Hookean" : "linear elastic", material.poisson_ratio,

@@ -37,6 +37,7 @@ struct DesignValidationOptions {
   double poisson_ratio = -1.0;          ///< CalculiX's ν, [0, 0.5); < 0: fe_material's (the case's model, else 0.45)
   bool neo_hookean = false;             ///< neo-Hookean in CalculiX (automatic for a neo-hookean case)
   bool small_strain = false;            ///< CalculiX without NLGEOM (not with a neo-Hookean tissue)
+  bool printed_wall = false;            ///< Donning: CalculiX dons the printed socket's wall (DesignCheckOptions)
   calculix::ElementType element = calculix::ElementType::C3D8;
   double penalty_pa_per_m = 1e9;        ///< contact penalty [Pa/m], > 0
   double stick_slope_pa_per_m = 5e7;    ///< CalculiX's friction stick slope [Pa/m], > 0

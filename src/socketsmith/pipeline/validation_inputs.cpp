@@ -14,7 +14,7 @@ calculix::FeMaterial fe_material(const design::CaseFile& c) {
   return m;
 }
 
-calculix::DesignedStump designed_stump(const DesignArtifacts& artifacts) {
+calculix::DesignedStump designed_stump(const DesignArtifacts& artifacts, bool printed_wall) {
   require(artifacts.setup != nullptr && artifacts.setup->solver != nullptr,
           "designed_stump: the design artifacts are empty (run pipeline::run_design with artifacts first)");
   const auto& setup = *artifacts.setup;
@@ -41,6 +41,25 @@ calculix::DesignedStump designed_stump(const DesignArtifacts& artifacts) {
     // The closed loop's socket: the designed skin moved by its wall corrections.
     for (size_t i = 0; i < state.skin_positions.size(); ++i)
       d.wall_positions.push_back(state.skin_positions[i] + loop->wall_offset_m[i] * state.skin_normals[i]);
+  }
+  // The socket that is written (the closed loop's kept one, else the open-loop socket): its inner
+  // wall, brim and lip as built, is what the donning check dons.
+  const auto& loop = artifacts.result.closed_loop;
+  const design::SocketResult* socket = loop ? &loop->socket : artifacts.result.socket ? &*artifacts.result.socket : nullptr;
+  if (socket && printed_wall) {
+    geometry::TriMesh wall = contact::RigidSocket(socket->solid, setup.model.frame).inner_wall();
+    // Only the faces that look towards the axis (or straight up: the distal cup): with the lip's
+    // outer half, facing away from it, ccx stalled 1 mm before the demo's pose.
+    const auto& f = setup.model.frame;
+    const Eigen::Vector3d a = f.axis.normalized();
+    std::vector<std::array<int, 3>> facing;
+    for (const auto& t : wall.triangles) {
+      const Eigen::Vector3d c = (wall.vertices[t[0]] + wall.vertices[t[1]] + wall.vertices[t[2]]) / 3.0 - f.origin;
+      const Eigen::Vector3d n = (wall.vertices[t[1]] - wall.vertices[t[0]]).cross(wall.vertices[t[2]] - wall.vertices[t[0]]);
+      if (n.dot(c - c.dot(a) * a) <= 0) facing.push_back(t);
+    }
+    wall.triangles = std::move(facing);
+    d.socket_wall = std::move(wall);
   }
   return d;
 }

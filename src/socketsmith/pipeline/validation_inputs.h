@@ -16,7 +16,9 @@ namespace socketsmith::pipeline {
 /// the socket's wall when the closed loop corrected it.
 /// The result refers to @p artifacts' mesh and skin: keep them alive.
 /// @throws InvalidInputError when the artifacts hold no setup.
-calculix::DesignedStump designed_stump(const DesignArtifacts& artifacts);
+/// @p printed_wall: also the written socket's inner wall (DesignedStump::socket_wall), for a
+/// donning check of the printed socket (`validate design --printed-wall`).
+calculix::DesignedStump designed_stump(const DesignArtifacts& artifacts, bool printed_wall = false);
 
 /// CalculiX's twin of a case's tissue: E and ρ of the case; for the continuum models their own
 /// ν and law (fe: *ELASTIC, St Venant–Kirchhoff under NLGEOM; neo-hookean: *HYPERELASTIC, NEO
