@@ -100,10 +100,12 @@ TEST(DesignSession, the_autosave_is_written_once_due_and_opens_to_the_same_case)
   fs::remove_all(kDir / "autosave");
   fs::create_directories(kDir / "autosave");
   const fs::path path = kDir / "autosave" / "case.json";
+  // The interval counts from the session's start: take the clock before it, not after opening the
+  // demo (which took over a minute under the sanitizers on shared cores, so the autosave was due).
+  const auto start = std::chrono::steady_clock::now();
   DesignSession s;
   open_demo(s);
   s.save_case(path);
-  const auto start = std::chrono::steady_clock::now();
   EXPECT_FALSE(s.autosave(start + std::chrono::minutes(2))) << "nothing to save: no unsaved change";
   s.add_spot_at_landmark("PT", design::SpotType::Cos2, 25e3);
   s.set_spot_value(last_spot(s), "h0_mm", 60);
@@ -115,9 +117,9 @@ TEST(DesignSession, the_autosave_is_written_once_due_and_opens_to_the_same_case)
   EXPECT_EQ(s.autosave_path(), fs::path(path.string() + ".autosave.json"));
   EXPECT_FALSE(s.autosave(start + std::chrono::seconds(1), std::chrono::seconds(60))) << "not due yet";
   EXPECT_FALSE(fs::exists(s.autosave_path()));
-  ASSERT_TRUE(s.autosave(start + std::chrono::seconds(61), std::chrono::seconds(60)));
+  ASSERT_TRUE(s.autosave(start + std::chrono::seconds(120), std::chrono::seconds(60)));
   ASSERT_TRUE(fs::exists(s.autosave_path()));
-  EXPECT_FALSE(s.autosave(start + std::chrono::seconds(62), std::chrono::seconds(60))) << "written a second ago";
+  EXPECT_FALSE(s.autosave(start + std::chrono::seconds(121), std::chrono::seconds(60))) << "written a second ago";
   for (const auto& e : fs::directory_iterator(path.parent_path()))  // atomic: no temporary left
     EXPECT_TRUE(e.path() == path || e.path() == s.autosave_path()) << e.path();
   EXPECT_EQ(design::read_case(path).patient.body_mass_kg, 70) << "the case file itself is left alone";
