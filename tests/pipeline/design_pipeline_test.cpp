@@ -15,6 +15,7 @@
 #include "socketsmith/geometry/mesh_checks.h"
 #include "socketsmith/pipeline/design_pipeline.h"
 #include "socketsmith/pipeline/prosthetist_checks.h"
+#include "socketsmith/pipeline/validation_inputs.h"
 #include "socketsmith/geometry/mesh_io.h"
 #include "socketsmith/geometry/surface_query.h"
 #include "socketsmith/report/csv.h"
@@ -287,6 +288,42 @@ TEST(ModelOptions, a_case_files_tissue_model_and_poisson_ratio_reach_the_model) 
   EXPECT_EQ(o.kind, tissue::TissueModelKind::NeoHookean);
   EXPECT_DOUBLE_EQ(o.fe_poisson_ratio, 0.45);
   EXPECT_EQ(c.solve_mode, design::DesignSolveMode::Nonlinear);
+}
+
+// `validate design --printed-wall`: CalculiX dons the written socket's inner wall, only its faces
+// that look towards the limb's axis (the lip's outer half caught the demo's skin in ccx). Without
+// the flag nothing is built.
+TEST(DesignedStump, the_printed_wall_is_the_written_sockets_cavity_facing_the_axis) {
+  const fs::path dir = fs::path(SOCKETSMITH_BINARY_DIR) / "tests" / "pipeline_printed_wall";
+  fs::remove_all(dir);
+  pipeline::DesignArtifacts art;
+  pipeline::run_design(pipeline::demo_case(1500), dir, true, {}, &art);
+  ASSERT_TRUE(art.result.socket.has_value());
+  EXPECT_TRUE(pipeline::designed_stump(art).socket_wall.empty());
+  const geometry::TriMesh wall = pipeline::designed_stump(art, true).socket_wall;
+  ASSERT_GT(wall.num_triangles(), 500);
+  const auto& f = art.setup->model.frame;
+  const Eigen::Vector3d a = f.axis.normalized();
+  double solid_top = -1e30, solid_bottom = 1e30, wall_top = -1e30, wall_bottom = 1e30;
+  for (const auto& v : art.result.socket->solid.vertices) {
+    solid_top = std::max(solid_top, (v - f.origin).dot(a));
+    solid_bottom = std::min(solid_bottom, (v - f.origin).dot(a));
+  }
+  for (const auto& t : wall.triangles) {
+    Eigen::Vector3d c = Eigen::Vector3d::Zero();
+    for (int v : t) {
+      c += wall.vertices[v] / 3.0;
+      wall_top = std::max(wall_top, (wall.vertices[v] - f.origin).dot(a));
+      wall_bottom = std::min(wall_bottom, (wall.vertices[v] - f.origin).dot(a));
+    }
+    const Eigen::Vector3d n = (wall.vertices[t[1]] - wall.vertices[t[0]]).cross(wall.vertices[t[2]] - wall.vertices[t[0]]);
+    const Eigen::Vector3d r = (c - f.origin) - (c - f.origin).dot(a) * a;
+    EXPECT_LE(n.dot(r), 0.0) << "a face looking away from the axis";
+  }
+  // The cavity from its floor to the brim: inside the solid, reaching within a wall's thickness of its top.
+  EXPECT_LE(wall_top, solid_top + 1e-9);
+  EXPECT_GT(wall_top, solid_top - 0.008);
+  EXPECT_GE(wall_bottom, solid_bottom - 1e-9);
 }
 
 // The GUI's rectification chart (issue 23) is computed from a solved state before anything is

@@ -127,11 +127,6 @@ std::string write_deck(const DeckSpec& spec);
 std::vector<HexFace> faces_of_quads(const volume::HexMesh& mesh,
                                     const std::vector<std::array<int, 4>>& quads);
 
-/// A rigid shell from a surface of quads facing a body: the quads (node ids into @p points,
-/// counter-clockwise seen from the side away from the body, i.e. their normal points away from
-/// the body) extruded by @p thickness_m along the per-point @p normals (away from the body).
-/// The contact faces are the quads themselves (face S1 of each shell element).
-/// @throws InvalidInputError when sizes differ, an index is out of range, or thickness ≤ 0.
 /// A rigid shell from a triangulated wall facing a body — a socket's inner wall as built, brim and
 /// lip included, its triangles' normals pointing into the cavity (towards the body): each triangle
 /// extruded by @p thickness_m away from the cavity along its own normal, a C3D6 wedge whose face S1
@@ -143,6 +138,11 @@ std::vector<HexFace> faces_of_quads(const volume::HexMesh& mesh,
 RigidShell extrude_wall(const std::vector<Vec3>& vertices, const std::vector<std::array<int, 3>>& triangles,
                         double thickness_m);
 
+/// A rigid shell from a surface of quads facing a body: the quads (node ids into @p points,
+/// counter-clockwise seen from the side away from the body, i.e. their normal points away from
+/// the body) extruded by @p thickness_m along the per-point @p normals (away from the body).
+/// The contact faces are the quads themselves (face S1 of each shell element).
+/// @throws InvalidInputError when sizes differ, an index is out of range, or thickness ≤ 0.
 RigidShell extrude_shell(const std::vector<Vec3>& points, const std::vector<Vec3>& normals,
                          const std::vector<std::array<int, 4>>& quads, double thickness_m);
 

@@ -49,9 +49,10 @@ struct DesignedStump {
   /// donning check's rigid socket is built on it.
   std::vector<Vec3> wall_positions;
   /// The printed socket's inner wall as built (cavity, brim and lip; triangles facing the cavity)
-  /// at its designed pose [m]. When set, the donning check dons this wall (C3D6 wedges on its
-  /// triangles: extrude_wall) — the socket that is written — instead of a shell of C3D8 on the skin
-  /// quads below the brim at wall_positions, whose rim is the quads' staircase with a sharp edge.
+  /// at its designed pose [m]. With DesignCheckOptions::printed_wall the donning check dons this
+  /// wall (C3D6 wedges on its triangles: extrude_wall) — the socket that is written — instead of a
+  /// shell of C3D8 on the skin quads below the brim at wall_positions, whose rim is the quads'
+  /// staircase with a sharp edge. Empty unless pipeline::designed_stump was asked for it.
   geometry::TriMesh socket_wall;
   double front_theta_rad = 0;                  ///< angle of the front line (through PT)
   double stump_length_m = 0;                   ///< for the mid-stump circumference
@@ -99,9 +100,9 @@ struct DesignCheckOptions {
   /// small-strain step, the same problem as socketsmith's linear design solve.
   bool nonlinear_geometry = true;
   /// Donning: don the printed socket's inner wall (DesignedStump::socket_wall, C3D6 wedges) instead
-  /// of the C3D8 shell on the skin quads below the brim. Not the default: on the demo the shell's
-  /// run converges where the printed wall's stalled at the pose, and on OpenLimb's mean limb the
-  /// printed wall diverged early in the donning (docs/VALIDATION.md, issue 20).
+  /// of the C3D8 shell on the skin quads below the brim. Not the default: ccx has not yet stood a
+  /// socket on with it (the demo's standing step stops where it must unload the socket; OpenLimb's
+  /// mean limb diverges early in the donning: docs/VALIDATION.md, issue 20).
   bool printed_wall = false;
   CcxOptions ccx;
 };

@@ -47,7 +47,7 @@ struct DonningOptions {
   bool predict_stand_step = true;
   /// A path that stalls at its shortest step (the brim meeting a bulge such as a prominent tibial
   /// tuberosity head-on) is guided around it: the socket sidesteps across the axis, in the direction
-  /// the skin pushes it, by 2 mm and then 2 mm more, up to this much in all [m], and goes on from
+  /// the skin pushes it, by 2 mm (else 4 mm) from where it is, up to this much in all [m], and goes on from
   /// there on a straight line back to the axis at the designed pose (a prosthetist guides the socket
   /// on the same way). 0: the socket moves along the axis only and such a path stalls.
   double max_sidestep_m = 0.006;

@@ -42,8 +42,8 @@ calculix::DesignedStump designed_stump(const DesignArtifacts& artifacts, bool pr
     for (size_t i = 0; i < state.skin_positions.size(); ++i)
       d.wall_positions.push_back(state.skin_positions[i] + loop->wall_offset_m[i] * state.skin_normals[i]);
   }
-  // The socket that is written (the closed loop's kept one, else the open-loop socket): its inner
-  // wall, brim and lip as built, is what the donning check dons.
+  // --printed-wall: the socket that is written (the closed loop's kept one, else the open-loop
+  // socket), its inner wall, brim and lip as built, is what the donning check dons.
   const auto& loop = artifacts.result.closed_loop;
   const design::SocketResult* socket = loop ? &loop->socket : artifacts.result.socket ? &*artifacts.result.socket : nullptr;
   if (socket && printed_wall) {
