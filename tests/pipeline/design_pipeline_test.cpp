@@ -290,14 +290,19 @@ TEST(ModelOptions, a_case_files_tissue_model_and_poisson_ratio_reach_the_model) 
   EXPECT_EQ(c.solve_mode, design::DesignSolveMode::Nonlinear);
 }
 
+/// The optimised demo at 1.5k nodes designed into the tests' folder @p name (emptied first).
+void design_demo_1500(const std::string& name, pipeline::DesignArtifacts& art) {
+  const fs::path dir = fs::path(SOCKETSMITH_BINARY_DIR) / "tests" / name;
+  fs::remove_all(dir);
+  pipeline::run_design(pipeline::demo_case(1500), dir, true, {}, &art);
+}
+
 // `validate design --printed-wall`: CalculiX dons the written socket's inner wall, only its faces
 // that look towards the limb's axis (the lip's outer half caught the demo's skin in ccx). Without
 // the flag nothing is built.
 TEST(DesignedStump, the_printed_wall_is_the_written_sockets_cavity_facing_the_axis) {
-  const fs::path dir = fs::path(SOCKETSMITH_BINARY_DIR) / "tests" / "pipeline_printed_wall";
-  fs::remove_all(dir);
   pipeline::DesignArtifacts art;
-  pipeline::run_design(pipeline::demo_case(1500), dir, true, {}, &art);
+  design_demo_1500("pipeline_printed_wall", art);
   ASSERT_TRUE(art.result.socket.has_value());
   EXPECT_TRUE(pipeline::designed_stump(art).socket_wall.empty());
   const geometry::TriMesh wall = pipeline::designed_stump(art, true).socket_wall;
@@ -331,10 +336,8 @@ TEST(DesignedStump, the_printed_wall_is_the_written_sockets_cavity_facing_the_ax
 // report does. On the optimised 1.5k demo (every constraint met, no closed loop) it must give the
 // report's chart to the last bit; a state that misses a constraint is measured on its designed skin.
 TEST(DesignedWall, the_chart_of_a_solved_state_is_the_reports) {
-  const fs::path dir = fs::path(SOCKETSMITH_BINARY_DIR) / "tests" / "pipeline_designed_wall";
-  fs::remove_all(dir);
   pipeline::DesignArtifacts art;
-  pipeline::run_design(pipeline::demo_case(1500), dir, true, {}, &art);
+  design_demo_1500("pipeline_designed_wall", art);
   ASSERT_TRUE(art.result.socket.has_value());
   ASSERT_FALSE(art.result.closed_loop.has_value());
   const pipeline::DesignSetup& setup = *art.setup;
