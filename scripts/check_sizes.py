@@ -67,7 +67,6 @@ ALLOWED_FUNCTIONS = {
     "src/socketsmith/design/amplitude_fit.cpp:AmplitudeProblem::build": 124,
     "src/socketsmith/design/amplitude_fit.cpp:fit_amplitudes": 104,
     "src/socketsmith/design/brim.cpp:make_brim": 117,
-    "src/socketsmith/design/case_file.cpp:parse_case": 175,
     "src/socketsmith/design/design_solver.cpp:DesignSolver::solve": 139,
     "src/socketsmith/design/socket_platform.cpp:add_platform": 111,
     "src/socketsmith/geometry/aaop.cpp:parse_aaop": 98,

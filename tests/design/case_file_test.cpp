@@ -297,7 +297,7 @@ TEST(CaseFile, limb_scale_axis_and_size_override_round_trip_and_are_checked) {
   EXPECT_EQ(case_to_json(d), case_to_json(c));
   EXPECT_DOUBLE_EQ(d.limb.scale, 0.45);
   EXPECT_FALSE(d.brim.has_value());  // still the limb type's default
-  expect_error(R"({"limb": {"scale": -1}})", "limb.scale = -1 must be positive");
+  expect_error(R"({"limb": {"scale": -1}})", "limb.scale = -1 is outside (0, 10000]");
   expect_error(R"({"limb": {"axis": [0, 0, 0]}})", "'limb.axis' is the zero vector");
   expect_error(R"({"design": {"ischial_share_min": 1.5}})", "design.ischial_share_min = 1.5 is outside");
 }

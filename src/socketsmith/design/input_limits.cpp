@@ -18,7 +18,9 @@ const std::vector<InputLimit>& all_input_limits() {
                                            kDistalPadDiameter, kSubdivisions, kClosedLoopDonnings,
                                            kDistalThickness, kBrimThickness, kFlexion, kAdduction,
                                            kHoleDiameter, kHoleSpacing, kPlatformDiameter, kPlatformThickness,
-                                           kAttachmentOffset};
+                                           kAttachmentOffset, kAttachmentRotation, kScale, kIschialShareMin,
+                                           kSpotAmplitude, kSpotTheta0, kSpotRTheta, kSpotH0, kSpotRH, kSpotTheta1,
+                                           kSpotTheta2, kSpotLambdaTheta, kSpotH1, kSpotH2, kSpotLambdaH};
   return all;
 }
 

@@ -88,6 +88,37 @@ inline constexpr InputLimit kDistalPadDiameter{"socket.distal_pad_diameter_mm", 
                                                "the flat disc for the adapter (e.g. 40)"};
 inline constexpr InputLimit kSubdivisions{"socket.subdivisions", "", 0, 3, false, false, true,
                                           "each quadruples the triangles"};
+inline constexpr InputLimit kAttachmentRotation{"socket.attachment.rotation_deg", "deg", -360, 360, false, false,
+                                                false, "the hole square's rotation about the pylon (e.g. 0 or 45)"};
+// Limb and design
+inline constexpr InputLimit kScale{"limb.scale", "", 0, 10000, true, false, false,
+                                   "it multiplies the coordinates after the units; e.g. 0.45 with units m for a shape "
+                                   "normalised to a 0.45 m femur"};
+inline constexpr InputLimit kIschialShareMin{"design.ischial_share_min", "", 0, 0.9, false, false, false,
+                                             "a fraction of the axial load, e.g. 0.2"};
+// Spots (design.spots[]; the heights are checked against the limb's length when it is built)
+inline constexpr InputLimit kSpotAmplitude{"design.spots[].amplitude_kpa", "kPa", 0, 5000, false, false, false,
+                                           "the spot's peak pressure; a socket can only push, so never negative"};
+inline constexpr InputLimit kSpotTheta0{"design.spots[].theta0_deg", "deg", -360, 360, false, false, false,
+                                        "the centre's angle from anterior towards medial"};
+inline constexpr InputLimit kSpotRTheta{"design.spots[].r_theta_deg", "deg", 0, 180, true, false, false,
+                                        "the half-width around the limb"};
+inline constexpr InputLimit kSpotH0{"design.spots[].h0_mm", "mm", -2000, 2000, false, false, false,
+                                    "the centre's height above the distal end"};
+inline constexpr InputLimit kSpotRH{"design.spots[].r_h_mm", "mm", 0, 2000, true, false, false,
+                                    "the half-height along the limb"};
+inline constexpr InputLimit kSpotTheta1{"design.spots[].theta1_deg", "deg", -360, 360, false, false, false,
+                                        "where the sector starts, from anterior towards medial"};
+inline constexpr InputLimit kSpotTheta2{"design.spots[].theta2_deg", "deg", -360, 360, false, false, false,
+                                        "where the sector ends, from theta1 towards increasing angles"};
+inline constexpr InputLimit kSpotLambdaTheta{"design.spots[].lambda_theta_per_deg", "1/deg", 0, 1000, true, false,
+                                             false, "the sector's edge steepness (e.g. 0.35)"};
+inline constexpr InputLimit kSpotH1{"design.spots[].h1_mm", "mm", -2000, 2000, false, false, false,
+                                    "the band's lower height above the distal end"};
+inline constexpr InputLimit kSpotH2{"design.spots[].h2_mm", "mm", -2000, 2000, false, false, false,
+                                    "the band's upper height above the distal end"};
+inline constexpr InputLimit kSpotLambdaH{"design.spots[].lambda_h_per_mm", "1/mm", 0, 1000, true, false, false,
+                                         "the band's edge steepness (e.g. 0.4)"};
 }  // namespace limits
 
 /// Every limit above (for the documentation check and the fuzzers).

@@ -1,0 +1,279 @@
+#include "socketsmith/design/case_parameters.h"
+
+#include <cmath>
+#include <limits>
+#include <optional>
+#include <type_traits>
+
+#include <fmt/format.h>
+
+#include "socketsmith/core/errors.h"
+#include "socketsmith/core/units.h"
+#include "socketsmith/design/case_file_detail.h"
+
+namespace socketsmith::design {
+namespace {
+using nlohmann::json;
+
+template <class T>
+struct IsOptional : std::false_type {};
+template <class T>
+struct IsOptional<std::optional<T>> : std::true_type {};
+
+template <class M>
+struct MemberClass;
+template <class C, class M>
+struct MemberClass<M C::*> {
+  using type = C;
+};
+
+/// A member reached through a chain of member pointers (&CaseFile::socket, &SocketOptions::thickness_m),
+/// read and written as a double: an int is converted, a bool is 0 / 1, an unset optional is NaN.
+template <auto First, auto... Rest>
+struct MemberPath {
+  using Owner = typename MemberClass<decltype(First)>::type;
+
+  template <class O>
+  static auto& in(O& o) {
+    return ((o .* First) .* ... .* Rest);
+  }
+  static double get(const Owner& o) {
+    const auto& v = in(o);
+    if constexpr (IsOptional<std::decay_t<decltype(v)>>::value)
+      return v ? *v : std::numeric_limits<double>::quiet_NaN();
+    else
+      return static_cast<double>(v);
+  }
+  static void set(Owner& o, double x) {
+    auto& v = in(o);
+    using T = std::decay_t<decltype(v)>;
+    if constexpr (IsOptional<T>::value) {
+      if (std::isnan(x)) v.reset();
+      else v = x;
+    } else if constexpr (std::is_same_v<T, bool>) {
+      v = x != 0.0;
+    } else {
+      v = static_cast<T>(x);
+    }
+  }
+};
+
+/// A number: its key, unit and range are @p limit's.
+template <auto... Path>
+Parameter<typename MemberPath<Path...>::Owner> number(const InputLimit& limit, Written written = Written::Always,
+                                                     bool is_zero_unset = false) {
+  return {limit, false, written, is_zero_unset, &MemberPath<Path...>::get, &MemberPath<Path...>::set};
+}
+
+/// A flag (true / false) of @p key; @p help says what true means.
+template <auto... Path>
+Parameter<typename MemberPath<Path...>::Owner> flag(std::string_view key, std::string_view help,
+                                                   Written written = Written::Always) {
+  return {InputLimit{key, "", 0, 1, false, false, true, help}, true, written, false, &MemberPath<Path...>::get,
+          &MemberPath<Path...>::set};
+}
+
+using C = CaseFile;
+using S = Spot;
+using W = Written;
+}  // namespace
+
+// One line a parameter: the member, its limit (key, unit, range, hint — input_limits.h) and when
+// it is written. Read in this order, so the first bad value of a section is the one reported.
+const std::vector<CaseParameter>& case_parameters() {
+  using namespace limits;
+  static const std::vector<CaseParameter> table{
+      number<&C::limb, &CaseLimb::scale>(kScale, W::UnlessDefault),
+      number<&C::limb, &CaseLimb::cut_height_m>(kCutHeight, W::UnlessDefault),
+      flag<&C::limb, &CaseLimb::force_size>("limb.force_size", "accept a limb outside its type's size range",
+                                            W::UnlessDefault),
+      number<&C::patient, &PatientLoad::body_mass_kg>(kBodyMass),
+      number<&C::patient, &PatientLoad::prosthesis_mass_kg>(kProsthesisMass),
+      number<&C::patient, &PatientLoad::friction>(kFriction),
+      number<&C::patient, &PatientLoad::force_tolerance>(kForceTolerance),
+      number<&C::patient, &PatientLoad::torque_tolerance>(kTorqueTolerance),
+      number<&C::youngs_modulus_pa>(kYoungsModulus),
+      number<&C::density_kg_m3>(kDensity),
+      number<&C::target_nodes>(kTargetNodes),
+      flag<&C::optimise>("design.optimise", "false: solve the spots as given"),
+      flag<&C::follow_template>("design.follow_template", "aim at what the brim template means"),
+      number<&C::model_pressure_limit>(kModelPressureLimit),
+      number<&C::time_limit_s>(kTimeLimit, W::UnlessDefault),
+      flag<&C::closed_loop>("design.closed_loop", "don and stand on the socket, correct its wall"),
+      number<&C::closed_loop_donnings>(kClosedLoopDonnings),
+      number<&C::ischial_share_min>(kIschialShareMin, W::UnlessDefault),
+      number<&C::socket, &SocketOptions::thickness_m>(kThickness),
+      number<&C::socket, &SocketOptions::distal_thickness_m>(kDistalThickness, W::UnlessDefault, true),
+      number<&C::socket, &SocketOptions::brim_thickness_m>(kBrimThickness, W::UnlessDefault, true),
+      flag<&C::socket, &SocketOptions::distal_pad>("socket.distal_pad", "a flat disc under the distal end"),
+      number<&C::socket, &SocketOptions::distal_pad_diameter_m>(kDistalPadDiameter),
+      flag<&C::socket, &SocketOptions::round_brim>("socket.round_brim", "a half-round lip along the brim"),
+      number<&C::socket, &SocketOptions::subdivisions>(kSubdivisions),
+      number<&C::socket, &SocketOptions::alignment, &SocketAlignment::flexion_rad>(kFlexion),
+      number<&C::socket, &SocketOptions::alignment, &SocketAlignment::adduction_rad>(kAdduction),
+      number<&C::socket, &SocketOptions::attachment, &SocketAttachment::hole_diameter_m>(kHoleDiameter),
+      number<&C::socket, &SocketOptions::attachment, &SocketAttachment::hole_spacing_m>(kHoleSpacing),
+      number<&C::socket, &SocketOptions::attachment, &SocketAttachment::platform_diameter_m>(kPlatformDiameter),
+      number<&C::socket, &SocketOptions::attachment, &SocketAttachment::platform_thickness_m>(kPlatformThickness),
+      number<&C::socket, &SocketOptions::attachment, &SocketAttachment::rotation_rad>(kAttachmentRotation),
+  };
+  return table;
+}
+
+const std::vector<SpotParameter>& spot_parameters() {
+  using namespace limits;
+  static const std::vector<SpotParameter> table{
+      number<&S::amplitude_pa>(kSpotAmplitude),
+      number<&S::theta0>(kSpotTheta0, W::ForItsSpotType),
+      number<&S::r_theta>(kSpotRTheta, W::ForItsSpotType),
+      number<&S::h0>(kSpotH0, W::ForItsSpotType),
+      number<&S::r_h>(kSpotRH, W::ForItsSpotType),
+      number<&S::theta1>(kSpotTheta1, W::ForItsSpotType),
+      number<&S::theta2>(kSpotTheta2, W::ForItsSpotType),
+      number<&S::lambda_theta>(kSpotLambdaTheta, W::ForItsSpotType),
+      number<&S::h1>(kSpotH1, W::ForItsSpotType),
+      number<&S::h2>(kSpotH2, W::ForItsSpotType),
+      number<&S::lambda_h>(kSpotLambdaH, W::ForItsSpotType),
+      flag<&S::enabled>("design.spots[].enabled", "false: kept in the file but not applied", W::UnlessDefault),
+      flag<&S::optimise_amplitude>("design.spots[].optimise_amplitude", "the optimiser may change the amplitude",
+                                   W::UnlessDefault),
+      flag<&S::optimise_position>("design.spots[].optimise_position", "the optimiser may move the spot",
+                                  W::UnlessDefault),
+      number<&S::max_amplitude_pa>(kMaxAmplitude, W::UnlessDefault),
+  };
+  return table;
+}
+
+bool spot_type_uses(SpotType type, std::string_view name) {
+  const auto any = [&](std::initializer_list<std::string_view> names) {
+    for (auto n : names)
+      if (n == name) return true;
+    return false;
+  };
+  if (!any({"theta0_deg", "r_theta_deg", "h0_mm", "r_h_mm", "theta1_deg", "theta2_deg", "lambda_theta_per_deg",
+            "h1_mm", "h2_mm", "lambda_h_per_mm"}))
+    return true;  // the amplitude, the flags and the optimiser's bound
+  switch (type) {
+    case SpotType::Cos2: return any({"theta0_deg", "r_theta_deg", "h0_mm", "r_h_mm"});
+    case SpotType::Sig2:
+      return any({"theta1_deg", "theta2_deg", "lambda_theta_per_deg", "h1_mm", "h2_mm", "lambda_h_per_mm"});
+    case SpotType::CosSig: return any({"theta0_deg", "r_theta_deg", "h1_mm", "h2_mm", "lambda_h_per_mm"});
+    case SpotType::Grad: return any({"h1_mm", "h2_mm"});
+  }
+  return false;
+}
+
+// Read as the hand-written conversions they replace did (the same SI values to the last bit); written
+// back by the inverse operation with the same constant, so that a value read, written and read again
+// is the same (× 1e-3 then × 1e3 turned 9 mm into 9.000000000000002).
+double file_to_si(std::string_view unit, double v) {
+  if (unit == "mm") return v * 1e-3;
+  if (unit == "kPa") return v * 1e3;
+  if (unit == "deg") return v * units::deg;
+  if (unit == "1/deg") return v / units::deg;
+  if (unit == "1/mm") return v * 1e3;
+  return v;
+}
+
+double si_to_file(std::string_view unit, double v) {
+  if (unit == "mm") return v / 1e-3;
+  if (unit == "kPa") return v / 1e3;
+  if (unit == "deg") return v / units::deg;
+  if (unit == "1/deg") return v * units::deg;
+  if (unit == "1/mm") return v / 1e3;
+  return v;
+}
+
+const CaseParameter* find_case_parameter(std::string_view key) {
+  for (const auto& p : case_parameters())
+    if (p.key() == key) return &p;
+  return nullptr;
+}
+
+const SpotParameter* find_spot_parameter(std::string_view name) {
+  for (const auto& p : spot_parameters())
+    if (p.name() == name) return &p;
+  return nullptr;
+}
+
+template <class Owner>
+double file_value(const Parameter<Owner>& p, const Owner& owner) {
+  return p.is_flag ? p.get(owner) : si_to_file(p.limit.unit, p.get(owner));
+}
+
+template <class Owner>
+void set_file_value(const Parameter<Owner>& p, Owner& owner, double value, std::string_view name) {
+  if (p.is_flag) return p.set(owner, value != 0.0 ? 1.0 : 0.0);
+  if (p.is_zero_unset && value == 0.0) return p.set(owner, 0.0);
+  const double v = p.limit.is_integer ? check_input_count(p.limit, value, name) : check_input(p.limit, value, name);
+  p.set(owner, file_to_si(p.limit.unit, v));
+}
+
+void set_case_value(CaseFile& c, std::string_view key, double value, std::string_view name) {
+  const CaseParameter* p = find_case_parameter(key);
+  require(p != nullptr, "{}: '{}' is not a parameter of the case file (design/case_parameters.h)", name, key);
+  set_file_value(*p, c, value, name);
+}
+
+namespace {
+template <class Owner>
+const std::vector<Parameter<Owner>>& parameters() {
+  if constexpr (std::is_same_v<Owner, Spot>) return spot_parameters();
+  else return case_parameters();
+}
+
+bool same(double a, double b) { return a == b || (std::isnan(a) && std::isnan(b)); }
+
+template <class Owner>
+bool is_written(const Parameter<Owner>& p, const Owner& owner) {
+  static const Owner kDefault{};
+  switch (p.written) {
+    case Written::Always: return true;
+    case Written::UnlessDefault: return !same(p.get(owner), p.get(kDefault));
+    case Written::ForItsSpotType:
+      if constexpr (std::is_same_v<Owner, Spot>) return spot_type_uses(owner.type, p.name());
+      return true;
+  }
+  return true;
+}
+}  // namespace
+
+template <class Owner>
+void read_parameters(const json& j, std::string_view section, const std::string& where, Owner& owner) {
+  for (const auto& p : parameters<Owner>()) {
+    const std::string key(p.name());
+    if (p.section() != section || !j.contains(key)) continue;
+    if (p.is_flag) p.set(owner, detail::flag(j, key, where, false) ? 1.0 : 0.0);
+    else set_file_value(p, owner, detail::number(j, key, where, 0.0), fmt::format("case file: {}.{}", where, key));
+  }
+}
+
+template <class Owner>
+void write_parameters(json& j, std::string_view section, const Owner& owner) {
+  for (const auto& p : parameters<Owner>()) {
+    if (p.section() != section || !is_written(p, owner)) continue;
+    const std::string key(p.name());
+    if (p.is_flag) j[key] = p.get(owner) != 0.0;
+    else if (p.limit.is_integer) j[key] = static_cast<int>(p.get(owner));
+    else j[key] = file_value(p, owner);
+  }
+}
+
+std::set<std::string> section_keys(std::string_view section, std::set<std::string> others) {
+  for (const auto& p : case_parameters())
+    if (p.section() == section) others.emplace(p.name());
+  for (const auto& p : spot_parameters())
+    if (p.section() == section) others.emplace(p.name());
+  return others;
+}
+
+template double file_value(const CaseParameter&, const CaseFile&);
+template double file_value(const SpotParameter&, const Spot&);
+template void set_file_value(const CaseParameter&, CaseFile&, double, std::string_view);
+template void set_file_value(const SpotParameter&, Spot&, double, std::string_view);
+template void read_parameters(const json&, std::string_view, const std::string&, CaseFile&);
+template void read_parameters(const json&, std::string_view, const std::string&, Spot&);
+template void write_parameters(json&, std::string_view, const CaseFile&);
+template void write_parameters(json&, std::string_view, const Spot&);
+
+}  // namespace socketsmith::design
