@@ -45,7 +45,7 @@ DATA_TABLES = {
 # Rooms over the limits today, with their size in lines; the list shrinks as they are split.
 # Key: path relative to the root.
 ALLOWED_FILES = {
-    "apps/gui/app.cpp": 998,
+    "apps/gui/app.cpp": 995,
     "src/socketsmith/contact/contact_solver.cpp": 888,
 }
 

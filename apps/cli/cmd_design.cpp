@@ -9,6 +9,7 @@
 #include "socketsmith/core/log.h"
 #include "socketsmith/core/progress.h"
 #include "socketsmith/design/case_file.h"
+#include "socketsmith/design/case_parameters.h"
 #include "socketsmith/pipeline/design_pipeline.h"
 
 namespace socketsmith::cli {
@@ -65,7 +66,7 @@ void add_time_limit(CLI::App* cmd, DesignFlags& f) {
 }
 
 design::CaseFile with_time_limit(design::CaseFile c, const DesignFlags& f) {
-  if (f.time_limit_s > 0) c.time_limit_s = f.time_limit_s;  // checked by within(kTimeLimit)
+  if (f.time_limit_s > 0) design::set_case_value(c, "design.time_limit_s", f.time_limit_s, "--time-limit");
   return c;
 }
 

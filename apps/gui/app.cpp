@@ -15,6 +15,7 @@
 #include "socketsmith/report/nice_number.h"
 #include "socketsmith/core/log.h"
 #include "socketsmith/core/units.h"
+#include "socketsmith/design/case_parameters.h"
 #include "socketsmith/report/raster.h"
 
 namespace socketsmith::gui {
@@ -449,9 +450,12 @@ void App::draw_spot(int k) {
     return;
   }
   ImGui::Indent();
-  const auto slider = [&](const char* name, const char* field, double value, float lo, float hi, const char* fmt_) {
-    float v = static_cast<float>(value);
+  // A spot field through the case file's table (case_parameters.h): value in file units, help as tooltip.
+  const auto slider = [&](const char* name, const char* field, float lo, float hi, const char* fmt_) {
+    const design::SpotParameter& p = *design::find_spot_parameter(field);
+    float v = static_cast<float>(design::file_value(p, s));
     const bool changed = ImGui::SliderFloat(name, &v, lo, hi, fmt_);
+    if (ImGui::IsItemHovered()) ImGui::SetTooltip("%s", std::string(p.limit.hint).c_str());
     if (ImGui::IsItemActivated()) session_.begin_edit();
     if (changed) {
       try {
@@ -462,23 +466,16 @@ void App::draw_spot(int k) {
     }
     if (ImGui::IsItemDeactivated()) session_.end_edit();
   };
+  struct Slider { const char *name, *field; float lo, hi; const char* format; };  // shown if the type uses it
   const float L = static_cast<float>(session_.setup()->model.length_m * 1e3);
-  slider("A [kPa]", "amplitude_kpa", s.amplitude_pa / 1e3, 0, 300, "%.1f");
-  if (s.type == design::SpotType::Cos2 || s.type == design::SpotType::CosSig) {
-    slider("theta0 [deg]", "theta0_deg", s.theta0 / kDeg, -180, 180, "%.0f");
-    slider("R_theta [deg]", "r_theta_deg", s.r_theta / kDeg, 1, 180, "%.0f");
-  }
-  if (s.type == design::SpotType::Sig2) {
-    slider("theta1 [deg]", "theta1_deg", s.theta1 / kDeg, -180, 180, "%.0f");
-    slider("theta2 [deg]", "theta2_deg", s.theta2 / kDeg, -180, 180, "%.0f");
-  }
-  if (s.type == design::SpotType::Cos2) {
-    slider("h0 [mm]", "h0_mm", s.h0 * 1e3, 0, L, "%.0f");
-    slider("R_h [mm]", "r_h_mm", s.r_h * 1e3, 1, L, "%.0f");
-  } else {
-    slider("h1 [mm]", "h1_mm", s.h1 * 1e3, 0, L, "%.0f");
-    slider("h2 [mm]", "h2_mm", s.h2 * 1e3, 0, L, "%.0f");
-  }
+  for (const Slider& f : {Slider{"A [kPa]", "amplitude_kpa", 0, 300, "%.1f"},
+                          Slider{"theta0 [deg]", "theta0_deg", -180, 180, "%.0f"},
+                          Slider{"R_theta [deg]", "r_theta_deg", 1, 180, "%.0f"},
+                          Slider{"theta1 [deg]", "theta1_deg", -180, 180, "%.0f"},
+                          Slider{"theta2 [deg]", "theta2_deg", -180, 180, "%.0f"}, Slider{"h0 [mm]", "h0_mm", 0, L, "%.0f"},
+                          Slider{"R_h [mm]", "r_h_mm", 1, L, "%.0f"}, Slider{"h1 [mm]", "h1_mm", 0, L, "%.0f"},
+                          Slider{"h2 [mm]", "h2_mm", 0, L, "%.0f"}})
+    if (design::spot_type_uses(s.type, f.field)) slider(f.name, f.field, f.lo, f.hi, f.format);
   bool amplitude = s.optimise_amplitude, position = s.optimise_position;
   const bool freedom_changed = ImGui::Checkbox("optimiser may change A", &amplitude) |
                                ImGui::Checkbox("optimiser may move it", &position);

@@ -10,6 +10,7 @@
 #include "socketsmith/core/errors.h"
 #include "socketsmith/core/exit_status.h"
 #include "socketsmith/core/log.h"
+#include "socketsmith/design/case_parameters.h"
 #include "socketsmith/design/input_limits.h"
 
 namespace socketsmith::pipeline {
@@ -274,6 +275,12 @@ int DesignSession::spot_index(const std::string& name) const {
 void DesignSession::set_spot_value(int index, const std::string& field, double value) {
   require(index >= 0 && index < static_cast<int>(case_.spots.size()), "set: spot {} does not exist ({} spots)", index,
           case_.spots.size());
+  const design::SpotParameter* p = design::find_spot_parameter(field);
+  if (p == nullptr) {
+    std::string known;
+    for (const auto& q : design::spot_parameters()) known += fmt::format("{}{}", known.empty() ? "" : ", ", q.name());
+    fail("set: spot field '{}' is not known ({})", field, known);
+  }
   if (field == "optimise_amplitude" || field == "optimise_position") {  // the optimiser's freedom: no solve
     const design::Spot& s = case_.spots[index];
     set_spot_freedom(index, field == "optimise_amplitude" ? value != 0 : s.optimise_amplitude,
@@ -281,20 +288,7 @@ void DesignSession::set_spot_value(int index, const std::string& field, double v
     return;
   }
   design::Spot s = case_.spots[index];
-  if (field == "amplitude_kpa") s.amplitude_pa = value * 1e3;
-  else if (field == "theta0_deg") s.theta0 = value * kDeg;
-  else if (field == "r_theta_deg") s.r_theta = value * kDeg;
-  else if (field == "h0_mm") s.h0 = value * 1e-3;
-  else if (field == "r_h_mm") s.r_h = value * 1e-3;
-  else if (field == "theta1_deg") s.theta1 = value * kDeg;
-  else if (field == "theta2_deg") s.theta2 = value * kDeg;
-  else if (field == "h1_mm") s.h1 = value * 1e-3;
-  else if (field == "h2_mm") s.h2 = value * 1e-3;
-  else if (field == "enabled") s.enabled = value != 0;
-  else
-    fail("set: spot field '{}' is not known (amplitude_kpa, theta0_deg, r_theta_deg, h0_mm, r_h_mm, theta1_deg, "
-         "theta2_deg, h1_mm, h2_mm, enabled, optimise_amplitude, optimise_position)",
-         field);
+  design::set_file_value(*p, s, value, fmt::format("set: spot {} {}", s.name, field));
   design::validate_spot(s, setup_ ? setup_->model.length_m : 1.0);
   edit([&] { case_.spots[index] = s; });
   record({{"do", "set"}, {"spot", index}, {"field", field}, {"value", value}});
