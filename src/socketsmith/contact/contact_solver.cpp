@@ -474,7 +474,6 @@ struct ContactSolver::Impl {
     std::vector<double> pi_history;
     double pi = 0;
     VectorXd r = evaluate(xs, t, st, th, &B, &pi);
-    tangent(xs, B, K);
     rn = r.norm();
     const bool conservative = std::isfinite(pi);
     for (int it = 0; it <= opt.max_newton; ++it) {
@@ -490,6 +489,9 @@ struct ContactSolver::Impl {
         at_kink = rn <= kink_tolerance(st);
         return at_kink;
       }
+      // The tangent only when a Newton step is taken: a solve converged at its start (a step where
+      // no node touches, the last friction pass) or stopped at max_newton costs no tangent.
+      tangent(xs, B, K);
       VectorXd delta;
       if (opt.linear_body) {
         // The last factorisation (of a nearby contact state) preconditions CG on the new tangent;
@@ -549,7 +551,6 @@ struct ContactSolver::Impl {
         stopped_on_stick = true;
         return false;
       }
-      if (rn > tolerance(st)) tangent(xs, B, K);
     }
     return false;
   }
