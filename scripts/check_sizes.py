@@ -46,7 +46,6 @@ DATA_TABLES = {
 # Key: path relative to the root.
 ALLOWED_FILES = {
     "apps/gui/app.cpp": 995,
-    "src/socketsmith/contact/contact_solver.cpp": 888,
 }
 
 # Key: "path:function" (the qualified name as written at its definition).
@@ -58,12 +57,8 @@ ALLOWED_FUNCTIONS = {
     "src/socketsmith/calculix/cube_validation.cpp:run_cube_fe": 117,
     "src/socketsmith/calculix/design_check.cpp:check_design": 210,
     "src/socketsmith/calculix/frd_reader.cpp:parse_frd": 94,
-    "src/socketsmith/contact/contact_solver.cpp:ContactSolver::push_with_force": 92,
-    "src/socketsmith/contact/contact_solver.cpp:evaluate": 104,
-    "src/socketsmith/contact/contact_solver.cpp:newton": 88,
-    "src/socketsmith/contact/contact_solver.cpp:solve": 94,
     "src/socketsmith/contact/rigid_socket.cpp:RigidSocket::RigidSocket": 157,
-    "src/socketsmith/contact/rigid_socket.cpp:RigidSocket::gap": 107,
+    "src/socketsmith/contact/rigid_socket.cpp:RigidSocket::gap": 85,
     "src/socketsmith/design/amplitude_fit.cpp:AmplitudeProblem::build": 124,
     "src/socketsmith/design/amplitude_fit.cpp:fit_amplitudes": 104,
     "src/socketsmith/design/brim.cpp:make_brim": 117,
@@ -80,7 +75,7 @@ ALLOWED_FUNCTIONS = {
     "src/socketsmith/geometry/tri_mesh.cpp:weld_vertices": 88,
     "src/socketsmith/pipeline/closed_loop.cpp:close_design_loop": 196,
     "src/socketsmith/pipeline/closed_loop.cpp:write_closed_loop_outputs": 166,
-    "src/socketsmith/pipeline/design_validation.cpp:validate_design": 135,
+    "src/socketsmith/pipeline/design_validation.cpp:validate_design": 121,
     "src/socketsmith/pipeline/design_validation.cpp:write_comparison_files": 123,
     "src/socketsmith/pipeline/shape_comparison.cpp:run_compare": 99,
     "src/socketsmith/pipeline/sock_ply.cpp:run_sock_ply_study": 159,

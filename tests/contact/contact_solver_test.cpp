@@ -87,6 +87,41 @@ TEST(ContactCube, matches_the_constrained_cube_at_every_weight) {
   }
 }
 
+// The push solved in one Newton solve with the box's position as one more unknown (the default)
+// reaches the force exactly, where the bracket of displacement-driven solves stops within its
+// tolerance: asked for 5 %, the free push still lands within 1e-5 of the force. Without friction
+// the equilibrium is unique: the same box height as the bracket asked for 1e-7 (within 0.5 µm,
+// what Newton's residual tolerance leaves).
+// With friction the state depends on the loading path — the bracket commits its steps below the
+// force, the free push loads in one increment — and the heights differ by 5 µm of 14.5 mm.
+TEST(ContactCube, the_push_solves_the_box_position_with_the_cube) {
+  const ContactCube c;
+  tissue::MassSpringOptions mo;
+  mo.kind = tissue::TissueModelKind::NeoHookean;  // the design's default body
+  const tissue::MassSpringModel model(c.mesh, {50e3, 1060}, mo);
+  const tissue::DofMap dofs(model.num_dofs(), c.cons);
+  const auto push = [&](double friction, bool free, double rel_tol, double& box_z) {
+    PlaneObstacle box(Vec3(0, 0, ContactCube::L), Vec3(0, 0, -1));
+    ContactOptions co;
+    co.friction = friction;
+    co.linear_body = false;
+    co.free_push = free;
+    ContactSolver solver(model, dofs, c.top, c.top_area, box, co);
+    EXPECT_TRUE(solver.push_with_force(Vec3(0, 0, -1), 20.0, 1e-4, 0.004).converged);  // in contact
+    const ContactStep st = solver.push_with_force(Vec3(0, 0, -1), 60.0, rel_tol, 0.004);
+    EXPECT_TRUE(st.converged) << st.message;
+    box_z = box.translation().z();
+    return st.force_on_obstacle_n.z();
+  };
+  for (const double mu : {0.0, 0.5}) {
+    double z_free = 0, z_bracket = 0;
+    EXPECT_NEAR(push(mu, true, 0.05, z_free), 60.0, 6e-4) << "μ = " << mu;
+    EXPECT_NEAR(push(mu, false, 1e-7, z_bracket), 60.0, 6e-4) << "μ = " << mu;
+    EXPECT_LT(z_free, -1e-2) << "the box moved down onto the cube";
+    EXPECT_NEAR(z_free, z_bracket, mu == 0 ? 5e-7 : 1e-5) << "μ = " << mu;
+  }
+}
+
 TEST(ContactCube, friction_holds_a_sideways_push_below_mu_times_the_normal_force) {
   // A block glued to the ground, pressed by the plane and dragged sideways: stick below μ N, slip above.
   const ContactCube c;

@@ -73,6 +73,10 @@ struct ContactOptions {
   /// push_with_force: start each solve inside the bracket from the interpolation of the solutions
   /// at its ends (false: from the last solution).
   bool interpolate_bracket = true;
+  /// push_with_force: first one solve with the obstacle's position along the push as one more
+  /// unknown of Newton (its equilibrium under the force, the tangent bordered by the contact's
+  /// ∂²Π/∂x∂s), the bracket of displacement-driven solves only when that does not converge.
+  bool free_push = true;
 };
 
 /// Contact state of one candidate node.

@@ -182,8 +182,12 @@ struct DonningSimulation::Impl {
         }
       }
       const double start_at = socket.translation().dot(axis);
+      const auto t0 = std::chrono::steady_clock::now();
       const ContactStep st = solver->push_with_force(axis, o.stand_force_n, 1e-3, max_step, first);
       const double stood_at = socket.translation().dot(axis);
+      log::debug("donning: standing push {:.0f} → {:.0f} N over {:.2f} mm: {:.2f} s",
+                 pose_force, o.stand_force_n, (stood_at - start_at) * 1e3,
+                 std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
       // The axial stiffness over this push, for the next refit's prediction.
       if (std::abs(stood_at - start_at) > 1e-7) {
         const double k = (o.stand_force_n - pose_force) / (stood_at - start_at);

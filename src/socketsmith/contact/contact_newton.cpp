@@ -1,0 +1,510 @@
+// Newton on the contact equilibrium (ContactSolver::Impl, contact_solver_impl.h): its step and line
+// search, a solve at one obstacle position with its friction passes, the path between positions,
+// and the pushes with a force.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+#include <Eigen/SparseLU>
+
+#include "socketsmith/contact/contact_solver_impl.h"
+#include "socketsmith/core/errors.h"
+#include "socketsmith/core/log.h"
+#include "socketsmith/tissue/static_solver.h"
+
+namespace socketsmith::contact {
+
+bool ContactSolver::Impl::try_step(const VectorXd& xs, const Vec3& t, const VectorXd& delta, double ds, double a,
+                                   Trial& tr) {
+  tr.x = xs;
+  dofs.add_expanded(a * delta, tr.x);
+  tr.t = t + a * ds * free_dir;
+  VectorXd Ku;
+  if (opt.linear_body) Ku = Ku0 + a * Kd;
+  tr.r = evaluate(tr.x, tr.t, tr.st, tr.th, &tr.B, &tr.pi, opt.linear_body ? &Ku : nullptr, true);
+  tr.rs = free_residual(tr.st);
+  tr.pi -= free_force_n * tr.t.dot(free_dir);
+  tr.rn = std::hypot(tr.r.norm(), tr.rs);
+  tr.slope = -tr.r.dot(delta) - tr.rs * ds;
+  return std::isfinite(tr.rn);
+}
+
+bool ContactSolver::Impl::line_search(VectorXd& xs, Vec3& t, const VectorXd& delta, double ds, VectorXd& r, double& rs,
+                                      double& rn, double& pi, std::vector<NodeContact>& st, std::vector<Vec3>& th,
+                                      std::vector<Eigen::Matrix3d>& B, bool conservative, double& step) {
+  const double slope0 = -r.dot(delta) - rs * ds;
+  if (opt.linear_body) {
+    Ku0 = K0 * dofs.restrict_vector(xs - model.rest_positions());
+    Kd = K0 * delta;
+  }
+  const auto sufficient = [&](const Trial& tr, double a) {
+    return conservative ? (tr.pi <= pi + 1e-4 * a * slope0 ||
+                           (std::abs(tr.pi - pi) <= 1e-12 * std::max(std::abs(pi), 1e-30) && tr.rn < rn))
+                        : tr.rn < (1 - 1e-4 * a) * rn;
+  };
+  const auto take = [&](Trial& tr, double a) {
+    xs = std::move(tr.x);
+    r = std::move(tr.r);
+    t = tr.t;
+    rs = tr.rs;
+    rn = tr.rn;
+    pi = tr.pi;
+    st = std::move(tr.st);
+    th = std::move(tr.th);
+    B = std::move(tr.B);
+    step = a;
+    return true;
+  };
+  Trial tr;
+  if (conservative && opt.exact_line_search && slope0 < 0 && try_step(xs, t, delta, ds, 1.0, tr)) {
+    if (sufficient(tr, 1.0) && tr.slope <= 0.5 * std::abs(slope0)) return take(tr, 1.0);
+    if (tr.slope > 0) {
+      // Π'(0) < 0 < Π'(1): a minimum in between. Illinois regula falsi on Π'.
+      double lo = 0, s_lo = slope0, hi = 1, s_hi = tr.slope;
+      int side = 0;
+      Trial best;
+      double a_best = -1;
+      for (int trial = 0; trial < 12; ++trial) {
+        double a = lo - s_lo * (hi - lo) / (s_hi - s_lo);
+        a = std::clamp(a, lo + 0.02 * (hi - lo), hi - 0.02 * (hi - lo));
+        Trial tm;
+        if (!try_step(xs, t, delta, ds, a, tm)) break;
+        const bool ok = sufficient(tm, a);
+        if (ok && std::abs(tm.slope) <= opt.line_search_slope * std::abs(slope0)) return take(tm, a);
+        if (tm.slope < 0) {
+          lo = a;
+          s_lo = tm.slope;
+          if (side == -1) s_hi *= 0.5;
+          side = -1;
+        } else {
+          hi = a;
+          s_hi = tm.slope;
+          if (side == 1) s_lo *= 0.5;
+          side = 1;
+        }
+        if (ok && (a_best < 0 || tm.pi < best.pi)) {
+          best = std::move(tm);
+          a_best = a;
+        }
+      }
+      if (a_best > 0) return take(best, a_best);
+    }
+  }
+  // Backtracking.
+  double a = 1.0;
+  for (int ls = 0; ls < 30; ++ls, a *= 0.5) {
+    if (!try_step(xs, t, delta, ds, a, tr)) continue;
+    if (sufficient(tr, a)) return take(tr, a);
+  }
+  return false;
+}
+
+bool ContactSolver::Impl::solve_nonlinear(const VectorXd& xs, const std::vector<Eigen::Matrix3d>& B, SparseMatrix& K,
+                                          const Eigen::MatrixXd& r, Eigen::MatrixXd& delta) {
+  const SerialParallelRegions serial;
+  const auto cholesky = [&](const SparseMatrix& A) {
+    if (A.nonZeros() != analysed_nnz) {
+      llt.analyzePattern(A);
+      analysed_nnz = A.nonZeros();
+    }
+    llt.factorize(A);
+    if (llt.info() != Eigen::Success) return false;
+    ++factorizations;
+    delta = llt.solve(r);
+    return delta.allFinite();
+  };
+  if (model.has_energy() && cholesky(K)) return true;
+  if (model.has_energy()) {
+    SparseMatrix Kp;
+    tangent(xs, B, Kp, true);
+    if (cholesky(Kp)) return true;
+  }
+  Eigen::SparseLU<SparseMatrix> lu;
+  lu.compute(K);
+  if (lu.info() != Eigen::Success) return false;
+  ++factorizations;
+  delta = lu.solve(r);
+  return delta.allFinite();
+}
+
+bool ContactSolver::Impl::newton_direction(const VectorXd& xs, const std::vector<Eigen::Matrix3d>& B, SparseMatrix& K,
+                                           const VectorXd& r, double rs, VectorXd& delta, double& ds) {
+  Eigen::MatrixXd rhs = r, sol;  // a free obstacle's column c beside r
+  double h = 0;
+  ds = 0;
+  if (free_axis()) {
+    rhs.conservativeResize(Eigen::NoChange, 2);
+    rhs.col(1) = free_border(B, h);
+  }
+  if (opt.linear_body) {
+    // The last factorisation (of a nearby contact state) preconditions CG on the new tangent;
+    // a fresh factorisation only when CG does not converge quickly.
+    if (!free_axis() && factor_valid && opt.max_reuse_cg > 0 && pcg(K, r, delta)) return true;
+    const SerialParallelRegions serial;
+    if (K.nonZeros() != analysed_nnz) {
+      llt.analyzePattern(K);
+      analysed_nnz = K.nonZeros();
+    }
+    llt.factorize(K);
+    if (llt.info() != Eigen::Success) return false;
+    factor_valid = true;
+    ++factorizations;
+    sol = llt.solve(rhs);
+  } else if (!solve_nonlinear(xs, B, K, rhs, sol)) {
+    return false;
+  }
+  delta = sol.col(0);
+  return !free_axis() || eliminate_free(rhs, sol, h, rs, delta, ds);
+}
+
+bool ContactSolver::Impl::newton(VectorXd& xs, Vec3& t, std::vector<NodeContact>& st, std::vector<Vec3>& th,
+                                 int& iterations, double& rn, bool& at_kink) {
+  at_kink = false;
+  tissue::limit_solver_threads();
+  SparseMatrix K;
+  std::vector<Eigen::Matrix3d> B;
+  std::vector<double> pi_history;
+  double pi = 0, rs = 0;
+  VectorXd r;
+  const auto residual = [&] {
+    r = evaluate(xs, t, st, th, &B, &pi);
+    rs = free_residual(st);
+    pi -= free_force_n * t.dot(free_dir);  // the push's work (0 unless free)
+    rn = std::hypot(r.norm(), rs);
+  };
+  residual();
+  const bool conservative = std::isfinite(pi);
+  for (int it = 0; it <= opt.max_newton; ++it) {
+    const double tol = tolerance(st);
+    if (rn <= tol) return true;
+    if (log::level() <= log::Level::Debug) {
+      int act = 0;
+      for (const auto& c : st) act += c.active ? 1 : 0;
+      log::debug("contact: Newton {}: |r| {:.3g} N (tol {:.3g}), {} active, potential {:.6g} J", it, rn, tol, act,
+                 pi);
+    }
+    if (it == opt.max_newton) {
+      at_kink = rn <= kink_tolerance(st);
+      return at_kink;
+    }
+    // The tangent only when a Newton step is taken: a solve converged at its start (a step where
+    // no node touches, the last friction pass) or stopped at max_newton costs no tangent.
+    tangent(xs, B, K);
+    VectorXd delta;
+    double ds = 0;
+    if (!newton_direction(xs, B, K, r, rs, delta, ds)) return false;
+    ++iterations;
+    double step = 0;
+    const bool accepted = line_search(xs, t, delta, ds, r, rs, rn, pi, st, th, B, conservative, step);
+    if (!accepted) {
+      log::debug("contact: line search failed at Newton {} (residual {:.3g} N)", it, rn);
+      at_kink = rn <= kink_tolerance(st);
+      return at_kink;
+    }
+    // A node on a kink of the wall (an edge or vertex where the closest face switches) has no
+    // point of zero residual: Newton then crawls with tiny steps while Π stops decreasing. Its
+    // residual is bounded by the force jump across the kink; accept it when it is small.
+    log::debug("contact: step {:.3g} of the Newton step", step);
+    pi_history.push_back(pi);
+    const double moved = step * std::max(delta.cwiseAbs().maxCoeff(), std::abs(ds));
+    const size_t nh = pi_history.size();
+    const bool flat = nh > 5 && conservative &&
+                      pi_history[nh - 6] - pi <= 1e-6 * std::max(std::abs(pi), 1e-30);
+    if ((moved <= opt.kink_step_tol_m || flat) && rn > tolerance(st) && rn <= kink_tolerance(st)) {
+      at_kink = true;
+      return true;
+    }
+    // Friction lag inside Newton: near convergence, when the normal forces have moved away from
+    // the lag by more than the friction-pass tolerance, take them as the new lag now (the
+    // potential changes, so its history restarts) instead of only after this Newton solve has
+    // converged. Refreshing it far from convergence (any residual) doubled the iterations.
+    bool relagged = false;
+    if (opt.friction > 0 && opt.friction_in_newton && rn <= kRelagResidual * tolerance(st) &&
+        lag_change(st) > opt.friction_lag_tol) {
+      update_lag(st);
+      pi_history.clear();
+      relagged = true;
+    }
+    if (relagged) residual();
+    if (stop_on_new_stick && rn <= kRelagResidual * tolerance(st) && count_new_sticks(st) > 0) {
+      stopped_on_stick = true;
+      return false;
+    }
+  }
+  return false;
+}
+
+void ContactSolver::Impl::predict_start(const Vec3& t, VectorXd& xs) {
+  if (have_prev) {
+    const Vec3 dprev = t_conv - t_prev;
+    const double len2 = dprev.squaredNorm();
+    if (len2 > 0) {
+      const double ratio = std::clamp((t - t_conv).dot(dprev) / len2, 0.0, 2.0);
+      if (ratio > 0) {
+        lag_fn = conv_fn;
+        lag_n = conv_n;
+        VectorXd xp = x_conv + ratio * (x_conv - x_prev);
+        std::vector<NodeContact> s1, s2;
+        std::vector<Vec3> h1, h2;
+        double p0 = 0, p1 = 0;
+        const VectorXd r0 = evaluate(xs, t, s1, h1, nullptr, &p0);
+        // A trial point: the extrapolation may turn a strongly compressed element inside out
+        // (AmpScan's limb, where the brim passes the tibial tuberosity); then it is not taken.
+        const VectorXd r1 = evaluate(xp, t, s2, h2, nullptr, &p1, nullptr, true);
+        const bool better = r1.allFinite() && (std::isfinite(p0) ? p1 < p0 : r1.norm() < r0.norm());
+        if (better) xs = std::move(xp);
+      }
+    }
+  }
+}
+
+ContactStep ContactSolver::Impl::solve(const Vec3& t_start, bool commit) {
+  Vec3 t = t_start;  // moves when the obstacle is free along free_dir
+  const auto t0 = std::chrono::steady_clock::now();
+  ContactStep out;
+  VectorXd xs = x;
+  predict_start(t, xs);
+  std::vector<NodeContact> st;
+  std::vector<Vec3> th;
+  // Friction lag: start from the normal forces of the last converged state, then update them
+  // until they agree with the solution's (a fixed point; usually 1–3 passes).
+  lag_fn = conv_fn;
+  lag_n = conv_n;
+  last_lag_change = 0;
+  // The friction lag of the nodes that touched at the last two steps is extrapolated like the
+  // positions (the normal forces grow steadily along a donning path), so that fewer refreshes
+  // are needed (7.5k demo: 118 → 104 factorisations, the same state).
+  if (opt.extrapolate_friction_lag && have_prev && prev_fn.size() == conv_fn.size()) {
+    const Vec3 dprev = t_conv - t_prev;
+    const double len2 = dprev.squaredNorm();
+    const double ratio = len2 > 0 ? std::clamp((t - t_conv).dot(dprev) / len2, 0.0, 2.0) : 0.0;
+    for (size_t i = 0; i < lag_fn.size(); ++i)
+      if (conv_fn[i] > 0 && prev_fn[i] > 0) lag_fn[i] = std::max(0.0, conv_fn[i] + ratio * (conv_fn[i] - prev_fn[i]));
+  }
+  double rn = 0;
+  bool ok = false;
+  for (int pass = 0; pass < opt.max_friction_passes; ++pass) {
+    ++out.friction_passes;
+    bool kink = false;
+    ok = newton(xs, t, st, th, out.newton_iterations, rn, kink);
+    out.at_kink = kink;
+    if (!ok || opt.friction == 0) break;
+    out.friction_lag_change = lag_change(st);
+    if (out.friction_lag_change <= opt.friction_lag_tol) break;
+    if (pass + 1 == opt.max_friction_passes) break;  // keep the lag of the solved pass
+    update_lag(st);
+  }
+  out.converged = ok;
+  out.residual_n = rn;
+  Vec3 F = Vec3::Zero(), T = Vec3::Zero();
+  for (size_t i = 0; i < nodes.size(); ++i) {
+    if (!st[i].active && st[i].tangential_n.squaredNorm() == 0) continue;
+    const Vec3 f = st[i].normal_force_n * st[i].normal + st[i].tangential_n;  // on the node
+    F -= f;
+    T -= (xs.segment<3>(3 * nodes[i]) - t).cross(f);
+    if (!st[i].active) continue;
+    ++out.contact_nodes;
+    out.sliding_nodes += st[i].sliding ? 1 : 0;
+    out.max_penetration_m = std::max(out.max_penetration_m, -st[i].gap_m);
+  }
+  out.force_on_obstacle_n = F;
+  out.torque_on_obstacle_nm = T;
+  out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  out.factorizations = factorizations;
+  out.cg_iterations = cg_iterations;
+  if (out.converged) {
+    out.message = fmt::format("converged in {} Newton iterations ({} friction passes), {} nodes in contact{}",
+                              out.newton_iterations, out.friction_passes, out.contact_nodes,
+                              out.at_kink ? fmt::format(", residual {:.3g} N left at a kink of the wall", rn) : "");
+    out.new_sticks = count_new_sticks(st);
+    x = xs;
+    state = st;
+    last_t = t;
+    obstacle.set_translation(t);
+    last_hist = std::move(th);
+    if (commit) commit_last();
+  } else if (stopped_on_stick) {
+    out.stopped_on_new_stick = true;
+    out.message = fmt::format("stopped after {} Newton iterations: a node started sticking", out.newton_iterations);
+  } else {
+    out.message = fmt::format("contact solve did not converge after {} Newton iterations (residual {:.3g} N)",
+                              out.newton_iterations, rn);
+  }
+  return out;
+}
+
+void ContactSolver::Impl::commit_last() {
+  if ((last_t - t_conv).squaredNorm() > 0) {
+    x_prev = x_conv;
+    t_prev = t_conv;
+    have_prev = true;
+  }
+  x_conv = x;
+  t_conv = last_t;
+  hist = last_hist;
+  conv_state = state;
+  prev_fn = conv_fn;
+  for (size_t i = 0; i < state.size(); ++i) {
+    was_active[i] = state[i].active ? 1 : 0;
+    conv_fn[i] = state[i].normal_force_n;
+    if (state[i].active) conv_n[i] = state[i].normal;
+  }
+}
+
+void ContactSolver::Impl::warm_start(const VectorXd& guess, const Vec3& t) {
+  lag_fn = conv_fn;
+  lag_n = conv_n;
+  std::vector<NodeContact> s1, s2;
+  std::vector<Vec3> h1, h2;
+  double p0 = 0, p1 = 0;
+  const VectorXd r0 = evaluate(x, t, s1, h1, nullptr, &p0);
+  const VectorXd r1 = evaluate(guess, t, s2, h2, nullptr, &p1, nullptr, true);  // may be inverted
+  if (r1.allFinite() && (std::isfinite(p0) ? p1 < p0 : r1.norm() < r0.norm())) x = guess;
+}
+
+bool ContactSolver::Impl::push_free(const Vec3& d, double force_n, double rel_tol, ContactStep& out) {
+  const Vec3 base = obstacle.translation();
+  free_dir = d;
+  free_force_n = force_n;
+  out = solve(base, false);
+  free_dir.setZero();
+  free_force_n = 0;
+  if (out.converged && std::abs(-out.force_on_obstacle_n.dot(d) - force_n) <= rel_tol * std::max(force_n, 1e-3)) {
+    commit_last();
+    return true;
+  }
+  obstacle.set_translation(base);
+  log::debug("contact: the push with the obstacle free along its direction did not converge ({}); bracketing it",
+             out.message);
+  return false;
+}
+
+ContactStep ContactSolver::Impl::solve_path(const Vec3& t, bool commit) {
+  stopped_on_stick = false;
+  ContactStep st = solve(t, commit);
+  if (st.converged || st.stopped_on_new_stick) return st;
+  int pieces = 2;
+  int total_newton = st.newton_iterations;
+  for (int depth = 0; depth < 6 && !st.converged; ++depth, pieces *= 2) {
+    const Vec3 from = t_conv;
+    x = x_conv;
+    for (int piece = 1; piece <= pieces; ++piece) {
+      st = solve(from + (t - from) * (static_cast<double>(piece) / pieces), commit);
+      total_newton += st.newton_iterations;
+      if (!st.converged) break;
+    }
+  }
+  st.newton_iterations = total_newton;
+  if (st.converged) st.message += fmt::format(" (reached through {} sub-steps)", pieces / 2);
+  return st;
+}
+
+ContactStep ContactSolver::push_with_force(const Vec3& direction, double force_n, double rel_tol, double max_step_m,
+                                           double first_step_m) {
+  require(std::isfinite(force_n) && force_n >= 0, "contact: push force {} N must be ≥ 0", force_n);
+  const Vec3 d = direction.normalized();
+  auto& s = *impl_;
+  ContactStep st;
+  if (s.opt.free_push && s.push_free(d, force_n, rel_tol, st)) return st;
+  const Vec3 base = s.obstacle.translation();
+  return s.refine_push(base, d, force_n, rel_tol, s.bracket_push(base, d, force_n, max_step_m, first_step_m));
+}
+
+ContactSolver::Impl::PushBracket ContactSolver::Impl::bracket_push(const Vec3& base, const Vec3& d, double force_n,
+                                                                   double max_step_m, double first_step_m) {
+  const auto reaction = [&](const ContactStep& st) { return -st.force_on_obstacle_n.dot(d); };
+  // Current reaction.
+  ContactStep cur = solve_path(base, false);
+  require<SolverError>(cur.converged, "contact: {}", cur.message);
+  PushBracket b;
+  b.r_lo = reaction(cur);
+  bool bracket = b.r_lo >= force_n;
+  // The solutions at the bracket's ends: the solve inside it starts from their interpolation
+  // (the reaction and the tissue follow the socket's position nearly linearly over one step).
+  b.x_lo = b.x_hi = x;
+  if (bracket) {
+    b.s_hi = 0;
+    b.r_hi = b.r_lo;
+    b.s_lo = -max_step_m;  // back off until below the force
+    for (int n = 0; n < 200; ++n) {
+      cur = solve_path(base + b.s_lo * d, false);
+      require<SolverError>(cur.converged, "contact: {}", cur.message);
+      b.r_lo = reaction(cur);
+      b.x_lo = x;
+      if (b.r_lo < force_n) break;
+      b.s_hi = b.s_lo;
+      b.r_hi = b.r_lo;
+      b.x_hi = b.x_lo;
+      b.s_lo -= max_step_m;
+    }
+    return b;
+  }
+  // March forward in steps (secant-predicted, at most max_step) until the reaction exceeds the
+  // force. A step that stays below the force is committed (the load grows monotonically); the
+  // one that overshoots is not: the solves inside the bracket start from the last step below the
+  // force, as a standing patient loads the socket once (committing the overshoot made the
+  // bracket's solves pull the socket back against friction that had already slid the other way).
+  double stiff = 0;
+  for (int n = 0; n < 2000 && !bracket; ++n) {
+    double step = n == 0 && first_step_m > 0 ? std::min(first_step_m, max_step_m) : max_step_m;
+    if (stiff > 0) step = std::clamp((force_n - b.r_lo) / stiff * 1.2, 1e-6, max_step_m);
+    const double s_new = b.s_lo + step;
+    b.x_lo = x;
+    cur = solve_path(base + s_new * d, false);
+    require<SolverError>(cur.converged, "contact: while pushing with {:.1f} N: {}", force_n, cur.message);
+    const double r_new = reaction(cur);
+    if (r_new < force_n) commit_last();
+    if (r_new > b.r_lo) stiff = (r_new - b.r_lo) / step;
+    if (r_new >= force_n) {
+      b.s_hi = s_new;
+      b.r_hi = r_new;
+      b.x_hi = x;
+      bracket = true;
+    } else {
+      b.s_lo = s_new;
+      b.r_lo = r_new;
+    }
+  }
+  require<SolverError>(bracket, "contact: the obstacle could not be pushed to {:.1f} N (reaction {:.1f} N)", force_n,
+                       b.r_lo);
+  return b;
+}
+
+ContactStep ContactSolver::Impl::refine_push(const Vec3& base, const Vec3& d, double force_n, double rel_tol,
+                                             PushBracket b) {
+  // Illinois regula falsi inside the bracket.
+  int side = 0;
+  for (int n = 0; n < 60; ++n) {
+    const double sm = (b.r_hi - b.r_lo) > 0 ? b.s_lo + (force_n - b.r_lo) * (b.s_hi - b.s_lo) / (b.r_hi - b.r_lo)
+                                            : 0.5 * (b.s_lo + b.s_hi);
+    if (opt.interpolate_bracket && b.s_hi > b.s_lo) {
+      const double w = (sm - b.s_lo) / (b.s_hi - b.s_lo);
+      warm_start((1 - w) * b.x_lo + w * b.x_hi, base + sm * d);
+    }
+    const ContactStep cur = solve_path(base + sm * d, false);
+    require<SolverError>(cur.converged, "contact: {}", cur.message);
+    const double rm = -cur.force_on_obstacle_n.dot(d);
+    if (std::abs(rm - force_n) <= rel_tol * std::max(force_n, 1e-3)) {
+      // The solve that reached the force is the step: commit it rather than solve it again.
+      commit_last();
+      return cur;
+    }
+    if (rm < force_n) {
+      b.s_lo = sm;
+      b.r_lo = rm;
+      b.x_lo = x;
+      if (side == -1) b.r_hi = force_n + 0.5 * (b.r_hi - force_n);
+      side = -1;
+    } else {
+      b.s_hi = sm;
+      b.r_hi = rm;
+      b.x_hi = x;
+      if (side == 1) b.r_lo = force_n + 0.5 * (b.r_lo - force_n);
+      side = 1;
+    }
+  }
+  fail<SolverError>("contact: the push force {:.1f} N was not reached within tolerance", force_n);
+}
+
+}  // namespace socketsmith::contact

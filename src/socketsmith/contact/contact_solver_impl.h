@@ -1,0 +1,251 @@
+#pragma once
+/// @file contact_solver_impl.h
+/// The state and the methods of ContactSolver (private to the contact module): the contact and
+/// friction terms, their tangent and the CG reuse in contact_solver.cpp; Newton, its line search,
+/// the steps along a path and the pushes in contact_newton.cpp.
+
+#include <vector>
+
+#include <Eigen/CholmodSupport>
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
+#include "socketsmith/contact/contact_solver.h"
+
+namespace socketsmith::contact {
+
+using tissue::SparseMatrix;
+using tissue::VectorXd;
+
+constexpr double kRelagResidual = 100.0;  // friction lag refreshed in Newton once ‖r‖ ≤ this × tol
+
+/// While alive, every OpenMP parallel region runs on the calling thread alone. CHOLMOD's supernodal
+/// factorisation opens a region per supernode asking for 4 threads; with dynamic teams
+/// (tissue::limit_solver_threads) each region still asks the kernel for the load and the affinity
+/// and wakes the pool: a 7.5k-node donning made 209k sysinfo + sched_getaffinity and 814k futex
+/// calls (≈ 10 % of its CPU in the kernel, strace -c / perf), for assembly loops too small to share.
+class SerialParallelRegions {
+ public:
+  SerialParallelRegions() {
+#ifdef _OPENMP
+    levels_ = omp_get_max_active_levels();
+    omp_set_max_active_levels(0);
+#endif
+  }
+  ~SerialParallelRegions() {
+#ifdef _OPENMP
+    omp_set_max_active_levels(levels_);
+#endif
+  }
+  SerialParallelRegions(const SerialParallelRegions&) = delete;
+  SerialParallelRegions& operator=(const SerialParallelRegions&) = delete;
+
+ private:
+  int levels_ = 1;
+};
+
+struct ContactSolver::Impl {
+  const tissue::MassSpringModel& model;
+  const tissue::DofMap& dofs;
+  std::vector<int> nodes;
+  std::vector<double> areas;
+  Obstacle& obstacle;
+  ContactOptions opt;
+  double k = 0;
+  VectorXd x, x_conv, x_prev;        // current, last converged and the one before (predictor)
+  Vec3 t_conv = Vec3::Zero(), t_prev = Vec3::Zero();
+  bool have_prev = false;
+  std::vector<Vec3> hist;  // tangential spring force of the last converged step (opposes slip)
+  Vec3 last_t = Vec3::Zero();     // translation of the last converged solve (committed or not)
+  std::vector<Vec3> last_hist;    // its tangential spring forces (hist once committed)
+  std::vector<NodeContact> state;
+  std::vector<NodeContact> conv_state;  // state of the last committed step
+  bool stop_on_new_stick = false, stopped_on_stick = false;  // try_move_to(…, true)
+  std::vector<char> was_active;  // active at the last converged step
+  struct QueryCache {
+    Vec3 p = Vec3::Zero(), t = Vec3::Zero();
+    double clearance = -1.0;  // gap of the last query when the node was in the cavity, else −1
+  };
+  std::vector<QueryCache> qcache;  // per candidate node
+  std::vector<Gap> gaps;           // scratch of evaluate()
+  std::vector<double> conv_fn, lag_fn, prev_fn;  // normal force at the last converged step / friction lag
+  std::vector<Vec3> conv_n, lag_n;      // wall normal at the last converged step / friction lag
+  double force_floor = 1e-3;            // [N] scale of the residual tolerance when forces are small
+  SparseMatrix K0;         // linear body: reduced stiffness at rest
+  SparseMatrix K0c;        // K₀ with every candidate node's 3×3 block in its pattern
+  std::vector<Eigen::Index> block_at;  // per candidate node, entry (a, b) at 9 i + 3 b + a: index in K0c's values, −1 fixed
+  // Upper: CHOLMOD permutes an upper-stored matrix with one transpose, a lower-stored one with two.
+  Eigen::CholmodSupernodalLLT<SparseMatrix, Eigen::Upper> llt;
+  Eigen::Index analysed_nnz = -1;
+  bool factor_valid = false;
+  long factorizations = 0, cg_iterations = 0;  // counters for ContactStep
+  // push_with_force: the obstacle free along free_dir under free_force_n, its translation along
+  // free_dir one more unknown of Newton (free_dir zero: the obstacle's translation is given).
+  Vec3 free_dir = Vec3::Zero();
+  double free_force_n = 0;
+  bool free_axis() const { return free_dir.squaredNorm() > 0; }
+  /// The obstacle's equilibrium along free_dir in state @p st: the push minus what the nodes take.
+  double free_residual(const std::vector<NodeContact>& st) const;
+
+  Impl(const tissue::MassSpringModel& m, const tissue::DofMap& d, std::vector<int> n, std::vector<double> a,
+       Obstacle& o, const ContactOptions& op)
+      : model(m), dofs(d), nodes(std::move(n)), areas(std::move(a)), obstacle(o), opt(op) {}
+
+  /// Residual (reduced), the incremental potential Π (when the body has an energy) and, when
+  /// @p blocks is given, each candidate node's 3×3 contact and friction stiffness (tangent()
+  /// assembles K = −∂r/∂x = ∇²Π from them). Linear body: @p Ku, when given, is K₀ u at xs (a line
+  /// search knows it as K₀u + a K₀δ without a product). Friction uses the lagged normal forces
+  /// and normals (lag_fn, lag_n): with them fixed, the step is the minimum of a convex potential
+  /// (elastic energy + ½ k A g² for each penetration + a Huber slip potential per node), so Newton
+  /// with a line search on Π converges from any start.
+  /// @p trial_point: a line search's trial point, which may have inverted an element (nonlinear body):
+  /// then the residual is NaN (rejected), where elsewhere the body's forces throw naming it.
+  VectorXd evaluate(const VectorXd& xs, const Vec3& t, std::vector<NodeContact>& st, std::vector<Vec3>& trial_hist,
+                    std::vector<Eigen::Matrix3d>* blocks, double* energy, const VectorXd* Ku = nullptr,
+                    bool trial_point = false);
+
+  /// The gap of every candidate node at @p xs against the obstacle at @p t (in `gaps`), in
+  /// parallel. A node whose last query found it in the cavity with a clearance larger than how far
+  /// it and the obstacle have moved since cannot have reached the wall: no query.
+  void query_gaps(const VectorXd& xs, const Vec3& t);
+  /// Friction of candidate node @p i at @p p: a node that carried a normal force at the lag
+  /// (μ f̄ > 0) resists slip relative to the wall with an elastic stick (stiffness kT) capped at μ f̄
+  /// (return mapping). Adds its force to @p f and its stiffness to @p B, sets @p s's sliding and
+  /// tangential force and @p trial_hist; returns its potential.
+  double friction_term(size_t i, const Vec3& p, const Vec3& t, NodeContact& s, Vec3& trial_hist, Vec3& f,
+                       Eigen::Matrix3d& B) const;
+
+  /// The tangent K = K_body + Σ the candidate nodes' 3×3 @p blocks (reduced). Every candidate
+  /// node's block is in the pattern (explicit zeros where it is not in contact), so the pattern
+  /// never changes and CHOLMOD orders it once. Linear body: K₀'s values are copied into that fixed
+  /// pattern and the blocks added in place (block_at: where each block entry lives).
+  void tangent(const VectorXd& xs, const std::vector<Eigen::Matrix3d>& blocks, SparseMatrix& K, bool psd_body = false);
+  SparseMatrix J_body;               // the body's Jacobian (nonlinear body), its pattern reused
+  std::vector<Eigen::Index> body_block_at;  // where each candidate block entry lives in K (nonlinear body)
+
+  /// Where entry (a, b) of each candidate node's 3×3 block lives in @p K's values (index 9i + 3b + a;
+  /// −1 for a fixed DOF).
+  std::vector<Eigen::Index> block_positions(const SparseMatrix& K) const;
+
+  /// Gap against the wall. On the faceted wall, whose validity is all or nothing, a node in contact
+  /// at the last converged step keeps a wider acceptance cone, so that a node at the wall's rim does
+  /// not chatter in and out of contact (the smoothed wall hands over to the brim's lip there instead).
+  Gap wall_gap(size_t i, const Vec3& p) const;
+  /// CG on K d = b preconditioned by the last factorisation; false when it needs more than
+  /// opt.max_reuse_cg iterations for a relative residual of 1e-8.
+  bool pcg(const SparseMatrix& K, const VectorXd& b, VectorXd& d);
+
+  double tolerance(const std::vector<NodeContact>& st) const;
+  /// The residual accepted at a kink of the wall (see ContactOptions::kink_rel_tol).
+  double kink_tolerance(const std::vector<NodeContact>& st) const {
+    return opt.kink_rel_tol / opt.rel_tol * tolerance(st);
+  }
+
+  /// Nodes of @p st sticking (in contact, friction below its limit and not zero) that were sliding
+  /// or free at the last committed step.
+  int count_new_sticks(const std::vector<NodeContact>& st) const;
+
+  /// Largest change of the normal forces of @p st from the friction lag, / the largest of them.
+  double lag_change(const std::vector<NodeContact>& st) const;
+  /// The friction lag takes the normal forces of @p st — half-way only when the last refresh did
+  /// not shrink the change (a node at the socket's rim can otherwise flip in and out of contact
+  /// with every refresh, its friction pushing it out and its absence letting it back: a 2-cycle).
+  void update_lag(const std::vector<NodeContact>& st);
+  double last_lag_change = 0;  // of the last refresh in this solve
+
+  /// A trial point x + a·delta of the line search, with its residual, potential and slope.
+  struct Trial {
+    VectorXd x, r;
+    Vec3 t = Vec3::Zero();
+    double pi = 0, rn = 0, rs = 0;  // rs: free_residual
+    double slope = 0;  // dΠ/da = −r(x + a·delta)·delta − rs·ds
+    std::vector<NodeContact> st;
+    std::vector<Vec3> th;
+    std::vector<Eigen::Matrix3d> B;
+  };
+  /// Linear body: K₀u at the line search's start and K₀δ (then K₀u at x + a·δ = Ku0 + a·Kd).
+  VectorXd Ku0, Kd;
+  bool try_step(const VectorXd& xs, const Vec3& t, const VectorXd& delta, double ds, double a, Trial& tr);
+
+  /// Line search along the Newton direction @p delta from xs (residual r, potential pi); on
+  /// success moves xs and its state to the accepted point and returns true.
+  ///
+  /// With a potential Π the search first tries the full step; when Π still decreases there
+  /// (Armijo) and its slope has fallen to at most half the initial one (curvature), it is taken.
+  /// Otherwise, when Π turns upwards before the full step (the usual case: a node crossed an
+  /// edge of the faceted wall, where the quadratic model ends), the minimum of Π along delta is
+  /// bracketed and found by regula falsi on the slope Π'(a) = −r(x + a·delta)·delta — each trial
+  /// costs a residual (gap queries and K₀u), not a factorisation. Backtracking (halving; Armijo
+  /// on Π, else on ‖r‖) is the fall-back. Near convergence Π's decrease drowns in round-off: a
+  /// step that lowers ‖r‖ is then accepted too.
+  bool line_search(VectorXd& xs, Vec3& t, const VectorXd& delta, double ds, VectorXd& r, double& rs, double& rn,
+                   double& pi, std::vector<NodeContact>& st, std::vector<Vec3>& th, std::vector<Eigen::Matrix3d>& B,
+                   bool conservative, double& step);
+
+  /// The Newton step of the nonlinear body: CHOLMOD on the exact tangent @p K (symmetric for the
+  /// hyperelastic models; positive definite near a stable equilibrium), else on the tangent with
+  /// the body's part projected positive (a descent direction for the line search on Π), else
+  /// sparse LU. The pattern is the same every iteration, so CHOLMOD orders it once.
+  bool solve_nonlinear(const VectorXd& xs, const std::vector<Eigen::Matrix3d>& B, SparseMatrix& K,
+                       const Eigen::MatrixXd& r, Eigen::MatrixXd& delta);
+
+  /// The free obstacle's column of the tangent (free_axis()): c = ∂²Π/∂x∂s, reduced (−B_i d at
+  /// each candidate node, the contact depending on x_i − t), and @p h = ∂²Π/∂s² = Σ dᵀ B_i d.
+  VectorXd free_border(const std::vector<Eigen::Matrix3d>& B, double& h) const;
+  /// Block elimination of the free obstacle's unknown s from [K c; cᵀ h] [δ; ds] = [r; rs], with
+  /// the columns of @p sol z = K⁻¹r and y = K⁻¹c: ds = (rs − cᵀz) / (h − cᵀy), δ = z − y ds, the
+  /// step scaled to move the obstacle at most 1 mm. False when the Schur complement h − cᵀy is not
+  /// positive: nothing holds the obstacle along free_dir.
+  static bool eliminate_free(const Eigen::MatrixXd& rhs, const Eigen::MatrixXd& sol, double h, double rs,
+                             VectorXd& delta, double& ds);
+
+  /// The Newton step (@p delta, and @p ds along free_dir when the obstacle is free) from the
+  /// tangent @p K and the residuals @p r, @p rs.
+  bool newton_direction(const VectorXd& xs, const std::vector<Eigen::Matrix3d>& B, SparseMatrix& K, const VectorXd& r,
+                        double rs, VectorXd& delta, double& ds);
+
+  /// Newton on the equilibrium at translation t with the friction lag fixed; updates xs (and t
+  /// when the obstacle is free along free_dir).
+  bool newton(VectorXd& xs, Vec3& t, std::vector<NodeContact>& st, std::vector<Vec3>& th, int& iterations,
+              double& rn, bool& at_kink);
+
+  /// Predictor: @p xs (the last solution) becomes the extrapolation of the last converged increment
+  /// along the obstacle's path to @p t (donning moves the socket in equal steps and the tissue
+  /// follows smoothly) when that lowers the potential.
+  void predict_start(const Vec3& t, VectorXd& xs);
+
+  ContactStep solve(const Vec3& t_start, bool commit);
+
+  /// Makes the last converged solve (x, state at last_t) the converged step: the friction
+  /// history, the lag and the predictor's states move on to it.
+  void commit_last();
+
+  /// Starts the next solve at translation t from @p guess instead of the last solution when its
+  /// potential there is lower (same friction lag as solve() starts with).
+  void warm_start(const VectorXd& guess, const Vec3& t);
+
+  /// push_with_force in one solve: the obstacle's position along @p d one more unknown, its
+  /// equilibrium under @p force_n; true (the step committed in @p out) when it converged.
+  bool push_free(const Vec3& d, double force_n, double rel_tol, ContactStep& out);
+
+  /// push_with_force's bracket of the obstacle's position along its direction d from base: below
+  /// the force at s_lo, above it at s_hi (the reactions r_lo, r_hi, the solutions x_lo, x_hi).
+  struct PushBracket {
+    double s_lo = 0, r_lo = 0, s_hi = 0, r_hi = 0;
+    VectorXd x_lo, x_hi;
+  };
+  /// Brackets @p force_n: backs the obstacle off from @p base when it already carries more, else
+  /// marches forwards, committing the steps that stay below it.
+  PushBracket bracket_push(const Vec3& base, const Vec3& d, double force_n, double max_step_m, double first_step_m);
+  /// Regula falsi on the reaction inside bracket @p b until it is @p force_n within @p rel_tol;
+  /// the solve that reaches it is committed.
+  ContactStep refine_push(const Vec3& base, const Vec3& d, double force_n, double rel_tol, PushBracket b);
+
+  /// solve(t), and when it fails, path continuation: reach t through 2, 4, … 64 equal sub-steps
+  /// from the last converged translation (a stick–slip switch or a new contact front can be too
+  /// much for one Newton solve). Sub-steps are committed only when @p commit.
+  ContactStep solve_path(const Vec3& t, bool commit);
+};
+
+}  // namespace socketsmith::contact
