@@ -188,8 +188,9 @@ struct DonningSimulation::Impl {
       log::debug("donning: standing push {:.0f} → {:.0f} N over {:.2f} mm: {:.2f} s",
                  pose_force, o.stand_force_n, (stood_at - start_at) * 1e3,
                  std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-      // The axial stiffness over this push, for the next refit's prediction.
-      if (std::abs(stood_at - start_at) > 1e-7) {
+      // The axial stiffness over this push, for the next refit's prediction (from the force at
+      // the pose, when the push started from one).
+      if (ns > 0 && std::abs(stood_at - start_at) > 1e-7) {
         const double k = (o.stand_force_n - pose_force) / (stood_at - start_at);
         if (k > 0) stand_stiffness = k;
       }
@@ -305,6 +306,22 @@ DonningResult DonningSimulation::refit(const geometry::TriMesh& socket_solid) {
   r.nodes = s.skin_nodes;
   r.socket_mass_kg = s.socket.mass_kg();
   r.start_offset_m = s.o.start_offset_m;
+  if (s.stood && s.o.stand_force_n > 0 && s.o.contact.free_push) {
+    // The new wall's equilibrium and the standing position in one solve (the socket free along the
+    // axis under the standing load); when it fails, the two steps below from the worn state again.
+    s.stood = false;
+    s.stand(r);
+    if (r.stood) {
+      r.completed = true;
+      r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      return r;
+    }
+    s.solver->discard();
+    r.series.clear();
+    r.message.clear();
+    r.newton_iterations = 0;
+    s.stood = true;
+  }
   const Vec3 t = s.socket.translation();
   ContactStep st = s.solver->move_to(t);
   // The new wall in one step from the worn state can be too much for Newton (OpenLimb's limb: every

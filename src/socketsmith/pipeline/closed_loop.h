@@ -54,8 +54,10 @@ struct ClosedLoopOptions {
   /// a round, is checked by a donning from scratch. (Correcting a refit's pressures by how the last
   /// full donning differed from the refit of the same socket made the demo overshoot: the
   /// difference is not stable from one socket to the next.) 0: every correction is donned from
-  /// scratch.
-  int refits_per_donning = 3;
+  /// scratch. Six: a refit costs a sixth of a donning (its wall and standing in one solve), so the
+  /// demo's loop refits until a refit meets the tolerances and checks it with one donning (8k:
+  /// 2 donnings + 5 refits, where three refits a round needed 3 donnings + 6 refits).
+  int refits_per_donning = 6;
   double relaxation = 1.0;        ///< ω, the share of the computed correction applied, in (0, 1.5]
   /// Past iterates that Anderson acceleration combines (since the last donning from scratch), in
   /// [0, 10]; 0: the plain iteration δ ← δ + correction.
