@@ -150,10 +150,12 @@ class DonningSimulation {
 
   /// The donning path and the standing load, once. @throws InvalidInputError when called twice.
   DonningResult run();
-  /// Replaces the worn socket by @p socket_solid (same frame), solves where the socket stood and
-  /// pushes it to the standing load again (when the run stood). The result's series holds the
-  /// refit's steps only; completed = false (with a message) when no equilibrium was found, and
-  /// the simulation cannot be refitted again.
+  /// Replaces the worn socket by @p socket_solid (same frame) and finds its equilibrium from the
+  /// worn state: when the run stood, the new wall and the standing load in one solve (the socket
+  /// free along the axis, ContactOptions::free_push), else — or when that fails — where the socket
+  /// stood, then pushed to the standing load again. The result's series holds the refit's steps
+  /// only; completed = false (with a message) when no equilibrium was found, and the simulation
+  /// cannot be refitted again.
   /// @throws InvalidInputError when run() did not complete; as RigidSocket for a bad solid.
   DonningResult refit(const geometry::TriMesh& socket_solid);
 
