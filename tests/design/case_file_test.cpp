@@ -129,6 +129,16 @@ TEST(CaseFile, round_trip_keeps_every_value) {
   EXPECT_EQ(c.folder, std::filesystem::absolute(dir));
 }
 
+// Lengths are read as mm × 1e-3 and written back as m / 1e-3, the inverse operation: 9 mm
+// written as m × 1e3 came back as 9.000000000000002 and drifted with every save.
+TEST(CaseFile, brim_key_points_and_landmarks_are_written_in_the_millimetres_they_were_read_in) {
+  const nlohmann::json doc = nlohmann::json::parse(R"({"brim": {"key_points": [{"label": "PT", "theta_deg": 0, "h_mm": 9}]},
+                                                       "landmarks": {"PT": [9, 0.3, 7.1]}})");
+  const nlohmann::json out = case_to_json(parse_case(doc, "/cases"));
+  EXPECT_EQ(out.at("brim").at("key_points").at(0).at("h_mm").get<double>(), 9.0);
+  EXPECT_EQ(out.at("landmarks").at("PT"), nlohmann::json::parse("[9, 0.3, 7.1]"));
+}
+
 TEST(CaseFile, a_model_named_without_a_solve_gets_its_own) {
   // The lattices and fe collapse on the thin tissue over bone when solved nonlinearly
   // (docs/design.md): named alone they keep the linear solve; neo-Hookean is solved nonlinearly.

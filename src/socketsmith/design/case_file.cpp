@@ -346,7 +346,7 @@ json brim_json(const CaseFile& c) {
   if (!c.brim_key_points.empty()) {
     json k = json::array();
     for (const auto& p : c.brim_key_points) {
-      json e{{"theta_deg", p.theta / kDeg}, {"h_mm", p.h * 1e3}};
+      json e{{"theta_deg", p.theta / kDeg}, {"h_mm", p.h / 1e-3}};
       if (!p.label.empty()) e["label"] = p.label;
       k.push_back(e);
     }
@@ -382,7 +382,7 @@ json case_to_json(const CaseFile& c) {
            {"tissue", tissue},        {"mesh", mesh},         {"design", design_json(c)},
            {"brim", brim_json(c)},    {"socket", socket_json(c)}};
   json lms = json::object();
-  for (const auto& [code, p] : c.landmarks) lms[code] = {p.x() * 1e3, p.y() * 1e3, p.z() * 1e3};
+  for (const auto& [code, p] : c.landmarks) lms[code] = {p.x() / 1e-3, p.y() / 1e-3, p.z() / 1e-3};
   if (!lms.empty()) doc["landmarks"] = lms;
   return doc;
 }
