@@ -3,6 +3,7 @@
 // one, the numbers reported are those of the socket written (re-donned here independently), and the
 // outputs carry them.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
@@ -58,7 +59,9 @@ Agreement agreement(const std::vector<double>& a, const std::vector<double>& b, 
 class ClosedLoopRun : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    out_ = fs::path(SOCKETSMITH_BINARY_DIR) / "tests" / "closed_loop";
+    // One folder per process: CTest runs each test of the suite as its own process, in parallel,
+    // and one process's remove_all emptied the folder another was checking.
+    out_ = fs::path(SOCKETSMITH_BINARY_DIR) / "tests" / ("closed_loop_" + std::to_string(::getpid()));
     fs::remove_all(out_);
     design::CaseFile c = demo_case(1800);
     c.closed_loop = true;
@@ -69,6 +72,7 @@ class ClosedLoopRun : public ::testing::Test {
   static void TearDownTestSuite() {
     delete art_;
     delete summary_;
+    fs::remove_all(out_);
   }
   static fs::path out_;
   static DesignArtifacts* art_;

@@ -406,7 +406,7 @@ ContactStep ContactSolver::push_with_force(const Vec3& direction, double force_n
   const Vec3 d = direction.normalized();
   auto& s = *impl_;
   ContactStep st;
-  if (s.opt.free_push && s.push_free(d, force_n, rel_tol, st)) return st;
+  if (s.opt.free_push && !s.opt.linear_body && s.push_free(d, force_n, rel_tol, st)) return st;
   const Vec3 base = s.obstacle.translation();
   return s.refine_push(base, d, force_n, rel_tol, s.bracket_push(base, d, force_n, max_step_m, first_step_m));
 }

@@ -306,7 +306,7 @@ DonningResult DonningSimulation::refit(const geometry::TriMesh& socket_solid) {
   r.nodes = s.skin_nodes;
   r.socket_mass_kg = s.socket.mass_kg();
   r.start_offset_m = s.o.start_offset_m;
-  if (s.stood && s.o.stand_force_n > 0 && s.o.contact.free_push) {
+  if (s.stood && s.o.stand_force_n > 0 && s.o.contact.free_push && !s.o.contact.linear_body) {
     // The new wall's equilibrium and the standing position in one solve (the socket free along the
     // axis under the standing load); when it fails, the two steps below from the worn state again.
     s.stood = false;
