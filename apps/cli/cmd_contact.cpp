@@ -378,7 +378,8 @@ void register_contact(CLI::App& app) {
   don->add_option("--steps", f->steps, "this many equal displacement steps (default: adaptive, see --step-mm)")
       ->check(CLI::Range(1, 100000));
   don->add_option("--step-mm", f->step_mm,
-                  "longest adaptive step [mm] (default 4; 2 mm where a node starts sticking)")
+                  fmt::format("longest adaptive step [mm] (default {:g}; down to {:g} mm where a node starts sticking)",
+                              contact::DonningOptions{}.step_m * 1e3, contact::DonningOptions{}.min_step_m * 1e3))
       ->check(positive());
   don->add_option("--target-nodes", f->target_nodes, "stump size (default: the case's, 8000)")
       ->check(within(design::limits::kTargetNodes));
