@@ -122,6 +122,38 @@ TEST(ContactCube, the_push_solves_the_box_position_with_the_cube) {
   }
 }
 
+// push_free is the free solve alone: where it converges it lands on the force; where it cannot (a
+// box that touches nothing has no stiffness along the push) it leaves the obstacle and the body
+// exactly where they were — the refit's fall-back starts from the worn state, not from a
+// half-pushed one.
+TEST(ContactCube, a_free_push_that_fails_leaves_the_state_where_it_was) {
+  const ContactCube c;
+  tissue::MassSpringOptions mo;
+  mo.kind = tissue::TissueModelKind::NeoHookean;
+  const tissue::MassSpringModel model(c.mesh, {50e3, 1060}, mo);
+  const tissue::DofMap dofs(model.num_dofs(), c.cons);
+  PlaneObstacle box(Vec3(0, 0, ContactCube::L), Vec3(0, 0, -1));
+  ContactOptions co;
+  co.friction = 0.5;
+  co.linear_body = false;
+  ContactSolver solver(model, dofs, c.top, c.top_area, box, co);
+  ASSERT_TRUE(solver.move_to(Vec3(0, 0, 0.003)).converged);  // 3 mm above the cube: no contact
+  const tissue::VectorXd x0 = solver.positions();
+  const ContactStep miss = solver.push_free(Vec3(0, 0, -1), 60.0);
+  EXPECT_FALSE(miss.converged);
+  EXPECT_EQ(box.translation(), Vec3(0, 0, 0.003));
+  EXPECT_EQ(solver.positions(), x0);
+  for (const auto& nc : solver.contacts()) EXPECT_FALSE(nc.active);
+  ASSERT_TRUE(solver.move_to(Vec3(0, 0, -0.001)).converged);  // in contact: the free solve has a stiffness
+  const ContactStep hit = solver.push_free(Vec3(0, 0, -1), 60.0, 1e-4);
+  ASSERT_TRUE(hit.converged) << hit.message;
+  EXPECT_NEAR(hit.force_on_obstacle_n.z(), 60.0, 6e-3);
+  EXPECT_LT(box.translation().z(), -0.002);
+  co.linear_body = true;
+  ContactSolver linear(model, dofs, c.top, c.top_area, box, co);
+  EXPECT_THROW(linear.push_free(Vec3(0, 0, -1), 60.0), InvalidInputError);
+}
+
 TEST(ContactCube, friction_holds_a_sideways_push_below_mu_times_the_normal_force) {
   // A block glued to the ground, pressed by the plane and dragged sideways: stick below μ N, slip above.
   const ContactCube c;

@@ -411,6 +411,16 @@ ContactStep ContactSolver::push_with_force(const Vec3& direction, double force_n
   return s.refine_push(base, d, force_n, rel_tol, s.bracket_push(base, d, force_n, max_step_m, first_step_m));
 }
 
+ContactStep ContactSolver::push_free(const Vec3& direction, double force_n, double rel_tol) {
+  require(std::isfinite(force_n) && force_n >= 0, "contact: push force {} N must be ≥ 0", force_n);
+  require(!impl_->opt.linear_body, "contact: the free push needs the nonlinear body (a linearised one: push_with_force)");
+  ContactStep st;
+  if (impl_->push_free(direction.normalized(), force_n, rel_tol, st)) return st;
+  st.converged = false;  // converged at another force counts as not converged
+  discard();
+  return st;
+}
+
 ContactSolver::Impl::PushBracket ContactSolver::Impl::bracket_push(const Vec3& base, const Vec3& d, double force_n,
                                                                    double max_step_m, double first_step_m) {
   const auto reaction = [&](const ContactStep& st) { return -st.force_on_obstacle_n.dot(d); };

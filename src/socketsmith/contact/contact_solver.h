@@ -144,6 +144,13 @@ class ContactSolver {
   ContactStep push_with_force(const Vec3& direction, double force_n, double rel_tol = 1e-3,
                               double max_step_m = 0.002, double first_step_m = 0.0);
 
+  /// push_with_force's first attempt alone: one Newton solve with the obstacle free along
+  /// @p direction under @p force_n (nonlinear body; ContactOptions::free_push). Converged: the
+  /// state is committed. Not converged: nothing changed (the obstacle and the state are where they
+  /// were), no bracket is tried — the caller chooses its fall-back.
+  /// @throws InvalidInputError on a linearised body (its free solve crawls at the wall's kinks).
+  ContactStep push_free(const Vec3& direction, double force_n, double rel_tol = 1e-3);
+
   /// The obstacle's geometry changed (e.g. RigidSocket::replace_solid): forget the gap queries
   /// cached per node. The contact state and friction history stay; the next solve sees the new wall.
   void obstacle_changed();

@@ -154,6 +154,25 @@ struct DonningSimulation::Impl {
             o.start_offset_name.empty() ? std::string("a start offset") : o.start_offset_name, o.start_offset_m * 1e3);
   }
 
+  /// The standing load reached by @p st, the push having started at @p start_at (along the axis)
+  /// with the reaction @p pose_force (< 0: unknown, as in a refit's one solve): its sample and
+  /// state into @p r, and the axial stiffness over the push for the next refit's prediction.
+  void record_stand(DonningResult& r, const ContactStep& st, double pose_force, double start_at) {
+    const double stood_at = socket.translation().dot(axis);
+    log::debug("donning: stood {:.2f} mm from where the push started", (stood_at - start_at) * 1e3);
+    if (pose_force >= 0 && std::abs(stood_at - start_at) > 1e-7) {
+      const double k = (o.stand_force_n - pose_force) / (stood_at - start_at);
+      if (k > 0) stand_stiffness = k;
+    }
+    r.series.push_back(sample(st, solver->contacts(), axis, stood_at));
+    r.newton_iterations += st.newton_iterations;
+    r.force_on_socket_n = st.force_on_obstacle_n;
+    r.final_offset_m = stood_at;
+    r.stood = stood = true;
+    r.contacts = solver->contacts();
+    r.positions = solver->positions();
+  }
+
   /// Pushes the socket along the axis until its axial reaction is the standing force. The first
   /// step of the push from the reaction's slope over the last two samples (a little past the
   /// predicted position, so that it usually brackets the load at once); a 2 mm step overshot by
@@ -184,23 +203,9 @@ struct DonningSimulation::Impl {
       const double start_at = socket.translation().dot(axis);
       const auto t0 = std::chrono::steady_clock::now();
       const ContactStep st = solver->push_with_force(axis, o.stand_force_n, 1e-3, max_step, first);
-      const double stood_at = socket.translation().dot(axis);
-      log::debug("donning: standing push {:.0f} → {:.0f} N over {:.2f} mm: {:.2f} s",
-                 pose_force, o.stand_force_n, (stood_at - start_at) * 1e3,
+      log::debug("donning: standing push {:.0f} → {:.0f} N: {:.2f} s", pose_force, o.stand_force_n,
                  std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-      // The axial stiffness over this push, for the next refit's prediction (from the force at
-      // the pose, when the push started from one).
-      if (ns > 0 && std::abs(stood_at - start_at) > 1e-7) {
-        const double k = (o.stand_force_n - pose_force) / (stood_at - start_at);
-        if (k > 0) stand_stiffness = k;
-      }
-      r.series.push_back(sample(st, solver->contacts(), axis, stood_at));
-      r.newton_iterations += st.newton_iterations;
-      r.force_on_socket_n = st.force_on_obstacle_n;
-      r.final_offset_m = stood_at;
-      r.stood = stood = true;
-      r.contacts = solver->contacts();
-      r.positions = solver->positions();
+      record_stand(r, st, ns > 0 ? pose_force : -1.0, start_at);
     } catch (const SolverError& e) {
       r.message = fmt::format("standing with {:.0f} N not reached ({}); the results are those of the donned socket at "
                               "its designed pose",
@@ -308,19 +313,18 @@ DonningResult DonningSimulation::refit(const geometry::TriMesh& socket_solid) {
   r.start_offset_m = s.o.start_offset_m;
   if (s.stood && s.o.stand_force_n > 0 && s.o.contact.free_push && !s.o.contact.linear_body) {
     // The new wall's equilibrium and the standing position in one solve (the socket free along the
-    // axis under the standing load); when it fails, the two steps below from the worn state again.
-    s.stood = false;
-    s.stand(r);
-    if (r.stood) {
+    // axis under the standing load); when it fails, nothing has moved and the two steps below
+    // start from the worn state.
+    const double start_at = s.socket.translation().dot(s.axis);
+    const ContactStep st = s.solver->push_free(s.axis, s.o.stand_force_n);
+    if (st.converged) {
+      s.record_stand(r, st, -1.0, start_at);
       r.completed = true;
       r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       return r;
     }
-    s.solver->discard();
-    r.series.clear();
-    r.message.clear();
-    r.newton_iterations = 0;
-    s.stood = true;
+    log::debug("donning: the refit's one-solve standing did not converge ({}); the new wall first, then the load",
+               st.message);
   }
   const Vec3 t = s.socket.translation();
   ContactStep st = s.solver->move_to(t);
