@@ -363,11 +363,11 @@ void ContactSolver::Impl::warm_start(const VectorXd& guess, const Vec3& t) {
   if (r1.allFinite() && (std::isfinite(p0) ? p1 < p0 : r1.norm() < r0.norm())) x = guess;
 }
 
-bool ContactSolver::Impl::push_free(const Vec3& d, double force_n, double rel_tol, ContactStep& out) {
+bool ContactSolver::Impl::push_free(const Vec3& d, double force_n, double rel_tol, ContactStep& out, double start_m) {
   const Vec3 base = obstacle.translation();
   free_dir = d;
   free_force_n = force_n;
-  out = solve(base, false);
+  out = solve(base + start_m * d, false);
   free_dir.setZero();
   free_force_n = 0;
   if (out.converged && std::abs(-out.force_on_obstacle_n.dot(d) - force_n) <= rel_tol * std::max(force_n, 1e-3)) {
@@ -401,12 +401,13 @@ ContactStep ContactSolver::Impl::solve_path(const Vec3& t, bool commit) {
 }
 
 ContactStep ContactSolver::push_with_force(const Vec3& direction, double force_n, double rel_tol, double max_step_m,
-                                           double first_step_m) {
+                                           double first_step_m, double free_start_m) {
   require(std::isfinite(force_n) && force_n >= 0, "contact: push force {} N must be ≥ 0", force_n);
+  require(std::isfinite(free_start_m), "contact: the free push's start {} m must be finite", free_start_m);
   const Vec3 d = direction.normalized();
   auto& s = *impl_;
   ContactStep st;
-  if (s.opt.free_push && !s.opt.linear_body && s.push_free(d, force_n, rel_tol, st)) return st;
+  if (s.opt.free_push && !s.opt.linear_body && s.push_free(d, force_n, rel_tol, st, free_start_m)) return st;
   const Vec3 base = s.obstacle.translation();
   return s.refine_push(base, d, force_n, rel_tol, s.bracket_push(base, d, force_n, max_step_m, first_step_m));
 }

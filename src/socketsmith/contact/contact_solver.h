@@ -141,8 +141,11 @@ class ContactSolver {
   /// that force), within @p rel_tol. Displacement steps of at most @p max_step_m.
   /// @p first_step_m > 0: the first displacement step (e.g. predicted from the reaction's slope
   /// along the path so far; ≤ max_step_m), else max_step_m.
+  /// @p free_start_m: where along @p direction the free solve (ContactOptions::free_push) starts
+  /// its Newton iterations — the predicted position of the load (the solve finds the position
+  /// itself; a good start saves iterations); 0: the current translation.
   ContactStep push_with_force(const Vec3& direction, double force_n, double rel_tol = 1e-3,
-                              double max_step_m = 0.002, double first_step_m = 0.0);
+                              double max_step_m = 0.002, double first_step_m = 0.0, double free_start_m = 0.0);
 
   /// push_with_force's first attempt alone: one Newton solve with the obstacle free along
   /// @p direction under @p force_n (nonlinear body; ContactOptions::free_push). Converged: the

@@ -226,8 +226,9 @@ struct ContactSolver::Impl {
   void warm_start(const VectorXd& guess, const Vec3& t);
 
   /// push_with_force in one solve: the obstacle's position along @p d one more unknown, its
-  /// equilibrium under @p force_n; true (the step committed in @p out) when it converged.
-  bool push_free(const Vec3& d, double force_n, double rel_tol, ContactStep& out);
+  /// equilibrium under @p force_n, Newton starting @p start_m along @p d; true (the step committed
+  /// in @p out) when it converged, else the obstacle back where it was.
+  bool push_free(const Vec3& d, double force_n, double rel_tol, ContactStep& out, double start_m = 0.0);
 
   /// push_with_force's bracket of the obstacle's position along its direction d from base: below
   /// the force at s_lo, above it at s_hi (the reactions r_lo, r_hi, the solutions x_lo, x_hi).
