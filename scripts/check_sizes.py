@@ -50,7 +50,6 @@ ALLOWED_FILES = {
 
 # Key: "path:function" (the qualified name as written at its definition).
 ALLOWED_FUNCTIONS = {
-    "apps/cli/cmd_contact.cpp:run_donning": 248,
     "apps/cli/cmd_mesh.cpp:run": 176,
     "apps/cli/cmd_simulate.cpp:run_cube": 149,
     "src/socketsmith/calculix/ccx_runner.cpp:run_ccx": 100,
