@@ -101,6 +101,237 @@ void check_input(const DesignedStump& d, const DesignCheckOptions& o) {
           "check_design: every skin node is above the brim (no socket to check)");
 }
 
+/// The deck's title, stump, supports, material and steps from the options; socket or loads to come.
+DeckSpec base_deck(const DesignedStump& d, const DesignCheckOptions& o) {
+  DeckSpec spec;
+  spec.title = fmt::format("socketsmith validate design ({} check)", to_string(o.mode));
+  spec.stump = d.mesh;
+  spec.fixed_nodes = d.fixed_nodes;
+  spec.material = o.material;
+  spec.element = o.element;
+  spec.contact = o.contact;
+  spec.steps.is_nonlinear_geometry = o.nonlinear_geometry;
+  spec.steps.initial_increment = o.initial_increment;
+  spec.steps.max_increment = std::max(o.max_increment, o.initial_increment);
+  spec.steps.min_increment = std::min(1e-5, o.initial_increment);
+  return spec;
+}
+
+/// The skin quads (in local skin ids) that lie wholly below the brim: the socket's.
+std::vector<std::array<int, 4>> socket_quads_below_brim(const DesignedStump& d, const std::vector<int>& skin_of) {
+  std::vector<std::array<int, 4>> socket_quads;  // local skin ids
+  for (const auto& q : d.skin->quads) {
+    std::array<int, 4> l{skin_of[q[0]], skin_of[q[1]], skin_of[q[2]], skin_of[q[3]]};
+    if (!d.above_brim[l[0]] && !d.above_brim[l[1]] && !d.above_brim[l[2]] && !d.above_brim[l[3]]) socket_quads.push_back(l);
+  }
+  require(!socket_quads.empty(), "check_design: no skin quad lies wholly below the brim (no socket to check)");
+  return socket_quads;
+}
+
+/// Donning mode: the designed socket (the printed wall, or the shell on the skin), rigid, moved
+/// distally by the travel; the steps push it back up by the reference node, then stand on it.
+RigidShell donning_socket(const DesignedStump& d, const DesignCheckOptions& o,
+                          const std::vector<std::array<int, 4>>& socket_quads, DeckSpec& spec) {
+  require(o.donning_travel_m > 0, "check_design: donning travel {} m (expected > 0)", o.donning_travel_m);
+  // The designed socket, rigid, moved distally; pushed back up by the reference node.
+  const Vec3 down = -o.donning_travel_m * d.frame.axis.normalized();
+  RigidShell shell;
+  if (o.printed_wall) {
+    require(!d.socket_wall.empty(), "check_design: the printed socket's wall is empty (DesignedStump::socket_wall)");
+    std::vector<Vec3> moved = d.socket_wall.vertices;
+    for (auto& v : moved) v += down;
+    shell = extrude_wall(moved, d.socket_wall.triangles, o.socket_thickness_m);
+  } else {
+    shell = donned_skin_shell(d, socket_quads, down, o.socket_thickness_m);
+  }
+  spec.steps.donning_travel_m = -down;
+  if (o.stand_force_n > 0) {
+    spec.steps.axial_load_n = o.stand_force_n;
+    spec.steps.load_direction = d.frame.axis.normalized();
+    spec.steps.donning_force_n = std::max(0.0, o.donning_force_n);
+  }
+  return shell;
+}
+
+/// Contact mode: the socket's shell extruded from the rest skin, the clearance off it, its nodes
+/// moved in the deck onto the designed skin (inner layer) and the thickness outside it (outer).
+RigidShell contact_socket(const DesignedStump& d, const DesignCheckOptions& o,
+                          const std::vector<std::array<int, 4>>& socket_quads, DeckSpec& spec) {
+  const auto& mesh = *d.mesh;
+  const auto& skin = *d.skin;
+  const int ns = static_cast<int>(skin.nodes.size());
+  std::vector<Vec3> start(ns), rest_normal(ns);
+  for (int i = 0; i < ns; ++i) {
+    rest_normal[i] = skin.normal[i].normalized();
+    start[i] = mesh.nodes[skin.nodes[i]] + o.clearance_m * rest_normal[i];
+  }
+  RigidShell shell = extrude_shell(start, rest_normal, socket_quads, o.socket_thickness_m);
+  const int ni = static_cast<int>(shell.source_points.size());
+  if (ni > 0) spec.socket_node_displacements.resize(shell.nodes.size());
+  for (int k = 0; k < ni; ++k) {
+    const int i = shell.source_points[k];
+    const Vec3 target = d.designed_positions[skin.nodes[i]];
+    spec.socket_node_displacements[k] = target - shell.nodes[k];
+    spec.socket_node_displacements[ni + k] =
+        target + o.socket_thickness_m * d.skin_normals[i].normalized() - shell.nodes[ni + k];
+  }
+  return shell;
+}
+
+/// Load mode: the designed pressure as nodal forces on the skin.
+void add_designed_loads(const DesignedStump& d, DeckSpec& spec) {
+  const auto& skin = *d.skin;
+  for (size_t i = 0; i < skin.nodes.size(); ++i)
+    if (d.pressure_pa[i] > 0)
+      spec.nodal_forces.push_back({skin.nodes[i], -d.pressure_pa[i] * d.skin_areas_m2[i] * d.skin_normals[i]});
+}
+
+/// The blocks of the increment compared (null where absent): displacements, contact and the
+/// integration-point stresses.
+struct ComparedIncrement {
+  const DatBlock* gauss = nullptr;
+  const FrdBlock* disp = nullptr;
+  const FrdBlock* cont = nullptr;
+};
+
+/// The increment compared: the .frd's last, unless the .dat's element stresses (printed at
+/// converged increments only) end earlier — when ccx gives up it writes its last, unconverged
+/// state to the .frd — then the last increment both files have.
+/// @throws SolverError when there is none (or, with @p contact, it has no contact block).
+ComparedIncrement compared_increment(const FrdResults& frd, const std::vector<DatBlock>& dat, bool contact,
+                                     const std::string& ccx_message) {
+  ComparedIncrement inc;
+  inc.gauss = contact ? last_block(dat, "stresses", "SKINEL") : nullptr;
+  inc.disp = frd.last("DISP");
+  if (inc.gauss && inc.disp && std::abs(inc.disp->time - inc.gauss->time) > 1e-6)
+    for (auto it = frd.blocks.rbegin(); it != frd.blocks.rend(); ++it)
+      if (it->name == "DISP" && std::abs(it->time - inc.gauss->time) < 1e-6) {
+        inc.disp = &*it;
+        break;
+      }
+  if (contact && inc.disp)
+    for (const auto& b : frd.blocks)
+      if (b.name == "CONTACT" && b.step == inc.disp->step && b.increment == inc.disp->increment) inc.cont = &b;
+  if (!inc.disp || (contact && !inc.cont))
+    fail<SolverError>("validate design: CalculiX produced no converged increment: {}", ccx_message);
+  return inc;
+}
+
+/// The FE pressure on the deformed skin by the two stress-based measures: −n·σ·n from the stress
+/// of the same increment as the displacements, and the nodal-force pressure from the
+/// integration-point stresses of the last printed one; each is left empty when its data is absent.
+void fe_stress_pressures(const DesignedStump& d, const std::vector<HexFace>& skin_faces, const FrdResults& frd,
+                         const ComparedIncrement& inc, DesignCheckResult& res) {
+  const auto& mesh = *d.mesh;
+  const auto& skin = *d.skin;
+  const int nn = mesh.num_nodes();
+  const FrdBlock* stress = nullptr;
+  for (const auto& b : frd.blocks)
+    if (b.name == "STRESS" && b.step == inc.disp->step && b.increment == inc.disp->increment) stress = &b;
+  std::vector<Vec3> deformed(nn);
+  for (int k = 0; k < nn; ++k) deformed[k] = mesh.nodes[k] + res.fe_displacement_m[k];
+  std::vector<double> areas;
+  const auto normals = deformed_surface_normals(mesh, deformed, skin_faces, skin.nodes, &areas);
+  if (stress) res.fe_stress_pressure_pa = normal_surface_pressure(*stress, skin.nodes, normals, nn);
+  // Both files give the total time of an increment.
+  if (inc.gauss && std::abs(inc.gauss->time - inc.disp->time) < 1e-6)
+    res.fe_force_pressure_pa = nodal_force_pressure(mesh, deformed, *inc.gauss, skin.nodes, normals, areas);
+}
+
+/// Contact modes: the FE contact pressure by the chosen measure against the designed pressure,
+/// the penetration, and the total contact force.
+void compare_contact_pressures(const DesignedStump& d, const DesignCheckOptions& o,
+                               const std::vector<HexFace>& skin_faces, const FrdResults& frd,
+                               const std::vector<DatBlock>& dat, const ComparedIncrement& inc, DesignCheckResult& res) {
+  const auto& skin = *d.skin;
+  const int ns = static_cast<int>(skin.nodes.size()), nn = d.mesh->num_nodes();
+  res.fe_pressure = o.fe_pressure;
+  const auto cp = inc.cont->dense("CPRESS", nn), copen = inc.cont->dense("COPEN", nn);
+  res.fe_cpress_pa.assign(ns, 0.0);
+  for (int i = 0; i < ns; ++i) res.fe_cpress_pa[i] = cp[skin.nodes[i]];
+  fe_stress_pressures(d, skin_faces, frd, inc, res);
+  require<SolverError>(res.fe_pressure != FePressure::SurfaceStress || !res.fe_stress_pressure_pa.empty(),
+                       "validate design: the .frd has no stress (S) for the last increment, so the contact "
+                       "pressure −n·σ·n cannot be computed");
+  require<SolverError>(res.fe_pressure != FePressure::NodalForce || !res.fe_force_pressure_pa.empty(),
+                       "validate design: the .dat has no integration-point stresses (set SKINEL) for the last "
+                       "increment, so the nodal-force pressure cannot be computed (use --fe-pressure stress)");
+  const auto& fe_p = res.fe_pressure == FePressure::SurfaceStress ? res.fe_stress_pressure_pa
+                     : res.fe_pressure == FePressure::NodalForce  ? res.fe_force_pressure_pa
+                                                                  : res.fe_cpress_pa;
+  for (int i = 0; i < ns; ++i) {
+    res.socketsmith_value[i] = d.pressure_pa[i];
+    res.fe_value[i] = fe_p[i];
+    res.fe_penetration_m[i] = std::max(0.0, -copen[skin.nodes[i]]);
+    res.max_penetration_m = std::max(res.max_penetration_m, res.fe_penetration_m[i]);
+  }
+  if (const auto* st = last_block(dat, "statistics", "SLIMB"); st && !st->rows.empty() && st->rows[0].size() >= 3)
+    res.fe_force_n = Vec3(st->rows[0][0], st->rows[0][1], st->rows[0][2]).norm();
+}
+
+/// Load mode: the FE displacement of the skin against the designed one, and the force on the bones.
+void compare_displacements(const DesignedStump& d, const std::vector<DatBlock>& dat, DesignCheckResult& res) {
+  const auto& mesh = *d.mesh;
+  const auto& skin = *d.skin;
+  for (size_t i = 0; i < skin.nodes.size(); ++i) {
+    const int v = skin.nodes[i];
+    res.socketsmith_value[i] = (d.designed_positions[v] - mesh.nodes[v]).norm();
+    res.fe_value[i] = res.fe_displacement_m[v].norm();
+  }
+  if (const auto* st = last_block(dat, "total force", "BONE"); st && !st->rows.empty() && st->rows[0].size() >= 3)
+    res.fe_force_n = Vec3(st->rows[0][0], st->rows[0][1], st->rows[0][2]).norm();
+}
+
+/// The comparisons over regions by rings from the brim (all below it, from the 2nd ring, from the
+/// 4th), raw and smoothed over one ring of neighbours @p adj.
+void compare_regions(const volume::SkinSurface& skin, const std::vector<std::vector<int>>& adj, bool contact,
+                     DesignCheckResult& res) {
+  const int ns = static_cast<int>(skin.nodes.size());
+  std::vector<int> all, ring2, ring4;
+  for (int i = 0; i < ns; ++i) {
+    if (res.brim_ring[i] >= 1) all.push_back(i);
+    if (res.brim_ring[i] >= 2) ring2.push_back(i);
+    if (res.brim_ring[i] >= 4) ring4.push_back(i);
+  }
+  res.all = report::compare_fields(res.fe_value, res.socketsmith_value, all);
+  if (contact) {
+    res.all_cpress = report::compare_fields(res.fe_cpress_pa, res.socketsmith_value, all);
+    if (!res.fe_stress_pressure_pa.empty())
+      res.all_stress = report::compare_fields(res.fe_stress_pressure_pa, res.socketsmith_value, all);
+    if (!res.fe_force_pressure_pa.empty())
+      res.all_force = report::compare_fields(res.fe_force_pressure_pa, res.socketsmith_value, all);
+  }
+  res.one_ring_away = report::compare_fields(res.fe_value, res.socketsmith_value, ring2);
+  res.away_from_brim = report::compare_fields(res.fe_value, res.socketsmith_value, ring4);
+  res.fe_value_smoothed = smooth_one_ring(res.fe_value, adj, skin.area_m2);
+  res.socketsmith_value_smoothed = smooth_one_ring(res.socketsmith_value, adj, skin.area_m2);
+  res.all_smoothed = report::compare_fields(res.fe_value_smoothed, res.socketsmith_value_smoothed, all);
+  res.away_from_brim_smoothed = report::compare_fields(res.fe_value_smoothed, res.socketsmith_value_smoothed, ring4);
+  res.mean_fe_pa = res.all.mean_a;
+  res.mean_designed_pa = res.all.mean_b;
+}
+
+/// The thesis's paths, sampled on the rest skin as in the design report (nodes above the brim
+/// left out); s in mm along a vertical path, in degrees around a horizontal one.
+void compare_paths(const DesignedStump& d, DesignCheckResult& res) {
+  const auto& skin = *d.skin;
+  const auto sframe = report::surface_frame(d.frame);
+  for (const auto& path : report::thesis_paths(d.front_theta_rad, 0.5 * d.stump_length_m, skin.area_m2)) {
+    PathComparison pc;
+    pc.name = path.key;
+    pc.label = path.label;
+    pc.is_vertical = path.spec.kind == report::PathKind::Vertical;
+    for (const auto& smp : report::sample_path(skin.positions, {}, sframe, path.spec)) {
+      if (res.brim_ring[smp.index] < 1) continue;
+      pc.skin_index.push_back(smp.index);
+      pc.s.push_back(pc.is_vertical ? smp.s * 1e3 : smp.s * 180 / std::numbers::pi);
+    }
+    pc.stats = report::compare_fields(res.fe_value, res.socketsmith_value, pc.skin_index);
+    pc.smoothed = report::compare_fields(res.fe_value_smoothed, res.socketsmith_value_smoothed, pc.skin_index);
+    res.paths.push_back(std::move(pc));
+  }
+}
+
 }  // namespace
 
 std::string to_string(DesignCheckMode mode) {
@@ -155,68 +386,18 @@ DesignCheckResult check_design(const DesignedStump& d, const DesignCheckOptions&
   for (int i = 0; i < ns; ++i) f_design += d.pressure_pa[i] * d.skin_areas_m2[i] * d.skin_normals[i];
   res.designed_force_n = f_design.norm();
 
-  DeckSpec spec;
-  spec.title = fmt::format("socketsmith validate design ({} check)", to_string(o.mode));
-  spec.stump = &mesh;
-  spec.fixed_nodes = d.fixed_nodes;
-  spec.material = o.material;
-  spec.element = o.element;
-  spec.contact = o.contact;
-  spec.steps.is_nonlinear_geometry = o.nonlinear_geometry;
-  spec.steps.initial_increment = o.initial_increment;
-  spec.steps.max_increment = std::max(o.max_increment, o.initial_increment);
-  spec.steps.min_increment = std::min(1e-5, o.initial_increment);
+  DeckSpec spec = base_deck(d, o);
   RigidShell shell;
   const bool contact = o.mode != DesignCheckMode::Load;
   if (contact) {
-    std::vector<std::array<int, 4>> socket_quads;  // local skin ids
-    for (const auto& q : skin.quads) {
-      std::array<int, 4> l{skin_of[q[0]], skin_of[q[1]], skin_of[q[2]], skin_of[q[3]]};
-      if (!d.above_brim[l[0]] && !d.above_brim[l[1]] && !d.above_brim[l[2]] && !d.above_brim[l[3]]) socket_quads.push_back(l);
-    }
-    require(!socket_quads.empty(), "check_design: no skin quad lies wholly below the brim (no socket to check)");
-    std::vector<Vec3> start(ns), rest_normal(ns);
-    for (int i = 0; i < ns; ++i) {
-      rest_normal[i] = skin.normal[i].normalized();
-      start[i] = mesh.nodes[skin.nodes[i]] + o.clearance_m * rest_normal[i];
-    }
-    if (o.mode == DesignCheckMode::Donning) {
-      require(o.donning_travel_m > 0, "check_design: donning travel {} m (expected > 0)", o.donning_travel_m);
-      // The designed socket, rigid, moved distally; pushed back up by the reference node.
-      const Vec3 down = -o.donning_travel_m * d.frame.axis.normalized();
-      if (o.printed_wall) {
-        require(!d.socket_wall.empty(), "check_design: the printed socket's wall is empty (DesignedStump::socket_wall)");
-        std::vector<Vec3> moved = d.socket_wall.vertices;
-        for (auto& v : moved) v += down;
-        shell = extrude_wall(moved, d.socket_wall.triangles, o.socket_thickness_m);
-      } else {
-        shell = donned_skin_shell(d, socket_quads, down, o.socket_thickness_m);
-      }
-      spec.steps.donning_travel_m = -down;
-      if (o.stand_force_n > 0) {
-        spec.steps.axial_load_n = o.stand_force_n;
-        spec.steps.load_direction = d.frame.axis.normalized();
-        spec.steps.donning_force_n = std::max(0.0, o.donning_force_n);
-      }
-    } else {
-      shell = extrude_shell(start, rest_normal, socket_quads, o.socket_thickness_m);
-    }
-    const int ni = o.mode == DesignCheckMode::Donning ? 0 : static_cast<int>(shell.source_points.size());
-    if (ni > 0) spec.socket_node_displacements.resize(shell.nodes.size());
-    for (int k = 0; k < ni; ++k) {
-      const int i = shell.source_points[k];
-      const Vec3 target = d.designed_positions[skin.nodes[i]];
-      spec.socket_node_displacements[k] = target - shell.nodes[k];
-      spec.socket_node_displacements[ni + k] =
-          target + o.socket_thickness_m * d.skin_normals[i].normalized() - shell.nodes[ni + k];
-    }
+    const auto socket_quads = socket_quads_below_brim(d, skin_of);
+    shell = o.mode == DesignCheckMode::Donning ? donning_socket(d, o, socket_quads, spec)
+                                               : contact_socket(d, o, socket_quads, spec);
     spec.socket = &shell;
     spec.skin_faces = faces_of_quads(mesh, skin.quads);
     res.socket_elements = static_cast<int>(shell.hexahedra.size());
   } else {
-    for (int i = 0; i < ns; ++i)
-      if (d.pressure_pa[i] > 0)
-        spec.nodal_forces.push_back({skin.nodes[i], -d.pressure_pa[i] * d.skin_areas_m2[i] * d.skin_normals[i]});
+    add_designed_loads(d, spec);
   }
   ensure_directory(dir);
   res.deck = dir / (job + ".inp");
@@ -231,118 +412,25 @@ DesignCheckResult check_design(const DesignedStump& d, const DesignCheckOptions&
   if (std::filesystem::exists(res.ccx.frd)) frd = read_frd(res.ccx.frd);
   std::vector<DatBlock> dat;
   if (std::filesystem::exists(res.ccx.dat)) dat = read_dat(res.ccx.dat);
-  // The increment compared: the .frd's last, unless the .dat's element stresses (printed at
-  // converged increments only) end earlier — when ccx gives up it writes its last, unconverged
-  // state to the .frd — then the last increment both files have.
-  const DatBlock* gauss = contact ? last_block(dat, "stresses", "SKINEL") : nullptr;
-  const FrdBlock* disp = frd.last("DISP");
-  if (gauss && disp && std::abs(disp->time - gauss->time) > 1e-6)
-    for (auto it = frd.blocks.rbegin(); it != frd.blocks.rend(); ++it)
-      if (it->name == "DISP" && std::abs(it->time - gauss->time) < 1e-6) {
-        disp = &*it;
-        break;
-      }
-  const FrdBlock* cont = nullptr;
-  if (contact && disp)
-    for (const auto& b : frd.blocks)
-      if (b.name == "CONTACT" && b.step == disp->step && b.increment == disp->increment) cont = &b;
-  if (!disp || (contact && !cont))
-    fail<SolverError>("validate design: CalculiX produced no converged increment: {}", res.ccx.message);
+  const ComparedIncrement inc = compared_increment(frd, dat, contact, res.ccx.message);
   if (!res.converged)
-    res.message = fmt::format("PARTIAL results (step {}, time {:.3f} of {}): {}", disp->step, disp->time, co.num_steps,
-                              res.ccx.message);
+    res.message = fmt::format("PARTIAL results (step {}, time {:.3f} of {}): {}", inc.disp->step, inc.disp->time,
+                              co.num_steps, res.ccx.message);
   const int nn = mesh.num_nodes();
   {
-    const auto u1 = disp->dense("D1", nn), u2 = disp->dense("D2", nn), u3 = disp->dense("D3", nn);
+    const auto u1 = inc.disp->dense("D1", nn), u2 = inc.disp->dense("D2", nn), u3 = inc.disp->dense("D3", nn);
     res.fe_displacement_m.resize(nn);
     for (int k = 0; k < nn; ++k) res.fe_displacement_m[k] = Vec3(u1[k], u2[k], u3[k]);
   }
   res.socketsmith_value.assign(ns, 0.0);
   res.fe_value.assign(ns, 0.0);
   res.fe_penetration_m.assign(ns, 0.0);
-  if (contact) {
-    res.fe_pressure = o.fe_pressure;
-    const auto cp = cont->dense("CPRESS", nn), copen = cont->dense("COPEN", nn);
-    res.fe_cpress_pa.assign(ns, 0.0);
-    for (int i = 0; i < ns; ++i) res.fe_cpress_pa[i] = cp[skin.nodes[i]];
-    // −n·σ·n on the deformed skin, from the stress of the same increment as the displacements,
-    // and the nodal-force pressure from the integration-point stresses of the last printed one.
-    const FrdBlock* stress = nullptr;
-    for (const auto& b : frd.blocks)
-      if (b.name == "STRESS" && b.step == disp->step && b.increment == disp->increment) stress = &b;
-    std::vector<Vec3> deformed(nn);
-    for (int k = 0; k < nn; ++k) deformed[k] = mesh.nodes[k] + res.fe_displacement_m[k];
-    std::vector<double> areas;
-    const auto normals = deformed_surface_normals(mesh, deformed, spec.skin_faces, skin.nodes, &areas);
-    if (stress) res.fe_stress_pressure_pa = normal_surface_pressure(*stress, skin.nodes, normals, nn);
-    // Both files give the total time of an increment.
-    if (gauss && std::abs(gauss->time - disp->time) < 1e-6)
-      res.fe_force_pressure_pa = nodal_force_pressure(mesh, deformed, *gauss, skin.nodes, normals, areas);
-    require<SolverError>(res.fe_pressure != FePressure::SurfaceStress || !res.fe_stress_pressure_pa.empty(),
-                         "validate design: the .frd has no stress (S) for the last increment, so the contact "
-                         "pressure −n·σ·n cannot be computed");
-    require<SolverError>(res.fe_pressure != FePressure::NodalForce || !res.fe_force_pressure_pa.empty(),
-                         "validate design: the .dat has no integration-point stresses (set SKINEL) for the last "
-                         "increment, so the nodal-force pressure cannot be computed (use --fe-pressure stress)");
-    const auto& fe_p = res.fe_pressure == FePressure::SurfaceStress ? res.fe_stress_pressure_pa
-                       : res.fe_pressure == FePressure::NodalForce  ? res.fe_force_pressure_pa
-                                                                    : res.fe_cpress_pa;
-    for (int i = 0; i < ns; ++i) {
-      res.socketsmith_value[i] = d.pressure_pa[i];
-      res.fe_value[i] = fe_p[i];
-      res.fe_penetration_m[i] = std::max(0.0, -copen[skin.nodes[i]]);
-      res.max_penetration_m = std::max(res.max_penetration_m, res.fe_penetration_m[i]);
-    }
-    if (const auto* st = last_block(dat, "statistics", "SLIMB"); st && !st->rows.empty() && st->rows[0].size() >= 3)
-      res.fe_force_n = Vec3(st->rows[0][0], st->rows[0][1], st->rows[0][2]).norm();
-  } else {
-    for (int i = 0; i < ns; ++i) {
-      const int v = skin.nodes[i];
-      res.socketsmith_value[i] = (d.designed_positions[v] - mesh.nodes[v]).norm();
-      res.fe_value[i] = res.fe_displacement_m[v].norm();
-    }
-    if (const auto* st = last_block(dat, "total force", "BONE"); st && !st->rows.empty() && st->rows[0].size() >= 3)
-      res.fe_force_n = Vec3(st->rows[0][0], st->rows[0][1], st->rows[0][2]).norm();
-  }
-  // Regions by rings from the brim.
-  std::vector<int> all, ring2, ring4;
-  for (int i = 0; i < ns; ++i) {
-    if (res.brim_ring[i] >= 1) all.push_back(i);
-    if (res.brim_ring[i] >= 2) ring2.push_back(i);
-    if (res.brim_ring[i] >= 4) ring4.push_back(i);
-  }
-  res.all = report::compare_fields(res.fe_value, res.socketsmith_value, all);
-  if (contact) {
-    res.all_cpress = report::compare_fields(res.fe_cpress_pa, res.socketsmith_value, all);
-    if (!res.fe_stress_pressure_pa.empty())
-      res.all_stress = report::compare_fields(res.fe_stress_pressure_pa, res.socketsmith_value, all);
-    if (!res.fe_force_pressure_pa.empty())
-      res.all_force = report::compare_fields(res.fe_force_pressure_pa, res.socketsmith_value, all);
-  }
-  res.one_ring_away = report::compare_fields(res.fe_value, res.socketsmith_value, ring2);
-  res.away_from_brim = report::compare_fields(res.fe_value, res.socketsmith_value, ring4);
-  res.fe_value_smoothed = smooth_one_ring(res.fe_value, adj, skin.area_m2);
-  res.socketsmith_value_smoothed = smooth_one_ring(res.socketsmith_value, adj, skin.area_m2);
-  res.all_smoothed = report::compare_fields(res.fe_value_smoothed, res.socketsmith_value_smoothed, all);
-  res.away_from_brim_smoothed = report::compare_fields(res.fe_value_smoothed, res.socketsmith_value_smoothed, ring4);
-  res.mean_fe_pa = res.all.mean_a;
-  res.mean_designed_pa = res.all.mean_b;
-  // The thesis's paths, sampled on the rest skin as in the design report.
-  const auto sframe = report::surface_frame(d.frame);
-  for (const auto& path : report::thesis_paths(d.front_theta_rad, 0.5 * d.stump_length_m, skin.area_m2)) {
-    PathComparison pc;
-    pc.name = path.key;
-    pc.label = path.label;
-    pc.is_vertical = path.spec.kind == report::PathKind::Vertical;
-    for (const auto& smp : report::sample_path(skin.positions, {}, sframe, path.spec)) {
-      if (res.brim_ring[smp.index] < 1) continue;
-      pc.skin_index.push_back(smp.index);
-      pc.s.push_back(pc.is_vertical ? smp.s * 1e3 : smp.s * 180 / std::numbers::pi);
-    }
-    pc.stats = report::compare_fields(res.fe_value, res.socketsmith_value, pc.skin_index);
-    pc.smoothed = report::compare_fields(res.fe_value_smoothed, res.socketsmith_value_smoothed, pc.skin_index);
-    res.paths.push_back(std::move(pc));
-  }
+  if (contact)
+    compare_contact_pressures(d, o, spec.skin_faces, frd, dat, inc, res);
+  else
+    compare_displacements(d, dat, res);
+  compare_regions(skin, adj, contact, res);
+  compare_paths(d, res);
   return res;
 }
 
