@@ -69,7 +69,6 @@ ALLOWED_FUNCTIONS = {
     "src/socketsmith/geometry/mesh_io_ply.cpp:read_ply_body": 123,
     "src/socketsmith/geometry/mesh_repair.cpp:trim_and_cap": 97,
     "src/socketsmith/geometry/rigid_alignment.cpp:align_icp": 121,
-    "src/socketsmith/geometry/shape_compare.cpp:compare_shapes": 194,
     "src/socketsmith/geometry/tri_mesh.cpp:weld_vertices": 88,
     "src/socketsmith/pipeline/closed_loop.cpp:close_design_loop": 196,
     "src/socketsmith/pipeline/closed_loop.cpp:write_closed_loop_outputs": 166,

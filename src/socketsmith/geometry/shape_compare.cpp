@@ -159,7 +159,10 @@ DeviationStats deviation_stats(const TriMesh& mesh, const std::vector<double>& v
   return s;
 }
 
-ShapeComparison compare_shapes(const TriMesh& a_in, const TriMesh& b_in, const ShapeCompareOptions& o) {
+namespace {
+
+/// Refuses an empty shape and options out of range.
+void check_compare_input(const TriMesh& a_in, const TriMesh& b_in, const ShapeCompareOptions& o) {
   require(!a_in.empty() && !b_in.empty(), "compare: shape {} has no triangles (expected a limb surface)",
           a_in.empty() ? "A" : "B");
   require(std::isfinite(o.slice_step_m) && o.slice_step_m > 0, "compare: slice step {} mm must be positive",
@@ -168,7 +171,11 @@ ShapeComparison compare_shapes(const TriMesh& a_in, const TriMesh& b_in, const S
           o.rotation_seeds);
   require(std::isfinite(o.crop_height_m) && o.crop_height_m >= 0,
           "compare: crop height {} mm must be positive (0: automatic)", o.crop_height_m * 1e3);
-  ShapeComparison r;
+}
+
+/// A: its largest shell into r.a, and its limb frame (axis and front from the skin) into r.frame.
+/// Returns the height of A's opening along the axis [m].
+double read_shape_a(const TriMesh& a_in, ShapeComparison& r) {
   int dropped = 0;
   r.a = largest_shell(a_in, &dropped);
   if (dropped > 0) r.notes.push_back(fmt::format("A: kept its largest shell (the skin), {} other shell(s) left out", dropped));
@@ -180,169 +187,201 @@ ShapeComparison compare_shapes(const TriMesh& a_in, const TriMesh& b_in, const S
   if (!has_boundary(r.a)) r.notes.push_back("A is closed: its proximal cap is left out by the crop");
   const double a_top = lowest_open_boundary_height(r.a, r.frame);
   set_anterior(r.frame, estimate_anterior_from_skin(r.a, r.frame));
+  return a_top;
+}
 
-  // B: a surface or a socket's cavity, with a frame of its own when it can have one.
+/// B as compared, before the alignment: the surface, and its limb frame in B's own coordinates
+/// when it can have one.
+struct ShapeB {
+  TriMesh surface;
+  std::optional<LimbFrame> frame;
+};
+
+/// B read as a socket: its cavity, with the socket's frame unless the seed is the identity (or
+/// none). A socket that surrounds A's axis where it is needs no frame of its own.
+ShapeB read_socket_b(const TriMesh& b_in, const ShapeCompareOptions& o, ShapeComparison& r) {
+  ShapeB b;
+  const auto rep = check_mesh(b_in);
+  require(rep.is_closed() && rep.is_oriented(),
+          "compare: B is read as a socket but is not a closed, oriented solid ({} boundary edges): give the socket "
+          "solid, or --b-kind surface to compare it as a surface",
+          rep.boundary_edges);
+  const bool b_in_a_coordinates = surrounds_axis(b_in, r.frame);  // the socket surrounds A's axis where it is
+  if (o.seed != AlignmentSeed::Identity && o.seed != AlignmentSeed::None) {
+    try {
+      b.frame = estimate_socket_frame(b_in);
+    } catch (const InvalidInputError& e) {
+      require(b_in_a_coordinates, "compare: B: {}", e.what());
+    }
+  }
+  require(b_in_a_coordinates || b.frame,
+          "compare: the socket B does not surround A's axis where it is: align them (--seed frames) or check the units");
+  b.surface = cavity_surface(b_in, b_in_a_coordinates ? r.frame : *b.frame);
+  r.notes.push_back(fmt::format("B is a socket: its cavity ({} of its {} triangles) is compared",
+                                b.surface.num_triangles(), b_in.num_triangles()));
+  return b;
+}
+
+/// B read as a surface: its largest shell, with a limb frame of its own when the seed uses frames.
+ShapeB read_surface_b(const TriMesh& b_in, const ShapeCompareOptions& o, ShapeComparison& r) {
+  ShapeB b;
+  int dropped = 0;
+  b.surface = largest_shell(b_in, &dropped);
+  if (dropped > 0) r.notes.push_back(fmt::format("B: kept its largest shell, {} other shell(s) left out", dropped));
+  if (o.seed == AlignmentSeed::Frames || o.seed == AlignmentSeed::Auto) {
+    try {
+      LimbFrame f = estimate_limb_axis(b.surface);
+      set_anterior(f, estimate_anterior_from_skin(b.surface, f));
+      b.frame = f;
+    } catch (const InvalidInputError& e) {
+      require(o.seed != AlignmentSeed::Frames, "compare: shape B: {}", e.what());
+      r.notes.push_back(fmt::format("B has no limb frame of its own ({}): seeded by the identity only", e.what()));
+    }
+  }
+  return b;
+}
+
+/// B: a surface or a socket's cavity (r.b_kind: as given, or told apart by whether its centre lies
+/// outside a closed surface).
+ShapeB read_shape_b(const TriMesh& b_in, const ShapeCompareOptions& o, ShapeComparison& r) {
   r.b_kind = o.b_kind;
   if (r.b_kind == ShapeKind::Auto) {
     const bool closed = !has_boundary(b_in);
     r.b_kind = closed && !SurfaceQuery(b_in).is_inside(bounding_box(b_in).center()) ? ShapeKind::Socket
                                                                                      : ShapeKind::Surface;
   }
-  TriMesh b;
-  std::optional<LimbFrame> frame_b;  // in B's own coordinates
-  bool b_in_a_coordinates = false;   // the socket surrounds A's axis where it is
-  if (r.b_kind == ShapeKind::Socket) {
-    const auto rep = check_mesh(b_in);
-    require(rep.is_closed() && rep.is_oriented(),
-            "compare: B is read as a socket but is not a closed, oriented solid ({} boundary edges): give the socket "
-            "solid, or --b-kind surface to compare it as a surface",
-            rep.boundary_edges);
-    b_in_a_coordinates = surrounds_axis(b_in, r.frame);
-    if (o.seed != AlignmentSeed::Identity && o.seed != AlignmentSeed::None) {
-      try {
-        frame_b = estimate_socket_frame(b_in);
-      } catch (const InvalidInputError& e) {
-        require(b_in_a_coordinates, "compare: B: {}", e.what());
-      }
-    }
-    require(b_in_a_coordinates || frame_b,
-            "compare: the socket B does not surround A's axis where it is: align them (--seed frames) or check the units");
-    b = cavity_surface(b_in, b_in_a_coordinates ? r.frame : *frame_b);
-    r.notes.push_back(fmt::format("B is a socket: its cavity ({} of its {} triangles) is compared", b.num_triangles(),
-                                  b_in.num_triangles()));
-  } else {
-    b = largest_shell(b_in, &dropped);
-    if (dropped > 0) r.notes.push_back(fmt::format("B: kept its largest shell, {} other shell(s) left out", dropped));
-    if (o.seed == AlignmentSeed::Frames || o.seed == AlignmentSeed::Auto) {
-      try {
-        LimbFrame f = estimate_limb_axis(b);
-        set_anterior(f, estimate_anterior_from_skin(b, f));
-        frame_b = f;
-      } catch (const InvalidInputError& e) {
-        require(o.seed != AlignmentSeed::Frames, "compare: shape B: {}", e.what());
-        r.notes.push_back(fmt::format("B has no limb frame of its own ({}): seeded by the identity only", e.what()));
-      }
-    }
-  }
+  return r.b_kind == ShapeKind::Socket ? read_socket_b(b_in, o, r) : read_surface_b(b_in, o, r);
+}
 
-  // The crop: below A's opening (and B's, once aligned).
-  const double a_limit = a_top - kRimMargin;
-  require(a_limit > 2 * o.slice_step_m, "compare: A is only {:.0f} mm long below its opening: not a limb scan",
-          a_top * 1e3);
-  const auto h_of = [&r](const Vec3& p) { return (p - r.frame.origin).dot(r.frame.axis); };
-  double crop = o.crop_height_m > 0 ? std::min(o.crop_height_m, a_limit) : a_limit;
-  require(o.crop_height_m <= a_limit + 1e-9,
-          "compare: crop height {:.1f} mm is above A's opening less 5 mm ({:.1f} mm): lower --crop-mm", o.crop_height_m * 1e3,
-          a_limit * 1e3);
-  const SurfaceQuery qa(r.a);
-  const auto icp_with_crop = [&](const RigidTransform& from, const IcpOptions& io, double c) {
-    return align_icp(b, qa, from, io, [&h_of, c](const Vec3& x) { return h_of(x) < c; });
-  };
+/// Height of @p p along the frame's axis above its origin [m].
+double height_in(const LimbFrame& frame, const Vec3& p) { return (p - frame.origin).dot(frame.axis); }
 
-  // Seeds, scored by a coarse ICP; the best refined.
-  std::vector<std::pair<std::string, RigidTransform>> seeds;
-  const AlignmentSeed seed = o.seed == AlignmentSeed::Auto && !o.landmarks_a.empty() && !o.landmarks_b.empty()
-                                 ? AlignmentSeed::Landmarks
-                                 : o.seed;
+/// ICP of @p b onto A (@p qa) from @p from, on the samples below @p crop_m in A's frame.
+IcpResult icp_below_crop(const TriMesh& b, const SurfaceQuery& qa, const LimbFrame& frame, const RigidTransform& from,
+                         const IcpOptions& io, double crop_m) {
+  return align_icp(b, qa, from, io, [&frame, crop_m](const Vec3& x) { return height_in(frame, x) < crop_m; });
+}
+
+using NamedSeeds = std::vector<std::pair<std::string, RigidTransform>>;
+
+/// The seed from the landmarks common to A and B (at least 3).
+std::pair<std::string, RigidTransform> landmark_seed(const ShapeCompareOptions& o) {
+  std::map<std::string, Vec3> la(o.landmarks_a.begin(), o.landmarks_a.end());
+  std::vector<Vec3> from, to;
+  std::string codes;
+  for (const auto& [code, p] : o.landmarks_b)
+    if (la.count(code)) {
+      from.push_back(p);
+      to.push_back(la[code]);
+      codes += (codes.empty() ? "" : ", ") + code;
+    }
+  require(from.size() >= 3,
+          "compare: {} landmark(s) common to A and B (expected at least 3 codes given for both, not on one line)",
+          from.size());
+  return {fmt::format("landmarks ({})", codes), kabsch(from, to)};
+}
+
+/// The alignment seeds for @p seed: the landmarks', the identity, or B's frame onto A's turned
+/// about the axis (after the identity when automatic).
+NamedSeeds alignment_seeds(AlignmentSeed seed, const ShapeCompareOptions& o, const std::optional<LimbFrame>& frame_b,
+                           const LimbFrame& frame_a) {
+  NamedSeeds seeds;
   if (seed == AlignmentSeed::Landmarks) {
-    std::map<std::string, Vec3> la(o.landmarks_a.begin(), o.landmarks_a.end());
-    std::vector<Vec3> from, to;
-    std::string codes;
-    for (const auto& [code, p] : o.landmarks_b)
-      if (la.count(code)) {
-        from.push_back(p);
-        to.push_back(la[code]);
-        codes += (codes.empty() ? "" : ", ") + code;
-      }
-    require(from.size() >= 3,
-            "compare: {} landmark(s) common to A and B (expected at least 3 codes given for both, not on one line)",
-            from.size());
-    seeds.push_back({fmt::format("landmarks ({})", codes), kabsch(from, to)});
+    seeds.push_back(landmark_seed(o));
   } else if (seed == AlignmentSeed::Identity || seed == AlignmentSeed::None) {
     seeds.push_back({"identity (the shapes share their coordinates)", RigidTransform{}});
   } else {
     if (seed == AlignmentSeed::Auto) seeds.push_back({"identity (the shapes share their coordinates)", RigidTransform{}});
     if (frame_b) {
-      const RigidTransform onto = frame_onto(*frame_b, r.frame);
+      const RigidTransform onto = frame_onto(*frame_b, frame_a);
       for (int k = 0; k < o.rotation_seeds; ++k) {
         const double turn = 2 * std::numbers::pi * k / o.rotation_seeds;
         seeds.push_back({k == 0 ? std::string("limb frames")
                                 : fmt::format("limb frames, turned {:.0f}° about the axis", turn * 180 / std::numbers::pi),
-                         rotation_about(r.frame.origin, r.frame.axis, turn).after(onto)});
+                         rotation_about(frame_a.origin, frame_a.axis, turn).after(onto)});
       }
     }
   }
-  if (seed == AlignmentSeed::None) {
-    r.seed = "none (compared where they are)";
-  } else {
-    IcpOptions coarse = o.icp;
-    coarse.max_samples = std::min(coarse.max_samples, 1000);
-    coarse.max_iterations = std::min(coarse.max_iterations, 25);
-    coarse.convergence_m = std::max(coarse.convergence_m, 1e-6);
-    double best = std::numeric_limits<double>::infinity();
-    RigidTransform start;
-    for (const auto& [name, t] : seeds) {
-      if (seeds.size() == 1) {
-        r.seed = name;
-        start = t;
-        break;
-      }
-      IcpResult c;
-      try {
-        c = icp_with_crop(t, coarse, crop);
-      } catch (const InvalidInputError&) {
-        continue;  // this seed does not overlap
-      }
-      if (c.pairs < 12 || c.samples == 0) continue;
-      // Poor overlap is penalised: a seed that pairs few samples may fit those few well.
-      const double score = c.rms_m * static_cast<double>(c.samples) / c.pairs + c.rms_distance_m * 1e-3;
-      if (score < best) {
-        best = score;
-        r.seed = name;
-        start = c.transform;
-      }
+  return seeds;
+}
+
+/// Aligns B onto A: each seed scored by a coarse ICP below the crop, the best refined (a single
+/// seed is refined directly). Sets r.seed, r.icp and r.transform.
+void align_from_seeds(const NamedSeeds& seeds, const TriMesh& b, const SurfaceQuery& qa, const ShapeCompareOptions& o,
+                      double crop, ShapeComparison& r) {
+  IcpOptions coarse = o.icp;
+  coarse.max_samples = std::min(coarse.max_samples, 1000);
+  coarse.max_iterations = std::min(coarse.max_iterations, 25);
+  coarse.convergence_m = std::max(coarse.convergence_m, 1e-6);
+  double best = std::numeric_limits<double>::infinity();
+  RigidTransform start;
+  for (const auto& [name, t] : seeds) {
+    if (seeds.size() == 1) {
+      r.seed = name;
+      start = t;
+      break;
     }
-    require(std::isfinite(best) || seeds.size() == 1,
-            "compare: no seed brought B onto A (tried {}): give landmarks, or check the units and that both are limbs",
-            seeds.size());
-    if (seeds.size() > 1) r.notes.push_back(fmt::format("{} alignment seeds tried; best: {}", seeds.size(), r.seed));
-    r.icp = icp_with_crop(start, o.icp, crop);
+    IcpResult c;
+    try {
+      c = icp_below_crop(b, qa, r.frame, t, coarse, crop);
+    } catch (const InvalidInputError&) {
+      continue;  // this seed does not overlap
+    }
+    if (c.pairs < 12 || c.samples == 0) continue;
+    // Poor overlap is penalised: a seed that pairs few samples may fit those few well.
+    const double score = c.rms_m * static_cast<double>(c.samples) / c.pairs + c.rms_distance_m * 1e-3;
+    if (score < best) {
+      best = score;
+      r.seed = name;
+      start = c.transform;
+    }
+  }
+  require(std::isfinite(best) || seeds.size() == 1,
+          "compare: no seed brought B onto A (tried {}): give landmarks, or check the units and that both are limbs",
+          seeds.size());
+  if (seeds.size() > 1) r.notes.push_back(fmt::format("{} alignment seeds tried; best: {}", seeds.size(), r.seed));
+  r.icp = icp_below_crop(b, qa, r.frame, start, o.icp, crop);
+  r.transform = r.icp.transform;
+}
+
+/// The lowest point of the open boundary of @p m along @p frame's axis [m] (+inf when closed).
+double lowest_opening(const TriMesh& m, const LimbFrame& frame) {
+  double top = std::numeric_limits<double>::infinity();
+  std::map<std::pair<int, int>, int> count;
+  for (const auto& t : m.triangles)
+    for (int k = 0; k < 3; ++k) ++count[std::minmax(t[k], t[(k + 1) % 3])];
+  for (const auto& [e, c] : count)
+    if (c == 1) top = std::min({top, height_in(frame, m.vertices[e.first]), height_in(frame, m.vertices[e.second])});
+  return top;
+}
+
+/// B's opening in A's frame lowers the crop: both must be closed below it. When the crop is
+/// lowered, B is aligned again below the new crop. Returns the crop [m].
+double crop_below_b_opening(const TriMesh& b, const SurfaceQuery& qa, const ShapeCompareOptions& o, AlignmentSeed seed,
+                            double crop, ShapeComparison& r) {
+  if (!has_boundary(r.b)) return crop;
+  const double b_top = lowest_opening(r.b, r.frame);
+  const double b_limit = b_top - kRimMargin;
+  require(b_limit > 2 * o.slice_step_m, "compare: B's opening lies {:.0f} mm above A's distal end: B does not cover A",
+          b_top * 1e3);
+  require(o.crop_height_m <= b_limit + 1e-9,
+          "compare: crop height {:.1f} mm is above B's opening less 5 mm ({:.1f} mm in A's frame): lower --crop-mm",
+          o.crop_height_m * 1e3, b_limit * 1e3);
+  if (b_limit < crop - 1e-3 && seed != AlignmentSeed::None) {
+    r.notes.push_back(fmt::format("crop lowered to {:.1f} mm, below B's opening", b_limit * 1e3));
+    crop = b_limit;
+    r.icp = icp_below_crop(b, qa, r.frame, r.transform, o.icp, crop);
     r.transform = r.icp.transform;
+    r.b = transformed(b, r.transform);
   }
-  r.b = transformed(b, r.transform);
+  return std::min(crop, b_limit);
+}
 
-  // B's opening in A's frame lowers the crop: both must be closed below it.
-  if (has_boundary(r.b)) {
-    double b_top = std::numeric_limits<double>::infinity();
-    const TriMesh& bb = r.b;
-    const auto rep_edges = [&bb]() {
-      std::map<std::pair<int, int>, int> count;
-      for (const auto& t : bb.triangles)
-        for (int k = 0; k < 3; ++k) ++count[std::minmax(t[k], t[(k + 1) % 3])];
-      return count;
-    }();
-    for (const auto& [e, c] : rep_edges)
-      if (c == 1) b_top = std::min({b_top, h_of(bb.vertices[e.first]), h_of(bb.vertices[e.second])});
-    const double b_limit = b_top - kRimMargin;
-    require(b_limit > 2 * o.slice_step_m, "compare: B's opening lies {:.0f} mm above A's distal end: B does not cover A",
-            b_top * 1e3);
-    require(o.crop_height_m <= b_limit + 1e-9,
-            "compare: crop height {:.1f} mm is above B's opening less 5 mm ({:.1f} mm in A's frame): lower --crop-mm",
-            o.crop_height_m * 1e3, b_limit * 1e3);
-    if (b_limit < crop - 1e-3 && seed != AlignmentSeed::None) {
-      r.notes.push_back(fmt::format("crop lowered to {:.1f} mm, below B's opening", b_limit * 1e3));
-      crop = b_limit;
-      r.icp = icp_with_crop(r.transform, o.icp, crop);
-      r.transform = r.icp.transform;
-      r.b = transformed(b, r.transform);
-    }
-    crop = std::min(crop, b_limit);
-  }
-  r.crop_height_m = crop;
-
-  // Deviation at A's points below the crop; slices and volumes.
+/// The deviation at A's points below the crop, its statistics, the slices and the volumes.
+void measure_below_crop(const ShapeCompareOptions& o, ShapeComparison& r) {
+  const double crop = r.crop_height_m;
   std::vector<char> use(r.a.vertices.size(), 0);
-  for (size_t v = 0; v < use.size(); ++v) use[v] = h_of(r.a.vertices[v]) < crop ? 1 : 0;
+  for (size_t v = 0; v < use.size(); ++v) use[v] = height_in(r.frame, r.a.vertices[v]) < crop ? 1 : 0;
   r.deviation_m = signed_deviation(r.a, r.b, o.icp.max_distance_m, use);
   r.stats = deviation_stats(r.a, r.deviation_m, use);
   const auto heights = slice_heights(o.slice_step_m, crop);
@@ -351,6 +390,39 @@ ShapeComparison compare_shapes(const TriMesh& a_in, const TriMesh& b_in, const S
   for (size_t k = 0; k < heights.size(); ++k) r.slices.push_back({heights[k], sa[k], sb[k]});
   r.volume_a_m3 = sa.back().volume_below_m3;
   r.volume_b_m3 = sb.back().volume_below_m3;
+}
+
+}  // namespace
+
+ShapeComparison compare_shapes(const TriMesh& a_in, const TriMesh& b_in, const ShapeCompareOptions& o) {
+  check_compare_input(a_in, b_in, o);
+  ShapeComparison r;
+  const double a_top = read_shape_a(a_in, r);
+  // B: a surface or a socket's cavity, with a frame of its own when it can have one.
+  const ShapeB b = read_shape_b(b_in, o, r);
+
+  // The crop: below A's opening (and B's, once aligned).
+  const double a_limit = a_top - kRimMargin;
+  require(a_limit > 2 * o.slice_step_m, "compare: A is only {:.0f} mm long below its opening: not a limb scan",
+          a_top * 1e3);
+  double crop = o.crop_height_m > 0 ? std::min(o.crop_height_m, a_limit) : a_limit;
+  require(o.crop_height_m <= a_limit + 1e-9,
+          "compare: crop height {:.1f} mm is above A's opening less 5 mm ({:.1f} mm): lower --crop-mm", o.crop_height_m * 1e3,
+          a_limit * 1e3);
+  const SurfaceQuery qa(r.a);
+
+  // Seeds, scored by a coarse ICP; the best refined.
+  const AlignmentSeed seed = o.seed == AlignmentSeed::Auto && !o.landmarks_a.empty() && !o.landmarks_b.empty()
+                                 ? AlignmentSeed::Landmarks
+                                 : o.seed;
+  const NamedSeeds seeds = alignment_seeds(seed, o, b.frame, r.frame);
+  if (seed == AlignmentSeed::None)
+    r.seed = "none (compared where they are)";
+  else
+    align_from_seeds(seeds, b.surface, qa, o, crop, r);
+  r.b = transformed(b.surface, r.transform);
+  r.crop_height_m = crop_below_b_opening(b.surface, qa, o, seed, crop, r);
+  measure_below_crop(o, r);
   return r;
 }
 
