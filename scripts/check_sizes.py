@@ -97,7 +97,6 @@ ALLOWED_FUNCTIONS = {
     "src/socketsmith/volume/bone_anatomy.cpp:transtibial_bone_shapes": 230,
     "src/socketsmith/volume/bone_tube.cpp:sweep_tube": 129,
     "src/socketsmith/volume/hex_mesher.cpp:mesh_limb": 94,
-    "src/socketsmith/volume/limb_generator.cpp:generate_limb": 181,
     "src/socketsmith/volume/limb_sidecar.cpp:limb_sidecar_json": 101,
     "src/socketsmith/volume/skin_radii.cpp:measure_skin_radii": 133,
 }

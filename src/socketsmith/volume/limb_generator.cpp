@@ -250,6 +250,224 @@ const NamedMesh* find_bone(const std::vector<NamedMesh>& bones, const std::strin
   return nullptr;
 }
 
+/// The generated limb's frame: the axis along z from the origin, the front along y.
+LimbFrame truth_frame(geometry::Side side) {
+  LimbFrame frame;
+  frame.origin = Vec3::Zero();
+  frame.axis = Vec3::UnitZ();
+  frame.anterior = Vec3::UnitY();
+  frame.side = side;
+  frame.anterior_estimated = false;
+  frame.side_estimated = false;
+  return frame;
+}
+
+/// The meridian of the mean radius, sampled finely: heights, arc length from the distal end, and
+/// the largest radius [m].
+struct Meridian {
+  std::vector<double> h, arc;
+  double r_max = 0.0;
+};
+
+Meridian sample_meridian(const SkinModel& skin_model, double bulbousness) {
+  const double hc = skin_model.cap_height(), top = skin_model.top();
+  const double k_cap = 2.0 + bulbousness;
+  Meridian m;
+  double prev_h = 0.0, prev_r = 0.0;
+  auto add = [&](double h) {
+    const double r = skin_model.mean_radius(h) * skin_model.cap_factor(h);
+    m.r_max = std::max(m.r_max, r);
+    m.arc.push_back(m.h.empty() ? 0.0 : m.arc.back() + std::hypot(h - prev_h, r - prev_r));
+    m.h.push_back(h);
+    prev_h = h;
+    prev_r = r;
+  };
+  constexpr int n_cap = 600, n_body = 1200;
+  for (int i = 0; i <= n_cap; ++i) {
+    const double psi = 0.5 * kPi * i / n_cap;  // superellipse angle: 1 - h/hc = cos(psi)^(2/k)
+    add(hc * (1.0 - std::pow(std::cos(psi), 2.0 / k_cap)));
+  }
+  for (int i = 1; i <= n_body; ++i) add(lerp(hc, top, static_cast<double>(i) / n_body));
+  return m;
+}
+
+/// The skin's side: rings equally spaced along the meridian's arc length (about @p spacing apart),
+/// up to the top; a ring of @p cols vertices, fewer on the distal cap.
+geometry::RingStack side_rings(const SkinModel& skin_model, const LimbFrame& frame, const Meridian& m, int cols,
+                               double spacing) {
+  const double top = skin_model.top();
+  const int rows = std::max(16, static_cast<int>(std::lround(m.arc.back() / spacing)));
+  geometry::RingStack stack;
+  stack.has_bottom_pole = true;
+  stack.bottom_pole = frame.origin;
+  std::size_t k = 0;
+  for (int r = 1; r <= rows; ++r) {
+    double h = top;
+    if (r < rows) {
+      const double target = m.arc.back() * r / rows;
+      while (k + 1 < m.arc.size() && m.arc[k + 1] < target) ++k;
+      const double t = (target - m.arc[k]) / (m.arc[k + 1] - m.arc[k]);
+      h = lerp(m.h[k], m.h[k + 1], clamp01(t));
+    }
+    const double f = skin_model.cap_factor(h);
+    const int n = std::clamp(static_cast<int>(std::ceil(cols * f)), 8, cols);
+    const SkinModel::Section section(skin_model, h);
+    std::vector<Vec3> ring;
+    ring.reserve(static_cast<std::size_t>(n));
+    for (int j = 0; j < n; ++j) {
+      const double theta = 2.0 * kPi * j / n;
+      ring.push_back(world(frame, theta, f * section(theta), h));
+    }
+    stack.rings.push_back(std::move(ring));
+  }
+  return stack;
+}
+
+/// Planar cap: @p n_cap_rings - 1 concentric rings shrinking from the top ring to the axis in the
+/// cut plane at @p centre, closed by a pole there.
+void add_planar_cap(geometry::RingStack& stack, const Vec3& centre, int n_cap_rings, int cols) {
+  const std::vector<Vec3> top_ring = stack.rings.back();
+  for (int i = 1; i < n_cap_rings; ++i) {
+    const double lambda = 1.0 - static_cast<double>(i) / n_cap_rings;
+    const int n = std::clamp(static_cast<int>(std::ceil(cols * lambda)), 8, cols);
+    std::vector<Vec3> ring;
+    for (int j = 0; j < n; ++j) {
+      // Same angle as on the top ring, interpolated around it.
+      const double u = static_cast<double>(j) * static_cast<double>(top_ring.size()) / n;
+      const auto j0 = static_cast<std::size_t>(std::floor(u));
+      const double t = u - static_cast<double>(j0);
+      const Vec3 p = (1.0 - t) * top_ring[j0 % top_ring.size()] + t * top_ring[(j0 + 1) % top_ring.size()];
+      ring.push_back(centre + lambda * (p - centre));
+    }
+    stack.rings.push_back(std::move(ring));
+  }
+  stack.has_top_pole = true;
+  stack.top_pole = centre;
+}
+
+/// The skin meshed into @p limb (open or closed at the top, as the parameters ask). Returns the
+/// closed skin, which the bones and the landmarks are placed in.
+TriMesh mesh_skin(const LimbShapeParams& params, const SkinModel& skin_model, GeneratedLimb& limb) {
+  const LimbFrame& frame = limb.frame;
+  const double top = skin_model.top();
+  const int cols = params.ring_vertices;
+  const Meridian meridian = sample_meridian(skin_model, params.bulbousness);
+  // Rings slightly closer than the vertices around them: near-equilateral triangles.
+  const double spacing = 0.9 * 2.0 * kPi * meridian.r_max / cols;
+  geometry::RingStack stack = side_rings(skin_model, frame, meridian, cols, spacing);
+  const bool flip = frame.is_left_handed();
+  const TriMesh open_skin = geometry::mesh_ring_stack(stack, flip);
+  const std::size_t side_ring_count = stack.rings.size();
+  const int n_cap_rings = std::max(2, static_cast<int>(std::lround(skin_model.mean_radius(top) / spacing)));
+  add_planar_cap(stack, frame.on_axis(top), n_cap_rings, cols);
+  std::vector<int> bands;
+  TriMesh closed_skin = geometry::mesh_ring_stack(stack, flip, &bands);
+  limb.skin_volume_m3 = geometry::signed_volume(closed_skin);
+  if (params.open_proximal) {
+    limb.skin = open_skin;
+  } else {
+    limb.skin = closed_skin;
+    limb.first_cap_triangle = bands[side_ring_count - 1];
+  }
+  return closed_skin;
+}
+
+/// Bones: the shared template, measured on and fitted inside the closed skin (so that the open
+/// and the closed limb of the same parameters have the same bones).
+std::vector<NamedMesh> fit_bones(const LimbShapeParams& params, const SkinModel& skin_model, const TriMesh& closed_skin,
+                                 const LimbFrame& frame) {
+  const SkinRadii radii = measure_skin_radii(closed_skin, frame);
+  BonePlacement placement;
+  placement.type = params.type;
+  placement.knee_height_m = skin_model.knee();
+  if (params.type == LimbType::Transfemoral) placement.ischial_height_m = skin_model.knee();
+  const BoneTemplateParams bones = scaled_bone_sizes(params.bones, bone_size_factor(params));
+  BoneFitResult fit = fit_bone_template(closed_skin, radii, frame, bones, placement);
+  return std::move(fit.bones);
+}
+
+/// Height of @p p along the frame's axis [m].
+double height_in(const LimbFrame& frame, const Vec3& p) { return (p - frame.origin).dot(frame.axis); }
+
+/// The lowest vertex of @p m along the frame's axis.
+Vec3 lowest_vertex(const TriMesh& m, const LimbFrame& frame) {
+  return *std::min_element(m.vertices.begin(), m.vertices.end(),
+                           [&](const Vec3& a, const Vec3& b) { return height_in(frame, a) < height_in(frame, b); });
+}
+
+/// Most anterior vertex of a bone within a height band.
+Vec3 most_anterior(const TriMesh& m, const LimbFrame& frame, double h0, double h1) {
+  Vec3 best = m.vertices.front();
+  double best_a = -std::numeric_limits<double>::infinity();
+  for (const Vec3& v : m.vertices) {
+    const double h = height_in(frame, v), a = (v - frame.origin).dot(frame.anterior);
+    if (h >= h0 && h <= h1 && a > best_a) {
+      best_a = a;
+      best = v;
+    }
+  }
+  return best;
+}
+
+/// Transtibial landmarks: anatomical points, from the skin model and the bones, projected onto
+/// the skin.
+void place_transtibial_landmarks(const SkinModel& skin_model, GeneratedLimb& limb) {
+  const LimbFrame& frame = limb.frame;
+  const double top = skin_model.top();
+  auto on_skin = [&](double theta, double h) { return world(frame, theta, skin_model.radius(theta, h), h); };
+  const geometry::SurfaceQuery skin_query(limb.skin);
+  auto add = [&](const char* code, const char* name, const Vec3& near, double radius) {
+    limb.landmarks.push_back(make_landmark(frame, skin_query, code, name, near, radius));
+  };
+  const double H = skin_model.knee();
+  const NamedMesh* tibia = find_bone(limb.bones, "tibia");
+  const NamedMesh* fibula = find_bone(limb.bones, "fibula");
+  SOCKETSMITH_ASSERT(tibia != nullptr);
+  add("PT", "patellar tendon", on_skin(0.0, H - 0.012), 0.015);
+  add("MF", "medial tibial flare", on_skin(60.0 * kDeg, H - 0.03), 0.02);
+  add("LF", "lateral tibial flare", on_skin(-55.0 * kDeg, H - 0.035), 0.015);
+  if (fibula != nullptr) {
+    // Centre of the fibular head: the top 20 mm of the fibula.
+    double hmax = -std::numeric_limits<double>::infinity();
+    for (const Vec3& v : fibula->mesh.vertices) hmax = std::max(hmax, height_in(frame, v));
+    Vec3 c = Vec3::Zero();
+    int n = 0;
+    for (const Vec3& v : fibula->mesh.vertices)
+      if (height_in(frame, v) > hmax - 0.02) {
+        c += v;
+        ++n;
+      }
+    const auto cyl = frame.to_cylindrical(c / n);
+    add("FH", "fibular head", on_skin(cyl.theta, cyl.h), 0.012);
+  }
+  add("POP", "popliteal fossa", on_skin(kPi, std::min(H - 0.005, top - 0.005)), 0.025);
+  const double tib_low = height_in(frame, lowest_vertex(tibia->mesh, frame));
+  const Vec3 distal_crest = most_anterior(tibia->mesh, frame, tib_low, tib_low + 0.015);
+  const auto cad = frame.to_cylindrical(distal_crest);
+  add("AD", "anterior distal tibia", on_skin(cad.theta, cad.h), 0.015);
+  const double h_mid = 0.5 * (tib_low + (H - 0.045));
+  const auto ctc = frame.to_cylindrical(most_anterior(tibia->mesh, frame, h_mid - 0.004, h_mid + 0.004));
+  add("TC", "tibial crest", on_skin(ctc.theta, h_mid), 0.015);
+  add("DT", "distal tibia (end)", lowest_vertex(tibia->mesh, frame), 0.02);
+}
+
+/// Transfemoral: the bony points of the femur and the hemipelvis in the truth frame, and the
+/// landmarks placed from them by the same rules as a limb model's (landmarks.h).
+void place_transfemoral_points_and_landmarks(const TriMesh& closed_skin, double top, GeneratedLimb& limb) {
+  const NamedMesh* femur = find_bone(limb.bones, "femur");
+  const NamedMesh* pelvis = find_bone(limb.bones, "hemipelvis");
+  SOCKETSMITH_ASSERT(femur != nullptr && pelvis != nullptr);
+  Vec3 pc = Vec3::Zero();
+  for (const auto& v : pelvis->mesh.vertices) pc += v;
+  const FemurAxis axis = femur_shaft_axis(femur->mesh, pc / static_cast<double>(pelvis->mesh.vertices.size()));
+  limb.transfemoral = transfemoral_points(femur->mesh, axis, pelvis->mesh, limb.frame);
+  limb.landmarks = place_transfemoral_landmarks(closed_skin, limb.frame, *limb.transfemoral, top);
+  for (auto& l : limb.landmarks) {
+    // On the scan-like (open) skin too: the closed skin's side is the same surface below the top.
+    l.estimated = false;
+  }
+}
+
 // (+ 0.0 turns -0.0 into 0.0 for the reader.)
 
 }  // namespace
@@ -352,180 +570,16 @@ GeneratedLimb generate_limb(const LimbShapeParams& params) {
   const SkinModel skin_model(params);
   GeneratedLimb limb;
   limb.params = params;
-  LimbFrame& frame = limb.frame;
-  frame.origin = Vec3::Zero();
-  frame.axis = Vec3::UnitZ();
-  frame.anterior = Vec3::UnitY();
-  frame.side = params.side;
-  frame.anterior_estimated = false;
-  frame.side_estimated = false;
+  limb.frame = truth_frame(params.side);
   const double top = skin_model.top();
   limb.cut_height_m = top;
-
-  // Meridian of the mean radius, sampled finely; rings equally spaced along its arc length.
-  const int cols = params.ring_vertices;
-  const double hc = skin_model.cap_height();
-  const double k_cap = 2.0 + params.bulbousness;
-  std::vector<double> fine_h, fine_arc;
-  double r_max = 0.0;
-  {
-    double prev_h = 0.0, prev_r = 0.0;
-    auto add = [&](double h) {
-      const double r = skin_model.mean_radius(h) * skin_model.cap_factor(h);
-      r_max = std::max(r_max, r);
-      fine_arc.push_back(fine_h.empty() ? 0.0 : fine_arc.back() + std::hypot(h - prev_h, r - prev_r));
-      fine_h.push_back(h);
-      prev_h = h;
-      prev_r = r;
-    };
-    constexpr int n_cap = 600, n_body = 1200;
-    for (int i = 0; i <= n_cap; ++i) {
-      const double psi = 0.5 * kPi * i / n_cap;  // superellipse angle: 1 - h/hc = cos(psi)^(2/k)
-      add(hc * (1.0 - std::pow(std::cos(psi), 2.0 / k_cap)));
-    }
-    for (int i = 1; i <= n_body; ++i) add(lerp(hc, top, static_cast<double>(i) / n_body));
-  }
-  // Rings slightly closer than the vertices around them: near-equilateral triangles.
-  const double spacing = 0.9 * 2.0 * kPi * r_max / cols;
-  const int rows = std::max(16, static_cast<int>(std::lround(fine_arc.back() / spacing)));
-  geometry::RingStack stack;
-  stack.has_bottom_pole = true;
-  stack.bottom_pole = frame.origin;
-  std::size_t k = 0;
-  for (int r = 1; r <= rows; ++r) {
-    double h = top;
-    if (r < rows) {
-      const double target = fine_arc.back() * r / rows;
-      while (k + 1 < fine_arc.size() && fine_arc[k + 1] < target) ++k;
-      const double t = (target - fine_arc[k]) / (fine_arc[k + 1] - fine_arc[k]);
-      h = lerp(fine_h[k], fine_h[k + 1], clamp01(t));
-    }
-    const double f = skin_model.cap_factor(h);
-    const int n = std::clamp(static_cast<int>(std::ceil(cols * f)), 8, cols);
-    const SkinModel::Section section(skin_model, h);
-    std::vector<Vec3> ring;
-    ring.reserve(static_cast<std::size_t>(n));
-    for (int j = 0; j < n; ++j) {
-      const double theta = 2.0 * kPi * j / n;
-      ring.push_back(world(frame, theta, f * section(theta), h));
-    }
-    stack.rings.push_back(std::move(ring));
-  }
-  const bool flip = frame.is_left_handed();
-  const TriMesh open_skin = geometry::mesh_ring_stack(stack, flip);
-  // Planar cap: concentric rings shrinking to the axis in the cut plane.
-  const std::size_t side_rings = stack.rings.size();
-  const Vec3 centre = frame.on_axis(top);
-  const int n_cap_rings = std::max(2, static_cast<int>(std::lround(skin_model.mean_radius(top) / spacing)));
-  const std::vector<Vec3> top_ring = stack.rings.back();
-  for (int i = 1; i < n_cap_rings; ++i) {
-    const double lambda = 1.0 - static_cast<double>(i) / n_cap_rings;
-    const int n = std::clamp(static_cast<int>(std::ceil(cols * lambda)), 8, cols);
-    std::vector<Vec3> ring;
-    for (int j = 0; j < n; ++j) {
-      // Same angle as on the top ring, interpolated around it.
-      const double u = static_cast<double>(j) * static_cast<double>(top_ring.size()) / n;
-      const auto j0 = static_cast<std::size_t>(std::floor(u));
-      const double t = u - static_cast<double>(j0);
-      const Vec3 p = (1.0 - t) * top_ring[j0 % top_ring.size()] + t * top_ring[(j0 + 1) % top_ring.size()];
-      ring.push_back(centre + lambda * (p - centre));
-    }
-    stack.rings.push_back(std::move(ring));
-  }
-  stack.has_top_pole = true;
-  stack.top_pole = centre;
-  std::vector<int> bands;
-  const TriMesh closed_skin = geometry::mesh_ring_stack(stack, flip, &bands);
-  limb.skin_volume_m3 = geometry::signed_volume(closed_skin);
-  if (params.open_proximal) {
-    limb.skin = open_skin;
-  } else {
-    limb.skin = closed_skin;
-    limb.first_cap_triangle = bands[side_rings - 1];
-  }
-
-  // Bones: the shared template, measured on and fitted inside the closed skin (so that the open
-  // and the closed limb of the same parameters have the same bones).
-  const SkinRadii radii = measure_skin_radii(closed_skin, frame);
-  BonePlacement placement;
-  placement.type = params.type;
-  placement.knee_height_m = skin_model.knee();
-  if (params.type == LimbType::Transfemoral) placement.ischial_height_m = skin_model.knee();
-  const BoneTemplateParams bones = scaled_bone_sizes(params.bones, bone_size_factor(params));
-  BoneFitResult fit = fit_bone_template(closed_skin, radii, frame, bones, placement);
-  limb.bones = std::move(fit.bones);
-
+  const TriMesh closed_skin = mesh_skin(params, skin_model, limb);
+  limb.bones = fit_bones(params, skin_model, closed_skin, limb.frame);
   // Landmarks: anatomical points projected onto the skin.
-  auto on_skin = [&](double theta, double h) { return world(frame, theta, skin_model.radius(theta, h), h); };
-  const geometry::SurfaceQuery skin_query(limb.skin);
-  auto add = [&](const char* code, const char* name, const Vec3& near, double radius) {
-    limb.landmarks.push_back(make_landmark(frame, skin_query, code, name, near, radius));
-  };
-  auto height = [&](const Vec3& p) { return (p - frame.origin).dot(frame.axis); };
-  auto lowest = [&](const TriMesh& m) {
-    return *std::min_element(m.vertices.begin(), m.vertices.end(),
-                             [&](const Vec3& a, const Vec3& b) { return height(a) < height(b); });
-  };
-  /// Most anterior vertex of a bone within a height band.
-  auto most_anterior = [&](const TriMesh& m, double h0, double h1) {
-    Vec3 best = m.vertices.front();
-    double best_a = -std::numeric_limits<double>::infinity();
-    for (const Vec3& v : m.vertices) {
-      const double h = height(v), a = (v - frame.origin).dot(frame.anterior);
-      if (h >= h0 && h <= h1 && a > best_a) {
-        best_a = a;
-        best = v;
-      }
-    }
-    return best;
-  };
-  if (params.type == LimbType::Transtibial) {
-    const double H = skin_model.knee();
-    const NamedMesh* tibia = find_bone(limb.bones, "tibia");
-    const NamedMesh* fibula = find_bone(limb.bones, "fibula");
-    SOCKETSMITH_ASSERT(tibia != nullptr);
-    add("PT", "patellar tendon", on_skin(0.0, H - 0.012), 0.015);
-    add("MF", "medial tibial flare", on_skin(60.0 * kDeg, H - 0.03), 0.02);
-    add("LF", "lateral tibial flare", on_skin(-55.0 * kDeg, H - 0.035), 0.015);
-    if (fibula != nullptr) {
-      // Centre of the fibular head: the top 20 mm of the fibula.
-      double hmax = -std::numeric_limits<double>::infinity();
-      for (const Vec3& v : fibula->mesh.vertices) hmax = std::max(hmax, height(v));
-      Vec3 c = Vec3::Zero();
-      int n = 0;
-      for (const Vec3& v : fibula->mesh.vertices)
-        if (height(v) > hmax - 0.02) {
-          c += v;
-          ++n;
-        }
-      const auto cyl = frame.to_cylindrical(c / n);
-      add("FH", "fibular head", on_skin(cyl.theta, cyl.h), 0.012);
-    }
-    add("POP", "popliteal fossa", on_skin(kPi, std::min(H - 0.005, top - 0.005)), 0.025);
-    const double tib_low = height(lowest(tibia->mesh));
-    const Vec3 distal_crest = most_anterior(tibia->mesh, tib_low, tib_low + 0.015);
-    const auto cad = frame.to_cylindrical(distal_crest);
-    add("AD", "anterior distal tibia", on_skin(cad.theta, cad.h), 0.015);
-    const double h_mid = 0.5 * (tib_low + (H - 0.045));
-    const auto ctc = frame.to_cylindrical(most_anterior(tibia->mesh, h_mid - 0.004, h_mid + 0.004));
-    add("TC", "tibial crest", on_skin(ctc.theta, h_mid), 0.015);
-    add("DT", "distal tibia (end)", lowest(tibia->mesh), 0.02);
-  } else {
-    // The bony points of the femur and the hemipelvis in the truth frame, and the landmarks
-    // placed from them by the same rules as a limb model's (landmarks.h).
-    const NamedMesh* femur = find_bone(limb.bones, "femur");
-    const NamedMesh* pelvis = find_bone(limb.bones, "hemipelvis");
-    SOCKETSMITH_ASSERT(femur != nullptr && pelvis != nullptr);
-    Vec3 pc = Vec3::Zero();
-    for (const auto& v : pelvis->mesh.vertices) pc += v;
-    const FemurAxis axis = femur_shaft_axis(femur->mesh, pc / static_cast<double>(pelvis->mesh.vertices.size()));
-    limb.transfemoral = transfemoral_points(femur->mesh, axis, pelvis->mesh, frame);
-    limb.landmarks = place_transfemoral_landmarks(closed_skin, frame, *limb.transfemoral, top);
-    for (auto& l : limb.landmarks) {
-      // On the scan-like (open) skin too: the closed skin's side is the same surface below the top.
-      l.estimated = false;
-    }
-  }
+  if (params.type == LimbType::Transtibial)
+    place_transtibial_landmarks(skin_model, limb);
+  else
+    place_transfemoral_points_and_landmarks(closed_skin, top, limb);
   return limb;
 }
 
