@@ -77,19 +77,28 @@ nlohmann::json landmark_json(const volume::Landmark& l) {
           {"estimated", l.estimated}};
 }
 
-void run(const MeshFlags& f) {
-  namespace fs = std::filesystem;
+/// Refuses a scale, node target or test load out of range.
+void check_mesh_flags(const MeshFlags& f) {
   require(f.scale > 0.0 && std::isfinite(f.scale), "--scale {} must be positive", f.scale);
   require(f.target_nodes >= 100 && f.target_nodes <= 2000000, "--target-nodes {} outside [100, 2000000]",
           f.target_nodes);
   require(f.load_kpa >= 0.0 && f.load_kpa <= 500.0, "--load-kpa {} outside [0, 500] kPa", f.load_kpa);
+}
 
+/// The limb file, a separate bone file (when given), the limb file's unit and the options of
+/// volume::prepare_limb from the flags.
+struct MeshInput {
+  geometry::TriMesh limb, extra;
   double file_unit_m = 1.0;
-  const geometry::TriMesh limb = read_scaled(f.limb, f, &file_unit_m);
-  geometry::TriMesh extra;
   volume::LimbInputOptions lo;
+};
+
+MeshInput read_mesh_input(const MeshFlags& f) {
+  MeshInput in;
+  in.limb = read_scaled(f.limb, f, &in.file_unit_m);
+  volume::LimbInputOptions& lo = in.lo;
   lo.type = geometry::parse_limb_type(f.type);
-  if (f.bones != "auto" && f.bones != "estimate" && f.bones != "none") extra = read_scaled(f.bones, f);
+  if (f.bones != "auto" && f.bones != "estimate" && f.bones != "none") in.extra = read_scaled(f.bones, f);
   // The case file's own check of limb.axis / limb.anterior (one validator for both).
   if (!f.anterior.empty())
     lo.anterior = design::parse_limb_direction(f.anterior, design::LimbDirection::Anterior, "mesh --anterior");
@@ -98,81 +107,91 @@ void run(const MeshFlags& f) {
   if (!f.side.empty()) lo.side = geometry::parse_side(f.side);
   if (f.cut_height_mm > 0) lo.cut_height_m = f.cut_height_mm * units::mm;
   lo.estimate_bones = f.bones != "none";
+  return in;
+}
 
-  const auto progress = console_progress(1.0);  // stderr: keeps --json output clean
-  report_progress(progress, 0.0, "mesh: preparing the limb");
-  geometry::TriMesh skin_only = limb;
+/// The limb prepared from its file (with --bones estimate or none, its largest shell only), and
+/// the landmarks the user moved.
+volume::LimbModel prepare_mesh_limb(const MeshFlags& f, const MeshInput& in) {
+  geometry::TriMesh skin_only = in.limb;
   if (f.bones == "estimate" || f.bones == "none") {
     // Ignore bone shells in the limb file: keep the largest shell only.
-    auto parts = geometry::split_components(limb);
+    auto parts = geometry::split_components(in.limb);
     std::sort(parts.begin(), parts.end(), [](const auto& a, const auto& b) {
       return geometry::surface_area(a) > geometry::surface_area(b);
     });
     skin_only = parts.front();
   }
-  volume::LimbModel model = volume::prepare_limb(skin_only, extra, lo);
+  volume::LimbModel model = volume::prepare_limb(skin_only, in.extra, in.lo);
   for (const auto& text : f.landmarks) {
     const auto eq = text.find('=');
     require(eq != std::string::npos && eq > 0, "--landmark '{}' is not CODE=x,y,z (e.g. PT=12.5,-80,160)", text);
     volume::Landmark given;
     given.code = text.substr(0, eq);
-    given.position = parse_point(text.substr(eq + 1), "--landmark " + given.code) * file_unit_m * f.scale;
+    given.position = parse_point(text.substr(eq + 1), "--landmark " + given.code) * in.file_unit_m * f.scale;
     volume::override_landmark(model.landmarks, model.skin, model.frame, given);
     model.notes.push_back(fmt::format("landmark {} given by the user", given.code));
   }
-  for (const auto& n : model.notes) log::info("mesh: {}", n);
+  return model;
+}
 
-  const volume::HexMesherInput in = volume::mesher_input(model);
-  volume::HexMesherOptions mo;
-  mo.target_nodes = f.target_nodes;
-  mo.progress = progress;
-  volume::HexMesherResult r = volume::mesh_limb(in, mo);
-  for (const auto& n : r.notes) log::info("mesh: {}", n);
-
-  const fs::path out(f.out);
-  ensure_directory(out);
-  // Landmark zone of each node: index of the nearest landmark within its radius, else -1.
-  std::vector<double> zone(r.mesh.num_nodes(), -1.0);
-  for (int n = 0; n < r.mesh.num_nodes(); ++n) {
-    if (!r.mesh.has_tag(n, volume::kNodeSurface)) continue;
+/// Landmark zone of each node: index of the nearest landmark within its radius, else -1.
+std::vector<double> landmark_zones(const volume::HexMesh& mesh, const std::vector<volume::Landmark>& landmarks) {
+  std::vector<double> zone(mesh.num_nodes(), -1.0);
+  for (int n = 0; n < mesh.num_nodes(); ++n) {
+    if (!mesh.has_tag(n, volume::kNodeSurface)) continue;
     double best = 1e30;
-    for (size_t k = 0; k < model.landmarks.size(); ++k) {
-      const double d = (r.mesh.nodes[n] - model.landmarks[k].position).norm();
-      if (d <= model.landmarks[k].radius_m && d < best) {
+    for (size_t k = 0; k < landmarks.size(); ++k) {
+      const double d = (mesh.nodes[n] - landmarks[k].position).norm();
+      if (d <= landmarks[k].radius_m && d < best) {
         best = d;
         zone[n] = static_cast<double>(k);
       }
     }
   }
-  std::vector<double> sj(r.mesh.num_hexahedra());
-  for (int e = 0; e < r.mesh.num_hexahedra(); ++e) {
-    const auto c = volume::corner_scaled_jacobians(volume::gather(r.mesh.nodes, r.mesh.hexahedra[e]));
+  return zone;
+}
+
+/// The smallest corner scaled Jacobian of each hexahedron.
+std::vector<double> min_scaled_jacobians(const volume::HexMesh& mesh) {
+  std::vector<double> sj(mesh.num_hexahedra());
+  for (int e = 0; e < mesh.num_hexahedra(); ++e) {
+    const auto c = volume::corner_scaled_jacobians(volume::gather(mesh.nodes, mesh.hexahedra[e]));
     sj[e] = *std::min_element(c.begin(), c.end());
   }
-  std::vector<report::VtkField> point_fields{{"landmark_zone", 1, zone}};
+  return sj;
+}
 
-  nlohmann::json load_json;
-  if (f.load_kpa > 0.0) {
-    report_progress(progress, 0.9, "mesh: static solve under the test pressure");
-    const auto pr = tissue::solve_uniform_pressure(r.mesh, f.load_kpa * units::kPa, make_material(f.model),
-                                                   make_model_options(f.model));
-    std::vector<Vec3> u(r.mesh.num_nodes());
-    for (int n = 0; n < r.mesh.num_nodes(); ++n) u[n] = pr.positions.segment<3>(3 * n) - r.mesh.nodes[n];
-    point_fields.push_back(report::make_vector_field("displacement_m", u));
-    load_json = {{"pressure_kpa", f.load_kpa},
-                 {"converged", pr.solve.converged},
-                 {"newton_iterations", pr.solve.iterations},
-                 {"load_steps", pr.solve.load_steps},
-                 {"max_displacement_mm", pr.max_displacement_m * 1e3},
-                 {"mean_skin_displacement_mm", pr.mean_skin_displacement_m * 1e3},
-                 {"volume_change", pr.volume_change},
-                 {"setup_s", pr.seconds_setup},
-                 {"solve_s", pr.seconds_solve},
-                 {"model", to_json(make_model_options(f.model), make_material(f.model))}};
-    log::info("mesh: {:.1f} kPa inward: max displacement {:.2f} mm, volume change {:.2f} %, solved in {:.2f} s",
-              f.load_kpa, pr.max_displacement_m * 1e3, 100 * pr.volume_change, pr.seconds_solve);
-  }
-  report::write_vtu(out / "stump.vtu", r.mesh, point_fields, {{"min_scaled_jacobian", 1, sj}});
+/// The stump solved under the --load-kpa inward skin pressure: its displacement added to
+/// @p point_fields; returns the summary's "load" entry.
+nlohmann::json solve_test_load(const MeshFlags& f, const volume::HexMesh& mesh, const ProgressCallback& progress,
+                               std::vector<report::VtkField>& point_fields) {
+  report_progress(progress, 0.9, "mesh: static solve under the test pressure");
+  const auto pr = tissue::solve_uniform_pressure(mesh, f.load_kpa * units::kPa, make_material(f.model),
+                                                 make_model_options(f.model));
+  std::vector<Vec3> u(mesh.num_nodes());
+  for (int n = 0; n < mesh.num_nodes(); ++n) u[n] = pr.positions.segment<3>(3 * n) - mesh.nodes[n];
+  point_fields.push_back(report::make_vector_field("displacement_m", u));
+  nlohmann::json load_json = {{"pressure_kpa", f.load_kpa},
+                              {"converged", pr.solve.converged},
+                              {"newton_iterations", pr.solve.iterations},
+                              {"load_steps", pr.solve.load_steps},
+                              {"max_displacement_mm", pr.max_displacement_m * 1e3},
+                              {"mean_skin_displacement_mm", pr.mean_skin_displacement_m * 1e3},
+                              {"volume_change", pr.volume_change},
+                              {"setup_s", pr.seconds_setup},
+                              {"solve_s", pr.seconds_solve},
+                              {"model", to_json(make_model_options(f.model), make_material(f.model))}};
+  log::info("mesh: {:.1f} kPa inward: max displacement {:.2f} mm, volume change {:.2f} %, solved in {:.2f} s",
+            f.load_kpa, pr.max_displacement_m * 1e3, 100 * pr.volume_change, pr.seconds_solve);
+  return load_json;
+}
+
+/// The limb's picture, its skin and bones as STL, and the mesh's skin surface with its nodal
+/// areas and normals.
+void write_limb_files(const std::filesystem::path& out, const MeshFlags& f, const volume::LimbModel& model,
+                      const volume::HexMesh& mesh) {
+  namespace fs = std::filesystem;
   report::write_png(out / "limb.png",
                     report::render_limb_views(model.skin, model.bones, model.landmarks, model.frame,
                                               fs::path(f.limb).filename().string() + ": landmarks",
@@ -187,14 +206,17 @@ void run(const MeshFlags& f) {
     }
     geometry::write_mesh(out / (model.bones_estimated ? "bones_estimated.stl" : "bones.stl"), all);
   }
-  {
-    const auto surf = volume::extract_skin_surface(r.mesh);
-    geometry::TriMesh tri = surf.triangles();
-    std::vector<double> area(surf.area_m2), nodeid(surf.nodes.begin(), surf.nodes.end());
-    report::write_vtp(out / "skin_surface.vtp", tri,
-                      {{"nodal_area_m2", 1, area}, report::make_vector_field("normal", surf.normal), {"node", 1, nodeid}});
-  }
+  const auto surf = volume::extract_skin_surface(mesh);
+  geometry::TriMesh tri = surf.triangles();
+  std::vector<double> area(surf.area_m2), nodeid(surf.nodes.begin(), surf.nodes.end());
+  report::write_vtp(out / "skin_surface.vtp", tri,
+                    {{"nodal_area_m2", 1, area}, report::make_vector_field("normal", surf.normal), {"node", 1, nodeid}});
+}
 
+/// mesh.json: the mesh's counts and quality, the volumes, the limb's frame, landmarks and notes,
+/// and the test load's result when there was one.
+nlohmann::json mesh_summary(const MeshFlags& f, const volume::LimbModel& model, const volume::HexMesherResult& r,
+                            const nlohmann::json& load_json) {
   const double tissue_ref = r.skin_volume_m3 - r.bone_volume_m3;
   nlohmann::json lms = nlohmann::json::array();
   for (const auto& l : model.landmarks) lms.push_back(landmark_json(l));
@@ -236,22 +258,59 @@ void run(const MeshFlags& f) {
       {"outputs", {"stump.vtu", "skin_surface.vtp", "skin.stl", "limb.png", "mesh.json"}}};
   for (const auto& n : r.notes) j["notes"].push_back(n);
   if (!load_json.is_null()) j["load"] = load_json;
+  return j;
+}
+
+/// The mesh's size, quality and tissue volume, one line each, and where the stump was written.
+void log_mesh_summary(const volume::LimbModel& model, const volume::HexMesherResult& r,
+                      const std::filesystem::path& out) {
+  const double tissue_ref = r.skin_volume_m3 - r.bone_volume_m3;
+  log::info("mesh: {} nodes, {} hexahedra ({} fixed, {} on the skin), cell {:.1f} mm, {:.1f} s", r.mesh.num_nodes(),
+            r.mesh.num_hexahedra(), r.mesh.count_tag(volume::kNodeFixed), r.mesh.count_tag(volume::kNodeSurface),
+            r.cell_size_m * 1e3, r.seconds);
+  log::info("mesh: scaled Jacobian min {:.3f} mean {:.3f}, max aspect ratio {:.2f}, skin nodes within {:.3f} mm "
+            "of the skin, quad centres within {:.2f} mm",
+            r.quality.min_scaled_jacobian, r.quality.mean_scaled_jacobian, r.quality.max_aspect_ratio,
+            r.max_skin_distance_m * 1e3, r.max_face_deviation_m * 1e3);
+  log::info("mesh: tissue volume {:.1f} cm^3 vs skin - bones {:.1f} cm^3 ({:+.2f} %){}", r.tissue_volume_m3 * 1e6,
+            tissue_ref * 1e6, tissue_ref > 0 ? 100 * (r.tissue_volume_m3 / tissue_ref - 1.0) : 0.0,
+            model.bones_estimated ? "; bones ESTIMATED" : "");
+  log::info("mesh: wrote {}", (out / "stump.vtu").string());
+}
+
+void run(const MeshFlags& f) {
+  namespace fs = std::filesystem;
+  check_mesh_flags(f);
+  const MeshInput in = read_mesh_input(f);
+
+  const auto progress = console_progress(1.0);  // stderr: keeps --json output clean
+  report_progress(progress, 0.0, "mesh: preparing the limb");
+  const volume::LimbModel model = prepare_mesh_limb(f, in);
+  for (const auto& n : model.notes) log::info("mesh: {}", n);
+
+  const volume::HexMesherInput mesher_in = volume::mesher_input(model);
+  volume::HexMesherOptions mo;
+  mo.target_nodes = f.target_nodes;
+  mo.progress = progress;
+  const volume::HexMesherResult r = volume::mesh_limb(mesher_in, mo);
+  for (const auto& n : r.notes) log::info("mesh: {}", n);
+
+  const fs::path out(f.out);
+  ensure_directory(out);
+  const std::vector<double> zone = landmark_zones(r.mesh, model.landmarks);
+  const std::vector<double> sj = min_scaled_jacobians(r.mesh);
+  std::vector<report::VtkField> point_fields{{"landmark_zone", 1, zone}};
+  const nlohmann::json load_json =
+      f.load_kpa > 0.0 ? solve_test_load(f, r.mesh, progress, point_fields) : nlohmann::json();
+  report::write_vtu(out / "stump.vtu", r.mesh, point_fields, {{"min_scaled_jacobian", 1, sj}});
+  write_limb_files(out, f, model, r.mesh);
+
+  const nlohmann::json j = mesh_summary(f, model, r, load_json);
   write_text_atomically(out / "mesh.json", j.dump(2) + "\n");
-  if (f.json) {
+  if (f.json)
     print_json(j);
-  } else {
-    log::info("mesh: {} nodes, {} hexahedra ({} fixed, {} on the skin), cell {:.1f} mm, {:.1f} s", r.mesh.num_nodes(),
-              r.mesh.num_hexahedra(), r.mesh.count_tag(volume::kNodeFixed), r.mesh.count_tag(volume::kNodeSurface),
-              r.cell_size_m * 1e3, r.seconds);
-    log::info("mesh: scaled Jacobian min {:.3f} mean {:.3f}, max aspect ratio {:.2f}, skin nodes within {:.3f} mm "
-              "of the skin, quad centres within {:.2f} mm",
-              r.quality.min_scaled_jacobian, r.quality.mean_scaled_jacobian, r.quality.max_aspect_ratio,
-              r.max_skin_distance_m * 1e3, r.max_face_deviation_m * 1e3);
-    log::info("mesh: tissue volume {:.1f} cm^3 vs skin - bones {:.1f} cm^3 ({:+.2f} %){}", r.tissue_volume_m3 * 1e6,
-              tissue_ref * 1e6, tissue_ref > 0 ? 100 * (r.tissue_volume_m3 / tissue_ref - 1.0) : 0.0,
-              model.bones_estimated ? "; bones ESTIMATED" : "");
-    log::info("mesh: wrote {}", (out / "stump.vtu").string());
-  }
+  else
+    log_mesh_summary(model, r, out);
 }
 
 }  // namespace
