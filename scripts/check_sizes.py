@@ -74,8 +74,6 @@ ALLOWED_FUNCTIONS = {
     "src/socketsmith/pipeline/design_validation.cpp:validate_design": 121,
     "src/socketsmith/pipeline/design_validation.cpp:write_comparison_files": 123,
     "src/socketsmith/pipeline/shape_comparison.cpp:run_compare": 99,
-    "src/socketsmith/pipeline/sock_ply.cpp:run_sock_ply_study": 159,
-    "src/socketsmith/pipeline/sock_ply.cpp:write_sock_ply_outputs": 169,
     "src/socketsmith/pipeline/sweep.cpp:parse_sweep": 98,
     "src/socketsmith/pipeline/sweep_collect.cpp:collect_sweep": 101,
     "src/socketsmith/pipeline/sweep_runner.cpp:run_sweep_local": 81,
