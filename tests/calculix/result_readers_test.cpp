@@ -148,6 +148,13 @@ TEST(DatReader, node_prints_and_contact_statistics) {
   EXPECT_DOUBLE_EQ(f->time, 0.5);
   EXPECT_DOUBLE_EQ(f->rows[0][3], -500.0);
   EXPECT_EQ(last_block(b, "forces", "BONE"), nullptr);
+  // The block of one increment by its total time (the end of a step): the standing check's retry
+  // reads CalculiX's own reaction at the end of step 1 this way.
+  const auto* q = block_at(b, "forces", "REF", 0.25);
+  ASSERT_NE(q, nullptr);
+  EXPECT_DOUBLE_EQ(q->rows[0][3], -250.0);
+  EXPECT_EQ(block_at(b, "forces", "REF", 1.0), nullptr);
+  EXPECT_EQ(block_at(b, "statistics", "REF", 0.25), nullptr);
 }
 
 }  // namespace

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cmath>
 #include <cstdlib>
 
 #include "socketsmith/core/errors.h"
@@ -89,6 +90,14 @@ const DatBlock* last_block(const std::vector<DatBlock>& blocks, std::string_view
   const std::string t = lower(title_prefix), s = lower(set);
   for (auto it = blocks.rbegin(); it != blocks.rend(); ++it)
     if (lower(it->title).starts_with(t) && lower(it->set) == s) return &*it;
+  return nullptr;
+}
+
+const DatBlock* block_at(const std::vector<DatBlock>& blocks, std::string_view title_prefix, std::string_view set,
+                         double time) {
+  const std::string t = lower(title_prefix), s = lower(set);
+  for (auto it = blocks.rbegin(); it != blocks.rend(); ++it)
+    if (std::abs(it->time - time) <= 1e-9 && lower(it->title).starts_with(t) && lower(it->set) == s) return &*it;
   return nullptr;
 }
 

@@ -33,4 +33,9 @@ std::vector<DatBlock> read_dat(const std::filesystem::path& path);
 /// null when there is none.
 const DatBlock* last_block(const std::vector<DatBlock>& blocks, std::string_view title_prefix, std::string_view set);
 
+/// The last block like last_block's whose increment ends at total time @p time (within 1e-9), e.g.
+/// the end of step 1 (time 1); null when there is none.
+const DatBlock* block_at(const std::vector<DatBlock>& blocks, std::string_view title_prefix, std::string_view set,
+                         double time);
+
 }  // namespace socketsmith::calculix

@@ -147,6 +147,11 @@ struct DesignCheckResult {
   std::filesystem::path deck;
   bool converged = false;
   std::string message;                    ///< ccx's message (partial results when not converged)
+  /// Where the standing step's load ramp started [N] (DesignCheckOptions::donning_force_n, or
+  /// CalculiX's own step-1 reaction when the first try's step 2 failed from the estimate; 0: no
+  /// standing step).
+  double load_step_start_n = 0;
+  int ccx_runs = 0;                       ///< 2 when step 2 was run again from CalculiX's own reaction
 };
 
 /// Writes <dir>/<job>.inp, runs ccx, reads and compares. When ccx fails after some increments,
