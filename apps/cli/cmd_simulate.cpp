@@ -55,10 +55,9 @@ std::vector<std::vector<double>> csv_rows(const tissue::CubeExperimentResult& r)
   return rows;
 }
 
-void run_cube(const CubeFlags& f) {
-  namespace fs = std::filesystem;
-  const fs::path out(f.out);
-  ensure_directory(out);
+/// The experiment's settings shared by every model: the cube, its lattice, the weights and the
+/// material.
+tissue::CubeExperimentOptions cube_base_options(const CubeFlags& f) {
   tissue::CubeExperimentOptions base;
   base.edge_m = f.edge_mm * 1e-3;
   base.divisions = f.divisions;
@@ -66,21 +65,30 @@ void run_cube(const CubeFlags& f) {
   base.max_weight_n = f.max_weight;
   base.material = make_material(f.model);
   base.check_stability = f.divisions <= 4;  // dense eigenvalues: small lattices only
+  return base;
+}
 
-  // The selected configuration, then the references shown beside it in the plot.
-  struct Config {
-    std::string label;
-    tissue::MassSpringOptions options;
-  };
-  std::vector<Config> configs;
+/// A tissue model run in the experiment, with the label it has in the plot and the summary.
+struct CubeConfig {
+  std::string label;
+  tissue::MassSpringOptions options;
+};
+
+/// The results of the models run, in the order of their configurations, with their labels.
+using CubeResults = std::vector<std::pair<std::string, tissue::CubeExperimentResult>>;
+
+std::string config_label(const tissue::MassSpringOptions& o, const std::string& preset) {
+  if (o.kind != tissue::TissueModelKind::MssCs) return tissue::to_string(o.kind);
+  return "mss-cs (" + preset + ")";
+}
+
+/// The selected configuration, then the references shown beside it in the plot (each label once).
+std::vector<CubeConfig> cube_configs(const CubeFlags& f) {
+  std::vector<CubeConfig> configs;
   const tissue::MassSpringOptions selected = make_model_options(f.model);
   const bool custom = f.model.golec_a >= 0 || f.model.alpha >= 0 || f.model.c >= 0 || f.model.beta >= 0 || f.model.spring_ratio >= 0 ||
                       !f.model.law.empty();
-  auto label_of = [&](const tissue::MassSpringOptions& o, const std::string& preset) {
-    if (o.kind != tissue::TissueModelKind::MssCs) return tissue::to_string(o.kind);
-    return "mss-cs (" + preset + ")";
-  };
-  configs.push_back({label_of(selected, custom ? "custom" : f.model.constants), selected});
+  configs.push_back({config_label(selected, custom ? "custom" : f.model.constants), selected});
   for (const auto& [kind, preset] : std::vector<std::pair<tissue::TissueModelKind, std::string>>{
            {tissue::TissueModelKind::MssCs, "recommended"},
            {tissue::TissueModelKind::MssCs, "thesis"},
@@ -90,14 +98,19 @@ void run_cube(const CubeFlags& f) {
     o.kind = kind;
     o.corrective = tissue::CorrectiveSpringConstants::preset(kind == tissue::TissueModelKind::MssCs ? preset : "thesis");
     o.cf_poisson_ratio = f.model.cf_poisson;
-    const std::string label = label_of(o, preset);
+    const std::string label = config_label(o, preset);
     bool seen = false;
     for (const auto& c : configs) seen |= c.label == label;
     if (!seen) configs.push_back({label, o});
   }
+  return configs;
+}
 
-  nlohmann::json summary;
-  std::vector<std::pair<std::string, tissue::CubeExperimentResult>> results;
+/// Runs the experiment for each configuration and appends each model's errors and rows to
+/// summary["models"]. The selected model (the first) must converge; a reference may stop early.
+CubeResults run_cube_configs(const CubeFlags& f, const tissue::CubeExperimentOptions& base,
+                             const std::vector<CubeConfig>& configs, nlohmann::json& summary) {
+  CubeResults results;
   for (size_t i = 0; i < configs.size(); ++i) {
     tissue::CubeExperimentOptions o = base;
     o.model = configs[i].options;
@@ -120,34 +133,41 @@ void run_cube(const CubeFlags& f) {
                                  {"rows", rows_json(r)}});
     results.emplace_back(configs[i].label, std::move(r));
   }
+  return results;
+}
 
+/// cube.csv (the selected model) and cube_all.csv (every model, with its index).
+void write_cube_csvs(const std::filesystem::path& out, const CubeResults& results) {
   // *_reference: the uniaxial stress state of the model's own energy (continuum models; nan otherwise).
   const std::vector<std::string> header = {"weight_n", "top_pressure_analytic_pa", "top_pressure_pa",
                                            "displacement_ratio_analytic", "displacement_ratio", "volume_ratio",
                                            "displacement_ratio_reference", "volume_ratio_reference"};
   report::write_csv(out / "cube.csv", header, csv_rows(results.front().second));
   std::vector<std::vector<double>> all_rows;
-  {
-    std::vector<std::string> h = header;
-    h.insert(h.begin(), "model_index");
-    for (size_t m = 0; m < results.size(); ++m)
-      for (auto row : csv_rows(results[m].second)) {
-        row.insert(row.begin(), static_cast<double>(m));
-        all_rows.push_back(row);
-      }
-    report::write_csv(out / "cube_all.csv", h, all_rows);
-  }
+  std::vector<std::string> h = header;
+  h.insert(h.begin(), "model_index");
+  for (size_t m = 0; m < results.size(); ++m)
+    for (auto row : csv_rows(results[m].second)) {
+      row.insert(row.begin(), static_cast<double>(m));
+      all_rows.push_back(row);
+    }
+  report::write_csv(out / "cube_all.csv", h, all_rows);
+}
 
-  // Plot like the thesis's Figs. 28–30.
+/// The three panels of the thesis's Figs. 28–30: top pressure, displacement ratio and volume.
+struct CubePlots {
   report::Plot pressure{"Top pressure (Fig. 28)", "box weight [N]", "pressure [kPa]", {}, {}, {}, {}, {}};
   report::Plot disp{"Displacement ratio (Fig. 29)", "box weight [N]", "displacement / edge", {}, {}, {}, {}, {}};
   report::Plot vol{"Volume (Fig. 30)", "box weight [N]", "volume [cm^3]", {}, {}, {}, {}, {}};
+};
+
+/// The analytic curves (W/A, W/(AE), the initial volume) and, where the selected continuum model
+/// has one, the analytic uniaxial state of its own energy.
+void add_analytic_series(CubePlots& plots, const CubeResults& results, double v0_cm3) {
   const auto& first = results.front().second;
   report::PlotSeries an_p{"analytic W/A", {}, {}, "#000000", true, false, 2};
   report::PlotSeries an_d{"analytic W/(AE)", {}, {}, "#000000", true, false, 2};
   report::PlotSeries an_v{"initial volume", {}, {}, "#000000", true, false, 2};
-  const double v0_cm3 = std::pow(f.edge_mm / 10.0, 3);
-  // The analytic uniaxial state of the selected continuum model's own energy, where it has one.
   report::PlotSeries ref_d{results.front().first + ", analytic", {}, {}, "#555555", true, false, 1}, ref_v = ref_d;
   for (const auto& row : first.rows) {
     an_p.x.push_back(row.weight_n);
@@ -162,13 +182,20 @@ void run_cube(const CubeFlags& f) {
     ref_v.x.push_back(row.weight_n);
     ref_v.y.push_back(row.volume_ratio_reference * v0_cm3);
   }
-  pressure.series.push_back(an_p);
-  disp.series.push_back(an_d);
-  vol.series.push_back(an_v);
+  plots.pressure.series.push_back(an_p);
+  plots.disp.series.push_back(an_d);
+  plots.vol.series.push_back(an_v);
   if (!ref_d.x.empty()) {
-    disp.series.push_back(ref_d);
-    vol.series.push_back(ref_v);
+    plots.disp.series.push_back(ref_d);
+    plots.vol.series.push_back(ref_v);
   }
+}
+
+/// cube.svg: the analytic curves, then each model's simulated curves.
+void write_cube_svg(const std::filesystem::path& out, const CubeResults& results, double edge_mm) {
+  CubePlots plots;
+  const double v0_cm3 = std::pow(edge_mm / 10.0, 3);
+  add_analytic_series(plots, results, v0_cm3);
   for (const auto& [label, r] : results) {
     report::PlotSeries sp{label, {}, {}, "", false, true, 2}, sd = sp, sv = sp;
     for (const auto& row : r.rows) {
@@ -179,12 +206,18 @@ void run_cube(const CubeFlags& f) {
       sv.x.push_back(row.weight_n);
       sv.y.push_back(row.volume_ratio * v0_cm3);
     }
-    pressure.series.push_back(sp);
-    disp.series.push_back(sd);
-    vol.series.push_back(sv);
+    plots.pressure.series.push_back(sp);
+    plots.disp.series.push_back(sd);
+    plots.vol.series.push_back(sv);
   }
-  report::write_svg_grid(out / "cube.svg", {pressure, disp, vol}, 3);
+  report::write_svg_grid(out / "cube.svg", {plots.pressure, plots.disp, plots.vol}, 3);
+}
 
+/// summary.json (the selected model also under "selected") and the closing lines on the selected
+/// model's errors.
+void write_cube_summary(const CubeFlags& f, const std::filesystem::path& out, const tissue::CubeExperimentOptions& base,
+                        const CubeResults& results, nlohmann::json& summary) {
+  const auto& first = results.front().second;
   summary["command"] = "socketsmith simulate cube";
   summary["edge_m"] = base.edge_m;
   summary["divisions"] = f.divisions;
@@ -202,6 +235,17 @@ void run_cube(const CubeFlags& f) {
               "{:.3g}%, max volume error {:.3g}% of V0",
               results.front().first, 100 * err.max_displacement_error_reference, 100 * err.max_volume_error_reference);
   log::info("wrote {}", (out / "cube.csv").string());
+}
+
+void run_cube(const CubeFlags& f) {
+  const std::filesystem::path out(f.out);
+  ensure_directory(out);
+  const tissue::CubeExperimentOptions base = cube_base_options(f);
+  nlohmann::json summary;
+  const CubeResults results = run_cube_configs(f, base, cube_configs(f), summary);
+  write_cube_csvs(out, results);
+  write_cube_svg(out, results, f.edge_mm);
+  write_cube_summary(f, out, base, results, summary);
   if (f.json) print_json(summary["selected"]);
 }
 
