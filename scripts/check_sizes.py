@@ -83,7 +83,6 @@ ALLOWED_FUNCTIONS = {
     "src/socketsmith/scan/calibration.cpp:calibrate_sensor": 118,
     "src/socketsmith/scan/recording.cpp:read_recording": 114,
     "src/socketsmith/scan/registration.cpp:box_reference_points": 82,
-    "src/socketsmith/scan/simulated_sensor.cpp:simulate_frames": 168,
     "src/socketsmith/tissue/calibration.cpp:calibrate_corrective_springs": 116,
     "src/socketsmith/tissue/cube_experiment.cpp:run_cube_experiment": 111,
     "src/socketsmith/tissue/mass_spring_model.cpp:MassSpringModel::MassSpringModel": 85,

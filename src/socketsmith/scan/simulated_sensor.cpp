@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <random>
 
 #include <fmt/format.h>
@@ -58,32 +59,6 @@ bool ray_meets_box(const Vec3& o, const Vec3& d, const geometry::Aabb& box) {
     if (t0 > t1) return false;
   }
   return true;
-}
-
-/// Adds a grid of n1 × n2 quads spanning origin + [0,1]·e1 + [0,1]·e2 (normal e1 × e2).
-void add_grid_face(geometry::TriMesh& m, const Vec3& origin, const Vec3& e1, const Vec3& e2, int n1, int n2) {
-  const int base = m.num_vertices();
-  for (int j = 0; j <= n2; ++j)
-    for (int i = 0; i <= n1; ++i) m.vertices.push_back(origin + e1 * (double(i) / n1) + e2 * (double(j) / n2));
-  auto id = [&](int i, int j) { return base + j * (n1 + 1) + i; };
-  for (int j = 0; j < n2; ++j)
-    for (int i = 0; i < n1; ++i) {
-      m.triangles.push_back({id(i, j), id(i + 1, j), id(i + 1, j + 1)});
-      m.triangles.push_back({id(i, j), id(i + 1, j + 1), id(i, j + 1)});
-    }
-}
-
-geometry::TriMesh make_box_cells(const Vec3& size, const Vec3& center, const Eigen::Vector3i& cells) {
-  const Vec3 lo = center - 0.5 * size;
-  const Vec3 X = Vec3::UnitX() * size.x(), Y = Vec3::UnitY() * size.y(), Z = Vec3::UnitZ() * size.z();
-  geometry::TriMesh m;
-  add_grid_face(m, lo + X, Y, Z, cells.y(), cells.z());  // +x
-  add_grid_face(m, lo, Z, Y, cells.z(), cells.y());      // -x
-  add_grid_face(m, lo + Y, Z, X, cells.z(), cells.x());  // +y
-  add_grid_face(m, lo, X, Z, cells.x(), cells.z());      // -y
-  add_grid_face(m, lo + Z, X, Y, cells.x(), cells.y());  // +z
-  add_grid_face(m, lo, Y, X, cells.y(), cells.x());      // -z
-  return geometry::weld_vertices(m, 1e-9);
 }
 
 }  // namespace
@@ -145,6 +120,195 @@ double ChessboardPatch::albedo_at(double x, double y) const {
   return (static_cast<int>(a) + static_cast<int>(b)) % 2 == 0 ? kBlack : kWhite;
 }
 
+namespace {
+
+/// A sensor's rays in the world: the calibration's ray table as the unit sees it.
+struct SensorRays {
+  const RayTable& table;
+  int w, h;
+  Eigen::Matrix3d R;  ///< world from sensor
+  Vec3 origin;        ///< the sensor's centre in the world [m]
+  // The unit's true rays (lateral scale error): the calibration's (x, y) divided by 1 + s·e.
+  double gx, gy;
+  Vec3 world(const Eigen::Vector2d& xy) const { return R * Vec3(xy.x() * gx, xy.y() * gy, 1.0); }
+  // Bilinear interpolation of the ray table at a sub-pixel position (distortion is smooth).
+  Eigen::Vector2d at(double uf, double vf) const {
+    const int u0 = std::clamp(static_cast<int>(std::floor(uf)), 0, w - 2), v0 = std::clamp(static_cast<int>(std::floor(vf)), 0, h - 2);
+    const double fu = uf - u0, fv = vf - v0;
+    return (1 - fv) * ((1 - fu) * table.at(u0, v0) + fu * table.at(u0 + 1, v0)) +
+           fv * ((1 - fu) * table.at(u0, v0 + 1) + fu * table.at(u0 + 1, v0 + 1));
+  }
+};
+
+/// What every frame of a sensor sees alike, per pixel: the exact depth along the optical axis
+/// (0: no surface; negative: a grazing return), the cosine of incidence and the IR albedo.
+struct PixelTruth {
+  std::vector<double> truth, cosine, albedo;
+};
+
+/// The albedo of board b seen by pixel (u, v) (its centre's ray hits the board face): inside a
+/// square (the four pixel corners agree) one value, on an edge the mean of 8×8 sub-pixel rays;
+/// none when no sub-pixel ray sees anything.
+std::optional<double> board_albedo(const SensorRays& rays, const ChessboardPatch& b, const Eigen::Isometry3d& to_board,
+                                   double scene_albedo, int u, int v) {
+  const Vec3 bn = b.world_from_board.linear().col(2);  // into the board
+  // Albedo seen along a sub-pixel ray (the scene's outside the board).
+  auto albedo_along = [&](double uf, double vf) {
+    const Eigen::Vector2d sxy = rays.at(uf, vf);
+    if (!std::isfinite(sxy.x())) return -1.0;
+    const Vec3 sd = rays.world(sxy);
+    const double denom = bn.dot(sd);
+    if (std::abs(denom) < 1e-12) return -1.0;
+    const Vec3 q = to_board * (rays.origin + sd * (bn.dot(b.world_from_board.translation() - rays.origin) / denom));
+    const double a = b.albedo_at(q.x(), q.y());
+    return a < 0.0 ? scene_albedo : a;
+  };
+  const double a00 = albedo_along(u - 0.5, v - 0.5), a10 = albedo_along(u + 0.5, v - 0.5),
+               a01 = albedo_along(u - 0.5, v + 0.5), a11 = albedo_along(u + 0.5, v + 0.5);
+  if (a00 >= 0.0 && a00 == a10 && a00 == a01 && a00 == a11) return a00;
+  double sum = 0.0;
+  int count = 0;
+  constexpr int kSub = 8;
+  for (int sv = 0; sv < kSub; ++sv)
+    for (int su = 0; su < kSub; ++su) {
+      const double a = albedo_along(u + (su + 0.5) / kSub - 0.5, v + (sv + 0.5) / kSub - 0.5);
+      if (a < 0.0) continue;
+      sum += a;
+      ++count;
+    }
+  if (count == 0) return std::nullopt;
+  return sum / count;
+}
+
+/// Step 1: traces every pixel's ray into the scene (chessboard squares antialiased).
+PixelTruth trace_pixels(const geometry::SurfaceQuery& query, const Scene& scene, const SensorRays& rays,
+                        double cos_grazing) {
+  const int w = rays.w, h = rays.h;
+  const size_t n = static_cast<size_t>(w) * h;
+  const geometry::TriMesh& mesh = query.mesh();
+  const geometry::Aabb box = geometry::bounding_box(mesh);
+  PixelTruth p{std::vector<double>(n, 0.0), std::vector<double>(n, 0.0), std::vector<double>(n, scene.albedo)};
+  std::vector<Eigen::Isometry3d> board_from_world;
+  for (const ChessboardPatch& b : scene.chessboards) board_from_world.push_back(b.world_from_board.inverse());
+#pragma omp parallel for schedule(dynamic, 4)
+  for (int v = 0; v < h; ++v)
+    for (int u = 0; u < w; ++u) {
+      const Eigen::Vector2d& xy = rays.table.at(u, v);
+      if (!std::isfinite(xy.x())) continue;  // outside the lens model's valid range
+      const Vec3 dir = rays.world(xy);
+      if (!ray_meets_box(rays.origin, dir, box)) continue;
+      const auto hit = query.first_hit(rays.origin, dir);
+      if (!hit) continue;
+      const size_t i = static_cast<size_t>(v) * w + u;
+      const double d = (rays.R.transpose() * (hit->point - rays.origin)).z();
+      const Vec3 normal = geometry::triangle_normal(mesh, hit->triangle);
+      const double c = std::abs(normal.dot(dir.normalized()));
+      p.truth[i] = c < cos_grazing ? -d : d;
+      p.cosine[i] = c;
+      for (size_t bi = 0; bi < scene.chessboards.size(); ++bi) {
+        const ChessboardPatch& b = scene.chessboards[bi];
+        const Vec3 bn = b.world_from_board.linear().col(2);  // into the board
+        const Vec3 local = board_from_world[bi] * hit->point;
+        if (normal.dot(-bn) < 0.99 || std::abs(local.z()) > 1e-3 || b.albedo_at(local.x(), local.y()) < 0.0) continue;
+        if (const auto a = board_albedo(rays, b, board_from_world[bi], scene.albedo, u, v)) p.albedo[i] = *a;
+        break;
+      }
+    }
+  return p;
+}
+
+/// The largest depth step [m] from pixel (u, v) at depth t to a 4-neighbour beyond the edge jump
+/// (the background's distance where a neighbour sees nothing); 0 when there is none.
+double far_depth_step(const std::vector<double>& truth, int w, int h, int u, int v, double t,
+                      const SensorErrorModel& model) {
+  double far_step = 0.0;
+  const int du[4] = {1, -1, 0, 0}, dv[4] = {0, 0, 1, -1};
+  for (int q = 0; q < 4; ++q) {
+    const int un = u + du[q], vn = v + dv[q];
+    if (un < 0 || un >= w || vn < 0 || vn >= h) continue;
+    const double tn = std::abs(truth[static_cast<size_t>(vn) * w + un]);
+    const double step = tn == 0.0 ? model.flying_background_m : tn - t;
+    if (std::abs(step) > model.edge_jump_m && std::abs(step) > std::abs(far_step)) far_step = step;
+  }
+  return far_step;
+}
+
+/// Step 2: depth errors, flying pixels, losses; one random stream per row (deterministic under
+/// OpenMP).
+DepthImage depth_frame(const PixelTruth& p, const CameraIntrinsics& k, const SensorErrorModel& model,
+                       std::uint64_t seed, double depth_scale_m) {
+  const int w = k.width, h = k.height;
+  const double s = model.scale;
+  DepthImage img;
+  img.width = w;
+  img.height = h;
+  img.scale_m = depth_scale_m;
+  img.raw.assign(static_cast<size_t>(w) * h, 0);
+  const double half_diag = std::hypot(w / 2.0, h / 2.0);
+#pragma omp parallel for schedule(static)
+  for (int v = 0; v < h; ++v) {
+    std::mt19937_64 rng(splitmix64(seed ^ splitmix64(static_cast<std::uint64_t>(v) + 0x51ed27ULL)));
+    std::uniform_real_distribution<double> uni(0.0, 1.0);
+    std::normal_distribution<double> gauss(0.0, 1.0);
+    for (int u = 0; u < w; ++u) {
+      const size_t i = static_cast<size_t>(v) * w + u;
+      const double t = p.truth[i];
+      // Draw every random number for every pixel so the stream does not depend on the scene.
+      const double r_fly = uni(rng), r_mix = uni(rng), r_lost = uni(rng), r_noise = gauss(rng);
+      if (t <= 0.0) continue;
+      double d = t;
+      // Flying pixels: mix with the neighbour across the strongest depth edge.
+      const double far_step = far_depth_step(p.truth, w, h, u, v, t, model);
+      if (far_step != 0.0 && r_fly < s * model.flying_pixel_probability) d += (0.1 + 0.8 * r_mix) * far_step;
+      if (r_lost < s * model.random_invalid_probability) continue;
+      const double rho = std::hypot(u - k.cx, v - k.cy) / half_diag;
+      const double systematic = model.bias_m + model.sensor_offset_m + model.bias_slope * (d - 1.0) +
+                                model.wiggle_amplitude_m * std::sin(2.0 * M_PI * d / model.wiggle_period_m) +
+                                model.radial_bias_m * rho * rho;
+      const double darkness = std::clamp((0.7 - p.albedo[i]) / 0.65, 0.0, 1.0);
+      const double sigma = (model.noise_sigma0_m + model.noise_sigma2_per_m * d * d) *
+                           (1.0 + (model.dark_noise_factor - 1.0) * darkness);
+      d += s * (systematic + sigma * r_noise);
+      if (d < model.min_range_m || d > model.max_range_m) continue;
+      const double raw = std::round((d - k.depth_shift_m) / depth_scale_m);
+      if (raw < 1.0 || raw > 65535.0) continue;
+      img.raw[i] = static_cast<std::uint16_t>(raw);
+    }
+  }
+  return img;
+}
+
+/// Step 3: IR amplitude: albedo × cos(incidence) / range², with noise (its own random streams).
+IrImage ir_frame(const PixelTruth& p, const SensorRays& rays, const SensorErrorModel& model, std::uint64_t seed) {
+  const int w = rays.w, h = rays.h;
+  const double s = model.scale, gx = rays.gx, gy = rays.gy;
+  IrImage ir;
+  ir.width = w;
+  ir.height = h;
+  ir.value.assign(static_cast<size_t>(w) * h, 0);
+#pragma omp parallel for schedule(static)
+  for (int v = 0; v < h; ++v) {
+    std::mt19937_64 rng(splitmix64(seed ^ splitmix64(static_cast<std::uint64_t>(v) + 0x1f2e3dULL) ^ 0x7a11ULL));
+    std::normal_distribution<double> gauss(0.0, 1.0);
+    for (int u = 0; u < w; ++u) {
+      const size_t i = static_cast<size_t>(v) * w + u;
+      const double r_noise = gauss(rng);
+      const double t = std::abs(p.truth[i]);
+      double amplitude = 0.0;
+      if (t > 0.0) {
+        const Eigen::Vector2d& xy = rays.table.at(u, v);
+        const double range2 = t * t * (1.0 + xy.x() * xy.x() * gx * gx + xy.y() * xy.y() * gy * gy);
+        amplitude = model.ir_counts_at_1m * p.albedo[i] * p.cosine[i] / range2;
+      }
+      amplitude += s * (model.ir_noise_relative * amplitude + model.ir_noise_floor) * r_noise;
+      ir.value[i] = static_cast<std::uint16_t>(std::clamp(std::round(amplitude), 0.0, 65535.0));
+    }
+  }
+  return ir;
+}
+
+}  // namespace
+
 std::vector<SimulatedFrame> simulate_frames(const geometry::SurfaceQuery& query, const Scene& scene,
                                             const SimulatedSensor& sensor, const SensorErrorModel& model,
                                             const std::vector<std::uint64_t>& seeds, double depth_scale_m) {
@@ -154,161 +318,20 @@ std::vector<SimulatedFrame> simulate_frames(const geometry::SurfaceQuery& query,
   require(scene.albedo > 0.0 && scene.albedo <= 1.0, "simulate_frame: scene albedo {} must lie in (0, 1]",
           scene.albedo);
   const CameraIntrinsics& k = sensor.intrinsics;
-  const RayTable rays = make_ray_table(k, 1);
-  const int w = k.width, h = k.height;
-  const geometry::TriMesh& mesh = query.mesh();
-  const geometry::Aabb box = geometry::bounding_box(mesh);
-  const Eigen::Matrix3d R = sensor.world_from_sensor.linear();
-  const Vec3 origin = sensor.world_from_sensor.translation();
-  const double cos_grazing = std::cos(model.grazing_limit_rad);
+  const RayTable table = make_ray_table(k, 1);
   const double s = model.scale;
-  // The unit's true rays (lateral scale error): the calibration's (x, y) divided by 1 + s·e.
-  const double gx = 1.0 / (1.0 + s * model.ray_scale_x), gy = 1.0 / (1.0 + s * model.ray_scale_y);
-  auto world_ray = [&](const Eigen::Vector2d& xy) -> Vec3 { return R * Vec3(xy.x() * gx, xy.y() * gy, 1.0); };
-  // Bilinear interpolation of the ray table at a sub-pixel position (distortion is smooth).
-  auto ray_at = [&](double uf, double vf) -> Eigen::Vector2d {
-    const int u0 = std::clamp(static_cast<int>(std::floor(uf)), 0, w - 2), v0 = std::clamp(static_cast<int>(std::floor(vf)), 0, h - 2);
-    const double fu = uf - u0, fv = vf - v0;
-    return (1 - fv) * ((1 - fu) * rays.at(u0, v0) + fu * rays.at(u0 + 1, v0)) +
-           fv * ((1 - fu) * rays.at(u0, v0 + 1) + fu * rays.at(u0 + 1, v0 + 1));
-  };
-  const size_t n = static_cast<size_t>(w) * h;
-
-  // 1. Exact depth along the optical axis (0: no surface; negative: a grazing return), the cosine
-  //    of incidence, and the IR albedo (chessboard squares antialiased by 8×8 sub-pixel rays).
-  std::vector<double> truth(n, 0.0), cosine(n, 0.0), albedo(n, scene.albedo);
-  std::vector<Eigen::Isometry3d> board_from_world;
-  for (const ChessboardPatch& b : scene.chessboards) board_from_world.push_back(b.world_from_board.inverse());
-#pragma omp parallel for schedule(dynamic, 4)
-  for (int v = 0; v < h; ++v)
-    for (int u = 0; u < w; ++u) {
-      const Eigen::Vector2d& xy = rays.at(u, v);
-      if (!std::isfinite(xy.x())) continue;  // outside the lens model's valid range
-      const Vec3 dir = world_ray(xy);
-      if (!ray_meets_box(origin, dir, box)) continue;
-      const auto hit = query.first_hit(origin, dir);
-      if (!hit) continue;
-      const size_t i = static_cast<size_t>(v) * w + u;
-      const double d = (R.transpose() * (hit->point - origin)).z();
-      const Vec3 normal = geometry::triangle_normal(mesh, hit->triangle);
-      const double c = std::abs(normal.dot(dir.normalized()));
-      truth[i] = c < cos_grazing ? -d : d;
-      cosine[i] = c;
-      for (size_t bi = 0; bi < scene.chessboards.size(); ++bi) {
-        const ChessboardPatch& b = scene.chessboards[bi];
-        const Eigen::Isometry3d& to_board = board_from_world[bi];
-        const Vec3 bn = b.world_from_board.linear().col(2);  // into the board
-        const Vec3 local = to_board * hit->point;
-        if (normal.dot(-bn) < 0.99 || std::abs(local.z()) > 1e-3 || b.albedo_at(local.x(), local.y()) < 0.0) continue;
-        // Albedo seen along a sub-pixel ray (the scene's outside the board).
-        auto albedo_along = [&](double uf, double vf) {
-          const Eigen::Vector2d sxy = ray_at(uf, vf);
-          if (!std::isfinite(sxy.x())) return -1.0;
-          const Vec3 sd = world_ray(sxy);
-          const double denom = bn.dot(sd);
-          if (std::abs(denom) < 1e-12) return -1.0;
-          const Vec3 q = to_board * (origin + sd * (bn.dot(b.world_from_board.translation() - origin) / denom));
-          const double a = b.albedo_at(q.x(), q.y());
-          return a < 0.0 ? scene.albedo : a;
-        };
-        // Inside a square (the four pixel corners agree): one value; on an edge: 8×8 rays.
-        const double a00 = albedo_along(u - 0.5, v - 0.5), a10 = albedo_along(u + 0.5, v - 0.5),
-                     a01 = albedo_along(u - 0.5, v + 0.5), a11 = albedo_along(u + 0.5, v + 0.5);
-        double sum = 0.0;
-        int count = 0;
-        if (a00 >= 0.0 && a00 == a10 && a00 == a01 && a00 == a11) {
-          sum = a00;
-          count = 1;
-        } else {
-          constexpr int kSub = 8;
-          for (int sv = 0; sv < kSub; ++sv)
-            for (int su = 0; su < kSub; ++su) {
-              const double a = albedo_along(u + (su + 0.5) / kSub - 0.5, v + (sv + 0.5) / kSub - 0.5);
-              if (a < 0.0) continue;
-              sum += a;
-              ++count;
-            }
-        }
-        if (count > 0) albedo[i] = sum / count;
-        break;
-      }
-    }
-
-  // 2. and 3. for every frame: the scene's geometry and albedo above are the same, the errors are
-  //    drawn from each frame's seed.
+  const SensorRays rays{table, k.width, k.height, sensor.world_from_sensor.linear(),
+                        sensor.world_from_sensor.translation(), 1.0 / (1.0 + s * model.ray_scale_x),
+                        1.0 / (1.0 + s * model.ray_scale_y)};
+  const PixelTruth truth = trace_pixels(query, scene, rays, std::cos(model.grazing_limit_rad));
+  // Steps 2 and 3 for every frame: the scene's geometry and albedo above are the same, the errors
+  // are drawn from each frame's seed.
   std::vector<SimulatedFrame> frames;
   frames.reserve(seeds.size());
   for (const std::uint64_t seed : seeds) {
-    // 2. Depth errors, flying pixels, losses; one random stream per row (deterministic under OpenMP).
     SimulatedFrame frame;
-    DepthImage& img = frame.depth;
-    img.width = w;
-    img.height = h;
-    img.scale_m = depth_scale_m;
-    img.raw.assign(n, 0);
-    const double half_diag = std::hypot(w / 2.0, h / 2.0);
-#pragma omp parallel for schedule(static)
-    for (int v = 0; v < h; ++v) {
-      std::mt19937_64 rng(splitmix64(seed ^ splitmix64(static_cast<std::uint64_t>(v) + 0x51ed27ULL)));
-      std::uniform_real_distribution<double> uni(0.0, 1.0);
-      std::normal_distribution<double> gauss(0.0, 1.0);
-      for (int u = 0; u < w; ++u) {
-        const size_t i = static_cast<size_t>(v) * w + u;
-        const double t = truth[i];
-        // Draw every random number for every pixel so the stream does not depend on the scene.
-        const double r_fly = uni(rng), r_mix = uni(rng), r_lost = uni(rng), r_noise = gauss(rng);
-        if (t <= 0.0) continue;
-        double d = t;
-        // Flying pixels: mix with the neighbour across the strongest depth edge.
-        double far_step = 0.0;
-        const int du[4] = {1, -1, 0, 0}, dv[4] = {0, 0, 1, -1};
-        for (int q = 0; q < 4; ++q) {
-          const int un = u + du[q], vn = v + dv[q];
-          if (un < 0 || un >= w || vn < 0 || vn >= h) continue;
-          const double tn = std::abs(truth[static_cast<size_t>(vn) * w + un]);
-          const double step = tn == 0.0 ? model.flying_background_m : tn - t;
-          if (std::abs(step) > model.edge_jump_m && std::abs(step) > std::abs(far_step)) far_step = step;
-        }
-        if (far_step != 0.0 && r_fly < s * model.flying_pixel_probability) d += (0.1 + 0.8 * r_mix) * far_step;
-        if (r_lost < s * model.random_invalid_probability) continue;
-        const double rho = std::hypot(u - k.cx, v - k.cy) / half_diag;
-        const double systematic = model.bias_m + model.sensor_offset_m + model.bias_slope * (d - 1.0) +
-                                  model.wiggle_amplitude_m * std::sin(2.0 * M_PI * d / model.wiggle_period_m) +
-                                  model.radial_bias_m * rho * rho;
-        const double darkness = std::clamp((0.7 - albedo[i]) / 0.65, 0.0, 1.0);
-        const double sigma = (model.noise_sigma0_m + model.noise_sigma2_per_m * d * d) *
-                             (1.0 + (model.dark_noise_factor - 1.0) * darkness);
-        d += s * (systematic + sigma * r_noise);
-        if (d < model.min_range_m || d > model.max_range_m) continue;
-        const double raw = std::round((d - k.depth_shift_m) / depth_scale_m);
-        if (raw < 1.0 || raw > 65535.0) continue;
-        img.raw[i] = static_cast<std::uint16_t>(raw);
-      }
-    }
-
-    // 3. IR amplitude: albedo × cos(incidence) / range², with noise (its own random streams).
-    IrImage& ir = frame.ir;
-    ir.width = w;
-    ir.height = h;
-    ir.value.assign(n, 0);
-#pragma omp parallel for schedule(static)
-    for (int v = 0; v < h; ++v) {
-      std::mt19937_64 rng(splitmix64(seed ^ splitmix64(static_cast<std::uint64_t>(v) + 0x1f2e3dULL) ^ 0x7a11ULL));
-      std::normal_distribution<double> gauss(0.0, 1.0);
-      for (int u = 0; u < w; ++u) {
-        const size_t i = static_cast<size_t>(v) * w + u;
-        const double r_noise = gauss(rng);
-        const double t = std::abs(truth[i]);
-        double amplitude = 0.0;
-        if (t > 0.0) {
-          const Eigen::Vector2d& xy = rays.at(u, v);
-          const double range2 = t * t * (1.0 + xy.x() * xy.x() * gx * gx + xy.y() * xy.y() * gy * gy);
-          amplitude = model.ir_counts_at_1m * albedo[i] * cosine[i] / range2;
-        }
-        amplitude += s * (model.ir_noise_relative * amplitude + model.ir_noise_floor) * r_noise;
-        ir.value[i] = static_cast<std::uint16_t>(std::clamp(std::round(amplitude), 0.0, 65535.0));
-      }
-    }
+    frame.depth = depth_frame(truth, k, model, seed, depth_scale_m);
+    frame.ir = ir_frame(truth, rays, model, seed);
     frames.push_back(std::move(frame));
   }
   return frames;
@@ -386,110 +409,6 @@ Recording simulate_recording(const geometry::TriMesh& mesh, const std::vector<Si
   scene.mesh = mesh;
   return simulate_recording(scene, sensors, o, progress);
 }
-
-geometry::TriMesh make_cylinder(double diameter_m, double height_m, const Vec3& center, int segments, int rings) {
-  require(std::isfinite(diameter_m) && diameter_m > 0.0 && std::isfinite(height_m) && height_m > 0.0,
-          "make_cylinder: diameter {} m and height {} m must be positive", diameter_m, height_m);
-  require(segments >= 8 && rings >= 1, "make_cylinder: need at least 8 segments and 1 ring");
-  const double r = diameter_m / 2;
-  geometry::TriMesh m;
-  for (int j = 0; j <= rings; ++j)
-    for (int i = 0; i < segments; ++i) {
-      const double a = 2.0 * M_PI * i / segments;
-      m.vertices.push_back(center + Vec3(r * std::cos(a), r * std::sin(a), -height_m / 2 + height_m * j / rings));
-    }
-  auto id = [&](int i, int j) { return j * segments + (i % segments); };
-  for (int j = 0; j < rings; ++j)
-    for (int i = 0; i < segments; ++i) {
-      m.triangles.push_back({id(i, j), id(i + 1, j), id(i + 1, j + 1)});
-      m.triangles.push_back({id(i, j), id(i + 1, j + 1), id(i, j + 1)});
-    }
-  const int cb = m.num_vertices();
-  m.vertices.push_back(center - Vec3(0, 0, height_m / 2));
-  const int ct = m.num_vertices();
-  m.vertices.push_back(center + Vec3(0, 0, height_m / 2));
-  for (int i = 0; i < segments; ++i) {
-    m.triangles.push_back({cb, id(i + 1, 0), id(i, 0)});
-    m.triangles.push_back({ct, id(i, rings), id(i + 1, rings)});
-  }
-  return m;
-}
-
-geometry::TriMesh make_box(const Vec3& size, const Vec3& center) {
-  require(size.allFinite() && (size.array() > 0.0).all(), "make_box: sizes must be positive");
-  const double cell = 0.02;
-  const Eigen::Vector3i cells((size / cell).array().ceil().cast<int>().cwiseMax(1).matrix());
-  return make_box_cells(size, center, cells);
-}
-
-geometry::TriMesh make_chessboard(int cols, int rows, double square_m, const Vec3& center, double thickness_m) {
-  require(cols >= 2 && rows >= 2 && cols <= 100 && rows <= 100,
-          "make_chessboard: {}x{} squares (expected 2 to 100 each way)", cols, rows);
-  require(std::isfinite(square_m) && square_m > 0.0 && thickness_m > 0.0,
-          "make_chessboard: square {} m and thickness {} m must be positive", square_m, thickness_m);
-  const Vec3 size(cols * square_m, thickness_m, rows * square_m);
-  return make_box_cells(size, center + Vec3(0, thickness_m / 2, 0), Eigen::Vector3i(cols, 1, rows));
-}
-
-}  // namespace socketsmith::scan
-
-namespace socketsmith::scan {
-
-ChessboardPatch calibration_chessboard(const Eigen::Isometry3d& world_from_board) {
-  ChessboardPatch b;
-  b.pattern = ChessboardPattern{9, 6, 0.06};
-  b.margin_m = 0.06;
-  b.world_from_board = world_from_board;
-  return b;
-}
-
-Scene make_chessboard_scene(const ChessboardPatch& board, double thickness_m) {
-  validate_pattern(board.pattern, "make_chessboard_scene");
-  require(std::isfinite(board.margin_m) && board.margin_m >= 0.0 && std::isfinite(thickness_m) && thickness_m > 0.0,
-          "make_chessboard_scene: margin {} m must be >= 0 and thickness {} m positive", board.margin_m, thickness_m);
-  const Eigen::Vector2d h = board.half_size();
-  Scene scene;
-  // Board frame: the printed face at z = 0 faces −z; the slab extends to +z.
-  scene.mesh = make_box_cells(Vec3(2 * h.x(), 2 * h.y(), thickness_m), Vec3(0, 0, thickness_m / 2),
-                              Eigen::Vector3i(board.pattern.inner_cols + 1, board.pattern.inner_rows + 1, 1));
-  for (Vec3& v : scene.mesh.vertices) v = board.world_from_board * v;
-  scene.chessboards.push_back(board);
-  return scene;
-}
-
-Scene make_box_scene(const Vec3& size, const Eigen::Isometry3d& world_from_box, const ChessboardPattern& pattern,
-                     double margin_m) {
-  validate_pattern(pattern, "make_box_scene");
-  Scene scene;
-  scene.mesh = make_box(size);
-  for (Vec3& v : scene.mesh.vertices) v = world_from_box * v;
-  const Vec3 normals[4] = {Vec3::UnitX(), Vec3::UnitY(), -Vec3::UnitX(), -Vec3::UnitY()};
-  for (const Vec3& out : normals) {
-    ChessboardPatch b;
-    b.pattern = pattern;
-    b.margin_m = margin_m;
-    const Eigen::Vector2d h = b.half_size();
-    const double face_width = std::abs(out.x()) > 0.5 ? size.y() : size.x();
-    require(2 * h.x() <= face_width + 1e-9 && 2 * h.y() <= size.z() + 1e-9,
-            "make_box_scene: a {:.0f} x {:.0f} mm board does not fit a {:.0f} x {:.0f} mm face (smaller squares or "
-            "margin)",
-            2e3 * h.x(), 2e3 * h.y(), face_width * 1e3, size.z() * 1e3);
-    // Board axes: z into the box, y down the face, x = y × z (rows read left to right from outside).
-    const Vec3 z = -out, y = -Vec3::UnitZ(), x = y.cross(z);
-    Eigen::Isometry3d box_from_board = Eigen::Isometry3d::Identity();
-    box_from_board.linear().col(0) = x;
-    box_from_board.linear().col(1) = y;
-    box_from_board.linear().col(2) = z;
-    box_from_board.translation() = out * (0.5 * out.cwiseAbs().dot(size));
-    b.world_from_board = world_from_box * box_from_board;
-    scene.chessboards.push_back(b);
-  }
-  return scene;
-}
-
-}  // namespace socketsmith::scan
-
-namespace socketsmith::scan {
 
 Recording simulate_calibration_session(const std::vector<SimulatedSensor>& sensors,
                                        const CalibrationSessionOptions& o, const ProgressCallback& progress) {
