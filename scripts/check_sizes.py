@@ -93,7 +93,6 @@ ALLOWED_FUNCTIONS = {
     "src/socketsmith/volume/bone_tube.cpp:sweep_tube": 129,
     "src/socketsmith/volume/hex_mesher.cpp:mesh_limb": 94,
     "src/socketsmith/volume/limb_sidecar.cpp:limb_sidecar_json": 101,
-    "src/socketsmith/volume/skin_radii.cpp:measure_skin_radii": 133,
 }
 
 
