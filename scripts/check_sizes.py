@@ -90,7 +90,6 @@ ALLOWED_FUNCTIONS = {
     "src/socketsmith/tissue/static_solver.cpp:StaticSolver::newton": 153,
     "src/socketsmith/tissue/static_solver.cpp:StaticSolver::solve_load": 96,
     "src/socketsmith/volume/bone_anatomy.cpp:transtibial_bone_shapes": 230,
-    "src/socketsmith/volume/bone_tube.cpp:sweep_tube": 129,
     "src/socketsmith/volume/hex_mesher.cpp:mesh_limb": 94,
     "src/socketsmith/volume/limb_sidecar.cpp:limb_sidecar_json": 101,
 }
