@@ -84,92 +84,102 @@ std::string stroke_attributes(const PlotSeries& s, const std::string& color) {
   return a;
 }
 
-/// Writes one plot's elements (no <svg> wrapper) in a local frame [0, width]×[0, height].
-/// @p id makes clip-path ids unique within a document.
-void render_panel(Out& out, const Plot& plot, const std::string& id) {
-  const PlotLayout l = layout_plot(plot, svg_metrics());
-  const double left = l.left, top = l.top, plot_w = l.plot_w, plot_h = l.plot_h;
-  const auto sx = [&](double x) { return l.to_px_x(x); };
-  const auto sy = [&](double y) { return l.to_px_y(y); };
-  const double tick = l.tick_length_px;
-
+/// The background and the plot area's clip path.
+void emit_background(Out& out, const PlotLayout& l, const std::string& id) {
   emit(out, R"(<rect x="0" y="0" width="{}" height="{}" fill="white"/>)", px(l.width),
        px(l.height));
   emit(
       out,
       R"(<defs><clipPath id="{}-clip"><rect x="{}" y="{}" width="{}" height="{}"/></clipPath></defs>)",
       id, px(l.clip_x0), px(l.clip_y0), px(l.clip_x1 - l.clip_x0), px(l.clip_y1 - l.clip_y0));
+}
 
-  // Grid.
-  if (plot.show_grid) {
-    emit(out, R"(<g stroke="#dddddd" stroke-width="1">)");
-    for (double t : l.x.ticks)
-      emit(out, R"(<line x1="{0}" y1="{1}" x2="{0}" y2="{2}"/>)", px(sx(t)), px(top),
-           px(top + plot_h));
-    for (double t : l.y.ticks)
-      emit(out, R"(<line x1="{1}" y1="{0}" x2="{2}" y2="{0}"/>)", px(sy(t)), px(left),
-           px(left + plot_w));
-    emit(out, "</g>");
+/// The grid lines at the ticks.
+void emit_grid(Out& out, const PlotLayout& l) {
+  const double left = l.left, top = l.top, plot_w = l.plot_w, plot_h = l.plot_h;
+  emit(out, R"(<g stroke="#dddddd" stroke-width="1">)");
+  for (double t : l.x.ticks)
+    emit(out, R"(<line x1="{0}" y1="{1}" x2="{0}" y2="{2}"/>)", px(l.to_px_x(t)), px(top),
+         px(top + plot_h));
+  for (double t : l.y.ticks)
+    emit(out, R"(<line x1="{1}" y1="{0}" x2="{2}" y2="{0}"/>)", px(l.to_px_y(t)), px(left),
+         px(left + plot_w));
+  emit(out, "</g>");
+}
+
+/// A series' path data: a new sub-path after every non-finite point.
+std::string series_path(const PlotSeries& s, const PlotLayout& l) {
+  std::string d;
+  bool pen_down = false;
+  for (std::size_t i = 0; i < s.x.size(); ++i) {
+    if (!is_finite_point(s.x[i], s.y[i])) {
+      pen_down = false;
+      continue;
+    }
+    const std::string p = px(l.to_px_x(s.x[i])) + " " + px(l.to_px_y(s.y[i]));
+    if (pen_down) {
+      d += " L" + p;
+    } else {
+      // A lone point shows as a round dot thanks to the round line cap.
+      const bool next_finite = i + 1 < s.x.size() && is_finite_point(s.x[i + 1], s.y[i + 1]);
+      d += (d.empty() ? "M" : " M") + p + (next_finite ? "" : " h0.01");
+      pen_down = true;
+    }
   }
+  return d;
+}
 
-  // Series: one path per series, a new sub-path after every non-finite point.
+/// Series: one path per series and its markers, clipped to the plot area.
+void emit_series(Out& out, const Plot& plot, const PlotLayout& l, const std::string& id) {
   emit(out, R"~(<g clip-path="url(#{}-clip)">)~", id);
   for (std::size_t si = 0; si < plot.series.size(); ++si) {
     const PlotSeries& s = plot.series[si];
     if (s.line_width > 0) {
-      std::string d;
-      bool pen_down = false;
-      for (std::size_t i = 0; i < s.x.size(); ++i) {
-        if (!is_finite_point(s.x[i], s.y[i])) {
-          pen_down = false;
-          continue;
-        }
-        const std::string p = px(sx(s.x[i])) + " " + px(sy(s.y[i]));
-        if (pen_down) {
-          d += " L" + p;
-        } else {
-          // A lone point shows as a round dot thanks to the round line cap.
-          const bool next_finite = i + 1 < s.x.size() && is_finite_point(s.x[i + 1], s.y[i + 1]);
-          d += (d.empty() ? "M" : " M") + p + (next_finite ? "" : " h0.01");
-          pen_down = true;
-        }
-      }
+      const std::string d = series_path(s, l);
       if (!d.empty()) emit(out, R"(<path d="{}" {}/>)", d, stroke_attributes(s, l.colors[si]));
     }
     if (s.markers) {
       emit(out, R"(<g fill="{}">)", xml_escape(l.colors[si]));
       for (std::size_t i = 0; i < s.x.size(); ++i)
         if (is_finite_point(s.x[i], s.y[i]))
-          emit(out, R"(<circle cx="{}" cy="{}" r="{}"/>)", px(sx(s.x[i])), px(sy(s.y[i])),
+          emit(out, R"(<circle cx="{}" cy="{}" r="{}"/>)", px(l.to_px_x(s.x[i])), px(l.to_px_y(s.y[i])),
                px(marker_radius(s)));
       emit(out, "</g>");
     }
   }
   emit(out, "</g>");
+}
 
-  // Frame, ticks, tick labels.
+/// The frame, the ticks and the tick labels.
+void emit_axes(Out& out, const PlotLayout& l) {
+  const double left = l.left, top = l.top, plot_w = l.plot_w, plot_h = l.plot_h;
+  const double tick = l.tick_length_px;
   emit(
       out,
       R"(<rect x="{}" y="{}" width="{}" height="{}" fill="none" stroke="black" stroke-width="1"/>)",
       px(left), px(top), px(plot_w), px(plot_h));
   emit(out, R"(<g stroke="black" stroke-width="1">)");
   for (double t : l.x.ticks)
-    emit(out, R"(<line x1="{0}" y1="{1}" x2="{0}" y2="{2}"/>)", px(sx(t)), px(top + plot_h),
+    emit(out, R"(<line x1="{0}" y1="{1}" x2="{0}" y2="{2}"/>)", px(l.to_px_x(t)), px(top + plot_h),
          px(top + plot_h + tick));
   for (double t : l.y.ticks)
-    emit(out, R"(<line x1="{1}" y1="{0}" x2="{2}" y2="{0}"/>)", px(sy(t)), px(left - tick),
+    emit(out, R"(<line x1="{1}" y1="{0}" x2="{2}" y2="{0}"/>)", px(l.to_px_y(t)), px(left - tick),
          px(left));
   emit(out, "</g>");
   emit(out, R"(<g font-size="{}" fill="black">)", px(kTickFontPx));
   for (std::size_t i = 0; i < l.x.ticks.size(); ++i)
-    emit(out, R"(<text x="{}" y="{}" text-anchor="middle">{}</text>)", px(sx(l.x.ticks[i])),
+    emit(out, R"(<text x="{}" y="{}" text-anchor="middle">{}</text>)", px(l.to_px_x(l.x.ticks[i])),
          px(top + plot_h + tick + 4 + kTickFontPx), xml_escape(l.x.labels[i]));
   for (std::size_t i = 0; i < l.y.ticks.size(); ++i)
     emit(out, R"(<text x="{}" y="{}" dy="0.35em" text-anchor="end">{}</text>)",
-         px(left - tick - 4), px(sy(l.y.ticks[i])), xml_escape(l.y.labels[i]));
+         px(left - tick - 4), px(l.to_px_y(l.y.ticks[i])), xml_escape(l.y.labels[i]));
   emit(out, "</g>");
+}
 
-  // Axis labels and title.
+/// The axis labels and the title.
+void emit_titles(Out& out, const Plot& plot, const PlotLayout& l) {
+  const double left = l.left, top = l.top, plot_w = l.plot_w, plot_h = l.plot_h;
+  const double tick = l.tick_length_px;
   if (!plot.x_label.empty())
     emit(out, R"(<text x="{}" y="{}" font-size="{}" text-anchor="middle">{}</text>)",
          px(left + 0.5 * plot_w), px(top + plot_h + tick + 6 + kTickFontPx + 8 + kLabelFontPx),
@@ -186,9 +196,10 @@ void render_panel(Out& out, const Plot& plot, const std::string& id) {
     emit(out,
          R"(<text x="{}" y="{}" font-size="{}" font-weight="bold" text-anchor="middle">{}</text>)",
          px(left + 0.5 * plot_w), px(14 + kTitleFontPx), px(kTitleFontPx), xml_escape(plot.title));
+}
 
-  // Legend.
-  if (l.legend_entries.empty()) return;
+/// The legend: a box with each named series' sample and name.
+void emit_legend(Out& out, const Plot& plot, const PlotLayout& l) {
   emit(out, R"(<g font-size="{}">)", px(kLegendFontPx));
   emit(
       out,
@@ -209,6 +220,18 @@ void render_panel(Out& out, const Plot& plot, const std::string& id) {
          xml_escape(s.name));
   }
   emit(out, "</g>");
+}
+
+/// Writes one plot's elements (no <svg> wrapper) in a local frame [0, width]×[0, height].
+/// @p id makes clip-path ids unique within a document.
+void render_panel(Out& out, const Plot& plot, const std::string& id) {
+  const PlotLayout l = layout_plot(plot, svg_metrics());
+  emit_background(out, l, id);
+  if (plot.show_grid) emit_grid(out, l);
+  emit_series(out, plot, l, id);
+  emit_axes(out, l);
+  emit_titles(out, plot, l);
+  if (!l.legend_entries.empty()) emit_legend(out, plot, l);
 }
 
 void open_document(Out& out, double width, double height) {
