@@ -242,8 +242,8 @@ void add_case_flags(CLI::App& cmd, DesignFlags& f) {
                "tissue model, the two displacement fields agree to round-off)");
   cmd.add_flag("--printed-wall", f.printed_wall,
                "donning: CalculiX dons the printed socket's inner wall (brim and lip as built, C3D6 wedges; instead of a "
-               "C3D8 shell on the skin below the brim; ccx has not yet stood a socket on with it, on the demo or OpenLimb's limb, "
-               "docs/VALIDATION.md)");
+               "C3D8 shell on the skin below the brim; ccx stands the 1.8k demo's socket with it, not yet the 3k demo's or "
+               "OpenLimb's limb, docs/VALIDATION.md)");
   cmd.add_option("--penalty", f.penalty, "contact penalty stiffness [Pa/m] (default 1e9)")->check(positive());
   cmd.add_option("--stick-slope", f.stick_slope,
                  "CalculiX's friction stick slope [Pa/m] (default 5e7, CALCULIX.md; socketsmith's stick is 0.2 x its penalty)")

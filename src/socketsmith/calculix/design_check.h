@@ -100,9 +100,9 @@ struct DesignCheckOptions {
   /// small-strain step, the same problem as socketsmith's linear design solve.
   bool nonlinear_geometry = true;
   /// Donning: don the printed socket's inner wall (DesignedStump::socket_wall, C3D6 wedges) instead
-  /// of the C3D8 shell on the skin quads below the brim. Not the default: ccx has not yet stood a
-  /// socket on with it (the demo's standing step stops where it must unload the socket; OpenLimb's
-  /// mean limb diverges early in the donning: docs/VALIDATION.md, issue 20).
+  /// of the C3D8 shell on the skin quads below the brim. Not the default: ccx stands the 1.8k
+  /// demo's socket with it, but stops in the 3k demo's donning (SPOOLES, 100k contact springs) and
+  /// diverges early in OpenLimb's mean limb's (docs/VALIDATION.md, issue 20).
   bool printed_wall = false;
   CcxOptions ccx;
 };
