@@ -200,64 +200,55 @@ calculix::DesignCheckOptions check_options(const design::CaseFile& c, const Desi
   return co;
 }
 
-}  // namespace
-
-ComparedQuantity compared_quantity(calculix::DesignCheckMode mode) {
-  if (mode == calculix::DesignCheckMode::Load) return {1e3, "mm", "_mm", "displacement"};
-  return {};
-}
-
-DesignValidation validate_design(const design::CaseFile& c, const DesignValidationOptions& o, const fs::path& out) {
+/// Refuses the flag combinations that have no meaning: the donning options without --mode donning,
+/// --nonlinear-body outside validate donning.
+void check_validation_flags(const DesignValidationOptions& o) {
   require(!o.against_donning || o.mode == calculix::DesignCheckMode::Donning,
           "validate design: --against-donning needs --mode donning");
   require((!o.stand && !o.printed_wall) || o.mode == calculix::DesignCheckMode::Donning,
           "validate design: {} needs --mode donning (the socket is donned, then stood on)", o.stand ? "--stand" : "--printed-wall");
   require(!o.nonlinear_body || o.against_donning,
           "validate design: --nonlinear-body sets socketsmith's donning body: use it with validate donning");
-  // CalculiX's material: the case's continuum model's own ν and law (same material on both sides),
-  // else ν 0.45, the thesis's (the MSS lattices have none to give); the options override.
+}
+
+/// CalculiX's material: the case's continuum model's own ν and law (same material on both sides),
+/// else ν 0.45, the thesis's (the MSS lattices have none to give); the options override.
+calculix::FeMaterial validation_material(const design::CaseFile& c, const DesignValidationOptions& o) {
   calculix::FeMaterial material = fe_material(c);
   if (o.poisson_ratio >= 0) material.poisson_ratio = o.poisson_ratio;
   if (o.neo_hookean) material.is_neo_hookean = true;
   require(!(material.is_neo_hookean && o.small_strain),
           "validate design: --small-strain with a neo-Hookean tissue: the hyperelastic law is a large-strain model, "
           "CalculiX runs it with NLGEOM (drop --small-strain, or use the fe model for a small-strain check)");
-  calculix::find_ccx(o.ccx.executable);  // before the design's minutes, not after
-  ensure_directory(out);
+  return material;
+}
 
-  if (o.write_case) design::write_case(out / "case.json", c);
-
-  DesignValidation v;
+/// socketsmith's side: the design into OUT/design, the stump CalculiX gets, and (when compared or
+/// stood on) socketsmith's own donning with the standing load it gives CalculiX.
+void design_and_don(const design::CaseFile& c, const DesignValidationOptions& o, const fs::path& out,
+                    DesignValidation& v) {
   const auto t0 = std::chrono::steady_clock::now();
   log::info("validate design: designing the socket ({} nodes)", c.target_nodes);
   v.design_summary = run_design(c, out / "design", c.optimise && o.optimise, o.progress, &v.artifacts);
   v.socketsmith_wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  const auto& mesh = v.artifacts.setup->mesh.mesh;
   v.stump = designed_stump(v.artifacts, o.printed_wall);
-
-  if (o.against_donning || o.stand) {
-    run_own_donning(c, o, v);
-    if (o.stand && v.donning->series.size() >= 2) {
-      // The FE's load step starts from the donning force at the designed pose (socketsmith's estimate).
-      v.stand_force_n = 0.5 * c.patient.body_mass_kg * units::kGravity;
-      v.donning_force_n = std::max(0.0, v.donning->series[v.donning->series.size() - 2].axial_force_n);
-    }
-    if (o.against_donning) use_donning_pressures(*v.donning, v.stump);
+  if (!o.against_donning && !o.stand) return;
+  run_own_donning(c, o, v);
+  if (o.stand && v.donning->series.size() >= 2) {
+    // The FE's load step starts from the donning force at the designed pose (socketsmith's estimate).
+    v.stand_force_n = 0.5 * c.patient.body_mass_kg * units::kGravity;
+    v.donning_force_n = std::max(0.0, v.donning->series[v.donning->series.size() - 2].axial_force_n);
   }
+  if (o.against_donning) use_donning_pressures(*v.donning, v.stump);
+}
 
-  v.check_options = check_options(c, o, material, v);
-  const calculix::DesignCheckOptions& co = v.check_options;
-  if (v.stand_force_n > 0)
-    log::info("validate donning: CalculiX step 2 pushes the socket with {:.1f} N (from {:.1f} N, socketsmith's donning "
-              "force)", v.stand_force_n, v.donning_force_n);
-  log::info("validate design: CalculiX {} check ({} nodes, {} elements, {}, {}, ν {}, {})", to_string(co.mode),
-            mesh.num_nodes(), mesh.num_hexahedra(), to_string(co.element),
-            material.is_neo_hookean ? "neo-Hookean" : "linear elastic", material.poisson_ratio,
-            co.nonlinear_geometry ? "NLGEOM" : "small strain");
-  v.check = calculix::check_design(v.stump, co, out, "design_fe");
+/// summary.json's record of the run: the settings, CalculiX's outcome, the agreement in each
+/// region, the paths' statistics, the timings and the outputs.
+nlohmann::json validation_summary(const design::CaseFile& c, const DesignValidationOptions& o,
+                                  const calculix::FeMaterial& material, const DesignValidation& v,
+                                  const nlohmann::json& paths_json, const fs::path& out) {
   const auto& r = v.check;
-
-  const nlohmann::json paths_json = write_comparison_files(v, o.against_donning, out);
+  const calculix::DesignCheckOptions& co = v.check_options;
   const bool contact = co.mode != calculix::DesignCheckMode::Load;
   const auto [scale, unit, suffix, what] = compared_quantity(co.mode);
   const bool ours_linear = v.donning_from_closed_loop ? v.artifacts.result.closed_loop->linear_body : !o.nonlinear_body;
@@ -309,22 +300,60 @@ DesignValidation validate_design(const design::CaseFile& c, const DesignValidati
                      "profile_back.png", "profile_mid.png", "scatter.svg", "scatter.png", "stump_fe.vtu", "comparison_map.png",
                      "summary.json", "design/"}},
                    {"out", out.string()}};
-  if (v.donning && !o.against_donning) {
-    // Delivered three ways on the socket nodes: CalculiX and socketsmith against the design, and
-    // against each other.
-    const auto& skin = *v.stump.skin;
-    std::vector<int> socket_nodes;
-    std::vector<double> delivered(skin.nodes.size());
-    for (size_t i = 0; i < skin.nodes.size(); ++i) {
-      delivered[i] = v.donning->contacts[i].pressure_pa;
-      if (r.brim_ring[i] >= 1) socket_nodes.push_back(static_cast<int>(i));
-    }
-    j["socketsmith_delivered_vs_design"] =
-        report::to_json(report::compare_fields(delivered, r.socketsmith_value, socket_nodes), scale, suffix);
-    j["calculix_vs_socketsmith_delivered"] =
-        report::to_json(report::compare_fields(r.fe_value, delivered, socket_nodes), scale, suffix);
-    j["socketsmith_delivered_from"] = v.donning_from_closed_loop ? "the closed loop's kept donning" : "a donning in this run";
+  return j;
+}
+
+/// Delivered three ways on the socket nodes: CalculiX and socketsmith against the design, and
+/// against each other.
+void add_delivered_comparison(const DesignValidation& v, nlohmann::json& j) {
+  const auto& r = v.check;
+  const auto [scale, unit, suffix, what] = compared_quantity(v.check_options.mode);
+  const auto& skin = *v.stump.skin;
+  std::vector<int> socket_nodes;
+  std::vector<double> delivered(skin.nodes.size());
+  for (size_t i = 0; i < skin.nodes.size(); ++i) {
+    delivered[i] = v.donning->contacts[i].pressure_pa;
+    if (r.brim_ring[i] >= 1) socket_nodes.push_back(static_cast<int>(i));
   }
+  j["socketsmith_delivered_vs_design"] =
+      report::to_json(report::compare_fields(delivered, r.socketsmith_value, socket_nodes), scale, suffix);
+  j["calculix_vs_socketsmith_delivered"] =
+      report::to_json(report::compare_fields(r.fe_value, delivered, socket_nodes), scale, suffix);
+  j["socketsmith_delivered_from"] = v.donning_from_closed_loop ? "the closed loop's kept donning" : "a donning in this run";
+}
+
+}  // namespace
+
+ComparedQuantity compared_quantity(calculix::DesignCheckMode mode) {
+  if (mode == calculix::DesignCheckMode::Load) return {1e3, "mm", "_mm", "displacement"};
+  return {};
+}
+
+DesignValidation validate_design(const design::CaseFile& c, const DesignValidationOptions& o, const fs::path& out) {
+  check_validation_flags(o);
+  const calculix::FeMaterial material = validation_material(c, o);
+  calculix::find_ccx(o.ccx.executable);  // before the design's minutes, not after
+  ensure_directory(out);
+
+  if (o.write_case) design::write_case(out / "case.json", c);
+
+  DesignValidation v;
+  design_and_don(c, o, out, v);
+  const auto& mesh = v.artifacts.setup->mesh.mesh;
+  v.check_options = check_options(c, o, material, v);
+  const calculix::DesignCheckOptions& co = v.check_options;
+  if (v.stand_force_n > 0)
+    log::info("validate donning: CalculiX step 2 pushes the socket with {:.1f} N (from {:.1f} N, socketsmith's donning "
+              "force)", v.stand_force_n, v.donning_force_n);
+  log::info("validate design: CalculiX {} check ({} nodes, {} elements, {}, {}, ν {}, {})", to_string(co.mode),
+            mesh.num_nodes(), mesh.num_hexahedra(), to_string(co.element),
+            material.is_neo_hookean ? "neo-Hookean" : "linear elastic", material.poisson_ratio,
+            co.nonlinear_geometry ? "NLGEOM" : "small strain");
+  v.check = calculix::check_design(v.stump, co, out, "design_fe");
+
+  const nlohmann::json paths_json = write_comparison_files(v, o.against_donning, out);
+  nlohmann::json j = validation_summary(c, o, material, v, paths_json, out);
+  if (v.donning && !o.against_donning) add_delivered_comparison(v, j);
   write_text_atomically(out / "summary.json", j.dump(2) + "\n");
   v.summary = std::move(j);
   return v;
