@@ -70,7 +70,6 @@ ALLOWED_FUNCTIONS = {
     "src/socketsmith/geometry/tri_mesh.cpp:weld_vertices": 88,
     "src/socketsmith/pipeline/closed_loop.cpp:close_design_loop": 196,
     "src/socketsmith/pipeline/closed_loop.cpp:write_closed_loop_outputs": 166,
-    "src/socketsmith/pipeline/design_validation.cpp:write_comparison_files": 123,
     "src/socketsmith/pipeline/shape_comparison.cpp:run_compare": 99,
     "src/socketsmith/pipeline/sweep.cpp:parse_sweep": 98,
     "src/socketsmith/pipeline/sweep_collect.cpp:collect_sweep": 101,

@@ -51,36 +51,36 @@ void run_own_donning(const design::CaseFile& c, const DesignValidationOptions& o
             v.donning->series.empty() ? 0 : v.donning->series.back().contact_nodes);
 }
 
-/// Per-node CSV, path profiles and a scatter (SVG, PNG), the stump's VTU and colour maps on the
-/// designed skin; returns the paths' statistics for the summary.
-nlohmann::json write_comparison_files(const DesignValidation& v, bool against_donning, const fs::path& out) {
+/// comparison.csv: per skin node, its position, rings from the brim, both values, the error, the
+/// penetration, the one-ring means and CalculiX's three pressure measures.
+void write_comparison_csv(const DesignValidation& v, const fs::path& out) {
   const auto& r = v.check;
-  const auto& d = v.stump;
-  const auto& mesh = *d.mesh;
-  const bool contact = r.mode != calculix::DesignCheckMode::Load;
+  const auto& skin = *v.stump.skin;
   const auto [scale, unit, suffix, what] = compared_quantity(r.mode);
-  const auto& skin = *d.skin;
-  {
-    std::vector<std::vector<double>> rows;
-    for (size_t i = 0; i < skin.nodes.size(); ++i) {
-      const auto& p = skin.positions[i];
-      rows.push_back({static_cast<double>(i), static_cast<double>(skin.nodes[i] + 1), p.x(), p.y(), p.z(),
-                      static_cast<double>(std::min(r.brim_ring[i], 999)), r.socketsmith_value[i] * scale,
-                      r.fe_value[i] * scale, (r.fe_value[i] - r.socketsmith_value[i]) * scale,
-                      r.fe_penetration_m[i] * 1e3, r.socketsmith_value_smoothed[i] * scale,
-                      r.fe_value_smoothed[i] * scale,
-                      r.fe_cpress_pa.empty() ? 0.0 : r.fe_cpress_pa[i] * scale,
-                      r.fe_stress_pressure_pa.empty() ? 0.0 : r.fe_stress_pressure_pa[i] * scale,
-                      r.fe_force_pressure_pa.empty() ? 0.0 : r.fe_force_pressure_pa[i] * scale});
-    }
-    report::write_csv(out / "comparison.csv",
-                      {"skin_index", "ccx_node", "x_m", "y_m", "z_m", "rings_from_brim", "socketsmith_" + unit,
-                       "calculix_" + unit, "error_" + unit, "penetration_mm",
-                       "socketsmith_one_ring_" + unit, "calculix_one_ring_" + unit, "calculix_cpress_" + unit,
-                       "calculix_stress_" + unit, "calculix_force_" + unit},
-                      rows);
+  std::vector<std::vector<double>> rows;
+  for (size_t i = 0; i < skin.nodes.size(); ++i) {
+    const auto& p = skin.positions[i];
+    rows.push_back({static_cast<double>(i), static_cast<double>(skin.nodes[i] + 1), p.x(), p.y(), p.z(),
+                    static_cast<double>(std::min(r.brim_ring[i], 999)), r.socketsmith_value[i] * scale,
+                    r.fe_value[i] * scale, (r.fe_value[i] - r.socketsmith_value[i]) * scale,
+                    r.fe_penetration_m[i] * 1e3, r.socketsmith_value_smoothed[i] * scale,
+                    r.fe_value_smoothed[i] * scale,
+                    r.fe_cpress_pa.empty() ? 0.0 : r.fe_cpress_pa[i] * scale,
+                    r.fe_stress_pressure_pa.empty() ? 0.0 : r.fe_stress_pressure_pa[i] * scale,
+                    r.fe_force_pressure_pa.empty() ? 0.0 : r.fe_force_pressure_pa[i] * scale});
   }
-  std::vector<report::Plot> panels;
+  report::write_csv(out / "comparison.csv",
+                    {"skin_index", "ccx_node", "x_m", "y_m", "z_m", "rings_from_brim", "socketsmith_" + unit,
+                     "calculix_" + unit, "error_" + unit, "penetration_mm",
+                     "socketsmith_one_ring_" + unit, "calculix_one_ring_" + unit, "calculix_cpress_" + unit,
+                     "calculix_stress_" + unit, "calculix_force_" + unit},
+                    rows);
+}
+
+/// Each thesis path's profile (SVG, PNG), appended to @p panels; returns the paths' statistics.
+nlohmann::json write_path_profiles(const calculix::DesignCheckResult& r, const fs::path& out,
+                                   std::vector<report::Plot>& panels) {
+  const auto [scale, unit, suffix, what] = compared_quantity(r.mode);
   nlohmann::json paths_json = nlohmann::json::object();
   for (const auto& pc : r.paths) {
     std::vector<double> a, b;
@@ -103,77 +103,106 @@ nlohmann::json write_comparison_files(const DesignValidation& v, bool against_do
     pj["smoothed"] = report::to_json(pc.smoothed, scale, suffix);
     paths_json[pc.name] = pj;
   }
-  {
-    std::vector<double> a, b;
-    for (size_t i = 0; i < skin.nodes.size(); ++i)
-      if (r.brim_ring[i] >= 1) {
-        a.push_back(r.socketsmith_value[i] * scale);
-        b.push_back(r.fe_value[i] * scale);
-      }
-    double hi = 0;
-    for (double x : a) hi = std::max(hi, x);
-    for (double x : b) hi = std::max(hi, x);
-    report::Plot p;
-    p.title = fmt::format("every socket node: R {:.2f}, MAE {:.2f} {}", r.all.r, r.all.mae * scale, unit);
-    p.x_label = fmt::format("socketsmith {} [{}]", what, unit);
-    p.y_label = fmt::format("CalculiX {} [{}]", what, unit);
-    p.series = {{"nodes", a, b, "#0072B2", false, true, 0}, {"y = x", {0, hi}, {0, hi}, "#999999", true, false, 1}};
-    report::write_svg(out / "scatter.svg", p);
-    report::write_plot_png(out / "scatter.png", p);
-    panels.push_back(p);
+  return paths_json;
+}
+
+/// The scatter of CalculiX's values against socketsmith's on every socket node (SVG, PNG).
+report::Plot write_scatter(const DesignValidation& v, const fs::path& out) {
+  const auto& r = v.check;
+  const auto& skin = *v.stump.skin;
+  const auto [scale, unit, suffix, what] = compared_quantity(r.mode);
+  std::vector<double> a, b;
+  for (size_t i = 0; i < skin.nodes.size(); ++i)
+    if (r.brim_ring[i] >= 1) {
+      a.push_back(r.socketsmith_value[i] * scale);
+      b.push_back(r.fe_value[i] * scale);
+    }
+  double hi = 0;
+  for (double x : a) hi = std::max(hi, x);
+  for (double x : b) hi = std::max(hi, x);
+  report::Plot p;
+  p.title = fmt::format("every socket node: R {:.2f}, MAE {:.2f} {}", r.all.r, r.all.mae * scale, unit);
+  p.x_label = fmt::format("socketsmith {} [{}]", what, unit);
+  p.y_label = fmt::format("CalculiX {} [{}]", what, unit);
+  p.series = {{"nodes", a, b, "#0072B2", false, true, 0}, {"y = x", {0, hi}, {0, hi}, "#999999", true, false, 1}};
+  report::write_svg(out / "scatter.svg", p);
+  report::write_plot_png(out / "scatter.png", p);
+  return p;
+}
+
+/// stump_fe.vtu: both displacement fields and both values with their error on the skin nodes.
+void write_stump_vtu(const DesignValidation& v, const fs::path& out) {
+  const auto& r = v.check;
+  const auto& d = v.stump;
+  const auto& mesh = *d.mesh;
+  const auto& skin = *d.skin;
+  const double scale = compared_quantity(r.mode).scale;
+  const int nn = mesh.num_nodes();
+  std::vector<Vec3> u_ss(nn);
+  std::vector<double> v_ss(nn, 0.0), v_fe(nn, 0.0), err(nn, 0.0);
+  for (int n = 0; n < nn; ++n) u_ss[n] = d.designed_positions[n] - mesh.nodes[n];
+  for (size_t i = 0; i < skin.nodes.size(); ++i) {
+    v_ss[skin.nodes[i]] = r.socketsmith_value[i] * scale;
+    v_fe[skin.nodes[i]] = r.fe_value[i] * scale;
+    err[skin.nodes[i]] = (r.fe_value[i] - r.socketsmith_value[i]) * scale;
   }
+  const std::string tag = r.mode != calculix::DesignCheckMode::Load ? "pressure_kpa" : "displacement_mm";
+  report::write_vtu(out / "stump_fe.vtu", mesh,
+                    {report::make_vector_field("displacement_socketsmith_m", u_ss),
+                     report::make_vector_field("displacement_calculix_m", r.fe_displacement_m),
+                     {"socketsmith_" + tag, 1, v_ss}, {"calculix_" + tag, 1, v_fe}, {"error_" + tag, 1, err}});
+}
+
+/// comparison_map.png: colour maps on the designed skin, socketsmith and CalculiX on one scale, one
+/// above the other, then the absolute error on its own scale (above the brim: no data).
+void write_comparison_map(const DesignValidation& v, bool against_donning, const fs::path& out) {
+  const auto& r = v.check;
+  const auto& d = v.stump;
+  const auto& skin = *d.skin;
+  const auto [scale, unit, suffix, what] = compared_quantity(r.mode);
+  geometry::TriMesh def_tri = skin.triangles();
+  for (size_t i = 0; i < skin.nodes.size(); ++i) def_tri.vertices[i] = d.designed_positions[skin.nodes[i]];
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  std::vector<double> v_ss(skin.nodes.size()), v_fe(skin.nodes.size()), v_err(skin.nodes.size());
+  double vmax = 0, emax = 0;
+  for (size_t i = 0; i < skin.nodes.size(); ++i) {
+    const bool in = r.brim_ring[i] >= 1;
+    v_ss[i] = in ? r.socketsmith_value[i] * scale : nan;
+    v_fe[i] = in ? r.fe_value[i] * scale : nan;
+    v_err[i] = in ? std::abs(r.fe_value[i] - r.socketsmith_value[i]) * scale : nan;
+    if (in) {
+      vmax = std::max({vmax, v_ss[i], v_fe[i]});
+      emax = std::max(emax, v_err[i]);
+    }
+  }
+  const auto map = [&](const std::vector<double>& values, const std::string& title, double hi) {
+    report::PressureMapData m;
+    m.surface = &def_tri;
+    m.values = values;
+    m.value_label = unit;
+    m.title = title;
+    m.value_min = 0;
+    m.value_max = std::max(hi, 1e-6);
+    m.frame = report::surface_frame(d.frame);
+    return report::render_pressure_map(m);
+  };
+  const std::string ours_label = against_donning ? "socketsmith donning" : "socketsmith (designed)";
+  report::write_png(out / "comparison_map.png",
+                    report::stack_images({map(v_ss, ours_label + ": " + what, vmax), map(v_fe, "CalculiX: " + what, vmax),
+                                          map(v_err, "|CalculiX - socketsmith|", emax)}));
+}
+
+/// Per-node CSV, path profiles and a scatter (SVG, PNG), the stump's VTU and colour maps on the
+/// designed skin; returns the paths' statistics for the summary.
+nlohmann::json write_comparison_files(const DesignValidation& v, bool against_donning, const fs::path& out) {
+  write_comparison_csv(v, out);
+  std::vector<report::Plot> panels;
+  const nlohmann::json paths_json = write_path_profiles(v.check, out, panels);
+  panels.push_back(write_scatter(v, out));
   report::write_svg_grid(out / "comparison.svg", panels, 2);
   report::write_plot_grid_png(out / "comparison.png", panels, 2);
-  {
-    const int nn = mesh.num_nodes();
-    std::vector<Vec3> u_ss(nn);
-    std::vector<double> v_ss(nn, 0.0), v_fe(nn, 0.0), err(nn, 0.0);
-    for (int n = 0; n < nn; ++n) u_ss[n] = d.designed_positions[n] - mesh.nodes[n];
-    for (size_t i = 0; i < skin.nodes.size(); ++i) {
-      v_ss[skin.nodes[i]] = r.socketsmith_value[i] * scale;
-      v_fe[skin.nodes[i]] = r.fe_value[i] * scale;
-      err[skin.nodes[i]] = (r.fe_value[i] - r.socketsmith_value[i]) * scale;
-    }
-    const std::string tag = contact ? "pressure_kpa" : "displacement_mm";
-    report::write_vtu(out / "stump_fe.vtu", mesh,
-                      {report::make_vector_field("displacement_socketsmith_m", u_ss),
-                       report::make_vector_field("displacement_calculix_m", r.fe_displacement_m),
-                       {"socketsmith_" + tag, 1, v_ss}, {"calculix_" + tag, 1, v_fe}, {"error_" + tag, 1, err}});
-  }
-  {
-    // Colour maps on the designed skin: socketsmith and CalculiX on one scale, one above the other,
-    // then the absolute error on its own scale (above the brim: no data).
-    geometry::TriMesh def_tri = skin.triangles();
-    for (size_t i = 0; i < skin.nodes.size(); ++i) def_tri.vertices[i] = d.designed_positions[skin.nodes[i]];
-    const double nan = std::numeric_limits<double>::quiet_NaN();
-    std::vector<double> v_ss(skin.nodes.size()), v_fe(skin.nodes.size()), v_err(skin.nodes.size());
-    double vmax = 0, emax = 0;
-    for (size_t i = 0; i < skin.nodes.size(); ++i) {
-      const bool in = r.brim_ring[i] >= 1;
-      v_ss[i] = in ? r.socketsmith_value[i] * scale : nan;
-      v_fe[i] = in ? r.fe_value[i] * scale : nan;
-      v_err[i] = in ? std::abs(r.fe_value[i] - r.socketsmith_value[i]) * scale : nan;
-      if (in) {
-        vmax = std::max({vmax, v_ss[i], v_fe[i]});
-        emax = std::max(emax, v_err[i]);
-      }
-    }
-    const auto map = [&](const std::vector<double>& values, const std::string& title, double hi) {
-      report::PressureMapData m;
-      m.surface = &def_tri;
-      m.values = values;
-      m.value_label = unit;
-      m.title = title;
-      m.value_min = 0;
-      m.value_max = std::max(hi, 1e-6);
-      m.frame = report::surface_frame(d.frame);
-      return report::render_pressure_map(m);
-    };
-    const std::string ours_label = against_donning ? "socketsmith donning" : "socketsmith (designed)";
-    report::write_png(out / "comparison_map.png",
-                      report::stack_images({map(v_ss, ours_label + ": " + what, vmax), map(v_fe, "CalculiX: " + what, vmax),
-                                            map(v_err, "|CalculiX - socketsmith|", emax)}));
-  }
+  write_stump_vtu(v, out);
+  write_comparison_map(v, against_donning, out);
   return paths_json;
 }
 
