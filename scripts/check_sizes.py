@@ -68,7 +68,7 @@ ALLOWED_FUNCTIONS = {
     "src/socketsmith/geometry/mesh_repair.cpp:trim_and_cap": 97,
     "src/socketsmith/geometry/rigid_alignment.cpp:align_icp": 121,
     "src/socketsmith/geometry/tri_mesh.cpp:weld_vertices": 88,
-    "src/socketsmith/pipeline/closed_loop.cpp:close_design_loop": 196,
+    "src/socketsmith/pipeline/closed_loop.cpp:close_design_loop": 190,
     "src/socketsmith/pipeline/closed_loop.cpp:write_closed_loop_outputs": 166,
     "src/socketsmith/pipeline/shape_comparison.cpp:run_compare": 99,
     "src/socketsmith/pipeline/sweep.cpp:parse_sweep": 98,
