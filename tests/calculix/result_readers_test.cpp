@@ -2,8 +2,11 @@
 // the deck is in calculix_deck_test's style), cut to a few records.
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "socketsmith/core/errors.h"
 #include "socketsmith/calculix/dat_reader.h"
+#include "socketsmith/calculix/design_check.h"
 #include "socketsmith/calculix/frd_reader.h"
 
 namespace socketsmith::calculix {
@@ -155,6 +158,41 @@ TEST(DatReader, node_prints_and_contact_statistics) {
   EXPECT_DOUBLE_EQ(q->rows[0][3], -250.0);
   EXPECT_EQ(block_at(b, "forces", "REF", 1.0), nullptr);
   EXPECT_EQ(block_at(b, "statistics", "REF", 0.25), nullptr);
+}
+
+// The standing check's rerun starts its load ramp from CalculiX's own reaction at the end of step 1
+// (time 1), along the load; no rerun when step 1 did not end, when the reaction is within 2 % of
+// the load of the start that failed, or when there is no standing step.
+TEST(DatReader, a_failed_standing_step_restarts_from_calculix_own_step1_reaction) {
+  const char* dat = R"(
+ forces (fx,fy,fz) for set REF and time  0.9000000E+00
+
+    900001  1.000000E+00  2.000000E+00  3.000000E+02
+
+ forces (fx,fy,fz) for set REF and time  0.1000000E+01
+
+    900001  3.000000E+00  1.600000E+01  3.840000E+02
+
+ forces (fx,fy,fz) for set REF and time  0.1020000E+01
+
+    900001  3.000000E+00  1.600000E+01  2.950000E+02
+)";
+  const auto b = parse_dat(dat, "fixture");
+  FeSteps st;
+  st.axial_load_n = 343.2;
+  st.load_direction = Vec3::UnitZ();
+  st.donning_force_n = 295.0;
+  EXPECT_DOUBLE_EQ(standing_restart_force_n(b, st), 384.0);  // time 1, not the last block
+  st.load_direction = Vec3(0, 0.6, 0.8);
+  EXPECT_DOUBLE_EQ(standing_restart_force_n(b, st), 0.6 * 16 + 0.8 * 384);
+  st.load_direction = Vec3::UnitZ();
+  st.donning_force_n = 380.0;  // within 2 % of 343 N: the same ramp again
+  EXPECT_TRUE(std::isnan(standing_restart_force_n(b, st)));
+  st.donning_force_n = 295.0;
+  st.axial_load_n = 0;  // no standing step
+  EXPECT_TRUE(std::isnan(standing_restart_force_n(b, st)));
+  st.axial_load_n = 343.2;
+  EXPECT_TRUE(std::isnan(standing_restart_force_n({b[0]}, st)));  // step 1 never ended
 }
 
 }  // namespace

@@ -334,14 +334,6 @@ void compare_paths(const DesignedStump& d, DesignCheckResult& res) {
   }
 }
 
-/// CalculiX's own axial reaction on the socket at the end of step 1 (the donning) [N], read from
-/// the REF node's forces in @p dat; NaN when step 1 did not end.
-double step1_reaction_n(const std::vector<DatBlock>& dat, const Vec3& load_dir) {
-  const DatBlock* b = block_at(dat, "forces", "REF", 1.0);
-  if (!b || b->rows.empty() || b->rows[0].size() < 4) return std::numeric_limits<double>::quiet_NaN();
-  return Vec3(b->rows[0][1], b->rows[0][2], b->rows[0][3]).dot(load_dir);
-}
-
 /// Writes and runs the deck. A standing step that fails after step 1 ended is run once more with
 /// its load ramp starting from CalculiX's own step-1 reaction instead of socketsmith's estimate
 /// (DesignCheckOptions::donning_force_n): a ramp that starts tens of newtons below the reaction
@@ -356,8 +348,8 @@ CcxOptions run_deck(DeckSpec& spec, const std::filesystem::path& dir, const std:
   res.ccx_runs = 1;
   res.load_step_start_n = co.num_steps == 2 ? spec.steps.donning_force_n : 0.0;
   if (!res.ccx.converged && co.num_steps == 2 && std::filesystem::exists(res.ccx.dat)) {
-    const double f1 = step1_reaction_n(read_dat(res.ccx.dat), spec.steps.load_direction);
-    if (std::isfinite(f1) && f1 > 0 && std::abs(f1 - spec.steps.donning_force_n) > 0.02 * spec.steps.axial_load_n) {
+    const double f1 = standing_restart_force_n(read_dat(res.ccx.dat), spec.steps);
+    if (std::isfinite(f1)) {
       log::info("validate: CalculiX's standing step failed from {:.0f} N; again from its own step-1 reaction, {:.0f} N",
                 spec.steps.donning_force_n, f1);
       spec.steps.donning_force_n = f1;
@@ -373,6 +365,14 @@ CcxOptions run_deck(DeckSpec& spec, const std::filesystem::path& dir, const std:
 }
 
 }  // namespace
+
+double standing_restart_force_n(const std::vector<DatBlock>& dat, const FeSteps& steps) {
+  const double none = std::numeric_limits<double>::quiet_NaN();
+  const DatBlock* b = block_at(dat, "forces", "REF", 1.0);
+  if (steps.axial_load_n <= 0 || !b || b->rows.empty() || b->rows[0].size() < 4) return none;
+  const double f1 = Vec3(b->rows[0][1], b->rows[0][2], b->rows[0][3]).dot(steps.load_direction);
+  return f1 > 0 && std::abs(f1 - steps.donning_force_n) > 0.02 * steps.axial_load_n ? f1 : none;
+}
 
 std::string to_string(DesignCheckMode mode) {
   switch (mode) {

@@ -26,6 +26,7 @@
 
 #include "socketsmith/calculix/calculix_deck.h"
 #include "socketsmith/calculix/ccx_runner.h"
+#include "socketsmith/calculix/dat_reader.h"
 #include "socketsmith/geometry/limb_frame.h"
 #include "socketsmith/geometry/tri_mesh.h"
 #include "socketsmith/report/field_comparison.h"
@@ -153,6 +154,12 @@ struct DesignCheckResult {
   double load_step_start_n = 0;
   int ccx_runs = 0;                       ///< 2 when step 2 was run again from CalculiX's own reaction
 };
+
+/// Where a failed standing step should start its load ramp when run again [N]: CalculiX's own axial
+/// reaction at the end of step 1 (the REF node's forces at time 1 in @p dat, along
+/// steps.load_direction), when step 1 ended with a positive reaction more than 2 % of the load
+/// away from steps.donning_force_n, the ramp's start that failed; else NaN (no rerun would differ).
+double standing_restart_force_n(const std::vector<DatBlock>& dat, const FeSteps& steps);
 
 /// Writes <dir>/<job>.inp, runs ccx, reads and compares. When ccx fails after some increments,
 /// the last converged increment is compared and the result says so (converged = false).
