@@ -19,6 +19,8 @@ using tissue::SparseMatrix;
 using tissue::VectorXd;
 
 constexpr double kRelagResidual = 100.0;  // friction lag refreshed in Newton once ‖r‖ ≤ this × tol
+constexpr double kRelagProgress = 0.5;    // a refresh made progress when ‖r‖ < this × ‖r‖ at the last one
+constexpr int kRelagStall = 4;            // refreshes in a row without progress before they stop
 
 /// While alive, every OpenMP parallel region runs on the calling thread alone. CHOLMOD's supernodal
 /// factorisation opens a region per supernode asking for 4 threads; with dynamic teams

@@ -251,9 +251,15 @@ DonningResult DonningSimulation::run() {
   s.last_step = step;
   const double stand_share = o.stand_force_n > 0 ? 1.0 / (o.steps > 0 ? o.steps + 1 : 20) : 0.0;
   while (offset < -1e-12) {
-    const double next = std::min(offset + step, 0.0);
-    const double target = adaptive && next > -0.25 * o.min_step_m ? 0.0 : next;  // no sliver of a last step
-    const bool refinable = adaptive && step > o.min_step_m * (1 + 1e-9);
+    // No sliver of a last step: a target within a quarter of the shortest step of the pose is the pose.
+    const auto target_of = [&](double length) {
+      const double to = std::min(offset + length, 0.0);
+      return adaptive && to > -0.25 * o.min_step_m ? 0.0 : to;
+    };
+    const double target = target_of(step);
+    // Refinable: the shortest step goes somewhere else (the last step before the pose may already
+    // end where the shortest one would; trying it again was the same solve twice).
+    const bool refinable = adaptive && step > o.min_step_m * (1 + 1e-9) && target_of(o.min_step_m) != target;
     // A step that can be refined is tried and kept or refined; one that cannot is solved and
     // committed at once (move_to, whose sub-steps when it fails are committed: a path refinement).
     const ContactStep st = refinable ? solver.try_move_to(s.at(target), true) : solver.move_to(s.at(target));
