@@ -64,15 +64,14 @@ enum class DesignCheckMode { Contact, Load, Donning };
 /// Which FE quantity is the contact pressure (Contact and Donning modes).
 /// - NodalForce: the stump's internal force at each skin node from CalculiX's integration-point
 ///   stresses, over the node's area (surface_pressure.h): the same quantity as a designed pressure
-///   (nodal force / nodal area), no stress extrapolation. Default since 2026-11-25: on the fe-model
+///   (nodal force / nodal area), no stress extrapolation. The default: on the fe-model
 ///   design of OpenLimb (60 kg, 100 kPa, 3k nodes) it and the design agree with R 0.999 over the
 ///   socket, where −n·σ·n scatters by ±1 kPa node to node (R 0.92).
 /// - SurfaceStress: −n·σ·n of the stump's nodal (extrapolated) stress on the deformed skin; the
 ///   donning's answer does not depend on where it started (demo, 1.8k nodes, frictionless, 30 vs
-///   60 mm: R 0.997, means 9.03 / 9.06 kPa). The default for part of 2026-11-25, before the nodal force.
+///   60 mm: R 0.997, means 9.03 / 9.06 kPa), but it extrapolates the stress to the skin.
 /// - Cpress: CalculiX's nodal CPRESS (K × extrapolated penetration): follows where a skin node sits
-///   on the socket's facets (the same two donnings: R 0.68, means 11.7 / 16.0 kPa). Compared
-///   before 2026-11-25 (docs/validation_fe.md).
+///   on the socket's facets (the same two donnings: R 0.68, means 11.7 / 16.0 kPa; docs/validation_fe.md).
 /// All three are written to comparison.csv and summarised in summary.json.
 enum class FePressure { NodalForce, SurfaceStress, Cpress };
 std::string to_string(FePressure what);

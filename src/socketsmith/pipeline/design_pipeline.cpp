@@ -403,8 +403,7 @@ design::CaseFile demo_case(int target_nodes) {
   // The sample's coarse skin (1.8–3k nodes) leaves a pointed, coarsely faceted distal end; one
   // subdivision keeps the socket's facets fine enough there for the donning's smooth wall, which
   // fits quadrics over each vertex's edges (with the unsubdivided socket the 1.8k sample's donning
-  // pressed 65 kPa at the tip, 0.32 mm into it; docs/contact.md). Until 2026-11-25 the distal pad's
-  // self-intersection made every demo socket subdivide once anyway.
+  // pressed 65 kPa at the tip, 0.32 mm into it; docs/contact.md).
   c.socket.subdivisions = 1;
   return c;
 }

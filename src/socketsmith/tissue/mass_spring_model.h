@@ -80,8 +80,8 @@ struct CorrectiveSpringConstants {
   /// The thesis's hand-tuned constants: A = 0.5, α = 1.4, C = 25, β = 2 (symmetric law).
   static CorrectiveSpringConstants thesis();
   /// The constants found by `socketsmith calibrate cube` with the stability check and no dead
-  /// zone (docs/VALIDATION.md): 6.39 % / 2.56 % on the cube, short of the 5 % / 2 %. The
-  /// default until 2026-11-25; cube_targets() keeps its tangent at rest.
+  /// zone (docs/VALIDATION.md): 6.39 % / 2.56 % on the cube, short of the 5 % / 2 %;
+  /// cube_targets() (the default) keeps its tangent at rest.
   static CorrectiveSpringConstants recommended();
   /// Constants that meet the cube targets (5 % / 2 %) on a stable lattice, found by
   /// `socketsmith calibrate cube --max-c 100000`; not the default (docs/VALIDATION.md says why).
