@@ -76,35 +76,21 @@ struct OutputParser {
   }
 };
 
-}  // namespace
-
-CcxRun run_ccx(const fs::path& job_dir, const std::string& job, const CcxOptions& options) {
-  const std::string exe = find_ccx(options.executable);
-  require(options.threads >= 1, "run_ccx: threads {} (expected ≥ 1)", options.threads);
-  require(options.time_limit_s > 0, "run_ccx: time limit {} s (expected > 0)", options.time_limit_s);
-  const fs::path inp = job_dir / (job + ".inp");
-  if (!fs::exists(inp)) fail<IoError>("run_ccx: the deck '{}' does not exist", inp.string());
-  CcxRun run;
-  run.log = job_dir / (job + ".log");
-  run.frd = job_dir / (job + ".frd");
-  run.dat = job_dir / (job + ".dat");
-  std::error_code ec;
-  fs::remove(run.frd, ec);
-  fs::remove(run.dat, ec);
-
-  int fds[2];
-  if (::pipe(fds) != 0) fail<IoError>("run_ccx: cannot create a pipe: {}", std::strerror(errno));
-  const auto t0 = std::chrono::steady_clock::now();
+/// Starts ccx on @p job in @p job_dir with @p threads threads, in a process group of its own (what
+/// the time limit kills), its stdout and stderr into the pipe's write end @p pipe_fds[1].
+/// Returns its pid. @throws IoError when it cannot fork.
+pid_t start_ccx(const std::string& exe, const fs::path& job_dir, const std::string& job, int threads,
+                const int pipe_fds[2]) {
   const pid_t pid = ::fork();
   if (pid < 0) fail<IoError>("run_ccx: cannot start ccx: {}", std::strerror(errno));
   if (pid == 0) {
     ::setpgid(0, 0);
-    ::dup2(fds[1], 1);
-    ::dup2(fds[1], 2);
-    ::close(fds[0]);
-    ::close(fds[1]);
+    ::dup2(pipe_fds[1], 1);
+    ::dup2(pipe_fds[1], 2);
+    ::close(pipe_fds[0]);
+    ::close(pipe_fds[1]);
     if (::chdir(job_dir.c_str()) != 0) ::_exit(126);
-    const std::string n = std::to_string(options.threads);
+    const std::string n = std::to_string(threads);
     ::setenv("OMP_NUM_THREADS", n.c_str(), 1);
     ::setenv("CCX_NPROC_EQUATION_SOLVER", n.c_str(), 1);
     ::setenv("CCX_NPROC_RESULTS", n.c_str(), 1);
@@ -112,25 +98,30 @@ CcxRun run_ccx(const fs::path& job_dir, const std::string& job, const CcxOptions
     ::_exit(127);
   }
   ::setpgid(pid, pid);
-  ::close(fds[1]);
-  std::ofstream log(run.log, std::ios::binary);
-  OutputParser parser{run, options};
+  return pid;
+}
+
+/// Reads ccx's output from @p fd until it closes: into the log and, line by line, into @p parser.
+/// Kills ccx's process group past the time limit or when the progress callback cancels (and says
+/// which in the run). Returns whether it killed ccx.
+bool follow_ccx_output(int fd, pid_t pid, std::chrono::steady_clock::time_point t0, const CcxOptions& options,
+                       std::ofstream& log, OutputParser& parser) {
   std::string pending;
   char buf[4096];
   bool killed = false;
   for (;;) {
     const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     if (!killed && (elapsed > options.time_limit_s || parser.cancel)) {
-      run.timed_out = !parser.cancel;
-      run.cancelled = parser.cancel;
+      parser.run.timed_out = !parser.cancel;
+      parser.run.cancelled = parser.cancel;
       ::kill(-pid, SIGKILL);
       killed = true;
     }
-    pollfd p{fds[0], POLLIN, 0};
+    pollfd p{fd, POLLIN, 0};
     const int r = ::poll(&p, 1, 200);
     if (r < 0 && errno == EINTR) continue;
     if (r == 0) continue;
-    const ssize_t n = ::read(fds[0], buf, sizeof buf);
+    const ssize_t n = ::read(fd, buf, sizeof buf);
     if (n <= 0) break;
     log.write(buf, n);
     pending.append(buf, static_cast<size_t>(n));
@@ -141,13 +132,12 @@ CcxRun run_ccx(const fs::path& job_dir, const std::string& job, const CcxOptions
     }
   }
   if (!pending.empty()) parser.line(pending);
-  ::close(fds[0]);
-  int status = 0;
-  ::waitpid(pid, &status, 0);
-  log.close();
-  run.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
-  run.converged = parser.job_finished && run.error_line.empty() && !killed && run.exit_code == 0;
+  return killed;
+}
+
+/// The run's message (and its error line when ccx was stopped): how long it took, or why it failed
+/// and what to do about it.
+void describe_ccx_run(const std::string& exe, const CcxOptions& options, CcxRun& run) {
   const std::string where = fmt::format("(log: {})", run.log.string());
   if (run.converged) {
     run.message = fmt::format("ccx finished in {:.1f} s ({} increments)", run.wall_s, run.increments);
@@ -176,6 +166,40 @@ CcxRun run_ccx(const fs::path& job_dir, const std::string& job, const CcxOptions
     run.message = fmt::format("ccx failed in step {} after {} increments: {} {}: {}", run.last_step, run.increments, err,
                               where, fix);
   }
+}
+
+}  // namespace
+
+CcxRun run_ccx(const fs::path& job_dir, const std::string& job, const CcxOptions& options) {
+  const std::string exe = find_ccx(options.executable);
+  require(options.threads >= 1, "run_ccx: threads {} (expected ≥ 1)", options.threads);
+  require(options.time_limit_s > 0, "run_ccx: time limit {} s (expected > 0)", options.time_limit_s);
+  const fs::path inp = job_dir / (job + ".inp");
+  if (!fs::exists(inp)) fail<IoError>("run_ccx: the deck '{}' does not exist", inp.string());
+  CcxRun run;
+  run.log = job_dir / (job + ".log");
+  run.frd = job_dir / (job + ".frd");
+  run.dat = job_dir / (job + ".dat");
+  std::error_code ec;
+  fs::remove(run.frd, ec);
+  fs::remove(run.dat, ec);
+
+  int fds[2];
+  if (::pipe(fds) != 0) fail<IoError>("run_ccx: cannot create a pipe: {}", std::strerror(errno));
+  const auto t0 = std::chrono::steady_clock::now();
+  const pid_t pid = start_ccx(exe, job_dir, job, options.threads, fds);
+  ::close(fds[1]);
+  std::ofstream log(run.log, std::ios::binary);
+  OutputParser parser{run, options};
+  const bool killed = follow_ccx_output(fds[0], pid, t0, options, log, parser);
+  ::close(fds[0]);
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  log.close();
+  run.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
+  run.converged = parser.job_finished && run.error_line.empty() && !killed && run.exit_code == 0;
+  describe_ccx_run(exe, options, run);
   return run;
 }
 

@@ -39,6 +39,107 @@ void read_values(std::string_view line, size_t start, std::vector<double>& out, 
   }
 }
 
+/// parse_frd's state between records: the section being read (nodes, elements or a result block),
+/// the step, increment and total time the next block belongs to, and what was read so far.
+class FrdParser {
+ public:
+  explicit FrdParser(const std::string& source) : source_(source) {}
+
+  /// One record: @p line without its '\r', @p t the same trimmed. False at the end marker 9999.
+  bool read(std::string_view line, std::string_view t, int line_no) {
+    if (t.starts_with("-3")) {
+      finish_block();
+    } else if (t.starts_with("2C")) {
+      mode_ = Mode::Nodes;
+    } else if (t.starts_with("3C")) {
+      mode_ = Mode::Elements;
+    } else if (t.starts_with("1PSTEP")) {
+      // "    1PSTEP   <set>   <increment>   <step>"
+      std::istringstream in{std::string(t.substr(6))};
+      int set = 0;
+      in >> set >> increment_ >> step_;
+    } else if (t.starts_with("100C")) {
+      // "  100CL  101 2.50000E-01  ..." — the total time at columns 13..24 (2.0 at the end of a
+      // second step of length 1).
+      time_ = field<double>(line, 12, 12, source_, line_no);
+    } else if (t.starts_with("-4")) {
+      start_block(t);
+    } else if (t.starts_with("-5")) {
+      if (mode_ == Mode::Block) read_component(t);
+    } else if (t.starts_with("-1")) {
+      read_node_record(line, line_no);
+    } else if (t.starts_with("-2")) {
+      if (mode_ == Mode::Block) read_values(line, 13, cur_.values, source_, line_no);
+    } else if (t.starts_with("9999")) {
+      return false;
+    }
+    return true;
+  }
+
+  /// The results once every record is read: the open block closed, each block's values checked
+  /// against its nodes × components. @throws InvalidInputError for a truncated block.
+  FrdResults finish() {
+    finish_block();
+    for (const auto& b : res_.blocks)
+      if (!b.components.empty() && b.values.size() != b.node_ids.size() * b.components.size())
+        fail("read_frd: {}: block {} (step {}, increment {}) has {} values for {} nodes × {} components (truncated "
+             "file?)",
+             source_, b.name, b.step, b.increment, b.values.size(), b.node_ids.size(), b.components.size());
+    return std::move(res_);
+  }
+
+ private:
+  enum class Mode { None, Nodes, Elements, Block };
+
+  void finish_block() {
+    if (mode_ == Mode::Block) res_.blocks.push_back(std::move(cur_));
+    cur_ = FrdBlock{};
+    mode_ = Mode::None;
+  }
+
+  /// "-4  NAME ...": a result block of the current step, increment and time.
+  void start_block(std::string_view t) {
+    mode_ = Mode::Block;
+    cur_ = FrdBlock{};
+    std::istringstream in{std::string(t.substr(2))};
+    in >> cur_.name;
+    cur_.step = step_;
+    cur_.increment = increment_;
+    cur_.time = time_;
+  }
+
+  /// "-5  COMP ...": one component of the block's values.
+  void read_component(std::string_view t) {
+    std::istringstream in{std::string(t.substr(2))};
+    std::string comp;
+    in >> comp;
+    // "ALL" marks a derived magnitude in DISP blocks: no column of its own.
+    if (comp != "ALL") cur_.components.push_back(comp);
+  }
+
+  /// "-1 id values": a node's coordinates in the node section, its first values in a block.
+  void read_node_record(std::string_view line, int line_no) {
+    if (mode_ == Mode::Nodes) {
+      res_.node_ids.push_back(field<int>(line, 3, 10, source_, line_no));
+      row_.clear();
+      read_values(line, 13, row_, source_, line_no);
+      if (row_.size() < 3) fail("read_frd: {} line {}: a node record needs 3 coordinates", source_, line_no);
+      res_.node_positions.emplace_back(row_[0], row_[1], row_[2]);
+    } else if (mode_ == Mode::Block) {
+      cur_.node_ids.push_back(field<int>(line, 3, 10, source_, line_no));
+      read_values(line, 13, cur_.values, source_, line_no);
+    }
+  }
+
+  const std::string& source_;
+  FrdResults res_;
+  Mode mode_ = Mode::None;
+  FrdBlock cur_;
+  int step_ = 0, increment_ = 0;
+  double time_ = 0;
+  std::vector<double> row_;  // a node record's coordinates
+};
+
 }  // namespace
 
 int FrdBlock::component_index(std::string_view component) const {
@@ -68,19 +169,9 @@ const FrdBlock* FrdResults::last(std::string_view name, int step) const {
 }
 
 FrdResults parse_frd(std::string_view text, const std::string& source) {
-  FrdResults res;
-  enum class Mode { None, Nodes, Elements, Block } mode = Mode::None;
-  FrdBlock cur;
-  int step = 0, increment = 0;
-  double time = 0;
+  FrdParser parser(source);
   int line_no = 0;
   size_t pos = 0;
-  std::vector<double> row;
-  const auto finish_block = [&] {
-    if (mode == Mode::Block) res.blocks.push_back(std::move(cur));
-    cur = FrdBlock{};
-    mode = Mode::None;
-  };
   while (pos < text.size()) {
     size_t end = text.find('\n', pos);
     if (end == std::string_view::npos) end = text.size();
@@ -90,76 +181,9 @@ FrdResults parse_frd(std::string_view text, const std::string& source) {
     if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
     const auto t = trim(line);
     if (t.empty()) continue;
-    if (t.starts_with("-3")) {
-      finish_block();
-      continue;
-    }
-    if (t.starts_with("2C")) {
-      mode = Mode::Nodes;
-      continue;
-    }
-    if (t.starts_with("3C")) {
-      mode = Mode::Elements;
-      continue;
-    }
-    if (t.starts_with("1PSTEP")) {
-      // "    1PSTEP   <set>   <increment>   <step>"
-      std::istringstream in{std::string(t.substr(6))};
-      int set = 0;
-      in >> set >> increment >> step;
-      continue;
-    }
-    if (t.starts_with("100C")) {
-      // "  100CL  101 2.50000E-01  ..." — the total time at columns 13..24 (2.0 at the end of a
-      // second step of length 1).
-      time = field<double>(line, 12, 12, source, line_no);
-      continue;
-    }
-    if (t.starts_with("-4")) {
-      mode = Mode::Block;
-      cur = FrdBlock{};
-      std::istringstream in{std::string(t.substr(2))};
-      in >> cur.name;
-      cur.step = step;
-      cur.increment = increment;
-      cur.time = time;
-      continue;
-    }
-    if (t.starts_with("-5")) {
-      if (mode == Mode::Block) {
-        std::istringstream in{std::string(t.substr(2))};
-        std::string comp;
-        in >> comp;
-        // "ALL" marks a derived magnitude in DISP blocks: no column of its own.
-        if (comp != "ALL") cur.components.push_back(comp);
-      }
-      continue;
-    }
-    if (t.starts_with("-1")) {
-      if (mode == Mode::Nodes) {
-        res.node_ids.push_back(field<int>(line, 3, 10, source, line_no));
-        row.clear();
-        read_values(line, 13, row, source, line_no);
-        if (row.size() < 3) fail("read_frd: {} line {}: a node record needs 3 coordinates", source, line_no);
-        res.node_positions.emplace_back(row[0], row[1], row[2]);
-      } else if (mode == Mode::Block) {
-        cur.node_ids.push_back(field<int>(line, 3, 10, source, line_no));
-        read_values(line, 13, cur.values, source, line_no);
-      }
-      continue;
-    }
-    if (t.starts_with("-2")) {
-      if (mode == Mode::Block) read_values(line, 13, cur.values, source, line_no);
-      continue;
-    }
-    if (t.starts_with("9999")) break;
+    if (!parser.read(line, t, line_no)) break;
   }
-  finish_block();
-  for (const auto& b : res.blocks)
-    if (!b.components.empty() && b.values.size() != b.node_ids.size() * b.components.size())
-      fail("read_frd: {}: block {} (step {}, increment {}) has {} values for {} nodes × {} components (truncated file?)",
-           source, b.name, b.step, b.increment, b.values.size(), b.node_ids.size(), b.components.size());
-  return res;
+  return parser.finish();
 }
 
 FrdResults read_frd(const std::filesystem::path& path) { return parse_frd(read_text_file(path), path.string()); }
