@@ -168,18 +168,11 @@ const std::vector<std::string>& sweep_axes() {
   return axes;
 }
 
-SweepSpec parse_sweep(const json& doc, const fs::path& folder) {
-  require(doc.is_object(), "sweep file: expected a JSON object with \"base_case\" and \"grid\" or \"cases\" "
-                           "(docs/sweep.md)");
-  for (const auto& [k, v] : doc.items())
-    require(k == "socketsmith_sweep" || k == "name" || k == "base_case" || k == "grid" || k == "cases" || k == "slurm",
-            "sweep file: unknown key '{}' (known: socketsmith_sweep, name, base_case, grid, cases, slurm)", k);
-  SweepSpec spec;
-  if (doc.contains("name")) {
-    require(doc["name"].is_string(), "sweep file: \"name\" must be a string");
-    spec.name = doc["name"].get<std::string>();
-  }
-  // The base case: inline, or a case file (its relative paths are relative to it).
+namespace {
+
+/// The base case: inline, or a case file (its relative paths are relative to it); its limb's paths
+/// made absolute, or an empty limb (the generated one).
+json read_base_case(const json& doc, const fs::path& folder) {
   json base = json::object();
   fs::path base_folder = folder;
   if (doc.contains("base_case")) {
@@ -197,70 +190,89 @@ SweepSpec parse_sweep(const json& doc, const fs::path& folder) {
   require(base.is_object(), "sweep file: the base case must be a JSON object (docs/case_file.md)");
   if (base.contains("limb")) absolute_limb_paths(base["limb"], base_folder);
   else base["limb"] = json::object();
+  return base;
+}
 
-  const auto add_case = [&](json parameters, json c) {
-    SweepCase sc;
-    sc.parameters = std::move(parameters);
-    sc.case_doc = std::move(c);
-    spec.cases.push_back(std::move(sc));
-  };
-  // The grid: the product of its axes, outermost first in sweep_axes() order.
-  if (doc.contains("grid")) {
-    const json& g = doc["grid"];
-    require(g.is_object(), "sweep file: \"grid\" must be an object of axes ({})", known_axes());
-    std::vector<std::pair<std::string, json>> axes;  // column, values
-    for (const auto& [k, v] : g.items()) {
-      require(!column_of(k).empty(), "sweep file: unknown axis '{}' in \"grid\" (known: {})", k, known_axes());
-      require(v.is_array() && !v.empty(), "sweep file: grid.{} must be a non-empty list of values", k);
+void add_case(SweepSpec& spec, json parameters, json c) {
+  SweepCase sc;
+  sc.parameters = std::move(parameters);
+  sc.case_doc = std::move(c);
+  spec.cases.push_back(std::move(sc));
+}
+
+/// The grid @p g's cases: the product of its axes, outermost first in sweep_axes() order.
+void add_grid_cases(const json& g, const json& base, const fs::path& folder, SweepSpec& spec) {
+  require(g.is_object(), "sweep file: \"grid\" must be an object of axes ({})", known_axes());
+  std::vector<std::pair<std::string, json>> axes;  // column, values
+  for (const auto& [k, v] : g.items()) {
+    require(!column_of(k).empty(), "sweep file: unknown axis '{}' in \"grid\" (known: {})", k, known_axes());
+    require(v.is_array() && !v.empty(), "sweep file: grid.{} must be a non-empty list of values", k);
+  }
+  for (const auto& a : kAxes)
+    for (const auto& [k, v] : g.items())
+      if (column_of(k) == a.column) axes.emplace_back(a.column, v);
+  require(!axes.empty(), "sweep file: \"grid\" has no axes (known: {})", known_axes());
+  std::vector<size_t> index(axes.size(), 0);
+  for (bool more = true; more;) {
+    json c = base, p = json::object();
+    bool duplicate = false;
+    for (size_t a = 0; a < axes.size(); ++a) {
+      const json& v = axes[a].second[index[a]];
+      // A seed changes only a generated limb: a scanned limb runs once, with the first seed.
+      if (axes[a].first == "seed" && c["limb"].contains("file")) {
+        if (index[a] > 0) duplicate = true;
+        continue;
+      }
+      apply_axis(c, axes[a].first, v, folder);
+      p[axes[a].first] = v;
     }
+    if (!duplicate) add_case(spec, p, c);
+    // Next combination: the innermost axis turns fastest.
+    more = false;
+    for (size_t a = axes.size(); a-- > 0;) {
+      if (++index[a] < axes[a].second.size()) {
+        more = true;
+        break;
+      }
+      index[a] = 0;
+    }
+  }
+}
+
+/// The list @p l's cases: each entry sets some axes of the base case.
+void add_listed_cases(const json& l, const json& base, const fs::path& folder, SweepSpec& spec) {
+  require(l.is_array(), "sweep file: \"cases\" must be a list of objects ({{\"body_mass_kg\": 70, \"seed\": 2}})");
+  for (size_t k = 0; k < l.size(); ++k) {
+    require(l[k].is_object(), "sweep file: cases[{}] must be an object of axis values ({})", k, known_axes());
+    json c = base, p = json::object();
     for (const auto& a : kAxes)
-      for (const auto& [k, v] : g.items())
-        if (column_of(k) == a.column) axes.emplace_back(a.column, v);
-    require(!axes.empty(), "sweep file: \"grid\" has no axes (known: {})", known_axes());
-    std::vector<size_t> index(axes.size(), 0);
-    for (bool more = true; more;) {
-      json c = base, p = json::object();
-      bool duplicate = false;
-      for (size_t a = 0; a < axes.size(); ++a) {
-        const json& v = axes[a].second[index[a]];
-        // A seed changes only a generated limb: a scanned limb runs once, with the first seed.
-        if (axes[a].first == "seed" && c["limb"].contains("file")) {
-          if (index[a] > 0) duplicate = true;
-          continue;
-        }
-        apply_axis(c, axes[a].first, v, folder);
-        p[axes[a].first] = v;
-      }
-      if (!duplicate) add_case(p, c);
-      // Next combination: the innermost axis turns fastest.
-      more = false;
-      for (size_t a = axes.size(); a-- > 0;) {
-        if (++index[a] < axes[a].second.size()) {
-          more = true;
-          break;
-        }
-        index[a] = 0;
-      }
-    }
-  }
-  // The list: each entry sets some axes of the base case.
-  if (doc.contains("cases")) {
-    const json& l = doc["cases"];
-    require(l.is_array(), "sweep file: \"cases\" must be a list of objects ({{\"body_mass_kg\": 70, \"seed\": 2}})");
-    for (size_t k = 0; k < l.size(); ++k) {
-      require(l[k].is_object(), "sweep file: cases[{}] must be an object of axis values ({})", k, known_axes());
-      json c = base, p = json::object();
-      for (const auto& a : kAxes)
-        for (const auto& [key, v] : l[k].items())
-          if (column_of(key) == a.column) {
-            apply_axis(c, a.column, v, folder);
-            p[a.column] = v;
-          }
       for (const auto& [key, v] : l[k].items())
-        require(!column_of(key).empty(), "sweep file: unknown axis '{}' in cases[{}] (known: {})", key, k, known_axes());
-      add_case(p, c);
-    }
+        if (column_of(key) == a.column) {
+          apply_axis(c, a.column, v, folder);
+          p[a.column] = v;
+        }
+    for (const auto& [key, v] : l[k].items())
+      require(!column_of(key).empty(), "sweep file: unknown axis '{}' in cases[{}] (known: {})", key, k, known_axes());
+    add_case(spec, p, c);
   }
+}
+
+}  // namespace
+
+SweepSpec parse_sweep(const json& doc, const fs::path& folder) {
+  require(doc.is_object(), "sweep file: expected a JSON object with \"base_case\" and \"grid\" or \"cases\" "
+                           "(docs/sweep.md)");
+  for (const auto& [k, v] : doc.items())
+    require(k == "socketsmith_sweep" || k == "name" || k == "base_case" || k == "grid" || k == "cases" || k == "slurm",
+            "sweep file: unknown key '{}' (known: socketsmith_sweep, name, base_case, grid, cases, slurm)", k);
+  SweepSpec spec;
+  if (doc.contains("name")) {
+    require(doc["name"].is_string(), "sweep file: \"name\" must be a string");
+    spec.name = doc["name"].get<std::string>();
+  }
+  const json base = read_base_case(doc, folder);
+  if (doc.contains("grid")) add_grid_cases(doc["grid"], base, folder, spec);
+  if (doc.contains("cases")) add_listed_cases(doc["cases"], base, folder, spec);
   require(!spec.cases.empty(), "sweep file: no cases: give a \"grid\" of axes or a list of \"cases\" (docs/sweep.md)");
   for (size_t k = 0; k < spec.cases.size(); ++k) spec.cases[k].id = case_id(k, spec.cases.size());
   if (doc.contains("slurm")) spec.slurm = parse_slurm(doc["slurm"]);

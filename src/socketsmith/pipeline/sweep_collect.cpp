@@ -147,35 +147,35 @@ std::string case_row(const std::string& id, const SweepCaseStatus& s, const json
   return row;
 }
 
-}  // namespace
-
-SweepCollectResult collect_sweep(const fs::path& dir) {
-  const json m = read_manifest(dir);
-  // Parameter columns: the swept ones, in axis order.
+/// The parameter columns of results.csv: the swept ones, in axis order.
+std::vector<std::string> swept_columns(const json& manifest) {
   std::vector<std::string> params;
   for (const auto& a : kAxes)
-    for (const auto& c : m["cases"])
+    for (const auto& c : manifest["cases"])
       if (c["parameters"].contains(a.column)) {
         params.emplace_back(a.column);
         break;
       }
-  const std::vector<ResultColumn>& cols = result_columns();
+  return params;
+}
+
+/// results.csv's first line: id, status, exit code, message, parameters, failing, results, time.
+std::string csv_header(const std::vector<std::string>& params, const std::vector<ResultColumn>& cols) {
   std::string text = "id,status,exit_code,message";
   for (const auto& p : params) text += "," + p;
   text += ",failing";
   for (const auto& c : cols) text += std::string(",") + c.name;
   text += ",case_seconds\n";
+  return text;
+}
 
-  SweepCollectResult r;
+/// The summary figure's points, x = the case's index: peak ratio by status (a failed or missing
+/// case at 0), the ok cases' cavity volume, every run case's time.
+struct SummaryPoints {
   std::vector<double> x_ok, ratio_ok, x_unmet, ratio_unmet, x_failed, zero_failed, x_vol, vol, x_t, t;
-  for (size_t k = 0; k < m["cases"].size(); ++k) {
-    const json& c = m["cases"][k];
-    const std::string id = c["id"].get<std::string>();
-    const SweepCaseStatus s = read_case_status(dir, id);
-    const json d = case_design(dir, id, s);
-    const std::string row = case_row(id, s, c, d, params, cols);
-    text += row + "\n";
-    ++r.rows;
+
+  /// Case @p k's points, and its count in @p r.
+  void add(size_t k, const SweepCaseStatus& s, const json& d, SweepCollectResult& r) {
     const double x = static_cast<double>(k);
     const json& ratio = at_path(d, {"max_pressure_ratio"});
     if (s.status == "ok") {
@@ -191,59 +191,88 @@ SweepCollectResult collect_sweep(const fs::path& dir) {
     }
     if (s.status != "missing") x_t.push_back(x), t.push_back(s.seconds);
   }
+};
+
+/// A panel of the summary figure over @p cases cases.
+report::Plot case_panel(const std::string& title, const std::string& y_label, double cases) {
+  report::Plot p;
+  p.title = title;
+  p.x_label = "case";
+  p.y_label = y_label;
+  p.x_min = -0.5;
+  p.x_max = cases - 0.5;
+  p.width_px = 900;
+  p.height_px = 300;
+  return p;
+}
+
+report::PlotSeries scatter(const std::string& name, std::vector<double> x, std::vector<double> y, const char* color) {
+  report::PlotSeries s;
+  s.name = name;
+  s.x = std::move(x);
+  s.y = std::move(y);
+  s.color = color;
+  s.markers = true;
+  s.line_width = 0;
+  return s;
+}
+
+/// Summary figure: peak pressure ratio, cavity volume and time per case.
+std::vector<report::Plot> summary_panels(const json& m, const SweepCollectResult& r, const SummaryPoints& pts) {
+  const double n = static_cast<double>(std::max<size_t>(1, m["cases"].size()));
+  std::vector<report::Plot> panels;
+  {
+    auto p = case_panel(fmt::format("{}: {} ok, {} constraints not met, {} failed, {} not run",
+                                    m.value("name", std::string()), r.ok, r.unmet, r.failed, r.missing),
+                        "peak pressure / threshold", n);
+    p.series.push_back(scatter("ok", pts.x_ok, pts.ratio_ok, "#0072B2"));
+    p.series.push_back(scatter("constraints not met", pts.x_unmet, pts.ratio_unmet, "#E69F00"));
+    p.series.push_back(scatter("failed or not run (at 0)", pts.x_failed, pts.zero_failed, "#D55E00"));
+    p.y_min = 0.0;
+    if (pts.ratio_ok.empty() && pts.ratio_unmet.empty()) p.y_max = 1.0;
+    panels.push_back(p);
+  }
+  {
+    auto p = case_panel("socket cavity", "volume [cm^3]", n);
+    p.series.push_back(scatter("ok", pts.x_vol, pts.vol, "#0072B2"));
+    if (pts.vol.empty()) p.y_min = 0.0, p.y_max = 1.0;
+    p.legend = report::LegendPosition::None;
+    panels.push_back(p);
+  }
+  {
+    auto p = case_panel("time per case", "wall time [s]", n);
+    p.series.push_back(scatter("", pts.x_t, pts.t, "#009E73"));
+    p.y_min = 0.0;
+    if (pts.t.empty()) p.y_max = 1.0;
+    p.legend = report::LegendPosition::None;
+    panels.push_back(p);
+  }
+  return panels;
+}
+
+}  // namespace
+
+SweepCollectResult collect_sweep(const fs::path& dir) {
+  const json m = read_manifest(dir);
+  const std::vector<std::string> params = swept_columns(m);
+  const std::vector<ResultColumn>& cols = result_columns();
+  std::string text = csv_header(params, cols);
+
+  SweepCollectResult r;
+  SummaryPoints pts;
+  for (size_t k = 0; k < m["cases"].size(); ++k) {
+    const json& c = m["cases"][k];
+    const std::string id = c["id"].get<std::string>();
+    const SweepCaseStatus s = read_case_status(dir, id);
+    const json d = case_design(dir, id, s);
+    text += case_row(id, s, c, d, params, cols) + "\n";
+    ++r.rows;
+    pts.add(k, s, d, r);
+  }
   r.csv = dir / "results.csv";
   write_text_atomically(r.csv, text);
 
-  // Summary figure: peak pressure ratio, cavity volume and time per case.
-  const double n = static_cast<double>(std::max<size_t>(1, m["cases"].size()));
-  const auto panel = [&](const std::string& title, const std::string& y_label) {
-    report::Plot p;
-    p.title = title;
-    p.x_label = "case";
-    p.y_label = y_label;
-    p.x_min = -0.5;
-    p.x_max = n - 0.5;
-    p.width_px = 900;
-    p.height_px = 300;
-    return p;
-  };
-  const auto scatter = [](const std::string& name, std::vector<double> x, std::vector<double> y, const char* color) {
-    report::PlotSeries s;
-    s.name = name;
-    s.x = std::move(x);
-    s.y = std::move(y);
-    s.color = color;
-    s.markers = true;
-    s.line_width = 0;
-    return s;
-  };
-  std::vector<report::Plot> panels;
-  {
-    auto p = panel(fmt::format("{}: {} ok, {} constraints not met, {} failed, {} not run", m.value("name", std::string()),
-                               r.ok, r.unmet, r.failed, r.missing),
-                   "peak pressure / threshold");
-    p.series.push_back(scatter("ok", x_ok, ratio_ok, "#0072B2"));
-    p.series.push_back(scatter("constraints not met", x_unmet, ratio_unmet, "#E69F00"));
-    p.series.push_back(scatter("failed or not run (at 0)", x_failed, zero_failed, "#D55E00"));
-    p.y_min = 0.0;
-    if (ratio_ok.empty() && ratio_unmet.empty()) p.y_max = 1.0;
-    panels.push_back(p);
-  }
-  {
-    auto p = panel("socket cavity", "volume [cm^3]");
-    p.series.push_back(scatter("ok", x_vol, vol, "#0072B2"));
-    if (vol.empty()) p.y_min = 0.0, p.y_max = 1.0;
-    p.legend = report::LegendPosition::None;
-    panels.push_back(p);
-  }
-  {
-    auto p = panel("time per case", "wall time [s]");
-    p.series.push_back(scatter("", x_t, t, "#009E73"));
-    p.y_min = 0.0;
-    if (t.empty()) p.y_max = 1.0;
-    p.legend = report::LegendPosition::None;
-    panels.push_back(p);
-  }
+  const std::vector<report::Plot> panels = summary_panels(m, r, pts);
   r.svg = dir / "summary.svg";
   r.png = dir / "summary.png";
   report::write_svg_grid(r.svg, panels, 1);

@@ -81,6 +81,51 @@ std::string last_error_line(const fs::path& log) {
   return found;
 }
 
+/// One local run per folder: a second would start the same unfinished cases again. Held while
+/// alive (an flock on the folder's lock file, released when the file is closed).
+class SweepRunLock {
+ public:
+  /// @throws IoError when the lock file cannot be opened; InvalidInputError when another run holds it.
+  explicit SweepRunLock(const fs::path& dir) {
+    const fs::path lock_path = dir / kRunLock;
+    fd_ = ::open(lock_path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+    require<IoError>(fd_ >= 0, "sweep: cannot open '{}': {}", lock_path.string(), std::strerror(errno));
+    if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
+      ::close(fd_);  // no destructor runs for a constructor that throws
+      fail("sweep: another `socketsmith sweep` is running the cases of '{}' ({} is locked): wait for it to end or stop "
+           "it",
+           dir.string(), lock_path.string());
+    }
+  }
+  ~SweepRunLock() {
+    if (fd_ >= 0) ::close(fd_);  // releases the flock
+  }
+  SweepRunLock(const SweepRunLock&) = delete;
+  SweepRunLock& operator=(const SweepRunLock&) = delete;
+
+ private:
+  int fd_ = -1;
+};
+
+/// Case @p id's status once its process ended (waitpid gave @p w and @p status): its marker, or,
+/// when the process ended without one (a crash, a signal, a program that could not start), a
+/// failure naming how it ended and the log's error line, written as its marker.
+SweepCaseStatus ended_case_status(const fs::path& dir, const std::string& id, pid_t w, int status) {
+  SweepCaseStatus s = read_case_status(dir, id);
+  if (s.status != "missing") return s;
+  s.status = "failed";
+  const std::string how = w < 0                ? "could not be waited for"
+                          : WIFSIGNALED(status) ? fmt::format("was killed by signal {} ({})", WTERMSIG(status),
+                                                              strsignal(WTERMSIG(status)))
+                                                : fmt::format("exited with code {}", WEXITSTATUS(status));
+  const std::string err = last_error_line(case_dir(dir, id) / "log.txt");
+  s.exit_code = WIFEXITED(status) && WEXITSTATUS(status) != 0 ? WEXITSTATUS(status) : kExitInternal;
+  s.message = fmt::format("the case's process {} without a result{}; see {}", how,
+                          err.empty() ? std::string() : " (" + err + ")", (case_dir(dir, id) / "log.txt").string());
+  write_marker(dir, s);
+  return s;
+}
+
 }  // namespace
 
 SweepRunResult run_sweep_local(const fs::path& dir, const SweepRunOptions& o) {
@@ -88,19 +133,7 @@ SweepRunResult run_sweep_local(const fs::path& dir, const SweepRunOptions& o) {
   require(!o.executable.empty(), "run_sweep_local: no executable given (the socketsmith program)");
   const auto t0 = std::chrono::steady_clock::now();
   const json m = read_manifest(dir);
-  // One local run per folder: a second would start the same unfinished cases again.
-  struct Lock {
-    int fd = -1;
-    ~Lock() {
-      if (fd >= 0) ::close(fd);  // releases the flock
-    }
-  } lock;
-  const fs::path lock_path = dir / kRunLock;
-  lock.fd = ::open(lock_path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
-  require<IoError>(lock.fd >= 0, "sweep: cannot open '{}': {}", lock_path.string(), std::strerror(errno));
-  require(::flock(lock.fd, LOCK_EX | LOCK_NB) == 0,
-          "sweep: another `socketsmith sweep` is running the cases of '{}' ({} is locked): wait for it to end or stop it",
-          dir.string(), lock_path.string());
+  const SweepRunLock lock(dir);
   SweepRunResult r;
   r.cases = static_cast<int>(m["cases"].size());
   std::vector<std::string> pending;
@@ -135,21 +168,7 @@ SweepRunResult run_sweep_local(const fs::path& dir, const SweepRunOptions& o) {
       const std::string id = it->second;
       it = running.erase(it);
       reaped = true;
-      SweepCaseStatus s = read_case_status(dir, id);
-      if (s.status == "missing") {
-        // The process ended without its marker: a crash, a signal, a program that could not start.
-        s.status = "failed";
-        const std::string how = w < 0                ? "could not be waited for"
-                                : WIFSIGNALED(status) ? fmt::format("was killed by signal {} ({})", WTERMSIG(status),
-                                                                    strsignal(WTERMSIG(status)))
-                                                      : fmt::format("exited with code {}", WEXITSTATUS(status));
-        const std::string err = last_error_line(case_dir(dir, id) / "log.txt");
-        s.exit_code = WIFEXITED(status) && WEXITSTATUS(status) != 0 ? WEXITSTATUS(status) : kExitInternal;
-        s.message = fmt::format("the case's process {} without a result{}; see {}", how,
-                                err.empty() ? std::string() : " (" + err + ")",
-                                (case_dir(dir, id) / "log.txt").string());
-        write_marker(dir, s);
-      }
+      const SweepCaseStatus s = ended_case_status(dir, id, w, status);
       ++r.ran;
       ++done;
       if (s.status == "ok") ++r.ok;
