@@ -66,7 +66,6 @@ ALLOWED_FUNCTIONS = {
     "src/socketsmith/geometry/tri_mesh.cpp:weld_vertices": 88,
     "src/socketsmith/pipeline/closed_loop.cpp:close_design_loop": 190,
     "src/socketsmith/pipeline/closed_loop.cpp:write_closed_loop_outputs": 166,
-    "src/socketsmith/pipeline/shape_comparison.cpp:run_compare": 99,
     "src/socketsmith/report/design_report.cpp:render_radar_chart": 82,
     "src/socketsmith/report/plot_raster.cpp:draw_plot": 115,
     "src/socketsmith/report/raster.cpp:render": 99,
@@ -80,8 +79,6 @@ ALLOWED_FUNCTIONS = {
     "src/socketsmith/tissue/static_solver.cpp:StaticSolver::newton": 153,
     "src/socketsmith/tissue/static_solver.cpp:StaticSolver::solve_load": 96,
     "src/socketsmith/volume/bone_anatomy.cpp:transtibial_bone_shapes": 230,
-    "src/socketsmith/volume/hex_mesher.cpp:mesh_limb": 94,
-    "src/socketsmith/volume/limb_sidecar.cpp:limb_sidecar_json": 101,
 }
 
 

@@ -107,6 +107,95 @@ report::CompareReportData compare_report_data(const geometry::ShapeComparison& r
   return d;
 }
 
+namespace {
+
+/// The map (PNG, and A with the field for ParaView), B aligned, the slices and the page, into @p out.
+void write_compare_files(const geometry::ShapeComparison& r, const report::CompareReportData& page,
+                         const fs::path& out) {
+  report::write_pressure_map(out / "deviation_map.png", page.map);
+  std::vector<double> dev(r.deviation_m.size()), covered(r.deviation_m.size());
+  for (size_t v = 0; v < dev.size(); ++v) {
+    covered[v] = std::isfinite(r.deviation_m[v]) ? 1.0 : 0.0;
+    dev[v] = covered[v] > 0 ? r.deviation_m[v] * 1e3 : 0.0;
+  }
+  report::write_vtp(out / "deviation.vtp", r.a, {{"deviation_mm", 1, dev}, {"covered", 1, covered}});
+  geometry::write_mesh(out / "b_aligned.stl", r.b);
+  report::write_slice_csv(out / "slices.csv", page.slices);
+  report::write_compare_html(out / "compare.html", page);
+}
+
+/// compare.json's slices: per height both shapes' circumference, area and slab volume, and the changes.
+nlohmann::json slices_json(const geometry::ShapeComparison& r) {
+  nlohmann::json slices = nlohmann::json::array();
+  for (const auto& sl : r.slices)
+    slices.push_back({{"h_mm", sl.h_m * 1e3},
+                      {"a_circumference_mm", sl.a.circumference_m * 1e3},
+                      {"b_circumference_mm", sl.b.circumference_m * 1e3},
+                      {"a_area_cm2", sl.a.area_m2 * 1e4},
+                      {"b_area_cm2", sl.b.area_m2 * 1e4},
+                      {"a_slab_volume_cm3", sl.a.slab_volume_m3 * 1e6},
+                      {"b_slab_volume_cm3", sl.b.slab_volume_m3 * 1e6},
+                      {"circumference_change_mm", (sl.b.circumference_m - sl.a.circumference_m) * 1e3},
+                      {"volume_change_cm3", (sl.b.slab_volume_m3 - sl.a.slab_volume_m3) * 1e6}});
+  return slices;
+}
+
+/// compare.json's transform_b_to_a: the rigid motion that aligns B on A.
+nlohmann::json transform_json(const geometry::ShapeComparison& r) {
+  nlohmann::json rot = nlohmann::json::array();
+  for (int i = 0; i < 3; ++i) rot.push_back({r.transform.rotation(i, 0), r.transform.rotation(i, 1), r.transform.rotation(i, 2)});
+  return {{"rotation", rot},
+          {"translation_mm", {r.transform.translation.x() * 1e3, r.transform.translation.y() * 1e3, r.transform.translation.z() * 1e3}},
+          {"angle_deg", r.transform.angle_rad() * 180 / std::numbers::pi}};
+}
+
+/// compare.json but for its time: the inputs, the alignment, the deviation statistics with the map's
+/// colour range @p range_m, the volumes, the slices and the outputs.
+nlohmann::json compare_summary(const geometry::ShapeComparison& r, const fs::path& a_path, const fs::path& b_path,
+                               const fs::path& out, double range_m) {
+  const auto& s = r.stats;
+  return {
+      {"a", a_path.string()},
+      {"b", b_path.string()},
+      {"b_kind", geometry::to_string(r.b_kind)},
+      {"seed", r.seed},
+      {"transform_b_to_a", transform_json(r)},
+      {"icp",
+       {{"rms_mm", r.icp.rms_m * 1e3},
+        {"rms_distance_mm", r.icp.rms_distance_m * 1e3},
+        {"uniform_offset_mm", r.icp.offset_m * 1e3},
+        {"pairs", r.icp.pairs},
+        {"iterations", r.icp.iterations},
+        {"converged", r.icp.converged},
+        {"message", r.icp.message}}},
+      {"crop_height_mm", r.crop_height_m * 1e3},
+      {"frame",
+       {{"origin_mm", {r.frame.origin.x() * 1e3, r.frame.origin.y() * 1e3, r.frame.origin.z() * 1e3}},
+        {"axis", {r.frame.axis.x(), r.frame.axis.y(), r.frame.axis.z()}}}},
+      {"deviation",
+       {{"points", s.points},
+        {"covered", s.covered},
+        {"mean_mm", s.mean_m * 1e3},
+        {"sd_mm", s.sd_m * 1e3},
+        {"rms_mm", s.rms_m * 1e3},
+        {"min_mm", mm_or_null(s.covered ? s.min_m : NAN)},
+        {"max_mm", mm_or_null(s.covered ? s.max_m : NAN)},
+        {"p05_mm", mm_or_null(s.p05_m)},
+        {"p95_mm", mm_or_null(s.p95_m)},
+        {"colour_range_mm", range_m * 1e3}}},
+      {"volume",
+       {{"a_cm3", r.volume_a_m3 * 1e6},
+        {"b_cm3", r.volume_b_m3 * 1e6},
+        {"change_cm3", (r.volume_b_m3 - r.volume_a_m3) * 1e6},
+        {"change_percent", report::percent_change(r.volume_a_m3, r.volume_b_m3)}}},
+      {"slices", slices_json(r)},
+      {"notes", r.notes},
+      {"out", out.string()},
+      {"outputs", {"compare.html", "compare.json", "deviation_map.png", "deviation.vtp", "b_aligned.stl", "slices.csv"}}};
+}
+
+}  // namespace
+
 nlohmann::json run_compare(const fs::path& a_path, const fs::path& b_path, const fs::path& out,
                            const CompareRunOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
@@ -133,75 +222,10 @@ nlohmann::json run_compare(const fs::path& a_path, const fs::path& b_path, const
   const geometry::ShapeComparison r = geometry::compare_shapes(a, b, co);
   for (const auto& n : r.notes) log::info("compare: {}", n);
 
-  // Files: the map (PNG, and A with the field for ParaView), B aligned, the slices, the page.
   const report::CompareReportData page = compare_report_data(r, a_path.string(), b_path.string(), o.range_m);
-  report::write_pressure_map(out / "deviation_map.png", page.map);
-  std::vector<double> dev(r.deviation_m.size()), covered(r.deviation_m.size());
-  for (size_t v = 0; v < dev.size(); ++v) {
-    covered[v] = std::isfinite(r.deviation_m[v]) ? 1.0 : 0.0;
-    dev[v] = covered[v] > 0 ? r.deviation_m[v] * 1e3 : 0.0;
-  }
-  report::write_vtp(out / "deviation.vtp", r.a, {{"deviation_mm", 1, dev}, {"covered", 1, covered}});
-  geometry::write_mesh(out / "b_aligned.stl", r.b);
-  report::write_slice_csv(out / "slices.csv", page.slices);
-  report::write_compare_html(out / "compare.html", page);
-
-  const auto& s = r.stats;
-  nlohmann::json slices = nlohmann::json::array();
-  for (const auto& sl : r.slices)
-    slices.push_back({{"h_mm", sl.h_m * 1e3},
-                      {"a_circumference_mm", sl.a.circumference_m * 1e3},
-                      {"b_circumference_mm", sl.b.circumference_m * 1e3},
-                      {"a_area_cm2", sl.a.area_m2 * 1e4},
-                      {"b_area_cm2", sl.b.area_m2 * 1e4},
-                      {"a_slab_volume_cm3", sl.a.slab_volume_m3 * 1e6},
-                      {"b_slab_volume_cm3", sl.b.slab_volume_m3 * 1e6},
-                      {"circumference_change_mm", (sl.b.circumference_m - sl.a.circumference_m) * 1e3},
-                      {"volume_change_cm3", (sl.b.slab_volume_m3 - sl.a.slab_volume_m3) * 1e6}});
-  nlohmann::json rot = nlohmann::json::array();
-  for (int i = 0; i < 3; ++i) rot.push_back({r.transform.rotation(i, 0), r.transform.rotation(i, 1), r.transform.rotation(i, 2)});
+  write_compare_files(r, page, out);
   const double range = std::abs(page.map.value_max) * 1e-3;
-  nlohmann::json j{
-      {"a", a_path.string()},
-      {"b", b_path.string()},
-      {"b_kind", geometry::to_string(r.b_kind)},
-      {"seed", r.seed},
-      {"transform_b_to_a",
-       {{"rotation", rot},
-        {"translation_mm", {r.transform.translation.x() * 1e3, r.transform.translation.y() * 1e3, r.transform.translation.z() * 1e3}},
-        {"angle_deg", r.transform.angle_rad() * 180 / std::numbers::pi}}},
-      {"icp",
-       {{"rms_mm", r.icp.rms_m * 1e3},
-        {"rms_distance_mm", r.icp.rms_distance_m * 1e3},
-        {"uniform_offset_mm", r.icp.offset_m * 1e3},
-        {"pairs", r.icp.pairs},
-        {"iterations", r.icp.iterations},
-        {"converged", r.icp.converged},
-        {"message", r.icp.message}}},
-      {"crop_height_mm", r.crop_height_m * 1e3},
-      {"frame",
-       {{"origin_mm", {r.frame.origin.x() * 1e3, r.frame.origin.y() * 1e3, r.frame.origin.z() * 1e3}},
-        {"axis", {r.frame.axis.x(), r.frame.axis.y(), r.frame.axis.z()}}}},
-      {"deviation",
-       {{"points", s.points},
-        {"covered", s.covered},
-        {"mean_mm", s.mean_m * 1e3},
-        {"sd_mm", s.sd_m * 1e3},
-        {"rms_mm", s.rms_m * 1e3},
-        {"min_mm", mm_or_null(s.covered ? s.min_m : NAN)},
-        {"max_mm", mm_or_null(s.covered ? s.max_m : NAN)},
-        {"p05_mm", mm_or_null(s.p05_m)},
-        {"p95_mm", mm_or_null(s.p95_m)},
-        {"colour_range_mm", range * 1e3}}},
-      {"volume",
-       {{"a_cm3", r.volume_a_m3 * 1e6},
-        {"b_cm3", r.volume_b_m3 * 1e6},
-        {"change_cm3", (r.volume_b_m3 - r.volume_a_m3) * 1e6},
-        {"change_percent", report::percent_change(r.volume_a_m3, r.volume_b_m3)}}},
-      {"slices", slices},
-      {"notes", r.notes},
-      {"out", out.string()},
-      {"outputs", {"compare.html", "compare.json", "deviation_map.png", "deviation.vtp", "b_aligned.stl", "slices.csv"}}};
+  nlohmann::json j = compare_summary(r, a_path, b_path, out, range);
   j["seconds"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   write_text_atomically(out / "compare.json", j.dump(2) + "\n");
   return j;

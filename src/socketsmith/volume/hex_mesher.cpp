@@ -58,24 +58,10 @@ void measure_skin_fit(const Build& b, const geometry::TriMesh& skin, HexMesherRe
   }
 }
 
-}  // namespace
-
-HexMesherResult mesh_limb(const HexMesherInput& in, const HexMesherOptions& opt) {
-  const auto t0 = std::chrono::steady_clock::now();
-  require(opt.cell_size_m > 0.0 || opt.target_nodes >= 100,
-          "mesh_limb: target of {} nodes is too small (expected at least 100)", opt.target_nodes);
-  require(opt.core_offset >= 0.0 && opt.core_offset <= 2.0, "mesh_limb: core_offset {} outside [0, 2]",
-          opt.core_offset);
-  require(in.first_cap_triangle >= 0 && in.first_cap_triangle < in.skin.num_triangles(),
-          "mesh_limb: the skin has no proximal cap (first_cap_triangle = {}); trim and cap it first",
-          in.first_cap_triangle);
-  const SkinParts parts = split_skin(in);
-  require<TopologyError>(!parts.rim.empty(), "mesh_limb: the skin's cap does not meet its side");
-  const SurfaceQuery side_query(parts.side);
-  std::vector<SurfaceQuery> bone_queries;
-  for (const auto& bone : in.bones) bone_queries.emplace_back(bone);
-
-  HexMesherResult res;
+/// The skin's and the bones' volumes into @p res; returns the tissue's (skin minus bones), which
+/// the grid size is chosen from. @throws InvalidInputError for an inside-out skin or bones that
+/// leave no tissue.
+double tissue_volume_estimate(const HexMesherInput& in, HexMesherResult& res) {
   res.skin_volume_m3 = geometry::signed_volume(in.skin);
   for (const auto& bone : in.bones) res.bone_volume_m3 += geometry::signed_volume(bone);
   const double tissue_estimate = res.skin_volume_m3 - res.bone_volume_m3;
@@ -86,14 +72,16 @@ HexMesherResult mesh_limb(const HexMesherInput& in, const HexMesherOptions& opt)
           "mesh_limb: the bones ({:.0f} % of the skin's volume) leave no tissue to mesh: bones must lie inside the "
           "skin and fill less than 90 % of it",
           100.0 * res.bone_volume_m3 / res.skin_volume_m3);
+  return tissue_estimate;
+}
 
-  // Grid size: from the target node count, refined by building the topology.
-  double h = opt.cell_size_m;
-  Build b = build_for_node_target(in, opt, parts, side_query, bone_queries, tissue_estimate, h);
-  // Smoothing, bones and the quality check. At the coarsest sizes (a few hundred nodes: a bone's tip
-  // a cell or two from the skin) one grid can keep a few inverted elements where one 2 % finer or
-  // coarser does not, so a size chosen from target_nodes is retried with the cell nudged by ±2 %,
-  // ±4 %, ±6 % before giving up; a cell size the caller set is used as it is.
+/// Smoothing, bones and the quality check of @p b (built at @p h), into @p res's quality. At the
+/// coarsest sizes (a few hundred nodes: a bone's tip a cell or two from the skin) one grid can keep a
+/// few inverted elements where one 2 % finer or coarser does not, so a size chosen from
+/// target_nodes is retried with the cell nudged by ±2 %, ±4 %, ±6 % before giving up; a cell size
+/// the caller set is used as it is. @p h and @p b end as the last size tried and its mesh.
+BoneReport smooth_and_place_bones(const HexMesherInput& in, const HexMesherOptions& opt, const SkinParts& parts,
+                                  const SurfaceQuery& side_query, double& h, Build& b, HexMesherResult& res) {
   const double h_chosen = h;
   constexpr double kRetryScales[] = {1.0, 0.98, 1.02, 0.96, 1.04, 0.94, 1.06};
   const int attempts = opt.cell_size_m > 0.0 ? 1 : static_cast<int>(std::size(kRetryScales));
@@ -121,7 +109,11 @@ HexMesherResult mesh_limb(const HexMesherInput& in, const HexMesherOptions& opt)
       break;
     }
   }
-  res.cell_size_m = h;
+  return bone_report;
+}
+
+/// The build's counts and notes (grid cells changed, core parts dropped, what the bones did) into @p res.
+void note_build(const Build& b, const BoneReport& bone_report, bool has_bones, HexMesherResult& res) {
   res.core_hexahedra = b.core_hexahedra;
   res.pillow_hexahedra = b.pillow_hexahedra;
   if (b.manifold_changes > 0)
@@ -129,16 +121,49 @@ HexMesherResult mesh_limb(const HexMesherInput& in, const HexMesherOptions& opt)
   if (b.components_dropped > 0)
     res.notes.push_back(fmt::format("{} small disconnected core part(s) dropped", b.components_dropped));
   res.removed_bone_hexahedra = bone_report.removed;
-  if (!in.bones.empty())
+  if (has_bones)
     res.notes.push_back(fmt::format("bones: {} nodes snapped onto bone surfaces, {} held in place (quality), {} "
                                     "elements inside bones removed",
                                     bone_report.snapped, bone_report.held, bone_report.removed));
+}
+
+/// The node tags from the nodes' kinds: skin and rim nodes on the surface, rim and top-plane nodes
+/// proximal (and fixed when @p fix_proximal).
+void tag_nodes(Build& b, bool fix_proximal) {
   for (int n = 0; n < b.mesh.num_nodes(); ++n) {
     if (b.kind[n] == kSkinNode) b.mesh.node_tags[n] |= kNodeSurface;
     if (b.kind[n] == kRimNode) b.mesh.node_tags[n] |= kNodeSurface | kNodeProximal;
     if (b.kind[n] == kTopPlane) b.mesh.node_tags[n] |= kNodeProximal;
-    if (opt.fix_proximal && (b.kind[n] == kTopPlane || b.kind[n] == kRimNode)) b.mesh.node_tags[n] |= kNodeFixed;
+    if (fix_proximal && (b.kind[n] == kTopPlane || b.kind[n] == kRimNode)) b.mesh.node_tags[n] |= kNodeFixed;
   }
+}
+
+}  // namespace
+
+HexMesherResult mesh_limb(const HexMesherInput& in, const HexMesherOptions& opt) {
+  const auto t0 = std::chrono::steady_clock::now();
+  require(opt.cell_size_m > 0.0 || opt.target_nodes >= 100,
+          "mesh_limb: target of {} nodes is too small (expected at least 100)", opt.target_nodes);
+  require(opt.core_offset >= 0.0 && opt.core_offset <= 2.0, "mesh_limb: core_offset {} outside [0, 2]",
+          opt.core_offset);
+  require(in.first_cap_triangle >= 0 && in.first_cap_triangle < in.skin.num_triangles(),
+          "mesh_limb: the skin has no proximal cap (first_cap_triangle = {}); trim and cap it first",
+          in.first_cap_triangle);
+  const SkinParts parts = split_skin(in);
+  require<TopologyError>(!parts.rim.empty(), "mesh_limb: the skin's cap does not meet its side");
+  const SurfaceQuery side_query(parts.side);
+  std::vector<SurfaceQuery> bone_queries;
+  for (const auto& bone : in.bones) bone_queries.emplace_back(bone);
+
+  HexMesherResult res;
+  const double tissue_estimate = tissue_volume_estimate(in, res);
+  // Grid size: from the target node count, refined by building the topology.
+  double h = opt.cell_size_m;
+  Build b = build_for_node_target(in, opt, parts, side_query, bone_queries, tissue_estimate, h);
+  const BoneReport bone_report = smooth_and_place_bones(in, opt, parts, side_query, h, b, res);
+  res.cell_size_m = h;
+  note_build(b, bone_report, !in.bones.empty(), res);
+  tag_nodes(b, opt.fix_proximal);
 
   // Report.
   require<TopologyError>(res.quality.inverted == 0,

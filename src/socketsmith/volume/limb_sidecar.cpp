@@ -10,6 +10,11 @@
 #include "socketsmith/volume/limb_generator.h"
 
 namespace socketsmith::volume {
+
+using geometry::LimbFrame;
+using geometry::LimbType;
+using geometry::TriMesh;
+
 namespace {
 
 constexpr double kDeg = std::numbers::pi / 180.0;
@@ -17,11 +22,54 @@ constexpr double kDeg = std::numbers::pi / 180.0;
 nlohmann::json vec_mm(const geometry::Vec3& v) { return {v.x() * 1e3 + 0.0, v.y() * 1e3 + 0.0, v.z() * 1e3 + 0.0}; }
 nlohmann::json vec(const geometry::Vec3& v) { return {v.x() + 0.0, v.y() + 0.0, v.z() + 0.0}; }
 
-}  // namespace
+nlohmann::json frame_json(const LimbFrame& f) {
+  return {{"origin_mm", vec_mm(f.origin)},
+          {"axis", vec(f.axis)},
+          {"anterior", vec(f.anterior)},
+          {"medial", vec(f.medial())},
+          {"side", geometry::to_string(f.side)},
+          {"anterior_estimated", f.anterior_estimated},
+          {"side_estimated", f.side_estimated}};
+}
 
-using geometry::LimbFrame;
-using geometry::LimbType;
-using geometry::TriMesh;
+/// A transfemoral limb's bony points [mm].
+nlohmann::json bony_points_json(const TransfemoralPoints& t) {
+  nlohmann::json pts = {{"ischial_tuberosity_mm", vec_mm(t.ischial_tuberosity)},
+                        {"ischial_ramus_mm", vec_mm(t.ischial_ramus)},
+                        {"pubic_symphysis_mm", vec_mm(t.symphysis)},
+                        {"femur_distal_end_mm", vec_mm(t.femur_distal_end)}};
+  if (t.greater_trochanter) pts["greater_trochanter_mm"] = vec_mm(*t.greater_trochanter);
+  return pts;
+}
+
+nlohmann::json landmarks_json(const GeneratedLimb& limb) {
+  nlohmann::json marks = nlohmann::json::array();
+  for (const auto& l : limb.landmarks)
+    marks.push_back({{"code", l.code},
+                     {"name", l.name},
+                     {"position_mm", vec_mm(l.position)},
+                     {"rho_mm", l.cylindrical.rho * 1e3},
+                     {"theta_deg", l.cylindrical.theta / kDeg},
+                     {"h_mm", l.cylindrical.h * 1e3},
+                     {"radius_mm", l.radius_m * 1e3},
+                     {"estimated", l.estimated}});
+  return marks;
+}
+
+/// The skin's and every bone's mesh sizes, closed or not, and the volume of the closed ones.
+nlohmann::json shells_json(const GeneratedLimb& limb) {
+  nlohmann::json shells = nlohmann::json::array();
+  auto shell = [&](const std::string& name, const TriMesh& m, bool closed) {
+    nlohmann::json s = {{"name", name}, {"vertices", m.num_vertices()}, {"triangles", m.num_triangles()}, {"closed", closed}};
+    if (closed) s["volume_cm3"] = geometry::signed_volume(m) * 1e6;
+    shells.push_back(s);
+  };
+  shell("skin", limb.skin, !limb.params.open_proximal);
+  for (const auto& bone : limb.bones) shell(bone.name, bone.mesh, true);
+  return shells;
+}
+
+}  // namespace
 
 nlohmann::json limb_sidecar_json(const GeneratedLimb& limb) {
   const LimbShapeParams& p = limb.params;
@@ -75,52 +123,19 @@ nlohmann::json limb_sidecar_json(const GeneratedLimb& limb) {
                    {"pubic_ramus_length_m", b.pubic_ramus_length_m},
                    {"pubic_ramus_angle_rad", b.pubic_ramus_angle_rad},
                    {"pubic_ramus_rise_m", b.pubic_ramus_rise_m}}}};
-  const LimbFrame& f = limb.frame;
-  j["frame"] = {{"origin_mm", vec_mm(f.origin)},
-                {"axis", vec(f.axis)},
-                {"anterior", vec(f.anterior)},
-                {"medial", vec(f.medial())},
-                {"side", geometry::to_string(f.side)},
-                {"anterior_estimated", f.anterior_estimated},
-                {"side_estimated", f.side_estimated}};
+  j["frame"] = frame_json(limb.frame);
   if (p.type == LimbType::Transtibial) j["knee_joint_line_h_mm"] = p.residual_length_m * 1e3;
   if (limb.transfemoral) {
-    const auto& t = *limb.transfemoral;
     j["ischial_tuberosity_h_mm"] = p.residual_length_m * 1e3;
-    nlohmann::json pts = {{"ischial_tuberosity_mm", vec_mm(t.ischial_tuberosity)},
-                          {"ischial_ramus_mm", vec_mm(t.ischial_ramus)},
-                          {"pubic_symphysis_mm", vec_mm(t.symphysis)},
-                          {"femur_distal_end_mm", vec_mm(t.femur_distal_end)}};
-    if (t.greater_trochanter) pts["greater_trochanter_mm"] = vec_mm(*t.greater_trochanter);
-    j["bony_points"] = pts;
+    j["bony_points"] = bony_points_json(*limb.transfemoral);
   }
   j["cut_height_mm"] = limb.cut_height_m * 1e3;
   j["skin_open"] = p.open_proximal;
   j["skin_volume_cm3"] = limb.skin_volume_m3 * 1e6;
-  nlohmann::json marks = nlohmann::json::array();
-  for (const auto& l : limb.landmarks)
-    marks.push_back({{"code", l.code},
-                     {"name", l.name},
-                     {"position_mm", vec_mm(l.position)},
-                     {"rho_mm", l.cylindrical.rho * 1e3},
-                     {"theta_deg", l.cylindrical.theta / kDeg},
-                     {"h_mm", l.cylindrical.h * 1e3},
-                     {"radius_mm", l.radius_m * 1e3},
-                     {"estimated", l.estimated}});
-  j["landmarks"] = marks;
-  nlohmann::json shells = nlohmann::json::array();
-  auto shell = [&](const std::string& name, const TriMesh& m, bool closed) {
-    nlohmann::json s = {{"name", name}, {"vertices", m.num_vertices()}, {"triangles", m.num_triangles()}, {"closed", closed}};
-    if (closed) s["volume_cm3"] = geometry::signed_volume(m) * 1e6;
-    shells.push_back(s);
-  };
-  shell("skin", limb.skin, !p.open_proximal);
+  j["landmarks"] = landmarks_json(limb);
+  j["shells"] = shells_json(limb);
   nlohmann::json names = nlohmann::json::array();
-  for (const auto& bone : limb.bones) {
-    shell(bone.name, bone.mesh, true);
-    names.push_back(bone.name);
-  }
-  j["shells"] = shells;
+  for (const auto& bone : limb.bones) names.push_back(bone.name);
   j["bones"] = names;
   return j;
 }
