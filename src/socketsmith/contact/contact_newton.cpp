@@ -167,8 +167,7 @@ bool ContactSolver::Impl::newton(VectorXd& xs, Vec3& t, std::vector<NodeContact>
   std::vector<Eigen::Matrix3d> B;
   std::vector<double> pi_history;
   double pi = 0, rs = 0;
-  double rn_at_relag = std::numeric_limits<double>::infinity();
-  int stalled_relags = 0;  // refreshes in a row after which the residual had not halved
+  RelagState relags;
   VectorXd r;
   const auto residual = [&] {
     r = evaluate(xs, t, st, th, &B, &pi);
@@ -218,30 +217,33 @@ bool ContactSolver::Impl::newton(VectorXd& xs, Vec3& t, std::vector<NodeContact>
       at_kink = true;
       return true;
     }
-    // Friction lag inside Newton: near convergence, when the normal forces have moved away from
-    // the lag by more than the friction-pass tolerance, take them as the new lag now (the
-    // potential changes, so its history restarts) instead of only after this Newton solve has
-    // converged. Refreshing it far from convergence (any residual) doubled the iterations. Lag and
-    // state can cycle (8k demo: |r| 0.497 ↔ 0.439 N, a refresh at every step, 48 Newton steps up to
-    // max_newton): after kRelagStall refreshes in a row that did not halve the residual, the lag
-    // stays until this solve converges and the friction pass after it takes the new one.
-    bool relagged = false;
-    if (opt.friction > 0 && opt.friction_in_newton && rn <= kRelagResidual * tolerance(st) &&
-        stalled_relags < kRelagStall && lag_change(st) > opt.friction_lag_tol) {
-      stalled_relags = rn < kRelagProgress * rn_at_relag ? 0 : stalled_relags + 1;
-      log::debug("contact: friction lag refreshed (normal forces moved {:.3g} of the largest)", lag_change(st));
-      rn_at_relag = rn;
-      update_lag(st);
-      pi_history.clear();
-      relagged = true;
+    if (refresh_lag_in_newton(st, rn, relags)) {
+      pi_history.clear();  // the potential changed
+      residual();
     }
-    if (relagged) residual();
     if (stop_on_new_stick && rn <= kRelagResidual * tolerance(st) && count_new_sticks(st) > 0) {
       stopped_on_stick = true;
       return false;
     }
   }
   return false;
+}
+
+bool ContactSolver::Impl::refresh_lag_in_newton(const std::vector<NodeContact>& st, double rn, RelagState& rs) {
+  // Near convergence, when the normal forces have moved away from the lag by more than the
+  // friction-pass tolerance, they become the new lag now instead of only after this Newton solve
+  // has converged. Refreshing it far from convergence (any residual) doubled the iterations. Lag
+  // and state can cycle (8k demo: |r| 0.497 ↔ 0.439 N, a refresh at every step, 48 Newton steps up
+  // to max_newton): after kRelagStall refreshes in a row that did not halve the residual, the lag
+  // stays until this solve converges and the friction pass after it takes the new one.
+  if (!(opt.friction > 0 && opt.friction_in_newton && rn <= kRelagResidual * tolerance(st) &&
+        rs.stalled < kRelagStall && lag_change(st) > opt.friction_lag_tol))
+    return false;
+  rs.stalled = rn < kRelagProgress * rs.residual_n ? 0 : rs.stalled + 1;
+  rs.residual_n = rn;
+  log::debug("contact: friction lag refreshed (normal forces moved {:.3g} of the largest)", lag_change(st));
+  update_lag(st);
+  return true;
 }
 
 void ContactSolver::Impl::predict_start(const Vec3& t, VectorXd& xs) {

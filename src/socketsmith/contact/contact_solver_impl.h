@@ -4,6 +4,7 @@
 /// friction terms, their tangent and the CG reuse in contact_solver.cpp; Newton, its line search,
 /// the steps along a path and the pushes in contact_newton.cpp.
 
+#include <limits>
 #include <vector>
 
 #include <Eigen/CholmodSupport>
@@ -148,6 +149,14 @@ struct ContactSolver::Impl {
   /// or free at the last committed step.
   int count_new_sticks(const std::vector<NodeContact>& st) const;
 
+  /// The friction lag refreshes of one Newton solve: the residual at the last one and how many in
+  /// a row did not halve it.
+  struct RelagState {
+    double residual_n = std::numeric_limits<double>::infinity();
+    int stalled = 0;
+  };
+  /// Inside Newton: the lag refreshed from @p st when it is due (true: the potential changed).
+  bool refresh_lag_in_newton(const std::vector<NodeContact>& st, double rn, RelagState& rs);
   /// Largest change of the normal forces of @p st from the friction lag, / the largest of them.
   double lag_change(const std::vector<NodeContact>& st) const;
   /// The friction lag takes the normal forces of @p st — half-way only when the last refresh did

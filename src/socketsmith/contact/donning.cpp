@@ -118,6 +118,18 @@ struct DonningSimulation::Impl {
     return false;
   }
 
+  /// Why the path stopped at @p target, and where the socket holds the skin at @p offset (the last
+  /// converged state: the solver went back to it).
+  std::string stalled_message(double target, double offset, const ContactStep& st, double sidestep_m) const {
+    std::string m = fmt::format("donning stalled at {:.1f} mm below the designed pose (step of {:.2f} mm): {}; at {:.1f} "
+                                "mm {}",
+                                -target * 1e3, (target - offset) * 1e3, st.message, -offset * 1e3,
+                                hardest_grip(solver->contacts(), skin_nodes, solver->positions(), frame));
+    if (sidestep_m > 0) m += fmt::format(", after a sidestep of {:.0f} mm", sidestep_m * 1e3);
+    if (!o.start_offset_name.empty()) m += fmt::format("; try more --steps or a smaller {}", o.start_offset_name);
+    return m;
+  }
+
   /// The options checked, with the automatic start offset resolved.
   static DonningOptions checked(DonningOptions o, const tissue::MassSpringModel& model, const std::vector<int>& skin_nodes,
                                 const geometry::TriMesh& socket_solid, const geometry::LimbFrame& frame) {
@@ -273,14 +285,7 @@ DonningResult DonningSimulation::run() {
       }
       if (s.sidestep(offset, r.force_on_socket_n, r)) continue;
       r.completed = false;
-      // The last converged state (the solver went back to it): where the socket holds the skin.
-      r.message = fmt::format("donning stalled at {:.1f} mm below the designed pose (step of {:.2f} mm): {}; at {:.1f} "
-                              "mm {}",
-                              -target * 1e3, (target - offset) * 1e3, st.message, -offset * 1e3,
-                              hardest_grip(solver.contacts(), s.skin_nodes, solver.positions(), s.frame));
-      if (r.max_sidestep_m > 0) r.message += fmt::format(", after a sidestep of {:.0f} mm", r.max_sidestep_m * 1e3);
-      if (!o.start_offset_name.empty())
-        r.message += fmt::format("; try more --steps or a smaller {}", o.start_offset_name);
+      r.message = s.stalled_message(target, offset, st, r.max_sidestep_m);
       break;
     }
     const int new_sticks = st.new_sticks;
