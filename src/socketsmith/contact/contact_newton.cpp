@@ -168,6 +168,7 @@ bool ContactSolver::Impl::newton(VectorXd& xs, Vec3& t, std::vector<NodeContact>
   std::vector<double> pi_history;
   double pi = 0, rs = 0;
   RelagState relags;
+  int tiny_steps = 0;  // line-search steps below kTinyStep in a row
   VectorXd r;
   const auto residual = [&] {
     r = evaluate(xs, t, st, th, &B, &pi);
@@ -216,6 +217,16 @@ bool ContactSolver::Impl::newton(VectorXd& xs, Vec3& t, std::vector<NodeContact>
     if ((moved <= opt.kink_step_tol_m || flat) && rn > tolerance(st) && rn <= kink_tolerance(st)) {
       at_kink = true;
       return true;
+    }
+    // Stalled: the line search has cut the step to a sliver kStallSteps times in a row with the
+    // residual above the kink's. Newton then only crawls until the search fails (AmpScan's limb:
+    // steps 0.008 → 2e-9 over 12 more iterations, each with up to 30 trial evaluations); the caller
+    // refines the path now instead.
+    tiny_steps = step < kTinyStep ? tiny_steps + 1 : 0;
+    if (tiny_steps >= kStallSteps && rn > kink_tolerance(st)) {
+      log::debug("contact: Newton stalled at {} (steps below {:.3g} of the Newton step, residual {:.3g} N)", it,
+                 kTinyStep, rn);
+      return false;
     }
     if (refresh_lag_in_newton(st, rn, relags)) {
       pi_history.clear();  // the potential changed

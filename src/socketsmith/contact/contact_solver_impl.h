@@ -22,6 +22,8 @@ using tissue::VectorXd;
 constexpr double kRelagResidual = 100.0;  // friction lag refreshed in Newton once ‖r‖ ≤ this × tol
 constexpr double kRelagProgress = 0.5;    // a refresh made progress when ‖r‖ < this × ‖r‖ at the last one
 constexpr int kRelagStall = 4;            // refreshes in a row without progress before they stop
+constexpr double kTinyStep = 1.0 / 64;    // a line-search step below this share of Newton's is a sliver
+constexpr int kStallSteps = 3;            // slivers in a row: Newton has stalled (ContactSolver::Impl::newton)
 
 /// While alive, every OpenMP parallel region runs on the calling thread alone. CHOLMOD's supernodal
 /// factorisation opens a region per supernode asking for 4 threads; with dynamic teams
