@@ -1,0 +1,266 @@
+// The closed loop's outputs: the delivered pressures' summary by region and landmark, the CSVs,
+// the maps and path plots of the report, and the JSON of design.json's "closed_loop".
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+#include "socketsmith/core/errors.h"
+#include "socketsmith/core/units.h"
+#include "socketsmith/pipeline/closed_loop.h"
+#include "socketsmith/pipeline/design_pipeline.h"
+#include "socketsmith/report/csv.h"
+
+namespace socketsmith::pipeline {
+namespace {
+
+nlohmann::json stats_json(const report::ErrorStats& s) { return report::to_json(s, 1e-3, "_kpa"); }
+
+report::ReportAgreement agreement_row(const std::string& region, const std::string& stage, const report::ErrorStats& s) {
+  return {region, stage, s.count, s.mean_b, s.mean_a, s.mae, s.p99, s.max_error, s.r, s.sd_b};
+}
+
+/// delivered.csv (every skin node: designed, open- and closed-loop pressures, the wall's offset) and
+/// delivered_iterations.csv (the pressures and offsets of every donning and refit).
+void write_delivered_csvs(const design::DesignState& state, const ClosedLoopResult& loop,
+                          const std::vector<double>& thresholds, const std::filesystem::path& out) {
+  const size_t n = state.skin_positions.size();
+  report::CsvTable t;
+  t.header = {"x_m", "y_m", "z_m", "above_brim", "threshold_pa", "designed_pa", "open_loop_pa", "closed_loop_pa",
+              "wall_offset_mm"};
+  for (size_t i = 0; i < n; ++i) {
+    const auto& p = state.skin_positions[i];
+    t.rows.push_back({p.x(), p.y(), p.z(), loop.below_brim[i] ? 0.0 : 1.0, thresholds[i], loop.target_pa[i],
+                      loop.open_loop_pa[i], loop.closed_loop_pa[i], loop.wall_offset_m[i] * 1e3});
+  }
+  report::write_csv(out / "delivered.csv", t.header, t.rows, 12);
+  report::CsvTable h;
+  h.header = {"above_brim", "designed_pa"};
+  for (size_t k = 0; k < loop.delivered_by_iteration.size(); ++k) {
+    h.header.push_back(fmt::format("donning{}_pa", k + 1));
+    h.header.push_back(fmt::format("donning{}_wall_offset_mm", k + 1));
+  }
+  for (size_t i = 0; i < n; ++i) {
+    std::vector<double> row{loop.below_brim[i] ? 0.0 : 1.0, loop.target_pa[i]};
+    for (size_t k = 0; k < loop.delivered_by_iteration.size(); ++k) {
+      row.push_back(loop.delivered_by_iteration[k][i]);
+      row.push_back(loop.offset_by_iteration[k][i] * 1e3);
+    }
+    h.rows.push_back(std::move(row));
+  }
+  report::write_csv(out / "delivered_iterations.csv", h.header, h.rows, 9);
+}
+
+/// Each landmark's pressure / threshold, designed and delivered, as JSON and as report details.
+nlohmann::json landmarks_json(const DeliverySummary& sum, report::ReportDelivery& delivery) {
+  nlohmann::json landmarks = nlohmann::json::array();
+  for (const auto& l : sum.landmarks) {
+    landmarks.push_back({{"code", l.code},
+                         {"nodes", l.nodes},
+                         {"threshold_kpa", l.threshold_pa / 1e3},
+                         {"designed_kpa", l.target_pa / 1e3},
+                         {"open_loop_kpa", l.open_loop_pa / 1e3},
+                         {"closed_loop_kpa", l.closed_loop_pa / 1e3},
+                         {"designed_ratio", l.target_pa / l.threshold_pa},
+                         {"open_loop_ratio", l.open_loop_pa / l.threshold_pa},
+                         {"closed_loop_ratio", l.closed_loop_pa / l.threshold_pa}});
+    delivery.details.push_back(
+        {fmt::format("landmark {}: pressure / threshold", l.code),
+         fmt::format("designed {:.3f}, open loop {:.3f}, closed loop {:.3f} ({} nodes)", l.target_pa / l.threshold_pa,
+                     l.open_loop_pa / l.threshold_pa, l.closed_loop_pa / l.threshold_pa, l.nodes)});
+  }
+  return landmarks;
+}
+
+/// Every donning and refit of the loop, as JSON and as report details.
+nlohmann::json iterations_json(const ClosedLoopResult& loop, report::ReportDelivery& delivery) {
+  nlohmann::json iterations = nlohmann::json::array();
+  for (size_t k = 0; k < loop.iterations.size(); ++k) {
+    const auto& it = loop.iterations[k];
+    iterations.push_back({{"refit", it.refit},
+                          {"below_brim", stats_json(it.below_brim)},
+                          {"max_wall_offset_mm", it.max_offset_m * 1e3},
+                          {"mean_wall_offset_mm", it.mean_offset_m * 1e3},
+                          {"stood_at_mm", it.stood_offset_m * 1e3},
+                          {"axial_friction_n", it.axial_friction_n},
+                          {"friction_utilisation", it.friction_utilisation},
+                          {"factorizations", it.factorizations},
+                          {"donning_seconds", it.donning_seconds},
+                          {"socket_seconds", it.socket_seconds}});
+    delivery.details.push_back({fmt::format("{} {}", it.refit ? "refit" : "donning", k + 1),
+                                fmt::format("MAE {:.2f} kPa, 99th percentile {:.2f} kPa, R {:.3f}; wall moved up to "
+                                            "{:.2f} mm; stood {:+.2f} mm from the designed pose; friction mobilised "
+                                            "{:.0f} %; {:.1f} s{}",
+                                            it.below_brim.mae / 1e3, it.below_brim.p99 / 1e3, it.below_brim.r,
+                                            it.max_offset_m * 1e3, it.stood_offset_m * 1e3,
+                                            100 * it.friction_utilisation, it.donning_seconds,
+                                            static_cast<int>(k) == loop.best ? " (kept)" : "")});
+  }
+  return iterations;
+}
+
+/// The maps on one scale (designed, open loop, closed loop) and the closed loop's error, into the
+/// report and as delivered_map.png / delivered_error_map.png.
+void add_delivery_maps(const DesignSetup& setup, const DesignResult& result, const ClosedLoopResult& loop,
+                       const std::filesystem::path& out, report::ReportDelivery& delivery) {
+  const size_t n = setup.solver->skin().nodes.size();
+  const auto sframe = report::surface_frame(setup.model.frame);
+  std::vector<report::MapLandmark> marks;
+  for (const auto& l : setup.model.landmarks) marks.push_back({l.code, l.position, l.estimated});
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  double vmax = 0, emax = 0;
+  std::vector<double> tk(n), ok(n), ck(n), ek(n);
+  for (size_t i = 0; i < n; ++i) {
+    const bool b = loop.below_brim[i];
+    tk[i] = b ? loop.target_pa[i] / 1e3 : nan;
+    ok[i] = b ? loop.open_loop_pa[i] / 1e3 : nan;
+    ck[i] = b ? loop.closed_loop_pa[i] / 1e3 : nan;
+    ek[i] = b ? ck[i] - tk[i] : nan;
+    if (b) {
+      vmax = std::max({vmax, tk[i], ok[i], ck[i]});
+      emax = std::max(emax, std::abs(ek[i]));
+    }
+  }
+  report::PressureMapData base;
+  base.surface = &result.deformed_skin;  // lives as long as the result the report is written from
+  base.value_label = "kPa";
+  base.frame = sframe;
+  base.landmarks = marks;
+  emax = std::max(emax, 0.5);
+  const struct {
+    const std::vector<double>* values;
+    const char* title;
+    double lo, hi;
+  } specs[] = {{&tk, "Designed pressure", 0, vmax},
+               {&ok, "Delivered by the open-loop socket", 0, vmax},
+               {&ck, "Delivered by the closed-loop socket (written)", 0, vmax},
+               {&ek, "Closed loop: delivered minus designed", -emax, emax}};
+  for (const auto& sp : specs) {
+    report::PressureMapData m = base;
+    m.values = *sp.values;
+    m.title = sp.title;
+    m.value_min = sp.lo;
+    m.value_max = sp.hi;
+    delivery.maps.push_back(std::move(m));
+  }
+  report::write_pressure_map(out / "delivered_map.png", delivery.maps[2]);
+  report::write_pressure_map(out / "delivered_error_map.png", delivery.maps[3]);
+}
+
+/// Designed, open- and closed-loop pressures along the thesis's three paths, as report plots.
+void add_delivery_plots(const DesignSetup& setup, const ClosedLoopResult& loop, report::ReportDelivery& delivery) {
+  const auto& skin = setup.solver->skin();
+  const auto sframe = report::surface_frame(setup.model.frame);
+  for (const auto& path : design_paths(setup)) {
+    const auto samples = report::sample_path(skin.positions, {}, sframe, path.spec);
+    report::Plot p;
+    p.title = "Delivered vs designed: " + path.name;
+    p.x_label = path.spec.kind == report::PathKind::Vertical ? "height above the distal end [mm]" : "angle [deg]";
+    p.y_label = "pressure [kPa]";
+    const std::vector<std::pair<std::string, const std::vector<double>*>> curves{
+        {"designed", &loop.target_pa}, {"open loop", &loop.open_loop_pa}, {"closed loop", &loop.closed_loop_pa}};
+    for (const auto& [name, field] : curves) {
+      report::PlotSeries s;
+      s.name = name;
+      s.dashed = name == "designed";
+      for (const auto& smp : samples) {
+        if (!loop.below_brim[smp.index]) continue;
+        s.x.push_back(path.spec.kind == report::PathKind::Vertical ? smp.s * 1e3 : smp.s * 180.0 / std::numbers::pi);
+        s.y.push_back((*field)[smp.index] / 1e3);
+      }
+      p.series.push_back(s);
+    }
+    p.y_min = 0.0;
+    delivery.plots.push_back(p);
+  }
+}
+
+}  // namespace
+
+DeliverySummary summarise_delivery(const DesignSetup& setup, const ClosedLoopResult& loop) {
+  const auto& skin = setup.solver->skin();
+  const size_t n = skin.nodes.size();
+  require(loop.target_pa.size() == n && loop.open_loop_pa.size() == n && loop.closed_loop_pa.size() == n,
+          "summarise_delivery: the loop's fields do not match the stump's {} skin nodes", n);
+  DeliverySummary d;
+  std::vector<int> below;
+  for (size_t i = 0; i < n; ++i)
+    if (loop.below_brim[i]) below.push_back(static_cast<int>(i));
+  const auto region = [&](const std::string& key, const std::string& name, const std::vector<int>& subset) {
+    d.regions.push_back({key, name, report::compare_fields(loop.open_loop_pa, loop.target_pa, subset),
+                         report::compare_fields(loop.closed_loop_pa, loop.target_pa, subset)});
+  };
+  region("below_brim", "below the brim", below);
+  const auto sframe = report::surface_frame(setup.model.frame);
+  for (const auto& path : design_paths(setup)) {
+    std::vector<int> subset;
+    for (const auto& s : report::sample_path(skin.positions, {}, sframe, path.spec))
+      if (loop.below_brim[s.index]) subset.push_back(s.index);
+    if (subset.size() >= 3) region(path.key, path.name, subset);
+  }
+  for (const auto& l : setup.model.landmarks) {
+    LandmarkDelivery ld;
+    ld.code = l.code;
+    const double radius = std::min(l.radius_m, 0.015);
+    double w = 0;
+    for (int i : below) {
+      if ((skin.positions[i] - l.position).norm() > radius) continue;
+      const double a = skin.area_m2[i];
+      ++ld.nodes;
+      w += a;
+      ld.threshold_pa += a * setup.thresholds[i];
+      ld.target_pa += a * loop.target_pa[i];
+      ld.open_loop_pa += a * loop.open_loop_pa[i];
+      ld.closed_loop_pa += a * loop.closed_loop_pa[i];
+    }
+    if (ld.nodes == 0) continue;  // above the brim (or off the stump): not loaded by the socket
+    ld.threshold_pa /= w;
+    ld.target_pa /= w;
+    ld.open_loop_pa /= w;
+    ld.closed_loop_pa /= w;
+    d.landmarks.push_back(ld);
+  }
+  return d;
+}
+
+nlohmann::json write_closed_loop_outputs(const DesignSetup& setup, const DesignResult& result,
+                                         const std::filesystem::path& out, report::ReportDelivery& delivery) {
+  require(result.closed_loop.has_value(), "write_closed_loop_outputs: the design ran no closed loop");
+  const ClosedLoopResult& loop = *result.closed_loop;
+  write_delivered_csvs(result.state, loop, setup.thresholds, out);
+  const DeliverySummary sum = summarise_delivery(setup, loop);
+  delivery = {};
+  delivery.has_delivery = true;
+  delivery.summary = fmt::format(
+      "The socket is donned from below with friction μ = {:.2f}, then pushed with half the body weight ({:.0f} N), "
+      "as a standing patient loads it; the delivered contact pressures are compared with the designed ones. The "
+      "closed loop corrected the wall: {}",
+      setup.case_file.patient.friction, 0.5 * setup.case_file.patient.body_mass_kg * units::kGravity, loop.message);
+  nlohmann::json regions = nlohmann::json::object();
+  for (const auto& r : sum.regions) {
+    delivery.rows.push_back(agreement_row(r.name, "open loop", r.open_loop));
+    delivery.rows.push_back(agreement_row(r.name, "closed loop", r.closed_loop));
+    regions[r.key] = {{"open_loop", stats_json(r.open_loop)}, {"closed_loop", stats_json(r.closed_loop)}};
+  }
+  const nlohmann::json landmarks = landmarks_json(sum, delivery);
+  const nlohmann::json iterations = iterations_json(loop, delivery);
+  add_delivery_maps(setup, result, loop, out, delivery);
+  add_delivery_plots(setup, loop, delivery);
+  return {{"converged", loop.converged},
+          {"message", loop.message},
+          {"donnings", std::count_if(loop.iterations.begin(), loop.iterations.end(), [](const auto& it) { return !it.refit; })},
+          {"refits", std::count_if(loop.iterations.begin(), loop.iterations.end(), [](const auto& it) { return it.refit; })},
+          {"kept_donning", loop.kept_donning},
+          {"seconds", loop.seconds},
+          {"friction", setup.case_file.patient.friction},
+          {"body", loop.linear_body ? "linearised" : "nonlinear"},
+          {"stand_force_n", 0.5 * setup.case_file.patient.body_mass_kg * units::kGravity},
+          {"designed_friction_n", result.state.radar.stability_n},
+          {"iterations", iterations},
+          {"regions", regions},
+          {"landmarks", landmarks},
+          {"max_wall_offset_mm", loop.iterations[loop.best].max_offset_m * 1e3},
+          {"outputs", {"delivered.csv", "delivered_iterations.csv", "delivered_map.png", "delivered_error_map.png"}}};
+}
+
+}  // namespace socketsmith::pipeline
