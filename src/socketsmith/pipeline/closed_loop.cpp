@@ -180,6 +180,239 @@ double tolerance_score(const report::ErrorStats& s, const ClosedLoopOptions& o) 
   return std::max(s.mae / o.mae_tolerance_pa, s.p99 / o.p99_tolerance_pa);
 }
 
+/// One run of the closed loop: the socket worn now, its donning simulation, the counters of the
+/// donnings and refits, and the result being built.
+class LoopRun {
+ public:
+  LoopRun(DesignSetup& setup, const DesignResult& result, const ClosedLoopOptions& options)
+      : setup_(setup), result_(result), options_(options), solver_(*setup.solver), skin_(solver_.skin()),
+        state_(result.state), n_(skin_.nodes.size()), axis_(setup.model.frame.axis.normalized()),
+        history_(options.anderson_depth), socket_(*result.socket), offset_(n_, 0.0) {
+    const design::CaseFile& c = setup.case_file;
+    don_ = options.donning;
+    don_.start_offset_name.clear();  // `design` has no donning flags to suggest
+    if (!options.keep_donning_loads) {
+      don_.friction = c.patient.friction;
+      don_.stand_force_n = 0.5 * c.patient.body_mass_kg * units::kGravity;
+    }
+    if (options.body_follows_design)
+      don_.contact.linear_body = state_.linearised || c.solve_mode == design::DesignSolveMode::Linear;
+    sopt_ = c.socket;
+    sopt_.undeformed_skin = &result.rest_skin;
+    r_.linear_body = don_.contact.linear_body;
+    r_.target_pa = state_.pressure_pa;
+    r_.below_brim.assign(n_, 1);
+    for (size_t i = 0; i < n_; ++i) {
+      if (solver_.above_brim()[i]) {
+        r_.below_brim[i] = 0;
+        r_.target_pa[i] = 0.0;
+      } else {
+        compared_.push_back(static_cast<int>(i));
+      }
+    }
+    require(compared_.size() >= 3, "closed loop: only {} skin nodes lie below the brim; lower the brim",
+            compared_.size());
+    for (int i : compared_) spacing_ += std::sqrt(skin_.area_m2[i]) / static_cast<double>(compared_.size());
+  }
+
+  ClosedLoopResult run() {
+    contact::DonningResult d = don_from_scratch();
+    bool refitted = false;
+    for (;;) {
+      if (!d.completed || !d.stood) {
+        if (!recover(d, refitted)) break;
+        continue;
+      }
+      const std::vector<double> delivered = record(d, refitted);
+      const ClosedLoopIteration& it = r_.iterations.back();
+      const bool within = it.below_brim.mae <= options_.mae_tolerance_pa && it.below_brim.p99 <= options_.p99_tolerance_pa;
+      const double score = tolerance_score(it.below_brim, options_);
+      if (!refitted) {
+        round_ = {score, offset_, socket_};
+        keep_if_best(score, delivered, d);
+        if (within) {
+          r_.converged = true;
+          r_.message = fmt::format("converged after {} donnings and {} refits: below the brim MAE {:.2f} kPa, 99th "
+                                   "percentile {:.2f} kPa",
+                                   full_donnings_, r_.iterations.size() - full_donnings_, it.below_brim.mae / 1e3,
+                                   it.below_brim.p99 / 1e3);
+          break;
+        }
+      }
+      // A refit within the tolerances, or the last of a round, is checked by a donning from scratch;
+      // so is the round's best when a refit does worse (1.8k: refits drift from the fourth on); when
+      // the round's first refit does worse than its donning, nothing is left to gain: the loop stops.
+      const bool worse = refitted && score >= round_.score;
+      if (worse && refits_ == 1) break;
+      if (refitted && !worse) round_ = {score, offset_, socket_};
+      if (refitted && (within || worse || refits_ >= options_.refits_per_donning)) {
+        if (full_donnings_ >= options_.max_donnings) break;
+        if (worse) std::tie(offset_, socket_) = std::tie(round_.offset, round_.socket);
+        d = don_from_scratch();
+        refitted = false;
+        continue;
+      }
+      if (!refitted && full_donnings_ >= options_.max_donnings) break;
+      if (!correct_wall(d, delivered, refitted)) break;
+      if (options_.refits_per_donning > 0) {
+        ++refits_;
+        d = sim_->refit(socket_.solid);
+        refitted = true;
+      } else {
+        d = don_from_scratch();
+        refitted = false;
+      }
+    }
+    return finish();
+  }
+
+ private:
+  /// A full donning of the socket as it is now (the path from below, then standing).
+  contact::DonningResult don_from_scratch() {
+    const double lo = static_cast<double>(full_donnings_) / options_.max_donnings;
+    const double hi = static_cast<double>(full_donnings_ + 1) / options_.max_donnings;
+    don_.progress = [this, lo, hi, first = full_donnings_ == 0](double f, std::string_view) {
+      return report_progress(options_.progress, lo + (hi - lo) * f,
+                             first ? "closed loop: donning the open-loop socket" : "closed loop: donning the corrected socket");
+    };
+    ++full_donnings_;
+    refits_ = 0;
+    sim_ = std::make_unique<contact::DonningSimulation>(solver_.model(), skin_.nodes, skin_.area_m2, socket_.solid,
+                                                        setup_.model.frame, don_);
+    return sim_->run();
+  }
+
+  /// A donning or refit that did not stand: a failed refit is donned from scratch (true: go on);
+  /// otherwise the loop stops with the reason (false). The open-loop socket's failure throws.
+  bool recover(contact::DonningResult& d, bool& refitted) {
+    const std::string why = d.message.empty() ? "the standing load was not reached" : d.message;
+    require<SolverError>(!r_.iterations.empty(),
+                         "closed loop: the open-loop socket could not be donned and stood on: {} (design without "
+                         "\"closed_loop\" to keep the open-loop socket)",
+                         why);
+    if (!refitted) {
+      r_.message = fmt::format("stopped after {} donnings: the corrected socket could not be donned and stood on ({})",
+                               full_donnings_, why);
+      return false;
+    }
+    // The refit lost its way: don the same socket from scratch instead.
+    log::warn("closed loop: the refit of the corrected socket did not converge ({}); donning it from scratch", why);
+    if (full_donnings_ >= options_.max_donnings) {
+      r_.message = fmt::format("stopped: the corrected socket's refit failed ({}) and no donning is left", why);
+      return false;
+    }
+    d = don_from_scratch();
+    refitted = false;
+    return true;
+  }
+
+  /// The delivered pressures of donning or refit @p d, measured against the design and logged as
+  /// the next iteration of the result.
+  std::vector<double> record(const contact::DonningResult& d, bool refitted) {
+    ClosedLoopIteration it;
+    it.refit = refitted;
+    for (size_t i = 0; i < n_; ++i) {
+      it.max_offset_m = std::max(it.max_offset_m, std::abs(offset_[i]));
+      if (r_.below_brim[i]) it.mean_offset_m += offset_[i] / static_cast<double>(compared_.size());
+    }
+    std::vector<double> delivered(n_);
+    for (size_t i = 0; i < n_; ++i) delivered[i] = d.contacts[i].pressure_pa;
+    it.below_brim = report::compare_fields(delivered, r_.target_pa, compared_);
+    it.stood_offset_m = d.final_offset_m;
+    it.axial_friction_n = d.series.empty() ? 0.0 : d.series.back().axial_friction_n;
+    it.factorizations = d.series.empty() ? 0 : static_cast<int>(d.series.back().factorizations);
+    it.donning_seconds = d.seconds;
+    it.socket_seconds = socket_seconds_;
+    log::info("closed loop: {} {} — below the brim MAE {:.2f} kPa, 99th percentile {:.2f} kPa, R {:.3f}, mean {:.2f} vs "
+              "{:.2f} kPa designed; friction carries {:.0f} N ({:.0f} N designed); wall moved up to {:.2f} mm; {:.1f} s",
+              refitted ? "refit" : "donning", refitted ? refits_ : full_donnings_, it.below_brim.mae / 1e3,
+              it.below_brim.p99 / 1e3, it.below_brim.r, it.below_brim.mean_a / 1e3, it.below_brim.mean_b / 1e3,
+              it.axial_friction_n, state_.radar.stability_n, it.max_offset_m * 1e3, d.seconds);
+    // Friction: the design counts on sliding friction μ p at every node (its axial share μ p |n × a|);
+    // donned and stood, the socket mobilises a share of what its delivered pressures make available
+    // (nodes stuck by the donning's friction history carry less).
+    const double mu = setup_.case_file.patient.friction;
+    double available = 0;
+    for (int i : compared_)
+      available += design::axial_friction_n(delivered[i], state_.skin_areas[i], state_.skin_normals[i], axis_, mu);
+    it.friction_utilisation = available > 0 ? it.axial_friction_n / available : 1.0;
+    r_.delivered_by_iteration.push_back(delivered);
+    r_.offset_by_iteration.push_back(offset_);
+    if (r_.iterations.empty()) r_.open_loop_pa = delivered;
+    r_.iterations.push_back(it);
+    return delivered;
+  }
+
+  /// The socket kept is the one closest to the tolerances among those donned from scratch: the
+  /// smallest max(MAE / tol, p99 / tol).
+  void keep_if_best(double score, const std::vector<double>& delivered, const contact::DonningResult& d) {
+    if (score >= best_score_) return;
+    best_score_ = score;
+    r_.best = static_cast<int>(r_.iterations.size()) - 1;
+    r_.closed_loop_pa = delivered;
+    r_.wall_offset_m = offset_;
+    r_.socket = socket_;
+    r_.donning = d;
+  }
+
+  /// The next wall: the correction of the delivered pressures (Anderson-mixed over the round's
+  /// refits), the designed skin moved by δ along its normals, the socket built on it. False when
+  /// the socket could not be built (the loop stops with the reason).
+  bool correct_wall(const contact::DonningResult& d, const std::vector<double>& delivered, bool refitted) {
+    const std::vector<double> on_wall = wall_corrections(solver_, state_, r_.below_brim, compared_, delivered,
+                                                         r_.target_pa, d, axis_, offset_, spacing_, options_);
+    if (!refitted) history_.clear();  // a donning from scratch: the refits' map starts again
+    offset_ = history_.next(offset_, on_wall);
+    for (auto& v : offset_) v = std::clamp(v, -options_.max_offset_m, options_.max_offset_m);
+    const auto ts = Clock::now();
+    geometry::TriMesh inner = result_.deformed_skin;
+    for (size_t i = 0; i < n_; ++i) inner.vertices[i] += offset_[i] * state_.skin_normals[i];
+    try {
+      socket_ = design::build_socket(inner, setup_.model.frame, setup_.brim, sopt_);
+    } catch (const Error& e) {
+      r_.message = fmt::format("stopped after {} donnings: the corrected socket could not be built ({})",
+                               full_donnings_, e.what());
+      return false;
+    }
+    socket_seconds_ = since(ts);
+    return true;
+  }
+
+  ClosedLoopResult finish() {
+    for (int k = 0; k <= r_.best; ++k) r_.kept_donning += r_.iterations[k].refit ? 0 : 1;
+    if (r_.message.empty()) {
+      const auto& b = r_.iterations[r_.best].below_brim;
+      r_.message = fmt::format("{} donnings without meeting the tolerances ({:.2f} / {:.2f} kPa); kept donning {}: MAE "
+                               "{:.2f} kPa, 99th percentile {:.2f} kPa",
+                               full_donnings_, options_.mae_tolerance_pa / 1e3, options_.p99_tolerance_pa / 1e3,
+                               r_.kept_donning, b.mae / 1e3, b.p99 / 1e3);
+    }
+    return std::move(r_);
+  }
+
+  DesignSetup& setup_;
+  const DesignResult& result_;
+  const ClosedLoopOptions& options_;
+  design::DesignSolver& solver_;
+  const volume::SkinSurface& skin_;
+  const design::DesignState& state_;
+  const size_t n_;
+  const Vec3 axis_;
+  contact::DonningOptions don_;
+  design::SocketOptions sopt_;
+  std::vector<int> compared_;  // skin nodes below the brim
+  double spacing_ = 0;         // their mean spacing [m]
+  AndersonMixing history_;
+  design::SocketResult socket_;  // the socket worn now
+  std::vector<double> offset_;   // its δ per skin node [m]
+  double socket_seconds_ = 0;
+  std::unique_ptr<contact::DonningSimulation> sim_;
+  int full_donnings_ = 0, refits_ = 0;
+  double best_score_ = std::numeric_limits<double>::infinity();
+  RoundBest round_;  // the best socket since the last donning from scratch, that donning's included
+  ClosedLoopResult r_;
+};
+
 }  // namespace
 
 ClosedLoopResult close_design_loop(DesignSetup& setup, const DesignResult& result, const ClosedLoopOptions& options) {
@@ -187,187 +420,7 @@ ClosedLoopResult close_design_loop(DesignSetup& setup, const DesignResult& resul
   require(result.socket.has_value() && result.constraints_met,
           "closed loop: the design does not meet its constraints, so it has no socket to don; fix the design first");
   const auto t0 = Clock::now();
-  auto& solver = *setup.solver;
-  const auto& skin = solver.skin();
-  const design::CaseFile& c = setup.case_file;
-  const auto& state = result.state;
-  const double mu = c.patient.friction;
-  const size_t n = skin.nodes.size();
-
-  contact::DonningOptions don = options.donning;
-  don.start_offset_name.clear();  // `design` has no donning flags to suggest
-  if (!options.keep_donning_loads) {
-    don.friction = c.patient.friction;
-    don.stand_force_n = 0.5 * c.patient.body_mass_kg * units::kGravity;
-  }
-  if (options.body_follows_design) don.contact.linear_body = state.linearised || c.solve_mode == design::DesignSolveMode::Linear;
-  const Vec3 axis = setup.model.frame.axis.normalized();
-  design::SocketOptions sopt = c.socket;
-  sopt.undeformed_skin = &result.rest_skin;
-
-  ClosedLoopResult r;
-  r.linear_body = don.contact.linear_body;
-  r.target_pa = state.pressure_pa;
-  r.below_brim.assign(n, 1);
-  std::vector<int> compared;
-  for (size_t i = 0; i < n; ++i) {
-    if (solver.above_brim()[i]) {
-      r.below_brim[i] = 0;
-      r.target_pa[i] = 0.0;
-    } else {
-      compared.push_back(static_cast<int>(i));
-    }
-  }
-  require(compared.size() >= 3, "closed loop: only {} skin nodes lie below the brim; lower the brim", compared.size());
-  double spacing = 0;  // mean skin node spacing [m]
-  for (int i : compared) spacing += std::sqrt(skin.area_m2[i]) / static_cast<double>(compared.size());
-
-  std::vector<double> offset(n, 0.0);  // δ of the socket worn now
-  double socket_seconds = 0;
-  AndersonMixing history(options.anderson_depth);
-  design::SocketResult socket = *result.socket;
-  std::unique_ptr<contact::DonningSimulation> sim;
-  int full_donnings = 0, refits = 0;
-  // A full donning of the socket as it is now (the path from below, then standing).
-  const auto don_from_scratch = [&]() {
-    const double lo = static_cast<double>(full_donnings) / options.max_donnings;
-    const double hi = static_cast<double>(full_donnings + 1) / options.max_donnings;
-    don.progress = [&options, lo, hi, first = full_donnings == 0](double f, std::string_view) {
-      return report_progress(options.progress, lo + (hi - lo) * f,
-                             first ? "closed loop: donning the open-loop socket" : "closed loop: donning the corrected socket");
-    };
-    ++full_donnings;
-    refits = 0;
-    sim = std::make_unique<contact::DonningSimulation>(solver.model(), skin.nodes, skin.area_m2, socket.solid,
-                                                       setup.model.frame, don);
-    return sim->run();
-  };
-  contact::DonningResult d = don_from_scratch();
-  bool refitted = false;
-  // The socket kept is the one closest to the tolerances among those donned from scratch: the
-  // smallest max(MAE / tol, p99 / tol).
-  double best_score = std::numeric_limits<double>::infinity();
-  RoundBest round;  // the best socket since the last donning from scratch, that donning's included
-  for (;;) {
-    if (!d.completed || !d.stood) {
-      const std::string why = d.message.empty() ? "the standing load was not reached" : d.message;
-      require<SolverError>(!r.iterations.empty(),
-                           "closed loop: the open-loop socket could not be donned and stood on: {} (design without "
-                           "\"closed_loop\" to keep the open-loop socket)",
-                           why);
-      if (refitted) {  // the refit lost its way: don the same socket from scratch instead
-        log::warn("closed loop: the refit of the corrected socket did not converge ({}); donning it from scratch", why);
-        if (full_donnings >= options.max_donnings) {
-          r.message = fmt::format("stopped: the corrected socket's refit failed ({}) and no donning is left", why);
-          break;
-        }
-        d = don_from_scratch();
-        refitted = false;
-        continue;
-      }
-      r.message = fmt::format("stopped after {} donnings: the corrected socket could not be donned and stood on ({})",
-                              full_donnings, why);
-      break;
-    }
-    ClosedLoopIteration it;
-    it.refit = refitted;
-    for (size_t i = 0; i < n; ++i) {
-      it.max_offset_m = std::max(it.max_offset_m, std::abs(offset[i]));
-      if (r.below_brim[i]) it.mean_offset_m += offset[i] / static_cast<double>(compared.size());
-    }
-    std::vector<double> delivered(n);
-    for (size_t i = 0; i < n; ++i) delivered[i] = d.contacts[i].pressure_pa;
-    it.below_brim = report::compare_fields(delivered, r.target_pa, compared);
-    it.stood_offset_m = d.final_offset_m;
-    it.axial_friction_n = d.series.empty() ? 0.0 : d.series.back().axial_friction_n;
-    it.factorizations = d.series.empty() ? 0 : static_cast<int>(d.series.back().factorizations);
-    it.donning_seconds = d.seconds;
-    it.socket_seconds = socket_seconds;
-    log::info("closed loop: {} {} — below the brim MAE {:.2f} kPa, 99th percentile {:.2f} kPa, R {:.3f}, mean {:.2f} vs "
-              "{:.2f} kPa designed; friction carries {:.0f} N ({:.0f} N designed); wall moved up to {:.2f} mm; {:.1f} s",
-              refitted ? "refit" : "donning", refitted ? refits : full_donnings,
-              it.below_brim.mae / 1e3,
-              it.below_brim.p99 / 1e3, it.below_brim.r, it.below_brim.mean_a / 1e3, it.below_brim.mean_b / 1e3,
-              it.axial_friction_n, state.radar.stability_n, it.max_offset_m * 1e3, d.seconds);
-    // Friction: the design counts on sliding friction μ p at every node (its axial share μ p |n × a|);
-    // donned and stood, the socket mobilises a share of what its delivered pressures make available
-    // (nodes stuck by the donning's friction history carry less).
-    double available = 0;
-    for (int i : compared) available += design::axial_friction_n(delivered[i], state.skin_areas[i], state.skin_normals[i], axis, mu);
-    it.friction_utilisation = available > 0 ? it.axial_friction_n / available : 1.0;
-    r.delivered_by_iteration.push_back(delivered);
-    r.offset_by_iteration.push_back(offset);
-    if (r.iterations.empty()) r.open_loop_pa = delivered;
-    r.iterations.push_back(it);
-    const bool within = it.below_brim.mae <= options.mae_tolerance_pa && it.below_brim.p99 <= options.p99_tolerance_pa;
-    const double score = tolerance_score(it.below_brim, options);
-    if (!refitted) {
-      round = {score, offset, socket};
-      if (score < best_score) {
-        best_score = score;
-        r.best = static_cast<int>(r.iterations.size()) - 1;
-        r.closed_loop_pa = delivered;
-        r.wall_offset_m = offset;
-        r.socket = socket;
-        r.donning = d;
-      }
-      if (within) {
-        r.converged = true;
-        r.message = fmt::format("converged after {} donnings and {} refits: below the brim MAE {:.2f} kPa, 99th "
-                                "percentile {:.2f} kPa",
-                                full_donnings, r.iterations.size() - full_donnings, it.below_brim.mae / 1e3,
-                                it.below_brim.p99 / 1e3);
-        break;
-      }
-    }
-    // A refit within the tolerances, or the last of a round, is checked by a donning from scratch; so
-    // is the round's best when a refit does worse (1.8k: refits drift from the fourth on); when the
-    // round's first refit does worse than its donning, nothing is left to gain: the loop stops.
-    const bool worse = refitted && score >= round.score;
-    if (worse && refits == 1) break;
-    if (refitted && !worse) round = {score, offset, socket};
-    if (refitted && (within || worse || refits >= options.refits_per_donning)) {
-      if (full_donnings >= options.max_donnings) break;
-      if (worse) std::tie(offset, socket) = std::tie(round.offset, round.socket);
-      d = don_from_scratch();
-      refitted = false;
-      continue;
-    }
-    if (!refitted && full_donnings >= options.max_donnings) break;
-    const std::vector<double> on_wall =
-        wall_corrections(solver, state, r.below_brim, compared, delivered, r.target_pa, d, axis, offset, spacing, options);
-    if (!refitted) history.clear();  // a donning from scratch: the refits' map starts again
-    offset = history.next(offset, on_wall);
-    for (auto& v : offset) v = std::clamp(v, -options.max_offset_m, options.max_offset_m);
-    // The corrected wall: the designed skin moved by δ along its normals.
-    const auto ts = Clock::now();
-    geometry::TriMesh inner = result.deformed_skin;
-    for (size_t i = 0; i < n; ++i) inner.vertices[i] += offset[i] * state.skin_normals[i];
-    try {
-      socket = design::build_socket(inner, setup.model.frame, setup.brim, sopt);
-    } catch (const Error& e) {
-      r.message = fmt::format("stopped after {} donnings: the corrected socket could not be built ({})", full_donnings,
-                              e.what());
-      break;
-    }
-    socket_seconds = since(ts);
-    if (options.refits_per_donning > 0) {
-      ++refits;
-      d = sim->refit(socket.solid);
-      refitted = true;
-    } else {
-      d = don_from_scratch();
-      refitted = false;
-    }
-  }
-  for (int k = 0; k <= r.best; ++k) r.kept_donning += r.iterations[k].refit ? 0 : 1;
-  if (r.message.empty()) {
-    const auto& b = r.iterations[r.best].below_brim;
-    r.message = fmt::format("{} donnings without meeting the tolerances ({:.2f} / {:.2f} kPa); kept donning {}: MAE "
-                            "{:.2f} kPa, 99th percentile {:.2f} kPa",
-                            full_donnings, options.mae_tolerance_pa / 1e3, options.p99_tolerance_pa / 1e3, r.kept_donning,
-                            b.mae / 1e3, b.p99 / 1e3);
-  }
+  ClosedLoopResult r = LoopRun(setup, result, options).run();
   r.seconds = since(t0);
   report_progress(options.progress, 1.0, "closed loop: done");
   return r;
