@@ -169,6 +169,8 @@ std::vector<double> wall_corrections(design::DesignSolver& solver, const design:
   return corrections_on_wall(wall, donned, corr, compared, 0.5 * spacing);
 }
 
+constexpr double kWorseMargin = 1.05;  // a refit is worse than its round's best above this × its score
+
 struct RoundBest {  ///< a socket of the closed loop and its tolerance_score
   double score = std::numeric_limits<double>::infinity();
   std::vector<double> offset;
@@ -242,12 +244,15 @@ class LoopRun {
       // A refit within the tolerances, or the last of a round, is checked by a donning from scratch;
       // so is the round's best when a refit does worse (1.8k: refits drift from the fourth on); when
       // the round's first refit does worse than its donning, nothing is left to gain: the loop stops.
-      const bool worse = refitted && score >= round_.score;
+      // Worse means kWorseMargin above the round's best: a refit and a donning from scratch differ
+      // by path noise (OpenLimb 3k: a round's first refit at MAE 0.69 / p99 4.38 kPa after its
+      // donning's 0.67 / 5.17 stopped the loop there; two more refits and a donning reached 0.39 / 3.45).
+      const bool worse = refitted && score >= kWorseMargin * round_.score;
       if (worse && refits_ == 1) break;
-      if (refitted && !worse) round_ = {score, offset_, socket_};
+      if (refitted && score < round_.score) round_ = {score, offset_, socket_};
       if (refitted && (within || worse || refits_ >= options_.refits_per_donning)) {
         if (full_donnings_ >= options_.max_donnings) break;
-        if (worse) std::tie(offset_, socket_) = std::tie(round_.offset, round_.socket);
+        if (score > round_.score) std::tie(offset_, socket_) = std::tie(round_.offset, round_.socket);
         d = don_from_scratch();
         refitted = false;
         continue;
