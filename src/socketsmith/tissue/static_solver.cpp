@@ -18,7 +18,6 @@
 
 #include "socketsmith/core/errors.h"
 #include "socketsmith/core/log.h"
-#include "socketsmith/volume/box_mesher.h"
 #include "socketsmith/volume/hex_element.h"
 
 namespace socketsmith::tissue {
@@ -69,6 +68,10 @@ void limit_solver_threads() {
 }
 
 struct StaticSolver::Impl {
+  Impl(const MassSpringModel& m, const DofMap& d, const StaticSolverOptions& o) : model(m), dofs(d), opt(o) {}
+  const MassSpringModel& model;
+  const DofMap& dofs;
+  const StaticSolverOptions& opt;  // the solver's (its force scale is set after this is made)
   SparseMatrix J, J_red, K, K_red;
   Cholmod chol;
   Eigen::SparseLU<SparseMatrix> lu;  // fallback when BiCGSTAB fails with a fresh preconditioner
@@ -82,10 +85,124 @@ struct StaticSolver::Impl {
   double shift = 0.0;  // diagonal shift added when K_psd is only semi-definite
   int last_krylov_iterations = 0;
   int krylov_after_factor = -1;  // Krylov iterations of the first solve after the last factorisation
+
+  /// The preconditioner: the PSD stiffness at @p x factorised (shifted when only semi-definite).
+  /// False when it stays singular.
+  bool factorize(const VectorXd& x, StaticResult& res);
+  /// The preconditioner has aged: BiCGSTAB needs clearly more iterations than it did right after
+  /// the last factorisation (and more than the configured floor).
+  bool stale() const {
+    return krylov_after_factor >= 0 && last_krylov_iterations > std::max(opt.refactor_krylov_iterations, 2 * krylov_after_factor);
+  }
+  /// Newton's direction at @p x for the residual @p r (BiCGSTAB on the exact tangent, preconditioned;
+  /// sparse LU when that fails with a @p fresh preconditioner). False: retry this iterate with a
+  /// fresh factorisation.
+  bool direction(const AppliedLoad& load, const VectorXd& x, const VectorXd& r, bool fresh, StaticResult& res,
+                 VectorXd& delta, int& kit, bool& krylov_ok);
+  /// Backtracking line search on ‖r‖ along @p delta, rejecting inverted elements; on success @p x,
+  /// @p r and @p rnorm are the accepted point's.
+  bool line_search(const AppliedLoad& load, const VectorXd& delta, int it, int kit, bool krylov_ok, VectorXd& x,
+                   VectorXd& r, double& rnorm, int& inverted_trials);
 };
 
+bool StaticSolver::Impl::factorize(const VectorXd& x, StaticResult& res) {
+  model.jacobian(x, JacobianKind::SymmetricPsd, K);
+  dofs.reduce_matrix(K, K_red);
+  K_red *= -1.0;  // K_psd = −J_psd
+  if (!analyzed) {
+    chol.analyzePattern(K_red);
+    analyzed = true;
+  }
+  for (int attempt = 0; attempt < 6; ++attempt) {
+    chol.setShift(shift);
+    chol.factorize(K_red);
+    if (chol.info() == Eigen::Success) {
+      ++res.factorizations;
+      factor_valid = true;
+      krylov_after_factor = -1;  // measured by the next Krylov solve
+      return true;
+    }
+    // Semi-definite (e.g. an unconstrained rigid mode): shift by a small multiple of the diagonal.
+    shift = shift == 0 ? 1e-10 * K_red.diagonal().cwiseAbs().maxCoeff() : shift * 100;
+  }
+  factor_valid = false;
+  return false;
+}
+
+bool StaticSolver::Impl::direction(const AppliedLoad& load, const VectorXd& x, const VectorXd& r, bool fresh,
+                                   StaticResult& res, VectorXd& delta, int& kit, bool& krylov_ok) {
+  model.jacobian(x, JacobianKind::Exact, J);
+  if (load.moving) load.moving->add_jacobian(x, load.scale, J);
+  dofs.reduce_matrix(J, J_red);
+  J_red *= -1.0;  // solve (−J) δ = r
+  Eigen::BiCGSTAB<SparseMatrix, FactorPreconditioner> krylov;
+  krylov.preconditioner().factor = &chol;
+  krylov.setTolerance(opt.krylov_rel_tol);
+  krylov.setMaxIterations(opt.max_krylov_iterations);
+  krylov.compute(J_red);
+  delta = krylov.solve(r);
+  kit = static_cast<int>(krylov.iterations());
+  res.krylov_iterations += kit;
+  last_krylov_iterations = kit;
+  if (krylov_after_factor < 0) krylov_after_factor = kit;
+  krylov_ok = krylov.info() == Eigen::Success && delta.allFinite();
+  if (!krylov_ok && !fresh) {
+    factor_valid = false;  // retry this iterate with a fresh preconditioner
+    return false;
+  }
+  if (!krylov_ok) {
+    // BiCGSTAB failed even with a fresh preconditioner (e.g. an indefinite tangent): solve the
+    // true tangent by sparse LU, so that the direction is the exact Newton direction.
+    J_red.makeCompressed();
+    if (!lu_analyzed) {
+      lu.analyzePattern(J_red);
+      lu_analyzed = true;
+    }
+    lu.factorize(J_red);
+    if (lu.info() == Eigen::Success) delta = lu.solve(r);
+    if (lu.info() == Eigen::Success && delta.allFinite()) {
+      ++res.direct_solves;
+    } else {
+      delta = chol.solve(r);  // singular tangent: the SPD (modified Newton) direction
+    }
+    factor_valid = false;
+  }
+  if (opt.max_step_m > 0) {
+    const double m = delta.cwiseAbs().maxCoeff();
+    if (m > opt.max_step_m) delta *= opt.max_step_m / m;
+  }
+  return true;
+}
+
+bool StaticSolver::Impl::line_search(const AppliedLoad& load, const VectorXd& delta, int it, int kit, bool krylov_ok,
+                                     VectorXd& x, VectorXd& r, double& rnorm, int& inverted_trials) {
+  double t = 1.0;
+  inverted_trials = 0;
+  VectorXd x_try(x.size());
+  for (int ls = 0; ls < opt.max_line_search; ++ls, t *= 0.5) {
+    x_try = x;
+    dofs.add_expanded(t * delta, x_try);
+    if (model.has_inverted_element(x_try)) {
+      ++inverted_trials;
+      continue;
+    }
+    VectorXd r_try = static_residual(model, dofs, load.at(x_try), x_try);
+    const double n_try = r_try.norm();
+    if (std::isfinite(n_try) && n_try < (1.0 - 1e-4 * t) * rnorm) {
+      log::debug("  Newton {}: |r| {:.3e} -> {:.3e} N, step {:.3g}, {} Krylov iterations{}{}", it, rnorm, n_try, t, kit,
+                 krylov_ok ? "" : " (Krylov failed)",
+                 inverted_trials > 0 ? fmt::format(", {} trial step(s) inverted an element", inverted_trials) : "");
+      x = x_try;
+      r = std::move(r_try);
+      rnorm = n_try;
+      return true;
+    }
+  }
+  return false;
+}
+
 StaticSolver::StaticSolver(const MassSpringModel& model, const DofMap& dofs, const StaticSolverOptions& options)
-    : model_(model), dofs_(dofs), options_(options), impl_(std::make_unique<Impl>()) {
+    : model_(model), dofs_(dofs), options_(options), impl_(std::make_unique<Impl>(model, dofs, options_)) {
   limit_solver_threads();
   require(dofs.num_full() == model.num_dofs(), "StaticSolver: DofMap has {} DOFs, model has {}", dofs.num_full(),
           model.num_dofs());
@@ -108,150 +225,6 @@ VectorXd static_residual(const MassSpringModel& model, const DofMap& dofs, const
   return dofs.restrict_vector(model.elastic_forces(x) + f_ext);
 }
 
-TangentStability tangent_stability(const MassSpringModel& model, const DofMap& dofs, const VectorXd& x) {
-  require(x.size() == model.num_dofs() && x.allFinite(), "tangent_stability: x has {} entries (expected 3N = {})",
-          x.size(), model.num_dofs());
-  TangentStability out;
-  if (dofs.num_reduced() == 0) return out;
-  SparseMatrix J, K;
-  model.jacobian(x, JacobianKind::Exact, J);
-  dofs.reduce_matrix(J, K);
-  K *= -1.0;
-  K.makeCompressed();
-  out.computed = true;
-  out.max_diagonal = K.diagonal().maxCoeff();
-  Eigen::SparseLU<SparseMatrix> lu;
-  lu.compute(K);
-  if (lu.info() != Eigen::Success) return out;  // numerically singular: determinant_sign stays 0
-  out.determinant_sign = lu.signDeterminant() < 0 ? -1 : 1;
-  // Inverse iteration: the eigenvalue of smallest magnitude and its mode.
-  const Eigen::Index n = K.rows();
-  VectorXd v(n);
-  for (Eigen::Index i = 0; i < n; ++i) v[i] = 1.0 + 0.5 * std::sin(0.7 * static_cast<double>(i));
-  v.normalize();
-  double mu = 0.0;
-  for (int it = 0; it < 100; ++it) {
-    VectorXd w = lu.solve(v);
-    if (!w.allFinite() || w.norm() == 0) break;
-    v = w.normalized();
-    const VectorXd Kv = K * v;
-    mu = v.dot(Kv);
-    if ((Kv - mu * v).norm() <= 1e-8 * out.max_diagonal) {
-      out.softest_converged = true;
-      break;
-    }
-  }
-  out.softest_eigenvalue = mu;
-  VectorXd full = VectorXd::Zero(model.num_dofs());
-  dofs.add_expanded(v, full);
-  double best = -1;
-  for (int i = 0; i < model.num_nodes(); ++i) {
-    const double a = full.segment<3>(3 * i).norm();
-    if (a > best) {
-      best = a;
-      out.softest_mode_node = i;
-    }
-  }
-  return out;
-}
-
-ElementStabilityRange element_stability_range(const MassSpringModel& model) {
-  volume::BoxMeshOptions box;
-  box.size = volume::Vec3::Constant(0.01);
-  box.divisions = {1, 1, 1};
-  const MassSpringModel cube(volume::mesh_box(box), model.material(), model.options());
-  const VectorXd x0 = cube.rest_positions();
-  Eigen::Vector3d c = Eigen::Vector3d::Zero();
-  for (int i = 0; i < 8; ++i) c += x0.segment<3>(3 * i) / 8.0;
-  // Orthonormal basis of the 18 deformation modes (complement of the 6 rigid ones).
-  Eigen::MatrixXd rigid = Eigen::MatrixXd::Zero(24, 6);
-  for (int i = 0; i < 8; ++i)
-    for (int a = 0; a < 3; ++a) {
-      rigid(3 * i + a, a) = 1.0;
-      rigid.block<3, 1>(3 * i, 3 + a) = Eigen::Vector3d::Unit(a).cross(x0.segment<3>(3 * i) - c);
-    }
-  const Eigen::MatrixXd q = Eigen::HouseholderQR<Eigen::MatrixXd>(rigid).householderQ();
-  const Eigen::MatrixXd basis = q.rightCols(18);
-  SparseMatrix J;
-  auto smallest = [&](double dv) {
-    const double scale = std::cbrt(1.0 + dv);
-    VectorXd x = x0;
-    for (int i = 0; i < 8; ++i) x.segment<3>(3 * i) = c + scale * (x0.segment<3>(3 * i) - c);
-    cube.jacobian(x, JacobianKind::Exact, J);
-    const Eigen::MatrixXd k = -(basis.transpose() * Eigen::MatrixXd(J) * basis);
-    return Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(0.5 * (k + k.transpose()), Eigen::EigenvaluesOnly)
-        .eigenvalues()[0];
-  };
-  auto edge = [&](double direction) {
-    // Scan in steps of 0.25 % up to 50 %, then bisect the first sign change.
-    double stable = 0.0;
-    for (double dv = 0.0025; dv <= 0.5 + 1e-12; dv += 0.0025) {
-      if (smallest(direction * dv) > 0) {
-        stable = dv;
-        continue;
-      }
-      double lo = stable, hi = dv;
-      for (int it = 0; it < 20; ++it) {
-        const double mid = 0.5 * (lo + hi);
-        (smallest(direction * mid) > 0 ? lo : hi) = mid;
-      }
-      return direction * lo;
-    }
-    return direction * 0.5;
-  };
-  ElementStabilityRange range;
-  if (smallest(0.0) <= 0) {
-    range.min_volume_change = range.max_volume_change = 0.0;
-    return range;
-  }
-  range.min_volume_change = edge(-1.0);
-  range.max_volume_change = edge(1.0);
-  return range;
-}
-
-int StaticSolver::count_outside_stable_range(const VectorXd& x, ElementStabilityRange& range) const {
-  range = element_stability_range(model_);
-  const VectorXd v = model_.element_volumes(x), v0 = model_.element_volumes(model_.rest_positions());
-  int n = 0;
-  for (Eigen::Index e = 0; e < v.size(); ++e) {
-    const double dv = (v[e] - v0[e]) / v0[e];
-    if (dv < range.min_volume_change || dv > range.max_volume_change) ++n;
-  }
-  return n;
-}
-
-/// Worst element (smallest corner scaled Jacobian) and the range of volume changes at x.
-void StaticSolver::describe_state(const VectorXd& x, StaticResult& res) const {
-  const auto& mesh = model_.mesh();
-  const VectorXd v = model_.element_volumes(x);
-  res.worst_element = -1;
-  res.worst_scaled_jacobian = std::numeric_limits<double>::infinity();
-  res.min_volume_change = std::numeric_limits<double>::infinity();
-  res.max_volume_change = -std::numeric_limits<double>::infinity();
-  volume::HexNodes xe, x0;
-  for (int e = 0; e < mesh.num_hexahedra(); ++e) {
-    for (int k = 0; k < 8; ++k) {
-      xe[k] = x.segment<3>(3 * mesh.hexahedra[e][k]);
-      x0[k] = model_.rest_positions().segment<3>(3 * mesh.hexahedra[e][k]);
-    }
-    const auto sj = volume::corner_scaled_jacobians(xe);
-    const double m = *std::min_element(sj.begin(), sj.end());
-    if (m < res.worst_scaled_jacobian) {
-      res.worst_scaled_jacobian = m;
-      res.worst_element = e;
-    }
-    const double v0 = volume::hex_volume(x0);
-    const double dv = (v[e] - v0) / v0;
-    res.min_volume_change = std::min(res.min_volume_change, dv);
-    res.max_volume_change = std::max(res.max_volume_change, dv);
-  }
-  if (res.worst_element < 0) {
-    res.worst_scaled_jacobian = 1.0;
-    res.min_volume_change = res.max_volume_change = 0.0;
-  }
-}
-
-/// Why the continuation stalled at x (the last equilibrium), in words.
 std::string StaticSolver::stall_diagnosis(const VectorXd& x, StaticResult& res, double path_stiffness_ratio) const {
   const Impl& s = *impl_;
   describe_state(x, res);
@@ -325,35 +298,6 @@ bool StaticSolver::newton(const AppliedLoad& load, VectorXd& x, int max_iteratio
   Impl& s = *impl_;
   VectorXd r = static_residual(model_, dofs_, load.at(x), x);
   double rnorm = r.norm();
-  auto factorize = [&]() -> bool {
-    model_.jacobian(x, JacobianKind::SymmetricPsd, s.K);
-    dofs_.reduce_matrix(s.K, s.K_red);
-    s.K_red *= -1.0;  // K_psd = −J_psd
-    if (!s.analyzed) {
-      s.chol.analyzePattern(s.K_red);
-      s.analyzed = true;
-    }
-    for (int attempt = 0; attempt < 6; ++attempt) {
-      s.chol.setShift(s.shift);
-      s.chol.factorize(s.K_red);
-      if (s.chol.info() == Eigen::Success) {
-        ++res.factorizations;
-        s.factor_valid = true;
-        s.krylov_after_factor = -1;  // measured by the next Krylov solve
-        return true;
-      }
-      // Semi-definite (e.g. an unconstrained rigid mode): shift by a small multiple of the diagonal.
-      s.shift = s.shift == 0 ? 1e-10 * s.K_red.diagonal().cwiseAbs().maxCoeff() : s.shift * 100;
-    }
-    s.factor_valid = false;
-    return false;
-  };
-  // Refactorise when the preconditioner has aged: BiCGSTAB needs clearly more iterations than it
-  // did right after the last factorisation (and more than the configured floor).
-  auto stale = [&] {
-    return s.krylov_after_factor >= 0 &&
-           s.last_krylov_iterations > std::max(options_.refactor_krylov_iterations, 2 * s.krylov_after_factor);
-  };
   std::vector<double> history;  // ‖r‖ at the start of each iteration
   int it = 0;
   // A retry of the same iterate with a fresh factorisation (at most one per iterate: the retry is
@@ -381,80 +325,20 @@ bool StaticSolver::newton(const AppliedLoad& load, VectorXd& x, int max_iteratio
                                 "than {:.0f} %)", history[history.size() - 1 - k], rnorm, k, 100 * options_.stall_reduction);
       return false;
     }
-    const bool fresh = !s.factor_valid || stale();
-    if (fresh) {
-      if (!factorize()) {
-        res.message = "the stiffness matrix is singular: the model is not constrained against rigid motion";
-        return false;
-      }
+    const bool fresh = !s.factor_valid || s.stale();
+    if (fresh && !s.factorize(x, res)) {
+      res.message = "the stiffness matrix is singular: the model is not constrained against rigid motion";
+      return false;
     }
-    model_.jacobian(x, JacobianKind::Exact, s.J);
-    if (load.moving) load.moving->add_jacobian(x, load.scale, s.J);
-    dofs_.reduce_matrix(s.J, s.J_red);
-    s.J_red *= -1.0;  // solve (−J) δ = r
-    Eigen::BiCGSTAB<SparseMatrix, FactorPreconditioner> krylov;
-    krylov.preconditioner().factor = &s.chol;
-    krylov.setTolerance(options_.krylov_rel_tol);
-    krylov.setMaxIterations(options_.max_krylov_iterations);
-    krylov.compute(s.J_red);
-    VectorXd delta = krylov.solve(r);
-    const int kit = static_cast<int>(krylov.iterations());
-    res.krylov_iterations += kit;
-    s.last_krylov_iterations = kit;
-    if (s.krylov_after_factor < 0) s.krylov_after_factor = kit;
-    const bool krylov_ok = krylov.info() == Eigen::Success && delta.allFinite();
-    if (!krylov_ok && !fresh) {
-      s.factor_valid = false;  // retry this iterate with a fresh preconditioner
+    VectorXd delta;
+    int kit = 0;
+    bool krylov_ok = false;
+    if (!s.direction(load, x, r, fresh, res, delta, kit, krylov_ok)) {
       retry_iterate();
       continue;
     }
-    if (!krylov_ok) {
-      // BiCGSTAB failed even with a fresh preconditioner (e.g. an indefinite tangent): solve the
-      // true tangent by sparse LU, so that the direction is the exact Newton direction.
-      s.J_red.makeCompressed();
-      if (!s.lu_analyzed) {
-        s.lu.analyzePattern(s.J_red);
-        s.lu_analyzed = true;
-      }
-      s.lu.factorize(s.J_red);
-      if (s.lu.info() == Eigen::Success) delta = s.lu.solve(r);
-      if (s.lu.info() == Eigen::Success && delta.allFinite()) {
-        ++res.direct_solves;
-      } else {
-        delta = s.chol.solve(r);  // singular tangent: the SPD (modified Newton) direction
-      }
-      s.factor_valid = false;
-    }
-    if (options_.max_step_m > 0) {
-      const double m = delta.cwiseAbs().maxCoeff();
-      if (m > options_.max_step_m) delta *= options_.max_step_m / m;
-    }
-    // Backtracking line search on ‖r‖, rejecting inverted elements.
-    double t = 1.0;
-    bool accepted = false;
     int inverted_trials = 0;
-    VectorXd x_try(x.size());
-    for (int ls = 0; ls < options_.max_line_search; ++ls, t *= 0.5) {
-      x_try = x;
-      dofs_.add_expanded(t * delta, x_try);
-      if (model_.has_inverted_element(x_try)) {
-        ++inverted_trials;
-        continue;
-      }
-      VectorXd r_try = static_residual(model_, dofs_, load.at(x_try), x_try);
-      const double n_try = r_try.norm();
-      if (std::isfinite(n_try) && n_try < (1.0 - 1e-4 * t) * rnorm) {
-        log::debug("  Newton {}: |r| {:.3e} -> {:.3e} N, step {:.3g}, {} Krylov iterations{}{}", it, rnorm, n_try, t,
-                   kit, krylov_ok ? "" : " (Krylov failed)",
-                   inverted_trials > 0 ? fmt::format(", {} trial step(s) inverted an element", inverted_trials) : "");
-        x = x_try;
-        r = std::move(r_try);
-        rnorm = n_try;
-        accepted = true;
-        break;
-      }
-    }
-    if (!accepted) {
+    if (!s.line_search(load, delta, it, kit, krylov_ok, x, r, rnorm, inverted_trials)) {
       if (!fresh) {
         s.factor_valid = false;  // retry with a fresh factorisation at this iterate
         retry_iterate();
