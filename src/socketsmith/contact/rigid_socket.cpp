@@ -1,6 +1,7 @@
 #include "socketsmith/contact/rigid_socket.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <map>
 #include <optional>
@@ -33,6 +34,42 @@ constexpr double kMeanNormalFloor = 0.3;
 constexpr double kLipRadiusMin = 0.001, kLipRadiusMax = 0.005;
 constexpr double kLipReach = 0.02;
 constexpr double kLipBlendAngle = 0.26;  // [rad] ~15°: 0.65 mm past the rim on a 2.5 mm lip
+/// Barycentric coordinates of @p p (on the triangle's plane) in the triangle @p a, @p b, @p c; a
+/// third each for a degenerate triangle.
+std::array<double, 3> barycentric(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& p) {
+  const Vec3 v0 = b - a, v1 = c - a, v2 = p - a;
+  const double d00 = v0.dot(v0), d01 = v0.dot(v1), d11 = v1.dot(v1), d20 = v2.dot(v0), d21 = v2.dot(v1);
+  const double den = d00 * d11 - d01 * d01;
+  std::array<double, 3> bary = {1.0 / 3, 1.0 / 3, 1.0 / 3};
+  if (den > 0) {
+    bary[1] = (d11 * d20 - d01 * d21) / den;
+    bary[2] = (d00 * d21 - d01 * d20) / den;
+    bary[0] = 1.0 - bary[1] - bary[2];
+  }
+  return bary;
+}
+
+/// The smoothed gap @p s within kSmoothBand of the facets, the facets' distance @p g beyond
+/// kSmoothBand + kBlendBand, blended smoothly in between (share: the smoothed gap's), so that the
+/// gap is continuous where the band ends. @p d: q minus its closest point on the facets, |d| =
+/// @p dist. Nothing where the blend's gradient vanishes (the facets' gap then stands).
+std::optional<Gap> blended(const Gap& g, const Gap& s, const Vec3& d, double dist) {
+  const double tb = std::clamp((dist - kSmoothBand) / kBlendBand, 0.0, 1.0);
+  const double share = 1.0 - tb * tb * (3 - 2 * tb), db = -6 * tb * (1 - tb) / kBlendBand;
+  const Vec3 grad_s = s.gradient_norm * s.normal, grad_f = g.normal;  // ∇ of the facets' gap: its normal
+  const Vec3 grad = share * grad_s + (1 - share) * grad_f + (s.gap_m - g.gap_m) * db * (d / dist);
+  Gap out = g;
+  out.gap_m = share * s.gap_m + (1 - share) * g.gap_m;
+  out.gradient_norm = grad.norm();
+  if (!(out.gradient_norm > 1e-6)) return std::nullopt;
+  out.normal = grad / out.gradient_norm;
+  out.on_face = share == 1.0 || g.on_face;
+  out.stiffness_shape = share * grad * grad.transpose() + (1 - share) * g.stiffness_shape;
+  out.graded = true;
+  out.valid = true;
+  return out;
+}
+
 }  // namespace
 
 RigidSocket::~RigidSocket() = default;
@@ -447,16 +484,8 @@ Gap RigidSocket::gap(const Vec3& p) const {
   const double dist = d.norm();
   // Where on the triangle is the closest point: barycentric coordinates ≈ 0 mark edges/vertices.
   const auto& tri = inner_.triangles[hit.triangle];
-  const Vec3 a = inner_.vertices[tri[0]], b = inner_.vertices[tri[1]], c = inner_.vertices[tri[2]];
-  const Vec3 v0 = b - a, v1 = c - a, v2 = hit.point - a;
-  const double d00 = v0.dot(v0), d01 = v0.dot(v1), d11 = v1.dot(v1), d20 = v2.dot(v0), d21 = v2.dot(v1);
-  const double den = d00 * d11 - d01 * d01;
-  double bary[3] = {1.0 / 3, 1.0 / 3, 1.0 / 3};
-  if (den > 0) {
-    bary[1] = (d11 * d20 - d01 * d21) / den;
-    bary[2] = (d00 * d21 - d01 * d20) / den;
-    bary[0] = 1.0 - bary[1] - bary[2];
-  }
+  const std::array<double, 3> bary =
+      barycentric(inner_.vertices[tri[0]], inner_.vertices[tri[1]], inner_.vertices[tri[2]], hit.point);
   int zeros = 0, zero_at = -1;
   for (int k = 0; k < 3; ++k)
     if (bary[k] < 1e-9) {
@@ -494,23 +523,8 @@ Gap RigidSocket::gap(const Vec3& p) const {
   const std::optional<Gap> smoothed = smooth_gap(q, g);
   if (!smoothed) return with_lip(q, g, on_rim);  // no vertex's support covers q: the facets' gap and validity
   const Gap& s = *smoothed;
-  // The smoothed gap within kSmoothBand of the facets, the facets' distance beyond kSmoothBand +
-  // kBlendBand, blended smoothly in between (share: the smoothed gap's), so that the gap is
-  // continuous where the band ends.
-  const double tb = std::clamp((dist - kSmoothBand) / kBlendBand, 0.0, 1.0);
-  const double share = 1.0 - tb * tb * (3 - 2 * tb), db = -6 * tb * (1 - tb) / kBlendBand;
-  const Vec3 grad_s = s.gradient_norm * s.normal, grad_f = g.normal;  // ∇ of the facets' gap: its normal
-  const Vec3 grad = share * grad_s + (1 - share) * grad_f + (s.gap_m - g.gap_m) * db * (d / dist);
-  Gap out = g;
-  out.gap_m = share * s.gap_m + (1 - share) * g.gap_m;
-  out.gradient_norm = grad.norm();
-  if (!(out.gradient_norm > 1e-6)) return g;
-  out.normal = grad / out.gradient_norm;
-  out.on_face = share == 1.0 || g.on_face;
-  out.stiffness_shape = share * grad * grad.transpose() + (1 - share) * g.stiffness_shape;
-  out.graded = true;
-  out.valid = true;
-  return with_lip(q, out, on_rim);
+  const std::optional<Gap> out = blended(g, s, d, dist);
+  return out ? with_lip(q, *out, on_rim) : g;
 }
 
 Gap RigidSocket::with_lip(const Vec3& q, Gap wall, bool on_rim) const {
