@@ -3,11 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <map>
 #include <optional>
-#include <set>
-
-#include <Eigen/Eigenvalues>
 
 #include "socketsmith/core/errors.h"
 #include "socketsmith/geometry/mesh_checks.h"
@@ -28,12 +24,6 @@ constexpr double kSupport = 1.5;
 constexpr double kAgreeLow = 0.2, kAgreeHigh = 0.5;
 // Below this |Σ w_j n_j| / Σ w_j the mean normal is ill-defined (both sides of a thin cavity).
 constexpr double kMeanNormalFloor = 0.3;
-// The brim's lip: a half-round of half the wall's thickness (clamped), and how far from its centre
-// line a point is looked at. Past the rim, the inner wall's energy hands over to the lip's
-// over kLipBlendAngle about the lip's centre line.
-constexpr double kLipRadiusMin = 0.001, kLipRadiusMax = 0.005;
-constexpr double kLipReach = 0.02;
-constexpr double kLipBlendAngle = 0.26;  // [rad] ~15°: 0.65 mm past the rim on a 2.5 mm lip
 /// Barycentric coordinates of @p p (on the triangle's plane) in the triangle @p a, @p b, @p c; a
 /// third each for a degenerate triangle.
 std::array<double, 3> barycentric(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& p) {
@@ -96,6 +86,16 @@ RigidSocket::RigidSocket(geometry::TriMesh solid, const geometry::LimbFrame& fra
                          "the socket surface is not a manifold, consistently oriented solid ({} non-manifold, {} "
                          "misoriented edges): repair it",
                          rep.non_manifold_edges, rep.inconsistently_oriented_edges);
+  mass_properties();
+  const std::vector<int> cavity = find_inner_wall();
+  const std::vector<int> wall_of = smooth_wall_vertices();
+  fit_vertex_quadrics(wall_of);
+  build_vertex_grid();
+  centre_vertex_surfaces(wall_of);
+  build_lip(wall_of, cavity);
+}
+
+void RigidSocket::mass_properties() {
   // Mass properties of the (outward) closed solid: signed tetrahedra from the origin.
   double vol = 0;
   Vec3 c = Vec3::Zero();
@@ -111,17 +111,20 @@ RigidSocket::RigidSocket(geometry::TriMesh solid, const geometry::LimbFrame& fra
   }
   require<TopologyError>(vol > 0, "the socket solid is inside-out or empty (volume {:.3g} m^3): flip its triangles", vol);
   com_ = c / vol;
-  mass_ = density * vol;
-  const Eigen::Matrix3d cov = density * (second - vol * com_ * com_.transpose());
+  mass_ = density_ * vol;
+  const Eigen::Matrix3d cov = density_ * (second - vol * com_ * com_.transpose());
   inertia_ = cov.trace() * Eigen::Matrix3d::Identity() - cov;
+}
+
+std::vector<int> RigidSocket::find_inner_wall() {
   // The socket must surround the limb's axis: horizontal rays from the axis, at three heights of
   // the socket, hit a wall that faces them in (nearly) every direction.
   int facing = 0;
-  require(geometry::surrounds_axis(solid_, frame, &facing),
+  require(geometry::surrounds_axis(solid_, frame_, &facing),
           "the socket does not surround the limb: from the limb's axis at 30-70 % of the socket's height only {} of 8 "
           "directions meet its inner wall (place it around the stump, check its units and the limb frame)",
           facing);
-  const std::vector<int> cavity = geometry::cavity_triangles(solid_, frame);  // inner wall: seen from the axis
+  const std::vector<int> cavity = geometry::cavity_triangles(solid_, frame_);  // inner wall: seen from the axis
   for (int i : cavity) {
     inner_.triangles.push_back(solid_.triangles[i]);
     inner_normals_.push_back(geometry::triangle_normal(solid_, i));
@@ -131,6 +134,10 @@ RigidSocket::RigidSocket(geometry::TriMesh solid, const geometry::LimbFrame& fra
           "the socket does not surround the limb: no part of it is seen from the limb's axis (place it around the "
           "stump, check its units)");
   query_ = std::make_unique<geometry::SurfaceQuery>(inner_);
+  return cavity;
+}
+
+std::vector<int> RigidSocket::smooth_wall_vertices() {
   // The smoothed wall's data: per used vertex an angle-weighted normal and the mean length of its
   // edges; a uniform grid over the vertices.
   const int nv = static_cast<int>(inner_.vertices.size());
@@ -162,6 +169,10 @@ RigidSocket::RigidSocket(geometry::TriMesh solid, const geometry::LimbFrame& fra
     rho_max = std::max(rho_max, rho);
   }
   cell_ = std::max(rho_max, 1e-6);
+  return wall_of;
+}
+
+void RigidSocket::fit_vertex_quadrics(const std::vector<int>& wall_of) {
   // Each vertex's local surface is a quadric h = ½ dᵀ H d over its tangent plane, H fitted (least
   // squares) to the heights of its neighbours: the blend of planes alone lay up to ~1 mm off the
   // facets where the wall curves strongly (its error grows with the square of the support).
@@ -195,6 +206,9 @@ RigidSocket::RigidSocket(geometry::TriMesh solid, const geometry::LimbFrame& fra
     wall_h_[j] = abc[0] * t1 * t1.transpose() + abc[1] * (t1 * t2.transpose() + t2 * t1.transpose()) +
                  abc[2] * t2 * t2.transpose();
   }
+}
+
+void RigidSocket::build_vertex_grid() {
   Vec3 lo = Vec3::Constant(1e30), hi = Vec3::Constant(-1e30);
   for (const auto& v : wall_v_) {
     lo = lo.cwiseMin(v);
@@ -213,6 +227,9 @@ RigidSocket::RigidSocket(geometry::TriMesh solid, const geometry::LimbFrame& fra
   cell_items_.resize(wall_v_.size());
   std::vector<int> fill(cell_start_.begin(), cell_start_.end() - 1);
   for (int j = 0; j < static_cast<int>(wall_v_.size()); ++j) cell_items_[fill[cell_of(wall_v_[j])]++] = j;
+}
+
+void RigidSocket::centre_vertex_surfaces(const std::vector<int>& wall_of) {
   // A surface through the vertices lies outside the facets where the wall curves (the facets are
   // its chords): shift each vertex's surface by the mean smooth gap at the midpoints of its
   // triangles' edges (the midpoint rule integrates a quadratic deviation over a triangle
@@ -238,155 +255,6 @@ RigidSocket::RigidSocket(geometry::TriMesh solid, const geometry::LimbFrame& fra
     for (size_t j = 0; j < wall_c_.size(); ++j)
       if (cnt[j] > 0) wall_c_[j] += sum[j] / cnt[j];
   }
-  build_lip(wall_of, cavity);
-}
-
-void RigidSocket::build_lip(const std::vector<int>& wall_of, const std::vector<int>& cavity) {
-  // The inner wall's boundary edges (a directed edge whose twin is not in the wall): the brim's
-  // rim, and the rims of any holes. Beyond an edge a → b lies the direction (b − a) × n, n the
-  // wall's normal into the cavity (the triangle is counter-clockwise seen from the cavity).
-  std::set<std::pair<int, int>> directed;
-  for (const auto& t : inner_.triangles)
-    for (int k = 0; k < 3; ++k) directed.insert({t[k], t[(k + 1) % 3]});
-  std::map<int, int> lip_of;  // mesh vertex → index into lip_o_
-  std::vector<std::pair<int, int>> edges;
-  for (const auto& e : directed) {
-    if (directed.count({e.second, e.first}) > 0) continue;
-    edges.push_back(e);
-    for (const int v : {e.first, e.second})
-      if (!lip_of.count(v) && wall_of[v] >= 0) {
-        lip_of[v] = static_cast<int>(lip_o_.size());
-        lip_o_.push_back(inner_.vertices[v]);
-        lip_n_.push_back(wall_n_[wall_of[v]]);
-        lip_b_.push_back(Vec3::Zero());
-      }
-  }
-  if (edges.empty()) return;
-  rim_vertex_.assign(inner_.vertices.size(), 0);
-  for (const auto& [a, b] : edges) rim_vertex_[a] = rim_vertex_[b] = 1;
-  for (const auto& [a, b] : edges) {
-    if (!lip_of.count(a) || !lip_of.count(b)) continue;
-    const int ia = lip_of[a], ib = lip_of[b];
-    const Vec3 beyond = (inner_.vertices[b] - inner_.vertices[a]).cross(0.5 * (lip_n_[ia] + lip_n_[ib]));
-    lip_b_[ia] += beyond;
-    lip_b_[ib] += beyond;
-    lip_seg_.push_back({ia, ib});
-  }
-  // The lip's radius: half the wall's thickness, measured from the inner wall's vertices along
-  // their normals (outwards, into the wall) to the rest of the solid; its median, 1–5 mm.
-  geometry::TriMesh rest;
-  rest.vertices = solid_.vertices;
-  std::vector<char> in_wall(solid_.triangles.size(), 0);
-  for (int i : cavity) in_wall[i] = 1;
-  for (size_t i = 0; i < solid_.triangles.size(); ++i)
-    if (!in_wall[i]) rest.triangles.push_back(solid_.triangles[i]);
-  std::vector<double> thickness;
-  if (!rest.triangles.empty()) {
-    const geometry::SurfaceQuery outer(rest);
-    const size_t stride = std::max<size_t>(1, wall_v_.size() / 500);
-    for (size_t j = 0; j < wall_v_.size(); j += stride)
-      if (const auto hit = outer.first_hit(wall_v_[j] - 1e-7 * wall_n_[j], -wall_n_[j]))
-        thickness.push_back(hit->distance);
-  }
-  double t = 0.004;
-  if (!thickness.empty()) {
-    std::nth_element(thickness.begin(), thickness.begin() + thickness.size() / 2, thickness.end());
-    t = thickness[thickness.size() / 2];
-  }
-  lip_radius_ = std::clamp(0.5 * t, kLipRadiusMin, kLipRadiusMax);
-  for (size_t k = 0; k < lip_o_.size(); ++k) {
-    lip_b_[k] = (lip_b_[k] - lip_b_[k].dot(lip_n_[k]) * lip_n_[k]).normalized();
-    lip_o_[k] -= lip_radius_ * lip_n_[k];
-  }
-  // The rim's chains: each segment's neighbours (where a vertex has one incoming and one outgoing
-  // segment) and the unit tangent at each vertex (along its chain, from the neighbours).
-  std::vector<int> seg_in(lip_o_.size(), -1), seg_out(lip_o_.size(), -1);
-  for (int k = 0; k < static_cast<int>(lip_seg_.size()); ++k) {
-    const auto& [a, b] = lip_seg_[k];
-    seg_out[a] = seg_out[a] == -1 ? k : -2;  // −2: more than one (a pinched rim): no neighbour
-    seg_in[b] = seg_in[b] == -1 ? k : -2;
-  }
-  lip_seg_next_.assign(lip_seg_.size(), -1);
-  lip_seg_prev_.assign(lip_seg_.size(), -1);
-  for (int k = 0; k < static_cast<int>(lip_seg_.size()); ++k) {
-    const auto& [a, b] = lip_seg_[k];
-    if (seg_out[b] >= 0) lip_seg_next_[k] = seg_out[b];
-    if (seg_in[a] >= 0) lip_seg_prev_[k] = seg_in[a];
-  }
-  lip_t_.assign(lip_o_.size(), Vec3::Zero());
-  for (size_t v = 0; v < lip_o_.size(); ++v) {
-    const Vec3 from = seg_in[v] >= 0 ? lip_o_[lip_seg_[seg_in[v]].first] : lip_o_[v];
-    const Vec3 to = seg_out[v] >= 0 ? lip_o_[lip_seg_[seg_out[v]].second] : lip_o_[v];
-    const Vec3 along = to - from;
-    lip_t_[v] = along.norm() > 0 ? Vec3(along.normalized()) : Vec3::Zero();
-  }
-}
-
-std::optional<RigidSocket::LipHit> RigidSocket::lip_hit(const Vec3& q) const {
-  // The closest segment of the centre line as a polyline (brute force: a brim has a few hundred
-  // segments and only points near the wall ask), then the closest point on the smooth curve
-  // through it by Newton on the curve's parameter, hopping to the next segment when it runs off.
-  // The distance to the polyline has a kink where two segments are equally close (inside every
-  // corner of the rim): a node on the lip there would stall Newton as the facets' kinks did.
-  double best = kLipReach * kLipReach;
-  int seg = -1;
-  double tau = 0;
-  for (int k = 0; k < static_cast<int>(lip_seg_.size()); ++k) {
-    const auto& [a, b] = lip_seg_[k];
-    const Vec3 e = lip_o_[b] - lip_o_[a];
-    const double ee = e.squaredNorm();
-    const double t = ee > 0 ? std::clamp((q - lip_o_[a]).dot(e) / ee, 0.0, 1.0) : 0.0;
-    const double d2 = (q - lip_o_[a] - t * e).squaredNorm();
-    if (d2 >= best) continue;
-    best = d2;
-    seg = k;
-    tau = t;
-  }
-  if (seg < 0) return std::nullopt;
-  // Cubic Hermite segment from o_a to o_b with tangents L t_a, L t_b (L its chord, t the unit
-  // tangents at the vertices): the curve turns smoothly through every vertex.
-  const auto curve = [&](int k, double t, Vec3& c, Vec3& dc, Vec3& ddc) {
-    const auto& [a, b] = lip_seg_[k];
-    const double L = (lip_o_[b] - lip_o_[a]).norm();
-    const Vec3 m0 = L * lip_t_[a], m1 = L * lip_t_[b];
-    const double t2 = t * t, t3 = t2 * t;
-    c = (2 * t3 - 3 * t2 + 1) * lip_o_[a] + (t3 - 2 * t2 + t) * m0 + (-2 * t3 + 3 * t2) * lip_o_[b] + (t3 - t2) * m1;
-    dc = (6 * t2 - 6 * t) * lip_o_[a] + (3 * t2 - 4 * t + 1) * m0 + (-6 * t2 + 6 * t) * lip_o_[b] + (3 * t2 - 2 * t) * m1;
-    ddc = (12 * t - 6) * lip_o_[a] + (6 * t - 4) * m0 + (-12 * t + 6) * lip_o_[b] + (6 * t - 2) * m1;
-  };
-  Vec3 c, dc, ddc;
-  for (int it = 0, hops = 0; it < 20; ++it) {
-    curve(seg, tau, c, dc, ddc);
-    const double f = (c - q).dot(dc);
-    double df = dc.squaredNorm() + (c - q).dot(ddc);
-    if (!(df > 0.1 * dc.squaredNorm())) df = dc.squaredNorm();
-    if (!(df > 0)) break;
-    const double step = -f / df;
-    tau += step;
-    if (tau < 0 && lip_seg_prev_[seg] >= 0 && hops < 4) {
-      seg = lip_seg_prev_[seg];
-      tau += 1;
-      ++hops;
-    } else if (tau > 1 && lip_seg_next_[seg] >= 0 && hops < 4) {
-      seg = lip_seg_next_[seg];
-      tau -= 1;
-      ++hops;
-    }
-    tau = std::clamp(tau, 0.0, 1.0);
-    if (std::abs(step) < 1e-12) break;
-  }
-  curve(seg, tau, c, dc, ddc);
-  const auto& [a, b] = lip_seg_[seg];
-  LipHit h;
-  h.centre = c;
-  h.normal = ((1 - tau) * lip_n_[a] + tau * lip_n_[b]).normalized();
-  h.beyond = ((1 - tau) * lip_b_[a] + tau * lip_b_[b]).normalized();
-  const Vec3 d = q - c;
-  const double D = d.norm();
-  h.direction = D > 1e-12 ? Vec3(d / D) : h.normal;
-  h.gap_m = D - lip_radius_;
-  h.past_m = d.dot(h.beyond);
-  return h;
 }
 
 std::optional<Gap> RigidSocket::smooth_gap(const Vec3& q, Gap g) const {
@@ -525,61 +393,6 @@ Gap RigidSocket::gap(const Vec3& p) const {
   const Gap& s = *smoothed;
   const std::optional<Gap> out = blended(g, s, d, dist);
   return out ? with_lip(q, *out, on_rim) : g;
-}
-
-Gap RigidSocket::with_lip(const Vec3& q, Gap wall, bool on_rim) const {
-  // Past the rim the wall ends in its lip, a half-round a node can press on or slide over. The
-  // inner wall's energy ½ k A gap² hands over to the lip's smoothly, by the angle φ of q about the
-  // lip's centre line (0 level with the rim on the cavity's side, 90° straight past it) from 0 to
-  // kLipBlendAngle: the two agree where the lip's tube touches the wall, so the handover costs
-  // little. Behind the centre line (a node hanging over the outer side of the lip) only the lip
-  // counts past the rim: the wall's extension would hold it millimetres deep. A fade of the wall's
-  // contact to nothing past the rim made nodes pressed on the rim feel the wall's extension hard,
-  // and Newton crawled (AmpScan's limb: docs/contact.md).
-  const std::optional<LipHit> lip = lip_hit(q);
-  if (!lip || lip->past_m <= 0) {
-    if (!lip && on_rim) wall.valid = false;  // far past the rim: nothing to touch
-    return wall;
-  }
-  Gap out = wall;
-  out.valid = true;
-  out.graded = true;
-  const Vec3 d = q - lip->centre;
-  const double a = d.dot(lip->normal), s = lip->past_m, rr = a * a + s * s;
-  const double phi = std::atan2(s, a);  // in (0, π): s > 0
-  const double tb = std::min(phi / kLipBlendAngle, 1.0);
-  const double beta = tb * tb * (3 - 2 * tb);
-  const Vec3 dbeta = tb < 1 ? Vec3((6 * tb * (1 - tb) / kLipBlendAngle) * (a * lip->beyond - s * lip->normal) / rr)
-                            : Vec3::Zero();
-  const double pw = std::min(wall.gap_m, 0.0), pr = std::min(lip->gap_m, 0.0);
-  const Vec3 grad_w = wall.gradient_norm * wall.normal, grad_r = lip->direction;
-  const double G = (1 - beta) * pw * pw + beta * pr * pr;  // energy / (½ k A)
-  if (beta >= 1.0 || G <= 0) {
-    // The lip alone, or no contact: the gap of the nearer surface (a lower bound for the cache).
-    if (beta < 1.0 && wall.gap_m < lip->gap_m) return out;
-    out.gap_m = lip->gap_m;
-    out.normal = grad_r;
-    out.gradient_norm = 1.0;
-    out.point = lip->centre + lip_radius_ * lip->direction + translation_;
-    out.on_face = true;
-    out.stiffness_shape = grad_r * grad_r.transpose();
-    return out;
-  }
-  // Blend of the energies: gap = −√G, ∇gap = ∇G / (2 gap); the stiffness is ∇²(G/2) without the
-  // surfaces' curvatures, the blend's cross terms included, projected on its positive part.
-  const Vec3 jump = pr * grad_r - pw * grad_w;
-  const Vec3 dG = 2 * (1 - beta) * pw * grad_w + 2 * beta * pr * grad_r + (pr * pr - pw * pw) * dbeta;
-  out.gap_m = -std::sqrt(G);
-  const Vec3 grad = dG / (2 * out.gap_m);
-  out.gradient_norm = grad.norm();
-  if (!(out.gradient_norm > 1e-9)) return wall;
-  out.normal = grad / out.gradient_norm;
-  const Eigen::Matrix3d H = (pw < 0 ? (1 - beta) : 0.0) * grad_w * grad_w.transpose() +
-                            (pr < 0 ? beta : 0.0) * grad_r * grad_r.transpose() + dbeta * jump.transpose() +
-                            jump * dbeta.transpose();
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(H);
-  out.stiffness_shape = eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).asDiagonal() * eig.eigenvectors().transpose();
-  return out;
 }
 
 }  // namespace socketsmith::contact

@@ -134,6 +134,21 @@ class RigidSocket : public Obstacle {
     double past_m = 0.0;                     // (q − centre) · beyond: > 0 past the rim
   };
   std::optional<LipHit> lip_hit(const Vec3& q) const;
+  // The constructor's steps, in order.
+  /// Mass, centre of mass and inertia of the (outward) closed solid.
+  void mass_properties();
+  /// The inner wall (the triangles seen from the limb's axis) and its query structure; the
+  /// solid's triangles that form it. @throws InvalidInputError when the socket does not surround the limb.
+  std::vector<int> find_inner_wall();
+  /// The smoothed wall's vertices (per used vertex an angle-weighted normal and a support radius
+  /// from its edges); each solid vertex's index among them (−1: none).
+  std::vector<int> smooth_wall_vertices();
+  /// Each wall vertex's local quadric over its tangent plane (wall_h_), fitted to its neighbours.
+  void fit_vertex_quadrics(const std::vector<int>& wall_of);
+  /// The uniform grid over the wall's vertices (cell: the largest support radius).
+  void build_vertex_grid();
+  /// The offsets wall_c_ that make the smoothed wall pass through the facets on average.
+  void centre_vertex_surfaces(const std::vector<int>& wall_of);
   /// @p wall_of: each solid vertex's index among the wall's vertices (−1: none); @p cavity: the
   /// solid's triangles that form the inner wall.
   void build_lip(const std::vector<int>& wall_of, const std::vector<int>& cavity);
