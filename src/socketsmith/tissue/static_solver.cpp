@@ -372,6 +372,66 @@ StaticResult StaticSolver::solve(const PositionDependentLoad& load, VectorXd& x)
   return solve_load({VectorXd::Zero(model_.num_dofs()), &load, 1.0}, x);
 }
 
+bool StaticSolver::continue_load(const AppliedLoad& load, const VectorXd& x0, double tol, VectorXd& x,
+                                 StaticResult& res) {
+  x = x0;
+  const VectorXd f0 = -model_.elastic_forces(x0);
+  double lambda = 0.0, step = 0.25;
+  const double loose_tol = std::max(tol, 1e3 * options_.rel_tol * res.reference_force_n);
+  // Secant stiffness of the path, Δλ/‖Δx‖, of the first and of the last accepted load step: their
+  // ratio tells how much the structure has softened (→ 0 at a limit point or a collapse).
+  double first_stiffness = 0.0, last_stiffness = 0.0;
+  while (lambda < 1.0) {
+    const double target = std::min(1.0, lambda + step);
+    VectorXd x_try = x;
+    const AppliedLoad f{(1.0 - target) * f0 + target * load.constant, load.moving, target * load.scale};
+    const bool last = target >= 1.0;
+    log::debug("StaticSolver: load step {:.4g} -> {:.4g}", lambda, target);
+    if (newton(f, x_try, options_.continuation_newton_iterations, last ? tol : loose_tol, res)) {
+      const double moved = (x_try - x).norm();
+      if (moved > 0) {
+        last_stiffness = (target - lambda) / moved;
+        if (first_stiffness == 0.0) first_stiffness = last_stiffness;
+      }
+      x = std::move(x_try);
+      step = std::min(2.0 * (target - lambda), 1.0);
+      lambda = target;
+      ++res.load_steps;
+    } else {
+      step = 0.5 * (target - lambda);
+      const double ratio = first_stiffness > 0 ? last_stiffness / first_stiffness : 0.0;
+      const bool flat = res.load_steps >= 2 && ratio > 0 && ratio < options_.collapse_stiffness_ratio;
+      if (step < options_.min_load_step || flat) {
+        res.load_fraction = lambda;
+        res.message = fmt::format("diverged: load continuation stalled at {:.1f}% of the load ({}{}); {}", 100 * lambda,
+                                  res.message,
+                                  flat ? fmt::format("; stopped: the path's stiffness fell below {:.2g}% of its initial "
+                                                     "value (collapse_stiffness_ratio)",
+                                                     100 * options_.collapse_stiffness_ratio)
+                                       : std::string(),
+                                  stall_diagnosis(x, res, ratio));
+        break;
+      }
+    }
+  }
+  return lambda >= 1.0;
+}
+
+void StaticSolver::check_stability(const VectorXd& x, StaticResult& res) const {
+  res.stability = tangent_stability(model_, dofs_, x);
+  ElementStabilityRange range;
+  res.elements_outside_stable_range = count_outside_stable_range(x, range);
+  if (res.stability.determinant_sign < 0) {
+    res.converged = false;
+    res.message = fmt::format(
+        "unstable: converged to an equilibrium (residual {:.3g} N) whose tangent has a negative eigenvalue "
+        "(det < 0; softest eigenvalue {:.3g} N/m, largest at node {}; element volume changes {:+.1f}% to {:+.1f}%): "
+        "the tissue model cannot hold this state (docs/tissue.md)",
+        res.residual_n, res.stability.softest_eigenvalue, res.stability.softest_mode_node,
+        100 * res.min_volume_change, 100 * res.max_volume_change);
+  }
+}
+
 StaticResult StaticSolver::solve_load(const AppliedLoad& load, VectorXd& x) {
   require(x.allFinite(), "StaticSolver::solve: initial positions contain NaN or inf");
   StaticResult res;
@@ -395,65 +455,13 @@ StaticResult StaticSolver::solve_load(const AppliedLoad& load, VectorXd& x) {
   //    position-dependent part of f_ext is scaled by λ as it moves).
   if (!res.converged) {
     log::debug("StaticSolver: direct Newton failed ({}); continuing the load", res.message);
-    x = x0;
-    const VectorXd f0 = -model_.elastic_forces(x0);
-    double lambda = 0.0, step = 0.25;
-    const double loose_tol = std::max(tol, 1e3 * options_.rel_tol * res.reference_force_n);
-    // Secant stiffness of the path, Δλ/‖Δx‖, of the first and of the last accepted load step: their
-    // ratio tells how much the structure has softened (→ 0 at a limit point or a collapse).
-    double first_stiffness = 0.0, last_stiffness = 0.0;
-    while (lambda < 1.0) {
-      const double target = std::min(1.0, lambda + step);
-      VectorXd x_try = x;
-      const AppliedLoad f{(1.0 - target) * f0 + target * load.constant, load.moving, target * load.scale};
-      const bool last = target >= 1.0;
-      log::debug("StaticSolver: load step {:.4g} -> {:.4g}", lambda, target);
-      if (newton(f, x_try, options_.continuation_newton_iterations, last ? tol : loose_tol, res)) {
-        const double moved = (x_try - x).norm();
-        if (moved > 0) {
-          last_stiffness = (target - lambda) / moved;
-          if (first_stiffness == 0.0) first_stiffness = last_stiffness;
-        }
-        x = std::move(x_try);
-        step = std::min(2.0 * (target - lambda), 1.0);
-        lambda = target;
-        ++res.load_steps;
-      } else {
-        step = 0.5 * (target - lambda);
-        const double ratio = first_stiffness > 0 ? last_stiffness / first_stiffness : 0.0;
-        const bool flat = res.load_steps >= 2 && ratio > 0 && ratio < options_.collapse_stiffness_ratio;
-        if (step < options_.min_load_step || flat) {
-          res.load_fraction = lambda;
-          res.message = fmt::format("diverged: load continuation stalled at {:.1f}% of the load ({}{}); {}", 100 * lambda,
-                                    res.message,
-                                    flat ? fmt::format("; stopped: the path's stiffness fell below {:.2g}% of its initial "
-                                                       "value (collapse_stiffness_ratio)",
-                                                       100 * options_.collapse_stiffness_ratio)
-                                         : std::string(),
-                                    stall_diagnosis(x, res, ratio));
-          break;
-        }
-      }
-    }
-    res.converged = lambda >= 1.0;
+    res.converged = continue_load(load, x0, tol, x, res);
     if (res.converged) res.load_fraction = 1.0;
   }
   if (res.worst_element < 0) describe_state(x, res);
   if (res.converged && options_.check_stability && options_.stability_check_max_dofs > 0 &&
-      dofs_.num_reduced() <= options_.stability_check_max_dofs) {
-    res.stability = tangent_stability(model_, dofs_, x);
-    ElementStabilityRange range;
-    res.elements_outside_stable_range = count_outside_stable_range(x, range);
-    if (res.stability.determinant_sign < 0) {
-      res.converged = false;
-      res.message = fmt::format(
-          "unstable: converged to an equilibrium (residual {:.3g} N) whose tangent has a negative eigenvalue "
-          "(det < 0; softest eigenvalue {:.3g} N/m, largest at node {}; element volume changes {:+.1f}% to {:+.1f}%): "
-          "the tissue model cannot hold this state (docs/tissue.md)",
-          res.residual_n, res.stability.softest_eigenvalue, res.stability.softest_mode_node,
-          100 * res.min_volume_change, 100 * res.max_volume_change);
-    }
-  }
+      dofs_.num_reduced() <= options_.stability_check_max_dofs)
+    check_stability(x, res);
   if (res.converged) {
     res.message = fmt::format("converged in {} iterations{}, residual {:.3g} N", res.iterations,
                               res.load_steps > 0 ? fmt::format(" ({} load steps)", res.load_steps) : std::string(),

@@ -164,6 +164,12 @@ class StaticSolver {
     VectorXd at(const VectorXd& x) const { return moving ? VectorXd(constant + scale * moving->forces(x)) : constant; }
   };
   StaticResult solve_load(const AppliedLoad& load, VectorXd& x);
+  /// Load continuation after plain Newton failed: f(λ) = f₀ + λ (f_ext − f₀) with f₀ = −f_int(x₀),
+  /// λ: 0 → 1 in adaptive steps, into @p x (from @p x0); true when the whole load is reached.
+  bool continue_load(const AppliedLoad& load, const VectorXd& x0, double tol, VectorXd& x, StaticResult& res);
+  /// The converged state's stability: the tangent's determinant sign (unstable: not converged)
+  /// and the elements beyond the volume change at which one element is stable.
+  void check_stability(const VectorXd& x, StaticResult& res) const;
   /// @param stall_iterations give up when ‖r‖ has not halved over this many iterations (0: never).
   bool newton(const AppliedLoad& load, VectorXd& x, int max_iterations, double tol, StaticResult& res,
               int stall_iterations = 0);
