@@ -345,6 +345,65 @@ bool MassSpringModel::forces_and_energy(const VectorXd& x, VectorXd& f, double& 
   return true;
 }
 
+void MassSpringModel::add_cf_stiffness(const Element& el, const int* eb, const volume::HexNodes& xe,
+                                       const volume::HexGradient& grad, double dv, bool psd, double* val) const {
+  volume::HexHessian hess;
+  // W = ½ ΔK V0 δv²: K = ΔK/V0 ∇V ∇Vᵀ + ΔK δv ∇²V (second term dropped for PSD).
+  const double a = cf_bulk_increment_pa_ / el.rest_volume;
+  if (!psd) volume::hex_volume_hessian(xe, hess);
+  for (int p = 0; p < 8; ++p)
+    for (int q = 0; q < 8; ++q) {
+      Matrix3d B = a * grad[p] * grad[q].transpose();
+      if (!psd) B += cf_bulk_increment_pa_ * dv * hess.block<3, 3>(3 * p, 3 * q);
+      add_block(val, eb[p * 8 + q], el.nodes[q], B);
+    }
+}
+
+void MassSpringModel::add_cs_stiffness(size_t e, const Element& el, const int* eb, const volume::HexNodes& xe,
+                                       const volume::HexGradient& grad, double dv, bool psd,
+                                       const VectorXd* corrective_slopes, double* val) const {
+  double dk = 0.0;
+  const double kp = corrective_law(dv, el.edge_length, &dk);
+  if (corrective_slopes) dk = (*corrective_slopes)[static_cast<Eigen::Index>(e)];
+  Eigen::Matrix<double, 24, 1> r = Eigen::Matrix<double, 24, 1>::Zero();  // force per unit k'
+  for (int s = 0; s < 16; ++s) {
+    const auto& c = corrective_[e * 16 + s];
+    const Vec3 d = xe[c.b] - xe[c.a];
+    const double l = d.norm();
+    const Vec3 u = d / l;
+    if (kp != 0.0) {
+      const Matrix3d H = spring_hessian(xe[c.a], xe[c.b], kp, c.rest, psd);
+      add_block(val, eb[c.a * 8 + c.a], el.nodes[c.a], H);
+      add_block(val, eb[c.a * 8 + c.b], el.nodes[c.b], -H);
+      add_block(val, eb[c.b * 8 + c.a], el.nodes[c.a], -H);
+      add_block(val, eb[c.b * 8 + c.b], el.nodes[c.b], H);
+    }
+    r.segment<3>(3 * c.a) += (l - c.rest) * u;
+    r.segment<3>(3 * c.b) -= (l - c.rest) * u;
+  }
+  if (dk == 0.0) return;
+  // f = k'(δv) r(x): ∂f/∂x gains r ⊗ ∇k' = r ⊗ (dk'/dδv ∇V / V0); K = −J.
+  const double s = dk / el.rest_volume;
+  if (psd) {
+    // Symmetric PSD surrogate: project r on ∇V, giving −s (r·∇V)/|∇V|² ∇V ∇Vᵀ — a volumetric
+    // stiffness like MSS-CF's, kept when positive (corrective springs resisting the volume
+    // change). It makes the coupling semi-implicit and the preconditioner see it.
+    double rg = 0.0, gg = 0.0;
+    for (int p = 0; p < 8; ++p) {
+      rg += r.segment<3>(3 * p).dot(grad[p]);
+      gg += grad[p].squaredNorm();
+    }
+    const double coef = gg > 0 ? -s * rg / gg : 0.0;
+    if (coef <= 0) return;
+    for (int p = 0; p < 8; ++p)
+      for (int q = 0; q < 8; ++q) add_block(val, eb[p * 8 + q], el.nodes[q], coef * grad[p] * grad[q].transpose());
+    return;
+  }
+  for (int p = 0; p < 8; ++p)
+    for (int q = 0; q < 8; ++q)
+      add_block(val, eb[p * 8 + q], el.nodes[q], -s * r.segment<3>(3 * p) * grad[q].transpose());
+}
+
 void MassSpringModel::jacobian(const VectorXd& x, JacobianKind kind, SparseMatrix& J,
                                const VectorXd* corrective_slopes) const {
   require(x.size() == num_dofs(), "jacobian: x has {} entries (expected 3N = {})", x.size(), num_dofs());
@@ -377,65 +436,16 @@ void MassSpringModel::jacobian(const VectorXd& x, JacobianKind kind, SparseMatri
   const bool cf = options_.kind == TissueModelKind::MssCf;
   if (cs || cf) {
     volume::HexGradient grad;
-    volume::HexHessian hess;
     for (size_t e = 0; e < elements_.size(); ++e) {
       const auto& el = elements_[e];
       const int* eb = &element_blocks_[e * 64];
       const volume::HexNodes xe = gather_nodes(x, el.nodes);
       const double v = volume::hex_volume_gradient(xe, grad);
       const double dv = (v - el.rest_volume) / el.rest_volume;
-      if (cf) {
-        // W = ½ ΔK V0 δv²: K = ΔK/V0 ∇V ∇Vᵀ + ΔK δv ∇²V (second term dropped for PSD).
-        const double a = cf_bulk_increment_pa_ / el.rest_volume;
-        if (!psd) volume::hex_volume_hessian(xe, hess);
-        for (int p = 0; p < 8; ++p)
-          for (int q = 0; q < 8; ++q) {
-            Matrix3d B = a * grad[p] * grad[q].transpose();
-            if (!psd) B += cf_bulk_increment_pa_ * dv * hess.block<3, 3>(3 * p, 3 * q);
-            add_block(val, eb[p * 8 + q], el.nodes[q], B);
-          }
-        continue;
-      }
-      double dk = 0.0;
-      const double kp = corrective_law(dv, el.edge_length, &dk);
-      if (corrective_slopes) dk = (*corrective_slopes)[static_cast<Eigen::Index>(e)];
-      Eigen::Matrix<double, 24, 1> r = Eigen::Matrix<double, 24, 1>::Zero();  // force per unit k'
-      for (int s = 0; s < 16; ++s) {
-        const auto& c = corrective_[e * 16 + s];
-        const Vec3 d = xe[c.b] - xe[c.a];
-        const double l = d.norm();
-        const Vec3 u = d / l;
-        if (kp != 0.0) {
-          const Matrix3d H = spring_hessian(xe[c.a], xe[c.b], kp, c.rest, psd);
-          add_block(val, eb[c.a * 8 + c.a], el.nodes[c.a], H);
-          add_block(val, eb[c.a * 8 + c.b], el.nodes[c.b], -H);
-          add_block(val, eb[c.b * 8 + c.a], el.nodes[c.a], -H);
-          add_block(val, eb[c.b * 8 + c.b], el.nodes[c.b], H);
-        }
-        r.segment<3>(3 * c.a) += (l - c.rest) * u;
-        r.segment<3>(3 * c.b) -= (l - c.rest) * u;
-      }
-      if (dk == 0.0) continue;
-      // f = k'(δv) r(x): ∂f/∂x gains r ⊗ ∇k' = r ⊗ (dk'/dδv ∇V / V0); K = −J.
-      const double s = dk / el.rest_volume;
-      if (psd) {
-        // Symmetric PSD surrogate: project r on ∇V, giving −s (r·∇V)/|∇V|² ∇V ∇Vᵀ — a volumetric
-        // stiffness like MSS-CF's, kept when positive (corrective springs resisting the volume
-        // change). It makes the coupling semi-implicit and the preconditioner see it.
-        double rg = 0.0, gg = 0.0;
-        for (int p = 0; p < 8; ++p) {
-          rg += r.segment<3>(3 * p).dot(grad[p]);
-          gg += grad[p].squaredNorm();
-        }
-        const double coef = gg > 0 ? -s * rg / gg : 0.0;
-        if (coef <= 0) continue;
-        for (int p = 0; p < 8; ++p)
-          for (int q = 0; q < 8; ++q) add_block(val, eb[p * 8 + q], el.nodes[q], coef * grad[p] * grad[q].transpose());
-        continue;
-      }
-      for (int p = 0; p < 8; ++p)
-        for (int q = 0; q < 8; ++q)
-          add_block(val, eb[p * 8 + q], el.nodes[q], -s * r.segment<3>(3 * p) * grad[q].transpose());
+      if (cf)
+        add_cf_stiffness(el, eb, xe, grad, dv, psd, val);
+      else
+        add_cs_stiffness(e, el, eb, xe, grad, dv, psd, corrective_slopes, val);
     }
   }
   for (Eigen::Index k = 0; k < J.nonZeros(); ++k) val[k] = -val[k];

@@ -24,6 +24,7 @@
 #include <memory>
 
 #include "socketsmith/tissue/hex_fe.h"
+#include "socketsmith/volume/hex_element.h"
 #include "socketsmith/volume/hex_mesh.h"
 
 namespace socketsmith::tissue {
@@ -223,6 +224,15 @@ class MassSpringModel {
   int block_offset(int row_node, int col_node) const;
   double corrective_law(double dv, double edge_length, double* dk_ddv) const;
   void add_block(double* values, int offset, int col_node, const Eigen::Matrix3d& b) const;
+  /// Element @p el's MSS-CF volumetric stiffness (ΔK/V0 ∇V ∇Vᵀ + ΔK δv ∇²V, the second term not for
+  /// @p psd) added into the values @p val of K = −J at the element's blocks @p eb.
+  void add_cf_stiffness(const Element& el, const int* eb, const volume::HexNodes& xe,
+                        const volume::HexGradient& grad, double dv, bool psd, double* val) const;
+  /// Element @p e's MSS-CS corrective springs (k'(δv) and the coupling r ⊗ ∇k', or its symmetric
+  /// PSD surrogate) added likewise; @p corrective_slopes: frozen dk'/dδv per element, or null.
+  void add_cs_stiffness(size_t e, const Element& el, const int* eb, const volume::HexNodes& xe,
+                        const volume::HexGradient& grad, double dv, bool psd, const VectorXd* corrective_slopes,
+                        double* val) const;
 
   volume::HexMesh mesh_;
   TissueMaterial material_;
