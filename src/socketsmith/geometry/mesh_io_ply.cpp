@@ -146,13 +146,139 @@ struct PlyAsciiReader {
   void skip(PlyType) { token(); }
 };
 
+/// Where the vertex element keeps its scalar x, y and z (the indices into its properties).
+struct VertexXyz {
+  int ix = -1, iy = -1, iz = -1;
+};
+
+VertexXyz find_vertex_xyz(const PlyElement& e, const Source& src) {
+  VertexXyz at;
+  for (int j = 0; j < static_cast<int>(e.props.size()); ++j) {
+    const PlyProperty& pr = e.props[j];
+    if (pr.is_list) continue;
+    if (pr.name == "x") at.ix = j;
+    if (pr.name == "y") at.iy = j;
+    if (pr.name == "z") at.iz = j;
+  }
+  if (at.ix < 0 || at.iy < 0 || at.iz < 0)
+    fail("read_mesh: '{}' has a vertex element without scalar x, y and z properties", src.name);
+  return at;
+}
+
+/// Skips one list property's items after reading its count.
+template <class Reader>
+void skip_ply_list(Reader& in, const PlyProperty& pr) {
+  const long long n = in.integer(pr.count_type);
+  for (long long k = 0; k < n; ++k) in.skip(pr.type);
+}
+
+/// Reads the vertex element into mesh.vertices; @p item counts the items read (for the errors).
+template <class Reader>
+void read_ply_vertices(Reader& in, const PlyElement& e, TriMesh& mesh, const Source& src,
+                       long long& item) {
+  const VertexXyz at = find_vertex_xyz(e, src);
+  if (e.count > INT_MAX)
+    fail("read_mesh: '{}' declares {} vertices, more than this reader supports", src.name, e.count);
+  const std::size_t first = mesh.vertices.size();
+  mesh.vertices.resize(first + static_cast<std::size_t>(e.count));
+  for (; item < e.count; ++item) {
+    Vec3 v = Vec3::Zero();
+    for (int j = 0; j < static_cast<int>(e.props.size()); ++j) {
+      const PlyProperty& pr = e.props[j];
+      if (pr.is_list) skip_ply_list(in, pr);
+      else if (j == at.ix) v.x() = in.real(pr.type);
+      else if (j == at.iy) v.y() = in.real(pr.type);
+      else if (j == at.iz) v.z() = in.real(pr.type);
+      else in.skip(pr.type);
+    }
+    if (!is_finite(v))
+      fail("read_mesh: '{}' vertex {} has a non-finite coordinate ({}, {}, {}) (expected finite "
+           "numbers)",
+           src.name, item, v.x(), v.y(), v.z());
+    mesh.vertices[first + static_cast<std::size_t>(item)] = v;
+  }
+}
+
+/// The face element's vertex-index list: 'vertex_indices' (or 'vertex_index'), else its first list.
+int find_face_index_list(const PlyElement& e, const Source& src) {
+  int il = -1;
+  for (int j = 0; j < static_cast<int>(e.props.size()); ++j) {
+    const PlyProperty& pr = e.props[j];
+    if (pr.is_list && (pr.name == "vertex_indices" || pr.name == "vertex_index")) il = j;
+  }
+  for (int j = 0; j < static_cast<int>(e.props.size()) && il < 0; ++j)
+    if (e.props[j].is_list) il = j;
+  if (il < 0)
+    fail("read_mesh: '{}' has a face element without a 'vertex_indices' list property", src.name);
+  return il;
+}
+
+/// The largest vertex index the faces use and the first face using it, checked against the
+/// vertex count once the whole body is read (the vertex element may come after the faces).
+struct MaxFaceIndex {
+  long long index = -1;
+  long long face = -1;
+};
+
+/// Reads one face's index list (@p n indices) and fans it into triangles.
+template <class Reader>
+void read_ply_polygon(Reader& in, const PlyProperty& pr, long long n, long long item, TriMesh& mesh,
+                      const Source& src, std::vector<int>& poly, MaxFaceIndex& max_index) {
+  if (n < 3) fail("read_mesh: '{}' face {} has {} vertices (expected at least 3)", src.name, item, n);
+  poly.clear();
+  for (long long k = 0; k < n; ++k) {
+    const long long idx = in.integer(pr.type);
+    if (idx < 0 || idx >= INT_MAX)
+      fail("read_mesh: '{}' face {} refers to vertex {}, which is out of range", src.name, item, idx);
+    if (idx > max_index.index) {
+      max_index.index = idx;
+      max_index.face = item;
+    }
+    poly.push_back(static_cast<int>(idx));
+  }
+  for (std::size_t k = 1; k + 1 < poly.size(); ++k)
+    mesh.triangles.push_back({poly[0], poly[k], poly[k + 1]});
+}
+
+/// Reads the face element into mesh.triangles (polygons fanned); @p item counts the items read.
+template <class Reader>
+void read_ply_faces(Reader& in, const PlyElement& e, TriMesh& mesh, const Source& src,
+                    long long& item, MaxFaceIndex& max_index) {
+  const int il = find_face_index_list(e, src);
+  std::vector<int> poly;
+  for (; item < e.count; ++item) {
+    for (int j = 0; j < static_cast<int>(e.props.size()); ++j) {
+      const PlyProperty& pr = e.props[j];
+      if (!pr.is_list) {
+        in.skip(pr.type);
+        continue;
+      }
+      if (j != il) {
+        skip_ply_list(in, pr);
+        continue;
+      }
+      const long long n = in.integer(pr.count_type);
+      read_ply_polygon(in, pr, n, item, mesh, src, poly, max_index);
+    }
+  }
+}
+
+/// Skips an element this reader does not use; @p item counts the items skipped.
+template <class Reader>
+void skip_ply_element(Reader& in, const PlyElement& e, long long& item) {
+  for (; item < e.count; ++item) {
+    for (const PlyProperty& pr : e.props) {
+      if (pr.is_list) skip_ply_list(in, pr);
+      else in.skip(pr.type);
+    }
+  }
+}
+
 template <class Reader>
 void read_ply_body(Reader& in, const std::vector<PlyElement>& elements, TriMesh& mesh,
                    const Source& src, bool binary) {
-  std::vector<int> poly;
   long long num_vertices = -1;
-  long long max_index = -1;
-  long long max_index_face = -1;
+  MaxFaceIndex max_index;
   for (const PlyElement& e : elements) {
     long long item = 0;
     // Items without properties carry no data: nothing to read, whatever the count (the header's
@@ -160,95 +286,12 @@ void read_ply_body(Reader& in, const std::vector<PlyElement>& elements, TriMesh&
     if (e.props.empty() && e.name != "vertex" && e.name != "face") continue;
     try {
       if (e.name == "vertex") {
-        int ix = -1, iy = -1, iz = -1;
-        for (int j = 0; j < static_cast<int>(e.props.size()); ++j) {
-          const PlyProperty& pr = e.props[j];
-          if (pr.is_list) continue;
-          if (pr.name == "x") ix = j;
-          if (pr.name == "y") iy = j;
-          if (pr.name == "z") iz = j;
-        }
-        if (ix < 0 || iy < 0 || iz < 0)
-          fail("read_mesh: '{}' has a vertex element without scalar x, y and z properties", src.name);
-        if (e.count > INT_MAX)
-          fail("read_mesh: '{}' declares {} vertices, more than this reader supports", src.name, e.count);
-        const std::size_t first = mesh.vertices.size();
-        mesh.vertices.resize(first + static_cast<std::size_t>(e.count));
-        for (; item < e.count; ++item) {
-          Vec3 v = Vec3::Zero();
-          for (int j = 0; j < static_cast<int>(e.props.size()); ++j) {
-            const PlyProperty& pr = e.props[j];
-            if (pr.is_list) {
-              const long long n = in.integer(pr.count_type);
-              for (long long k = 0; k < n; ++k) in.skip(pr.type);
-            } else if (j == ix) {
-              v.x() = in.real(pr.type);
-            } else if (j == iy) {
-              v.y() = in.real(pr.type);
-            } else if (j == iz) {
-              v.z() = in.real(pr.type);
-            } else {
-              in.skip(pr.type);
-            }
-          }
-          if (!is_finite(v))
-            fail("read_mesh: '{}' vertex {} has a non-finite coordinate ({}, {}, {}) (expected finite "
-                 "numbers)",
-                 src.name, item, v.x(), v.y(), v.z());
-          mesh.vertices[first + static_cast<std::size_t>(item)] = v;
-        }
+        read_ply_vertices(in, e, mesh, src, item);
         num_vertices = static_cast<long long>(mesh.vertices.size());
       } else if (e.name == "face") {
-        int il = -1;
-        for (int j = 0; j < static_cast<int>(e.props.size()); ++j) {
-          const PlyProperty& pr = e.props[j];
-          if (pr.is_list && (pr.name == "vertex_indices" || pr.name == "vertex_index")) il = j;
-        }
-        for (int j = 0; j < static_cast<int>(e.props.size()) && il < 0; ++j)
-          if (e.props[j].is_list) il = j;
-        if (il < 0)
-          fail("read_mesh: '{}' has a face element without a 'vertex_indices' list property", src.name);
-        for (; item < e.count; ++item) {
-          for (int j = 0; j < static_cast<int>(e.props.size()); ++j) {
-            const PlyProperty& pr = e.props[j];
-            if (!pr.is_list) {
-              in.skip(pr.type);
-              continue;
-            }
-            const long long n = in.integer(pr.count_type);
-            if (j != il) {
-              for (long long k = 0; k < n; ++k) in.skip(pr.type);
-              continue;
-            }
-            if (n < 3)
-              fail("read_mesh: '{}' face {} has {} vertices (expected at least 3)", src.name, item, n);
-            poly.clear();
-            for (long long k = 0; k < n; ++k) {
-              const long long idx = in.integer(pr.type);
-              if (idx < 0 || idx >= INT_MAX)
-                fail("read_mesh: '{}' face {} refers to vertex {}, which is out of range", src.name,
-                     item, idx);
-              if (idx > max_index) {
-                max_index = idx;
-                max_index_face = item;
-              }
-              poly.push_back(static_cast<int>(idx));
-            }
-            for (std::size_t k = 1; k + 1 < poly.size(); ++k)
-              mesh.triangles.push_back({poly[0], poly[k], poly[k + 1]});
-          }
-        }
+        read_ply_faces(in, e, mesh, src, item, max_index);
       } else {
-        for (; item < e.count; ++item) {
-          for (const PlyProperty& pr : e.props) {
-            if (pr.is_list) {
-              const long long n = in.integer(pr.count_type);
-              for (long long k = 0; k < n; ++k) in.skip(pr.type);
-            } else {
-              in.skip(pr.type);
-            }
-          }
-        }
+        skip_ply_element(in, e, item);
       }
     } catch (const PlyTruncated&) {
       fail("read_mesh: '{}' ends inside element '{}' at item {} of {} (truncated {} PLY?)", src.name,
@@ -265,18 +308,18 @@ void read_ply_body(Reader& in, const std::vector<PlyElement>& elements, TriMesh&
     }
   }
   if (num_vertices < 0) fail("read_mesh: '{}' has no 'vertex' element", src.name);
-  if (max_index >= num_vertices)
+  if (max_index.index >= num_vertices)
     fail("read_mesh: '{}' face {} refers to vertex {} but the file has {} vertices (valid: 0..{})",
-         src.name, max_index_face, max_index, num_vertices, num_vertices - 1);
+         src.name, max_index.face, max_index.index, num_vertices, num_vertices - 1);
 }
 
-}  // namespace
-
-TriMesh parse_ply(const Source& src, std::string& format) {
-  const std::string_view d = src.data;
+/// The header's lines one at a time (a trailing '\r' dropped), numbered for the errors.
+struct PlyHeaderLines {
+  std::string_view d;
   std::size_t pos = 0;
   int line = 0;
-  auto next_line = [&](std::string_view& out) {
+
+  bool next(std::string_view& out) {
     if (pos >= d.size()) return false;
     std::size_t eol = d.find('\n', pos);
     if (eol == std::string_view::npos) eol = d.size();
@@ -285,34 +328,82 @@ TriMesh parse_ply(const Source& src, std::string& format) {
     pos = eol + 1;
     ++line;
     return true;
-  };
-  auto split = [](std::string_view s) {
-    std::vector<std::string_view> toks;
-    const char* p = s.data();
-    const char* end = p + s.size();
-    for (;;) {
-      p = skip_space(p, end);
-      if (p == end) break;
-      const char* b = p;
-      p = token_end(p, end);
-      toks.emplace_back(b, static_cast<std::size_t>(p - b));
-    }
-    return toks;
-  };
+  }
+};
 
-  std::string_view l;
-  if (!next_line(l) || l != "ply")
-    fail("read_mesh: '{}' is not a PLY file (its first line is not 'ply')", src.name);
-  enum class Enc { None, Ascii, Little, Big } enc = Enc::None;
+std::vector<std::string_view> split_words(std::string_view s) {
+  std::vector<std::string_view> toks;
+  const char* p = s.data();
+  const char* end = p + s.size();
+  for (;;) {
+    p = skip_space(p, end);
+    if (p == end) break;
+    const char* b = p;
+    p = token_end(p, end);
+    toks.emplace_back(b, static_cast<std::size_t>(p - b));
+  }
+  return toks;
+}
+
+/// Fails on one header line, naming the file, the line and what is wrong with it.
+struct PlyHeaderError {
+  const Source& src;
+  int line;
+  std::string_view text;
+
+  [[noreturn]] void operator()(std::string_view what) const {
+    fail("read_mesh: '{}' line {}: {} in PLY header: '{}'", src.name, line, what, shown(text));
+  }
+};
+
+enum class PlyEncoding { None, Ascii, Little, Big };
+
+struct PlyHeader {
+  PlyEncoding enc = PlyEncoding::None;
   std::vector<PlyElement> elements;
+  std::size_t body_offset = 0;  ///< just past the 'end_header' line
+};
+
+PlyElement parse_element_line(const std::vector<std::string_view>& toks, const PlyHeaderError& bad) {
+  if (toks.size() != 3) bad("expected 'element <name> <count>'");
+  PlyElement e;
+  e.name = std::string(toks[1]);
+  auto [r, ec] = std::from_chars(toks[2].data(), toks[2].data() + toks[2].size(), e.count);
+  if (ec != std::errc() || r != toks[2].data() + toks[2].size() || e.count < 0)
+    bad("bad element count");
+  return e;
+}
+
+PlyProperty parse_property_line(const std::vector<std::string_view>& toks, const PlyHeaderError& bad) {
+  PlyProperty pr;
+  if (toks.size() == 5 && toks[1] == "list") {
+    pr.is_list = true;
+    if (!parse_ply_type(toks[2], pr.count_type) || !parse_ply_type(toks[3], pr.type))
+      bad("unknown property type");
+    pr.name = std::string(toks[4]);
+  } else if (toks.size() == 3) {
+    if (!parse_ply_type(toks[1], pr.type)) bad("unknown property type");
+    pr.name = std::string(toks[2]);
+  } else {
+    bad("expected 'property <type> <name>' or 'property list <type> <type> <name>'");
+  }
+  return pr;
+}
+
+/// Reads the header from 'ply' to 'end_header': the encoding and the elements with their
+/// properties.
+PlyHeader parse_ply_header(const Source& src) {
+  PlyHeaderLines lines{src.data};
+  std::string_view l;
+  if (!lines.next(l) || l != "ply")
+    fail("read_mesh: '{}' is not a PLY file (its first line is not 'ply')", src.name);
+  PlyHeader h;
   bool ended = false;
-  while (next_line(l)) {
-    const auto toks = split(l);
+  while (lines.next(l)) {
+    const auto toks = split_words(l);
     if (toks.empty()) continue;
     const std::string_view kw = toks[0];
-    auto bad = [&](std::string_view what) {
-      fail("read_mesh: '{}' line {}: {} in PLY header: '{}'", src.name, line, what, shown(l));
-    };
+    const PlyHeaderError bad{src, lines.line, l};
     if (kw == "end_header") {
       ended = true;
       break;
@@ -320,46 +411,29 @@ TriMesh parse_ply(const Source& src, std::string& format) {
       continue;
     } else if (kw == "format") {
       if (toks.size() < 2) bad("missing encoding");
-      if (toks[1] == "ascii") enc = Enc::Ascii;
-      else if (toks[1] == "binary_little_endian") enc = Enc::Little;
-      else if (toks[1] == "binary_big_endian") enc = Enc::Big;
+      if (toks[1] == "ascii") h.enc = PlyEncoding::Ascii;
+      else if (toks[1] == "binary_little_endian") h.enc = PlyEncoding::Little;
+      else if (toks[1] == "binary_big_endian") h.enc = PlyEncoding::Big;
       else bad("unknown format (expected ascii, binary_little_endian or binary_big_endian)");
     } else if (kw == "element") {
-      if (toks.size() != 3) bad("expected 'element <name> <count>'");
-      PlyElement e;
-      e.name = std::string(toks[1]);
-      auto [r, ec] = std::from_chars(toks[2].data(), toks[2].data() + toks[2].size(), e.count);
-      if (ec != std::errc() || r != toks[2].data() + toks[2].size() || e.count < 0)
-        bad("bad element count");
-      elements.push_back(std::move(e));
+      h.elements.push_back(parse_element_line(toks, bad));
     } else if (kw == "property") {
-      if (elements.empty()) bad("property before any element");
-      PlyProperty pr;
-      if (toks.size() == 5 && toks[1] == "list") {
-        pr.is_list = true;
-        if (!parse_ply_type(toks[2], pr.count_type) || !parse_ply_type(toks[3], pr.type))
-          bad("unknown property type");
-        pr.name = std::string(toks[4]);
-      } else if (toks.size() == 3) {
-        if (!parse_ply_type(toks[1], pr.type)) bad("unknown property type");
-        pr.name = std::string(toks[2]);
-      } else {
-        bad("expected 'property <type> <name>' or 'property list <type> <type> <name>'");
-      }
-      elements.back().props.push_back(std::move(pr));
+      if (h.elements.empty()) bad("property before any element");
+      h.elements.back().props.push_back(parse_property_line(toks, bad));
     } else {
       bad("unknown keyword");
     }
   }
   if (!ended) fail("read_mesh: '{}' has no 'end_header' line (truncated or not a PLY file)", src.name);
-  if (enc == Enc::None) fail("read_mesh: '{}' has no 'format' line in its PLY header", src.name);
+  if (h.enc == PlyEncoding::None) fail("read_mesh: '{}' has no 'format' line in its PLY header", src.name);
+  h.body_offset = lines.pos;
+  return h;
+}
 
-  TriMesh mesh;
-  const char* body = d.data() + std::min(pos, d.size());
-  const char* end = d.data() + d.size();
-  const bool binary = enc != Enc::Ascii;
-  // Reject absurd counts before allocating: every item needs at least its fixed-size bytes
-  // (binary) or a character and a separator per property (ASCII).
+/// Rejects absurd counts before allocating: every item needs at least its fixed-size bytes
+/// (binary) or a character and a separator per property (ASCII).
+void check_ply_body_size(const Source& src, const std::vector<PlyElement>& elements, bool binary,
+                         std::ptrdiff_t body_bytes) {
   long double min_bytes = 0;
   for (const PlyElement& e : elements) {
     long double item = 0;
@@ -367,19 +441,31 @@ TriMesh parse_ply(const Source& src, std::string& format) {
     min_bytes += item * static_cast<long double>(e.count);
   }
   if (!binary && min_bytes > 0) min_bytes -= 1;  // the last number needs no separator
-  if (min_bytes > static_cast<long double>(end - body))
+  if (min_bytes > static_cast<long double>(body_bytes))
     fail("read_mesh: '{}' is a truncated {} PLY: its header declares data of at least {:.0f} bytes "
          "but the file has {} after the header",
-         src.name, binary ? "binary" : "ASCII", static_cast<double>(min_bytes), end - body);
+         src.name, binary ? "binary" : "ASCII", static_cast<double>(min_bytes), body_bytes);
+}
+
+}  // namespace
+
+TriMesh parse_ply(const Source& src, std::string& format) {
+  const std::string_view d = src.data;
+  const PlyHeader header = parse_ply_header(src);
+  TriMesh mesh;
+  const char* body = d.data() + std::min(header.body_offset, d.size());
+  const char* end = d.data() + d.size();
+  const bool binary = header.enc != PlyEncoding::Ascii;
+  check_ply_body_size(src, header.elements, binary, end - body);
   if (!binary) {
     format = "ply-ascii";
     PlyAsciiReader in{body, end};
-    read_ply_body(in, elements, mesh, src, false);
+    read_ply_body(in, header.elements, mesh, src, false);
   } else {
     format = "ply-binary";
-    const bool swap = (enc == Enc::Big) != (std::endian::native == std::endian::big);
+    const bool swap = (header.enc == PlyEncoding::Big) != (std::endian::native == std::endian::big);
     PlyBinaryReader in{body, end, swap};
-    read_ply_body(in, elements, mesh, src, true);
+    read_ply_body(in, header.elements, mesh, src, true);
   }
   return mesh;
 }
