@@ -56,7 +56,6 @@ ALLOWED_FUNCTIONS = {
     "src/socketsmith/design/socket_platform.cpp:add_platform": 111,
     "src/socketsmith/geometry/aaop.cpp:parse_aaop": 98,
     "src/socketsmith/geometry/limb_frame.cpp:estimate_limb_axis": 91,
-    "src/socketsmith/geometry/mesh_io_obj.cpp:parse_obj": 86,
     "src/socketsmith/geometry/mesh_repair.cpp:trim_and_cap": 97,
     "src/socketsmith/geometry/rigid_alignment.cpp:align_icp": 121,
     "src/socketsmith/geometry/tri_mesh.cpp:weld_vertices": 88,
