@@ -77,8 +77,16 @@ RigidTransform kabsch(const std::vector<Vec3>& from, const std::vector<Vec3>& to
   return t;
 }
 
-IcpResult align_icp(const TriMesh& moving, const SurfaceQuery& fixed, const RigidTransform& initial,
-                    const IcpOptions& o, const std::function<bool(const Vec3&)>& use_sample) {
+namespace {
+
+/// One ICP correspondence: a moved sample @p x, the normal @p n of the fixed face it found, the
+/// signed normal distance @p nd and the distance @p dist to the closest point [m].
+struct IcpPair {
+  Vec3 x, n;
+  double nd, dist;
+};
+
+void check_icp_inputs(const TriMesh& moving, const IcpOptions& o) {
   require(o.max_iterations >= 1 && o.max_iterations <= 1000, "align_icp: {} iterations (expected 1-1000)",
           o.max_iterations);
   require(o.max_samples >= 100 && o.max_samples <= 10000000, "align_icp: {} samples (expected 100-10^7)", o.max_samples);
@@ -91,91 +99,132 @@ IcpResult align_icp(const TriMesh& moving, const SurfaceQuery& fixed, const Rigi
   require(moving.num_vertices() > 0, "align_icp: the moving surface has no vertices");
   for (const auto& v : moving.vertices)
     require(v.allFinite(), "align_icp: the moving surface has a vertex with NaN/inf coordinates; repair it");
+}
 
+/// The moving surface's samples (every stride-th vertex, at most max_samples) with each one's last
+/// closest point on the fixed surface, the hint for the next search.
+struct IcpSamples {
+  std::vector<Vec3> points;
+  std::vector<SurfaceHit> hints;
+  std::vector<char> has_hint;
+
+  IcpSamples(const TriMesh& moving, int max_samples) {
+    const int nv = moving.num_vertices();
+    const int stride = std::max(1, (nv + max_samples - 1) / max_samples);
+    for (int v = 0; v < nv; v += stride) points.push_back(moving.vertices[v]);
+    hints.resize(points.size());
+    has_hint.assign(points.size(), 0);
+  }
+};
+
+/// Pairs the samples, moved by the current transform, with the fixed surface: drops those beyond
+/// max_distance_m, those meeting a rim or crease rather than a face, and (from the fourth
+/// iteration) the outliers beyond outlier_sigmas robust SDs. Returns how many samples use_sample
+/// accepted.
+int match_icp_pairs(IcpSamples& s, const SurfaceQuery& fixed, const std::vector<Vec3>& face_n,
+                    const IcpOptions& o, const std::function<bool(const Vec3&)>& use_sample,
+                    const IcpResult& res, double sigma, int it, std::vector<IcpPair>& pairs) {
+  const double cos_limit = std::cos(45.0 * 3.14159265358979 / 180.0);
+  constexpr double kSigmaFloor = 1e-4;  // [m] the outlier bound never drops below 3 × 0.1 mm
+  pairs.clear();
+  int accepted = 0;
+  for (size_t i = 0; i < s.points.size(); ++i) {
+    const Vec3 x = res.transform.apply(s.points[i]);
+    if (use_sample && !use_sample(x)) continue;
+    ++accepted;
+    const SurfaceHit hit = s.has_hint[i] ? fixed.closest_point(x, s.hints[i]) : fixed.closest_point(x);
+    s.hints[i] = hit;
+    s.has_hint[i] = 1;
+    if (hit.triangle < 0) continue;
+    const Vec3 d = x - hit.point;
+    const double dist = d.norm();
+    if (dist > o.max_distance_m) continue;
+    const Vec3& n = face_n[hit.triangle];
+    const double nd = n.dot(d);
+    if (dist > 1e-9 && std::abs(nd) < cos_limit * dist) continue;  // on a rim or crease, not a face
+    if (sigma >= 0 && it >= 3 && std::abs(nd - res.offset_m) > o.outlier_sigmas * std::max(sigma, kSigmaFloor))
+      continue;
+    pairs.push_back({x, n, nd, dist});
+  }
+  return accepted;
+}
+
+/// One point-to-plane step: the rotation @p w and translation @p tau [m] about the pairs'
+/// centroid @p c (and the offset in u(6) when solved), from the linearised normal equations.
+struct IcpStep {
+  Eigen::VectorXd u;
+  Vec3 c;
+  double reach_m = 0;  ///< the farthest pair from c: turns a rotation into a displacement
+};
+
+/// Solves the step and records the pairs' residual statistics in @p res and @p sigma.
+IcpStep solve_icp_step(const std::vector<IcpPair>& pairs, const IcpOptions& o, IcpResult& res,
+                       double& sigma) {
+  const int nu = o.solve_offset ? 7 : 6;
+  IcpStep step;
+  Vec3 c = Vec3::Zero();
+  for (const auto& p : pairs) c += p.x;
+  c /= static_cast<double>(pairs.size());
+  Eigen::MatrixXd ata = Eigen::MatrixXd::Zero(nu, nu);
+  Eigen::VectorXd atb = Eigen::VectorXd::Zero(nu);
+  double reach = 0;
+  std::vector<double> resid;
+  resid.reserve(pairs.size());
+  double sum_r2 = 0, sum_d2 = 0;
+  for (const auto& p : pairs) {
+    Eigen::Matrix<double, 7, 1> row;
+    row.head<3>() = (p.x - c).cross(p.n);
+    row.segment<3>(3) = p.n;
+    row(6) = -1.0;
+    const auto r = row.head(nu);
+    ata += r * r.transpose();
+    atb += r * (-p.nd);
+    reach = std::max(reach, (p.x - c).norm());
+    const double ri = p.nd - (o.solve_offset ? res.offset_m : 0.0);
+    resid.push_back(std::abs(ri));
+    sum_r2 += ri * ri;
+    sum_d2 += p.dist * p.dist;
+  }
+  res.rms_m = std::sqrt(sum_r2 / static_cast<double>(pairs.size()));
+  res.rms_distance_m = std::sqrt(sum_d2 / static_cast<double>(pairs.size()));
+  sigma = 1.4826 * median_of(resid);
+  // A small Tikhonov term on the rotation holds a direction the surfaces do not determine (a
+  // surface of revolution about its axis); the determined ones move 1e-6 of their step less.
+  const double rot_scale = (ata(0, 0) + ata(1, 1) + ata(2, 2)) / 3.0;
+  for (int k = 0; k < 3; ++k) ata(k, k) += 1e-6 * rot_scale + 1e-300;
+  step.u = ata.ldlt().solve(atb);
+  step.c = c;
+  step.reach_m = reach;
+  return step;
+}
+
+}  // namespace
+
+IcpResult align_icp(const TriMesh& moving, const SurfaceQuery& fixed, const RigidTransform& initial,
+                    const IcpOptions& o, const std::function<bool(const Vec3&)>& use_sample) {
+  check_icp_inputs(moving, o);
   const TriMesh& fm = fixed.mesh();
   std::vector<Vec3> face_n(fm.triangles.size());
   for (int t = 0; t < fm.num_triangles(); ++t) face_n[t] = triangle_normal(fm, t);
+  IcpSamples samples(moving, o.max_samples);
 
-  const int nv = moving.num_vertices();
-  const int stride = std::max(1, (nv + o.max_samples - 1) / o.max_samples);
-  std::vector<Vec3> samples;
-  for (int v = 0; v < nv; v += stride) samples.push_back(moving.vertices[v]);
-  std::vector<SurfaceHit> hints(samples.size());
-  std::vector<char> has_hint(samples.size(), 0);
-
-  const int nu = o.solve_offset ? 7 : 6;
-  const double cos_limit = std::cos(45.0 * 3.14159265358979 / 180.0);
-  constexpr double kSigmaFloor = 1e-4;  // [m] the outlier bound never drops below 3 × 0.1 mm
   IcpResult res;
   res.transform = initial;
   double sigma = -1;  // robust SD of the residuals of the last iteration (−1: not yet)
-  struct Pair {
-    Vec3 x, n;
-    double nd, dist;
-  };
-  std::vector<Pair> pairs;
+  std::vector<IcpPair> pairs;
   for (int it = 0; it < o.max_iterations; ++it) {
-    pairs.clear();
-    int accepted = 0;
-    for (size_t i = 0; i < samples.size(); ++i) {
-      const Vec3 x = res.transform.apply(samples[i]);
-      if (use_sample && !use_sample(x)) continue;
-      ++accepted;
-      const SurfaceHit hit = has_hint[i] ? fixed.closest_point(x, hints[i]) : fixed.closest_point(x);
-      hints[i] = hit;
-      has_hint[i] = 1;
-      if (hit.triangle < 0) continue;
-      const Vec3 d = x - hit.point;
-      const double dist = d.norm();
-      if (dist > o.max_distance_m) continue;
-      const Vec3& n = face_n[hit.triangle];
-      const double nd = n.dot(d);
-      if (dist > 1e-9 && std::abs(nd) < cos_limit * dist) continue;  // on a rim or crease, not a face
-      if (sigma >= 0 && it >= 3 && std::abs(nd - res.offset_m) > o.outlier_sigmas * std::max(sigma, kSigmaFloor))
-        continue;
-      pairs.push_back({x, n, nd, dist});
-    }
-    res.samples = accepted;
+    res.samples = match_icp_pairs(samples, fixed, face_n, o, use_sample, res, sigma, it, pairs);
     res.pairs = static_cast<int>(pairs.size());
     require(it > 0 || pairs.size() >= 12,
             "align_icp: only {} of {} samples found the other surface within {:.0f} mm: the surfaces do not overlap "
             "(seed the alignment closer, check the units and the crop height)",
-            pairs.size(), samples.size(), o.max_distance_m * 1e3);
+            pairs.size(), samples.points.size(), o.max_distance_m * 1e3);
     if (pairs.size() < 12) {
       res.message = fmt::format("stopped: only {} pairs left after {} iterations", pairs.size(), it);
       break;
     }
-    Vec3 c = Vec3::Zero();
-    for (const auto& p : pairs) c += p.x;
-    c /= static_cast<double>(pairs.size());
-    Eigen::MatrixXd ata = Eigen::MatrixXd::Zero(nu, nu);
-    Eigen::VectorXd atb = Eigen::VectorXd::Zero(nu);
-    double reach = 0;
-    std::vector<double> resid;
-    resid.reserve(pairs.size());
-    double sum_r2 = 0, sum_d2 = 0;
-    for (const auto& p : pairs) {
-      Eigen::Matrix<double, 7, 1> row;
-      row.head<3>() = (p.x - c).cross(p.n);
-      row.segment<3>(3) = p.n;
-      row(6) = -1.0;
-      const auto r = row.head(nu);
-      ata += r * r.transpose();
-      atb += r * (-p.nd);
-      reach = std::max(reach, (p.x - c).norm());
-      const double ri = p.nd - (o.solve_offset ? res.offset_m : 0.0);
-      resid.push_back(std::abs(ri));
-      sum_r2 += ri * ri;
-      sum_d2 += p.dist * p.dist;
-    }
-    res.rms_m = std::sqrt(sum_r2 / static_cast<double>(pairs.size()));
-    res.rms_distance_m = std::sqrt(sum_d2 / static_cast<double>(pairs.size()));
-    sigma = 1.4826 * median_of(resid);
-    // A small Tikhonov term on the rotation holds a direction the surfaces do not determine (a
-    // surface of revolution about its axis); the determined ones move 1e-6 of their step less.
-    const double rot_scale = (ata(0, 0) + ata(1, 1) + ata(2, 2)) / 3.0;
-    for (int k = 0; k < 3; ++k) ata(k, k) += 1e-6 * rot_scale + 1e-300;
-    const Eigen::VectorXd u = ata.ldlt().solve(atb);
+    const IcpStep step = solve_icp_step(pairs, o, res, sigma);
+    const Eigen::VectorXd& u = step.u;
     if (!u.allFinite()) {
       res.message = "stopped: the alignment's normal equations are singular (the surfaces do not fix a rigid motion)";
       break;
@@ -184,9 +233,9 @@ IcpResult align_icp(const TriMesh& moving, const SurfaceQuery& fixed, const Rigi
     if (o.solve_offset) res.offset_m = u(6);
     const Eigen::Matrix3d r_inc = rotation_exp(w);
     res.transform.rotation = r_inc * res.transform.rotation;
-    res.transform.translation = r_inc * (res.transform.translation - c) + c + tau;
+    res.transform.translation = r_inc * (res.transform.translation - step.c) + step.c + tau;
     res.iterations = it + 1;
-    const double move = w.norm() * reach + tau.norm();
+    const double move = w.norm() * step.reach_m + tau.norm();
     if (move <= o.convergence_m) {
       res.converged = true;
       res.message = fmt::format("converged in {} iterations", it + 1);
