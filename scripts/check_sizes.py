@@ -54,7 +54,6 @@ ALLOWED_FUNCTIONS = {
     "src/socketsmith/design/brim.cpp:make_brim": 117,
     "src/socketsmith/design/design_solver.cpp:DesignSolver::solve": 139,
     "src/socketsmith/design/socket_platform.cpp:add_platform": 111,
-    "src/socketsmith/geometry/aaop.cpp:parse_aaop": 98,
     "src/socketsmith/geometry/limb_frame.cpp:estimate_limb_axis": 91,
     "src/socketsmith/geometry/mesh_repair.cpp:trim_and_cap": 97,
     "src/socketsmith/geometry/tri_mesh.cpp:weld_vertices": 88,

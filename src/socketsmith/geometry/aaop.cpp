@@ -119,13 +119,9 @@ double wrapped_deg(double d) {
 
 std::string fmt_number(double v) { return fmt::format("{}", v); }
 
-}  // namespace
 
-AaopShape parse_aaop(std::string_view text, const std::string& name) {
-  if (std::all_of(text.begin(), text.end(), [](char c) { return is_blank(c) || c == '\r' || c == '\n'; }))
-    fail("read_aaop: '{}' is empty; expected an AAOP shape file", name);
-  LineReader in(text, name);
-  AaopShape s;
+/// The version line, the comments up to 'END COMMENTS', the coordinate system and the side.
+void read_aaop_header(LineReader& in, const std::string& name, AaopShape& s) {
   s.version = std::string(trimmed(in.line("the version line")));
   if (s.version.rfind("AAOP", 0) != 0)
     fail("read_aaop: '{}' line 1: '{}' is not an AAOP version line (expected 'AAOP1')", name,
@@ -140,7 +136,11 @@ AaopShape parse_aaop(std::string_view text, const std::string& name) {
     fail("read_aaop: '{}' line {}: coordinate system '{}' is not supported (expected CYLINDRICAL)", name,
          in.line_number(), shown(cys));
   s.side = std::string(trimmed(in.line("the side")));
+}
 
+/// The landmark count, then each landmark's name and its points (radius [mm], angle [deg],
+/// height [mm]).
+void read_aaop_landmarks(LineReader& in, const std::string& name, AaopShape& s) {
   const int n_land = in.count("the landmark count", 0);
   for (int i = 0; i < n_land; ++i) {
     AaopLandmark lm;
@@ -157,7 +157,28 @@ AaopShape parse_aaop(std::string_view text, const std::string& name) {
     }
     s.landmarks.push_back(std::move(lm));
   }
+}
 
+/// Listed spoke angles must go around once, in one direction.
+void check_spokes_go_around(const std::vector<double>& angles_deg, const std::string& name) {
+  const int n_spokes = static_cast<int>(angles_deg.size());
+  const double dir = wrapped_deg(angles_deg[1] - angles_deg[0]);
+  double turn = 0.0;
+  for (int j = 0; j < n_spokes; ++j) {
+    const double d = wrapped_deg(angles_deg[(j + 1) % n_spokes] - angles_deg[j]);
+    if (d == 0.0 || (d > 0) != (dir > 0))
+      fail("read_aaop: '{}': spoke angles {} and {} ({} and {} deg) do not go around in one direction",
+           name, j + 1, (j + 1) % n_spokes + 1, angles_deg[j], angles_deg[(j + 1) % n_spokes]);
+    turn += d;
+  }
+  if (std::abs(std::abs(turn) - 360.0) > 1e-6)
+    fail("read_aaop: '{}': the {} spoke angles go {} deg around, not one full turn", name, n_spokes,
+         std::abs(turn));
+}
+
+/// The spoke count and spacing [deg]: spokes from -90 deg at that spacing, or (spacing 0) listed
+/// angles. Returns the spoke count.
+int read_aaop_spokes(LineReader& in, const std::string& name, AaopShape& s) {
   const int n_spokes = in.count("the spoke count", 3);
   const int spoke_line = in.line_number();
   s.spoke_spacing_deg = in.number("the spoke spacing [deg]");
@@ -173,22 +194,14 @@ AaopShape parse_aaop(std::string_view text, const std::string& name) {
   } else {
     for (int j = 0; j < n_spokes; ++j)
       s.spoke_angles_deg.push_back(in.number(fmt::format("spoke angle {} [deg]", j + 1)));
-    // The listed angles must go around once, in one direction.
-    const double dir = wrapped_deg(s.spoke_angles_deg[1] - s.spoke_angles_deg[0]);
-    double turn = 0.0;
-    for (int j = 0; j < n_spokes; ++j) {
-      const double d = wrapped_deg(s.spoke_angles_deg[(j + 1) % n_spokes] - s.spoke_angles_deg[j]);
-      if (d == 0.0 || (d > 0) != (dir > 0))
-        fail("read_aaop: '{}': spoke angles {} and {} ({} and {} deg) do not go around in one direction",
-             name, j + 1, (j + 1) % n_spokes + 1, s.spoke_angles_deg[j],
-             s.spoke_angles_deg[(j + 1) % n_spokes]);
-      turn += d;
-    }
-    if (std::abs(std::abs(turn) - 360.0) > 1e-6)
-      fail("read_aaop: '{}': the {} spoke angles go {} deg around, not one full turn", name, n_spokes,
-           std::abs(turn));
+    check_spokes_go_around(s.spoke_angles_deg, name);
   }
+  return n_spokes;
+}
 
+/// The slice count and spacing [mm]: slices from 0 at that spacing, or (spacing 0) listed
+/// increasing heights. Returns the slice count.
+int read_aaop_slices(LineReader& in, const std::string& name, AaopShape& s) {
   const int n_slices = in.count("the slice count", 2);
   s.slice_spacing_mm = in.number("the slice spacing [mm]");
   if (s.slice_spacing_mm < 0.0)
@@ -204,7 +217,20 @@ AaopShape parse_aaop(std::string_view text, const std::string& name) {
              name, in.line_number(), s.slice_heights_mm[i], s.slice_heights_mm[i - 1]);
     }
   }
+  return n_slices;
+}
 
+}  // namespace
+
+AaopShape parse_aaop(std::string_view text, const std::string& name) {
+  if (std::all_of(text.begin(), text.end(), [](char c) { return is_blank(c) || c == '\r' || c == '\n'; }))
+    fail("read_aaop: '{}' is empty; expected an AAOP shape file", name);
+  LineReader in(text, name);
+  AaopShape s;
+  read_aaop_header(in, name, s);
+  read_aaop_landmarks(in, name, s);
+  const int n_spokes = read_aaop_spokes(in, name, s);
+  const int n_slices = read_aaop_slices(in, name, s);
   s.radii_mm.reserve(static_cast<std::size_t>(n_slices) * static_cast<std::size_t>(n_spokes));
   for (int i = 0; i < n_slices; ++i)
     for (int j = 0; j < n_spokes; ++j) {
