@@ -398,6 +398,98 @@ bool flip_inside_out_components(const std::vector<Vec3>& vertices, std::vector<T
   return any;
 }
 
+
+/// The part of a mesh kept below a cutting plane, built triangle by triangle into @p out: the kept
+/// vertices and one new vertex per crossing edge (shared by the edge's two triangles), each
+/// flagged in on_plane when it lies on the plane.
+struct HalfSpaceClip {
+  const TriMesh& mesh;
+  const std::vector<double>& height;     // [m] per input vertex, along the plane's normal
+  const std::vector<signed char>& side;  // per input vertex: −1 below, 0 on, +1 above
+  TriMesh& out;
+  std::vector<char> on_plane;  // per output vertex
+  std::vector<int> out_index;  // per input vertex: its output vertex, or −1
+  std::unordered_map<std::uint64_t, int> crossing;
+
+  HalfSpaceClip(const TriMesh& m, const std::vector<double>& h, const std::vector<signed char>& s, TriMesh& o)
+      : mesh(m), height(h), side(s), out(o), out_index(m.vertices.size(), -1) {}
+
+  int kept_vertex(int v) {
+    if (out_index[v] < 0) {
+      out_index[v] = static_cast<int>(out.vertices.size());
+      out.vertices.push_back(mesh.vertices[v]);
+      on_plane.push_back(side[v] == 0);
+    }
+    return out_index[v];
+  }
+
+  int crossing_vertex(int a, int b) {
+    const auto [it, added] = crossing.try_emplace(edge_key(a, b), static_cast<int>(out.vertices.size()));
+    if (added) {
+      const auto [lo, hi] = std::minmax(a, b);
+      const double s = height[lo] / (height[lo] - height[hi]);  // in (0, 1): opposite strict sides
+      out.vertices.push_back(mesh.vertices[lo] + s * (mesh.vertices[hi] - mesh.vertices[lo]));
+      on_plane.push_back(1);
+    }
+    return it->second;
+  }
+
+  /// Adds the kept part of triangle @p t: all of it, none, or its clipped polygon.
+  void add(const Tri& t) {
+    const int above = (side[t[0]] > 0) + (side[t[1]] > 0) + (side[t[2]] > 0);
+    const int below = (side[t[0]] < 0) + (side[t[1]] < 0) + (side[t[2]] < 0);
+    if (above == 0) {
+      out.triangles.push_back({kept_vertex(t[0]), kept_vertex(t[1]), kept_vertex(t[2])});
+      return;
+    }
+    if (below == 0) return;  // above, or touching the plane from above
+    // Clip the triangle to the kept half-space (Sutherland–Hodgman): a convex polygon of 3 or 4
+    // vertices. Vertices on the plane are their own cut points.
+    std::array<int, 4> poly{};
+    int m = 0;
+    for (int k = 0; k < 3; ++k) {
+      const int a = t[k], b = t[(k + 1) % 3];
+      if (side[a] <= 0) poly[m++] = kept_vertex(a);
+      if (side[a] * side[b] < 0) poly[m++] = crossing_vertex(a, b);
+    }
+    if (m == 3) {
+      out.triangles.push_back({poly[0], poly[1], poly[2]});
+    } else {  // quad: split along the shorter diagonal
+      const auto& x = out.vertices;
+      if ((x[poly[0]] - x[poly[2]]).squaredNorm() <= (x[poly[1]] - x[poly[3]]).squaredNorm()) {
+        out.triangles.push_back({poly[0], poly[1], poly[2]});
+        out.triangles.push_back({poly[0], poly[2], poly[3]});
+      } else {
+        out.triangles.push_back({poly[1], poly[2], poly[3]});
+        out.triangles.push_back({poly[1], poly[3], poly[0]});
+      }
+    }
+  }
+};
+
+/// Caps the cut: the boundary edges of the kept part that lie in the plane, reversed (the cap
+/// traverses them opposite to the kept triangles), chained into loops and each filled in the
+/// plane of normal @p n; the loops go to result.loops.
+void cap_cut(TrimResult& result, const std::vector<char>& on_plane, const Vec3& n) {
+  std::vector<Vec3>& out_vertices = result.mesh.vertices;
+  std::vector<Tri>& out_tris = result.mesh.triangles;
+  const std::vector<Tri> across = edge_neighbours(out_tris);
+  std::vector<std::pair<int, int>> cut_edges;
+  for (std::size_t t = 0; t < out_tris.size(); ++t) {
+    for (int k = 0; k < 3; ++k) {
+      const int a = out_tris[t][k], b = out_tris[t][(k + 1) % 3];
+      if (across[t][k] == kBoundary && on_plane[a] && on_plane[b]) cut_edges.emplace_back(b, a);
+    }
+  }
+  result.first_cap_triangle = static_cast<int>(out_tris.size());
+  for (const std::vector<int>& loop : chain_loops(cut_edges, static_cast<int>(out_vertices.size()))) {
+    for (const Tri& t : triangulate_loop(out_vertices, loop, n)) out_tris.push_back(t);
+    std::vector<Vec3>& polyline = result.loops.emplace_back();
+    polyline.reserve(loop.size());
+    for (const int v : loop) polyline.push_back(out_vertices[v]);
+  }
+}
+
 }  // namespace
 
 std::vector<std::string> RepairReport::changes() const {
@@ -449,83 +541,13 @@ TrimResult trim_and_cap(const TriMesh& mesh, const Vec3& point, const Vec3& norm
   }
 
   TrimResult result;
-  std::vector<Vec3>& out_vertices = result.mesh.vertices;
-  std::vector<char> on_plane;  // per output vertex
-  std::vector<int> out_index(static_cast<std::size_t>(nv), -1);
-  auto kept_vertex = [&](int v) {
-    if (out_index[v] < 0) {
-      out_index[v] = static_cast<int>(out_vertices.size());
-      out_vertices.push_back(mesh.vertices[v]);
-      on_plane.push_back(side[v] == 0);
-    }
-    return out_index[v];
-  };
-  // One new vertex per crossing edge, shared by the two triangles of the edge.
-  std::unordered_map<std::uint64_t, int> crossing;
-  auto crossing_vertex = [&](int a, int b) {
-    const auto [it, added] = crossing.try_emplace(edge_key(a, b), static_cast<int>(out_vertices.size()));
-    if (added) {
-      const auto [lo, hi] = std::minmax(a, b);
-      const double s = height[lo] / (height[lo] - height[hi]);  // in (0, 1): opposite strict sides
-      out_vertices.push_back(mesh.vertices[lo] + s * (mesh.vertices[hi] - mesh.vertices[lo]));
-      on_plane.push_back(1);
-    }
-    return it->second;
-  };
-
-  std::vector<Tri>& out_tris = result.mesh.triangles;
-  for (const Tri& t : mesh.triangles) {
-    const int above = (side[t[0]] > 0) + (side[t[1]] > 0) + (side[t[2]] > 0);
-    const int below = (side[t[0]] < 0) + (side[t[1]] < 0) + (side[t[2]] < 0);
-    if (above == 0) {
-      out_tris.push_back({kept_vertex(t[0]), kept_vertex(t[1]), kept_vertex(t[2])});
-      continue;
-    }
-    if (below == 0) continue;  // above, or touching the plane from above
-    // Clip the triangle to the kept half-space (Sutherland–Hodgman): a convex polygon of 3 or 4
-    // vertices. Vertices on the plane are their own cut points.
-    std::array<int, 4> poly{};
-    int m = 0;
-    for (int k = 0; k < 3; ++k) {
-      const int a = t[k], b = t[(k + 1) % 3];
-      if (side[a] <= 0) poly[m++] = kept_vertex(a);
-      if (side[a] * side[b] < 0) poly[m++] = crossing_vertex(a, b);
-    }
-    if (m == 3) {
-      out_tris.push_back({poly[0], poly[1], poly[2]});
-    } else {  // quad: split along the shorter diagonal
-      const auto& x = out_vertices;
-      if ((x[poly[0]] - x[poly[2]]).squaredNorm() <= (x[poly[1]] - x[poly[3]]).squaredNorm()) {
-        out_tris.push_back({poly[0], poly[1], poly[2]});
-        out_tris.push_back({poly[0], poly[2], poly[3]});
-      } else {
-        out_tris.push_back({poly[1], poly[2], poly[3]});
-        out_tris.push_back({poly[1], poly[3], poly[0]});
-      }
-    }
-  }
-  require(!out_tris.empty(),
+  HalfSpaceClip clip(mesh, height, side, result.mesh);
+  for (const Tri& t : mesh.triangles) clip.add(t);
+  require(!result.mesh.triangles.empty(),
           "trim_and_cap: nothing is kept: every vertex is above the plane through ({}, {}, {}) with normal "
           "({}, {}, {}) (the kept side is normal·(x − point) <= 0; flip the normal?)",
           point.x(), point.y(), point.z(), normal.x(), normal.y(), normal.z());
-
-  // The cut: boundary edges of the kept part that lie in the plane, reversed (the cap traverses
-  // them opposite to the kept triangles), chained into loops.
-  const std::vector<Tri> across = edge_neighbours(out_tris);
-  std::vector<std::pair<int, int>> cut_edges;
-  for (std::size_t t = 0; t < out_tris.size(); ++t) {
-    for (int k = 0; k < 3; ++k) {
-      const int a = out_tris[t][k], b = out_tris[t][(k + 1) % 3];
-      if (across[t][k] == kBoundary && on_plane[a] && on_plane[b]) cut_edges.emplace_back(b, a);
-    }
-  }
-  result.first_cap_triangle = static_cast<int>(out_tris.size());
-  for (const std::vector<int>& loop : chain_loops(cut_edges, static_cast<int>(out_vertices.size()))) {
-    for (const Tri& t : triangulate_loop(out_vertices, loop, n)) out_tris.push_back(t);
-    std::vector<Vec3>& polyline = result.loops.emplace_back();
-    polyline.reserve(loop.size());
-    for (const int v : loop) polyline.push_back(out_vertices[v]);
-  }
+  cap_cut(result, clip.on_plane, n);
   return result;
 }
 
