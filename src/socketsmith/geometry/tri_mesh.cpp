@@ -97,6 +97,62 @@ std::int64_t bits_of(double x) {
   return std::bit_cast<std::int64_t>(x + 0.0);  // + 0.0 maps -0.0 to +0.0
 }
 
+
+/// The welded vertices ("representatives") in a hash grid: the cells they fall in, and the chain
+/// of representatives sharing each cell.
+struct WeldGrid {
+  std::vector<Vec3>& representatives;
+  CellTable table;
+  std::vector<int> cell_head;     // first representative vertex (output index) per cell
+  std::vector<int> next_in_cell;  // chain of representatives sharing a cell
+
+  WeldGrid(std::vector<Vec3>& out, std::size_t expected) : representatives(out), table(expected) {}
+
+  /// Adds @p p as a new representative in cell @p cell_id (−1: in none); returns its index.
+  int add_representative(const Vec3& p, int cell_id) {
+    const int r = static_cast<int>(representatives.size());
+    representatives.push_back(p);
+    next_in_cell.push_back(-1);
+    if (cell_id >= 0) {
+      if (cell_id >= static_cast<int>(cell_head.size())) cell_head.resize(cell_id + 1, -1);
+      next_in_cell[r] = cell_head[cell_id];
+      cell_head[cell_id] = r;
+    }
+    return r;
+  }
+
+  /// The representative at exactly @p p's position (bit for bit), added if there is none.
+  int weld_exact(const Vec3& p) {
+    const CellKey key{bits_of(p.x()), bits_of(p.y()), bits_of(p.z())};
+    int c = table.find(key);
+    if (c >= 0) return cell_head[c];
+    c = table.insert(key);
+    return add_representative(p, c);
+  }
+
+  /// The first representative within tol of @p p (tol2 = tol² [m²], cells of 2 tol, @p inv_cell
+  /// = 1 / cell [1/m]), added if there is none.
+  int weld_within(const Vec3& p, double inv_cell, double tol2) {
+    const Vec3 f = p * inv_cell;
+    const CellKey own{cell_coordinate(f.x()), cell_coordinate(f.y()), cell_coordinate(f.z())};
+    const std::int64_t dx = (f.x() - std::floor(f.x()) < 0.5) ? -1 : 1;
+    const std::int64_t dy = (f.y() - std::floor(f.y()) < 0.5) ? -1 : 1;
+    const std::int64_t dz = (f.z() - std::floor(f.z()) < 0.5) ? -1 : 1;
+    int own_cell = -1;
+    for (int k = 0; k < 8; ++k) {
+      const CellKey key{own.x + ((k & 1) ? dx : 0), own.y + ((k & 2) ? dy : 0),
+                        own.z + ((k & 4) ? dz : 0)};
+      const int c = table.find(key);
+      if (k == 0) own_cell = c;
+      if (c < 0) continue;
+      for (int r = cell_head[c]; r >= 0; r = next_in_cell[r])
+        if ((representatives[r] - p).squaredNorm() <= tol2) return r;
+    }
+    if (own_cell < 0) own_cell = table.insert(own);
+    return add_representative(p, own_cell);
+  }
+};
+
 }  // namespace
 
 Aabb bounding_box(const TriMesh& mesh) {
@@ -170,10 +226,8 @@ TriMesh weld_vertices(const TriMesh& mesh, double abs_tol_m) {
   const std::size_t n = mesh.vertices.size();
   TriMesh out;
   std::vector<int> remap(n);
-  std::vector<int> cell_head;  // first representative vertex (output index) per cell
-  std::vector<int> next_in_cell;  // chain of representatives sharing a cell
   // STL soups repeat each vertex ~6 times: start small and let the table grow.
-  CellTable table(n / 4 + 16);
+  WeldGrid grid(out.vertices, n / 4 + 16);
   out.vertices.reserve(n / 4 + 16);
 
   const bool exact = abs_tol_m == 0.0;
@@ -182,62 +236,11 @@ TriMesh weld_vertices(const TriMesh& mesh, double abs_tol_m) {
   const double cell = 2.0 * abs_tol_m;
   const double inv_cell = exact ? 0.0 : 1.0 / cell;
   const double tol2 = abs_tol_m * abs_tol_m;
-
-  auto add_representative = [&](const Vec3& p, int cell_id) {
-    const int r = static_cast<int>(out.vertices.size());
-    out.vertices.push_back(p);
-    next_in_cell.push_back(-1);
-    if (cell_id >= 0) {
-      if (cell_id >= static_cast<int>(cell_head.size())) cell_head.resize(cell_id + 1, -1);
-      next_in_cell[r] = cell_head[cell_id];
-      cell_head[cell_id] = r;
-    }
-    return r;
-  };
-
   for (std::size_t i = 0; i < n; ++i) {
     const Vec3& p = mesh.vertices[i];
-    if (!is_finite(p)) {  // never merge NaN/inf: callers report them
-      remap[i] = add_representative(p, -1);
-      continue;
-    }
-    if (exact) {
-      const CellKey key{bits_of(p.x()), bits_of(p.y()), bits_of(p.z())};
-      int c = table.find(key);
-      if (c >= 0) {
-        remap[i] = cell_head[c];
-      } else {
-        c = table.insert(key);
-        remap[i] = add_representative(p, c);
-      }
-      continue;
-    }
-    const Vec3 f = p * inv_cell;
-    const CellKey own{cell_coordinate(f.x()), cell_coordinate(f.y()), cell_coordinate(f.z())};
-    const std::int64_t dx = (f.x() - std::floor(f.x()) < 0.5) ? -1 : 1;
-    const std::int64_t dy = (f.y() - std::floor(f.y()) < 0.5) ? -1 : 1;
-    const std::int64_t dz = (f.z() - std::floor(f.z()) < 0.5) ? -1 : 1;
-    int found = -1;
-    int own_cell = -1;
-    for (int k = 0; k < 8 && found < 0; ++k) {
-      const CellKey key{own.x + ((k & 1) ? dx : 0), own.y + ((k & 2) ? dy : 0),
-                        own.z + ((k & 4) ? dz : 0)};
-      const int c = table.find(key);
-      if (k == 0) own_cell = c;
-      if (c < 0) continue;
-      for (int r = cell_head[c]; r >= 0; r = next_in_cell[r]) {
-        if ((out.vertices[r] - p).squaredNorm() <= tol2) {
-          found = r;
-          break;
-        }
-      }
-    }
-    if (found >= 0) {
-      remap[i] = found;
-    } else {
-      if (own_cell < 0) own_cell = table.insert(own);
-      remap[i] = add_representative(p, own_cell);
-    }
+    if (!is_finite(p)) remap[i] = grid.add_representative(p, -1);  // never merge NaN/inf: callers report them
+    else if (exact) remap[i] = grid.weld_exact(p);
+    else remap[i] = grid.weld_within(p, inv_cell, tol2);
   }
 
   out.triangles.reserve(mesh.triangles.size());
