@@ -54,7 +54,6 @@ ALLOWED_FUNCTIONS = {
     "src/socketsmith/design/brim.cpp:make_brim": 117,
     "src/socketsmith/design/design_solver.cpp:DesignSolver::solve": 139,
     "src/socketsmith/design/socket_platform.cpp:add_platform": 111,
-    "src/socketsmith/geometry/limb_frame.cpp:estimate_limb_axis": 91,
     "src/socketsmith/report/design_report.cpp:render_radar_chart": 82,
     "src/socketsmith/report/plot_raster.cpp:draw_plot": 115,
     "src/socketsmith/report/raster.cpp:render": 99,

@@ -151,24 +151,31 @@ double width_across(const TriMesh& skin, const Vec3& axis) {
   return width;
 }
 
-/// Mean centroid of the sections normal to @p axis between 20 % and 80 % of the closed part, the
-/// sections taken about @p centre; @p centre itself when fewer than three sections exist.
-Vec3 section_centre(const TriMesh& skin, const Vec3& centre, const Vec3& axis, bool open) {
+/// Centroids of the 13 sections normal to @p axis between 20 % and 80 % of the closed part (below
+/// the lowest open boundary when @p open), the sections taken about @p centre; empty ones skipped.
+std::vector<Vec3> section_centroids(const TriMesh& skin, const Vec3& centre, const Vec3& axis, bool open) {
   LimbFrame tmp;
   tmp.origin = centre;
   tmp.axis = axis;
   const auto [lo, hi_all] = height_range(skin, centre, axis);
   const double hi = open ? lowest_open_boundary_height(skin, tmp) : hi_all;
-  Vec3 sum = Vec3::Zero();
-  int n = 0;
+  std::vector<Vec3> cs;
   for (int k = 0; k <= 12; ++k) {
     const double h = lo + (0.2 + 0.6 * k / 12.0) * (hi - lo);
     const Slice s = slice_surface(skin, centre + h * axis, axis);
-    if (s.area == 0.0) continue;
-    sum += s.centroid;
-    ++n;
+    if (s.area != 0.0) cs.push_back(s.centroid);
   }
+  return cs;
+}
+
+/// Mean centroid of the sections normal to @p axis between 20 % and 80 % of the closed part, the
+/// sections taken about @p centre; @p centre itself when fewer than three sections exist.
+Vec3 section_centre(const TriMesh& skin, const Vec3& centre, const Vec3& axis, bool open) {
+  const std::vector<Vec3> cs = section_centroids(skin, centre, axis, open);
+  const int n = static_cast<int>(cs.size());
   if (n < 3) return centre;
+  Vec3 sum = Vec3::Zero();
+  for (const Vec3& c : cs) sum += c;
   // Only the position across the axis: keep the centre's height.
   const Vec3 c = sum / n;
   return c - (c - centre).dot(axis) * axis;
@@ -213,10 +220,10 @@ std::optional<Vec3> open_rim_centroid(const TriMesh& skin) {
   return c / static_cast<double>(bv.size());
 }
 
-LimbFrame estimate_limb_axis(const TriMesh& skin) {
-  require(skin.num_triangles() >= 4, "limb surface has {} triangles (expected a scanned limb)",
-          skin.num_triangles());
-  // Area-weighted PCA of the triangle centroids.
+namespace {
+
+/// Area-weighted mean of the triangle centroids.
+Vec3 area_weighted_centroid(const TriMesh& skin) {
   double total = 0.0;
   Vec3 mean = Vec3::Zero();
   for (int t = 0; t < skin.num_triangles(); ++t) {
@@ -227,58 +234,58 @@ LimbFrame estimate_limb_axis(const TriMesh& skin) {
   }
   require(total > 0.0, "limb surface has zero area");
   mean /= total;
-  const auto bv = boundary_vertices(skin);
-  const bool open = !bv.empty();
-  Vec3 axis, centre;
-  if (open) {
-    // The distal end is the skin point farthest from the rim; the first axis joins them.
-    const Vec3 rim = *open_rim_centroid(skin);
-    Vec3 tip = skin.vertices.front();
-    for (const auto& v : skin.vertices)
-      if ((v - rim).squaredNorm() > (tip - rim).squaredNorm()) tip = v;
-    require((rim - tip).norm() > 0.0, "limb surface is degenerate (its rim and its far end coincide)");
-    axis = (rim - tip).normalized();
-    centre = 0.5 * (rim + tip);
-  } else {
-    Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-    for (int t = 0; t < skin.num_triangles(); ++t) {
-      const auto& tri = skin.triangles[t];
-      const Vec3 c = (skin.vertices[tri[0]] + skin.vertices[tri[1]] + skin.vertices[tri[2]]) / 3.0 - mean;
-      cov += triangle_area(skin, t) * c * c.transpose();
-    }
-    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);
-    axis = eig.eigenvectors().col(2).normalized();
-    // Elongation check in the PCA frame.
-    const auto [lo, hi] = height_range(skin, mean, axis);
-    double width = 0.0;
-    for (int c = 0; c < 2; ++c) {
-      const auto [a, b] = height_range(skin, mean, eig.eigenvectors().col(c).normalized());
-      width = std::max(width, b - a);
-    }
-    require(hi - lo >= 1.2 * width,
-            "the surface is {:.0f} mm long and {:.0f} mm wide: not elongated like a residual limb "
-            "(expected a length of at least 1.2 x the width); check that the file is a limb scan",
-            (hi - lo) * 1e3, width * 1e3);
-    // Proximal = the wider end.
-    const Slice s_lo = slice_surface(skin, mean + (lo + 0.08 * (hi - lo)) * axis, axis);
-    const Slice s_hi = slice_surface(skin, mean + (hi - 0.08 * (hi - lo)) * axis, axis);
-    if (std::abs(s_lo.area) > std::abs(s_hi.area)) axis = -axis;
-    centre = mean;
-  }
+  return mean;
+}
 
-  // Refinement: line through cross-section centroids.
+/// A first axis (distal to proximal) and a point on it, before refinement.
+struct AxisGuess {
+  Vec3 axis, centre;
+};
+
+/// An open scan: the distal end is the skin point farthest from the rim; the axis joins them.
+AxisGuess axis_from_rim(const TriMesh& skin) {
+  const Vec3 rim = *open_rim_centroid(skin);
+  Vec3 tip = skin.vertices.front();
+  for (const auto& v : skin.vertices)
+    if ((v - rim).squaredNorm() > (tip - rim).squaredNorm()) tip = v;
+  require((rim - tip).norm() > 0.0, "limb surface is degenerate (its rim and its far end coincide)");
+  return {(rim - tip).normalized(), 0.5 * (rim + tip)};
+}
+
+/// A closed surface: the area-weighted PCA's long axis through @p mean, checked to be elongated,
+/// pointing to the wider (proximal) end.
+AxisGuess axis_from_pca(const TriMesh& skin, const Vec3& mean) {
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (int t = 0; t < skin.num_triangles(); ++t) {
+    const auto& tri = skin.triangles[t];
+    const Vec3 c = (skin.vertices[tri[0]] + skin.vertices[tri[1]] + skin.vertices[tri[2]]) / 3.0 - mean;
+    cov += triangle_area(skin, t) * c * c.transpose();
+  }
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);
+  Vec3 axis = eig.eigenvectors().col(2).normalized();
+  // Elongation check in the PCA frame.
+  const auto [lo, hi] = height_range(skin, mean, axis);
+  double width = 0.0;
+  for (int c = 0; c < 2; ++c) {
+    const auto [a, b] = height_range(skin, mean, eig.eigenvectors().col(c).normalized());
+    width = std::max(width, b - a);
+  }
+  require(hi - lo >= 1.2 * width,
+          "the surface is {:.0f} mm long and {:.0f} mm wide: not elongated like a residual limb "
+          "(expected a length of at least 1.2 x the width); check that the file is a limb scan",
+          (hi - lo) * 1e3, width * 1e3);
+  // Proximal = the wider end.
+  const Slice s_lo = slice_surface(skin, mean + (lo + 0.08 * (hi - lo)) * axis, axis);
+  const Slice s_hi = slice_surface(skin, mean + (hi - 0.08 * (hi - lo)) * axis, axis);
+  if (std::abs(s_lo.area) > std::abs(s_hi.area)) axis = -axis;
+  return {axis, mean};
+}
+
+/// Refinement: up to three times, the line through the cross-section centroids, unless the fit is
+/// degenerate or turns the axis by more than 25°.
+void refine_axis(const TriMesh& skin, bool open, AxisGuess& g) {
   for (int iter = 0; iter < 3; ++iter) {
-    LimbFrame tmp;
-    tmp.origin = centre;
-    tmp.axis = axis;
-    const auto [lo, hi_all] = height_range(skin, centre, axis);
-    const double hi = open ? lowest_open_boundary_height(skin, tmp) : hi_all;
-    std::vector<Vec3> cs;
-    for (int k = 0; k <= 12; ++k) {
-      const double h = lo + (0.2 + 0.6 * k / 12.0) * (hi - lo);
-      const Slice s = slice_surface(skin, centre + h * axis, axis);
-      if (s.area != 0.0) cs.push_back(s.centroid);
-    }
+    const std::vector<Vec3> cs = section_centroids(skin, g.centre, g.axis, open);
     if (cs.size() < 3) break;
     Vec3 m = Vec3::Zero();
     for (const auto& c : cs) m += c;
@@ -287,22 +294,33 @@ LimbFrame estimate_limb_axis(const TriMesh& skin) {
     for (const auto& c : cs) cc += (c - m) * (c - m).transpose();
     Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> e2(cc);
     Vec3 a = e2.eigenvectors().col(2).normalized();
-    if (a.dot(axis) < 0.0) a = -a;
+    if (a.dot(g.axis) < 0.0) a = -a;
     // Guard against a degenerate fit (centroids nearly coincident): keep the axis.
-    if (e2.eigenvalues()(2) < 1e-12 || a.dot(axis) < std::cos(25.0 * std::numbers::pi / 180.0)) break;
-    axis = a;
-    centre = m;
+    if (e2.eigenvalues()(2) < 1e-12 || a.dot(g.axis) < std::cos(25.0 * std::numbers::pi / 180.0)) break;
+    g.axis = a;
+    g.centre = m;
   }
+}
+
+}  // namespace
+
+LimbFrame estimate_limb_axis(const TriMesh& skin) {
+  require(skin.num_triangles() >= 4, "limb surface has {} triangles (expected a scanned limb)",
+          skin.num_triangles());
+  const Vec3 mean = area_weighted_centroid(skin);
+  const bool open = !boundary_vertices(skin).empty();
+  AxisGuess g = open ? axis_from_rim(skin) : axis_from_pca(skin, mean);
+  refine_axis(skin, open, g);
   if (open) {
-    const auto [lo, hi] = height_range(skin, centre, axis);
-    const double width = width_across(skin, axis);
+    const auto [lo, hi] = height_range(skin, g.centre, g.axis);
+    const double width = width_across(skin, g.axis);
     require(hi - lo >= 1.0 * width,
             "the surface is {:.0f} mm long and {:.0f} mm wide: not elongated like a residual limb "
             "(expected an open scan at least as long as it is wide); check that the file is a limb scan, or give "
             "its long axis (limb.axis in a case file, --axis x,y,z on the command line)",
             (hi - lo) * 1e3, width * 1e3);
   }
-  return finish_frame(skin, axis, centre);
+  return finish_frame(skin, g.axis, g.centre);
 }
 
 LimbFrame limb_frame_along(const TriMesh& skin, const Vec3& axis_direction) {
