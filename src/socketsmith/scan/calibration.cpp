@@ -159,6 +159,140 @@ void fit_ray_polynomial(const std::vector<Vec3>& measured, const std::vector<Vec
   m.lateral.row(1) = solve_scaled(Ly, by).transpose();
 }
 
+
+void check_calibration_inputs(const SensorRecording& sensor, const ChessboardPattern& pattern,
+                              const CalibrationOptions& o) {
+  validate_pattern(pattern, "calibrate_sensor");
+  require(o.min_frames >= 1, "calibrate_sensor: min_frames {} must be at least 1", o.min_frames);
+  require(o.depth_degree >= 1 && o.depth_degree <= ErrorCompensation::kMaxDepthDegree,
+          "calibrate_sensor: depth degree {} (expected 1 to {})", o.depth_degree, ErrorCompensation::kMaxDepthDegree);
+  require(!sensor.ir_frames.empty(),
+          "calibrate_sensor: sensor '{}' has no IR frames (expected {}/ir_0000.png ... beside the depth frames: the "
+          "chessboard is found in the IR image)",
+          sensor.name, sensor.name);
+  require(sensor.ir_frames.size() == sensor.frames.size(), "calibrate_sensor: sensor '{}' has {} IR and {} depth frames",
+          sensor.name, sensor.ir_frames.size(), sensor.frames.size());
+  const int per_pose = o.frames_per_pose;
+  require(per_pose >= 1, "calibrate_sensor: {} frames per board pose (expected at least 1)", per_pose);
+  require(sensor.frames.size() % static_cast<size_t>(per_pose) == 0,
+          "calibrate_sensor: sensor '{}' has {} frames, not a whole number of board poses of {} frames each (check "
+          "frames_per_pose in rig.json or --frames-per-pose)",
+          sensor.name, sensor.frames.size(), per_pose);
+}
+
+/// The name of the board pose starting at frame @p f in the messages: "<sensor>/ir_<n>.png", or the
+/// first and last frame's names when a pose has several frames.
+std::string board_pose_name(const SensorRecording& sensor, int f, int per_pose) {
+  const auto name_of = [&](int q) {
+    return fmt::format("{}/{}", sensor.name,
+                       q < static_cast<int>(sensor.frame_files.size())
+                           ? "ir_" + sensor.frame_files[static_cast<size_t>(q)].substr(6)
+                           : fmt::format("ir_{:04d}.png", q));
+  };
+  return per_pose == 1 ? name_of(f) : name_of(f) + " to " + name_of(f + per_pose - 1);
+}
+
+/// Finds the board in each pose's mean IR image and fused depth (progress 0 to 0.8): the poses with
+/// at least 6 corners with depth go to r.observations, the others to r.skipped with the reason.
+/// Returns the number of poses.
+int observe_board_poses(const SensorRecording& sensor, const ChessboardPattern& pattern,
+                        const CalibrationOptions& o, const ProgressCallback& progress, CalibrationResult& r) {
+  const int per_pose = o.frames_per_pose;
+  const int n = static_cast<int>(sensor.frames.size()) / per_pose;
+  for (int pose = 0; pose < n; ++pose) {
+    const int f = pose * per_pose;
+    const std::string file = board_pose_name(sensor, f, per_pose);
+    try {
+      BoardObservation ob;
+      ob.frame = f;
+      const auto first = static_cast<std::ptrdiff_t>(f), last = first + per_pose;
+      const IrImage ir = mean_of_ir_frames({sensor.ir_frames.begin() + first, sensor.ir_frames.begin() + last});
+      const DepthImage depth = fuse_frames({sensor.frames.begin() + first, sensor.frames.begin() + last}, o.fusion);
+      ob.detection = detect_chessboard(ir, depth, sensor.intrinsics, pattern, o.chessboard, file);
+      if (ob.detection.count_with_depth() < 6) {
+        r.skipped.push_back(fmt::format("{}: only {} corners have depth", file, ob.detection.count_with_depth()));
+      } else {
+        r.observations.push_back(std::move(ob));
+      }
+    } catch (const InvalidInputError& e) {
+      r.skipped.push_back(e.what());
+    }
+    if (!report_progress(progress, 0.8 * (pose + 1) / n, "finding chessboard corners")) break;
+  }
+  return n;
+}
+
+/// TruthEstimate::Pnp: OpenCV's camera calibration over all board poses (focal lengths refined,
+/// the distortion too if asked); each observation's truth is the ideal grid at its pose.
+void pnp_truth(const SensorRecording& sensor, const ChessboardPattern& pattern, const CalibrationOptions& o,
+               CalibrationResult& r) {
+  const CameraIntrinsics& k = sensor.intrinsics;
+  std::vector<std::vector<cv::Point3f>> obj(r.observations.size(), object_points(pattern));
+  std::vector<std::vector<cv::Point2f>> img;
+  for (const BoardObservation& ob : r.observations) img.push_back(image_points(ob.detection));
+  cv::Mat K = camera_matrix(k.fx, k.fy, k), dist = distortion(k);
+  std::vector<cv::Mat> rvecs, tvecs;
+  const int flags = cv::CALIB_USE_INTRINSIC_GUESS | cv::CALIB_FIX_PRINCIPAL_POINT | cv::CALIB_FIX_TANGENT_DIST |
+                    (o.refine_distortion ? 0 : cv::CALIB_FIX_K1 | cv::CALIB_FIX_K2 | cv::CALIB_FIX_K3);
+  cv::calibrateCamera(obj, img, cv::Size(k.width, k.height), K, dist, rvecs, tvecs, flags);
+  r.fx = K.at<double>(0, 0);
+  r.fy = K.at<double>(1, 1);
+  require(std::abs(r.fx / k.fx - 1.0) < 0.2 && std::abs(r.fy / k.fy - 1.0) < 0.2,
+          "calibrate_sensor: sensor '{}': the board frames give focal lengths {:.1f}, {:.1f} px, far from the "
+          "intrinsics' {:.1f}, {:.1f} (wrong intrinsics or --square-mm?)",
+          sensor.name, r.fx, r.fy, k.fx, k.fy);
+  for (size_t q = 0; q < r.observations.size(); ++q) r.observations[q].truth = posed_grid(pattern, rvecs[q], tvecs[q]);
+}
+
+/// The fit's samples: every corner with depth, its features [1, u, v, d], measured and true point.
+struct CornerSamples {
+  std::vector<Eigen::Vector4d> features;
+  std::vector<Vec3> measured, truth;
+};
+
+CornerSamples corner_samples(const std::vector<BoardObservation>& observations, const std::string& sensor_name) {
+  CornerSamples cs;
+  for (const BoardObservation& ob : observations)
+    for (size_t c = 0; c < ob.detection.corners.size(); ++c) {
+      const ChessboardCorner& cc = ob.detection.corners[c];
+      if (!cc.has_depth()) continue;
+      cs.features.emplace_back(1.0, cc.uv.x(), cc.uv.y(), cc.point.z());
+      cs.measured.push_back(cc.point);
+      cs.truth.push_back(ob.truth[c]);
+    }
+  require(cs.features.size() >= 20, "calibrate_sensor: sensor '{}': only {} corners with depth (expected at least 20)",
+          sensor_name, cs.features.size());
+  return cs;
+}
+
+/// Fits the error model of form o.form to the samples, then refits without gross outliers
+/// (residual norm beyond median + 5 MAD) if at least 20 remain; @p keep says which were used.
+ErrorCompensation fit_without_outliers(const CornerSamples& cs, const CalibrationOptions& o, std::vector<char>& keep) {
+  const std::vector<Eigen::Vector4d>& features = cs.features;
+  const std::vector<Vec3>& measured = cs.measured;
+  const std::vector<Vec3>& truth = cs.truth;
+  auto fit = [&](const std::vector<char>& used) {
+    ErrorCompensation m;
+    if (o.form == CompensationForm::RayPolynomial) fit_ray_polynomial(measured, truth, used, o.depth_degree, m);
+    else m.coefficients = fit_rates(features, measured, truth, used);
+    return m;
+  };
+  keep.assign(features.size(), 1);
+  ErrorCompensation model = fit(keep);
+  std::vector<double> res(features.size());
+  for (size_t s = 0; s < features.size(); ++s)
+    res[s] = (model.apply(measured[s], features[s](1), features[s](2)) - truth[s]).norm();
+  std::vector<double> sorted = res;
+  std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2), sorted.end());
+  const double med = sorted[sorted.size() / 2];
+  for (double& x : sorted) x = std::abs(x - med);
+  std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2), sorted.end());
+  const double mad = sorted[sorted.size() / 2];
+  for (size_t s = 0; s < res.size(); ++s) keep[s] = res[s] <= med + 5.0 * 1.4826 * mad + 1e-9 ? 1 : 0;
+  if (std::count(keep.begin(), keep.end(), 1) >= 20) model = fit(keep);
+  return model;
+}
+
 }  // namespace
 
 std::vector<Vec3> compensated_corners(const ChessboardDetection& det, const ErrorCompensation* model) {
@@ -200,50 +334,10 @@ DimensionStats EdgeErrors::stats() const {
 
 CalibrationResult calibrate_sensor(const SensorRecording& sensor, const ChessboardPattern& pattern,
                                    const CalibrationOptions& o, const ProgressCallback& progress) {
-  validate_pattern(pattern, "calibrate_sensor");
-  require(o.min_frames >= 1, "calibrate_sensor: min_frames {} must be at least 1", o.min_frames);
-  require(o.depth_degree >= 1 && o.depth_degree <= ErrorCompensation::kMaxDepthDegree,
-          "calibrate_sensor: depth degree {} (expected 1 to {})", o.depth_degree, ErrorCompensation::kMaxDepthDegree);
-  require(!sensor.ir_frames.empty(),
-          "calibrate_sensor: sensor '{}' has no IR frames (expected {}/ir_0000.png ... beside the depth frames: the "
-          "chessboard is found in the IR image)",
-          sensor.name, sensor.name);
-  require(sensor.ir_frames.size() == sensor.frames.size(), "calibrate_sensor: sensor '{}' has {} IR and {} depth frames",
-          sensor.name, sensor.ir_frames.size(), sensor.frames.size());
+  check_calibration_inputs(sensor, pattern, o);
   const int per_pose = o.frames_per_pose;
-  require(per_pose >= 1, "calibrate_sensor: {} frames per board pose (expected at least 1)", per_pose);
-  require(sensor.frames.size() % static_cast<size_t>(per_pose) == 0,
-          "calibrate_sensor: sensor '{}' has {} frames, not a whole number of board poses of {} frames each (check "
-          "frames_per_pose in rig.json or --frames-per-pose)",
-          sensor.name, sensor.frames.size(), per_pose);
   CalibrationResult r;
-  const int n = static_cast<int>(sensor.frames.size()) / per_pose;
-  for (int pose = 0; pose < n; ++pose) {
-    const int f = pose * per_pose;
-    const auto name_of = [&](int q) {
-      return fmt::format("{}/{}", sensor.name,
-                         q < static_cast<int>(sensor.frame_files.size())
-                             ? "ir_" + sensor.frame_files[static_cast<size_t>(q)].substr(6)
-                             : fmt::format("ir_{:04d}.png", q));
-    };
-    const std::string file = per_pose == 1 ? name_of(f) : name_of(f) + " to " + name_of(f + per_pose - 1);
-    try {
-      BoardObservation ob;
-      ob.frame = f;
-      const auto first = static_cast<std::ptrdiff_t>(f), last = first + per_pose;
-      const IrImage ir = mean_of_ir_frames({sensor.ir_frames.begin() + first, sensor.ir_frames.begin() + last});
-      const DepthImage depth = fuse_frames({sensor.frames.begin() + first, sensor.frames.begin() + last}, o.fusion);
-      ob.detection = detect_chessboard(ir, depth, sensor.intrinsics, pattern, o.chessboard, file);
-      if (ob.detection.count_with_depth() < 6) {
-        r.skipped.push_back(fmt::format("{}: only {} corners have depth", file, ob.detection.count_with_depth()));
-      } else {
-        r.observations.push_back(std::move(ob));
-      }
-    } catch (const InvalidInputError& e) {
-      r.skipped.push_back(e.what());
-    }
-    if (!report_progress(progress, 0.8 * (pose + 1) / n, "finding chessboard corners")) break;
-  }
+  const int n = observe_board_poses(sensor, pattern, o, progress, r);
   require(static_cast<int>(r.observations.size()) >= o.min_frames,
           "calibrate_sensor: sensor '{}': the board was found in {} of {} {} (expected at least {}; the thesis used "
           "about 50 frames at 50-100 cm){}",
@@ -253,58 +347,13 @@ CalibrationResult calibrate_sensor(const SensorRecording& sensor, const Chessboa
   r.fx = k.fx;
   r.fy = k.fy;
   if (o.truth == TruthEstimate::Pnp) {
-    std::vector<std::vector<cv::Point3f>> obj(r.observations.size(), object_points(pattern));
-    std::vector<std::vector<cv::Point2f>> img;
-    for (const BoardObservation& ob : r.observations) img.push_back(image_points(ob.detection));
-    cv::Mat K = camera_matrix(k.fx, k.fy, k), dist = distortion(k);
-    std::vector<cv::Mat> rvecs, tvecs;
-    const int flags = cv::CALIB_USE_INTRINSIC_GUESS | cv::CALIB_FIX_PRINCIPAL_POINT | cv::CALIB_FIX_TANGENT_DIST |
-                      (o.refine_distortion ? 0 : cv::CALIB_FIX_K1 | cv::CALIB_FIX_K2 | cv::CALIB_FIX_K3);
-    cv::calibrateCamera(obj, img, cv::Size(k.width, k.height), K, dist, rvecs, tvecs, flags);
-    r.fx = K.at<double>(0, 0);
-    r.fy = K.at<double>(1, 1);
-    require(std::abs(r.fx / k.fx - 1.0) < 0.2 && std::abs(r.fy / k.fy - 1.0) < 0.2,
-            "calibrate_sensor: sensor '{}': the board frames give focal lengths {:.1f}, {:.1f} px, far from the "
-            "intrinsics' {:.1f}, {:.1f} (wrong intrinsics or --square-mm?)",
-            sensor.name, r.fx, r.fy, k.fx, k.fy);
-    for (size_t q = 0; q < r.observations.size(); ++q) r.observations[q].truth = posed_grid(pattern, rvecs[q], tvecs[q]);
+    pnp_truth(sensor, pattern, o, r);
   } else {
     for (BoardObservation& ob : r.observations) ob.truth = kabsch_truth(ob.detection);
   }
-  // Samples: every corner with depth.
-  std::vector<Eigen::Vector4d> features;
-  std::vector<Vec3> measured, truth;
-  for (const BoardObservation& ob : r.observations)
-    for (size_t c = 0; c < ob.detection.corners.size(); ++c) {
-      const ChessboardCorner& cc = ob.detection.corners[c];
-      if (!cc.has_depth()) continue;
-      features.emplace_back(1.0, cc.uv.x(), cc.uv.y(), cc.point.z());
-      measured.push_back(cc.point);
-      truth.push_back(ob.truth[c]);
-    }
-  require(features.size() >= 20, "calibrate_sensor: sensor '{}': only {} corners with depth (expected at least 20)",
-          sensor.name, features.size());
-  auto fit = [&](const std::vector<char>& keep) {
-    ErrorCompensation m;
-    if (o.form == CompensationForm::RayPolynomial) fit_ray_polynomial(measured, truth, keep, o.depth_degree, m);
-    else m.coefficients = fit_rates(features, measured, truth, keep);
-    return m;
-  };
-  std::vector<char> keep(features.size(), 1);
-  ErrorCompensation model = fit(keep);
-  // Refit without gross outliers (residual norm beyond median + 5 MAD).
-  std::vector<double> res(features.size());
-  for (size_t s = 0; s < features.size(); ++s)
-    res[s] = (model.apply(measured[s], features[s](1), features[s](2)) - truth[s]).norm();
-  std::vector<double> sorted = res;
-  std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2), sorted.end());
-  const double med = sorted[sorted.size() / 2];
-  for (double& x : sorted) x = std::abs(x - med);
-  std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2), sorted.end());
-  const double mad = sorted[sorted.size() / 2];
-  for (size_t s = 0; s < res.size(); ++s) keep[s] = res[s] <= med + 5.0 * 1.4826 * mad + 1e-9 ? 1 : 0;
-  if (std::count(keep.begin(), keep.end(), 1) >= 20) model = fit(keep);
-  r.model = model;
+  const CornerSamples samples = corner_samples(r.observations, sensor.name);
+  std::vector<char> keep;
+  r.model = fit_without_outliers(samples, o, keep);
   r.model.sensor = sensor.name;
   r.model.width = k.width;
   r.model.height = k.height;
