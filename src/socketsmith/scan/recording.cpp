@@ -58,13 +58,9 @@ std::vector<fs::path> list_frames(const fs::path& sub, const std::string& prefix
   return files;
 }
 
-}  // namespace
 
-Recording read_recording(const fs::path& folder) {
-  if (!fs::is_directory(folder))
-    fail<IoError>("read_recording: recording folder '{}' not found", folder.string());
-  const fs::path rig_path = folder / "rig.json";
-  std::ifstream in(rig_path);
+/// Parses rig.json from @p in (opened by the caller on @p rig_path) and checks its "sensors" array.
+nlohmann::json read_rig_json(std::ifstream& in, const fs::path& rig_path) {
   if (!in) fail<IoError>("read_recording: '{}' is missing (a recording needs rig.json, see docs/scan.md)", rig_path.string());
   nlohmann::json rig;
   try {
@@ -74,8 +70,11 @@ Recording read_recording(const fs::path& folder) {
   }
   require(rig.is_object() && rig.contains("sensors") && rig["sensors"].is_array() && !rig["sensors"].empty(),
           "read_recording: '{}' has no \"sensors\" array (expected one entry per depth sensor)", rig_path.string());
-  Recording rec;
-  rec.description = rig.value("description", std::string());
+  return rig;
+}
+
+/// rig.json's optional "chessboard" {inner_cols, inner_rows, square_mm} and "frames_per_pose".
+void read_board_settings(const nlohmann::json& rig, const fs::path& rig_path, Recording& rec) {
   if (rig.contains("chessboard")) {
     const auto& c = rig["chessboard"];
     const std::string what = fmt::format("read_recording: \"chessboard\" in '{}'", rig_path.string());
@@ -100,78 +99,127 @@ Recording read_recording(const fs::path& folder) {
             rig_path.string());
     rec.frames_per_pose = n.get<int>();
   }
-  std::set<std::string> names;
-  for (const auto& s : rig["sensors"]) {
-    require(s.is_object() && s.contains("name") && s["name"].is_string(),
-            "read_recording: '{}': a sensor has no \"name\"", rig_path.string());
-    SensorRecording sr;
-    sr.name = s["name"].get<std::string>();
-    const std::string what = fmt::format("read_recording: sensor '{}' in '{}'", sr.name, rig_path.string());
-    require(names.insert(sr.name).second, "{}: the name is used twice", what);
-    static const std::set<std::string> known = {"name", "intrinsics", "pose_world_from_sensor", "depth_scale_m",
-                                                "frames", "ir_frames", "folder", "compensation"};
-    for (const auto& [key, value] : s.items())
-      require(known.count(key) > 0,
-              "{}: unknown key '{}' (expected name, intrinsics, pose_world_from_sensor, depth_scale_m, frames, ir_frames, "
-              "folder, compensation)",
-              what, key);
-    const fs::path sub = folder / s.value("folder", sr.name);
-    // Intrinsics: a path relative to the recording; default <sensor>/intrinsics.json.
-    const fs::path intr = s.contains("intrinsics") ? folder / s["intrinsics"].get<std::string>() : sub / "intrinsics.json";
-    if (!fs::exists(intr))
-      fail<IoError>("{}: intrinsics '{}' are missing (write intrinsics.json with fx, fy, cx, cy, width, height, or "
-                    "point \"intrinsics\" to a calib_ir.yaml folder)",
-                    what, intr.string());
-    sr.intrinsics = read_intrinsics(intr);
-    require(s.contains("pose_world_from_sensor"), "{}: \"pose_world_from_sensor\" (4x4, metres) is missing", what);
-    try {
-      sr.world_from_sensor =
-          pose_from_rows(s["pose_world_from_sensor"].get<std::vector<std::vector<double>>>(), what);
-    } catch (const nlohmann::json::exception&) {
-      fail("{}: \"pose_world_from_sensor\" is not a 4x4 array of numbers", what);
-    }
-    sr.depth_scale_m = s.value("depth_scale_m", 1e-3);
-    require(std::isfinite(sr.depth_scale_m) && sr.depth_scale_m > 0.0 && sr.depth_scale_m < 1.0,
-            "{}: depth_scale_m = {} is not valid (expected metres per raw unit, e.g. 0.001 for mm)", what,
-            sr.depth_scale_m);
-    std::vector<fs::path> files;
-    if (s.contains("frames")) {
-      for (const auto& f : s["frames"]) files.push_back(sub / f.get<std::string>());
-    } else {
-      files = list_frames(sub, "depth_");
-    }
-    require(!files.empty(), "{}: no depth frames (expected {}/depth_0000.png ...)", what, sub.string());
-    for (const fs::path& f : files) {
-      DepthImage d = read_depth_png(f, sr.depth_scale_m);
-      require(d.width == sr.intrinsics.width && d.height == sr.intrinsics.height,
-              "{}: frame '{}' is {}x{} px but its intrinsics are for {}x{} (wrong intrinsics file?)", what,
-              f.string(), d.width, d.height, sr.intrinsics.width, sr.intrinsics.height);
-      sr.frames.push_back(std::move(d));
-      sr.frame_files.push_back(f.filename().string());
-    }
-    std::vector<fs::path> ir_files;
-    if (s.contains("ir_frames")) {
-      for (const auto& f : s["ir_frames"]) ir_files.push_back(sub / f.get<std::string>());
-    } else {
-      ir_files = list_frames(sub, "ir_");
-    }
-    require(ir_files.empty() || ir_files.size() == files.size(),
-            "{}: {} IR frames for {} depth frames (expected none or one ir_XXXX.png per depth_XXXX.png)", what,
-            ir_files.size(), files.size());
-    for (const fs::path& f : ir_files) {
-      IrImage ir = read_ir_png(f);
-      require(ir.width == sr.intrinsics.width && ir.height == sr.intrinsics.height,
-              "{}: IR frame '{}' is {}x{} px but the depth frames are {}x{} (IR must be pixel-aligned with depth)",
-              what, f.string(), ir.width, ir.height, sr.intrinsics.width, sr.intrinsics.height);
-      sr.ir_frames.push_back(std::move(ir));
-    }
-    if (s.contains("compensation")) {
-      const fs::path model = folder / s["compensation"].get<std::string>();
-      sr.compensation = compensation_for(read_compensation_json(model), sr.name, sr.intrinsics.width,
-                                         sr.intrinsics.height, model.string());
-    }
-    rec.sensors.push_back(std::move(sr));
+}
+
+void check_sensor_keys(const nlohmann::json& s, const std::string& what) {
+  static const std::set<std::string> known = {"name", "intrinsics", "pose_world_from_sensor", "depth_scale_m",
+                                              "frames", "ir_frames", "folder", "compensation"};
+  for (const auto& [key, value] : s.items())
+    require(known.count(key) > 0,
+            "{}: unknown key '{}' (expected name, intrinsics, pose_world_from_sensor, depth_scale_m, frames, ir_frames, "
+            "folder, compensation)",
+            what, key);
+}
+
+/// The sensor's intrinsics file: "intrinsics", a path relative to the recording; default
+/// <sensor>/intrinsics.json.
+fs::path sensor_intrinsics_path(const nlohmann::json& s, const fs::path& folder, const fs::path& sub) {
+  return s.contains("intrinsics") ? folder / s["intrinsics"].get<std::string>() : sub / "intrinsics.json";
+}
+
+/// The sensor's intrinsics (from @p intr), pose and depth scale (metres per raw unit).
+void read_sensor_geometry(const nlohmann::json& s, const fs::path& intr, const std::string& what,
+                          SensorRecording& sr) {
+  if (!fs::exists(intr))
+    fail<IoError>("{}: intrinsics '{}' are missing (write intrinsics.json with fx, fy, cx, cy, width, height, or "
+                  "point \"intrinsics\" to a calib_ir.yaml folder)",
+                  what, intr.string());
+  sr.intrinsics = read_intrinsics(intr);
+  require(s.contains("pose_world_from_sensor"), "{}: \"pose_world_from_sensor\" (4x4, metres) is missing", what);
+  try {
+    sr.world_from_sensor =
+        pose_from_rows(s["pose_world_from_sensor"].get<std::vector<std::vector<double>>>(), what);
+  } catch (const nlohmann::json::exception&) {
+    fail("{}: \"pose_world_from_sensor\" is not a 4x4 array of numbers", what);
   }
+  sr.depth_scale_m = s.value("depth_scale_m", 1e-3);
+  require(std::isfinite(sr.depth_scale_m) && sr.depth_scale_m > 0.0 && sr.depth_scale_m < 1.0,
+          "{}: depth_scale_m = {} is not valid (expected metres per raw unit, e.g. 0.001 for mm)", what,
+          sr.depth_scale_m);
+}
+
+/// The files listed under @p key, else the folder's <prefix>*.png.
+std::vector<fs::path> sensor_frame_files(const nlohmann::json& s, const char* key, const fs::path& sub,
+                                         const std::string& prefix) {
+  std::vector<fs::path> files;
+  if (s.contains(key)) {
+    for (const auto& f : s[key]) files.push_back(sub / f.get<std::string>());
+  } else {
+    files = list_frames(sub, prefix);
+  }
+  return files;
+}
+
+/// The depth frames, each the intrinsics' size.
+void read_depth_frames(const std::vector<fs::path>& files, const fs::path& sub, const std::string& what,
+                       SensorRecording& sr) {
+  require(!files.empty(), "{}: no depth frames (expected {}/depth_0000.png ...)", what, sub.string());
+  for (const fs::path& f : files) {
+    DepthImage d = read_depth_png(f, sr.depth_scale_m);
+    require(d.width == sr.intrinsics.width && d.height == sr.intrinsics.height,
+            "{}: frame '{}' is {}x{} px but its intrinsics are for {}x{} (wrong intrinsics file?)", what,
+            f.string(), d.width, d.height, sr.intrinsics.width, sr.intrinsics.height);
+    sr.frames.push_back(std::move(d));
+    sr.frame_files.push_back(f.filename().string());
+  }
+}
+
+/// The IR frames: none, or one per depth frame, pixel-aligned with them.
+void read_ir_frames(const std::vector<fs::path>& ir_files, std::size_t depth_frames, const std::string& what,
+                    SensorRecording& sr) {
+  require(ir_files.empty() || ir_files.size() == depth_frames,
+          "{}: {} IR frames for {} depth frames (expected none or one ir_XXXX.png per depth_XXXX.png)", what,
+          ir_files.size(), depth_frames);
+  for (const fs::path& f : ir_files) {
+    IrImage ir = read_ir_png(f);
+    require(ir.width == sr.intrinsics.width && ir.height == sr.intrinsics.height,
+            "{}: IR frame '{}' is {}x{} px but the depth frames are {}x{} (IR must be pixel-aligned with depth)",
+            what, f.string(), ir.width, ir.height, sr.intrinsics.width, sr.intrinsics.height);
+    sr.ir_frames.push_back(std::move(ir));
+  }
+}
+
+/// One entry of rig.json's "sensors"; @p names collects the names seen, which must be unique.
+SensorRecording read_sensor(const nlohmann::json& s, const fs::path& folder, const fs::path& rig_path,
+                            std::set<std::string>& names) {
+  require(s.is_object() && s.contains("name") && s["name"].is_string(),
+          "read_recording: '{}': a sensor has no \"name\"", rig_path.string());
+  SensorRecording sr;
+  sr.name = s["name"].get<std::string>();
+  const std::string what = fmt::format("read_recording: sensor '{}' in '{}'", sr.name, rig_path.string());
+  require(names.insert(sr.name).second, "{}: the name is used twice", what);
+  check_sensor_keys(s, what);
+  const fs::path sub = folder / s.value("folder", sr.name);
+  const fs::path intr = sensor_intrinsics_path(s, folder, sub);
+  read_sensor_geometry(s, intr, what, sr);
+  const std::vector<fs::path> files = sensor_frame_files(s, "frames", sub, "depth_");
+  read_depth_frames(files, sub, what, sr);
+  const std::vector<fs::path> ir_files = sensor_frame_files(s, "ir_frames", sub, "ir_");
+  read_ir_frames(ir_files, files.size(), what, sr);
+  if (s.contains("compensation")) {
+    const fs::path model = folder / s["compensation"].get<std::string>();
+    sr.compensation = compensation_for(read_compensation_json(model), sr.name, sr.intrinsics.width,
+                                       sr.intrinsics.height, model.string());
+  }
+  return sr;
+}
+
+}  // namespace
+
+Recording read_recording(const fs::path& folder) {
+  if (!fs::is_directory(folder))
+    fail<IoError>("read_recording: recording folder '{}' not found", folder.string());
+  const fs::path rig_path = folder / "rig.json";
+  // Opened here and kept open to the end, as the paths and file lists of read_sensor live to its
+  // end: scan reconstruct's surface depends on the heap's state (reconstruction.cpp), so the
+  // order of allocations and frees here is part of its output.
+  std::ifstream in(rig_path);
+  const nlohmann::json rig = read_rig_json(in, rig_path);
+  Recording rec;
+  rec.description = rig.value("description", std::string());
+  read_board_settings(rig, rig_path, rec);
+  std::set<std::string> names;
+  for (const auto& s : rig["sensors"]) rec.sensors.push_back(read_sensor(s, folder, rig_path, names));
   return rec;
 }
 
