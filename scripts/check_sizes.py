@@ -57,7 +57,6 @@ ALLOWED_FUNCTIONS = {
     "src/socketsmith/report/design_report.cpp:render_radar_chart": 82,
     "src/socketsmith/report/plot_raster.cpp:draw_plot": 115,
     "src/socketsmith/report/raster.cpp:render": 99,
-    "src/socketsmith/scan/registration.cpp:box_reference_points": 82,
     "src/socketsmith/tissue/calibration.cpp:calibrate_corrective_springs": 116,
     "src/socketsmith/tissue/cube_experiment.cpp:run_cube_experiment": 111,
     "src/socketsmith/tissue/mass_spring_model.cpp:MassSpringModel::MassSpringModel": 85,

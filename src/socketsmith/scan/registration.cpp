@@ -203,58 +203,59 @@ RegistrationResult register_sequential(const ReferenceSet& refs, const std::vect
   return r;
 }
 
-ReferenceSet box_reference_points(const Recording& rec, const std::vector<Eigen::Isometry3d>& approx,
-                                  const BoxDetectionOptions& o) {
-  require(rec.chessboard.has_value(),
-          "scan register: the recording has no chessboard pattern (rig.json \"chessboard\": inner_cols, inner_rows, "
-          "square_mm); record the registration box with its boards");
-  require(approx.size() == rec.sensors.size(), "box_reference_points: {} poses for {} sensors", approx.size(),
-          rec.sensors.size());
-  const ChessboardPattern& pattern = *rec.chessboard;
-  struct Detection {
-    int sensor;
-    ChessboardDetection det;
-    Vec3 centroid_world;
-  };
-  std::vector<Detection> dets;
-  ReferenceSet refs;
-  for (size_t s = 0; s < rec.sensors.size(); ++s) {
-    const SensorRecording& sr = rec.sensors[s];
-    refs.sensor_names.push_back(sr.name);
-    require(!sr.ir_frames.empty(),
-            "scan register: sensor '{}' has no IR frames (ir_0000.png …): the chessboard corners are found in the IR "
-            "image",
-            sr.name);
-    // The box is static: the depth frames' median and the IR frames' mean (less IR noise).
-    const DepthImage depth = fuse_frames(sr.frames, FrameFusion::Median);
-    const auto boards = find_all_chessboard_corners(mean_of_ir_frames(sr.ir_frames), pattern, o.chessboard.upsample,
-                                                    o.max_boards_per_sensor);
-    require(!boards.empty(),
-            "chessboard not found in {}/{}{} (expected {}x{} inner corners on the box: check that the boards are in view "
-            "and rig.json's \"chessboard\")",
-            sr.name, "ir_0000.png",
-            sr.ir_frames.size() > 1 ? fmt::format(" and the mean of its {} IR frames", sr.ir_frames.size()) : "",
-            pattern.inner_cols, pattern.inner_rows);
-    for (const auto& uv : boards) {
-      Detection d{static_cast<int>(s), corners_to_3d(uv, depth, sr.intrinsics, pattern, o.chessboard),
-                  Vec3::Zero()};
-      // The sensor's learned error compensation, when it has one: (I − ε(u, v, d)) P per corner.
-      if (sr.compensation) {
-        const std::vector<Vec3> fixed = compensated_corners(d.det, &*sr.compensation);
-        for (size_t c = 0; c < fixed.size(); ++c) d.det.corners[c].point = fixed[c];
-      }
-      int count = 0;
-      for (const auto& c : d.det.corners)
-        if (c.has_depth()) {
-          d.centroid_world += approx[s] * c.point;
-          ++count;
-        }
-      if (count < 3) continue;
-      d.centroid_world /= count;
-      dets.push_back(std::move(d));
+namespace {
+
+/// One chessboard found by one sensor: its corners (compensated when the sensor has a model) and
+/// their centroid in the world by the approximate pose [m].
+struct BoxBoardDetection {
+  int sensor;
+  ChessboardDetection det;
+  Vec3 centroid_world;
+};
+
+/// The boards sensor @p s sees on the static box (in the depth frames' median and the IR frames'
+/// mean), those with at least 3 corners with depth appended to @p dets.
+void detect_box_boards(const SensorRecording& sr, int s, const Eigen::Isometry3d& approx,
+                       const ChessboardPattern& pattern, const BoxDetectionOptions& o,
+                       std::vector<BoxBoardDetection>& dets) {
+  require(!sr.ir_frames.empty(),
+          "scan register: sensor '{}' has no IR frames (ir_0000.png …): the chessboard corners are found in the IR "
+          "image",
+          sr.name);
+  // The box is static: the depth frames' median and the IR frames' mean (less IR noise).
+  const DepthImage depth = fuse_frames(sr.frames, FrameFusion::Median);
+  const auto boards = find_all_chessboard_corners(mean_of_ir_frames(sr.ir_frames), pattern, o.chessboard.upsample,
+                                                  o.max_boards_per_sensor);
+  require(!boards.empty(),
+          "chessboard not found in {}/{}{} (expected {}x{} inner corners on the box: check that the boards are in view "
+          "and rig.json's \"chessboard\")",
+          sr.name, "ir_0000.png",
+          sr.ir_frames.size() > 1 ? fmt::format(" and the mean of its {} IR frames", sr.ir_frames.size()) : "",
+          pattern.inner_cols, pattern.inner_rows);
+  for (const auto& uv : boards) {
+    BoxBoardDetection d{s, corners_to_3d(uv, depth, sr.intrinsics, pattern, o.chessboard), Vec3::Zero()};
+    // The sensor's learned error compensation, when it has one: (I − ε(u, v, d)) P per corner.
+    if (sr.compensation) {
+      const std::vector<Vec3> fixed = compensated_corners(d.det, &*sr.compensation);
+      for (size_t c = 0; c < fixed.size(); ++c) d.det.corners[c].point = fixed[c];
     }
+    int count = 0;
+    for (const auto& c : d.det.corners)
+      if (c.has_depth()) {
+        d.centroid_world += approx * c.point;
+        ++count;
+      }
+    if (count < 3) continue;
+    d.centroid_world /= count;
+    dets.push_back(std::move(d));
   }
-  // Physical boards: union of detections of different sensors whose world centroids are close.
+}
+
+/// Physical boards: union of detections of different sensors whose world centroids are closer
+/// than same_board_distance_m. Returns each detection's board, numbered 0.. in order of first
+/// detection; @p boards is their count.
+std::vector<int> physical_boards(const std::vector<BoxBoardDetection>& dets, const BoxDetectionOptions& o,
+                                 int& boards) {
   std::vector<int> board(dets.size());
   std::iota(board.begin(), board.end(), 0);
   std::function<int(int)> root = [&](int x) { return board[static_cast<size_t>(x)] == x ? x : board[static_cast<size_t>(x)] = root(board[static_cast<size_t>(x)]); };
@@ -264,12 +265,35 @@ ReferenceSet box_reference_points(const Recording& rec, const std::vector<Eigen:
           (dets[a].centroid_world - dets[b].centroid_world).norm() < o.same_board_distance_m)
         board[static_cast<size_t>(root(static_cast<int>(a)))] = root(static_cast<int>(b));
   std::vector<int> board_id(dets.size(), -1);
-  int boards = 0;
-  std::vector<int> first_point_of_board;
+  boards = 0;
   for (size_t a = 0; a < dets.size(); ++a) {
     const int rt = root(static_cast<int>(a));
     if (board_id[static_cast<size_t>(rt)] < 0) board_id[static_cast<size_t>(rt)] = boards++;
   }
+  std::vector<int> of_detection(dets.size());
+  for (size_t a = 0; a < dets.size(); ++a) of_detection[a] = board_id[static_cast<size_t>(root(static_cast<int>(a)))];
+  return of_detection;
+}
+
+}  // namespace
+
+ReferenceSet box_reference_points(const Recording& rec, const std::vector<Eigen::Isometry3d>& approx,
+                                  const BoxDetectionOptions& o) {
+  require(rec.chessboard.has_value(),
+          "scan register: the recording has no chessboard pattern (rig.json \"chessboard\": inner_cols, inner_rows, "
+          "square_mm); record the registration box with its boards");
+  require(approx.size() == rec.sensors.size(), "box_reference_points: {} poses for {} sensors", approx.size(),
+          rec.sensors.size());
+  const ChessboardPattern& pattern = *rec.chessboard;
+  std::vector<BoxBoardDetection> dets;
+  ReferenceSet refs;
+  for (size_t s = 0; s < rec.sensors.size(); ++s) {
+    refs.sensor_names.push_back(rec.sensors[s].name);
+    detect_box_boards(rec.sensors[s], static_cast<int>(s), approx[s], pattern, o, dets);
+  }
+  int boards = 0;
+  const std::vector<int> board_of = physical_boards(dets, o, boards);
+  // Reference points: every inner corner of every physical board, "board<n>:i<i>j<j>".
   const int per_board = pattern.inner_cols * pattern.inner_rows;
   refs.point_names.resize(static_cast<size_t>(boards * per_board));
   for (int b = 0; b < boards; ++b)
@@ -278,7 +302,7 @@ ReferenceSet box_reference_points(const Recording& rec, const std::vector<Eigen:
         refs.point_names[static_cast<size_t>(b * per_board + j * pattern.inner_cols + i)] =
             fmt::format("board{}:i{}j{}", b + 1, i, j);
   for (size_t a = 0; a < dets.size(); ++a) {
-    const int b = board_id[static_cast<size_t>(root(static_cast<int>(a)))];
+    const int b = board_of[a];
     for (const auto& c : dets[a].det.corners)
       if (c.has_depth())
         refs.observations.push_back({dets[a].sensor, b * per_board + c.j * pattern.inner_cols + c.i, c.point});
