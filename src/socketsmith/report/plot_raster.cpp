@@ -195,78 +195,90 @@ std::vector<Rgb> series_rgb(const Plot& plot, const PlotLayout& l, std::string_v
   return out;
 }
 
-/// Draws @p plot, laid out as @p l, into @p img at offset (0, 0) (img is exactly the plot).
-void draw_plot(Image& img, const Plot& plot, const PlotLayout& l, const std::vector<Rgb>& rgb) {
-  const double left = l.left, top = l.top, right = l.left + l.plot_w, bottom = l.top + l.plot_h;
-  const int px_left = pixel_line(left), px_top = pixel_line(top);
-  const int px_right = pixel_line(right), px_bottom = pixel_line(bottom);
+/// The plot area's edges as the columns and rows of their 1-px lines.
+struct PlotAreaPixels {
+  int left, top, right, bottom;
 
-  if (plot.show_grid) {
-    for (double t : l.x.ticks) {
-      const int x = pixel_line(l.to_px_x(t));
-      fill_box(img, x, px_top, x + 1, px_bottom + 1, kGridColour);
-    }
-    for (double t : l.y.ticks) {
-      const int y = pixel_line(l.to_px_y(t));
-      fill_box(img, px_left, y, px_right + 1, y + 1, kGridColour);
-    }
+  explicit PlotAreaPixels(const PlotLayout& l)
+      : left(pixel_line(l.left)), top(pixel_line(l.top)), right(pixel_line(l.left + l.plot_w)),
+        bottom(pixel_line(l.top + l.plot_h)) {}
+};
+
+/// Grid lines at the ticks, across the plot area.
+void draw_grid(Image& img, const PlotLayout& l) {
+  const PlotAreaPixels px(l);
+  for (double t : l.x.ticks) {
+    const int x = pixel_line(l.to_px_x(t));
+    fill_box(img, x, px.top, x + 1, px.bottom + 1, kGridColour);
   }
+  for (double t : l.y.ticks) {
+    const int y = pixel_line(l.to_px_y(t));
+    fill_box(img, px.left, y, px.right + 1, y + 1, kGridColour);
+  }
+}
 
-  // Series, clipped to the layout's clip rectangle.
-  const PixelRect clip = pixels_within(img, l.clip_x0, l.clip_y0, l.clip_x1, l.clip_y1);
-  for (std::size_t si = 0; si < plot.series.size(); ++si) {
-    const PlotSeries& s = plot.series[si];
-    if (s.line_width > 0) {
-      Coverage cov(img, clip);
-      // Segments are cut to the clip rectangle grown by the stroke (so that caps at its edge
-      // are whole); the pixels are clipped exactly.
-      const double grow = s.line_width + 2;
-      std::vector<std::pair<double, double>> path;
-      const auto flush = [&] {
-        if (!path.empty())
-          stroke_polyline(cov, path, s, l.clip_x0 - grow, l.clip_y0 - grow, l.clip_x1 + grow,
-                          l.clip_y1 + grow);
-        path.clear();
-      };
-      for (std::size_t i = 0; i < s.x.size(); ++i) {
-        const double x = is_finite_point(s.x[i], s.y[i]) ? l.to_px_x(s.x[i]) : NAN;
-        const double y = is_finite_point(s.x[i], s.y[i]) ? l.to_px_y(s.y[i]) : NAN;
-        if (std::isfinite(x) && std::isfinite(y))
-          path.emplace_back(x, y);
-        else
-          flush();
-      }
+/// A series' line: one stroked sub-path per run of finite points, clipped to @p clip.
+void draw_series_line(Image& img, const PlotSeries& s, const PlotLayout& l, const PixelRect& clip,
+                      const Rgb& rgb) {
+  Coverage cov(img, clip);
+  // Segments are cut to the clip rectangle grown by the stroke (so that caps at its edge
+  // are whole); the pixels are clipped exactly.
+  const double grow = s.line_width + 2;
+  std::vector<std::pair<double, double>> path;
+  const auto flush = [&] {
+    if (!path.empty())
+      stroke_polyline(cov, path, s, l.clip_x0 - grow, l.clip_y0 - grow, l.clip_x1 + grow,
+                      l.clip_y1 + grow);
+    path.clear();
+  };
+  for (std::size_t i = 0; i < s.x.size(); ++i) {
+    const double x = is_finite_point(s.x[i], s.y[i]) ? l.to_px_x(s.x[i]) : NAN;
+    const double y = is_finite_point(s.x[i], s.y[i]) ? l.to_px_y(s.y[i]) : NAN;
+    if (std::isfinite(x) && std::isfinite(y))
+      path.emplace_back(x, y);
+    else
       flush();
-      cov.blend_into(img, rgb[si]);
-    }
-    if (s.markers)
-      for (std::size_t i = 0; i < s.x.size(); ++i) {
-        if (!is_finite_point(s.x[i], s.y[i])) continue;
-        const double x = l.to_px_x(s.x[i]), y = l.to_px_y(s.y[i]);
-        if (std::isfinite(x) && std::isfinite(y) && std::abs(x) < 1e7 && std::abs(y) < 1e7)
-          fill_disc(img, x, y, marker_radius(s), rgb[si], clip);
-      }
   }
+  flush();
+  cov.blend_into(img, rgb);
+}
 
-  // Frame, ticks, tick labels.
-  fill_box(img, px_left, px_top, px_right + 1, px_top + 1, kInk);
-  fill_box(img, px_left, px_bottom, px_right + 1, px_bottom + 1, kInk);
-  fill_box(img, px_left, px_top, px_left + 1, px_bottom + 1, kInk);
-  fill_box(img, px_right, px_top, px_right + 1, px_bottom + 1, kInk);
+/// A series' markers at its finite points, clipped to @p clip.
+void draw_series_markers(Image& img, const PlotSeries& s, const PlotLayout& l, const PixelRect& clip,
+                         const Rgb& rgb) {
+  for (std::size_t i = 0; i < s.x.size(); ++i) {
+    if (!is_finite_point(s.x[i], s.y[i])) continue;
+    const double x = l.to_px_x(s.x[i]), y = l.to_px_y(s.y[i]);
+    if (std::isfinite(x) && std::isfinite(y) && std::abs(x) < 1e7 && std::abs(y) < 1e7)
+      fill_disc(img, x, y, marker_radius(s), rgb, clip);
+  }
+}
+
+/// The frame round the plot area, its ticks and the tick labels.
+void draw_frame_and_ticks(Image& img, const PlotLayout& l) {
+  const PlotAreaPixels px(l);
+  const double left = l.left, bottom = l.top + l.plot_h;
+  fill_box(img, px.left, px.top, px.right + 1, px.top + 1, kInk);
+  fill_box(img, px.left, px.bottom, px.right + 1, px.bottom + 1, kInk);
+  fill_box(img, px.left, px.top, px.left + 1, px.bottom + 1, kInk);
+  fill_box(img, px.right, px.top, px.right + 1, px.bottom + 1, kInk);
   const int tick = static_cast<int>(std::lround(l.tick_length_px));
   for (std::size_t i = 0; i < l.x.ticks.size(); ++i) {
     const double x = l.to_px_x(l.x.ticks[i]);
-    fill_box(img, pixel_line(x), px_bottom, pixel_line(x) + 1, px_bottom + tick + 1, kInk);
+    fill_box(img, pixel_line(x), px.bottom, pixel_line(x) + 1, px.bottom + tick + 1, kInk);
     draw_plot_text(img, x, bottom + l.tick_length_px + 4, l.x.labels[i], PlotText::Tick, 0.5);
   }
   for (std::size_t i = 0; i < l.y.ticks.size(); ++i) {
     const double y = l.to_px_y(l.y.ticks[i]);
-    fill_box(img, px_left - tick, pixel_line(y), px_left, pixel_line(y) + 1, kInk);
+    fill_box(img, px.left - tick, pixel_line(y), px.left, pixel_line(y) + 1, kInk);
     draw_plot_text(img, left - l.tick_length_px - 4, y - cap_middle(PlotText::Tick), l.y.labels[i],
                    PlotText::Tick, 1.0);
   }
+}
 
-  // Axis labels and title.
+/// The axis labels and the title.
+void draw_labels_and_title(Image& img, const Plot& plot, const PlotLayout& l) {
+  const double left = l.left, top = l.top, bottom = l.top + l.plot_h;
   const PlotTextMetrics metrics = raster_metrics();
   if (!plot.x_label.empty())
     draw_plot_text(img, left + 0.5 * l.plot_w, bottom + l.tick_length_px + 6 + metrics.tick_px + 8,
@@ -285,9 +297,10 @@ void draw_plot(Image& img, const Plot& plot, const PlotLayout& l, const std::vec
     if (x < 4 || x + w > img.width - 4) x = std::max(4.0, 0.5 * (img.width - w));
     draw_text(img, static_cast<int>(std::lround(x)), 14, ascii, kInk, scale);
   }
+}
 
-  // Legend.
-  if (l.legend_entries.empty()) return;
+/// The legend box: a sample of each entry's line and marker, and its name.
+void draw_legend(Image& img, const Plot& plot, const PlotLayout& l, const std::vector<Rgb>& rgb) {
   const int bx0 = pixel_line(l.legend_x), by0 = pixel_line(l.legend_y);
   const int bx1 = pixel_line(l.legend_x + l.legend_w), by1 = pixel_line(l.legend_y + l.legend_h);
   fill_box(img, bx0, by0, bx1 + 1, by1 + 1, kWhite, kLegendOpacity);
@@ -310,6 +323,21 @@ void draw_plot(Image& img, const Plot& plot, const PlotLayout& l, const std::vec
     draw_plot_text(img, x1 + l.legend_gap_px, cy - cap_middle(PlotText::Legend), s.name,
                    PlotText::Legend, 0.0);
   }
+}
+
+/// Draws @p plot, laid out as @p l, into @p img at offset (0, 0) (img is exactly the plot).
+void draw_plot(Image& img, const Plot& plot, const PlotLayout& l, const std::vector<Rgb>& rgb) {
+  if (plot.show_grid) draw_grid(img, l);
+  // Series, clipped to the layout's clip rectangle.
+  const PixelRect clip = pixels_within(img, l.clip_x0, l.clip_y0, l.clip_x1, l.clip_y1);
+  for (std::size_t si = 0; si < plot.series.size(); ++si) {
+    const PlotSeries& s = plot.series[si];
+    if (s.line_width > 0) draw_series_line(img, s, l, clip, rgb[si]);
+    if (s.markers) draw_series_markers(img, s, l, clip, rgb[si]);
+  }
+  draw_frame_and_ticks(img, l);
+  draw_labels_and_title(img, plot, l);
+  if (!l.legend_entries.empty()) draw_legend(img, plot, l, rgb);
 }
 
 /// Checks, lays out and draws @p plot into a new image; @p where names the caller in errors.
