@@ -273,44 +273,6 @@ void draw_marker_disc(Image& img, double cx, double cy, double r, Rgb fill, cons
     }
 }
 
-void validate_scene(const char* fn, const std::vector<MeshLayer>& layers,
-                    const std::vector<Marker>& markers) {
-  for (std::size_t l = 0; l < layers.size(); ++l) {
-    const MeshLayer& layer = layers[l];
-    require(layer.mesh != nullptr, "{}: layer {} has no mesh (the mesh pointer is null)", fn, l);
-    const auto& mesh = *layer.mesh;
-    const int nv = mesh.num_vertices();
-    for (int v = 0; v < nv; ++v) {
-      const Vector3d& x = mesh.vertices[v];
-      require(x.allFinite(), "{}: layer {} vertex {} = ({}, {}, {}) is not finite", fn, l, v, x.x(),
-              x.y(), x.z());
-    }
-    for (int t = 0; t < mesh.num_triangles(); ++t)
-      for (int k : mesh.triangles[t])
-        require(k >= 0 && k < nv, "{}: layer {} triangle {} refers to vertex {} (the mesh has {})",
-                fn, l, t, k, nv);
-    if (!layer.vertex_values.empty()) {
-      require(layer.vertex_values.size() == std::size_t(nv),
-              "{}: layer {} has {} vertex values for {} vertices (expected one per vertex or none)",
-              fn, l, layer.vertex_values.size(), nv);
-      require(std::isfinite(layer.value_min) && std::isfinite(layer.value_max) &&
-                  layer.value_min < layer.value_max,
-              "{}: layer {} value range [{}, {}] (expected finite value_min < value_max)", fn, l,
-              layer.value_min, layer.value_max);
-    }
-    require(layer.opacity > 0 && layer.opacity <= 1,
-            "{}: layer {} opacity {} (expected 0 < opacity <= 1)", fn, l, layer.opacity);
-  }
-  for (std::size_t m = 0; m < markers.size(); ++m) {
-    const Vector3d& x = markers[m].position;
-    require(x.allFinite(), "{}: marker {} '{}' position ({}, {}, {}) is not finite", fn, m,
-            markers[m].label, x.x(), x.y(), x.z());
-    require(markers[m].radius_px >= 1 && markers[m].radius_px <= 100,
-            "{}: marker {} '{}' radius {} px (expected 1..100)", fn, m, markers[m].label,
-            markers[m].radius_px);
-  }
-}
-
 }  // namespace
 
 void raster_detail::require_consistent(const Image& img, const char* fn) {
@@ -400,24 +362,11 @@ Rgb colormap_colour(Colormap colormap, double t) {
   return blend(table[i], table[i + 1], float(s - double(i)));
 }
 
-void render(Image& img, const Camera& cam, const std::vector<MeshLayer>& layers,
-            const std::vector<Marker>& markers, int x0, int y0, int w, int h,
-            const geometry::Aabb& frame_box, const RenderOptions& options) {
-  require_consistent(img, "render");
-  require(x0 >= 0 && y0 >= 0 && w >= 1 && h >= 1 && x0 + w <= img.width && y0 + h <= img.height,
-          "render: viewport at ({}, {}) of {}×{} px is not inside the {}×{} image", x0, y0, w, h,
-          img.width, img.height);
-  require(options.supersampling >= 1 && options.supersampling <= 4,
-          "render: supersampling {} (expected 1..4)", options.supersampling);
-  require(std::isfinite(options.scale_px_per_m) && options.scale_px_per_m >= 0,
-          "render: scale {} px/m (expected >= 0, 0 = fit the frame box)", options.scale_px_per_m);
-  validate_scene("render", layers, markers);
-  Projection proj = fit(cam, frame_box, x0, y0, w, h, options.margin);
-  if (options.scale_px_per_m > 0) proj.px_per_m = options.scale_px_per_m;
-  const Vector3d light = -proj.forward;
-  const int ss = options.supersampling;
+namespace {
 
-  // The target starts as the viewport's current pixels, so uncovered samples keep them.
+/// The viewport's supersampled target, starting as its current pixels so that uncovered samples
+/// keep them.
+Target viewport_target(const Image& img, int x0, int y0, int w, int h, int ss) {
   Target target{w * ss, h * ss, {}, {}};
   target.depth.assign(std::size_t(target.width) * target.height,
                       std::numeric_limits<float>::infinity());
@@ -426,12 +375,12 @@ void render(Image& img, const Camera& cam, const std::vector<MeshLayer>& layers,
     Rgb* row = &target.colour[std::size_t(j) * target.width];
     for (int x = 0; x < w; ++x) std::fill_n(row + x * ss, ss, img.at(x0 + x, y0 + j / ss));
   }
+  return target;
+}
 
-  std::vector<PreparedLayer> prepared;
-  prepared.reserve(layers.size());
-  for (const auto& layer : layers) prepared.push_back(prepare(layer, proj, x0, y0, ss));
-
-  // Opaque layers in any order (z-buffer), then translucent triangles far to near.
+/// Opaque layers in any order (z-buffer), then translucent triangles far to near.
+void draw_layers(Target& target, const std::vector<MeshLayer>& layers,
+                 const std::vector<PreparedLayer>& prepared, const Vector3d& light) {
   struct Translucent {
     double depth;
     int layer, triangle;
@@ -455,8 +404,10 @@ void render(Image& img, const Camera& cam, const std::vector<MeshLayer>& layers,
     if (const auto shaded =
             shade_triangle(*layers[tr.layer].mesh, prepared[tr.layer], tr.triangle, light))
       rasterize(*shaded, target, float(layers[tr.layer].opacity));
+}
 
-  // Resolve: each pixel is the rounded mean of its ss × ss samples.
+/// Resolve: each pixel of the viewport at (x0, y0) is the rounded mean of its ss × ss samples.
+void resolve_target(Image& img, const Target& target, int x0, int y0, int w, int h, int ss) {
   const int n = ss * ss;
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
@@ -472,22 +423,29 @@ void render(Image& img, const Camera& cam, const std::vector<MeshLayer>& layers,
       }
       img.at(x0 + x, y0 + y) = {std::uint8_t(r / n), std::uint8_t(g / n), std::uint8_t(b / n)};
     }
+}
 
-  const Rect viewport{x0, y0, x0 + w, y0 + h};
+/// Whether a marker projected to @p q is in front of the nearest opaque surface over its centre
+/// pixel's samples (always, when it is flagged so or its centre is outside the viewport).
+bool is_marker_visible(const Marker& marker, const Vector3d& q, const Projection& proj,
+                       const Target& target, const Rect& viewport, int ss) {
+  const int x0 = viewport.x0, y0 = viewport.y0, w = viewport.x1 - x0, h = viewport.y1 - y0;
+  const double px = std::floor(q.x() - x0), py = std::floor(q.y() - y0);
+  if (marker.is_always_visible || !(px >= 0 && px < w && py >= 0 && py < h)) return true;
+  float nearest = std::numeric_limits<float>::infinity();
+  for (int j = 0; j < ss; ++j)
+    for (int i = 0; i < ss; ++i)
+      nearest = std::min(nearest, target.depth[std::size_t(int(py) * ss + j) * target.width +
+                                               std::size_t(int(px) * ss + i)]);
+  return q.z() - marker.radius_px / proj.px_per_m <= double(nearest);
+}
+
+/// The visible markers as discs with their labels (right of the disc, else left), in @p viewport.
+void draw_markers(Image& img, const std::vector<Marker>& markers, const Projection& proj,
+                  const Target& target, const Rect& viewport, int ss) {
   for (const auto& marker : markers) {
     const Vector3d q = proj.project(marker.position);
-    bool is_visible = true;
-    const double px = std::floor(q.x() - x0), py = std::floor(q.y() - y0);
-    if (!marker.is_always_visible && px >= 0 && px < w && py >= 0 && py < h) {
-      // Nearest opaque surface over the centre pixel's samples.
-      float nearest = std::numeric_limits<float>::infinity();
-      for (int j = 0; j < ss; ++j)
-        for (int i = 0; i < ss; ++i)
-          nearest = std::min(nearest, target.depth[std::size_t(int(py) * ss + j) * target.width +
-                                                   std::size_t(int(px) * ss + i)]);
-      is_visible = q.z() - marker.radius_px / proj.px_per_m <= double(nearest);
-    }
-    if (!is_visible) continue;
+    if (!is_marker_visible(marker, q, proj, target, viewport, ss)) continue;
     draw_marker_disc(img, q.x(), q.y(), marker.radius_px, marker.colour, viewport);
     if (!marker.label.empty()) {
       constexpr int kScale = 2;
@@ -498,6 +456,33 @@ void render(Image& img, const Camera& cam, const std::vector<MeshLayer>& layers,
       draw_label(img, x, int(std::lround(q.y())) - 4 * kScale, marker.label, kScale, viewport);
     }
   }
+}
+
+}  // namespace
+
+void render(Image& img, const Camera& cam, const std::vector<MeshLayer>& layers,
+            const std::vector<Marker>& markers, int x0, int y0, int w, int h,
+            const geometry::Aabb& frame_box, const RenderOptions& options) {
+  require_consistent(img, "render");
+  require(x0 >= 0 && y0 >= 0 && w >= 1 && h >= 1 && x0 + w <= img.width && y0 + h <= img.height,
+          "render: viewport at ({}, {}) of {}×{} px is not inside the {}×{} image", x0, y0, w, h,
+          img.width, img.height);
+  require(options.supersampling >= 1 && options.supersampling <= 4,
+          "render: supersampling {} (expected 1..4)", options.supersampling);
+  require(std::isfinite(options.scale_px_per_m) && options.scale_px_per_m >= 0,
+          "render: scale {} px/m (expected >= 0, 0 = fit the frame box)", options.scale_px_per_m);
+  validate_scene("render", layers, markers);
+  Projection proj = fit(cam, frame_box, x0, y0, w, h, options.margin);
+  if (options.scale_px_per_m > 0) proj.px_per_m = options.scale_px_per_m;
+  const Vector3d light = -proj.forward;
+  const int ss = options.supersampling;
+  Target target = viewport_target(img, x0, y0, w, h, ss);
+  std::vector<PreparedLayer> prepared;
+  prepared.reserve(layers.size());
+  for (const auto& layer : layers) prepared.push_back(prepare(layer, proj, x0, y0, ss));
+  draw_layers(target, layers, prepared, light);
+  resolve_target(img, target, x0, y0, w, h, ss);
+  draw_markers(img, markers, proj, target, Rect{x0, y0, x0 + w, y0 + h}, ss);
 }
 
 Image stack_images(const std::vector<Image>& images, Rgb background) {

@@ -1,8 +1,10 @@
 #pragma once
 /// The software rasterizer's shared pieces (inside `report` only; `raster.h` is the interface): the
 /// pixel rectangle, the image check, filled rectangles, labels with a halo and tick values, shared by
-/// the 3-D rendering and PNG output (`raster.cpp`) and the text and colour bars (`raster_text.cpp`).
-/// Why apart: drawing text is a responsibility of its own, with its own font.
+/// the 3-D rendering and PNG output (`raster.cpp`) and the text and colour bars (`raster_text.cpp`),
+/// and the scene check (`raster_scene.cpp`).
+/// Why apart: drawing text is a responsibility of its own, with its own font; checking a scene's
+/// input is another, and kept raster.cpp under the file limit.
 
 #include <string>
 #include <utility>
@@ -27,6 +29,10 @@ void require_consistent(const Image& img, const char* fn);
 void fill_rect(Image& img, Rect r, Rgb colour, const Rect& clip);
 /// Dark text with a one-pixel white halo, readable over any mesh colour.
 void draw_label(Image& img, int x, int y, const std::string& text, int scale, const Rect& clip);
+/// One-line error unless every layer has a mesh with finite vertices and valid triangles, one value
+/// per vertex (or none) in a finite range, and an opacity in (0, 1], and every marker a finite
+/// position and a radius of 1 to 100 px (@p fn names the caller).
+void validate_scene(const char* fn, const std::vector<MeshLayer>& layers, const std::vector<Marker>& markers);
 /// Ticks at multiples of the smallest 1, 2, 5 × 10^k step >= range / 5, with their labels.
 std::vector<std::pair<double, std::string>> nice_ticks(double vmin, double vmax);
 
