@@ -54,7 +54,6 @@ ALLOWED_FUNCTIONS = {
     "src/socketsmith/design/brim.cpp:make_brim": 117,
     "src/socketsmith/design/design_solver.cpp:DesignSolver::solve": 139,
     "src/socketsmith/design/socket_platform.cpp:add_platform": 111,
-    "src/socketsmith/report/design_report.cpp:render_radar_chart": 82,
     "src/socketsmith/tissue/calibration.cpp:calibrate_corrective_springs": 116,
     "src/socketsmith/tissue/cube_experiment.cpp:run_cube_experiment": 111,
     "src/socketsmith/tissue/mass_spring_model.cpp:MassSpringModel::MassSpringModel": 85,

@@ -220,32 +220,19 @@ Eigen::Vector2d radar_axis_pixel(const RadarChart& chart, int axis, double r) {
   return l.centre + (r / kRadarMaxRadius) * l.r_out * radar_direction(axis, n);
 }
 
-Image render_radar_chart(const RadarChart& chart) {
-  validate_radar(chart);
-  const RadarLayout l = radar_layout(chart);
-  const int n = static_cast<int>(chart.axes.size());
-  Image img(l.width, l.height, kWhite);
+namespace {
+
+/// The pixel at radius @p r (1 = on target) along axis @p k of @p n.
+Vector2d radar_point(const RadarLayout& l, int k, int n, double r) {
   const double px_per_r = l.r_out / kRadarMaxRadius;
-  auto at = [&](int k, double r) -> Vector2d { return l.centre + r * px_per_r * radar_direction(k, n); };
+  return l.centre + r * px_per_r * radar_direction(k, n);
+}
 
-  const std::string title = to_ascii(chart.title);
-  draw_text(img, (l.width - text_width(title, kRadarTitleScale)) / 2, 12, title, kInk, kRadarTitleScale);
+Rgb radar_axis_colour(const RadarAxis& a) { return a.is_ok ? kRadarOkColour : kRadarFailColour; }
 
-  // Grid rings, the value polygon, the axes, the target circle, ticks, points.
-  for (double r : {0.5, 1.5, kRadarMaxRadius}) draw2d::stroke_circle(img, l.centre, r * px_per_r, 1.0, kGrid);
-  std::vector<Vector2d> poly;
-  std::vector<double> radii;
-  for (int k = 0; k < n; ++k) {
-    const double r = radar_radius(chart.axes[k]);
-    radii.push_back(r);
-    poly.push_back(at(k, std::clamp(r, 0.0, kRadarMaxRadius)));
-  }
-  draw2d::fill_polygon(img, poly, kPolygonColour, 0.25f);
-  for (int k = 0; k < n; ++k) {
-    const Rgb c = chart.axes[k].is_ok ? kRadarOkColour : kRadarFailColour;
-    draw2d::stroke_segment(img, l.centre, at(k, kRadarMaxRadius), 3.0, c);
-  }
-  draw2d::stroke_circle(img, l.centre, px_per_r, 3.0, kTargetColour);
+/// Ticks across each axis at its tolerance band's ends (a lower bound: at the target only).
+void draw_radar_tolerance_ticks(Image& img, const RadarChart& chart, const RadarLayout& l) {
+  const int n = static_cast<int>(chart.axes.size());
   for (int k = 0; k < n; ++k) {
     const RadarAxis& a = chart.axes[k];
     const Vector2d d = radar_direction(k, n), perp(-d.y(), d.x());
@@ -253,13 +240,17 @@ Image render_radar_chart(const RadarChart& chart) {
     const double hi = a.is_lower_bound ? kRadarMaxRadius : 1 + a.tolerance / a.scale;
     for (double r : {lo, hi}) {
       if (r < 0 || r > kRadarMaxRadius) continue;
-      const Vector2d p = at(k, r);
+      const Vector2d p = radar_point(l, k, n, r);
       draw2d::stroke_segment(img, p - 7 * perp, p + 7 * perp, 2.0, kInk);
     }
   }
-  for (int k = 0; k < n; ++k) draw2d::stroke_segment(img, poly[k], poly[(k + 1) % n], 2.0, kPolygonColour);
-  for (int k = 0; k < n; ++k) {
-    const Rgb c = chart.axes[k].is_ok ? kRadarOkColour : kRadarFailColour;
+}
+
+/// The value points: filled, or a ring when the value lies off the chart (clamped to its edge).
+void draw_radar_points(Image& img, const RadarChart& chart, const std::vector<Vector2d>& poly,
+                       const std::vector<double>& radii) {
+  for (std::size_t k = 0; k < poly.size(); ++k) {
+    const Rgb c = radar_axis_colour(chart.axes[k]);
     const bool clamped = radii[k] < 0 || radii[k] > kRadarMaxRadius;
     draw2d::fill_disc(img, poly[k].x(), poly[k].y(), 7.5, kInk, draw2d::whole(img));
     if (clamped) {
@@ -269,22 +260,27 @@ Image render_radar_chart(const RadarChart& chart) {
       draw2d::fill_disc(img, poly[k].x(), poly[k].y(), 6.0, c, draw2d::whole(img));
     }
   }
+}
 
-  // Labels outside the outer ring: "name" over "value unit".
+/// Labels outside the outer ring: "name" over "value unit".
+void draw_radar_labels(Image& img, const RadarChart& chart, const RadarLayout& l) {
+  const int n = static_cast<int>(chart.axes.size());
   for (int k = 0; k < n; ++k) {
     const RadarAxis& a = chart.axes[k];
-    const Rgb c = a.is_ok ? kRadarOkColour : kRadarFailColour;
     const std::string text = to_ascii(a.name) + "\n" + to_ascii(radar_value_text(a));
     const int w = text_width(text, kRadarLabelScale), h = text_height(text, kRadarLabelScale);
     const Vector2d d = radar_direction(k, n);
-    const Vector2d p = at(k, kRadarMaxRadius) + 14 * d;
+    const Vector2d p = radar_point(l, k, n, kRadarMaxRadius) + 14 * d;
     const double x = d.x() > 0.3 ? p.x() : (d.x() < -0.3 ? p.x() - w : p.x() - 0.5 * w);
     const double y = d.y() < -0.3 ? p.y() - h : (d.y() > 0.3 ? p.y() : p.y() - 0.5 * h);
-    draw_text(img, static_cast<int>(std::lround(x)), static_cast<int>(std::lround(y)), text, c,
-              kRadarLabelScale);
+    draw_text(img, static_cast<int>(std::lround(x)), static_cast<int>(std::lround(y)), text,
+              radar_axis_colour(a), kRadarLabelScale);
   }
+}
 
-  // Legend.
+/// The legend (how many constraints are met, which fail) and the key to the chart.
+void draw_radar_legend(Image& img, const RadarChart& chart, const RadarLayout& l) {
+  const int n = static_cast<int>(chart.axes.size());
   const int met = radar_axes_met(chart.axes);
   std::string legend;
   if (met == n) {
@@ -300,6 +296,39 @@ Image render_radar_chart(const RadarChart& chart) {
   const std::string key = "circle: target   r = 1 + (value - target) / scale   ticks: tolerance";
   draw_text(img, (l.width - text_width(key, 1)) / 2, ly + text_height("X", kRadarLabelScale) + 4,
             key, Rgb{110, 110, 110}, 1);
+}
+
+}  // namespace
+
+Image render_radar_chart(const RadarChart& chart) {
+  validate_radar(chart);
+  const RadarLayout l = radar_layout(chart);
+  const int n = static_cast<int>(chart.axes.size());
+  Image img(l.width, l.height, kWhite);
+  const double px_per_r = l.r_out / kRadarMaxRadius;
+
+  const std::string title = to_ascii(chart.title);
+  draw_text(img, (l.width - text_width(title, kRadarTitleScale)) / 2, 12, title, kInk, kRadarTitleScale);
+
+  // Grid rings, the value polygon, the axes, the target circle, ticks, points.
+  for (double r : {0.5, 1.5, kRadarMaxRadius}) draw2d::stroke_circle(img, l.centre, r * px_per_r, 1.0, kGrid);
+  std::vector<Vector2d> poly;
+  std::vector<double> radii;
+  for (int k = 0; k < n; ++k) {
+    const double r = radar_radius(chart.axes[k]);
+    radii.push_back(r);
+    poly.push_back(radar_point(l, k, n, std::clamp(r, 0.0, kRadarMaxRadius)));
+  }
+  draw2d::fill_polygon(img, poly, kPolygonColour, 0.25f);
+  for (int k = 0; k < n; ++k)
+    draw2d::stroke_segment(img, l.centre, radar_point(l, k, n, kRadarMaxRadius), 3.0,
+                           radar_axis_colour(chart.axes[k]));
+  draw2d::stroke_circle(img, l.centre, px_per_r, 3.0, kTargetColour);
+  draw_radar_tolerance_ticks(img, chart, l);
+  for (int k = 0; k < n; ++k) draw2d::stroke_segment(img, poly[k], poly[(k + 1) % n], 2.0, kPolygonColour);
+  draw_radar_points(img, chart, poly, radii);
+  draw_radar_labels(img, chart, l);
+  draw_radar_legend(img, chart, l);
   return img;
 }
 
