@@ -60,6 +60,133 @@ const volume::Landmark& landmark(const std::vector<volume::Landmark>& landmarks,
 /// Key point (θ in degrees, h in metres).
 BrimKeyPoint kp(const char* label, double theta_deg, double h) { return {label, theta_deg * kDeg, h}; }
 
+/// make_brim's preconditions: a real template of the limb's type, a cut height and options in range.
+void check_brim_request(BrimTemplate kind, LimbType type, double cut_height_m, const BrimOptions& options) {
+  require(kind != BrimTemplate::Custom,
+          "make_brim: 'custom' is not a template; give the key points (brim_from_key_points) or pick one of {}",
+          names_of(type));
+  require(limb_type_of(kind) == type, "make_brim: brim '{}' is a {} template but the limb is {}; use one of {}",
+          to_string(kind), geometry::to_string(limb_type_of(kind)), geometry::to_string(type), names_of(type));
+  require(std::isfinite(cut_height_m) && cut_height_m > 0.0,
+          "make_brim: cut height {} m is not positive (expected the limb's cut above its distal end)", cut_height_m);
+  require(options.top_margin_m >= 0.0 && options.top_margin_m < 0.5 * cut_height_m,
+          "make_brim: top_margin_m = {} m is out of range [0, half the cut height {} m]", options.top_margin_m,
+          0.5 * cut_height_m);
+  require(options.min_height_fraction >= 0.0 && options.min_height_fraction < 1.0,
+          "make_brim: min_height_fraction = {} is out of range [0, 1)", options.min_height_fraction);
+}
+
+/// A transtibial template's key points, heights from the patellar tendon (PT) and the knee joint
+/// line (10 mm above the popliteal crease, POP).
+std::vector<BrimKeyPoint> transtibial_key_points(BrimTemplate kind, const std::vector<volume::Landmark>& landmarks) {
+  const double pt = landmark(landmarks, "PT", kind).cylindrical.h;
+  const double k = landmark(landmarks, "POP", kind).cylindrical.h + 10 * kMm;  // knee joint line
+  const double mm = kMm;
+  switch (kind) {
+    case BrimTemplate::Ptb:
+      return {kp("anterior (mid-patella)", 0, pt + 30 * mm), kp("antero-medial", 35, pt + 30 * mm),
+              kp("medial wing (condyle)", 80, k + 20 * mm), kp("postero-medial", 110, k + 5 * mm),
+              kp("medial hamstring relief", 145, pt), kp("posterior (popliteal)", 180, pt + 10 * mm),
+              kp("lateral hamstring relief", -145, pt + 5 * mm), kp("postero-lateral", -110, k + 5 * mm),
+              kp("lateral wing (condyle)", -80, k + 20 * mm), kp("antero-lateral", -35, pt + 30 * mm)};
+    case BrimTemplate::PtbSc:
+      return {kp("anterior (mid-patella)", 0, pt + 30 * mm), kp("antero-medial", 35, pt + 35 * mm),
+              kp("medial wing (supracondylar)", 80, k + 50 * mm), kp("postero-medial", 110, k + 15 * mm),
+              kp("medial hamstring relief", 145, pt), kp("posterior (popliteal)", 180, pt + 10 * mm),
+              kp("lateral hamstring relief", -145, pt + 5 * mm), kp("postero-lateral", -110, k + 15 * mm),
+              kp("lateral wing (supracondylar)", -80, k + 50 * mm), kp("antero-lateral", -35, pt + 35 * mm)};
+    case BrimTemplate::PtbScsp:
+      return {kp("anterior (suprapatellar)", 0, k + 55 * mm), kp("antero-medial", 35, k + 50 * mm),
+              kp("medial wing (supracondylar)", 80, k + 55 * mm), kp("postero-medial", 115, k + 15 * mm),
+              kp("medial hamstring relief", 145, pt), kp("posterior (popliteal)", 180, pt + 10 * mm),
+              kp("lateral hamstring relief", -145, pt + 5 * mm), kp("postero-lateral", -115, k + 15 * mm),
+              kp("lateral wing (supracondylar)", -80, k + 55 * mm), kp("antero-lateral", -35, k + 50 * mm)};
+    case BrimTemplate::Kbm:
+      return {kp("anterior (below the patella)", 0, pt + 10 * mm), kp("antero-medial", 30, pt + 15 * mm),
+              kp("medial wing (over the condyle)", 80, k + 50 * mm), kp("postero-medial", 110, k + 20 * mm),
+              kp("medial hamstring relief", 145, pt), kp("posterior (popliteal)", 180, pt + 10 * mm),
+              kp("lateral hamstring relief", -145, pt + 5 * mm), kp("postero-lateral", -110, k + 20 * mm),
+              kp("lateral wing (over the condyle)", -80, k + 50 * mm), kp("antero-lateral", -30, pt + 15 * mm)};
+    case BrimTemplate::Tsb:
+      return {kp("anterior", 0, k + 25 * mm), kp("antero-medial", 40, k + 25 * mm), kp("medial", 85, k + 30 * mm),
+              kp("postero-medial", 130, k + 15 * mm), kp("posterior", 180, k + 5 * mm),
+              kp("postero-lateral", -130, k + 15 * mm), kp("lateral", -85, k + 30 * mm),
+              kp("antero-lateral", -40, k + 25 * mm)};
+    default:
+      return {};
+  }
+}
+
+/// A transfemoral template's key points (quadrilateral or ischial containment).
+std::vector<BrimKeyPoint> transfemoral_key_points(BrimTemplate kind, const std::vector<volume::Landmark>& landmarks) {
+  // Placed from the bony landmarks: heights from the ischial tuberosity i and the greater
+  // trochanter g, angles from the landmarks themselves (docs/socket_builder.md).
+  const auto& L_is = landmark(landmarks, "IS", kind).cylindrical;
+  const auto& L_gt = landmark(landmarks, "GT", kind).cylindrical;
+  const auto& L_al = landmark(landmarks, "AL", kind).cylindrical;
+  const auto& L_st = landmark(landmarks, "ST", kind).cylindrical;
+  const double i = L_is.h, g = L_gt.h, mm = kMm;
+  const double deg = kDeg;
+  // Angles in degrees, kept apart so the spline's key points stay in order.
+  const double t_st = std::clamp(L_st.theta / deg, 5.0, 40.0);
+  const double t_al = std::clamp(L_al.theta / deg, t_st + 15.0, 80.0);
+  const double t_is = std::clamp(L_is.theta / deg, t_al + 20.0, 150.0);
+  const double t_ramus = 0.5 * (t_al + t_is);
+  const double t_contain = std::min(t_is + 25.0, 165.0);
+  const double t_gt = std::clamp(L_gt.theta / deg, -120.0, -60.0);
+  if (kind == BrimTemplate::Quad)
+    return {kp("anterior (Scarpa's bulge)", t_st, i + 65 * mm), kp("antero-medial (adductor channel)", t_al, i + 30 * mm),
+            kp("medial wall", t_ramus, i), kp("ischial seat", t_contain, i), kp("posterior (seat)", 180, i),
+            kp("postero-lateral", -135, i + 20 * mm), kp("lateral wall", t_gt, std::max(g + 10 * mm, i + 45 * mm)),
+            kp("antero-lateral", -40, i + 65 * mm)};
+  return {kp("anterior (Scarpa's triangle)", t_st, i + 25 * mm), kp("adductor longus relief", t_al, i + 5 * mm),
+          kp("ramal containment (medial)", t_ramus, i + 35 * mm),
+          kp("ischial containment (postero-medial)", t_contain, i + 50 * mm), kp("posterior (gluteal)", 180, i + 30 * mm),
+          kp("postero-lateral", -135, i + 30 * mm),
+          kp("lateral wall (over the trochanter)", t_gt, std::clamp(g + 15 * mm, i + 20 * mm, i + 45 * mm)),
+          kp("antero-lateral", -40, i + 30 * mm)};
+}
+
+/// Clamps each key point's height into [lo_m, hi_m] (within the stump), with a note for each moved.
+void clamp_key_points_to_stump(std::vector<BrimKeyPoint>& p, BrimTemplate kind, double lo_m, double hi_m,
+                               double cut_height_m, std::vector<std::string>* notes) {
+  for (auto& q : p) {
+    const double h = std::clamp(q.h, lo_m, hi_m);
+    if (notes && std::abs(h - q.h) > 1e-6)
+      notes->push_back(fmt::format("brim '{}': key point '{}' clamped from {:.0f} to {:.0f} mm ({} the stump, which ends "
+                                   "at {:.0f} mm)",
+                                   to_string(kind), q.label, q.h / kMm, h / kMm, h < q.h ? "below the top of" : "within",
+                                   cut_height_m / kMm));
+    q.h = h;
+  }
+}
+
+/// The brim through the key points, its heights scaled down about lo_m while the curve between
+/// them rises above hi_m (transtibial only).
+BrimLine fit_brim_below_top(BrimTemplate kind, LimbType type, std::vector<BrimKeyPoint> p, double lo_m, double hi_m,
+                            double top_margin_m, std::vector<std::string>* notes) {
+  const double lo = lo_m, hi = hi_m;  // the band the key points were clamped to
+  // Key points within [lo, hi] do not keep the curve there: the periodic Akima spline rises between
+  // two key points at the same height when steeper neighbours bend it (several clamped to hi on a
+  // short transtibial stump: 5.5 mm above hi, and the socket could not be built). The spline is
+  // affine in its values, so scaling the heights about lo by (hi − lo) / (max − lo) brings its top
+  // to hi; a second pass covers the sampling of max_height. Transtibial templates only: a
+  // transfemoral brim is placed from the ischial tuberosity, whose seat must stay where it is (on
+  // the OpenLimbTF limb a 1.3 % scaling of the quadrilateral brim took its ischial share from 30 %
+  // to 8 %), and its stump is continued 75 mm above the tuberosity, so no key point reaches hi.
+  BrimLine line(kind, p);
+  for (int pass = 0; type == LimbType::Transtibial && pass < 3 && line.max_height() > hi; ++pass) {
+    const double top = line.max_height(), f = (hi - lo) / (top - lo);
+    for (auto& q : p) q.h = lo + f * (q.h - lo);
+    if (notes && pass == 0)
+      notes->push_back(fmt::format("brim '{}': the curve between the key points rose to {:.1f} mm, above {:.1f} mm (the "
+                                   "top of the stump less {:.0f} mm): its heights scaled by {:.3f} about {:.0f} mm",
+                                   to_string(kind), top / kMm, hi / kMm, top_margin_m / kMm, f, lo / kMm));
+    line = BrimLine(kind, p);
+  }
+  return line;
+}
+
 }  // namespace
 
 std::string to_string(BrimTemplate kind) {
@@ -123,120 +250,12 @@ void BrimLine::set_key_points(std::vector<BrimKeyPoint> key_points) {
 
 BrimLine make_brim(BrimTemplate kind, LimbType type, const std::vector<volume::Landmark>& landmarks,
                    double cut_height_m, const BrimOptions& options, std::vector<std::string>* notes) {
-  require(kind != BrimTemplate::Custom,
-          "make_brim: 'custom' is not a template; give the key points (brim_from_key_points) or pick one of {}",
-          names_of(type));
-  require(limb_type_of(kind) == type, "make_brim: brim '{}' is a {} template but the limb is {}; use one of {}",
-          to_string(kind), geometry::to_string(limb_type_of(kind)), geometry::to_string(type), names_of(type));
-  require(std::isfinite(cut_height_m) && cut_height_m > 0.0,
-          "make_brim: cut height {} m is not positive (expected the limb's cut above its distal end)", cut_height_m);
-  require(options.top_margin_m >= 0.0 && options.top_margin_m < 0.5 * cut_height_m,
-          "make_brim: top_margin_m = {} m is out of range [0, half the cut height {} m]", options.top_margin_m,
-          0.5 * cut_height_m);
-  require(options.min_height_fraction >= 0.0 && options.min_height_fraction < 1.0,
-          "make_brim: min_height_fraction = {} is out of range [0, 1)", options.min_height_fraction);
-
-  std::vector<BrimKeyPoint> p;
-  if (type == LimbType::Transtibial) {
-    const double pt = landmark(landmarks, "PT", kind).cylindrical.h;
-    const double k = landmark(landmarks, "POP", kind).cylindrical.h + 10 * kMm;  // knee joint line
-    const double mm = kMm;
-    switch (kind) {
-      case BrimTemplate::Ptb:
-        p = {kp("anterior (mid-patella)", 0, pt + 30 * mm), kp("antero-medial", 35, pt + 30 * mm),
-             kp("medial wing (condyle)", 80, k + 20 * mm), kp("postero-medial", 110, k + 5 * mm),
-             kp("medial hamstring relief", 145, pt), kp("posterior (popliteal)", 180, pt + 10 * mm),
-             kp("lateral hamstring relief", -145, pt + 5 * mm), kp("postero-lateral", -110, k + 5 * mm),
-             kp("lateral wing (condyle)", -80, k + 20 * mm), kp("antero-lateral", -35, pt + 30 * mm)};
-        break;
-      case BrimTemplate::PtbSc:
-        p = {kp("anterior (mid-patella)", 0, pt + 30 * mm), kp("antero-medial", 35, pt + 35 * mm),
-             kp("medial wing (supracondylar)", 80, k + 50 * mm), kp("postero-medial", 110, k + 15 * mm),
-             kp("medial hamstring relief", 145, pt), kp("posterior (popliteal)", 180, pt + 10 * mm),
-             kp("lateral hamstring relief", -145, pt + 5 * mm), kp("postero-lateral", -110, k + 15 * mm),
-             kp("lateral wing (supracondylar)", -80, k + 50 * mm), kp("antero-lateral", -35, pt + 35 * mm)};
-        break;
-      case BrimTemplate::PtbScsp:
-        p = {kp("anterior (suprapatellar)", 0, k + 55 * mm), kp("antero-medial", 35, k + 50 * mm),
-             kp("medial wing (supracondylar)", 80, k + 55 * mm), kp("postero-medial", 115, k + 15 * mm),
-             kp("medial hamstring relief", 145, pt), kp("posterior (popliteal)", 180, pt + 10 * mm),
-             kp("lateral hamstring relief", -145, pt + 5 * mm), kp("postero-lateral", -115, k + 15 * mm),
-             kp("lateral wing (supracondylar)", -80, k + 55 * mm), kp("antero-lateral", -35, k + 50 * mm)};
-        break;
-      case BrimTemplate::Kbm:
-        p = {kp("anterior (below the patella)", 0, pt + 10 * mm), kp("antero-medial", 30, pt + 15 * mm),
-             kp("medial wing (over the condyle)", 80, k + 50 * mm), kp("postero-medial", 110, k + 20 * mm),
-             kp("medial hamstring relief", 145, pt), kp("posterior (popliteal)", 180, pt + 10 * mm),
-             kp("lateral hamstring relief", -145, pt + 5 * mm), kp("postero-lateral", -110, k + 20 * mm),
-             kp("lateral wing (over the condyle)", -80, k + 50 * mm), kp("antero-lateral", -30, pt + 15 * mm)};
-        break;
-      case BrimTemplate::Tsb:
-        p = {kp("anterior", 0, k + 25 * mm), kp("antero-medial", 40, k + 25 * mm), kp("medial", 85, k + 30 * mm),
-             kp("postero-medial", 130, k + 15 * mm), kp("posterior", 180, k + 5 * mm),
-             kp("postero-lateral", -130, k + 15 * mm), kp("lateral", -85, k + 30 * mm),
-             kp("antero-lateral", -40, k + 25 * mm)};
-        break;
-      default:
-        break;
-    }
-  } else {
-    // Placed from the bony landmarks: heights from the ischial tuberosity i and the greater
-    // trochanter g, angles from the landmarks themselves (docs/socket_builder.md).
-    const auto& L_is = landmark(landmarks, "IS", kind).cylindrical;
-    const auto& L_gt = landmark(landmarks, "GT", kind).cylindrical;
-    const auto& L_al = landmark(landmarks, "AL", kind).cylindrical;
-    const auto& L_st = landmark(landmarks, "ST", kind).cylindrical;
-    const double i = L_is.h, g = L_gt.h, mm = kMm;
-    const double deg = kDeg;
-    // Angles in degrees, kept apart so the spline's key points stay in order.
-    const double t_st = std::clamp(L_st.theta / deg, 5.0, 40.0);
-    const double t_al = std::clamp(L_al.theta / deg, t_st + 15.0, 80.0);
-    const double t_is = std::clamp(L_is.theta / deg, t_al + 20.0, 150.0);
-    const double t_ramus = 0.5 * (t_al + t_is);
-    const double t_contain = std::min(t_is + 25.0, 165.0);
-    const double t_gt = std::clamp(L_gt.theta / deg, -120.0, -60.0);
-    if (kind == BrimTemplate::Quad)
-      p = {kp("anterior (Scarpa's bulge)", t_st, i + 65 * mm), kp("antero-medial (adductor channel)", t_al, i + 30 * mm),
-           kp("medial wall", t_ramus, i), kp("ischial seat", t_contain, i), kp("posterior (seat)", 180, i),
-           kp("postero-lateral", -135, i + 20 * mm), kp("lateral wall", t_gt, std::max(g + 10 * mm, i + 45 * mm)),
-           kp("antero-lateral", -40, i + 65 * mm)};
-    else
-      p = {kp("anterior (Scarpa's triangle)", t_st, i + 25 * mm), kp("adductor longus relief", t_al, i + 5 * mm),
-           kp("ramal containment (medial)", t_ramus, i + 35 * mm),
-           kp("ischial containment (postero-medial)", t_contain, i + 50 * mm), kp("posterior (gluteal)", 180, i + 30 * mm),
-           kp("postero-lateral", -135, i + 30 * mm),
-           kp("lateral wall (over the trochanter)", t_gt, std::clamp(g + 15 * mm, i + 20 * mm, i + 45 * mm)),
-           kp("antero-lateral", -40, i + 30 * mm)};
-  }
+  check_brim_request(kind, type, cut_height_m, options);
+  std::vector<BrimKeyPoint> p = type == LimbType::Transtibial ? transtibial_key_points(kind, landmarks)
+                                                              : transfemoral_key_points(kind, landmarks);
   const double lo = options.min_height_fraction * cut_height_m, hi = cut_height_m - options.top_margin_m;
-  for (auto& q : p) {
-    const double h = std::clamp(q.h, lo, hi);
-    if (notes && std::abs(h - q.h) > 1e-6)
-      notes->push_back(fmt::format("brim '{}': key point '{}' clamped from {:.0f} to {:.0f} mm ({} the stump, which ends "
-                                   "at {:.0f} mm)",
-                                   to_string(kind), q.label, q.h / kMm, h / kMm, h < q.h ? "below the top of" : "within",
-                                   cut_height_m / kMm));
-    q.h = h;
-  }
-  // Key points within [lo, hi] do not keep the curve there: the periodic Akima spline rises between
-  // two key points at the same height when steeper neighbours bend it (several clamped to hi on a
-  // short transtibial stump: 5.5 mm above hi, and the socket could not be built). The spline is
-  // affine in its values, so scaling the heights about lo by (hi − lo) / (max − lo) brings its top
-  // to hi; a second pass covers the sampling of max_height. Transtibial templates only: a
-  // transfemoral brim is placed from the ischial tuberosity, whose seat must stay where it is (on
-  // the OpenLimbTF limb a 1.3 % scaling of the quadrilateral brim took its ischial share from 30 %
-  // to 8 %), and its stump is continued 75 mm above the tuberosity, so no key point reaches hi.
-  BrimLine line(kind, p);
-  for (int pass = 0; type == LimbType::Transtibial && pass < 3 && line.max_height() > hi; ++pass) {
-    const double top = line.max_height(), f = (hi - lo) / (top - lo);
-    for (auto& q : p) q.h = lo + f * (q.h - lo);
-    if (notes && pass == 0)
-      notes->push_back(fmt::format("brim '{}': the curve between the key points rose to {:.1f} mm, above {:.1f} mm (the "
-                                   "top of the stump less {:.0f} mm): its heights scaled by {:.3f} about {:.0f} mm",
-                                   to_string(kind), top / kMm, hi / kMm, options.top_margin_m / kMm, f, lo / kMm));
-    line = BrimLine(kind, p);
-  }
-  return line;
+  clamp_key_points_to_stump(p, kind, lo, hi, cut_height_m, notes);
+  return fit_brim_below_top(kind, type, std::move(p), lo, hi, options.top_margin_m, notes);
 }
 
 BrimLine make_brim(BrimTemplate kind, const volume::LimbModel& model, const BrimOptions& options,
