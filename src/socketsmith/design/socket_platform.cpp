@@ -119,6 +119,154 @@ void add_drill(TriMesh& m, const PlatformFrame& f, const Eigen::Vector2d& c, dou
   }
 }
 
+/// The shell's three walls (inner = the cavity, middle, outer) probed along the pylon line from
+/// below the whole solid.
+struct PylonWalls {
+  TriMesh outer, mid;
+  geometry::SurfaceQuery outer_q, mid_q, inner_q;
+  const PlatformFrame& f;
+  double z_low_m;
+
+  PylonWalls(const CutSurface& cut, const std::vector<double>& s, const TriMesh& solid, const PlatformFrame& frame)
+      : outer(offset_wall(cut, s, 1.0)),
+        mid(offset_wall(cut, s, 0.5)),
+        outer_q(outer),
+        mid_q(mid),
+        inner_q(cut.mesh),
+        f(frame),
+        z_low_m(lowest_z(solid, frame) - 0.01) {}
+
+  /// First crossing of the vertical (pylon) line through (x, y) with a wall, from below.
+  std::optional<double> up_hit(const geometry::SurfaceQuery& q, double x, double y) const {
+    const auto h = q.first_hit(f.at(x, y, z_low_m), f.up);
+    if (!h) return std::nullopt;
+    return z_low_m + h->distance;
+  }
+
+  /// The cut surface moved out by `fraction` of the wall thickness s along its normals.
+  static TriMesh offset_wall(const CutSurface& cut, const std::vector<double>& s, double fraction) {
+    TriMesh m = cut.mesh;
+    for (int i = 0; i < cut.mesh.num_vertices(); ++i)
+      m.vertices[i] = cut.mesh.vertices[i] + fraction * s[i] * cut.normal[i];  // 1.0 * s is s exactly
+    return m;
+  }
+
+  static double lowest_z(const TriMesh& solid, const PlatformFrame& frame) {
+    double z = std::numeric_limits<double>::infinity();
+    for (const auto& v : solid.vertices) z = std::min(z, frame.z_of(v));
+    return z;
+  }
+};
+
+/// The block's top over its polar grid (on the middle of the wall), the highest of it, and the
+/// lowest outer-wall point over the disc.
+struct BlockTop {
+  std::vector<std::vector<double>> top_m;
+  double z_outer_min_m, z_top_max_m;
+};
+
+BlockTop sample_block_top(const PylonWalls& walls, const PlatformFrame& f, double R, int rings, double phase) {
+  BlockTop b;
+  std::vector<std::vector<double>>& top = b.top_m;
+  top.assign(rings + 1, std::vector<double>(kPlatformSectors));
+  double z_out_min = std::numeric_limits<double>::infinity(), z_top_max = -z_out_min;
+  for (int j = 0; j <= rings; ++j)
+    for (int k = 0; k < kPlatformSectors; ++k) {
+      if (j == 0 && k > 0) {
+        top[0][k] = top[0][0];
+        continue;
+      }
+      const double r = R * j / rings, phi = phase + 2 * kPi * k / kPlatformSectors;
+      const double x = r * std::cos(phi), y = r * std::sin(phi);
+      const auto zm = walls.up_hit(walls.mid_q, x, y);
+      require(zm.has_value(),
+              "build_socket: the distal platform ({:.0f} mm across) is wider than the socket's distal end: the pylon "
+              "line {:.1f} mm from its centre misses the socket; make the platform (or pad) diameter smaller",
+              2 * R / kMm, r / kMm);
+      top[j][k] = *zm;
+      z_top_max = std::max(z_top_max, *zm);
+      if (const auto zo = walls.up_hit(walls.outer_q, x, y)) z_out_min = std::min(z_out_min, *zo);
+    }
+  for (const auto& v : walls.outer.vertices)
+    if (f.xy_of(v).norm() <= R) z_out_min = std::min(z_out_min, f.z_of(v));
+  b.z_outer_min_m = z_out_min;
+  b.z_top_max_m = z_top_max;
+  return b;
+}
+
+/// Sets the attachment's holes (centres, radius, each drill's top above the cavity) in @p pb and
+/// returns the flat face lowered to platform_thickness_m below the cavity over every hole.
+double place_holes(PlatformBuild& pb, const PylonWalls& walls, const SocketAttachment& at, double z_face_m) {
+  double z_face = z_face_m;
+  pb.holes = hole_pattern(at);
+  pb.hole_radius = 0.5 * at.hole_diameter_m;
+  for (std::size_t h = 0; h < pb.holes.size(); ++h) {
+    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+    // The cavity over the hole: its axis, 8 points at half its radius and 32 on its circle.
+    for (int k = -1; k < 40; ++k) {
+      const double phi = 2 * kPi * k / (k < 8 ? 8 : 32);
+      const double rr = k < 0 ? 0.0 : k < 8 ? 0.5 * pb.hole_radius : pb.hole_radius / std::cos(kPi / kHoleSides);
+      const Eigen::Vector2d q = pb.holes[h] + rr * Eigen::Vector2d(std::cos(phi), std::sin(phi));
+      const auto zi = walls.up_hit(walls.inner_q, q.x(), q.y());
+      require(zi.has_value(),
+              "build_socket: attachment hole {} at ({:.1f}, {:.1f}) mm from the pylon axis does not reach the "
+              "socket's cavity; use a smaller hole spacing or offset",
+              h + 1, pb.holes[h].x() / kMm, pb.holes[h].y() / kMm);
+      lo = std::min(lo, *zi);
+      hi = std::max(hi, *zi);
+    }
+    z_face = std::min(z_face, lo - at.platform_thickness_m);
+    pb.hole_top.push_back(hi + std::max(2 * kMm, pb.hole_radius));
+  }
+  return z_face;
+}
+
+/// Unites the block with the shell and, with an attachment, drills its holes.
+void join_block_and_drills(Attempt& a, const PlatformBuild& pb, bool attach, int rings,
+                           const std::vector<std::vector<double>>& top_m, double phase) {
+  const PlatformFrame& f = pb.frame;
+  // The shell passed the self-intersection test; the block and the drills are valid by
+  // construction (and the result is checked again).
+  geometry::BooleanOptions unchecked;
+  unchecked.check_operands = false;
+  a.solid = geometry::mesh_boolean(a.solid, platform_block(f, pb.radius, rings, pb.z_face, top_m, phase),
+                                   geometry::BooleanOperation::Union, unchecked);
+  if (attach) {
+    TriMesh drills;
+    for (std::size_t h = 0; h < pb.holes.size(); ++h)
+      add_drill(drills, f, pb.holes[h], pb.hole_radius, pb.z_face - 1 * kMm, pb.hole_top[h],
+                0.5 * kPi / kHoleSides + phase);
+    if (geometry::signed_volume(drills) < 0) geometry::flip_orientation(drills);  // as the block
+    a.solid = geometry::mesh_boolean(a.solid, drills, geometry::BooleanOperation::Difference, unchecked);
+  }
+}
+
+/// The platform's report: where its face is, how tall it climbs, and the holes' depths.
+void fill_platform_report(PlatformBuild& pb, const PylonWalls& walls, const SocketAttachment& at, bool attach,
+                          double tallest_m) {
+  const PlatformFrame& f = pb.frame;
+  const double R = pb.radius, z_face = pb.z_face;
+  SocketPlatform& r = pb.report;
+  r.is_built = true;
+  r.centre = f.at(0, 0, z_face);
+  r.normal = -f.up;
+  r.anterior = f.anterior;
+  r.medial = f.medial;
+  r.diameter_m = 2 * R;
+  r.max_height_m = tallest_m;
+  if (attach) {
+    r.hole_diameter_m = at.hole_diameter_m;
+    r.min_hole_depth_m = std::numeric_limits<double>::infinity();
+    for (std::size_t h = 0; h < pb.holes.size(); ++h) {
+      r.hole_centres.push_back(f.at(pb.holes[h].x(), pb.holes[h].y(), z_face));
+      const auto zi = walls.up_hit(walls.inner_q, pb.holes[h].x(), pb.holes[h].y());
+      r.min_hole_depth_m = std::min(r.min_hole_depth_m, *zi - z_face);
+    }
+    const double reach = pb.holes.front().norm() + pb.hole_radius;
+    r.smallest_feature_m = std::min({at.hole_diameter_m, at.hole_spacing_m - 2 * pb.hole_radius, R - reach});
+  }
+}
+
 }  // namespace
 
 /// Joins the platform to the shell @p a (and drills the holes). The block's top follows the middle
@@ -134,107 +282,20 @@ PlatformBuild add_platform(Attempt& a, const CutSurface& cut, const std::vector<
   const PlatformFrame& f = pb.frame;
   pb.radius = 0.5 * (attach ? o.attachment.platform_diameter_m : o.distal_pad_diameter_m);
   const double R = pb.radius;
-  const int nv = cut.mesh.num_vertices();
-  TriMesh outer = cut.mesh, mid = cut.mesh;
-  for (int i = 0; i < nv; ++i) {
-    outer.vertices[i] = cut.mesh.vertices[i] + s[i] * cut.normal[i];
-    mid.vertices[i] = cut.mesh.vertices[i] + 0.5 * s[i] * cut.normal[i];
-  }
-  const geometry::SurfaceQuery outer_q(outer), mid_q(mid), inner_q(cut.mesh);
-  double z_low = std::numeric_limits<double>::infinity();
-  for (const auto& v : a.solid.vertices) z_low = std::min(z_low, f.z_of(v));
-  z_low -= 0.01;
-  // First crossing of the vertical (pylon) line through (x, y) with a wall, from below.
-  auto up_hit = [&](const geometry::SurfaceQuery& q, double x, double y) -> std::optional<double> {
-    const auto h = q.first_hit(f.at(x, y, z_low), f.up);
-    if (!h) return std::nullopt;
-    return z_low + h->distance;
-  };
+  const PylonWalls walls(cut, s, a.solid, f);
   const int rings = std::max(4, static_cast<int>(std::ceil(R / (1.5 * kMm))));
-  std::vector<std::vector<double>> top(rings + 1, std::vector<double>(kPlatformSectors));
-  double z_out_min = std::numeric_limits<double>::infinity(), z_top_max = -z_out_min;
-  for (int j = 0; j <= rings; ++j)
-    for (int k = 0; k < kPlatformSectors; ++k) {
-      if (j == 0 && k > 0) {
-        top[0][k] = top[0][0];
-        continue;
-      }
-      const double r = R * j / rings, phi = phase + 2 * kPi * k / kPlatformSectors;
-      const double x = r * std::cos(phi), y = r * std::sin(phi);
-      const auto zm = up_hit(mid_q, x, y);
-      require(zm.has_value(),
-              "build_socket: the distal platform ({:.0f} mm across) is wider than the socket's distal end: the pylon "
-              "line {:.1f} mm from its centre misses the socket; make the platform (or pad) diameter smaller",
-              2 * R / kMm, r / kMm);
-      top[j][k] = *zm;
-      z_top_max = std::max(z_top_max, *zm);
-      if (const auto zo = up_hit(outer_q, x, y)) z_out_min = std::min(z_out_min, *zo);
-    }
-  for (const auto& v : outer.vertices)
-    if (f.xy_of(v).norm() <= R) z_out_min = std::min(z_out_min, f.z_of(v));
-  double z_face = z_out_min - kPlatformGap_m;
-  if (attach) {
-    pb.holes = hole_pattern(o.attachment);
-    pb.hole_radius = 0.5 * o.attachment.hole_diameter_m;
-    for (std::size_t h = 0; h < pb.holes.size(); ++h) {
-      double lo = std::numeric_limits<double>::infinity(), hi = -lo;
-      // The cavity over the hole: its axis, 8 points at half its radius and 32 on its circle.
-      for (int k = -1; k < 40; ++k) {
-        const double phi = 2 * kPi * k / (k < 8 ? 8 : 32);
-        const double rr = k < 0 ? 0.0 : k < 8 ? 0.5 * pb.hole_radius : pb.hole_radius / std::cos(kPi / kHoleSides);
-        const Eigen::Vector2d q = pb.holes[h] + rr * Eigen::Vector2d(std::cos(phi), std::sin(phi));
-        const auto zi = up_hit(inner_q, q.x(), q.y());
-        require(zi.has_value(),
-                "build_socket: attachment hole {} at ({:.1f}, {:.1f}) mm from the pylon axis does not reach the "
-                "socket's cavity; use a smaller hole spacing or offset",
-                h + 1, pb.holes[h].x() / kMm, pb.holes[h].y() / kMm);
-        lo = std::min(lo, *zi);
-        hi = std::max(hi, *zi);
-      }
-      z_face = std::min(z_face, lo - o.attachment.platform_thickness_m);
-      pb.hole_top.push_back(hi + std::max(2 * kMm, pb.hole_radius));
-    }
-  }
-  const double tallest = z_top_max - z_face;
+  const BlockTop block = sample_block_top(walls, f, R, rings, phase);
+  double z_face = block.z_outer_min_m - kPlatformGap_m;
+  if (attach) z_face = place_holes(pb, walls, o.attachment, z_face);
+  const double tallest = block.z_top_max_m - z_face;
   const double limit = std::max(2 * R, 0.04) + (attach ? o.attachment.platform_thickness_m : 0.0);
   require(tallest <= limit,
           "build_socket: the distal platform ({:.0f} mm across) would climb {:.0f} mm up the socket's side (more than "
           "{:.0f} mm): it is wider than the socket's distal end; make the platform (or pad) diameter smaller",
           2 * R / kMm, tallest / kMm, limit / kMm);
   pb.z_face = z_face;
-  // The shell passed the self-intersection test; the block and the drills are valid by
-  // construction (and the result is checked again).
-  geometry::BooleanOptions unchecked;
-  unchecked.check_operands = false;
-  a.solid = geometry::mesh_boolean(a.solid, platform_block(f, R, rings, z_face, top, phase),
-                                   geometry::BooleanOperation::Union, unchecked);
-  if (attach) {
-    TriMesh drills;
-    for (std::size_t h = 0; h < pb.holes.size(); ++h)
-      add_drill(drills, f, pb.holes[h], pb.hole_radius, z_face - 1 * kMm, pb.hole_top[h], 0.5 * kPi / kHoleSides + phase);
-    if (geometry::signed_volume(drills) < 0) geometry::flip_orientation(drills);  // as the block
-    a.solid = geometry::mesh_boolean(a.solid, drills, geometry::BooleanOperation::Difference, unchecked);
-  }
-  SocketPlatform& r = pb.report;
-  r.is_built = true;
-  r.centre = f.at(0, 0, z_face);
-  r.normal = -f.up;
-  r.anterior = f.anterior;
-  r.medial = f.medial;
-  r.diameter_m = 2 * R;
-  r.max_height_m = tallest;
-  if (attach) {
-    r.hole_diameter_m = o.attachment.hole_diameter_m;
-    r.min_hole_depth_m = std::numeric_limits<double>::infinity();
-    for (std::size_t h = 0; h < pb.holes.size(); ++h) {
-      r.hole_centres.push_back(f.at(pb.holes[h].x(), pb.holes[h].y(), z_face));
-      const auto zi = up_hit(inner_q, pb.holes[h].x(), pb.holes[h].y());
-      r.min_hole_depth_m = std::min(r.min_hole_depth_m, *zi - z_face);
-    }
-    const double reach = pb.holes.front().norm() + pb.hole_radius;
-    r.smallest_feature_m = std::min({o.attachment.hole_diameter_m, o.attachment.hole_spacing_m - 2 * pb.hole_radius,
-                                     R - reach});
-  }
+  join_block_and_drills(a, pb, attach, rings, block.top_m, phase);
+  fill_platform_report(pb, walls, o.attachment, attach, tallest);
   return pb;
 }
 
