@@ -16,43 +16,37 @@ namespace {
 
 constexpr int kMaxFitEvaluations = 400;
 
-}  // namespace
+/// Per region, summed over the skin below the brim: F_z per unit amplitude (shares) and Σ A p per
+/// unit amplitude (ratios), with the fixed spots' parts in the last column; the ratios' areas.
+struct RegionSums {
+  Eigen::MatrixXd share_fz, bear_ap, relief_ap;
+  Eigen::VectorXd bear_area, relief_area;
 
-Eigen::Matrix<double, 7, 1> AmplitudeProblem::unit_radar(size_t i, const geometry::LimbFrame& fr, double mu) const {
-  const Vec3 f = -area[i] * normal[i];
-  const Vec3 t = (pos[i] - centre).cross(f);
-  const double s = axial_friction_n(1.0, area[i], normal[i], fr.axis, mu);
-  Eigen::Matrix<double, 7, 1> g;
-  g << f.dot(fr.anterior), f.dot(fr.medial()), f.dot(fr.axis) + s, t.dot(fr.anterior), t.dot(fr.medial()),
-      t.dot(fr.axis), s;
-  return g;
-}
+  RegionSums(size_t shares, size_t ratios, size_t free)
+      : share_fz(Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(shares), static_cast<Eigen::Index>(free) + 1)),
+        bear_ap(Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(ratios), static_cast<Eigen::Index>(free) + 1)),
+        relief_ap(bear_ap),
+        bear_area(Eigen::VectorXd::Zero(static_cast<Eigen::Index>(ratios))),
+        relief_area(Eigen::VectorXd::Zero(static_cast<Eigen::Index>(ratios))) {}
+};
 
-void AmplitudeProblem::build(const std::vector<Spot>& spots) {
-  const auto& cyl = solver->skin_cylindrical();
-  const auto& above = solver->above_brim();
-  const auto& thr = solver->thresholds();
-  const auto& fr = solver->frame();
-  const double mu = solver->patient().friction;
-  free.clear();
-  for (size_t k = 0; k < spots.size(); ++k)
-    if (spots[k].enabled && spots[k].optimise_amplitude) free.push_back(static_cast<int>(k));
-  nodes.clear();
-  area_unloaded = 0;
-  std::vector<double> rows;  // flattened φ
-  std::vector<double> fixed;
+/// Visits every skin node below the brim: the radar R, r_fixed and the region sums gain its part;
+/// a node some spot reaches joins P.nodes with its row of φ / T (and the fixed spots' p / T) in
+/// @p rows and @p fixed; the others count in P.area_unloaded.
+void add_node_rows(AmplitudeProblem& P, const std::vector<Spot>& spots, RegionSums& sums, std::vector<double>& rows,
+                   std::vector<double>& fixed) {
+  const auto& cyl = P.solver->skin_cylindrical();
+  const auto& above = P.solver->above_brim();
+  const auto& thr = P.solver->thresholds();
+  const auto& fr = P.solver->frame();
+  const double mu = P.solver->patient().friction;
+  const auto& free = P.free;
+  const auto& area = P.area;
+  const auto& shares = P.options->region_shares;
+  const auto& ratios = P.options->pressure_ratios;
   const size_t nf = free.size();
-  std::vector<double> row(nf);
-  R.setZero(7, static_cast<Eigen::Index>(nf));
-  r_fixed.setZero();
-  // Per region: F_z per unit amplitude (shares) and Σ A p per unit amplitude (ratios), with the
-  // fixed spots' parts in the last column.
-  const auto& shares = options->region_shares;
-  const auto& ratios = options->pressure_ratios;
   const Eigen::Index nsh = static_cast<Eigen::Index>(shares.size()), nra = static_cast<Eigen::Index>(ratios.size());
-  Eigen::MatrixXd share_fz = Eigen::MatrixXd::Zero(nsh, static_cast<Eigen::Index>(nf) + 1);
-  Eigen::MatrixXd bear_ap = Eigen::MatrixXd::Zero(nra, static_cast<Eigen::Index>(nf) + 1), relief_ap = bear_ap;
-  Eigen::VectorXd bear_area = Eigen::VectorXd::Zero(nra), relief_area = Eigen::VectorXd::Zero(nra);
+  std::vector<double> row(nf);
   const auto add = [&](Eigen::MatrixXd& m, Eigen::Index r, double g, double pf) {
     for (size_t j = 0; j < nf; ++j) m(r, static_cast<Eigen::Index>(j)) += g * row[j];
     m(r, static_cast<Eigen::Index>(nf)) += g * pf;
@@ -71,50 +65,189 @@ void AmplitudeProblem::build(const std::vector<Spot>& spots) {
     for (Eigen::Index r = 0; r < nra; ++r) {
       const auto& ra = ratios[static_cast<std::size_t>(r)];
       if (ra.bearing[i]) {
-        bear_area[r] += area[i];
-        add(bear_ap, r, area[i], pf);
+        sums.bear_area[r] += area[i];
+        add(sums.bear_ap, r, area[i], pf);
       }
       if (ra.relieved[i]) {
-        relief_area[r] += area[i];
-        add(relief_ap, r, area[i], pf);
+        sums.relief_area[r] += area[i];
+        add(sums.relief_ap, r, area[i], pf);
       }
     }
     if (!any && pf == 0) {
-      area_unloaded += area[i];
+      P.area_unloaded += area[i];
       continue;
     }
-    const auto g = unit_radar(i, fr, mu);
-    for (size_t j = 0; j < nf; ++j) R.col(static_cast<Eigen::Index>(j)) += g * row[j];
-    r_fixed += g * pf;
+    const auto g = P.unit_radar(i, fr, mu);
+    for (size_t j = 0; j < nf; ++j) P.R.col(static_cast<Eigen::Index>(j)) += g * row[j];
+    P.r_fixed += g * pf;
     for (Eigen::Index r = 0; r < nsh; ++r)
-      if (shares[static_cast<std::size_t>(r)].nodes[i]) add(share_fz, r, g[2], pf);
-    nodes.push_back(static_cast<int>(i));
-    const double te = cap.empty() ? thr[i] : std::min(thr[i], cap[i]);
+      if (shares[static_cast<std::size_t>(r)].nodes[i]) add(sums.share_fz, r, g[2], pf);
+    P.nodes.push_back(static_cast<int>(i));
+    const double te = P.cap.empty() ? thr[i] : std::min(thr[i], P.cap[i]);
     for (size_t j = 0; j < nf; ++j) rows.push_back(row[j] / te);
     fixed.push_back(pf / te);
   }
+}
+
+/// What the objective evens: φ / T (by ratio; not φ / cap) or φ / kRef, from φ / min(T, cap).
+void weigh_objective_rows(AmplitudeProblem& P) {
+  const auto& thr = P.solver->thresholds();
+  const auto& nodes = P.nodes;
+  const auto& cap = P.cap;
+  P.phi_obj = P.phi;
+  P.fixed_obj = P.fixed_ratio;
+  for (size_t n = 0; n < nodes.size(); ++n) {
+    const double te = cap.empty() ? thr[nodes[n]] : std::min(thr[nodes[n]], cap[nodes[n]]);
+    const double s = P.by_ratio ? te / thr[nodes[n]] : te / kRef;  // J evens p / T, or p / kRef
+    P.phi_obj.row(static_cast<Eigen::Index>(n)) *= s;
+    P.fixed_obj[static_cast<Eigen::Index>(n)] *= s;
+  }
+}
+
+/// The template's region rows G a + g0 ≤ 0: a floor −(F_region − min F_z) / F_z, a ceiling
+/// (F_region − max F_z) / F_z, a ratio (k · mean_relieved − mean_bearing) / kRef; a region without
+/// nodes below the brim gives none.
+void build_region_rows(AmplitudeProblem& P, const RegionSums& sums, double fz_n) {
+  const auto& shares = P.options->region_shares;
+  const auto& ratios = P.options->pressure_ratios;
+  const Eigen::Index nf = static_cast<Eigen::Index>(P.free.size());
+  std::vector<Eigen::VectorXd> rows_g;  // |free| + 1 (the constant last)
+  for (Eigen::Index r = 0; r < static_cast<Eigen::Index>(shares.size()); ++r) {
+    const auto& sh = shares[static_cast<std::size_t>(r)];
+    Eigen::VectorXd fz = sums.share_fz.row(r).transpose() / fz_n;
+    if (sh.min_share > 0) {
+      Eigen::VectorXd v = -fz;
+      v[nf] += sh.min_share;
+      rows_g.push_back(v);
+    }
+    if (sh.max_share < 1) {
+      Eigen::VectorXd v = fz;
+      v[nf] -= sh.max_share;
+      rows_g.push_back(v);
+    }
+  }
+  for (Eigen::Index r = 0; r < static_cast<Eigen::Index>(ratios.size()); ++r) {
+    if (sums.bear_area[r] <= 0 || sums.relief_area[r] <= 0) continue;
+    const double k = ratios[static_cast<std::size_t>(r)].min_ratio;
+    rows_g.push_back(
+        (k * sums.relief_ap.row(r) / sums.relief_area[r] - sums.bear_ap.row(r) / sums.bear_area[r]).transpose() / kRef);
+  }
+  P.G.resize(static_cast<Eigen::Index>(rows_g.size()), nf);
+  P.g0.resize(static_cast<Eigen::Index>(rows_g.size()));
+  for (size_t r = 0; r < rows_g.size(); ++r) {
+    P.G.row(static_cast<Eigen::Index>(r)) = rows_g[r].head(nf).transpose();
+    P.g0[static_cast<Eigen::Index>(r)] = rows_g[r][nf];
+  }
+}
+
+/// The SLSQP variables' upper bounds: a_max, or a spot's own bound when lower (z = a / kRef).
+std::vector<double> upper_bounds(const AmplitudeProblem& P, const std::vector<Spot>& spots) {
+  const unsigned n = static_cast<unsigned>(P.free.size());
+  std::vector<double> upper(n, P.a_max / kRef);
+  for (unsigned j = 0; j < n; ++j)
+    if (spots[P.free[j]].max_amplitude_pa > 0) upper[j] = std::min(upper[j], spots[P.free[j]].max_amplitude_pa / kRef);
+  return upper;
+}
+
+/// What NLopt's callbacks see of a fit.
+struct FitContext {
+  AmplitudeProblem* P;
+  FitControl* control;
+  nlopt::opt* opt;
+  bool least_squares;
+  int first_evaluation;
+};
+
+/// The fit's objective (reporting progress, stopping when told) and its constraints.
+void set_up_slsqp(nlopt::opt& opt, FitContext& eq) {
+  const AmplitudeProblem& P = *eq.P;
+  opt.set_min_objective(
+      [](unsigned, const double* z, double* g, void* data) {
+        auto& e = *static_cast<FitContext*>(data);
+        const int k = e.P->evaluations - e.first_evaluation;
+        if (!e.control->report(static_cast<double>(k) / kMaxFitEvaluations,
+                               fmt::format("amplitude fit, {} evaluations", k)))
+          e.opt->force_stop();
+        return e.least_squares ? e.P->balance(z, g) : e.P->objective(z, g);
+      },
+      &eq);
+  // Six equalities: the radar's forces and torques at their targets (normalised).
+  if (!eq.least_squares)
+    opt.add_equality_mconstraint(
+      [](unsigned m, double* result, unsigned nn, const double* z, double* grad, void* data) {
+        const auto& Q = *static_cast<FitContext*>(data)->P;
+        const Eigen::VectorXd a = Q.amplitudes(z);
+        const auto rv = Q.radar(a);
+        for (unsigned k = 0; k < m; ++k) {
+          result[k] = (rv[k] - Q.target[k]) / Q.scale[k];
+          if (grad)
+            for (unsigned j = 0; j < nn; ++j) grad[k * nn + j] = Q.R(k, j) * kRef / Q.scale[k];
+        }
+      },
+      &eq, std::vector<double>(6, 1e-7));
+  // Stability (available friction ≥ prosthesis weight, 2 % margin) and comfort at every node.
+  opt.add_inequality_mconstraint(
+      [](unsigned m, double* result, unsigned nn, const double* z, double* grad, void* data) {
+        const auto& Q = *static_cast<FitContext*>(data)->P;
+        const Eigen::VectorXd a = Q.amplitudes(z);
+        const auto rv = Q.radar(a);
+        result[0] = (1.02 * Q.stability_min - rv[6]) / Q.scale[6];
+        if (grad)
+          for (unsigned j = 0; j < nn; ++j) grad[j] = -Q.R(6, j) * kRef / Q.scale[6];
+        const Eigen::VectorXd r = Q.phi * a + Q.fixed_ratio;
+        for (unsigned i = 1; i < m; ++i) {
+          result[i] = r[i - 1] - 1.0;
+          if (grad)
+            for (unsigned j = 0; j < nn; ++j) grad[i * nn + j] = Q.phi(i - 1, j) * kRef;
+        }
+      },
+      &eq, std::vector<double>(1 + P.nodes.size(), 1e-9));
+  if (P.use_regions && P.G.rows() > 0)
+    opt.add_inequality_mconstraint(
+        [](unsigned m, double* result, unsigned nn, const double* z, double* grad, void* data) {
+          const auto& Q = *static_cast<FitContext*>(data)->P;
+          const Eigen::VectorXd g = Q.region_excess(Q.amplitudes(z));
+          for (unsigned f = 0; f < m; ++f) {
+            result[f] = g[f];
+            if (grad)
+              for (unsigned j = 0; j < nn; ++j) grad[f * nn + j] = Q.G(f, j) * kRef;
+          }
+        },
+        &eq, std::vector<double>(static_cast<std::size_t>(P.G.rows()), 1e-9));
+  opt.set_xtol_rel(1e-8);
+  opt.set_ftol_rel(1e-10);
+  opt.set_maxeval(kMaxFitEvaluations);
+}
+
+}  // namespace
+
+Eigen::Matrix<double, 7, 1> AmplitudeProblem::unit_radar(size_t i, const geometry::LimbFrame& fr, double mu) const {
+  const Vec3 f = -area[i] * normal[i];
+  const Vec3 t = (pos[i] - centre).cross(f);
+  const double s = axial_friction_n(1.0, area[i], normal[i], fr.axis, mu);
+  Eigen::Matrix<double, 7, 1> g;
+  g << f.dot(fr.anterior), f.dot(fr.medial()), f.dot(fr.axis) + s, t.dot(fr.anterior), t.dot(fr.medial()),
+      t.dot(fr.axis), s;
+  return g;
+}
+
+void AmplitudeProblem::build(const std::vector<Spot>& spots) {
+  free.clear();
+  for (size_t k = 0; k < spots.size(); ++k)
+    if (spots[k].enabled && spots[k].optimise_amplitude) free.push_back(static_cast<int>(k));
+  nodes.clear();
+  area_unloaded = 0;
+  std::vector<double> rows;  // flattened φ
+  std::vector<double> fixed;
+  const size_t nf = free.size();
+  R.setZero(7, static_cast<Eigen::Index>(nf));
+  r_fixed.setZero();
+  RegionSums sums(options->region_shares.size(), options->pressure_ratios.size(), nf);
+  add_node_rows(*this, spots, sums, rows, fixed);
   phi = Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
       rows.data(), static_cast<Eigen::Index>(nodes.size()), static_cast<Eigen::Index>(nf));
   fixed_ratio = Eigen::Map<Eigen::VectorXd>(fixed.data(), static_cast<Eigen::Index>(fixed.size()));
-  if (by_ratio) {
-    phi_obj = phi;
-    fixed_obj = fixed_ratio;
-    for (size_t n = 0; n < nodes.size(); ++n) {  // J evens p / T (not p / cap)
-      const double te = cap.empty() ? thr[nodes[n]] : std::min(thr[nodes[n]], cap[nodes[n]]);
-      const double s = te / thr[nodes[n]];
-      phi_obj.row(static_cast<Eigen::Index>(n)) *= s;
-      fixed_obj[static_cast<Eigen::Index>(n)] *= s;
-    }
-  } else {
-    phi_obj = phi;
-    fixed_obj = fixed_ratio;
-    for (size_t n = 0; n < nodes.size(); ++n) {
-      const double te = cap.empty() ? thr[nodes[n]] : std::min(thr[nodes[n]], cap[nodes[n]]);
-      const double s = te / kRef;
-      phi_obj.row(static_cast<Eigen::Index>(n)) *= s;
-      fixed_obj[static_cast<Eigen::Index>(n)] *= s;
-    }
-  }
+  weigh_objective_rows(*this);
   w.resize(static_cast<Eigen::Index>(nodes.size()));
   for (size_t n = 0; n < nodes.size(); ++n) w[static_cast<Eigen::Index>(n)] = area[nodes[n]];
   const auto& t = solver->targets();
@@ -123,34 +256,7 @@ void AmplitudeProblem::build(const std::vector<Spot>& spots) {
   target << 0, 0, t.fz_n, 0, 0, 0;
   tolerance << t.force_tol_n, t.force_tol_n, t.force_tol_n, t.torque_tol_nm, t.torque_tol_nm, t.torque_tol_nm;
   stability_min = t.stability_min_n;
-  // The rows: a floor −(F_region − min F_z) / F_z, a ceiling (F_region − max F_z) / F_z, a ratio
-  // (k · mean_relieved − mean_bearing) / kRef; a region without nodes below the brim gives none.
-  std::vector<Eigen::VectorXd> rows_g;  // |free| + 1 (the constant last)
-  for (Eigen::Index r = 0; r < nsh; ++r) {
-    const auto& sh = shares[static_cast<std::size_t>(r)];
-    Eigen::VectorXd fz = share_fz.row(r).transpose() / t.fz_n;
-    if (sh.min_share > 0) {
-      Eigen::VectorXd v = -fz;
-      v[static_cast<Eigen::Index>(nf)] += sh.min_share;
-      rows_g.push_back(v);
-    }
-    if (sh.max_share < 1) {
-      Eigen::VectorXd v = fz;
-      v[static_cast<Eigen::Index>(nf)] -= sh.max_share;
-      rows_g.push_back(v);
-    }
-  }
-  for (Eigen::Index r = 0; r < nra; ++r) {
-    if (bear_area[r] <= 0 || relief_area[r] <= 0) continue;
-    const double k = ratios[static_cast<std::size_t>(r)].min_ratio;
-    rows_g.push_back((k * relief_ap.row(r) / relief_area[r] - bear_ap.row(r) / bear_area[r]).transpose() / kRef);
-  }
-  G.resize(static_cast<Eigen::Index>(rows_g.size()), static_cast<Eigen::Index>(nf));
-  g0.resize(static_cast<Eigen::Index>(rows_g.size()));
-  for (size_t r = 0; r < rows_g.size(); ++r) {
-    G.row(static_cast<Eigen::Index>(r)) = rows_g[r].head(static_cast<Eigen::Index>(nf)).transpose();
-    g0[static_cast<Eigen::Index>(r)] = rows_g[r][static_cast<Eigen::Index>(nf)];
-  }
+  build_region_rows(*this, sums, t.fz_n);
 }
 
 double AmplitudeProblem::balance(const double* z, double* grad) {
@@ -264,78 +370,15 @@ FitResult fit_amplitudes(AmplitudeProblem& P, const std::vector<Spot>& spots, co
   }
   nlopt::opt opt(nlopt::LD_SLSQP, n);
   opt.set_lower_bounds(std::vector<double>(n, 0.0));
-  std::vector<double> upper(n, P.a_max / kRef);
-  for (unsigned j = 0; j < n; ++j)
-    if (spots[P.free[j]].max_amplitude_pa > 0) upper[j] = std::min(upper[j], spots[P.free[j]].max_amplitude_pa / kRef);
+  const std::vector<double> upper = upper_bounds(P, spots);
   for (unsigned j = 0; j < n; ++j) fr.z[j] = std::min(fr.z[j], upper[j]);
   opt.set_upper_bounds(upper);
   // Fewer free amplitudes than the six equalities (3 forces, 3 torques): no exact solution in
   // general, and NLopt refuses the problem — fit them in the least-squares sense instead (the
   // violation then says whether the tolerances hold).
   const bool least_squares = n < 6;
-  struct Eq {
-    AmplitudeProblem* P;
-    FitControl* control;
-    nlopt::opt* opt;
-    bool least_squares;
-    int first_evaluation;
-  } eq{&P, &control, &opt, least_squares, P.evaluations};
-  opt.set_min_objective(
-      [](unsigned, const double* z, double* g, void* data) {
-        auto& e = *static_cast<Eq*>(data);
-        const int k = e.P->evaluations - e.first_evaluation;
-        if (!e.control->report(static_cast<double>(k) / kMaxFitEvaluations,
-                               fmt::format("amplitude fit, {} evaluations", k)))
-          e.opt->force_stop();
-        return e.least_squares ? e.P->balance(z, g) : e.P->objective(z, g);
-      },
-      &eq);
-  // Six equalities: the radar's forces and torques at their targets (normalised).
-  if (!least_squares)
-    opt.add_equality_mconstraint(
-      [](unsigned m, double* result, unsigned nn, const double* z, double* grad, void* data) {
-        const auto& Q = *static_cast<Eq*>(data)->P;
-        const Eigen::VectorXd a = Q.amplitudes(z);
-        const auto rv = Q.radar(a);
-        for (unsigned k = 0; k < m; ++k) {
-          result[k] = (rv[k] - Q.target[k]) / Q.scale[k];
-          if (grad)
-            for (unsigned j = 0; j < nn; ++j) grad[k * nn + j] = Q.R(k, j) * kRef / Q.scale[k];
-        }
-      },
-      &eq, std::vector<double>(6, 1e-7));
-  // Stability (available friction ≥ prosthesis weight, 2 % margin) and comfort at every node.
-  opt.add_inequality_mconstraint(
-      [](unsigned m, double* result, unsigned nn, const double* z, double* grad, void* data) {
-        const auto& Q = *static_cast<Eq*>(data)->P;
-        const Eigen::VectorXd a = Q.amplitudes(z);
-        const auto rv = Q.radar(a);
-        result[0] = (1.02 * Q.stability_min - rv[6]) / Q.scale[6];
-        if (grad)
-          for (unsigned j = 0; j < nn; ++j) grad[j] = -Q.R(6, j) * kRef / Q.scale[6];
-        const Eigen::VectorXd r = Q.phi * a + Q.fixed_ratio;
-        for (unsigned i = 1; i < m; ++i) {
-          result[i] = r[i - 1] - 1.0;
-          if (grad)
-            for (unsigned j = 0; j < nn; ++j) grad[i * nn + j] = Q.phi(i - 1, j) * kRef;
-        }
-      },
-      &eq, std::vector<double>(1 + P.nodes.size(), 1e-9));
-  if (P.use_regions && P.G.rows() > 0)
-    opt.add_inequality_mconstraint(
-        [](unsigned m, double* result, unsigned nn, const double* z, double* grad, void* data) {
-          const auto& Q = *static_cast<Eq*>(data)->P;
-          const Eigen::VectorXd g = Q.region_excess(Q.amplitudes(z));
-          for (unsigned f = 0; f < m; ++f) {
-            result[f] = g[f];
-            if (grad)
-              for (unsigned j = 0; j < nn; ++j) grad[f * nn + j] = Q.G(f, j) * kRef;
-          }
-        },
-        &eq, std::vector<double>(static_cast<std::size_t>(P.G.rows()), 1e-9));
-  opt.set_xtol_rel(1e-8);
-  opt.set_ftol_rel(1e-10);
-  opt.set_maxeval(kMaxFitEvaluations);
+  FitContext eq{&P, &control, &opt, least_squares, P.evaluations};
+  set_up_slsqp(opt, eq);
   std::vector<double> z(fr.z.data(), fr.z.data() + n);
   double J = 0;
   const int before = P.evaluations;
