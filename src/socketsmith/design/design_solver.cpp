@@ -175,6 +175,133 @@ struct DesignSolver::Impl {
     return positions;
   }
 
+  /// The nonlinear stump: one Newton solve with the pressure as a load that follows the skin, its
+  /// load stiffness in the tangent. Passes of fixed forces do not carry it: a stump at a design
+  /// load can be close to buckling under dead forces (the distal tissue swinging round the bone
+  /// end; measured on ampscan, 80 kg, 100 kPa: softest eigenvalue 0.4 N/m, the second pass stalls
+  /// at 0.8 % of its load) while the follower load, which turns with the skin, holds it. False when
+  /// it found no equilibrium and Auto mode fell back to the linearised model (x back at rest).
+  bool solve_nonlinear(DesignState& st, tissue::VectorXd& positions) {
+    const tissue::FollowerPressure load(skin, st.pressure_pa, model.num_nodes());
+    const auto res = solver->solve(load, positions);
+    st.newton_iterations += res.iterations;
+    st.follower_passes = 1;
+    if (res.converged) return true;
+    failure_point = Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
+    if (res.worst_element >= 0) {
+      Vec3 c = Vec3::Zero();
+      for (int nd : model.mesh().hexahedra[res.worst_element]) c += model.rest_positions().segment<3>(3 * nd) / 8.0;
+      failure_point = c;
+    }
+    st.nonlinear_failure = res.message;
+    if (options.mode != DesignSolveMode::Auto) {
+      st.converged = false;
+      st.message = res.message;
+      fail<SolverError>("design solve: the stump found no equilibrium under these pressures (peak applied {:.1f} kPa): {}",
+                        *std::max_element(st.pressure_pa.begin(), st.pressure_pa.end()) / 1e3, res.message);
+    }
+    // Auto: the model has no stable equilibrium here; take the linearised model from now on, say so.
+    fell_back = true;
+    fallback_reason = res.message;
+    st.linearised = true;
+    st.follower_passes = 0;
+    positions = model.rest_positions();
+    return false;
+  }
+
+  /// The linearised stump's follower iteration: x → forces f(x) on the geometry at x → y = K₀⁻¹ f,
+  /// the stump solved under them → forces g at y. Converged when g and f differ by at most
+  /// follower_tolerance (relative, largest nodal change): y is then the equilibrium under its own
+  /// forces. The first passes take x = y (plain fixed point); after max_follower_passes, or as soon
+  /// as the change grows (the iteration oscillates), x moves only part of the way, x += ω (y − x),
+  /// with Aitken's dynamic relaxation factor ω (Irons & Tuck 1969; Küttler & Wall 2008) — for at
+  /// most max_relaxed_passes more solves. A state that did not converge is flagged, and never counts
+  /// as meeting its constraints (ConstraintStatus::follower_converged). x is @p positions (3N, the
+  /// warm start in, the state out).
+  void follow_linearised(const DesignSolver& self, DesignState& st, tissue::VectorXd& positions) {
+    const size_t n = st.requested_pa.size();
+    std::vector<Vec3> pos, normal;
+    std::vector<double> area;
+    auto forces_at = [&](const tissue::VectorXd& at) {
+      self.skin_geometry(at, pos, normal, area);
+      tissue::VectorXd f = tissue::VectorXd::Zero(model.num_dofs());
+      for (size_t i = 0; i < n; ++i) f.segment<3>(3 * skin.nodes[i]) = -st.pressure_pa[i] * area[i] * normal[i];
+      return f;
+    };
+    tissue::VectorXd f = forces_at(positions);
+    tissue::VectorXd y = positions;  // the last solve's equilibrium
+    tissue::VectorXd r_prev;
+    double omega = 0.5, previous_change = std::numeric_limits<double>::infinity();
+    bool relaxing = false;
+    const int max_passes = options.max_follower_passes + std::max(0, options.max_relaxed_passes);
+    for (;;) {
+      if (st.follower_passes >= max_passes) {
+        st.follower_capped = true;
+        positions = y;
+        break;
+      }
+      y = linear_solve(f);
+      ++st.follower_passes;
+      check_deformation_bounded(st, y);
+      const tissue::VectorXd g = forces_at(y);
+      const double change = relative_force_change(g, f, n);
+      st.follower_change = change;
+      if (change <= options.follower_tolerance) {
+        positions = y;
+        break;
+      }
+      if (!relaxing && (st.follower_passes >= options.max_follower_passes || change > previous_change)) {
+        relaxing = true;
+        st.follower_relaxed_from = st.follower_passes;
+      }
+      previous_change = change;
+      if (!relaxing) {
+        positions = y;
+        f = g;
+        continue;
+      }
+      relax_towards(y, positions, r_prev, omega);
+      f = forces_at(positions);
+    }
+  }
+
+  /// The follower iteration runs away when the tissue is too soft for the load (each pass's
+  /// deformed skin carries larger forces): stop before NaN reaches the outputs.
+  void check_deformation_bounded(const DesignState& st, const tissue::VectorXd& y) {
+    double umax = 0;
+    for (Eigen::Index k = 0; k < y.size() / 3; ++k)
+      umax = std::max(umax, (y - model.rest_positions()).segment<3>(3 * k).norm());
+    if (!y.allFinite() || !(umax <= 0.5 * length)) {
+      failure_point = Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
+      fail<SolverError>("design solve: the stump's deformation runs away under these pressures (pass {}: {:.3g} mm, "
+                        "more than half the {:.0f} mm stump): the tissue (E = {:.3g} kPa) is too soft for this load — "
+                        "raise tissue.youngs_kpa or lower the pressures",
+                        st.follower_passes, umax * 1e3, length * 1e3, model.material().youngs_modulus_pa / 1e3);
+    }
+  }
+
+  /// The largest change of a skin node's force from b to a, relative to the largest force of a.
+  double relative_force_change(const tissue::VectorXd& a, const tissue::VectorXd& b, size_t n) const {
+    double fmax = 0, dmax = 0;
+    for (size_t i = 0; i < n; ++i) {
+      fmax = std::max(fmax, a.segment<3>(3 * skin.nodes[i]).norm());
+      dmax = std::max(dmax, (a - b).segment<3>(3 * skin.nodes[i]).norm());
+    }
+    return fmax > 0 ? dmax / fmax : 0.0;
+  }
+
+  /// x += ω (y − x), ω updated by Aitken's rule from the previous step's residual r_prev.
+  static void relax_towards(const tissue::VectorXd& y, tissue::VectorXd& x, tissue::VectorXd& r_prev, double& omega) {
+    const tissue::VectorXd r = y - x;
+    if (r_prev.size() == r.size()) {
+      const tissue::VectorXd dr = r - r_prev;
+      const double dd = dr.squaredNorm();
+      if (dd > 0) omega = std::clamp(-omega * r_prev.dot(dr) / dd, 0.05, 1.5);
+    }
+    r_prev = r;
+    x += omega * r;
+  }
+
   Impl(const volume::HexMesh& mesh, const tissue::TissueMaterial& material, const tissue::MassSpringOptions& mo,
        const geometry::LimbFrame& f, std::vector<double> thr, const PatientLoad& pl, double len,
        const DesignSolverOptions& o)
@@ -297,123 +424,14 @@ DesignState DesignSolver::solve(const std::vector<Spot>& spots) {
   const auto t0 = std::chrono::steady_clock::now();
   DesignState st;
   applied_pressure(spots, st);
-  const size_t n = st.requested_pa.size();
   bool linear = s.options.mode == DesignSolveMode::Linear || s.fell_back;
   if (s.fell_back) {
     st.linearised = true;
     st.nonlinear_failure = s.fallback_reason;
   }
-  // The linearised stump's follower iteration: x → forces f(x) on the geometry at x → y = K₀⁻¹ f,
-  // the stump solved under them → forces g at y. Converged when g and f differ by at most follower_tolerance (relative,
-  // largest nodal change): y is then the equilibrium under its own forces. The first passes take
-  // x = y (plain fixed point); after max_follower_passes, or as soon as the change grows (the
-  // iteration oscillates), x moves only part of the way, x += ω (y − x), with Aitken's dynamic
-  // relaxation factor ω (Irons & Tuck 1969; Küttler & Wall 2008) — for at most
-  // max_relaxed_passes more solves. A state that did not converge is flagged, and never counts as
-  // meeting its constraints (ConstraintStatus::follower_converged).
   tissue::VectorXd x = s.x;  // warm start: the last equilibrium and its geometry
-  if (!linear) {
-    // The nonlinear stump: one Newton solve with the pressure as a load that follows the skin, its
-    // load stiffness in the tangent. Passes of fixed forces do not carry it: a stump at a design
-    // load can be close to buckling under dead forces (the distal tissue swinging round the bone
-    // end; measured on ampscan, 80 kg, 100 kPa: softest eigenvalue 0.4 N/m, the second pass stalls
-    // at 0.8 % of its load) while the follower load, which turns with the skin, holds it.
-    const tissue::FollowerPressure load(s.skin, st.pressure_pa, s.model.num_nodes());
-    const auto res = s.solver->solve(load, x);
-    st.newton_iterations += res.iterations;
-    st.follower_passes = 1;
-    if (!res.converged) {
-      s.failure_point = Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
-      if (res.worst_element >= 0) {
-        Vec3 c = Vec3::Zero();
-        for (int nd : s.model.mesh().hexahedra[res.worst_element]) c += s.model.rest_positions().segment<3>(3 * nd) / 8.0;
-        s.failure_point = c;
-      }
-      st.nonlinear_failure = res.message;
-      if (s.options.mode != DesignSolveMode::Auto) {
-        st.converged = false;
-        st.message = res.message;
-        fail<SolverError>("design solve: the stump found no equilibrium under these pressures (peak applied {:.1f} kPa): {}",
-                          *std::max_element(st.pressure_pa.begin(), st.pressure_pa.end()) / 1e3, res.message);
-      }
-      // Auto: the model has no stable equilibrium here; take the linearised model from now on, say so.
-      s.fell_back = true;
-      s.fallback_reason = res.message;
-      linear = true;
-      st.linearised = true;
-      st.follower_passes = 0;
-      x = s.model.rest_positions();
-    }
-  }
-  std::vector<Vec3> pos, normal;
-  std::vector<double> area;
-  auto forces_at = [&](const tissue::VectorXd& at) {
-    skin_geometry(at, pos, normal, area);
-    tissue::VectorXd f = tissue::VectorXd::Zero(s.model.num_dofs());
-    for (size_t i = 0; i < n; ++i) f.segment<3>(3 * s.skin.nodes[i]) = -st.pressure_pa[i] * area[i] * normal[i];
-    return f;
-  };
-  auto relative_change = [&](const tissue::VectorXd& a, const tissue::VectorXd& b) {
-    double fmax = 0, dmax = 0;
-    for (size_t i = 0; i < n; ++i) {
-      fmax = std::max(fmax, a.segment<3>(3 * s.skin.nodes[i]).norm());
-      dmax = std::max(dmax, (a - b).segment<3>(3 * s.skin.nodes[i]).norm());
-    }
-    return fmax > 0 ? dmax / fmax : 0.0;
-  };
-  tissue::VectorXd f = forces_at(x);
-  tissue::VectorXd y = x;  // the last solve's equilibrium (the nonlinear solve's warm start)
-  tissue::VectorXd r_prev;
-  double omega = 0.5, previous_change = std::numeric_limits<double>::infinity();
-  bool relaxing = false;
-  const int max_passes = s.options.max_follower_passes + std::max(0, s.options.max_relaxed_passes);
-  for (; linear;) {
-    if (st.follower_passes >= max_passes) {
-      st.follower_capped = true;
-      x = y;
-      break;
-    }
-    y = s.linear_solve(f);
-    ++st.follower_passes;
-    // The follower iteration runs away when the tissue is too soft for the load (each pass's
-    // deformed skin carries larger forces): stop before NaN reaches the outputs.
-    double umax = 0;
-    for (Eigen::Index k = 0; k < y.size() / 3; ++k)
-      umax = std::max(umax, (y - s.model.rest_positions()).segment<3>(3 * k).norm());
-    if (!y.allFinite() || !(umax <= 0.5 * s.length)) {
-      s.failure_point = Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
-      fail<SolverError>("design solve: the stump's deformation runs away under these pressures (pass {}: {:.3g} mm, "
-                        "more than half the {:.0f} mm stump): the tissue (E = {:.3g} kPa) is too soft for this load — "
-                        "raise tissue.youngs_kpa or lower the pressures",
-                        st.follower_passes, umax * 1e3, s.length * 1e3, s.model.material().youngs_modulus_pa / 1e3);
-    }
-    const tissue::VectorXd g = forces_at(y);
-    const double change = relative_change(g, f);
-    st.follower_change = change;
-    if (change <= s.options.follower_tolerance) {
-      x = y;
-      break;
-    }
-    if (!relaxing && (st.follower_passes >= s.options.max_follower_passes || change > previous_change)) {
-      relaxing = true;
-      st.follower_relaxed_from = st.follower_passes;
-    }
-    previous_change = change;
-    if (!relaxing) {
-      x = y;
-      f = g;
-      continue;
-    }
-    const tissue::VectorXd r = y - x;
-    if (r_prev.size() == r.size()) {
-      const tissue::VectorXd dr = r - r_prev;
-      const double dd = dr.squaredNorm();
-      if (dd > 0) omega = std::clamp(-omega * r_prev.dot(dr) / dd, 0.05, 1.5);
-    }
-    r_prev = r;
-    x += omega * r;
-    f = forces_at(x);
-  }
+  if (!linear) linear = !s.solve_nonlinear(st, x);
+  if (linear) s.follow_linearised(*this, st, x);
   s.x = x;  // warm start of the next solve
   if (!linear) {  // a new nonlinear equilibrium: the previews' tangent is to be refactorised
     s.has_equilibrium = true;
