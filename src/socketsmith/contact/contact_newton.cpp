@@ -252,8 +252,8 @@ bool ContactSolver::Impl::refresh_lag_in_newton(const std::vector<NodeContact>& 
     return false;
   rs.stalled = rn < kRelagProgress * rs.residual_n ? 0 : rs.stalled + 1;
   rs.residual_n = rn;
-  log::debug("contact: friction lag refreshed (normal forces moved {:.3g} of the largest)", lag_change(st));
   update_lag(st);
+  log::debug("contact: friction lag refreshed (normal forces moved {:.3g} of the largest)", last_lag_change);
   return true;
 }
 

@@ -142,6 +142,7 @@ class StaticSolver {
   ~StaticSolver();
   StaticSolver(const StaticSolver&) = delete;
   StaticSolver& operator=(const StaticSolver&) = delete;
+  StaticSolver(StaticSolver&&) = delete;  // its Impl refers to options_: not movable
 
   /// Solves for the positions x (3N) under external nodal forces @p f_ext (3N) [N].
   /// @param x in: initial guess and the values of fixed DOFs; out: the solution (or the last
