@@ -221,7 +221,7 @@ bool ContactSolver::Impl::newton(VectorXd& xs, Vec3& t, std::vector<NodeContact>
     // Stalled: the line search has cut the step to a sliver kStallSteps times in a row with the
     // residual above the kink's. Newton then only crawls until the search fails (AmpScan's limb:
     // steps 0.008 → 2e-9 over 12 more iterations, each with up to 30 trial evaluations); the caller
-    // refines the path now instead.
+    // refines the path instead.
     tiny_steps = step < kTinyStep ? tiny_steps + 1 : 0;
     if (tiny_steps >= kStallSteps && rn > kink_tolerance(st)) {
       log::debug("contact: Newton stalled at {} (steps below {:.3g} of the Newton step, residual {:.3g} N)", it,

@@ -50,7 +50,7 @@ struct ContactOptions {
   double friction_lag_tol = 0.01;
   /// Also refresh the friction lag inside Newton: once the residual is within 100× the tolerance
   /// and the normal forces have moved from the lag by more than friction_lag_tol, they become the
-  /// lag at once, instead of only after a converged Newton solve (false: the earlier passes).
+  /// lag at once, instead of only after a converged Newton solve (false: only the friction passes).
   bool friction_in_newton = true;
   /// Start each step's friction lag from the normal forces of the last two committed steps
   /// extrapolated to the new obstacle position (nodes that touched at both), not from the last's.
@@ -67,7 +67,7 @@ struct ContactOptions {
   int max_reuse_cg = 12;
   /// Line search: when Π turns upwards before the full Newton step, find its minimum along the
   /// step (regula falsi on the slope, until |Π'| ≤ line_search_slope · |Π'(0)|) instead of halving
-  /// the step until Π decreases enough (false: halving only, the earlier behaviour).
+  /// the step until Π decreases enough (false: halving only).
   bool exact_line_search = true;
   double line_search_slope = 0.1;  ///< (0, 1)
   /// push_with_force: start each solve inside the bracket from the interpolation of the solutions

@@ -270,7 +270,7 @@ DonningResult DonningSimulation::run() {
     };
     const double target = target_of(step);
     // Refinable: the shortest step goes somewhere else (the last step before the pose may already
-    // end where the shortest one would; trying it again was the same solve twice).
+    // end where the shortest one would; refining it would solve the same step twice).
     const bool refinable = adaptive && step > o.min_step_m * (1 + 1e-9) && target_of(o.min_step_m) != target;
     // A step that can be refined is tried and kept or refined; one that cannot is solved and
     // committed at once (move_to, whose sub-steps when it fails are committed: a path refinement).

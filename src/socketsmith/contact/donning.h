@@ -52,7 +52,7 @@ struct DonningOptions {
   /// on the same way). 0: the socket moves along the axis only and such a path stalls.
   double max_sidestep_m = 0.006;
   /// Contact against the smoothed inner wall (RigidSocket::set_smooth_wall) instead of its facets:
-  /// nodes sliding along the wall no longer cross its kinks (7.5k nodes: 203 instead of 390
+  /// nodes sliding along the wall do not cross its kinks (7.5k nodes: 203 instead of 390
   /// factorisations; below the brim R 0.742 / MAE 1.91 kPa against the design vs 0.750 / 1.84 on the
   /// facets; docs/contact.md).
   bool smooth_wall = true;
@@ -67,7 +67,7 @@ struct DonningOptions {
   /// slip at 10 kPa, the order of Abaqus's default 0.5 % of the element length): with the penalty's
   /// stiffness Newton crawled where the brim drags the skin and nodes switch from slip to stick
   /// (7.5k nodes, 2 mm steps: 144 instead of 177 factorisations, pressures within 8 Pa on average
-  /// of the stiff stick's). Softer still (0.1, 0.05) was cheaper again but no longer gave the same
+  /// of the stiff stick's). Softer still (0.1, 0.05) was cheaper again but did not give the same
   /// state along two Newton paths (test Donning.the_fast_newton_path_…): a few sticking nodes at the
   /// distal end differed by 7.5 kPa.
   ContactOptions contact = [] {

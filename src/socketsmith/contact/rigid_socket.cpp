@@ -14,8 +14,8 @@ namespace socketsmith::contact {
 namespace {
 constexpr double kSmoothBand = 0.003;  // [m] the smoothed wall's gap within this distance of the facets
 constexpr double kBlendBand = 0.001;   // [m] beyond it, blended into the facets' distance over this width
-// Support radius of a vertex / the mean length of its edges. The 7.5k donning (with the earlier
-// standing push): 1.25 / 1.5 / 1.75 gave 214 / 234 / 250 factorisations, R against the design
+// Support radius of a vertex / the mean length of its edges. In a 7.5k donning with standing
+// (one measurement): 1.25 / 1.5 / 1.75 gave 214 / 234 / 250 factorisations, R against the design
 // 0.718 / 0.717 / 0.715 (facets: 387, 0.720); below ~1.25 a point inside a long triangle can fall
 // outside every vertex's support (then the facets' gap is used there: a seam), so 1.5.
 constexpr double kSupport = 1.5;
