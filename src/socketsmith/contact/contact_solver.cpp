@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "socketsmith/contact/contact_solver_impl.h"
+#include "socketsmith/contact/contact_terms.h"
 #include "socketsmith/core/errors.h"
 
 namespace socketsmith::contact {
@@ -45,22 +46,17 @@ VectorXd ContactSolver::Impl::evaluate(const VectorXd& xs, const Vec3& t, std::v
     const int nd = nodes[i];
     const Vec3 p = xs.segment<3>(3 * nd);
     const Gap& g = gaps[i];
-    const bool valid = g.valid;
-    const double kA = k * areas[i];
-    Eigen::Matrix3d B = Eigen::Matrix3d::Zero();
-    Vec3 f = Vec3::Zero();
-    if (valid && g.gap_m < 0) {
+    const PenaltyTerm pen = penalty_term(g, k * areas[i]);
+    Eigen::Matrix3d B = pen.term.stiffness;
+    Vec3 f = pen.term.force;
+    if (pen.active) {
       auto& s = st[i];
       s.active = true;
       s.gap_m = g.gap_m;
       s.normal = g.normal;
-      s.normal_force_n = kA * (-g.gap_m) * g.gradient_norm;
+      s.normal_force_n = pen.normal_force_n;
       s.pressure_pa = s.normal_force_n / areas[i];
-      pi += 0.5 * kA * g.gap_m * g.gap_m;
-      f += s.normal_force_n * g.normal;
-      // Inside a face: stiffness along the normal only; on an edge or a vertex the force points to
-      // a fixed point of the wall (f = kA (c − x)), stiff in every direction.
-      B += kA * g.stiffness_shape;
+      pi += pen.term.energy;
     }
     pi += friction_term(i, p, t, st[i], trial_hist[i], f, B);
     if (f.squaredNorm() == 0.0 && B.isZero()) continue;
@@ -100,29 +96,20 @@ void ContactSolver::Impl::query_gaps(const VectorXd& xs, const Vec3& t) {
 
 double ContactSolver::Impl::friction_term(size_t i, const Vec3& p, const Vec3& t, NodeContact& s, Vec3& trial_hist,
                                           Vec3& f, Eigen::Matrix3d& B) const {
-  const double kT = opt.stick_stiffness_ratio * (k * areas[i]);
-  const double limit = opt.friction * lag_fn[i];
-  if (!(limit > 0)) return 0.0;
-  const Vec3& nl = lag_n[i];
-  const Eigen::Matrix3d Pt = Eigen::Matrix3d::Identity() - nl * nl.transpose();
-  const Vec3 slip = Pt * ((p - x_conv.segment<3>(3 * nodes[i])) - (t - t_conv));
-  const Vec3 trial = Pt * hist[i] + kT * slip;
-  const double mag = trial.norm();
-  double pi = 0;
-  if (mag > limit) {
-    s.sliding = true;
-    trial_hist = trial * (limit / mag);
-    const Vec3 that = trial / mag;
-    B += (limit / mag) * kT * (Pt - that * that.transpose());
-    pi = limit * mag / kT - 0.5 * limit * limit / kT;
-  } else {
-    trial_hist = trial;
-    B += kT * Pt;
-    pi = 0.5 * mag * mag / kT;
-  }
+  FrictionInput in;
+  in.stick_stiffness = opt.stick_stiffness_ratio * (k * areas[i]);
+  in.limit_n = opt.friction * lag_fn[i];
+  if (!(in.limit_n > 0)) return 0.0;
+  in.lag_normal = lag_n[i];
+  in.history_n = hist[i];
+  in.displacement_m = (p - x_conv.segment<3>(3 * nodes[i])) - (t - t_conv);
+  const FrictionTerm fr = contact::friction_term(in);
+  s.sliding = fr.sliding;
+  trial_hist = fr.spring_force_n;
   s.tangential_n = -trial_hist;
-  f -= trial_hist;
-  return pi;
+  f += fr.term.force;
+  B += fr.term.stiffness;
+  return fr.term.energy;
 }
 
 void ContactSolver::Impl::tangent(const VectorXd& xs, const std::vector<Eigen::Matrix3d>& blocks, SparseMatrix& K,
