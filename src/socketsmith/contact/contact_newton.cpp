@@ -104,12 +104,7 @@ bool ContactSolver::Impl::solve_nonlinear(const VectorXd& xs, const std::vector<
                                           const Eigen::MatrixXd& r, Eigen::MatrixXd& delta) {
   const SerialParallelRegions serial;
   const auto cholesky = [&](const SparseMatrix& A) {
-    if (A.nonZeros() != analysed_nnz) {
-      llt.analyzePattern(A);
-      analysed_nnz = A.nonZeros();
-    }
-    llt.factorize(A);
-    if (llt.info() != Eigen::Success) return false;
+    if (!llt.factorize(A)) return false;
     ++factorizations;
     delta = llt.solve(r);
     return delta.allFinite();
@@ -141,15 +136,9 @@ bool ContactSolver::Impl::newton_direction(const VectorXd& xs, const std::vector
   if (opt.linear_body) {
     // The last factorisation (of a nearby contact state) preconditions CG on the new tangent;
     // a fresh factorisation only when CG does not converge quickly.
-    if (!free_axis() && factor_valid && opt.max_reuse_cg > 0 && pcg(K, r, delta)) return true;
+    if (!free_axis() && llt.valid() && opt.max_reuse_cg > 0 && pcg(K, r, delta)) return true;
     const SerialParallelRegions serial;
-    if (K.nonZeros() != analysed_nnz) {
-      llt.analyzePattern(K);
-      analysed_nnz = K.nonZeros();
-    }
-    llt.factorize(K);
-    if (llt.info() != Eigen::Success) return false;
-    factor_valid = true;
+    if (!llt.factorize(K)) return false;
     ++factorizations;
     sol = llt.solve(rhs);
   } else if (!solve_nonlinear(xs, B, K, rhs, sol)) {

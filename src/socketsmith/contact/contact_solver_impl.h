@@ -7,12 +7,8 @@
 #include <limits>
 #include <vector>
 
-#include <Eigen/CholmodSupport>
-#ifdef _OPENMP
-#include <omp.h>
-#endif
-
 #include "socketsmith/contact/contact_solver.h"
+#include "socketsmith/tissue/sparse_cholesky.h"
 
 namespace socketsmith::contact {
 
@@ -25,30 +21,7 @@ constexpr int kRelagStall = 4;            // refreshes in a row without progress
 constexpr double kTinyStep = 1.0 / 64;    // a line-search step below this share of Newton's is a sliver
 constexpr int kStallSteps = 3;            // slivers in a row: Newton has stalled (ContactSolver::Impl::newton)
 
-/// While alive, every OpenMP parallel region runs on the calling thread alone. CHOLMOD's supernodal
-/// factorisation opens a region per supernode asking for 4 threads; with dynamic teams
-/// (tissue::limit_solver_threads) each region still asks the kernel for the load and the affinity
-/// and wakes the pool: a 7.5k-node donning made 209k sysinfo + sched_getaffinity and 814k futex
-/// calls (≈ 10 % of its CPU in the kernel, strace -c / perf), for assembly loops too small to share.
-class SerialParallelRegions {
- public:
-  SerialParallelRegions() {
-#ifdef _OPENMP
-    levels_ = omp_get_max_active_levels();
-    omp_set_max_active_levels(0);
-#endif
-  }
-  ~SerialParallelRegions() {
-#ifdef _OPENMP
-    omp_set_max_active_levels(levels_);
-#endif
-  }
-  SerialParallelRegions(const SerialParallelRegions&) = delete;
-  SerialParallelRegions& operator=(const SerialParallelRegions&) = delete;
-
- private:
-  int levels_ = 1;
-};
+using tissue::SerialParallelRegions;
 
 struct ContactSolver::Impl {
   const tissue::MassSpringModel& model;
@@ -80,11 +53,8 @@ struct ContactSolver::Impl {
   SparseMatrix K0;         // linear body: reduced stiffness at rest
   SparseMatrix K0c;        // K₀ with every candidate node's 3×3 block in its pattern
   std::vector<Eigen::Index> block_at;  // per candidate node, entry (a, b) at 9 i + 3 b + a: index in K0c's values, −1 fixed
-  // Upper: CHOLMOD permutes an upper-stored matrix with one transpose, a lower-stored one with two.
-  Eigen::CholmodSupernodalLLT<SparseMatrix, Eigen::Upper> llt;
-  Eigen::Index analysed_nnz = -1;
-  bool factor_valid = false;
-  long factorizations = 0, cg_iterations = 0;  // counters for ContactStep
+  tissue::SparseCholesky<Eigen::Upper> llt;
+  long factorizations = 0, cg_iterations = 0;  // counters for ContactStep (sparse LU included)
   // push_with_force: the obstacle free along free_dir under free_force_n, its translation along
   // free_dir one more unknown of Newton (free_dir zero: the obstacle's translation is given).
   Vec3 free_dir = Vec3::Zero();

@@ -4,13 +4,13 @@
 #include <limits>
 #include <cmath>
 
-#include <Eigen/CholmodSupport>
 
 #include "socketsmith/core/errors.h"
 #include "socketsmith/core/units.h"
 #include "socketsmith/design/input_limits.h"
 #include "socketsmith/tissue/dof_map.h"
 #include "socketsmith/tissue/pressure_load.h"
+#include "socketsmith/tissue/sparse_cholesky.h"
 
 namespace socketsmith::design {
 
@@ -117,7 +117,7 @@ struct DesignSolver::Impl {
   bool fell_back = false;  // Auto mode: the nonlinear lattice lost stability once; linear since
   std::string fallback_reason;
   // Linearised model: K₀ = −Pᵀ J(x₀) P, factorised on first use.
-  std::unique_ptr<Eigen::CholmodSupernodalLLT<tissue::SparseMatrix>> k0;
+  std::unique_ptr<tissue::SparseCholesky<>> k0;
   void factor_linear() {
     if (k0) return;
     tissue::SparseMatrix J, K;
@@ -125,10 +125,8 @@ struct DesignSolver::Impl {
     dofs.reduce_matrix(J, K);
     K *= -1.0;
     tissue::SparseMatrix Ks = 0.5 * (tissue::SparseMatrix(K.transpose()) + K);
-    tissue::limit_solver_threads();
-    k0 = std::make_unique<Eigen::CholmodSupernodalLLT<tissue::SparseMatrix>>();
-    k0->compute(Ks);
-    require<SolverError>(k0->info() == Eigen::Success,
+    k0 = std::make_unique<tissue::SparseCholesky<>>();
+    require<SolverError>(k0->factorize(Ks),
                          "design solve: the stump's stiffness at rest is not positive definite (a free part of the "
                          "mesh? check the fixed bone nodes)");
   }
@@ -136,7 +134,7 @@ struct DesignSolver::Impl {
   bool has_equilibrium = false;
   tissue::VectorXd x_eq;
   std::vector<double> p_eq;
-  std::unique_ptr<Eigen::CholmodSupernodalLLT<tissue::SparseMatrix>> kt;  // its symmetric part; null: not factorised
+  std::unique_ptr<tissue::SparseCholesky<>> kt;  // its symmetric part; null: not factorised
   tissue::SparseMatrix kt_full;  // the reduced tangent, follower load included
   bool kt_failed = false;  // the tangent was not positive definite: previews solve in full
   void factor_tangent() {
@@ -148,10 +146,8 @@ struct DesignSolver::Impl {
     K *= -1.0;
     kt_full = K;
     const tissue::SparseMatrix Ks = 0.5 * (tissue::SparseMatrix(K.transpose()) + K);
-    tissue::limit_solver_threads();
-    kt = std::make_unique<Eigen::CholmodSupernodalLLT<tissue::SparseMatrix>>();
-    kt->compute(Ks);
-    if (kt->info() != Eigen::Success) {
+    kt = std::make_unique<tissue::SparseCholesky<>>();
+    if (!kt->factorize(Ks)) {
       kt.reset();
       kt_failed = true;
     }

@@ -2,20 +2,19 @@
 
 #include <cmath>
 
-#include <Eigen/CholmodSupport>
 #include <Eigen/IterativeLinearSolvers>
 
 #include "socketsmith/core/errors.h"
+#include "socketsmith/tissue/sparse_cholesky.h"
 #include "socketsmith/tissue/static_solver.h"
 
 namespace socketsmith::tissue {
 
 struct ImplicitEuler::Frozen {
-  Eigen::CholmodSupernodalLLT<SparseMatrix, Eigen::Lower> llt;
+  SparseCholesky<Eigen::Lower> llt;
   SparseMatrix K_red;  ///< −K at the factorised state (reduced)
   /// MSS-CS: per element, the corrective law's slope dk'/dδv that A holds [N/m] (empty otherwise).
   VectorXd corrective_slopes;
-  bool analysed = false;
   bool factorised = false;
 };
 
@@ -143,12 +142,7 @@ StepResult ImplicitEuler::frozen_step(DynamicState& s, const VectorXd& f_ext) {
       if (has_law)
         fz.corrective_slopes = law_slopes(dv_now, dv_reached.size() ? &dv_reached : nullptr, options_.corrective_lookahead);
       assemble_system(s.x, has_law ? &fz.corrective_slopes : nullptr);
-      if (!fz.analysed) {
-        fz.llt.analyzePattern(A_);
-        fz.analysed = true;
-      }
-      fz.llt.factorize(A_);
-      if (fz.llt.info() != Eigen::Success) {
+      if (!fz.llt.factorize(A_)) {
         res.message = fmt::format("diverged at t = {:.4g} s: the system matrix is not positive definite (reduce the time "
                                   "step {:.3g} s)", s.time_s, h);
         return res;

@@ -11,19 +11,19 @@
 #include <omp.h>
 #endif
 
-#include <Eigen/CholmodSupport>
 #include <Eigen/Dense>
 #include <Eigen/IterativeLinearSolvers>
 #include <Eigen/SparseLU>
 
 #include "socketsmith/core/errors.h"
 #include "socketsmith/core/log.h"
+#include "socketsmith/tissue/sparse_cholesky.h"
 #include "socketsmith/volume/hex_element.h"
 
 namespace socketsmith::tissue {
 namespace {
 
-using Cholmod = Eigen::CholmodSupernodalLLT<SparseMatrix, Eigen::Lower>;
+using Cholmod = SparseCholesky<Eigen::Lower>;
 
 /// Eigen preconditioner that applies an existing CHOLMOD factorisation.
 class FactorPreconditioner {
@@ -80,8 +80,6 @@ struct StaticSolver::Impl {
   // points rejected because an element inverted.
   int failed_searches = 0;
   int failed_searches_inverting = 0;
-  bool analyzed = false;
-  bool factor_valid = false;
   double shift = 0.0;  // diagonal shift added when K_psd is only semi-definite
   int last_krylov_iterations = 0;
   int krylov_after_factor = -1;  // Krylov iterations of the first solve after the last factorisation
@@ -109,23 +107,15 @@ bool StaticSolver::Impl::factorize(const VectorXd& x, StaticResult& res) {
   model.jacobian(x, JacobianKind::SymmetricPsd, K);
   dofs.reduce_matrix(K, K_red);
   K_red *= -1.0;  // K_psd = −J_psd
-  if (!analyzed) {
-    chol.analyzePattern(K_red);
-    analyzed = true;
-  }
   for (int attempt = 0; attempt < 6; ++attempt) {
-    chol.setShift(shift);
-    chol.factorize(K_red);
-    if (chol.info() == Eigen::Success) {
+    if (chol.factorize(K_red, shift)) {
       ++res.factorizations;
-      factor_valid = true;
       krylov_after_factor = -1;  // measured by the next Krylov solve
       return true;
     }
     // Semi-definite (e.g. an unconstrained rigid mode): shift by a small multiple of the diagonal.
     shift = shift == 0 ? 1e-10 * K_red.diagonal().cwiseAbs().maxCoeff() : shift * 100;
   }
-  factor_valid = false;
   return false;
 }
 
@@ -147,7 +137,7 @@ bool StaticSolver::Impl::direction(const AppliedLoad& load, const VectorXd& x, c
   if (krylov_after_factor < 0) krylov_after_factor = kit;
   krylov_ok = krylov.info() == Eigen::Success && delta.allFinite();
   if (!krylov_ok && !fresh) {
-    factor_valid = false;  // retry this iterate with a fresh preconditioner
+    chol.invalidate();  // retry this iterate with a fresh preconditioner
     return false;
   }
   if (!krylov_ok) {
@@ -165,7 +155,7 @@ bool StaticSolver::Impl::direction(const AppliedLoad& load, const VectorXd& x, c
     } else {
       delta = chol.solve(r);  // singular tangent: the SPD (modified Newton) direction
     }
-    factor_valid = false;
+    chol.invalidate();
   }
   if (opt.max_step_m > 0) {
     const double m = delta.cwiseAbs().maxCoeff();
@@ -325,7 +315,7 @@ bool StaticSolver::newton(const AppliedLoad& load, VectorXd& x, int max_iteratio
                                 "than {:.0f} %)", history[history.size() - 1 - k], rnorm, k, 100 * options_.stall_reduction);
       return false;
     }
-    const bool fresh = !s.factor_valid || s.stale();
+    const bool fresh = !s.chol.valid() || s.stale();
     if (fresh && !s.factorize(x, res)) {
       res.message = "the stiffness matrix is singular: the model is not constrained against rigid motion";
       return false;
@@ -340,7 +330,7 @@ bool StaticSolver::newton(const AppliedLoad& load, VectorXd& x, int max_iteratio
     int inverted_trials = 0;
     if (!s.line_search(load, delta, it, kit, krylov_ok, x, r, rnorm, inverted_trials)) {
       if (!fresh) {
-        s.factor_valid = false;  // retry with a fresh factorisation at this iterate
+        s.chol.invalidate();  // retry with a fresh factorisation at this iterate
         retry_iterate();
         continue;
       }
