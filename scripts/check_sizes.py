@@ -49,7 +49,6 @@ ALLOWED_FILES = {
 
 # Key: "path:function" (the qualified name as written at its definition).
 ALLOWED_FUNCTIONS = {
-    "src/socketsmith/tissue/mass_spring_model.cpp:MassSpringModel::MassSpringModel": 85,
 }
 
 

@@ -22,6 +22,59 @@ volume::HexNodes gather_nodes(const VectorXd& x, const volume::Hex& hex) {
   return out;
 }
 
+/// The material and every option the model reads, checked once so that a wrong case file fails
+/// here with the value and its expected range, not later as a diverging solve.
+void check_inputs(const TissueMaterial& material, const MassSpringOptions& options) {
+  const double E = material.youngs_modulus_pa, rho = material.density_kg_m3;
+  require(std::isfinite(E) && E > 0, "MassSpringModel: Young's modulus {} Pa (expected > 0, e.g. 50e3)", E);
+  require(std::isfinite(rho) && rho > 0, "MassSpringModel: density {} kg/m^3 (expected > 0, e.g. 1060)", rho);
+  const auto& cs = options.corrective;
+  require(std::isfinite(cs.golec_a) && cs.golec_a > 0, "MassSpringModel: Golec A = {} (expected > 0)", cs.golec_a);
+  require(std::isfinite(cs.alpha) && cs.alpha > 1, "MassSpringModel: alpha = {} (expected > 1, eq. 4)", cs.alpha);
+  require(std::isfinite(cs.c) && cs.c >= 0, "MassSpringModel: C = {} (expected ≥ 0)", cs.c);
+  require(std::isfinite(cs.beta) && cs.beta > 0, "MassSpringModel: beta = {} (expected > 0)", cs.beta);
+  require(std::isfinite(cs.spring_modulus_ratio) && cs.spring_modulus_ratio > 0,
+          "MassSpringModel: spring modulus ratio {} (expected > 0)", cs.spring_modulus_ratio);
+  require(std::isfinite(cs.dead_zone) && cs.dead_zone >= 0 && cs.dead_zone < 0.5,
+          "MassSpringModel: corrective dead zone {} (expected in [0, 0.5), a fraction of the volume)", cs.dead_zone);
+  require(options.cf_poisson_ratio >= 0.25 && options.cf_poisson_ratio < 0.5,
+          "MassSpringModel: MSS-CF Poisson ratio {} (expected in [0.25, 0.5))", options.cf_poisson_ratio);
+  require(std::isfinite(options.fe_poisson_ratio) && options.fe_poisson_ratio >= 0 && options.fe_poisson_ratio < 0.5,
+          "MassSpringModel: FE Poisson ratio {} (expected in [0, 0.5); soft tissue: 0.45-0.49)", options.fe_poisson_ratio);
+  require(options.damping_ratio >= 0, "MassSpringModel: damping ratio {} (expected ≥ 0)", options.damping_ratio);
+}
+
+/// The modulus the springs are built with, and for MSS-CF the bulk modulus they lack.
+struct LatticeModuli {
+  double spring_modulus_pa;
+  double cf_bulk_increment_pa;  // ΔK of MSS-CF, 0 for the other models [Pa]
+};
+
+/// Golec's hybrid model matches the spring lattice (ν = 1/4) to the shear modulus μ = E / (2(1+ν))
+/// and adds ΔK = K − 5μ/3 through the volume energy; MSS-CS scales E by its ratio, MSS takes E.
+LatticeModuli lattice_moduli(double E, const MassSpringOptions& options) {
+  LatticeModuli moduli{options.kind == TissueModelKind::MssCs ? options.corrective.spring_modulus_ratio * E : E, 0.0};
+  if (options.kind == TissueModelKind::MssCf) {
+    const double nu = options.cf_poisson_ratio;
+    const double mu = E / (2 * (1 + nu));
+    moduli.spring_modulus_pa = 2.5 * mu;
+    moduli.cf_bulk_increment_pa = E / (3 * (1 - 2 * nu)) - 5.0 * mu / 3.0;
+  }
+  return moduli;
+}
+
+/// Stiffness of one element's edge, face-diagonal and body-diagonal springs [N/m] (eq. 2).
+struct HexSpringStiffness {
+  double edge, face, body;
+};
+
+/// Golec's split of the element's stiffness E_s l_e between its three kinds of springs by A.
+HexSpringStiffness hex_spring_stiffness(double golec_a, double spring_modulus_pa, double edge_length_m) {
+  const double A = golec_a;
+  const double denom = 10.0 + 7.5 * A;
+  return {(0.75 * A + 2.0) * spring_modulus_pa * edge_length_m / denom, 1.5 * A * spring_modulus_pa * edge_length_m / denom,
+          3.0 * spring_modulus_pa * edge_length_m / denom};
+}
 
 }  // namespace
 
@@ -98,23 +151,9 @@ CorrectiveSpringConstants CorrectiveSpringConstants::preset(const std::string& n
 MassSpringModel::MassSpringModel(const volume::HexMesh& mesh, const TissueMaterial& material,
                                  const MassSpringOptions& options)
     : mesh_(mesh), material_(material), options_(options) {
+  check_inputs(material, options);
   const double E = material.youngs_modulus_pa, rho = material.density_kg_m3;
-  require(std::isfinite(E) && E > 0, "MassSpringModel: Young's modulus {} Pa (expected > 0, e.g. 50e3)", E);
-  require(std::isfinite(rho) && rho > 0, "MassSpringModel: density {} kg/m^3 (expected > 0, e.g. 1060)", rho);
   const auto& cs = options.corrective;
-  require(std::isfinite(cs.golec_a) && cs.golec_a > 0, "MassSpringModel: Golec A = {} (expected > 0)", cs.golec_a);
-  require(std::isfinite(cs.alpha) && cs.alpha > 1, "MassSpringModel: alpha = {} (expected > 1, eq. 4)", cs.alpha);
-  require(std::isfinite(cs.c) && cs.c >= 0, "MassSpringModel: C = {} (expected ≥ 0)", cs.c);
-  require(std::isfinite(cs.beta) && cs.beta > 0, "MassSpringModel: beta = {} (expected > 0)", cs.beta);
-  require(std::isfinite(cs.spring_modulus_ratio) && cs.spring_modulus_ratio > 0,
-          "MassSpringModel: spring modulus ratio {} (expected > 0)", cs.spring_modulus_ratio);
-  require(std::isfinite(cs.dead_zone) && cs.dead_zone >= 0 && cs.dead_zone < 0.5,
-          "MassSpringModel: corrective dead zone {} (expected in [0, 0.5), a fraction of the volume)", cs.dead_zone);
-  require(options.cf_poisson_ratio >= 0.25 && options.cf_poisson_ratio < 0.5,
-          "MassSpringModel: MSS-CF Poisson ratio {} (expected in [0.25, 0.5))", options.cf_poisson_ratio);
-  require(std::isfinite(options.fe_poisson_ratio) && options.fe_poisson_ratio >= 0 && options.fe_poisson_ratio < 0.5,
-          "MassSpringModel: FE Poisson ratio {} (expected in [0, 0.5); soft tissue: 0.45-0.49)", options.fe_poisson_ratio);
-  require(options.damping_ratio >= 0, "MassSpringModel: damping ratio {} (expected ≥ 0)", options.damping_ratio);
   if (mesh_.node_tags.size() != mesh_.nodes.size()) mesh_.node_tags.resize(mesh_.nodes.size(), volume::kNodeNone);
   volume::validate(mesh_);
 
@@ -122,21 +161,12 @@ MassSpringModel::MassSpringModel(const volume::HexMesh& mesh, const TissueMateri
   rest_.resize(3 * n);
   for (int i = 0; i < n; ++i) rest_.segment<3>(3 * i) = mesh_.nodes[i];
 
-  // Springs: Golec's hybrid model matches the spring lattice (ν = 1/4) to the shear modulus
-  // μ = E / (2(1+ν)) and adds ΔK = K − 5μ/3 through the volume energy.
-  double spring_modulus = options.kind == TissueModelKind::MssCs ? cs.spring_modulus_ratio * E : E;
-  if (options.kind == TissueModelKind::MssCf) {
-    const double nu = options.cf_poisson_ratio;
-    const double mu = E / (2 * (1 + nu));
-    spring_modulus = 2.5 * mu;
-    cf_bulk_increment_pa_ = E / (3 * (1 - 2 * nu)) - 5.0 * mu / 3.0;
-  }
+  const LatticeModuli moduli = lattice_moduli(E, options);
+  cf_bulk_increment_pa_ = moduli.cf_bulk_increment_pa;
 
   masses_ = VectorXd::Zero(n);
   std::unordered_map<std::uint64_t, int> spring_index;
   spring_index.reserve(static_cast<size_t>(mesh_.num_hexahedra()) * 14);
-  const double A = cs.golec_a;
-  const double denom = 10.0 + 7.5 * A;
   auto add_spring = [&](int i, int j, double k) {
     if (i > j) std::swap(i, j);
     const std::uint64_t key = (static_cast<std::uint64_t>(i) << 32) | static_cast<std::uint32_t>(j);
@@ -154,12 +184,10 @@ MassSpringModel::MassSpringModel(const volume::HexMesh& mesh, const TissueMateri
     const double le = std::cbrt(v0);  // eq. 7
     elements_.push_back({hex, v0, le});
     for (int k = 0; k < 8; ++k) masses_[hex[k]] += rho * v0 / 8.0;  // eq. 1
-    const double ke = (0.75 * A + 2.0) * spring_modulus * le / denom;
-    const double kf = 1.5 * A * spring_modulus * le / denom;
-    const double kc = 3.0 * spring_modulus * le / denom;
-    for (const auto& e : volume::kHexEdges) add_spring(hex[e[0]], hex[e[1]], ke);
-    for (const auto& e : volume::kHexFaceDiagonals) add_spring(hex[e[0]], hex[e[1]], kf);
-    for (const auto& e : volume::kHexBodyDiagonals) add_spring(hex[e[0]], hex[e[1]], kc);
+    const HexSpringStiffness ks = hex_spring_stiffness(cs.golec_a, moduli.spring_modulus_pa, le);
+    for (const auto& e : volume::kHexEdges) add_spring(hex[e[0]], hex[e[1]], ks.edge);
+    for (const auto& e : volume::kHexFaceDiagonals) add_spring(hex[e[0]], hex[e[1]], ks.face);
+    for (const auto& e : volume::kHexBodyDiagonals) add_spring(hex[e[0]], hex[e[1]], ks.body);
     if (options.kind == TissueModelKind::MssCs) {
       for (const auto& e : volume::kHexFaceDiagonals)
         corrective_.push_back({e[0], e[1], cs.alpha * (mesh_.nodes[hex[e[0]]] - mesh_.nodes[hex[e[1]]]).norm()});
