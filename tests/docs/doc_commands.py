@@ -287,10 +287,18 @@ def after_entries(e, file_entries):
     return chosen
 
 
+class Results(list):
+    """(ok, message) of each command, printed as it comes."""
+
+    def append(self, item):
+        print(item[1], flush=True)
+        super().append(item)
+
+
 def run_group(rel, entries, args, env, texts, file_entries):
     """The entries of one docs file, in order, in one scratch folder: [(ok, message)]."""
     root = tempfile.mkdtemp(prefix="doc_commands_")
-    results = []
+    results = Results()
     try:
         repo = make_scratch(root, args.source_dir, args.build, args.shared_data)
         for e in entries:
@@ -343,9 +351,7 @@ def run_set(entries, args, texts, all_entries):
         futures = {pool.submit(run_group, f, groups[f], args, env, texts,
                                [e for e in all_entries if e["file"] == f]): f for f in order}
         for fut in concurrent.futures.as_completed(futures):
-            for ok, message in fut.result():
-                print(message, flush=True)
-                failures += not ok
+            failures += sum(not ok for ok, _ in fut.result())
     return failures
 
 
