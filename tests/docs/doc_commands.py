@@ -24,16 +24,18 @@ inputs; "setup" lines run first (they must succeed), "after" names earlier comma
 to run first, "prefix" is put before the command (variables an earlier line set), "timeout" is in
 seconds, "exit" the exit code the docs give it, "expect" a regex the output must match, and "needs"
 the optional programs or built files it uses (ccx, xvfb-run, build/python): without them the
-command is skipped with a message, unless CI is set. The commands of one docs file run in order in one scratch folder shaped like
-the repository (build -> the build folder, the sources linked, an empty docs/images; ../shared/data
--> the real data), with the build folder on PATH and OMP_NUM_THREADS=1; files run in parallel (--jobs).
+command is skipped with a message, unless CI is set. The commands of one docs file run in order in
+one scratch folder shaped like the repository (build -> the build folder, the sources linked, an
+empty docs/images; ../shared/data -> the real data), with the build folder on PATH and
+OMP_NUM_THREADS=1; files run in parallel (--jobs).
 
 `check` fails when a docs command is not in the manifest, when a manifest entry matches no docs
 command any more (stale), when a ctest: entry names no test, when a `socketsmith <command>` line
 shows a flag that the command's --help (docs/cli.md) does not list (a usage line runs here as a
 concrete command, so its own flags are checked this way), or when a command of the chosen set
 fails or times out. Without the shared data folder the listing is checked and the run skipped (77).
---self-test first shows that an unlisted command and a stale entry are each caught.
+--self-test first shows that an unlisted command, a stale entry and a flag the command lacks are
+each caught (and that the extraction reads prompts, continuations, here-documents and loops).
 """
 import concurrent.futures
 import glob
