@@ -82,7 +82,9 @@ geometry::TriMesh poisson(const PointCloud& cloud, double spacing, const Reconst
   // The mesher's initial points: from the default generator, reseeded (see above).
   CGAL::get_default_random() = CGAL::Random(0);
   CGAL::make_surface_mesh(c2t3, surface, criteria, CGAL::Manifold_with_boundary_tag());
-  if (tr.number_of_vertices() == 0) fail_poisson();
+  // A mesher that found vertices but no facet (too few, too noisy points: 5 frames of the 100 mm
+  // cylinder) leaves a complex that CGAL's conversion below dereferences past its end.
+  if (tr.number_of_vertices() == 0 || c2t3.number_of_facets() == 0) fail_poisson();
   CGAL::Surface_mesh<Point3> sm;
   CGAL::facets_in_complex_2_to_triangle_mesh(c2t3, sm);
   mesher_s = seconds_since(tp);
