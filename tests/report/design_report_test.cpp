@@ -17,6 +17,7 @@
 #include <Eigen/Geometry>
 
 #include "socketsmith/core/errors.h"
+#include "socketsmith/report/svg_plot.h"
 
 namespace socketsmith::report {
 namespace {

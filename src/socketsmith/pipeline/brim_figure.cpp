@@ -7,6 +7,7 @@
 #include "socketsmith/core/units.h"
 #include "socketsmith/design/brim.h"
 #include "socketsmith/design/spots.h"
+#include "socketsmith/report/svg_plot.h"
 #include "socketsmith/volume/limb_generator.h"
 #include "socketsmith/volume/limb_model.h"
 

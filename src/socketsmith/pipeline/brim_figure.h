@@ -10,7 +10,7 @@
 #include <filesystem>
 #include <vector>
 
-#include "socketsmith/report/svg_plot.h"
+#include "socketsmith/report/plot.h"
 
 namespace socketsmith::pipeline {
 

@@ -17,6 +17,7 @@
 #include "socketsmith/pipeline/prosthetist_checks.h"
 #include "socketsmith/report/csv.h"
 #include "socketsmith/report/design_report.h"
+#include "socketsmith/report/svg_plot.h"
 #include "socketsmith/report/vtk_writer.h"
 
 namespace socketsmith::pipeline {

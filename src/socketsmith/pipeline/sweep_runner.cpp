@@ -29,8 +29,6 @@
 #include "socketsmith/core/log.h"
 #include "socketsmith/design/case_file.h"
 #include "socketsmith/pipeline/design_pipeline.h"
-#include "socketsmith/report/plot_raster.h"
-#include "socketsmith/report/svg_plot.h"
 
 extern char** environ;
 

@@ -16,9 +16,9 @@
 
 #include "socketsmith/geometry/limb_frame.h"
 #include "socketsmith/geometry/tri_mesh.h"
+#include "socketsmith/report/plot.h"
 #include "socketsmith/report/raster.h"
 #include "socketsmith/report/slice_table.h"
-#include "socketsmith/report/svg_plot.h"
 
 namespace socketsmith::report {
 

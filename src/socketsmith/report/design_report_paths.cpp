@@ -11,7 +11,7 @@
 #include "socketsmith/report/design_report.h"
 #include "socketsmith/report/design_report_detail.h"
 #include "socketsmith/report/nice_number.h"
-#include "socketsmith/report/svg_plot.h"
+#include "socketsmith/report/plot.h"
 
 namespace socketsmith::report {
 using namespace design_report_detail;

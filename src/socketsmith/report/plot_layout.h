@@ -14,7 +14,7 @@
 #include <utility>
 #include <vector>
 
-#include "socketsmith/report/svg_plot.h"
+#include "socketsmith/report/plot.h"
 
 namespace socketsmith::report {
 

@@ -1,17 +1,17 @@
 #pragma once
 /// @file plot_raster.h
-/// The report::Plot of svg_plot.h rendered to pixels (PNG) instead of SVG: the same layout
-/// (plot_layout.h: limits, ticks, clipping, legend), anti-aliased lines with round caps and
-/// joins, dashes, circle markers, grid, frame, tick labels, title, axis labels (the y label
+/// The report::Plot of plot.h rendered to pixels (PNG) instead of SVG (svg_plot.h): the same
+/// layout (plot_layout.h: limits, ticks, clipping, legend), anti-aliased lines with round caps
+/// and joins, dashes, circle markers, grid, frame, tick labels, title, axis labels (the y label
 /// turned 90°) and legend, text in raster.h's bitmap font. Text goes through to_ascii() first
 /// ("±" → "+/-", "²" → "^2", "ν" → "nu"; other non-ASCII characters → '?').
 
 #include <filesystem>
 #include <vector>
 
+#include "socketsmith/report/plot.h"
 #include "socketsmith/report/plot_layout.h"
 #include "socketsmith/report/raster.h"
-#include "socketsmith/report/svg_plot.h"
 
 namespace socketsmith::report {
 

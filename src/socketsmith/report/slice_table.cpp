@@ -5,6 +5,7 @@
 
 #include "socketsmith/core/errors.h"
 #include "socketsmith/report/csv.h"
+#include "socketsmith/report/svg_plot.h"
 
 namespace socketsmith::report {
 namespace {

@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "socketsmith/report/html.h"
-#include "socketsmith/report/svg_plot.h"
+#include "socketsmith/report/plot.h"
 
 namespace socketsmith::report {
 
