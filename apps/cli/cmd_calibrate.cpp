@@ -6,7 +6,7 @@
 #include "socketsmith/core/atomic_file.h"
 #include "socketsmith/core/errors.h"
 #include "socketsmith/core/log.h"
-#include "socketsmith/tissue/calibration.h"
+#include "socketsmith/tissue/spring_calibration.h"
 
 namespace socketsmith::cli {
 namespace {
@@ -30,7 +30,7 @@ struct CalibrateFlags {
   double max_dead_zone = 0;
 };
 
-nlohmann::json candidate_json(const tissue::CalibrationCandidate& c) {
+nlohmann::json candidate_json(const tissue::SpringCalibrationCandidate& c) {
   return {{"golec_a", c.constants.golec_a},
           {"alpha", c.constants.alpha},
           {"c", c.constants.c},
@@ -53,7 +53,7 @@ nlohmann::json candidate_json(const tissue::CalibrationCandidate& c) {
 }
 
 void run(const CalibrateFlags& f) {
-  tissue::CalibrationOptions o;
+  tissue::SpringCalibrationOptions o;
   o.cube.divisions = f.divisions;
   o.max_evaluations = f.evaluations;
   o.starts = f.starts;

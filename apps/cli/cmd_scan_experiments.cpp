@@ -14,7 +14,7 @@
 #include "socketsmith/geometry/mesh_io.h"
 #include "socketsmith/core/atomic_file.h"
 #include "socketsmith/scan/accuracy.h"
-#include "socketsmith/scan/calibration.h"
+#include "socketsmith/scan/sensor_calibration.h"
 #include "socketsmith/scan/experiments.h"
 #include "socketsmith/scan/reconstruction.h"
 #include "socketsmith/scan/registration.h"

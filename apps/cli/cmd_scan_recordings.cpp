@@ -16,7 +16,7 @@
 #include "socketsmith/geometry/mesh_io.h"
 #include "socketsmith/core/atomic_file.h"
 #include "socketsmith/scan/accuracy.h"
-#include "socketsmith/scan/calibration.h"
+#include "socketsmith/scan/sensor_calibration.h"
 #include "socketsmith/scan/experiments.h"
 #include "socketsmith/scan/reconstruction.h"
 #include "socketsmith/scan/registration.h"
@@ -255,7 +255,7 @@ void run_calibrate(const CalibrateFlags& f) {
   const auto t0 = std::chrono::steady_clock::now();
   const scan::Recording rec = scan::read_recording(f.recording);
   const scan::ChessboardPattern pattern = calibration_pattern(f, rec);
-  scan::CalibrationOptions o;
+  scan::SensorCalibrationOptions o;
   o.truth = parse_truth(f.truth, "scan calibrate");
   o.chessboard.upsample = f.upsample;
   o.chessboard.corner_depth = parse_corner_depth(f.corner_depth, "scan calibrate");
@@ -270,7 +270,7 @@ void run_calibrate(const CalibrateFlags& f) {
   std::vector<scan::ErrorCompensation> models;
   nlohmann::json js = nlohmann::json::array();
   for (const auto& s : rec.sensors) {
-    const scan::CalibrationResult r = scan::calibrate_sensor(s, pattern, o, progress);
+    const scan::SensorCalibrationResult r = scan::calibrate_sensor(s, pattern, o, progress);
     models.push_back(r.model);
     scan::EdgeErrors before, after;
     for (const auto& ob : r.observations) {

@@ -13,7 +13,7 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
-#include "socketsmith/scan/calibration.h"
+#include "socketsmith/scan/sensor_calibration.h"
 #include "socketsmith/scan/reconstruction.h"
 #include "socketsmith/scan/registration.h"
 #include "socketsmith/scan/simulated_sensor.h"

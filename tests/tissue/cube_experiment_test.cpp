@@ -5,7 +5,7 @@
 #include <cmath>
 
 #include "socketsmith/core/errors.h"
-#include "socketsmith/tissue/calibration.h"
+#include "socketsmith/tissue/spring_calibration.h"
 #include "socketsmith/volume/box_mesher.h"
 
 namespace socketsmith::tissue {
@@ -66,7 +66,7 @@ TEST(CubeExperiment, cube_targets_constants_meet_the_targets_carry_the_sheared_c
   EXPECT_LT(e.max_displacement_error, 0.05);
   EXPECT_LT(e.max_volume_error, 0.02);
   EXPECT_FALSE(e.unstable);
-  const auto cand = evaluate_constants(CalibrationOptions{}, CorrectiveSpringConstants::cube_targets());
+  const auto cand = evaluate_constants(SpringCalibrationOptions{}, CorrectiveSpringConstants::cube_targets());
   ASSERT_TRUE(cand.shear_checked);
   EXPECT_TRUE(cand.sheared.converged) << cand.sheared.message;
   EXPECT_EQ(CorrectiveSpringConstants::cube_targets().golec_a, CorrectiveSpringConstants::recommended().golec_a);
@@ -121,8 +121,8 @@ TEST(CubeExperiment, rejects_bad_options) {
   EXPECT_THROW(run_cube_experiment(o), InvalidInputError);
 }
 
-TEST(Calibration, improves_on_the_thesis_constants_from_their_own_starting_point) {
-  CalibrationOptions o;
+TEST(SpringCalibration, improves_on_the_thesis_constants_from_their_own_starting_point) {
+  SpringCalibrationOptions o;
   o.laws = {CorrectiveLaw::CompressionOnly};
   o.starts = 1;
   o.max_evaluations = 120;
@@ -133,8 +133,8 @@ TEST(Calibration, improves_on_the_thesis_constants_from_their_own_starting_point
   EXPECT_GT(r.evaluations, 10);
 }
 
-TEST(Calibration, the_sheared_cube_requirement_rejects_constants_that_collapse_under_it) {
-  CalibrationOptions o;
+TEST(SpringCalibration, the_sheared_cube_requirement_rejects_constants_that_collapse_under_it) {
+  SpringCalibrationOptions o;
   o.shear_check = false;
   const auto free = evaluate_constants(o, CorrectiveSpringConstants::cube_fit());
   EXPECT_FALSE(free.shear_checked);
@@ -153,8 +153,8 @@ TEST(Calibration, the_sheared_cube_requirement_rejects_constants_that_collapse_u
   EXPECT_GT(collapsed.objective, free.objective + 10.0);
 }
 
-TEST(Calibration, fits_the_dead_zone_within_its_bounds_when_asked) {
-  CalibrationOptions o;
+TEST(SpringCalibration, fits_the_dead_zone_within_its_bounds_when_asked) {
+  SpringCalibrationOptions o;
   o.laws = {CorrectiveLaw::CompressionOnly};
   o.starts = 1;
   o.max_evaluations = 25;
@@ -172,8 +172,8 @@ TEST(Calibration, fits_the_dead_zone_within_its_bounds_when_asked) {
   EXPECT_THROW(calibrate_corrective_springs(o), InvalidInputError);
 }
 
-TEST(Calibration, keeping_the_linearisation_leaves_the_tangent_at_rest_unchanged) {
-  CalibrationOptions o;
+TEST(SpringCalibration, keeping_the_linearisation_leaves_the_tangent_at_rest_unchanged) {
+  SpringCalibrationOptions o;
   o.laws = {CorrectiveLaw::CompressionOnly};
   o.starts = 1;
   o.max_evaluations = 20;

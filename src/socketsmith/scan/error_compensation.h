@@ -3,7 +3,7 @@
 /// The per-sensor error model of the thesis (§4.2.3, eqs. 26–30): a point P back-projected from
 /// pixel (u, v) at depth d is corrected to P̂ = (I − ε) P with ε = diag(e_x, e_y, e_z) and each
 /// rate a linear regression on (u, v, d): e_k = c_k0 + c_k1 u + c_k2 v + c_k3 d (u, v in sensor
-/// pixels, d in metres). Learned by calibrate_sensor (calibration.h); stored as JSON (docs/scan.md).
+/// pixels, d in metres). Learned by calibrate_sensor (sensor_calibration.h); stored as JSON (docs/scan.md).
 
 #include <filesystem>
 #include <string>

@@ -64,7 +64,7 @@ ChessboardExperiment run_chessboard_experiment(const ExperimentOptions& o, const
     return report_progress(progress, 0.35 * f, what);
   };
   const Recording training = simulate_calibration_session(x.rig, train, simulating);
-  CalibrationOptions co;
+  SensorCalibrationOptions co;
   co.truth = o.truth;
   co.chessboard.corner_depth = o.training_corner_depth;
   co.form = o.form;

@@ -11,7 +11,7 @@
 
 #include "socketsmith/core/progress.h"
 #include "socketsmith/geometry/tri_mesh.h"
-#include "socketsmith/scan/calibration.h"
+#include "socketsmith/scan/sensor_calibration.h"
 #include "socketsmith/scan/simulated_sensor.h"
 
 namespace socketsmith::scan {
@@ -24,7 +24,7 @@ struct ExperimentOptions {
   int test_frames_per_distance = 5;  ///< held-out frames at each of 60, 75, 90 cm (thesis: one each)
   int scan_frames = 1;             ///< cylinder experiment: frames per sensor, fused per pixel by scan_fusion
   FrameFusion scan_fusion = FrameFusion::Median;  ///< how the cylinder scans' frames are fused
-  /// Frames of each training board pose, fused (CalibrationOptions::frames_per_pose); the
+  /// Frames of each training board pose, fused (SensorCalibrationOptions::frames_per_pose); the
   /// held-out frames stay single frames, measured the thesis's way.
   int board_frames_per_pose = 1;
   double noise_scale = 1.0;        ///< SensorErrorModel::scale (every term)
@@ -36,7 +36,7 @@ struct ExperimentOptions {
   CornerDepth training_corner_depth = CornerDepth::Bilinear;
   CompensationForm form = CompensationForm::LinearUvd;  ///< the model learned
   int depth_degree = 3;  ///< of a RayPolynomial model
-  bool refine_distortion = false;  ///< CalibrationOptions::refine_distortion
+  bool refine_distortion = false;  ///< SensorCalibrationOptions::refine_distortion
 };
 
 /// Table 3 row: one sensor, one test distance (or all).
@@ -48,7 +48,7 @@ struct ChessboardRow {
 
 struct ChessboardExperiment {
   std::vector<ChessboardRow> rows;       ///< per sensor: all, then 0.60, 0.75, 0.90 m
-  std::vector<CalibrationResult> calibrations;  ///< per sensor (models learned on the training frames)
+  std::vector<SensorCalibrationResult> calibrations;  ///< per sensor (models learned on the training frames)
   std::vector<SimulatedSensor> rig;
   SensorErrorModel base_error;
   int test_frames_missed = 0;  ///< held-out frames where the board was not found (left out)

@@ -14,7 +14,7 @@
 
 #include "socketsmith/core/atomic_file.h"
 #include "socketsmith/core/errors.h"
-#include "socketsmith/scan/calibration.h"
+#include "socketsmith/scan/sensor_calibration.h"
 
 namespace socketsmith::scan {
 namespace {

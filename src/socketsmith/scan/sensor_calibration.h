@@ -1,8 +1,9 @@
 #pragma once
-/// @file calibration.h
+/// @file sensor_calibration.h
 /// Learning a sensor's error compensation ε = LR(u, v, d) from frames of a chessboard of known
 /// square size (thesis §4.2.4, eqs. 29–35), and the chessboard dimension errors of Table 3
-/// (eqs. 24–25). See docs/scan.md, "Error compensation".
+/// (eqs. 24–25). See docs/scan.md, "Error compensation". This calibrates a depth sensor's
+/// errors (applied by error_compensation.h); its intrinsics and their readers are intrinsics.h.
 
 #include <string>
 #include <vector>
@@ -29,7 +30,7 @@ enum class TruthEstimate {
 };
 
 /// Settings of calibrate_sensor.
-struct CalibrationOptions {
+struct SensorCalibrationOptions {
   ChessboardOptions chessboard;
   TruthEstimate truth = TruthEstimate::Pnp;
   CompensationForm form = CompensationForm::LinearUvd;  ///< the model fitted
@@ -57,7 +58,7 @@ struct BoardObservation {
 };
 
 /// What calibrate_sensor learned and how well it fits its own data.
-struct CalibrationResult {
+struct SensorCalibrationResult {
   ErrorCompensation model;
   std::vector<BoardObservation> observations;
   std::vector<std::string> skipped;  ///< frames without a usable board, with the reason
@@ -72,8 +73,8 @@ struct CalibrationResult {
 /// near the optical axis do not divide by ≈ 0), then once more without residuals beyond 5 MADs.
 /// @throws InvalidInputError when the sensor has no IR frames, fewer than options.min_frames
 ///         frames show the board, or too few corners have depth.
-CalibrationResult calibrate_sensor(const SensorRecording& sensor, const ChessboardPattern& pattern,
-                                   const CalibrationOptions& options = {}, const ProgressCallback& progress = {});
+SensorCalibrationResult calibrate_sensor(const SensorRecording& sensor, const ChessboardPattern& pattern,
+                                         const SensorCalibrationOptions& options = {}, const ProgressCallback& progress = {});
 
 /// Summary of dimension errors: mean and standard deviation over all adjacent-corner distances,
 /// and the mean over the grid's border (Table 3's "edge points").

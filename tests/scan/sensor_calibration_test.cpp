@@ -1,4 +1,4 @@
-#include "socketsmith/scan/calibration.h"
+#include "socketsmith/scan/sensor_calibration.h"
 
 #include <gtest/gtest.h>
 
@@ -50,13 +50,13 @@ DimensionStats held_out_errors(const Recording& held, const ErrorCompensation* m
   return e.stats();
 }
 
-TEST(Calibration, learned_compensation_reduces_held_out_chessboard_errors) {
+TEST(SensorCalibration, learned_compensation_reduces_held_out_chessboard_errors) {
   const Session& x = session();
   ASSERT_TRUE(x.training.chessboard.has_value());
   for (const TruthEstimate truth : {TruthEstimate::Pnp, TruthEstimate::Kabsch}) {
-    CalibrationOptions o;
+    SensorCalibrationOptions o;
     o.truth = truth;
-    const CalibrationResult r = calibrate_sensor(x.training.sensors[0], *x.training.chessboard, o);
+    const SensorCalibrationResult r = calibrate_sensor(x.training.sensors[0], *x.training.chessboard, o);
     EXPECT_EQ(r.observations.size(), 8u);
     EXPECT_LT(r.rms_after_mm, 0.8 * r.rms_before_mm);
     // The lateral scale errors appear in e_x and e_y at the image centre (≈ +2.5 %, −1.5 %; with
@@ -70,16 +70,16 @@ TEST(Calibration, learned_compensation_reduces_held_out_chessboard_errors) {
   }
 }
 
-TEST(Calibration, ray_polynomial_model_follows_the_radial_and_wiggling_depth_errors_better_than_linear_rates) {
+TEST(SensorCalibration, ray_polynomial_model_follows_the_radial_and_wiggling_depth_errors_better_than_linear_rates) {
   // The session's unit has the default radial bias (3 mm × ρ²) and wiggling (1.5 mm, period 0.5 m):
   // neither is linear in (u, v, d).
   // Corner depths by the local plane fit, so that the noise does not hide the model's misfit.
   const Session& x = session();
-  CalibrationOptions linear, ray;
+  SensorCalibrationOptions linear, ray;
   linear.chessboard.corner_depth = ray.chessboard.corner_depth = CornerDepth::LocalPlane;
   ray.form = CompensationForm::RayPolynomial;
-  const CalibrationResult a = calibrate_sensor(x.training.sensors[0], *x.training.chessboard, linear);
-  const CalibrationResult b = calibrate_sensor(x.training.sensors[0], *x.training.chessboard, ray);
+  const SensorCalibrationResult a = calibrate_sensor(x.training.sensors[0], *x.training.chessboard, linear);
+  const SensorCalibrationResult b = calibrate_sensor(x.training.sensors[0], *x.training.chessboard, ray);
   EXPECT_EQ(b.model.form, CompensationForm::RayPolynomial);
   EXPECT_LT(b.rms_after_mm, 0.8 * a.rms_after_mm) << "linear " << a.rms_after_mm << " ray-poly " << b.rms_after_mm;
   // Its lateral rates at the image centre are the unit's lateral scale errors (+2.5 %, −1.5 %).
@@ -112,14 +112,14 @@ Recording one_unit_session(const SensorErrorModel& e, std::uint64_t seed) {
   return simulate_calibration_session(default_rig(1), o);
 }
 
-CalibrationOptions ray_poly_plane() {
-  CalibrationOptions o;
+SensorCalibrationOptions ray_poly_plane() {
+  SensorCalibrationOptions o;
   o.form = CompensationForm::RayPolynomial;
   o.chessboard.corner_depth = CornerDepth::LocalPlane;
   return o;
 }
 
-TEST(Calibration, a_higher_depth_degree_follows_a_wiggling_error_over_the_board_distances) {
+TEST(SensorCalibration, a_higher_depth_degree_follows_a_wiggling_error_over_the_board_distances) {
   // A unit whose depth error is the periodic "wiggling" (4.5 mm, period 0.5 m: three times the
   // default, as at --noise-scale 3) with little noise; boards at 0.55-1.0 m. A cubic in d leaves a
   // part of the sine (0.45 mm of 3-D corner residual); degree 7 follows it (4 more coefficients
@@ -127,10 +127,10 @@ TEST(Calibration, a_higher_depth_degree_follows_a_wiggling_error_over_the_board_
   SensorErrorModel e = quiet_unit();
   e.wiggle_amplitude_m = 4.5e-3;
   const Recording rec = one_unit_session(e, 4);
-  CalibrationOptions cubic = ray_poly_plane(), seventh = ray_poly_plane();
+  SensorCalibrationOptions cubic = ray_poly_plane(), seventh = ray_poly_plane();
   seventh.depth_degree = 7;
-  const CalibrationResult a = calibrate_sensor(rec.sensors[0], *rec.chessboard, cubic);
-  const CalibrationResult b = calibrate_sensor(rec.sensors[0], *rec.chessboard, seventh);
+  const SensorCalibrationResult a = calibrate_sensor(rec.sensors[0], *rec.chessboard, cubic);
+  const SensorCalibrationResult b = calibrate_sensor(rec.sensors[0], *rec.chessboard, seventh);
   EXPECT_EQ(b.model.depth_degree, 7);
   ASSERT_EQ(b.model.depth_polynomial.size(), 13);
   EXPECT_GT(a.rms_after_mm, 0.3) << "the cubic followed the sine: no test (degree 7: " << b.rms_after_mm << " mm)";
@@ -151,7 +151,7 @@ TEST(Calibration, a_higher_depth_degree_follows_a_wiggling_error_over_the_board_
   EXPECT_NEAR(old[0].apply(p, 0, 0).z(), 0.799, 1e-12);
 }
 
-TEST(Calibration, refining_the_distortion_gives_a_truth_consistent_with_a_unit_whose_rays_are_scaled) {
+TEST(SensorCalibration, refining_the_distortion_gives_a_truth_consistent_with_a_unit_whose_rays_are_scaled) {
   // A unit whose rays are 3.5 % wider than its calibration says (as a unit of --noise-scale 3 may
   // be), no other systematic error, little noise. Refined focal lengths alone cannot express the
   // distortion seen at a 3.5 % larger radius; with k1..k3 refined too the board poses, and so the
@@ -159,17 +159,17 @@ TEST(Calibration, refining_the_distortion_gives_a_truth_consistent_with_a_unit_w
   SensorErrorModel e = quiet_unit();
   e.ray_scale_x = e.ray_scale_y = 0.035;
   const Recording rec = one_unit_session(e, 6);
-  CalibrationOptions focal = ray_poly_plane(), full = ray_poly_plane();
+  SensorCalibrationOptions focal = ray_poly_plane(), full = ray_poly_plane();
   full.refine_distortion = true;
-  const CalibrationResult a = calibrate_sensor(rec.sensors[0], *rec.chessboard, focal);
-  const CalibrationResult b = calibrate_sensor(rec.sensors[0], *rec.chessboard, full);
+  const SensorCalibrationResult a = calibrate_sensor(rec.sensors[0], *rec.chessboard, focal);
+  const SensorCalibrationResult b = calibrate_sensor(rec.sensors[0], *rec.chessboard, full);
   const double f = rec.sensors[0].intrinsics.fx;
   EXPECT_NEAR(b.fx / f, 1.035, 0.004);
   EXPECT_LT(b.rms_after_mm, 0.7 * a.rms_after_mm) << "focal lengths only " << a.rms_after_mm << " mm (f "
                                                   << a.fx / f << " f0), with the distortion " << b.rms_after_mm;
 }
 
-TEST(Calibration, ray_polynomial_correction_moves_the_depth_along_the_ray_and_scales_the_ray) {
+TEST(SensorCalibration, ray_polynomial_correction_moves_the_depth_along_the_ray_and_scales_the_ray) {
   ErrorCompensation m;
   m.form = CompensationForm::RayPolynomial;
   m.depth_polynomial(0) = 0.002;  // 2 mm too far everywhere
@@ -179,7 +179,7 @@ TEST(Calibration, ray_polynomial_correction_moves_the_depth_along_the_ray_and_sc
   EXPECT_LT((m.apply(p, 0, 0) - Vec3(0.25 * 0.99 * d, 0.125 * d, d)).norm(), 1e-12);
 }
 
-TEST(Calibration, back_project_applies_the_model) {
+TEST(SensorCalibration, back_project_applies_the_model) {
   // ε = (1 %, −2 %, 0.3 %) everywhere: every point becomes (0.99 X, 1.02 Y, 0.997 Z).
   ErrorCompensation m;
   m.sensor = "K1";
@@ -201,9 +201,9 @@ TEST(Calibration, back_project_applies_the_model) {
   }
 }
 
-TEST(Calibration, model_files_round_trip_and_bad_inputs_get_one_line_errors) {
+TEST(SensorCalibration, model_files_round_trip_and_bad_inputs_get_one_line_errors) {
   Recording training = session().training;
-  const CalibrationResult r = calibrate_sensor(training.sensors[0], *training.chessboard);
+  const SensorCalibrationResult r = calibrate_sensor(training.sensors[0], *training.chessboard);
   const auto dir = temp_dir("calibration_models");
   write_compensation_json(dir / "model.json", {r.model});
   const auto back = read_compensation_json(dir / "model.json");
@@ -244,7 +244,7 @@ TEST(Calibration, model_files_round_trip_and_bad_inputs_get_one_line_errors) {
   EXPECT_THROW(read_compensation_json(dir / "missing.json"), IoError);
 }
 
-TEST(Calibration, fusing_the_frames_of_each_board_pose_gives_closer_corners_and_more_boards) {
+TEST(SensorCalibration, fusing_the_frames_of_each_board_pose_gives_closer_corners_and_more_boards) {
   // A unit without systematic errors and three times the default noise (the configuration whose
   // single-frame chessboard errors reach the thesis's): every corner error is noise. 8 poses × 4
   // frames; the first frame of each pose is the frame of a one-frame-per-pose session.
@@ -266,11 +266,11 @@ TEST(Calibration, fusing_the_frames_of_each_board_pose_gives_closer_corners_and_
     EXPECT_EQ(single.sensors[0].frames[pose].raw, fused.sensors[0].frames[4 * pose].raw) << "pose " << pose;
   EXPECT_NE(fused.sensors[0].frames[0].raw, fused.sensors[0].frames[1].raw);  // independent noise
 
-  CalibrationOptions co;
+  SensorCalibrationOptions co;
   co.min_frames = 2;
-  const CalibrationResult a = calibrate_sensor(single.sensors[0], *single.chessboard, co);
+  const SensorCalibrationResult a = calibrate_sensor(single.sensors[0], *single.chessboard, co);
   co.frames_per_pose = 4;
-  const CalibrationResult b = calibrate_sensor(fused.sensors[0], *fused.chessboard, co);
+  const SensorCalibrationResult b = calibrate_sensor(fused.sensors[0], *fused.chessboard, co);
   EXPECT_GE(b.observations.size(), a.observations.size());
   EXPECT_GE(b.observations.size(), 7u);
   EXPECT_EQ(b.observations.back().frame % 4, 0);

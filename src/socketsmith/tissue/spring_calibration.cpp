@@ -1,4 +1,4 @@
-#include "socketsmith/tissue/calibration.h"
+#include "socketsmith/tissue/spring_calibration.h"
 
 #include <algorithm>
 #include <cmath>
@@ -11,8 +11,8 @@
 
 namespace socketsmith::tissue {
 
-CalibrationCandidate evaluate_constants(const CalibrationOptions& o, const CorrectiveSpringConstants& k) {
-  CalibrationCandidate cand;
+SpringCalibrationCandidate evaluate_constants(const SpringCalibrationOptions& o, const CorrectiveSpringConstants& k) {
+  SpringCalibrationCandidate cand;
   cand.constants = k;
   CubeExperimentOptions cube = o.cube;
   cube.model.kind = TissueModelKind::MssCs;
@@ -64,7 +64,7 @@ struct SearchSpace {
   }
 };
 
-SearchSpace search_space(const CalibrationOptions& o) {
+SearchSpace search_space(const SpringCalibrationOptions& o) {
   SearchSpace sp;
   // Search in (log A, α, log(1 + C), β) for a better-conditioned simplex.
   require(o.min_dead_zone >= 0 && o.max_dead_zone < 0.5, "calibrate: dead zone bounds [{}, {}] (expected within [0, 0.5))",
@@ -112,8 +112,8 @@ std::vector<double> start_point(const SearchSpace& sp, int s, std::mt19937& rng)
 
 /// One subplex search of @p law's constants from @p z; every evaluation counts in @p evaluations
 /// and the best candidate seen lands in @p best_law.
-void search_from(const CalibrationOptions& o, const SearchSpace& sp, CorrectiveLaw law, std::vector<double>& z,
-                 int& evaluations, CalibrationCandidate& best_law) {
+void search_from(const SpringCalibrationOptions& o, const SearchSpace& sp, CorrectiveLaw law, std::vector<double>& z,
+                 int& evaluations, SpringCalibrationCandidate& best_law) {
   const int dim = sp.dim();
   const std::vector<double> step_all = {0.5, 0.1, 0.5, 0.3, 0.05, 0.25 * (sp.ub[5] - sp.lb[5])};
   std::vector<double> lower(dim), upper(dim), step(dim);
@@ -129,17 +129,17 @@ void search_from(const CalibrationOptions& o, const SearchSpace& sp, CorrectiveL
   opt.set_xtol_rel(1e-4);
   opt.set_initial_step(step);
   struct Ctx {
-    const CalibrationOptions* o;
+    const SpringCalibrationOptions* o;
     const SearchSpace* sp;
     CorrectiveLaw law;
     int* evals;
-    CalibrationCandidate* best;
+    SpringCalibrationCandidate* best;
   } ctx{&o, &sp, law, &evaluations, &best_law};
   opt.set_min_objective(
       [](const std::vector<double>& zz, std::vector<double>&, void* data) {
         auto* c = static_cast<Ctx*>(data);
         ++*c->evals;
-        const CalibrationCandidate cand = evaluate_constants(*c->o, c->sp->decode(zz, c->law));
+        const SpringCalibrationCandidate cand = evaluate_constants(*c->o, c->sp->decode(zz, c->law));
         if (cand.objective < c->best->objective) *c->best = cand;
         return cand.objective;
       },
@@ -153,7 +153,7 @@ void search_from(const CalibrationOptions& o, const SearchSpace& sp, CorrectiveL
 }
 
 /// The one-line summary of the best constants and whether they meet the targets.
-std::string calibration_message(const CalibrationResult& res, const CalibrationOptions& o) {
+std::string calibration_message(const SpringCalibrationResult& res, const SpringCalibrationOptions& o) {
   std::string message = fmt::format(
       "best: A={:.4g} alpha={:.4g} C={:.4g} beta={:.4g} dead zone={:.4g} ({}): displacement error {:.2f}% (target {:.1f}%), volume "
       "error {:.2f}% (target {:.1f}%){}",
@@ -174,11 +174,11 @@ std::string calibration_message(const CalibrationResult& res, const CalibrationO
 
 }  // namespace
 
-CalibrationResult calibrate_corrective_springs(const CalibrationOptions& o, const ProgressCallback& progress) {
+SpringCalibrationResult calibrate_corrective_springs(const SpringCalibrationOptions& o, const ProgressCallback& progress) {
   require(o.max_evaluations >= 10 && o.starts >= 1, "calibrate: max_evaluations {} (≥ 10), starts {} (≥ 1)",
           o.max_evaluations, o.starts);
   require(!o.laws.empty(), "calibrate: no corrective law to calibrate");
-  CalibrationResult res;
+  SpringCalibrationResult res;
   res.thesis = evaluate_constants(o, CorrectiveSpringConstants::thesis());
   res.best = res.thesis;
   std::mt19937 rng(o.seed);
@@ -186,7 +186,7 @@ CalibrationResult calibrate_corrective_springs(const CalibrationOptions& o, cons
   const int total = static_cast<int>(o.laws.size()) * o.starts;
   int done = 0;
   for (CorrectiveLaw law : o.laws) {
-    CalibrationCandidate best_law;
+    SpringCalibrationCandidate best_law;
     best_law.objective = std::numeric_limits<double>::infinity();
     for (int s = 0; s < o.starts; ++s) {
       std::vector<double> z = start_point(space, s, rng);

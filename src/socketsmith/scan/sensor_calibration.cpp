@@ -1,4 +1,4 @@
-#include "socketsmith/scan/calibration.h"
+#include "socketsmith/scan/sensor_calibration.h"
 
 #include <algorithm>
 #include <cmath>
@@ -161,7 +161,7 @@ void fit_ray_polynomial(const std::vector<Vec3>& measured, const std::vector<Vec
 
 
 void check_calibration_inputs(const SensorRecording& sensor, const ChessboardPattern& pattern,
-                              const CalibrationOptions& o) {
+                              const SensorCalibrationOptions& o) {
   validate_pattern(pattern, "calibrate_sensor");
   require(o.min_frames >= 1, "calibrate_sensor: min_frames {} must be at least 1", o.min_frames);
   require(o.depth_degree >= 1 && o.depth_degree <= ErrorCompensation::kMaxDepthDegree,
@@ -196,7 +196,7 @@ std::string board_pose_name(const SensorRecording& sensor, int f, int per_pose) 
 /// at least 6 corners with depth go to r.observations, the others to r.skipped with the reason.
 /// Returns the number of poses.
 int observe_board_poses(const SensorRecording& sensor, const ChessboardPattern& pattern,
-                        const CalibrationOptions& o, const ProgressCallback& progress, CalibrationResult& r) {
+                        const SensorCalibrationOptions& o, const ProgressCallback& progress, SensorCalibrationResult& r) {
   const int per_pose = o.frames_per_pose;
   const int n = static_cast<int>(sensor.frames.size()) / per_pose;
   for (int pose = 0; pose < n; ++pose) {
@@ -224,8 +224,8 @@ int observe_board_poses(const SensorRecording& sensor, const ChessboardPattern& 
 
 /// TruthEstimate::Pnp: OpenCV's camera calibration over all board poses (focal lengths refined,
 /// the distortion too if asked); each observation's truth is the ideal grid at its pose.
-void pnp_truth(const SensorRecording& sensor, const ChessboardPattern& pattern, const CalibrationOptions& o,
-               CalibrationResult& r) {
+void pnp_truth(const SensorRecording& sensor, const ChessboardPattern& pattern, const SensorCalibrationOptions& o,
+               SensorCalibrationResult& r) {
   const CameraIntrinsics& k = sensor.intrinsics;
   std::vector<std::vector<cv::Point3f>> obj(r.observations.size(), object_points(pattern));
   std::vector<std::vector<cv::Point2f>> img;
@@ -267,7 +267,7 @@ CornerSamples corner_samples(const std::vector<BoardObservation>& observations, 
 
 /// Fits the error model of form o.form to the samples, then refits without gross outliers
 /// (residual norm beyond median + 5 MAD) if at least 20 remain; @p keep says which were used.
-ErrorCompensation fit_without_outliers(const CornerSamples& cs, const CalibrationOptions& o, std::vector<char>& keep) {
+ErrorCompensation fit_without_outliers(const CornerSamples& cs, const SensorCalibrationOptions& o, std::vector<char>& keep) {
   const std::vector<Eigen::Vector4d>& features = cs.features;
   const std::vector<Vec3>& measured = cs.measured;
   const std::vector<Vec3>& truth = cs.truth;
@@ -332,11 +332,11 @@ DimensionStats EdgeErrors::stats() const {
   return s;
 }
 
-CalibrationResult calibrate_sensor(const SensorRecording& sensor, const ChessboardPattern& pattern,
-                                   const CalibrationOptions& o, const ProgressCallback& progress) {
+SensorCalibrationResult calibrate_sensor(const SensorRecording& sensor, const ChessboardPattern& pattern,
+                                         const SensorCalibrationOptions& o, const ProgressCallback& progress) {
   check_calibration_inputs(sensor, pattern, o);
   const int per_pose = o.frames_per_pose;
-  CalibrationResult r;
+  SensorCalibrationResult r;
   const int n = observe_board_poses(sensor, pattern, o, progress, r);
   require(static_cast<int>(r.observations.size()) >= o.min_frames,
           "calibrate_sensor: sensor '{}': the board was found in {} of {} {} (expected at least {}; the thesis used "

@@ -1,7 +1,8 @@
 #pragma once
-/// @file calibration.h
-/// Repeatable calibration of the MSS-CS constants (A, α, C, β, the spring modulus ratio and optionally the
-/// corrective dead zone) on the cube experiment, replacing
+/// @file spring_calibration.h
+/// Repeatable calibration of the MSS-CS constants — the spring constants of the lattice,
+/// CorrectiveSpringConstants: A, α, C, β, the spring modulus ratio and optionally the
+/// corrective dead zone — on the cube experiment, replacing
 /// the thesis's hand tuning. Objective (to minimise):
 ///   J = max(e_disp / target_disp, e_vol / target_vol) + 0.05 · (e_disp / target_disp + e_vol / target_vol)
 ///     + 50 · max(0, 0.6 − ε_buckle) + [sheared cube fails] · (10 + 10 · (1 − λ_sheared))   (checked when the rest is < 5)
@@ -22,7 +23,7 @@
 
 namespace socketsmith::tissue {
 
-struct CalibrationOptions {
+struct SpringCalibrationOptions {
   /// Experiment set-up. With frictionless top and bottom the equilibrium is homogeneous, the
   /// same on every lattice; 2×2×2 elements also expose the lattice's buckling (shear) modes to
   /// the stability check, which penalises constants whose homogeneous state becomes unstable
@@ -65,7 +66,7 @@ struct CalibrationOptions {
   double min_dead_zone = 0.0, max_dead_zone = 0.0;
 };
 
-struct CalibrationCandidate {
+struct SpringCalibrationCandidate {
   CorrectiveSpringConstants constants;
   CubeErrors errors;
   bool shear_checked = false;
@@ -73,18 +74,18 @@ struct CalibrationCandidate {
   double objective = 0;
 };
 
-struct CalibrationResult {
-  CalibrationCandidate best;
-  CalibrationCandidate thesis;            ///< the thesis's constants, evaluated the same way
-  std::vector<CalibrationCandidate> per_law;  ///< best per law
+struct SpringCalibrationResult {
+  SpringCalibrationCandidate best;
+  SpringCalibrationCandidate thesis;            ///< the thesis's constants, evaluated the same way
+  std::vector<SpringCalibrationCandidate> per_law;  ///< best per law
   int evaluations = 0;
   bool targets_met = false;
   std::string message;
 };
 
 /// Objective of one set of constants (throws nothing: a diverging model scores 1e3).
-CalibrationCandidate evaluate_constants(const CalibrationOptions& options, const CorrectiveSpringConstants& constants);
+SpringCalibrationCandidate evaluate_constants(const SpringCalibrationOptions& options, const CorrectiveSpringConstants& constants);
 
-CalibrationResult calibrate_corrective_springs(const CalibrationOptions& options, const ProgressCallback& progress = {});
+SpringCalibrationResult calibrate_corrective_springs(const SpringCalibrationOptions& options, const ProgressCallback& progress = {});
 
 }  // namespace socketsmith::tissue
