@@ -78,7 +78,7 @@ std::unique_ptr<design::DesignSolver> make_solver(int target_nodes, bool fe = fa
   design::PatientLoad pl;
   pl.body_mass_kg = 60;
   tissue::MassSpringOptions mo;
-  if (fe) mo.kind = tissue::TissueModelKind::Fe;
+  if (fe) mo.kind = tissue::TissueModelKind::StVenantKirchhoff;
   design::DesignSolverOptions so;
   if (neo_hookean) {
     mo.kind = tissue::TissueModelKind::NeoHookean;

@@ -9,7 +9,7 @@
 
 #include "socketsmith/core/errors.h"
 #include "socketsmith/pipeline/validation_inputs.h"
-#include "socketsmith/tissue/hex_fe.h"
+#include "socketsmith/tissue/hyperelastic_hex.h"
 #include "socketsmith/volume/box_mesher.h"
 #include "box_with_top.h"
 

@@ -276,7 +276,7 @@ TEST(TsbCase, a_tsb_design_bears_on_the_whole_skin_below_the_brim) {
 TEST(ModelOptions, a_case_files_tissue_model_and_poisson_ratio_reach_the_model) {
   auto c = design::parse_case(nlohmann::json::parse(R"({"tissue": {"model": "fe", "poisson": 0.48}})"));
   auto o = pipeline::model_options(c);
-  EXPECT_EQ(o.kind, tissue::TissueModelKind::Fe);
+  EXPECT_EQ(o.kind, tissue::TissueModelKind::StVenantKirchhoff);
   EXPECT_DOUBLE_EQ(o.fe_poisson_ratio, 0.48);
   c = design::parse_case(nlohmann::json::parse(R"({"tissue": {"model": "fe"}})"));
   EXPECT_DOUBLE_EQ(pipeline::model_options(c).fe_poisson_ratio, 0.45);

@@ -102,7 +102,7 @@ const Variant kVariants[] = {{TissueModelKind::Mss, CorrectiveLaw::Symmetric, "m
                              {TissueModelKind::MssCs, CorrectiveLaw::Symmetric, "mss-cs thesis"},
                              {TissueModelKind::MssCs, CorrectiveLaw::CompressionOnly, "mss-cs recommended"},
                              {TissueModelKind::MssCf, CorrectiveLaw::Symmetric, "mss-cf"},
-                             {TissueModelKind::Fe, CorrectiveLaw::Symmetric, "fe"},
+                             {TissueModelKind::StVenantKirchhoff, CorrectiveLaw::Symmetric, "fe"},
                              {TissueModelKind::NeoHookean, CorrectiveLaw::Symmetric, "neo-hookean"}};
 
 TEST(MassSpringModel, jacobian_matches_finite_differences_of_the_forces_for_every_variant) {
@@ -332,7 +332,7 @@ TEST(MassSpringModel, rejects_bad_material_constants_nan_nodes_and_inverted_elem
 TEST(MassSpringModel, parses_names_and_presets) {
   EXPECT_EQ(parse_tissue_model("mss-cs"), TissueModelKind::MssCs);
   EXPECT_EQ(to_string(parse_tissue_model("mss-cf")), "mss-cf");
-  EXPECT_EQ(parse_tissue_model("fe"), TissueModelKind::Fe);
+  EXPECT_EQ(parse_tissue_model("fe"), TissueModelKind::StVenantKirchhoff);
   EXPECT_EQ(parse_tissue_model("neo-hookean"), TissueModelKind::NeoHookean);
   EXPECT_EQ(to_string(TissueModelKind::NeoHookean), "neo-hookean");
   EXPECT_THROW(parse_tissue_model("fem"), InvalidInputError);

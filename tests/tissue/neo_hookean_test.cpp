@@ -1,4 +1,4 @@
-// The neo-Hookean hexahedra (hex_fe.h, TissueModelKind::NeoHookean): derivatives by finite
+// The neo-Hookean hexahedra (hyperelastic_hex.h, TissueModelKind::NeoHookean): derivatives by finite
 // differences at large strain, closed forms of the energy, the rest tangent, rigid invariance,
 // inverted integration points, and the cube on rollers against the analytic uniaxial solution of
 // the same strain energy, solved here independently of the element code.
@@ -11,7 +11,7 @@
 
 #include "socketsmith/core/errors.h"
 #include "socketsmith/tissue/cube_experiment.h"
-#include "socketsmith/tissue/hex_fe.h"
+#include "socketsmith/tissue/hyperelastic_hex.h"
 #include "socketsmith/tissue/pressure_load.h"
 #include "socketsmith/tissue/static_solver.h"
 #include "test_models.h"
@@ -88,7 +88,7 @@ std::vector<std::pair<const char*, Matrix3d>> large_strains() {
 TEST(NeoHookean, forces_match_finite_differences_of_the_energy_at_large_strain) {
   const double a = 0.03;
   const auto mesh = distorted_lattice(a, 11);
-  const HexFeElements fe(mesh, kE, kNu, HyperelasticLaw::NeoHookean);
+  const HyperelasticHexElements fe(mesh, kE, kNu, HyperelasticLaw::NeoHookean);
   for (const auto& [name, F] : large_strains()) {
     const Eigen::VectorXd x = mapped(mesh, F, 0.02 * a / 3, 3);
     ASSERT_GT(fe.min_gauss_jacobian(x), 0) << name;
@@ -131,16 +131,16 @@ TEST(NeoHookean, tangent_matches_finite_differences_of_the_forces_at_large_strai
 TEST(NeoHookean, psd_tangent_is_symmetric_positive_semidefinite_where_the_exact_one_is_not) {
   const double a = 0.03;
   const auto mesh = distorted_lattice(a, 13);
-  const HexFeElements fe(mesh, kE, kNu, HyperelasticLaw::NeoHookean);
+  const HyperelasticHexElements fe(mesh, kE, kNu, HyperelasticLaw::NeoHookean);
   int indefinite = 0;
   for (const auto& [name, F] : large_strains()) {
     const Eigen::VectorXd x = mapped(mesh, F, 0.02 * a / 3, 7);
     for (int e = 0; e < fe.num_elements(); ++e) {
-      HexFeElements::ElementMatrix K, Kp;
+      HyperelasticHexElements::ElementMatrix K, Kp;
       fe.element_stiffness(e, x, false, K);
       fe.element_stiffness(e, x, true, Kp);
-      const auto exact = Eigen::SelfAdjointEigenSolver<HexFeElements::ElementMatrix>(K).eigenvalues();
-      const auto proj = Eigen::SelfAdjointEigenSolver<HexFeElements::ElementMatrix>(Kp).eigenvalues();
+      const auto exact = Eigen::SelfAdjointEigenSolver<HyperelasticHexElements::ElementMatrix>(K).eigenvalues();
+      const auto proj = Eigen::SelfAdjointEigenSolver<HyperelasticHexElements::ElementMatrix>(Kp).eigenvalues();
       if (exact[0] < -1e-6 * exact[23]) ++indefinite;
       EXPECT_LT((Kp - Kp.transpose()).norm(), 1e-12 * Kp.norm()) << name << ", element " << e;
       EXPECT_GE(proj[0], -1e-10 * proj[23]) << name << ", element " << e;
@@ -150,7 +150,7 @@ TEST(NeoHookean, psd_tangent_is_symmetric_positive_semidefinite_where_the_exact_
   EXPECT_GT(indefinite, 0);
   // Where every Gauss point's tangent is positive definite (at rest) the projection changes nothing.
   const Eigen::VectorXd x0 = mapped(mesh, Matrix3d::Identity());
-  HexFeElements::ElementMatrix K, Kp;
+  HyperelasticHexElements::ElementMatrix K, Kp;
   fe.element_stiffness(0, x0, false, K);
   fe.element_stiffness(0, x0, true, Kp);
   EXPECT_LT((K - Kp).norm(), 1e-12 * K.norm());
@@ -208,10 +208,10 @@ TEST(NeoHookean, one_pass_forces_and_energy_over_several_chunks_match_the_closed
 
 TEST(NeoHookean, one_brick_has_exactly_the_six_rigid_zero_modes_at_rest) {
   const auto mesh = small_lattice(1, 0.01);
-  const HexFeElements fe(mesh, kE, kNu, HyperelasticLaw::NeoHookean);
-  HexFeElements::ElementMatrix K;
+  const HyperelasticHexElements fe(mesh, kE, kNu, HyperelasticLaw::NeoHookean);
+  HyperelasticHexElements::ElementMatrix K;
   fe.element_stiffness(0, mapped(mesh, Matrix3d::Identity()), false, K);
-  const Eigen::VectorXd ev = Eigen::SelfAdjointEigenSolver<HexFeElements::ElementMatrix>(K).eigenvalues();
+  const Eigen::VectorXd ev = Eigen::SelfAdjointEigenSolver<HyperelasticHexElements::ElementMatrix>(K).eigenvalues();
   for (int k = 0; k < 6; ++k) EXPECT_LT(std::abs(ev[k]), 1e-9 * ev[23]);
   EXPECT_GT(ev[6], 1e-3 * ev[23]);
 }
@@ -221,7 +221,7 @@ TEST(NeoHookean, energy_of_a_homogeneous_deformation_is_volume_times_w_on_distor
   // element shapes; interior nodes carry no force (patch test).
   const double a = 0.03;
   const auto mesh = distorted_lattice(a, 3);
-  const HexFeElements fe(mesh, kE, kNu, HyperelasticLaw::NeoHookean);
+  const HyperelasticHexElements fe(mesh, kE, kNu, HyperelasticLaw::NeoHookean);
   for (const auto& [name, F] : large_strains()) {
     const Eigen::VectorXd x = mapped(mesh, F);
     const double expected = a * a * a * neo_hookean_w(F, kE, kNu);
@@ -240,7 +240,7 @@ TEST(NeoHookean, rest_tangent_equals_the_linear_elastic_st_venant_kirchhoff_tang
   const auto mesh = distorted_lattice(0.03, 4);
   MassSpringOptions nh, svk;
   nh.kind = TissueModelKind::NeoHookean;
-  svk.kind = TissueModelKind::Fe;
+  svk.kind = TissueModelKind::StVenantKirchhoff;
   const MassSpringModel m_nh(mesh, {kE, 1060}, nh), m_svk(mesh, {kE, 1060}, svk);
   SparseMatrix J_nh, J_svk;
   m_nh.jacobian(m_nh.rest_positions(), JacobianKind::Exact, J_nh);
@@ -253,7 +253,7 @@ TEST(NeoHookean, rest_tangent_equals_the_linear_elastic_st_venant_kirchhoff_tang
 TEST(NeoHookean, energy_forces_and_tangent_are_invariant_under_a_rigid_rotation) {
   const double a = 0.03;
   const auto mesh = distorted_lattice(a, 6);
-  const HexFeElements fe(mesh, kE, kNu, HyperelasticLaw::NeoHookean);
+  const HyperelasticHexElements fe(mesh, kE, kNu, HyperelasticLaw::NeoHookean);
   const Matrix3d R = random_rotation(8);
   const Eigen::VectorXd x = mapped(mesh, large_strains()[1].second, 0.02 * a / 3, 9);
   const Eigen::VectorXd xr = rigid_motion(x, R, Vector3d(0.2, -0.4, 1.0));
@@ -265,7 +265,7 @@ TEST(NeoHookean, energy_forces_and_tangent_are_invariant_under_a_rigid_rotation)
   Eigen::Matrix<double, 24, 24> Rb = Eigen::Matrix<double, 24, 24>::Zero();
   for (int k = 0; k < 8; ++k) Rb.block<3, 3>(3 * k, 3 * k) = R;
   for (int e : {0, 13, 26}) {
-    HexFeElements::ElementMatrix K, Kr;
+    HyperelasticHexElements::ElementMatrix K, Kr;
     fe.element_stiffness(e, x, false, K);
     fe.element_stiffness(e, xr, false, Kr);
     EXPECT_LT((Rb * K * Rb.transpose() - Kr).norm(), 1e-10 * K.norm()) << "element " << e;
@@ -285,7 +285,7 @@ TEST(NeoHookean, an_inverted_gauss_point_gives_infinite_energy_and_a_solver_erro
   SparseMatrix J;
   EXPECT_THROW(m.jacobian(x, JacobianKind::Exact, J), SolverError);
   // St Venant–Kirchhoff is defined for any F: finite forces, no exception.
-  o.kind = TissueModelKind::Fe;
+  o.kind = TissueModelKind::StVenantKirchhoff;
   const MassSpringModel svk(mesh, {kE, 1060}, o);
   EXPECT_TRUE(svk.elastic_forces(x).allFinite());
 }

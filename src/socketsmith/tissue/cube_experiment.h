@@ -5,8 +5,8 @@
 /// rests on a frictionless support. Analytic reference (linear elasticity, uniaxial stress):
 /// nominal top pressure W/A and displacement ratio δ/L = W/(A E), with A = L². For the continuum
 /// models (fe, neo-hookean) also the exact uniaxial stress state of their own strain energy under
-/// the nominal stress −W/A (uniaxial_stress_state, hex_fe.h): the state is homogeneous, so the
-/// elements should reproduce it to the solver's tolerance.
+/// the nominal stress −W/A (uniaxial_stress_state, hyperelastic_hex.h): the state is homogeneous,
+/// so the elements should reproduce it to the solver's tolerance.
 ///
 /// Boundary conditions: every bottom node has z fixed; bottom corner (0,0,0) also x and y, and
 /// bottom corner (L,0,0) also y (no rigid motion, free lateral expansion); the z DOFs of all

@@ -83,7 +83,7 @@ std::string to_string(TissueModelKind kind) {
     case TissueModelKind::Mss: return "mss";
     case TissueModelKind::MssCs: return "mss-cs";
     case TissueModelKind::MssCf: return "mss-cf";
-    case TissueModelKind::Fe: return "fe";
+    case TissueModelKind::StVenantKirchhoff: return "fe";
     case TissueModelKind::NeoHookean: return "neo-hookean";
   }
   return "?";
@@ -93,7 +93,7 @@ TissueModelKind parse_tissue_model(const std::string& name) {
   if (name == "mss") return TissueModelKind::Mss;
   if (name == "mss-cs") return TissueModelKind::MssCs;
   if (name == "mss-cf") return TissueModelKind::MssCf;
-  if (name == "fe") return TissueModelKind::Fe;
+  if (name == "fe") return TissueModelKind::StVenantKirchhoff;
   if (name == "neo-hookean") return TissueModelKind::NeoHookean;
   fail("unknown tissue model '{}' (expected mss-cs, mss-cf, mss, fe or neo-hookean)", name);
 }
@@ -202,7 +202,7 @@ MassSpringModel::MassSpringModel(const volume::HexMesh& mesh, const TissueMateri
     s.damping = options.damping_ratio * c;
   }
   if (is_continuum(options.kind))
-    fe_ = std::make_shared<const HexFeElements>(mesh_, E, options.fe_poisson_ratio,
+    continuum_ = std::make_shared<const HyperelasticHexElements>(mesh_, E, options.fe_poisson_ratio,
                                                 options.kind == TissueModelKind::NeoHookean
                                                     ? HyperelasticLaw::NeoHookean
                                                     : HyperelasticLaw::StVenantKirchhoff);
@@ -294,8 +294,8 @@ double MassSpringModel::corrective_law(double dv, double edge_length, double* dk
 VectorXd MassSpringModel::elastic_forces(const VectorXd& x) const {
   require(x.size() == num_dofs(), "elastic_forces: x has {} entries (expected 3N = {})", x.size(), num_dofs());
   VectorXd f = VectorXd::Zero(num_dofs());
-  if (fe_) {
-    fe_->add_forces(x, f);
+  if (continuum_) {
+    continuum_->add_forces(x, f);
     return f;
   }
   for (const auto& s : springs_) {
@@ -341,7 +341,7 @@ void MassSpringModel::add_damping_forces(const VectorXd& x, const VectorXd& v, V
 
 double MassSpringModel::energy(const VectorXd& x) const {
   require<Error>(has_energy(), "energy: the MSS-CS corrective springs are not conservative (no energy exists)");
-  if (fe_) return fe_->energy(x);
+  if (continuum_) return continuum_->energy(x);
   double w = 0.0;
   for (const auto& s : springs_) {
     const double l = (node(x, s.j) - node(x, s.i)).norm();
@@ -361,11 +361,11 @@ bool MassSpringModel::forces_and_energy(const VectorXd& x, VectorXd& f, double& 
   require<Error>(has_energy(), "energy: the MSS-CS corrective springs are not conservative (no energy exists)");
   require(x.size() == num_dofs() && f.size() == num_dofs(), "forces_and_energy: {} / {} entries (expected 3N = {})",
           x.size(), f.size(), num_dofs());
-  if (fe_) {
+  if (continuum_) {
     // Every Gauss point's J is seen by the pass: an inverted one fails it (neo-Hookean), and
     // St Venant–Kirchhoff (defined for any F) still asks has_inverted_element's question.
-    if (!fe_->material().needs_positive_volume() && has_inverted_element(x)) return false;
-    return fe_->evaluate(x, &f, w);
+    if (!continuum_->material().needs_positive_volume() && has_inverted_element(x)) return false;
+    return continuum_->evaluate(x, &f, w);
   }
   if (has_inverted_element(x)) return false;
   f += elastic_forces(x);
@@ -449,8 +449,8 @@ void MassSpringModel::jacobian(const VectorXd& x, JacobianKind kind, SparseMatri
     add_block(val, blocks[2], i, -H);
     add_block(val, blocks[3], j, H);
   };
-  if (fe_) {
-    fe_->for_each_element_stiffness(x, psd, [&](int e, const HexFeElements::ElementMatrix& Ke) {
+  if (continuum_) {
+    continuum_->for_each_element_stiffness(x, psd, [&](int e, const HyperelasticHexElements::ElementMatrix& Ke) {
       const int* eb = &element_blocks_[static_cast<size_t>(e) * 64];
       const auto& nodes = elements_[static_cast<size_t>(e)].nodes;
       for (int p = 0; p < 8; ++p)
@@ -525,7 +525,7 @@ double MassSpringModel::min_corner_jacobian(const VectorXd& x) const {
 }
 
 bool MassSpringModel::has_inverted_element(const VectorXd& x) const {
-  return fe_ ? fe_->min_gauss_jacobian(x) <= 0 : min_corner_jacobian(x) <= 0;
+  return continuum_ ? continuum_->min_gauss_jacobian(x) <= 0 : min_corner_jacobian(x) <= 0;
 }
 
 }  // namespace socketsmith::tissue

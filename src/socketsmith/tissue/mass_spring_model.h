@@ -6,10 +6,11 @@
 ///  - MSS-CF: Golec's hybrid model (Golec et al. 2020, Visual Computer 36:809), MSS springs
 ///            matched to the shear modulus + an energy depending on the element volume only;
 ///  - FE:     not a lattice — hexahedral finite elements (St Venant–Kirchhoff, 2×2×2 Gauss; the
-///            element CalculiX calls C3D8, hex_fe.h) on the same mesh, with E and ν. The Golec
-///            springs are kept for their dampers only (the dynamic simulation's damping).
+///            element CalculiX calls C3D8, hyperelastic_hex.h) on the same mesh, with E and ν.
+///            The Golec springs are kept for their dampers only (the dynamic simulation's damping).
 ///  - neo-Hookean: the same elements with a compressible neo-Hookean material (CalculiX's
-///            *HYPERELASTIC, NEO HOOKE with C10 = μ/2, D1 = 2/K; hex_fe.h), for large strains.
+///            *HYPERELASTIC, NEO HOOKE with C10 = μ/2, D1 = 2/K; hyperelastic_hex.h), for large
+///            strains.
 ///
 /// State vectors are flattened node-major: x = (x0, y0, z0, x1, ...), size 3N, metres.
 /// Forces are internal forces on the nodes [N]; the Jacobian is J = ∂f/∂x [N/m] and the
@@ -23,7 +24,7 @@
 
 #include <memory>
 
-#include "socketsmith/tissue/hex_fe.h"
+#include "socketsmith/tissue/hyperelastic_hex.h"
 #include "socketsmith/volume/hex_element.h"
 #include "socketsmith/volume/hex_mesh.h"
 
@@ -38,11 +39,14 @@ struct TissueMaterial {
   double density_kg_m3 = 1060.0;    ///< ρ [kg/m^3], > 0 (thesis: 1060)
 };
 
-enum class TissueModelKind { Mss, MssCs, MssCf, Fe, NeoHookean };
+/// The tissue models. StVenantKirchhoff and NeoHookean are the continuum models (hexahedral
+/// finite elements, hyperelastic_hex.h); their names in files and on the command line are "fe"
+/// and "neo-hookean" (to_string, parse_tissue_model).
+enum class TissueModelKind { Mss, MssCs, MssCf, StVenantKirchhoff, NeoHookean };
 
-/// True for the continuum (finite-element) models: Fe and NeoHookean.
+/// True for the continuum (finite-element) models: StVenantKirchhoff and NeoHookean.
 inline bool is_continuum(TissueModelKind kind) {
-  return kind == TissueModelKind::Fe || kind == TissueModelKind::NeoHookean;
+  return kind == TissueModelKind::StVenantKirchhoff || kind == TissueModelKind::NeoHookean;
 }
 
 /// "mss", "mss-cs", "mss-cf", "fe", "neo-hookean".
@@ -145,7 +149,7 @@ class MassSpringModel {
   const MassSpringOptions& options() const { return options_; }
 
   /// The material of the continuum models (fe, neo-hookean); null for the lattices.
-  const HyperelasticMaterial* continuum_material() const { return fe_ ? &fe_->material() : nullptr; }
+  const HyperelasticMaterial* continuum_material() const { return continuum_ ? &continuum_->material() : nullptr; }
 
   /// Rest positions (3N) [m].
   const VectorXd& rest_positions() const { return rest_; }
@@ -199,7 +203,7 @@ class MassSpringModel {
   /// models (their energy lives at the integration points only, and CalculiX checks the same
   /// points; a strongly sheared brick may fold a corner while every integration point is
   /// sound). Solvers reject such states before evaluating forces: the neo-Hookean forces are
-  /// undefined there (HexFeElements throws).
+  /// undefined there (HyperelasticHexElements throws).
   bool has_inverted_element(const VectorXd& x) const;
 
  private:
@@ -243,7 +247,8 @@ class MassSpringModel {
   std::vector<Element> elements_;
   std::vector<Corrective> corrective_;  // rest lengths per element: 16 × num_elements
   double cf_bulk_increment_pa_ = 0.0;   // ΔK of MSS-CF [Pa]
-  std::shared_ptr<const HexFeElements> fe_;  // continuum models only (shared: immutable, the model stays copyable)
+  // continuum models only (shared: immutable, the model stays copyable)
+  std::shared_ptr<const HyperelasticHexElements> continuum_;
 
   // Block-sparse pattern of all node pairs sharing an element (3×3 blocks).
   SparseMatrix pattern_;

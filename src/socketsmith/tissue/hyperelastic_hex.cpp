@@ -1,4 +1,4 @@
-#include "socketsmith/tissue/hex_fe.h"
+#include "socketsmith/tissue/hyperelastic_hex.h"
 
 #include <algorithm>
 #include <cmath>
@@ -184,7 +184,7 @@ UniaxialStressState uniaxial_stress_state(const HyperelasticMaterial& material, 
   return out;
 }
 
-HexFeElements::HexFeElements(const volume::HexMesh& mesh, double E, double nu, HyperelasticLaw law)
+HyperelasticHexElements::HyperelasticHexElements(const volume::HexMesh& mesh, double E, double nu, HyperelasticLaw law)
     : hexes_(mesh.hexahedra), material_(law, E, nu) {
   const auto& dN = volume::hex_gauss_shape_derivatives();
   gauss_.resize(hexes_.size());
@@ -206,13 +206,13 @@ HexFeElements::HexFeElements(const volume::HexMesh& mesh, double E, double nu, H
   }
 }
 
-Matrix3d HexFeElements::deformation_gradient(const volume::Hex& hex, const GaussPoint& gp, const Eigen::VectorXd& x) const {
+Matrix3d HyperelasticHexElements::deformation_gradient(const volume::Hex& hex, const GaussPoint& gp, const Eigen::VectorXd& x) const {
   Matrix3d F = Matrix3d::Zero();
   for (int a = 0; a < 8; ++a) F.noalias() += x.segment<3>(3 * hex[a]) * gp.grad[a].transpose();
   return F;
 }
 
-Matrix3d HexFeElements::checked_deformation_gradient(size_t e, const GaussPoint& gp, const Eigen::VectorXd& x) const {
+Matrix3d HyperelasticHexElements::checked_deformation_gradient(size_t e, const GaussPoint& gp, const Eigen::VectorXd& x) const {
   const Matrix3d F = deformation_gradient(hexes_[e], gp, x);
   if (material_.needs_positive_volume()) {
     const double J = F.determinant();
@@ -224,7 +224,7 @@ Matrix3d HexFeElements::checked_deformation_gradient(size_t e, const GaussPoint&
   return F;
 }
 
-void HexFeElements::add_forces(const Eigen::VectorXd& x, Eigen::VectorXd& f) const {
+void HyperelasticHexElements::add_forces(const Eigen::VectorXd& x, Eigen::VectorXd& f) const {
   double w = 0.0;
   if (evaluate(x, &f, w)) return;
   // Inverted somewhere: the serial pass names the element.
@@ -232,7 +232,7 @@ void HexFeElements::add_forces(const Eigen::VectorXd& x, Eigen::VectorXd& f) con
     for (const auto& gp : gauss_[e]) (void)checked_deformation_gradient(e, gp, x);
 }
 
-bool HexFeElements::evaluate(const Eigen::VectorXd& x, Eigen::VectorXd* f, double& energy) const {
+bool HyperelasticHexElements::evaluate(const Eigen::VectorXd& x, Eigen::VectorXd* f, double& energy) const {
   const int ne = num_elements();
   const bool check = material_.needs_positive_volume();
   std::vector<double> w_e(static_cast<size_t>(ne), 0.0);
@@ -286,13 +286,13 @@ bool HexFeElements::evaluate(const Eigen::VectorXd& x, Eigen::VectorXd* f, doubl
   return true;
 }
 
-double HexFeElements::energy(const Eigen::VectorXd& x) const {
+double HyperelasticHexElements::energy(const Eigen::VectorXd& x) const {
   double w = 0.0;
   (void)evaluate(x, nullptr, w);  // +∞ when a Gauss point is inverted for a law that needs J > 0
   return w;
 }
 
-void HexFeElements::element_stiffness(int e, const Eigen::VectorXd& x, bool psd, ElementMatrix& K) const {
+void HyperelasticHexElements::element_stiffness(int e, const Eigen::VectorXd& x, bool psd, ElementMatrix& K) const {
   require(e >= 0 && e < num_elements(), "element_stiffness: element {} (expected 0..{})", e, num_elements() - 1);
   K.setZero();
   const auto ue = static_cast<size_t>(e);
@@ -318,8 +318,8 @@ void HexFeElements::element_stiffness(int e, const Eigen::VectorXd& x, bool psd,
     K.block(3 * a, 0, 3, 3 * a) = K.block(0, 3 * a, 3 * a, 3).transpose();
 }
 
-void HexFeElements::for_each_element_stiffness(const Eigen::VectorXd& x, bool psd,
-                                               const std::function<void(int, const ElementMatrix&)>& add) const {
+void HyperelasticHexElements::for_each_element_stiffness(const Eigen::VectorXd& x, bool psd,
+                                                         const std::function<void(int, const ElementMatrix&)>& add) const {
   const int ne = num_elements();
   std::vector<ElementMatrix> k_e(static_cast<size_t>(std::min(ne, kChunk)));
   for (int c0 = 0; c0 < ne; c0 += kChunk) {
@@ -340,7 +340,7 @@ void HexFeElements::for_each_element_stiffness(const Eigen::VectorXd& x, bool ps
   }
 }
 
-double HexFeElements::min_gauss_jacobian(const Eigen::VectorXd& x) const {
+double HyperelasticHexElements::min_gauss_jacobian(const Eigen::VectorXd& x) const {
   const int ne = num_elements();
   double m = std::numeric_limits<double>::infinity();
 #pragma omp parallel for schedule(static) reduction(min : m)

@@ -1,4 +1,4 @@
-#include "socketsmith/tissue/hex_fe.h"
+#include "socketsmith/tissue/hyperelastic_hex.h"
 
 #include <gtest/gtest.h>
 
@@ -14,12 +14,12 @@ using namespace testing;
 using Eigen::Matrix3d;
 using Eigen::Vector3d;
 
-TEST(HexFe, energy_of_an_affine_deformation_is_exact_on_distorted_bricks) {
+TEST(HyperelasticHex, energy_of_an_affine_deformation_is_exact_on_distorted_bricks) {
   // A homogeneous deformation x = F X gives the same E in every element, and the 2×2×2 rule
   // integrates a constant exactly: W = V (λ/2 tr(E)² + μ E:E) whatever the element shapes.
   const double a = 0.03, E = 80e3, nu = 0.45;
   const auto mesh = distorted_lattice(a, 3);
-  const HexFeElements fe(mesh, E, nu);
+  const HyperelasticHexElements fe(mesh, E, nu);
   Matrix3d F;
   F << 1.1, 0.05, 0.0, -0.02, 0.9, 0.1, 0.03, 0.0, 0.95;
   Eigen::VectorXd x(3 * mesh.num_nodes());
@@ -46,27 +46,27 @@ TEST(HexFe, energy_of_an_affine_deformation_is_exact_on_distorted_bricks) {
   }
 }
 
-TEST(HexFe, one_brick_has_exactly_the_six_rigid_zero_modes_at_rest) {
+TEST(HyperelasticHex, one_brick_has_exactly_the_six_rigid_zero_modes_at_rest) {
   // Full integration: no hourglass modes, so K₀ of one element has rank 18.
   const auto mesh = small_lattice(1, 0.01);
-  const HexFeElements fe(mesh, 50e3, 0.3);
+  const HyperelasticHexElements fe(mesh, 50e3, 0.3);
   Eigen::VectorXd x(24);
   for (int i = 0; i < 8; ++i) x.segment<3>(3 * i) = mesh.nodes[i];
-  HexFeElements::ElementMatrix K;
+  HyperelasticHexElements::ElementMatrix K;
   fe.element_stiffness(0, x, false, K);
-  const Eigen::VectorXd ev = Eigen::SelfAdjointEigenSolver<HexFeElements::ElementMatrix>(K).eigenvalues();
+  const Eigen::VectorXd ev = Eigen::SelfAdjointEigenSolver<HyperelasticHexElements::ElementMatrix>(K).eigenvalues();
   for (int k = 0; k < 6; ++k) EXPECT_LT(std::abs(ev[k]), 1e-9 * ev[23]);
   EXPECT_GT(ev[6], 1e-3 * ev[23]);
 }
 
-TEST(HexFe, linear_uniaxial_compression_gives_F_L_over_A_E_and_poisson_contraction) {
+TEST(HyperelasticHex, linear_uniaxial_compression_gives_F_L_over_A_E_and_poisson_contraction) {
   // A 30 mm cube on rollers (z fixed at the base, x and y fixed on one symmetry face each),
   // a uniform pressure on the top: the linearised model is exact for uniform strain.
   const double a = 0.03, E = 60e3, p = 2e3;
   for (double nu : {0.0, 0.3, 0.45}) {
     const auto mesh = small_lattice(3, a);
     MassSpringOptions o;
-    o.kind = TissueModelKind::Fe;
+    o.kind = TissueModelKind::StVenantKirchhoff;
     o.fe_poisson_ratio = nu;
     const MassSpringModel m(mesh, {E, 1060}, o);
     DofConstraints c;
@@ -100,7 +100,7 @@ TEST(HexFe, linear_uniaxial_compression_gives_F_L_over_A_E_and_poisson_contracti
   }
 }
 
-TEST(HexFe, large_uniaxial_stretch_matches_the_st_venant_kirchhoff_closed_form) {
+TEST(HyperelasticHex, large_uniaxial_stretch_matches_the_st_venant_kirchhoff_closed_form) {
   // F = diag(s, t, t) with the lateral stress S22 = λ tr(E) + 2μ E22 = 0 gives the lateral
   // stretch t(s); the nominal stress is P11 = s S11 and the end force P11 · A₀.
   const double a = 0.02, E = 50e3, nu = 0.4, s = 1.3;
@@ -110,7 +110,7 @@ TEST(HexFe, large_uniaxial_stretch_matches_the_st_venant_kirchhoff_closed_form) 
   const double t = std::sqrt(1 + 2 * e2);
   const double S11 = l.lambda * (e1 + 2 * e2) + 2 * l.mu * e1;
   const auto mesh = small_lattice(2, a);
-  const HexFeElements fe(mesh, E, nu);
+  const HyperelasticHexElements fe(mesh, E, nu);
   Eigen::VectorXd x(3 * mesh.num_nodes());
   for (int i = 0; i < mesh.num_nodes(); ++i) x.segment<3>(3 * i) = Vector3d(s, t, t).cwiseProduct(mesh.nodes[i]);
   Eigen::VectorXd f = Eigen::VectorXd::Zero(x.size());
@@ -124,13 +124,13 @@ TEST(HexFe, large_uniaxial_stretch_matches_the_st_venant_kirchhoff_closed_form) 
   EXPECT_LT(lateral, 1e-9 * end_force);  // lateral faces are free
 }
 
-TEST(HexFe, rejects_a_bad_poisson_ratio_and_an_inverted_brick) {
+TEST(HyperelasticHex, rejects_a_bad_poisson_ratio_and_an_inverted_brick) {
   const auto mesh = small_lattice(1, 0.01);
-  EXPECT_THROW(HexFeElements(mesh, 50e3, 0.5), InvalidInputError);
-  EXPECT_THROW(HexFeElements(mesh, 50e3, -0.1), InvalidInputError);
-  EXPECT_THROW(HexFeElements(mesh, 0.0, 0.3), InvalidInputError);
+  EXPECT_THROW(HyperelasticHexElements(mesh, 50e3, 0.5), InvalidInputError);
+  EXPECT_THROW(HyperelasticHexElements(mesh, 50e3, -0.1), InvalidInputError);
+  EXPECT_THROW(HyperelasticHexElements(mesh, 0.0, 0.3), InvalidInputError);
   MassSpringOptions o;
-  o.kind = TissueModelKind::Fe;
+  o.kind = TissueModelKind::StVenantKirchhoff;
   o.fe_poisson_ratio = std::nan("");
   EXPECT_THROW(MassSpringModel(mesh, {50e3, 1060}, o), InvalidInputError);
   auto inverted = mesh;
@@ -138,7 +138,7 @@ TEST(HexFe, rejects_a_bad_poisson_ratio_and_an_inverted_brick) {
   std::swap(inverted.hexahedra[0][2], inverted.hexahedra[0][3]);
   std::swap(inverted.hexahedra[0][4], inverted.hexahedra[0][5]);
   std::swap(inverted.hexahedra[0][6], inverted.hexahedra[0][7]);
-  EXPECT_THROW(HexFeElements(inverted, 50e3, 0.3), TopologyError);
+  EXPECT_THROW(HyperelasticHexElements(inverted, 50e3, 0.3), TopologyError);
 }
 
 }  // namespace

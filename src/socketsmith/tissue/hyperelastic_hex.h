@@ -1,5 +1,5 @@
 #pragma once
-/// @file hex_fe.h
+/// @file hyperelastic_hex.h
 /// Hexahedral finite elements for the soft tissue: trilinear 8-node bricks, full 2×2×2 Gauss
 /// integration (CalculiX's C3D8), with one of two hyperelastic materials (`HyperelasticLaw`):
 ///  - St Venant–Kirchhoff: S = λ tr(E) I + 2μ E with the Green–Lagrange strain E = ½(FᵀF − I),
@@ -97,14 +97,14 @@ UniaxialStressState uniaxial_stress_state(const HyperelasticMaterial& material, 
 /// throw SolverError naming the element — they never return NaN. Solvers avoid that state by
 /// checking min_gauss_jacobian() (MassSpringModel::has_inverted_element()) before evaluating
 /// forces. The St Venant–Kirchhoff energy is defined for any F and never throws.
-class HexFeElements {
+class HyperelasticHexElements {
  public:
   using ElementMatrix = Eigen::Matrix<double, 24, 24>;
 
   /// @throws InvalidInputError for E ≤ 0, ν outside [0, 0.5); TopologyError for a hexahedron
   ///         whose Jacobian is not positive at a Gauss point.
-  HexFeElements(const volume::HexMesh& mesh, double youngs_modulus_pa, double poisson_ratio,
-                HyperelasticLaw law = HyperelasticLaw::StVenantKirchhoff);
+  HyperelasticHexElements(const volume::HexMesh& mesh, double youngs_modulus_pa, double poisson_ratio,
+                          HyperelasticLaw law = HyperelasticLaw::StVenantKirchhoff);
 
   int num_elements() const { return static_cast<int>(hexes_.size()); }
   const HyperelasticMaterial& material() const { return material_; }
