@@ -1,7 +1,7 @@
 #pragma once
 /// @file contact_solver.h
 /// Quasi-static contact between the stump and a rigid obstacle (a socket, a plane), with Coulomb
-/// friction (thesis ch. 3.3, METHOD.md §2, in a stated different formulation):
+/// friction (thesis ch. 3.3, docs/method.md §2, in a stated different formulation):
 ///
 /// - detection: every candidate node (the skin) against the obstacle's inner wall through a BVH
 ///   (CGAL AABB tree), never all pairs;

@@ -1,10 +1,10 @@
 #pragma once
 /// @file donning.h
-/// The donning simulation (thesis ch. 4.3, METHOD.md §2): the designed socket starts below the
-/// stump along the limb axis and slides up onto it in displacement steps, with Coulomb friction
-/// between skin and socket and the bones held; optionally the patient then stands (the socket is
-/// pushed until its axial reaction equals half the body weight). The contact pressure at the end
-/// is compared with the pressure the design asked for: if the design is right, the socket
+/// The donning simulation (thesis ch. 3.5 and 5.4, docs/method.md §2): the designed socket starts
+/// below the stump along the limb axis and slides up onto it in displacement steps, with Coulomb
+/// friction between skin and socket and the bones held; optionally the patient then stands (the
+/// socket is pushed until its axial reaction equals half the body weight). The contact pressure at
+/// the end is compared with the pressure the design asked for: if the design is right, the socket
 /// reproduces it.
 
 #include <memory>

@@ -1,7 +1,7 @@
 #pragma once
 /// @file brim.h
 /// The socket's brim line (trim line): a closed curve h = brim(θ) on the limb, through editable
-/// key points, interpolated by a periodic Akima spline (thesis ch. 5, METHOD.md §3). Forces above
+/// key points, interpolated by a periodic Akima spline (thesis ch. 5, docs/method.md §3). Forces above
 /// the brim are removed from the design and the socket is cut along it.
 ///
 /// Templates (placed from the landmarks; heights relative to the knee line k = POP.h + 10 mm and

@@ -1,8 +1,8 @@
 #pragma once
 /// @file design_solver.h
-/// The design solve of the inverse socket design (thesis ch. 5, METHOD.md §3): pressures from
+/// The design solve of the inverse socket design (thesis ch. 5, docs/method.md §3): pressures from
 /// the spots, saturated at the pain thresholds and removed above the brim, become nodal forces
-/// on the stump's skin; the static equilibrium of the MSS-CS stump (bones and proximal cut fixed)
+/// on the stump's skin; the static equilibrium of the tissue model's stump (bones and cut fixed)
 /// under them is the socket's inner surface; the seven radar values say whether that pressure
 /// field carries a standing patient.
 ///

@@ -2,7 +2,7 @@
 /// @file socket_builder.h
 /// The socket solid: the (deformed) stump surface below the brim line, given a wall thickness,
 /// closed by a rounded lip along the brim — a closed, manifold, outward, self-intersection-free
-/// triangle mesh ready to print (thesis ch. 5, METHOD.md §3 "socket generation").
+/// triangle mesh ready to print (thesis ch. 5, docs/method.md §3 "Socket generation").
 ///
 /// Algorithm (details and measurements in docs/socket_builder.md):
 /// 1. check the inner surface (finite, manifold, oriented; it may be open only above the brim);

@@ -1,6 +1,6 @@
 #pragma once
 /// @file spots.h
-/// Parametric pressure spots of the inverse design (thesis Tables 5–6, METHOD.md §3), written in
+/// Parametric pressure spots of the inverse design (thesis Tables 5–6, docs/method.md §3), written in
 /// the limb's cylindrical frame (θ from anterior towards medial, h above the distal end).
 ///
 /// Key functions (Table 5):

@@ -1,6 +1,6 @@
 #pragma once
 /// @file design_report.h
-/// Pictures and the HTML report of the inverse socket design (thesis ch. 5, METHOD.md §3): the
+/// Pictures and the HTML report of the inverse socket design (thesis ch. 5, docs/method.md §3): the
 /// radar chart of the seven constraint values, pressure maps on the stump, pressure profiles
 /// along paths (anterior line, posterior line, a circumference), and one self-contained HTML
 /// page a clinician can file or e-mail. Design results come in as plain data (this module does

@@ -1,6 +1,6 @@
 #pragma once
 /// @file mass_spring_model.h
-/// Hexahedral mass-spring soft-tissue models of the thesis (ch. 3.2, METHOD.md §1):
+/// Hexahedral mass-spring soft-tissue models of the thesis (ch. 3.2, docs/method.md §1):
 ///  - MSS:    Golec springs only (eq. 2) — isotropic, Young's modulus E, Poisson ratio 1/4;
 ///  - MSS-CS: the thesis model, MSS + volume-dependent corrective springs (eqs. 4–8);
 ///  - MSS-CF: Golec's hybrid model (Golec et al. 2020, Visual Computer 36:809), MSS springs
@@ -104,7 +104,8 @@ struct CorrectiveSpringConstants {
 /// Damping law of the spring dampers (eq. 3).
 enum class DampingLaw {
   /// c = ζ · 2 √(k (m1 + m2)) / l0 read with l0 in metres, i.e. the printed formula taken as a
-  /// damper coefficient in N·s/m. Dimensionally odd (METHOD.md); heavily over-damped on mm meshes.
+  /// damper coefficient in N·s/m. Dimensionally odd (docs/method.md §1.2, "Damping"); heavily
+  /// over-damped on mm meshes.
   ThesisEq3,
   /// c = ζ · 2 √(k m1 m2 / (m1 + m2)) [N·s/m]: ζ = 1 critically damps each spring's own mode.
   Critical,
