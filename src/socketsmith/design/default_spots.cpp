@@ -22,28 +22,13 @@ const volume::Landmark* find_landmark(const std::vector<volume::Landmark>& lms, 
 }
 
 Spot cos2(const std::string& name, double theta, double h, double r_theta, double r_h) {
-  Spot s;
-  s.name = name;
-  s.type = SpotType::Cos2;
-  s.theta0 = theta;
-  s.h0 = h;
-  s.r_theta = r_theta;
-  s.r_h = r_h;
-  s.amplitude_pa = kRef;
-  return s;
+  return {.name = name, .type = SpotType::Cos2, .amplitude_pa = kRef, .theta0 = theta, .r_theta = r_theta, .h0 = h,
+          .r_h = r_h};
 }
 
 Spot cos_sig(const std::string& name, double theta, double r_theta, double h1, double h2, double lambda_h) {
-  Spot s;
-  s.name = name;
-  s.type = SpotType::CosSig;
-  s.theta0 = theta;
-  s.r_theta = r_theta;
-  s.h1 = h1;
-  s.h2 = h2;
-  s.lambda_h = lambda_h;
-  s.amplitude_pa = kRef;
-  return s;
+  return {.name = name, .type = SpotType::CosSig, .amplitude_pa = kRef, .theta0 = theta, .r_theta = r_theta,
+          .h1 = h1, .h2 = h2, .lambda_h = lambda_h};
 }
 }  // namespace
 

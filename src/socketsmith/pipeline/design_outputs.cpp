@@ -135,17 +135,15 @@ DesignPictures write_pictures(const DesignSetup& setup, const DesignResult& resu
   }
   const auto make_map = [&](const std::vector<double>& v, const std::string& label, const std::string& title, double lo,
                             double hi) {
-    report::PressureMapData m;
-    m.surface = &def_tri;
-    m.values = v;
-    m.value_label = label;
-    m.title = title;
-    m.value_min = lo;
-    m.value_max = hi;
-    m.frame = sframe;
-    m.landmarks = marks;
-    m.brim = brim_poly;
-    return m;
+    return report::PressureMapData{.surface = &def_tri,
+                                   .values = v,
+                                   .value_min = lo,
+                                   .value_max = hi,
+                                   .value_label = label,
+                                   .frame = sframe,
+                                   .landmarks = marks,
+                                   .brim = brim_poly,
+                                   .title = title};
   };
   p.maps = {
       make_map(p_kpa, "kPa", "Applied pressure (socket inner surface)", 0, 0),

@@ -159,22 +159,17 @@ Plot path_profile_plot(const PathProfile& profile) {
   plot.y_label = "pressure [kPa]";
   plot.width_px = 640;
   plot.height_px = 360;
-  PlotSeries pressure;
-  pressure.name = "applied pressure";
-  pressure.x = profile.s;
-  pressure.y = profile.pressure_kpa;
-  pressure.color = "#0072B2";
-  pressure.markers = true;
-  plot.series.push_back(pressure);
-  if (!profile.threshold_kpa.empty()) {
-    PlotSeries threshold;
-    threshold.name = "pain threshold";
-    threshold.x = profile.s;
-    threshold.y = profile.threshold_kpa;
-    threshold.color = "#D55E00";
-    threshold.dashed = true;
-    plot.series.push_back(threshold);
-  }
+  plot.series.push_back(PlotSeries{.name = "applied pressure",
+                                   .x = profile.s,
+                                   .y = profile.pressure_kpa,
+                                   .color = "#0072B2",
+                                   .markers = true});
+  if (!profile.threshold_kpa.empty())
+    plot.series.push_back(PlotSeries{.name = "pain threshold",
+                                     .x = profile.s,
+                                     .y = profile.threshold_kpa,
+                                     .color = "#D55E00",
+                                     .dashed = true});
   double ymax = -std::numeric_limits<double>::infinity();
   int finite_x = 0;
   double xmin = std::numeric_limits<double>::infinity(), xmax = -xmin;
