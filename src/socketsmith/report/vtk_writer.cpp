@@ -180,6 +180,45 @@ void write_footer(std::ostream& out, std::string_view type) {
       << "</VTKFile>\n";
 }
 
+/// What sets a .vtu of hexahedra apart from a .vtp of triangles.
+struct GridKind {
+  std::string_view where;        ///< the writer, for messages
+  std::string_view vtk_type;     ///< "UnstructuredGrid" | "PolyData"
+  std::string_view point_name;   ///< "node" | "vertex"
+  std::string_view cell_name;    ///< "hexahedron" | "triangle"
+  std::string_view zero_counts;  ///< the Piece's counts of kinds not written, each followed by a space
+  std::string_view count_name;   ///< the Piece's count of the cells
+  std::string_view cells_tag;    ///< "Cells" | "Polys"
+  bool with_types;               ///< a types array (unstructured grids only)
+  std::uint8_t cell_type;
+};
+
+/// Checks and writes one piece of @p kind; @p node_tags (with reserved name) only for the .vtu.
+template <std::size_t N>
+void write_grid(const std::filesystem::path& path, const GridKind& kind, const std::vector<Eigen::Vector3d>& points,
+                const std::vector<std::array<int, N>>& cells, const std::vector<int>* node_tags,
+                const std::vector<VtkField>& point_fields, const std::vector<VtkField>& cell_fields) {
+  const std::size_t num_points = points.size();
+  const std::size_t num_cells = cells.size();
+  check_points(kind.where, points, kind.point_name);
+  check_cells(kind.where, cells, num_points, kind.cell_name);
+  check_fields(kind.where, path, point_fields, num_points, "point", node_tags != nullptr);
+  check_fields(kind.where, path, cell_fields, num_cells, "cell", false);
+
+  write_file_atomically(path, [&](std::ostream& out) {
+    write_header(out, kind.vtk_type);
+    out << "    <Piece NumberOfPoints=\"" << num_points << "\" " << kind.zero_counts << kind.count_name << "=\""
+        << num_cells << "\">\n";
+    write_data_section(out, "PointData", point_fields, node_tags, num_points);
+    write_data_section(out, "CellData", cell_fields, nullptr, num_cells);
+    write_points(out, points);
+    out << "      <" << kind.cells_tag << ">\n";
+    write_cell_arrays(out, cells, kind.with_types, kind.cell_type);
+    out << "      </" << kind.cells_tag << ">\n";
+    write_footer(out, kind.vtk_type);
+  });
+}
+
 }  // namespace
 
 VtkField make_vector_field(std::string name, const std::vector<Eigen::Vector3d>& vectors) {
@@ -194,56 +233,22 @@ VtkField make_vector_field(std::string name, const std::vector<Eigen::Vector3d>&
 void write_vtu(const std::filesystem::path& path, const volume::HexMesh& mesh,
                const std::vector<VtkField>& point_fields,
                const std::vector<VtkField>& cell_fields) {
-  constexpr std::string_view where = "write_vtu";
-  const std::size_t num_nodes = mesh.nodes.size();
-  const std::size_t num_cells = mesh.hexahedra.size();
-  require(mesh.node_tags.empty() || mesh.node_tags.size() == num_nodes,
-          "{}: node_tags has {} entries for {} nodes (expected one per node, or none)", where,
-          mesh.node_tags.size(), num_nodes);
-  check_points(where, mesh.nodes, "node");
-  check_cells(where, mesh.hexahedra, num_nodes, "hexahedron");
-  check_fields(where, path, point_fields, num_nodes, "point", true);
-  check_fields(where, path, cell_fields, num_cells, "cell", false);
-
-  std::vector<int> tags(mesh.node_tags.begin(), mesh.node_tags.end());
-  write_file_atomically(path, [&](std::ostream& out) {
-    write_header(out, "UnstructuredGrid");
-    out << "    <Piece NumberOfPoints=\"" << num_nodes << "\" NumberOfCells=\"" << num_cells
-        << "\">\n";
-    write_data_section(out, "PointData", point_fields, &tags, num_nodes);
-    write_data_section(out, "CellData", cell_fields, nullptr, num_cells);
-    write_points(out, mesh.nodes);
-    out << "      <Cells>\n";
-    write_cell_arrays(out, mesh.hexahedra, true, kVtkHexahedron);
-    out << "      </Cells>\n";
-    write_footer(out, "UnstructuredGrid");
-  });
+  constexpr GridKind kind{"write_vtu", "UnstructuredGrid", "node", "hexahedron", "", "NumberOfCells", "Cells",
+                          true, kVtkHexahedron};
+  require(mesh.node_tags.empty() || mesh.node_tags.size() == mesh.nodes.size(),
+          "{}: node_tags has {} entries for {} nodes (expected one per node, or none)", kind.where,
+          mesh.node_tags.size(), mesh.nodes.size());
+  const std::vector<int> tags(mesh.node_tags.begin(), mesh.node_tags.end());
+  write_grid(path, kind, mesh.nodes, mesh.hexahedra, &tags, point_fields, cell_fields);
 }
 
 void write_vtp(const std::filesystem::path& path, const geometry::TriMesh& mesh,
                const std::vector<VtkField>& point_fields,
                const std::vector<VtkField>& cell_fields) {
-  constexpr std::string_view where = "write_vtp";
-  const std::size_t num_vertices = mesh.vertices.size();
-  const std::size_t num_triangles = mesh.triangles.size();
-  check_points(where, mesh.vertices, "vertex");
-  check_cells(where, mesh.triangles, num_vertices, "triangle");
-  check_fields(where, path, point_fields, num_vertices, "point", false);
-  check_fields(where, path, cell_fields, num_triangles, "cell", false);
-
-  write_file_atomically(path, [&](std::ostream& out) {
-    write_header(out, "PolyData");
-    out << "    <Piece NumberOfPoints=\"" << num_vertices
-        << R"(" NumberOfVerts="0" NumberOfLines="0" NumberOfStrips="0" NumberOfPolys=")"
-        << num_triangles << "\">\n";
-    write_data_section(out, "PointData", point_fields, nullptr, num_vertices);
-    write_data_section(out, "CellData", cell_fields, nullptr, num_triangles);
-    write_points(out, mesh.vertices);
-    out << "      <Polys>\n";
-    write_cell_arrays(out, mesh.triangles, false, kVtkTriangle);
-    out << "      </Polys>\n";
-    write_footer(out, "PolyData");
-  });
+  constexpr GridKind kind{"write_vtp", "PolyData", "vertex", "triangle",
+                          R"(NumberOfVerts="0" NumberOfLines="0" NumberOfStrips="0" )", "NumberOfPolys", "Polys",
+                          false, kVtkTriangle};
+  write_grid(path, kind, mesh.vertices, mesh.triangles, nullptr, point_fields, cell_fields);
 }
 
 }  // namespace socketsmith::report
