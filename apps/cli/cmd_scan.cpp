@@ -34,10 +34,7 @@ void add_simulate_command(CLI::App* scan_cmd) {
   sim->add_option("--sensors", sf->sensors, "number of sensors on the ring (default 4)");
   sim->add_option("--radius-mm", sf->radius_mm, "ring radius [mm] (default 750, as the thesis)");
   sim->add_option("--height-mm", sf->height_mm, "sensor height above the scene centre [mm] (default 0)");
-  sim->add_option("--seed", sf->seed, "seed of the error model (default 1)");
-  sim->add_option("--noise-scale", sf->noise_scale, "scale of every error term (0: noise free; default 1)");
-  sim->add_option("--systematic-scale", sf->systematic_scale, kSystematicScaleHelp);
-  sim->add_option("--frames", sf->frames, "frames per sensor (default 1)");
+  add_simulated_error_flags(*sim, sf->seed, sf->noise_scale, sf->systematic_scale, sf->frames);
   sim->add_option("--calibration", sf->calibration,
                   "iai_kinect2 calibration: a folder of <serial> folders (one per sensor), a <serial> folder or a "
                   "calib_ir.yaml (default: typical Kinect v2 intrinsics)");
@@ -107,9 +104,7 @@ void add_calibrate_command(CLI::App* scan_cmd) {
                   "true corners from: pnp (board pose from the IR image, default) | kabsch (thesis: rigid fit to the "
                   "measured corners)");
   cal->add_option("--upsample", cf->upsample, "IR up-sampling for corner detection, 1 to 8 (default 2)");
-  cal->add_option("--model", cf->model, kModelHelp);
-  cal->add_option("--depth-degree", cf->depth_degree, kDepthDegreeHelp);
-  cal->add_flag("--refine-distortion", cf->refine_distortion, kRefineDistortionHelp);
+  add_compensation_form_flags(*cal, cf->model, cf->depth_degree, cf->refine_distortion);
   cal->add_option("--corner-depth", cf->corner_depth,
                   "depth at each corner of the training frames: bilinear (the thesis, default) | plane (a robust local "
                   "plane fit of the pixels within 6 px)");
@@ -189,9 +184,7 @@ void add_board_experiment_commands(CLI::App* exp) {
                   "iai_kinect2 calibration folder(s) for the simulated units' intrinsics and distortion, as for scan "
                   "simulate (default: typical Kinect v2 intrinsics)");
     x->add_option("--truth", ef->truth, "pnp (default) | kabsch (thesis eqs. 31-35)");
-    x->add_option("--model", ef->model, kModelHelp);
-    x->add_option("--depth-degree", ef->depth_degree, kDepthDegreeHelp);
-    x->add_flag("--refine-distortion", ef->refine_distortion, kRefineDistortionHelp);
+    add_compensation_form_flags(*x, ef->model, ef->depth_degree, ef->refine_distortion);
     x->add_option("--corner-depth", ef->corner_depth,
                   "depth at the corners of the training frames: bilinear (the thesis, default) | plane (local plane "
                   "fit); the held-out frames are always measured the thesis's way (bilinear)");

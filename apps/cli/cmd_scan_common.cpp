@@ -20,14 +20,25 @@ scan::SensorErrorModel error_model(double noise_scale, double systematic_scale, 
   return m;
 }
 
+void add_simulated_error_flags(CLI::App& cmd, std::uint64_t& seed, double& noise_scale, double& systematic_scale,
+                               int& frames) {
+  cmd.add_option("--seed", seed, "seed of the error model (default 1)");
+  cmd.add_option("--noise-scale", noise_scale, "scale of every error term (0: noise free; default 1)");
+  cmd.add_option("--systematic-scale", systematic_scale, kSystematicScaleHelp);
+  cmd.add_option("--frames", frames, "frames per sensor (default 1)");
+}
+
 void add_session_flags(CLI::App& cmd, SessionFlags& f, const std::string& compensation_help) {
   cmd.add_option("--sensors", f.sensors, "number of sensors on the ring (default 4)");
-  cmd.add_option("--seed", f.seed, "seed of the error model (default 1)");
-  cmd.add_option("--noise-scale", f.noise_scale, "scale of every error term (0: noise free; default 1)");
-  cmd.add_option("--systematic-scale", f.systematic_scale, kSystematicScaleHelp);
-  cmd.add_option("--frames", f.frames, "frames per sensor (default 1)");
+  add_simulated_error_flags(cmd, f.seed, f.noise_scale, f.systematic_scale, f.frames);
   cmd.add_option("--calibration", f.calibration, "iai_kinect2 calibration folder(s), as for scan simulate");
   cmd.add_option("--compensation", f.compensation, compensation_help);
+}
+
+void add_compensation_form_flags(CLI::App& cmd, std::string& model, int& depth_degree, bool& refine_distortion) {
+  cmd.add_option("--model", model, kModelHelp);
+  cmd.add_option("--depth-degree", depth_degree, kDepthDegreeHelp);
+  cmd.add_flag("--refine-distortion", refine_distortion, kRefineDistortionHelp);
 }
 
 double elapsed_s(std::chrono::steady_clock::time_point t0) {

@@ -172,9 +172,16 @@ inline constexpr const char* kCornerDepthHelp =
 
 /// The simulated units' error model of --noise-scale and --systematic-scale.
 scan::SensorErrorModel error_model(double noise_scale, double systematic_scale, const char* cmd);
+/// The --seed, --noise-scale, --systematic-scale and --frames flags of a simulated rig (scan
+/// simulate and the experiments' sessions).
+void add_simulated_error_flags(CLI::App& cmd, std::uint64_t& seed, double& noise_scale, double& systematic_scale,
+                               int& frames);
 /// The --sensors, --seed, --noise-scale, --systematic-scale, --frames, --calibration and
 /// --compensation flags of an experiment's simulated session.
 void add_session_flags(CLI::App& cmd, SessionFlags& f, const std::string& compensation_help);
+/// The --model, --depth-degree and --refine-distortion flags of a learned error compensation
+/// (scan calibrate and the board experiments).
+void add_compensation_form_flags(CLI::App& cmd, std::string& model, int& depth_degree, bool& refine_distortion);
 /// Seconds since @p t0.
 double elapsed_s(std::chrono::steady_clock::time_point t0);
 /// Intrinsics for the simulated rig: --calibration is an iai_kinect2 root (one serial folder per
