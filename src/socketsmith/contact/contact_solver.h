@@ -38,7 +38,7 @@ struct ContactOptions {
   /// until it has slipped μ p / k_t, then slides (the regularisation of Coulomb's law every penalty
   /// code has; Abaqus's default elastic slip is 0.5 % of the element length). 1: k_t = k (15 kPa,
   /// μ 0.5 at E = 100 kPa, h = 6 mm, factor 20: 23 µm of elastic slip). A softer stick makes the
-  /// stick/slip switches milder for Newton (the donning's default is 0.05: docs/contact.md).
+  /// stick/slip switches milder for Newton (the donning's default is 0.2: DonningOptions, docs/contact.md).
   double stick_stiffness_ratio = 1.0;
   bool linear_body = true;        ///< linearised body (K₀ at rest) or the nonlinear model
   int max_newton = 60;
