@@ -137,7 +137,6 @@ bool ContactSolver::Impl::newton_direction(const VectorXd& xs, const std::vector
     // The last factorisation (of a nearby contact state) preconditions CG on the new tangent;
     // a fresh factorisation only when CG does not converge quickly.
     if (!free_axis() && llt.valid() && opt.max_reuse_cg > 0 && pcg(K, r, delta)) return true;
-    const SerialParallelRegions serial;
     if (!llt.factorize(K)) return false;
     ++factorizations;
     sol = llt.solve(rhs);
