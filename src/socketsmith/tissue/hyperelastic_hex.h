@@ -108,6 +108,8 @@ class HyperelasticHexElements {
 
   int num_elements() const { return static_cast<int>(hexes_.size()); }
   const HyperelasticMaterial& material() const { return material_; }
+  /// Element @p e's nodes (the mesh's hexahedron @p e).
+  const volume::Hex& hex(int e) const { return hexes_[static_cast<size_t>(e)]; }
 
   /// Adds the internal forces −∂W/∂x at node positions @p x (3N, node-major) to @p f.
   /// @throws SolverError when the law needs J > 0 and some Gauss point has J ≤ 0.

@@ -14,14 +14,6 @@ namespace {
 using Eigen::Matrix3d;
 using volume::Vec3;
 
-Vec3 node(const VectorXd& x, int i) { return x.segment<3>(3 * i); }
-
-volume::HexNodes gather_nodes(const VectorXd& x, const volume::Hex& hex) {
-  volume::HexNodes out;
-  for (int k = 0; k < 8; ++k) out[k] = x.segment<3>(3 * hex[k]);
-  return out;
-}
-
 /// The material and every option the model reads, checked once so that a wrong case file fails
 /// here with the value and its expected range, not later as a diverging solve.
 void check_inputs(const TissueMaterial& material, const MassSpringOptions& options) {
@@ -98,16 +90,6 @@ TissueModelKind parse_tissue_model(const std::string& name) {
   fail("unknown tissue model '{}' (expected mss-cs, mss-cf, mss, fe or neo-hookean)", name);
 }
 
-std::string to_string(CorrectiveLaw law) {
-  return law == CorrectiveLaw::Symmetric ? "symmetric" : "compression-only";
-}
-
-CorrectiveLaw parse_corrective_law(const std::string& name) {
-  if (name == "symmetric") return CorrectiveLaw::Symmetric;
-  if (name == "compression-only") return CorrectiveLaw::CompressionOnly;
-  fail("unknown corrective-spring law '{}' (expected symmetric or compression-only)", name);
-}
-
 std::string to_string(DampingLaw law) { return law == DampingLaw::ThesisEq3 ? "thesis-eq3" : "critical"; }
 
 DampingLaw parse_damping_law(const std::string& name) {
@@ -116,154 +98,83 @@ DampingLaw parse_damping_law(const std::string& name) {
   fail("unknown damping law '{}' (expected critical or thesis-eq3)", name);
 }
 
-CorrectiveSpringConstants CorrectiveSpringConstants::thesis() { return {0.5, 1.4, 25.0, 2.0, CorrectiveLaw::Symmetric}; }
-
-CorrectiveSpringConstants CorrectiveSpringConstants::recommended() {
-  // From `socketsmith calibrate cube` (4 starts × 400 evaluations, seed 1, 2×2×2 lattice with the
-  // stability check); see docs/VALIDATION.md. In the cube (pure compression) the two laws
-  // coincide; compression-only is kept so that expanding elements are never inflated further.
-  return {4.67679, 1.4319, 2000, 2.74862, CorrectiveLaw::CompressionOnly, 0.957507};
-}
-
-CorrectiveSpringConstants CorrectiveSpringConstants::cube_fit() {
-  // From `socketsmith calibrate cube --law compression-only --max-c 100000` (4 starts × 400
-  // evaluations, seed 1): 3.35 % / 1.34 %, stable over the whole range; C again on its bound.
-  return {1.26192, 1.46654, 1e5, 3.27939, CorrectiveLaw::CompressionOnly, 0.903153};
-}
-
-CorrectiveSpringConstants CorrectiveSpringConstants::cube_targets() {
-  // From `socketsmith calibrate cube --law compression-only --max-c 100000 --keep-linearisation
-  // recommended --min-dead-zone 0.001 --max-dead-zone 0.03` (4 starts × 400 evaluations, seed 1,
-  // 2×2×2 lattice with the stability check and the sheared cube at 7.5 + 1.5 kPa): 4.47 % / 1.77 %.
-  // A and the spring modulus ratio are recommended's (same tangent at rest, same linear designs);
-  // the corrective springs act only beyond 1.33 % volume loss, then steeply (C on its bound).
-  return {4.67679, 1.41899, 99798.0, 2.57278, CorrectiveLaw::CompressionOnly, 0.957507, 0.0132608};
-}
-
-CorrectiveSpringConstants CorrectiveSpringConstants::preset(const std::string& name) {
-  if (name == "thesis") return thesis();
-  if (name == "recommended") return recommended();
-  if (name == "cube-fit") return cube_fit();
-  if (name == "cube-targets") return cube_targets();
-  fail("unknown MSS-CS constants preset '{}' (expected thesis, recommended, cube-fit or cube-targets)", name);
-}
-
 MassSpringModel::MassSpringModel(const volume::HexMesh& mesh, const TissueMaterial& material,
                                  const MassSpringOptions& options)
     : mesh_(mesh), material_(material), options_(options) {
   check_inputs(material, options);
-  const double E = material.youngs_modulus_pa, rho = material.density_kg_m3;
-  const auto& cs = options.corrective;
   if (mesh_.node_tags.size() != mesh_.nodes.size()) mesh_.node_tags.resize(mesh_.nodes.size(), volume::kNodeNone);
   volume::validate(mesh_);
-
   const int n = mesh_.num_nodes();
   rest_.resize(3 * n);
   for (int i = 0; i < n; ++i) rest_.segment<3>(3 * i) = mesh_.nodes[i];
 
-  const LatticeModuli moduli = lattice_moduli(E, options);
-  cf_bulk_increment_pa_ = moduli.cf_bulk_increment_pa;
-
+  auto elements = std::make_shared<HexesAtRest>();
+  elements->reserve(mesh_.hexahedra.size());
   masses_ = VectorXd::Zero(n);
+  for (const auto& hex : mesh_.hexahedra) {
+    const double v0 = volume::hex_volume(volume::gather(mesh_.nodes, hex));
+    elements->push_back({hex, v0, std::cbrt(v0)});                                  // eq. 7
+    for (int k = 0; k < 8; ++k) masses_[hex[k]] += material.density_kg_m3 * v0 / 8.0;  // eq. 1
+  }
+  elements_ = elements;
+  pattern_ = std::make_shared<const BlockPattern>(n, *elements_);
+  build_terms();
+}
+
+void MassSpringModel::build_terms() {
+  const double E = material_.youngs_modulus_pa;
+  const LatticeModuli moduli = lattice_moduli(E, options_);
+  springs_ = std::make_shared<const SpringTerm>(golec_springs(moduli.spring_modulus_pa), elements_, *pattern_);
+  switch (options_.kind) {
+    case TissueModelKind::Mss: terms_ = {springs_}; break;
+    case TissueModelKind::MssCs:
+      corrective_ = std::make_shared<const CorrectiveSpringTerm>(elements_, mesh_, options_.corrective, E);
+      terms_ = {springs_, corrective_};
+      break;
+    case TissueModelKind::MssCf:
+      terms_ = {springs_, std::make_shared<const VolumeEnergyTerm>(elements_, moduli.cf_bulk_increment_pa)};
+      break;
+    case TissueModelKind::StVenantKirchhoff:
+    case TissueModelKind::NeoHookean:
+      // The springs stay for their dampers only (the dynamic simulation's damping).
+      continuum_ = std::make_shared<const HyperelasticTerm>(std::make_shared<const HyperelasticHexElements>(
+          mesh_, E, options_.fe_poisson_ratio,
+          options_.kind == TissueModelKind::NeoHookean ? HyperelasticLaw::NeoHookean
+                                                       : HyperelasticLaw::StVenantKirchhoff));
+      terms_ = {continuum_};
+      break;
+  }
+}
+
+std::vector<SpringTerm::Spring> MassSpringModel::golec_springs(double spring_modulus_pa) const {
+  std::vector<SpringTerm::Spring> springs;
   std::unordered_map<std::uint64_t, int> spring_index;
-  spring_index.reserve(static_cast<size_t>(mesh_.num_hexahedra()) * 14);
+  spring_index.reserve(elements_->size() * 14);
   auto add_spring = [&](int i, int j, double k) {
     if (i > j) std::swap(i, j);
     const std::uint64_t key = (static_cast<std::uint64_t>(i) << 32) | static_cast<std::uint32_t>(j);
-    auto [it, inserted] = spring_index.try_emplace(key, static_cast<int>(springs_.size()));
+    auto [it, inserted] = spring_index.try_emplace(key, static_cast<int>(springs.size()));
     if (inserted) {
       const double rest = (mesh_.nodes[j] - mesh_.nodes[i]).norm();
       require(rest > 0, "MassSpringModel: nodes {} and {} coincide (zero-length spring)", i, j);
-      springs_.push_back({i, j, 0.0, rest, 0.0, {0, 0, 0, 0}});
+      springs.push_back({i, j, 0.0, rest, 0.0, {0, 0, 0, 0}});
     }
-    springs_[it->second].k += k;
+    springs[it->second].k += k;
   };
-  elements_.reserve(mesh_.num_hexahedra());
-  for (const auto& hex : mesh_.hexahedra) {
-    const double v0 = volume::hex_volume(volume::gather(mesh_.nodes, hex));
-    const double le = std::cbrt(v0);  // eq. 7
-    elements_.push_back({hex, v0, le});
-    for (int k = 0; k < 8; ++k) masses_[hex[k]] += rho * v0 / 8.0;  // eq. 1
-    const HexSpringStiffness ks = hex_spring_stiffness(cs.golec_a, moduli.spring_modulus_pa, le);
+  for (const auto& el : *elements_) {
+    const auto& hex = el.nodes;
+    const HexSpringStiffness ks = hex_spring_stiffness(options_.corrective.golec_a, spring_modulus_pa, el.edge_length);
     for (const auto& e : volume::kHexEdges) add_spring(hex[e[0]], hex[e[1]], ks.edge);
     for (const auto& e : volume::kHexFaceDiagonals) add_spring(hex[e[0]], hex[e[1]], ks.face);
     for (const auto& e : volume::kHexBodyDiagonals) add_spring(hex[e[0]], hex[e[1]], ks.body);
-    if (options.kind == TissueModelKind::MssCs) {
-      for (const auto& e : volume::kHexFaceDiagonals)
-        corrective_.push_back({e[0], e[1], cs.alpha * (mesh_.nodes[hex[e[0]]] - mesh_.nodes[hex[e[1]]]).norm()});
-      for (const auto& e : volume::kHexBodyDiagonals)
-        corrective_.push_back({e[0], e[1], cs.alpha * (mesh_.nodes[hex[e[0]]] - mesh_.nodes[hex[e[1]]]).norm()});
-    }
   }
-  for (auto& s : springs_) {
+  for (auto& s : springs) {
     const double m1 = masses_[s.i], m2 = masses_[s.j];
-    const double c = options.damping_law == DampingLaw::ThesisEq3 ? 2.0 * std::sqrt(s.k * (m1 + m2)) / s.rest
-                                                                   : 2.0 * std::sqrt(s.k * m1 * m2 / (m1 + m2));
-    s.damping = options.damping_ratio * c;
+    const double c = options_.damping_law == DampingLaw::ThesisEq3 ? 2.0 * std::sqrt(s.k * (m1 + m2)) / s.rest
+                                                                    : 2.0 * std::sqrt(s.k * m1 * m2 / (m1 + m2));
+    s.damping = options_.damping_ratio * c;
   }
-  if (is_continuum(options.kind))
-    continuum_ = std::make_shared<const HyperelasticHexElements>(mesh_, E, options.fe_poisson_ratio,
-                                                options.kind == TissueModelKind::NeoHookean
-                                                    ? HyperelasticLaw::NeoHookean
-                                                    : HyperelasticLaw::StVenantKirchhoff);
-  build_pattern();
-}
-
-void MassSpringModel::build_pattern() {
-  const int n = num_nodes();
-  std::vector<std::vector<int>> nbrs(n);
-  for (const auto& e : elements_)
-    for (int a : e.nodes)
-      for (int b : e.nodes) nbrs[a].push_back(b);
-  std::vector<int> outer(3 * n + 1, 0);
-  col_nnz_.assign(n, 0);
-  size_t nnz = 0;
-  for (int i = 0; i < n; ++i) {
-    auto& v = nbrs[i];
-    std::sort(v.begin(), v.end());
-    v.erase(std::unique(v.begin(), v.end()), v.end());
-    if (v.empty()) v.push_back(i);  // isolated node: keep its diagonal block
-    col_nnz_[i] = 3 * static_cast<int>(v.size());
-    for (int d = 0; d < 3; ++d) {
-      outer[3 * i + d] = static_cast<int>(nnz);
-      nnz += col_nnz_[i];
-    }
-  }
-  outer[3 * n] = static_cast<int>(nnz);
-  pattern_.resize(3 * n, 3 * n);
-  pattern_.resizeNonZeros(static_cast<Eigen::Index>(nnz));
-  std::copy(outer.begin(), outer.end(), pattern_.outerIndexPtr());
-  int* inner = pattern_.innerIndexPtr();
-  for (int i = 0; i < n; ++i)
-    for (int d = 0; d < 3; ++d) {
-      int p = outer[3 * i + d];
-      for (int m : nbrs[i])
-        for (int r = 0; r < 3; ++r) inner[p++] = 3 * m + r;
-    }
-  std::fill(pattern_.valuePtr(), pattern_.valuePtr() + nnz, 0.0);
-  // Block offsets.
-  auto offset = [&](int row_node, int col_node) {
-    const auto& v = nbrs[col_node];
-    const auto it = std::lower_bound(v.begin(), v.end(), row_node);
-    SOCKETSMITH_ASSERT(it != v.end() && *it == row_node);
-    return outer[3 * col_node] + 3 * static_cast<int>(it - v.begin());
-  };
-  element_blocks_.resize(elements_.size() * 64);
-  for (size_t e = 0; e < elements_.size(); ++e)
-    for (int a = 0; a < 8; ++a)
-      for (int b = 0; b < 8; ++b) element_blocks_[e * 64 + a * 8 + b] = offset(elements_[e].nodes[a], elements_[e].nodes[b]);
-  for (auto& s : springs_) {
-    s.blocks[0] = offset(s.i, s.i);
-    s.blocks[1] = offset(s.i, s.j);
-    s.blocks[2] = offset(s.j, s.i);
-    s.blocks[3] = offset(s.j, s.j);
-  }
-}
-
-void MassSpringModel::add_block(double* values, int offset, int col_node, const Matrix3d& b) const {
-  const int stride = col_nnz_[col_node];
-  for (int c = 0; c < 3; ++c)
-    for (int r = 0; r < 3; ++r) values[offset + r + c * stride] += b(r, c);
+  return springs;
 }
 
 VectorXd MassSpringModel::dof_masses() const {
@@ -272,68 +183,22 @@ VectorXd MassSpringModel::dof_masses() const {
   return m;
 }
 
-double MassSpringModel::corrective_law(double dv, double edge_length, double* dk_ddv) const {
-  const auto& cs = options_.corrective;
-  const double scale = cs.c * material_.youngs_modulus_pa * edge_length;
-  double g = 0.0, dg = 0.0;
-  if (cs.law == CorrectiveLaw::Symmetric) {
-    const double a = std::abs(dv) - cs.dead_zone;
-    if (a > 0) {
-      g = std::pow(a, cs.beta);
-      dg = cs.beta * std::pow(a, cs.beta - 1.0) * (dv > 0 ? 1.0 : -1.0);
-    }
-  } else if (-dv > cs.dead_zone) {
-    const double a = -dv - cs.dead_zone;
-    g = std::pow(a, cs.beta);
-    dg = -cs.beta * std::pow(a, cs.beta - 1.0);
-  }
-  if (dk_ddv) *dk_ddv = scale * dg;
-  return scale * g;
+bool MassSpringModel::has_energy() const {
+  return std::all_of(terms_.begin(), terms_.end(), [](const auto& t) { return t->has_energy(); });
 }
 
 VectorXd MassSpringModel::elastic_forces(const VectorXd& x) const {
   require(x.size() == num_dofs(), "elastic_forces: x has {} entries (expected 3N = {})", x.size(), num_dofs());
   VectorXd f = VectorXd::Zero(num_dofs());
-  if (continuum_) {
-    continuum_->add_forces(x, f);
-    return f;
-  }
-  for (const auto& s : springs_) {
-    const Vec3 fi = spring_force(node(x, s.i), node(x, s.j), s.k, s.rest);
-    f.segment<3>(3 * s.i) += fi;
-    f.segment<3>(3 * s.j) -= fi;
-  }
-  const bool cs = options_.kind == TissueModelKind::MssCs;
-  const bool cf = options_.kind == TissueModelKind::MssCf;
-  if (!cs && !cf) return f;
-  volume::HexGradient grad;
-  for (size_t e = 0; e < elements_.size(); ++e) {
-    const auto& el = elements_[e];
-    const volume::HexNodes xe = gather_nodes(x, el.nodes);
-    if (cf) {
-      const double v = volume::hex_volume_gradient(xe, grad);
-      const double dv = (v - el.rest_volume) / el.rest_volume;
-      for (int k = 0; k < 8; ++k) f.segment<3>(3 * el.nodes[k]) -= cf_bulk_increment_pa_ * dv * grad[k];
-    } else {
-      const double v = volume::hex_volume(xe);
-      const double kp = corrective_law((v - el.rest_volume) / el.rest_volume, el.edge_length, nullptr);
-      if (kp == 0.0) continue;
-      for (int s = 0; s < 16; ++s) {
-        const auto& c = corrective_[e * 16 + s];
-        const Vec3 fa = spring_force(xe[c.a], xe[c.b], kp, c.rest);
-        f.segment<3>(3 * el.nodes[c.a]) += fa;
-        f.segment<3>(3 * el.nodes[c.b]) -= fa;
-      }
-    }
-  }
+  for (const auto& t : terms_) t->add_forces(x, f);
   return f;
 }
 
 void MassSpringModel::add_damping_forces(const VectorXd& x, const VectorXd& v, VectorXd& f) const {
-  for (const auto& s : springs_) {
-    const Vec3 d = node(x, s.j) - node(x, s.i);
+  for (const auto& s : springs_->springs()) {
+    const Vec3 d = state_node(x, s.j) - state_node(x, s.i);
     const Vec3 u = d.normalized();
-    const Vec3 fi = s.damping * u.dot(node(v, s.j) - node(v, s.i)) * u;
+    const Vec3 fi = s.damping * u.dot(state_node(v, s.j) - state_node(v, s.i)) * u;
     f.segment<3>(3 * s.i) += fi;
     f.segment<3>(3 * s.j) -= fi;
   }
@@ -341,19 +206,8 @@ void MassSpringModel::add_damping_forces(const VectorXd& x, const VectorXd& v, V
 
 double MassSpringModel::energy(const VectorXd& x) const {
   require<Error>(has_energy(), "energy: the MSS-CS corrective springs are not conservative (no energy exists)");
-  if (continuum_) return continuum_->energy(x);
   double w = 0.0;
-  for (const auto& s : springs_) {
-    const double l = (node(x, s.j) - node(x, s.i)).norm();
-    w += 0.5 * s.k * (l - s.rest) * (l - s.rest);
-  }
-  if (options_.kind == TissueModelKind::MssCf) {
-    for (const auto& el : elements_) {
-      const double v = volume::hex_volume(gather_nodes(x, el.nodes));
-      const double dv = (v - el.rest_volume) / el.rest_volume;
-      w += 0.5 * cf_bulk_increment_pa_ * el.rest_volume * dv * dv;
-    }
-  }
+  for (const auto& t : terms_) t->add_energy(x, w);
   return w;
 }
 
@@ -361,75 +215,14 @@ bool MassSpringModel::forces_and_energy(const VectorXd& x, VectorXd& f, double& 
   require<Error>(has_energy(), "energy: the MSS-CS corrective springs are not conservative (no energy exists)");
   require(x.size() == num_dofs() && f.size() == num_dofs(), "forces_and_energy: {} / {} entries (expected 3N = {})",
           x.size(), f.size(), num_dofs());
-  if (continuum_) {
-    // Every Gauss point's J is seen by the pass: an inverted one fails it (neo-Hookean), and
-    // St Venant–Kirchhoff (defined for any F) still asks has_inverted_element's question.
-    if (!continuum_->material().needs_positive_volume() && has_inverted_element(x)) return false;
-    return continuum_->evaluate(x, &f, w);
-  }
-  if (has_inverted_element(x)) return false;
-  f += elastic_forces(x);
-  w = energy(x);
+  // Summed apart, so that a term rejecting the state after another has added leaves f untouched.
+  VectorXd sum = VectorXd::Zero(num_dofs());
+  double energy = 0.0;
+  for (const auto& t : terms_)
+    if (!t->add_forces_and_energy(x, sum, energy)) return false;
+  f += sum;
+  w = energy;
   return true;
-}
-
-void MassSpringModel::add_cf_stiffness(const Element& el, const int* eb, const volume::HexNodes& xe,
-                                       const volume::HexGradient& grad, double dv, bool psd, double* val) const {
-  volume::HexHessian hess;
-  // W = ½ ΔK V0 δv²: K = ΔK/V0 ∇V ∇Vᵀ + ΔK δv ∇²V (second term dropped for PSD).
-  const double a = cf_bulk_increment_pa_ / el.rest_volume;
-  if (!psd) volume::hex_volume_hessian(xe, hess);
-  for (int p = 0; p < 8; ++p)
-    for (int q = 0; q < 8; ++q) {
-      Matrix3d B = a * grad[p] * grad[q].transpose();
-      if (!psd) B += cf_bulk_increment_pa_ * dv * hess.block<3, 3>(3 * p, 3 * q);
-      add_block(val, eb[p * 8 + q], el.nodes[q], B);
-    }
-}
-
-void MassSpringModel::add_cs_stiffness(size_t e, const Element& el, const int* eb, const volume::HexNodes& xe,
-                                       const volume::HexGradient& grad, double dv, bool psd,
-                                       const VectorXd* corrective_slopes, double* val) const {
-  double dk = 0.0;
-  const double kp = corrective_law(dv, el.edge_length, &dk);
-  if (corrective_slopes) dk = (*corrective_slopes)[static_cast<Eigen::Index>(e)];
-  Eigen::Matrix<double, 24, 1> r = Eigen::Matrix<double, 24, 1>::Zero();  // force per unit k'
-  for (int s = 0; s < 16; ++s) {
-    const auto& c = corrective_[e * 16 + s];
-    const Vec3 d = xe[c.b] - xe[c.a];
-    const double l = d.norm();
-    const Vec3 u = d / l;
-    if (kp != 0.0) {
-      const Matrix3d H = spring_hessian(xe[c.a], xe[c.b], kp, c.rest, psd);
-      add_block(val, eb[c.a * 8 + c.a], el.nodes[c.a], H);
-      add_block(val, eb[c.a * 8 + c.b], el.nodes[c.b], -H);
-      add_block(val, eb[c.b * 8 + c.a], el.nodes[c.a], -H);
-      add_block(val, eb[c.b * 8 + c.b], el.nodes[c.b], H);
-    }
-    r.segment<3>(3 * c.a) += (l - c.rest) * u;
-    r.segment<3>(3 * c.b) -= (l - c.rest) * u;
-  }
-  if (dk == 0.0) return;
-  // f = k'(δv) r(x): ∂f/∂x gains r ⊗ ∇k' = r ⊗ (dk'/dδv ∇V / V0); K = −J.
-  const double s = dk / el.rest_volume;
-  if (psd) {
-    // Symmetric PSD surrogate: project r on ∇V, giving −s (r·∇V)/|∇V|² ∇V ∇Vᵀ — a volumetric
-    // stiffness like MSS-CF's, kept when positive (corrective springs resisting the volume
-    // change). It makes the coupling semi-implicit and the preconditioner see it.
-    double rg = 0.0, gg = 0.0;
-    for (int p = 0; p < 8; ++p) {
-      rg += r.segment<3>(3 * p).dot(grad[p]);
-      gg += grad[p].squaredNorm();
-    }
-    const double coef = gg > 0 ? -s * rg / gg : 0.0;
-    if (coef <= 0) return;
-    for (int p = 0; p < 8; ++p)
-      for (int q = 0; q < 8; ++q) add_block(val, eb[p * 8 + q], el.nodes[q], coef * grad[p] * grad[q].transpose());
-    return;
-  }
-  for (int p = 0; p < 8; ++p)
-    for (int q = 0; q < 8; ++q)
-      add_block(val, eb[p * 8 + q], el.nodes[q], -s * r.segment<3>(3 * p) * grad[q].transpose());
 }
 
 void MassSpringModel::jacobian(const VectorXd& x, JacobianKind kind, SparseMatrix& J,
@@ -438,65 +231,34 @@ void MassSpringModel::jacobian(const VectorXd& x, JacobianKind kind, SparseMatri
   require(!corrective_slopes || corrective_slopes->size() == num_elements(),
           "jacobian: {} corrective slopes (expected one per element, {})",
           corrective_slopes ? corrective_slopes->size() : 0, num_elements());
-  if (J.rows() != pattern_.rows() || J.nonZeros() != pattern_.nonZeros()) J = pattern_;
+  const SparseMatrix& pattern = pattern_->matrix();
+  if (J.rows() != pattern.rows() || J.nonZeros() != pattern.nonZeros()) J = pattern;
   double* val = J.valuePtr();
   std::fill(val, val + J.nonZeros(), 0.0);
-  const bool psd = kind == JacobianKind::SymmetricPsd;
-  // Assemble K = −J, negate at the end.
-  auto add_pair = [&](const int blocks[4], int i, int j, const Matrix3d& H) {
-    add_block(val, blocks[0], i, H);
-    add_block(val, blocks[1], j, -H);
-    add_block(val, blocks[2], i, -H);
-    add_block(val, blocks[3], j, H);
-  };
-  if (continuum_) {
-    continuum_->for_each_element_stiffness(x, psd, [&](int e, const HyperelasticHexElements::ElementMatrix& Ke) {
-      const int* eb = &element_blocks_[static_cast<size_t>(e) * 64];
-      const auto& nodes = elements_[static_cast<size_t>(e)].nodes;
-      for (int p = 0; p < 8; ++p)
-        for (int q = 0; q < 8; ++q) add_block(val, eb[p * 8 + q], nodes[q], Ke.block<3, 3>(3 * p, 3 * q));
-    });
-  } else {
-    for (const auto& s : springs_)
-      add_pair(s.blocks, s.i, s.j, spring_hessian(node(x, s.i), node(x, s.j), s.k, s.rest, psd));
-  }
-  const bool cs = options_.kind == TissueModelKind::MssCs;
-  const bool cf = options_.kind == TissueModelKind::MssCf;
-  if (cs || cf) {
-    volume::HexGradient grad;
-    for (size_t e = 0; e < elements_.size(); ++e) {
-      const auto& el = elements_[e];
-      const int* eb = &element_blocks_[e * 64];
-      const volume::HexNodes xe = gather_nodes(x, el.nodes);
-      const double v = volume::hex_volume_gradient(xe, grad);
-      const double dv = (v - el.rest_volume) / el.rest_volume;
-      if (cf)
-        add_cf_stiffness(el, eb, xe, grad, dv, psd, val);
-      else
-        add_cs_stiffness(e, el, eb, xe, grad, dv, psd, corrective_slopes, val);
-    }
-  }
+  // The terms add K = −J; negated at the end.
+  const StiffnessRequest request{kind == JacobianKind::SymmetricPsd, corrective_slopes};
+  for (const auto& t : terms_) t->add_stiffness(x, request, *pattern_, val);
   for (Eigen::Index k = 0; k < J.nonZeros(); ++k) val[k] = -val[k];
 }
 
 void MassSpringModel::damping_matrix(const VectorXd& x, SparseMatrix& D) const {
-  if (D.rows() != pattern_.rows() || D.nonZeros() != pattern_.nonZeros()) D = pattern_;
+  const SparseMatrix& pattern = pattern_->matrix();
+  if (D.rows() != pattern.rows() || D.nonZeros() != pattern.nonZeros()) D = pattern;
   double* val = D.valuePtr();
   std::fill(val, val + D.nonZeros(), 0.0);
-  for (const auto& s : springs_) {
-    const Vec3 u = (node(x, s.j) - node(x, s.i)).normalized();
+  for (const auto& s : springs_->springs()) {
+    const Vec3 u = (state_node(x, s.j) - state_node(x, s.i)).normalized();
     const Matrix3d C = s.damping * u * u.transpose();
-    add_block(val, s.blocks[0], s.i, C);
-    add_block(val, s.blocks[1], s.j, -C);
-    add_block(val, s.blocks[2], s.i, -C);
-    add_block(val, s.blocks[3], s.j, C);
+    pattern_->add(val, s.blocks[0], s.i, C);
+    pattern_->add(val, s.blocks[1], s.j, -C);
+    pattern_->add(val, s.blocks[2], s.i, -C);
+    pattern_->add(val, s.blocks[3], s.j, C);
   }
 }
 
 VectorXd MassSpringModel::element_volumes(const VectorXd& x) const {
   VectorXd v(num_elements());
-  for (int e = 0; e < num_elements(); ++e)
-    v[e] = volume::hex_volume(gather_nodes(x, elements_[e].nodes));
+  for (int e = 0; e < num_elements(); ++e) v[e] = volume::hex_volume(state_hex(x, (*elements_)[e].nodes));
   return v;
 }
 
@@ -504,28 +266,29 @@ double MassSpringModel::total_volume(const VectorXd& x) const { return element_v
 
 VectorXd MassSpringModel::element_volume_changes(const VectorXd& x) const {
   VectorXd dv = element_volumes(x);
-  for (int e = 0; e < num_elements(); ++e) dv[e] = dv[e] / elements_[e].rest_volume - 1.0;
+  for (int e = 0; e < num_elements(); ++e) dv[e] = dv[e] / (*elements_)[e].rest_volume - 1.0;
   return dv;
 }
 
 double MassSpringModel::corrective_stiffness(int e, double dv, double* slope) const {
   require(e >= 0 && e < num_elements(), "corrective_stiffness: element {} (expected 0..{})", e, num_elements() - 1);
-  if (options_.kind != TissueModelKind::MssCs) {
+  if (!corrective_) {
     if (slope) *slope = 0.0;
     return 0.0;
   }
-  return corrective_law(dv, elements_[e].edge_length, slope);
+  return corrective_->stiffness(dv, (*elements_)[e].edge_length, slope);
 }
 
 double MassSpringModel::min_corner_jacobian(const VectorXd& x) const {
   double m = std::numeric_limits<double>::infinity();
-  for (const auto& el : elements_)
-    m = std::min(m, volume::min_corner_jacobian(gather_nodes(x, el.nodes)));
+  for (const auto& el : *elements_) m = std::min(m, volume::min_corner_jacobian(state_hex(x, el.nodes)));
   return m;
 }
 
 bool MassSpringModel::has_inverted_element(const VectorXd& x) const {
-  return continuum_ ? continuum_->min_gauss_jacobian(x) <= 0 : min_corner_jacobian(x) <= 0;
+  // Each term asks for the elements it needs sound: the lattices their corners (the springs),
+  // the continuum models their Gauss points.
+  return std::any_of(terms_.begin(), terms_.end(), [&](const auto& t) { return t->min_jacobian(x) <= 0; });
 }
 
 }  // namespace socketsmith::tissue

@@ -24,6 +24,7 @@
 
 #include <memory>
 
+#include "socketsmith/tissue/elastic_terms.h"
 #include "socketsmith/tissue/hyperelastic_hex.h"
 #include "socketsmith/volume/hex_element.h"
 #include "socketsmith/volume/hex_mesh.h"
@@ -53,53 +54,6 @@ inline bool is_continuum(TissueModelKind kind) {
 std::string to_string(TissueModelKind kind);
 /// @throws InvalidInputError for an unknown name.
 TissueModelKind parse_tissue_model(const std::string& name);
-
-/// How the corrective-spring stiffness depends on the relative volume change δv = (V−V0)/V0.
-enum class CorrectiveLaw {
-  /// k' = C E l_e max(|δv| − d, 0)^β: the thesis's eq. 8 as printed (d = 0). With β = 2 it
-  /// stiffens (pushes the diagonals apart) for compression and expansion alike.
-  Symmetric,
-  /// k' = C E l_e max(−δv − d, 0)^β: acts in compression only, never inflates an expanding element.
-  CompressionOnly,
-};
-std::string to_string(CorrectiveLaw law);
-CorrectiveLaw parse_corrective_law(const std::string& name);
-
-/// Constants of the MSS-CS corrective springs (eqs. 4–8) and of Golec's A (eq. 2).
-struct CorrectiveSpringConstants {
-  double golec_a = 0.5;  ///< A of eq. 2 [-], > 0 (Golec: results insensitive in 0.1–100)
-  double alpha = 1.4;    ///< rest-length ratio l'/l of eq. 4 [-], > 1
-  double c = 25.0;       ///< C of eq. 8 [-], ≥ 0
-  double beta = 2.0;     ///< exponent β of eq. 8 [-], > 0
-  CorrectiveLaw law = CorrectiveLaw::Symmetric;
-  /// Golec springs are built with E_s = spring_modulus_ratio · E [-], > 0. The thesis uses 1;
-  /// a value below 1 offsets the stiffness the corrective springs add in compression (as
-  /// Golec's hybrid model lowers its springs to the shear modulus).
-  double spring_modulus_ratio = 1.0;
-  /// Dead zone d of the corrective law [-], in [0, 0.5): the corrective springs carry nothing
-  /// until an element has lost (gained, symmetric law) more than d of its volume. With d > 0 and
-  /// β > 1 the model is exactly the Golec lattice — its linearisation — for |δv| ≤ d, however
-  /// large C is, so a linear design and the nonlinear model agree at small loads. 0 in the thesis.
-  double dead_zone = 0.0;
-
-  /// The thesis's hand-tuned constants: A = 0.5, α = 1.4, C = 25, β = 2 (symmetric law).
-  static CorrectiveSpringConstants thesis();
-  /// The constants found by `socketsmith calibrate cube` with the stability check and no dead
-  /// zone (docs/VALIDATION.md): 6.39 % / 2.56 % on the cube, short of the 5 % / 2 %;
-  /// cube_targets() (the default) keeps its tangent at rest.
-  static CorrectiveSpringConstants recommended();
-  /// Constants that meet the cube targets (5 % / 2 %) on a stable lattice, found by
-  /// `socketsmith calibrate cube --max-c 100000`; not the default (docs/VALIDATION.md says why).
-  static CorrectiveSpringConstants cube_fit();
-  /// The default of every command: recommended's A and spring ratio (the same linearisation, so
-  /// every linear design is unchanged) with a dead zone and a steep law, found by `socketsmith
-  /// calibrate cube --law compression-only --max-c 100000 --keep-linearisation recommended
-  /// --min-dead-zone 0.001 --max-dead-zone 0.03`: meets the cube targets (4.47 % / 1.77 %) and
-  /// carries the sheared cube (docs/VALIDATION.md).
-  static CorrectiveSpringConstants cube_targets();
-  /// "thesis", "recommended", "cube-fit" or "cube-targets". @throws InvalidInputError otherwise.
-  static CorrectiveSpringConstants preset(const std::string& name);
-};
 
 /// Damping law of the spring dampers (eq. 3).
 enum class DampingLaw {
@@ -143,14 +97,20 @@ class MassSpringModel {
 
   int num_nodes() const { return static_cast<int>(masses_.size()); }
   int num_dofs() const { return 3 * num_nodes(); }
-  int num_elements() const { return static_cast<int>(elements_.size()); }
-  int num_springs() const { return static_cast<int>(springs_.size()); }
+  int num_elements() const { return static_cast<int>(elements_->size()); }
+  int num_springs() const { return static_cast<int>(springs_->springs().size()); }
   const volume::HexMesh& mesh() const { return mesh_; }
   const TissueMaterial& material() const { return material_; }
   const MassSpringOptions& options() const { return options_; }
 
   /// The material of the continuum models (fe, neo-hookean); null for the lattices.
-  const HyperelasticMaterial* continuum_material() const { return continuum_ ? &continuum_->material() : nullptr; }
+  const HyperelasticMaterial* continuum_material() const {
+    return continuum_ ? &continuum_->elements().material() : nullptr;
+  }
+  /// The terms whose sum is the elastic energy (elastic_terms.h): the springs and MSS-CS's
+  /// corrective springs or MSS-CF's volume energy for the lattices; the elements for the
+  /// continuum models.
+  const std::vector<std::shared_ptr<const ElasticTerm>>& terms() const { return terms_; }
 
   /// Rest positions (3N) [m].
   const VectorXd& rest_positions() const { return rest_; }
@@ -165,7 +125,7 @@ class MassSpringModel {
   void add_damping_forces(const VectorXd& x, const VectorXd& v, VectorXd& f) const;
 
   /// True when the elastic forces derive from an energy (MSS, MSS-CF, FE, neo-Hookean; not MSS-CS).
-  bool has_energy() const { return options_.kind != TissueModelKind::MssCs; }
+  bool has_energy() const;
   /// Elastic energy [J]. @throws Error when has_energy() is false.
   double energy(const VectorXd& x) const;
   /// The elastic forces added to @p f and the energy in @p energy, when the state is admissible:
@@ -190,7 +150,7 @@ class MassSpringModel {
   /// Relative volume change δv = (V − V0)/V0 of every element at @p x [-].
   VectorXd element_volume_changes(const VectorXd& x) const;
   /// Edge length l_e = V0^(1/3) of element @p e [m] (eq. 7).
-  double element_edge_length(int e) const { return elements_.at(static_cast<size_t>(e)).edge_length; }
+  double element_edge_length(int e) const { return elements_->at(static_cast<size_t>(e)).edge_length; }
   /// Corrective-spring stiffness k'(δv) = C E l_e g(δv) of element @p e at volume change @p dv
   /// [N/m] (eq. 8 with the dead zone), and its slope dk'/dδv [N/m] in @p slope when given. 0
   /// for MSS and MSS-CF.
@@ -208,53 +168,24 @@ class MassSpringModel {
   bool has_inverted_element(const VectorXd& x) const;
 
  private:
-  struct Spring {
-    int i, j;
-    double k;         // [N/m]
-    double rest;      // [m]
-    double damping;   // [N·s/m]
-    int blocks[4];    // value offsets of the (i,i), (i,j), (j,i), (j,j) blocks in the pattern
-  };
-  struct Element {
-    volume::Hex nodes;
-    double rest_volume;  // V0 [m^3]
-    double edge_length;  // l_e = V0^(1/3) [m] (eq. 7)
-  };
-  struct Corrective {  // per-element template, 16 per element
-    int a, b;          // local node indices
-    double rest;       // α · geometric length [m]
-  };
-
-  void build_pattern();
-  int block_offset(int row_node, int col_node) const;
-  double corrective_law(double dv, double edge_length, double* dk_ddv) const;
-  void add_block(double* values, int offset, int col_node, const Eigen::Matrix3d& b) const;
-  /// Element @p el's MSS-CF volumetric stiffness (ΔK/V0 ∇V ∇Vᵀ + ΔK δv ∇²V, the second term not for
-  /// @p psd) added into the values @p val of K = −J at the element's blocks @p eb.
-  void add_cf_stiffness(const Element& el, const int* eb, const volume::HexNodes& xe,
-                        const volume::HexGradient& grad, double dv, bool psd, double* val) const;
-  /// Element @p e's MSS-CS corrective springs (k'(δv) and the coupling r ⊗ ∇k', or its symmetric
-  /// PSD surrogate) added likewise; @p corrective_slopes: frozen dk'/dδv per element, or null.
-  void add_cs_stiffness(size_t e, const Element& el, const int* eb, const volume::HexNodes& xe,
-                        const volume::HexGradient& grad, double dv, bool psd, const VectorXd* corrective_slopes,
-                        double* val) const;
+  /// The terms of options_.kind.
+  void build_terms();
+  /// Golec's springs of every element with the modulus @p spring_modulus_pa (eq. 2) and their
+  /// dampers (eq. 3), one per node pair.
+  std::vector<SpringTerm::Spring> golec_springs(double spring_modulus_pa) const;
 
   volume::HexMesh mesh_;
   TissueMaterial material_;
   MassSpringOptions options_;
   VectorXd rest_;
   VectorXd masses_;
-  std::vector<Spring> springs_;
-  std::vector<Element> elements_;
-  std::vector<Corrective> corrective_;  // rest lengths per element: 16 × num_elements
-  double cf_bulk_increment_pa_ = 0.0;   // ΔK of MSS-CF [Pa]
-  // continuum models only (shared: immutable, the model stays copyable)
-  std::shared_ptr<const HyperelasticHexElements> continuum_;
-
-  // Block-sparse pattern of all node pairs sharing an element (3×3 blocks).
-  SparseMatrix pattern_;
-  std::vector<int> col_nnz_;         // non-zeros per column of node n's three columns
-  std::vector<int> element_blocks_;  // 64 per element: offset of block (a, b)
+  // Shared and immutable: the model stays cheap to copy.
+  std::shared_ptr<const HexesAtRest> elements_;
+  std::shared_ptr<const BlockPattern> pattern_;
+  std::shared_ptr<const SpringTerm> springs_;               // the lattices' term; every model's dampers
+  std::shared_ptr<const CorrectiveSpringTerm> corrective_;  // MSS-CS only
+  std::shared_ptr<const HyperelasticTerm> continuum_;       // the continuum models only
+  std::vector<std::shared_ptr<const ElasticTerm>> terms_;   // the elastic energy's terms, in order
 };
 
 }  // namespace socketsmith::tissue
