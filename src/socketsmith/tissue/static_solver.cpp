@@ -63,7 +63,7 @@ void limit_solver_threads() {
   // 2 cores, or with other work running, they spin against each other (a 1.8k-node donning took
   // 24 s with them, 6.6 s with dynamic teams under a load of 6). Dynamic teams let the runtime give
   // fewer threads than asked, by the free cores. Per thread: call it on each solving thread.
-  omp_set_dynamic(1);
+  if (const char* t = getenv("XTHREADS")) { omp_set_dynamic(0); omp_set_num_threads(atoi(t)); } else omp_set_dynamic(1);
 #endif
 }
 
