@@ -9,6 +9,7 @@
 ///    matrix's pattern changed: a Newton loop whose tangent keeps its pattern pays it once;
 ///  - OpenBLAS runs single-threaded and the OpenMP regions CHOLMOD opens run on the calling
 ///    thread (limit_solver_threads, SerialParallelRegions: both measured faster on these meshes);
+///    the solvers' own loops get the free cores (limit_solver_threads);
 ///  - factorisations are counted for the solvers' reports.
 
 #include <Eigen/CholmodSupport>
@@ -21,10 +22,10 @@
 namespace socketsmith::tissue {
 
 /// While alive, every OpenMP parallel region runs on the calling thread alone. CHOLMOD's supernodal
-/// factorisation opens a region per supernode asking for 4 threads; with dynamic teams
-/// (limit_solver_threads) each region still asks the kernel for the load and the affinity and wakes
-/// the pool: a 7.5k-node donning made 209k sysinfo + sched_getaffinity and 814k futex calls (≈ 10 %
-/// of its CPU in the kernel, strace -c / perf), for loops too small to share.
+/// factorisation opens a region per supernode asking for 4 threads, each of which asked the kernel
+/// for the load and the affinity and woke the pool (with OpenMP's dynamic teams: a 7.5k-node
+/// donning made 209k sysinfo + sched_getaffinity and 814k futex calls, ≈ 10 % of its CPU in the
+/// kernel, strace -c / perf), for loops too small to share.
 class SerialParallelRegions {
  public:
   SerialParallelRegions() {

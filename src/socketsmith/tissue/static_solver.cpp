@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <limits>
 #include <mutex>
 #include <vector>
@@ -49,6 +50,22 @@ class FactorPreconditioner {
 
 }  // namespace
 
+#ifdef _OPENMP
+namespace {
+/// The cores other processes leave free, at most @p allowed. The 1-minute load average counts this
+/// process's own running thread too, so one is given back: OpenMP's dynamic teams (cores − load)
+/// gave a solve running for more than a few seconds one thread on 2 cores however idle the
+/// machine was (8k closed loop: 52.9 s with them, 45.0 s with 2 threads; same outputs).
+int free_cores(int allowed) {
+  double load = 0.0;
+  if (getloadavg(&load, 1) != 1) return allowed;
+  const double busy = std::max(0.0, load - 1.0);
+  const int free = static_cast<int>(std::lround(static_cast<double>(omp_get_num_procs()) - busy));
+  return std::clamp(free, 1, allowed);
+}
+}  // namespace
+#endif
+
 void limit_solver_threads() {
   // CHOLMOD's supernodes on these meshes are small: OpenBLAS's own threads only add overhead
   // (measured: a 1k-node solve took 4.6 s wall with them, 2.7 s without). Ask OpenBLAS, when it
@@ -59,11 +76,13 @@ void limit_solver_threads() {
     if (auto* f = reinterpret_cast<SetThreads>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"))) f(1);
   });
 #ifdef _OPENMP
-  // CHOLMOD's supernodal factorisation asks OpenMP for 4 threads whatever OMP_NUM_THREADS says; on
-  // 2 cores, or with other work running, they spin against each other (a 1.8k-node donning took
-  // 24 s with them, 6.6 s with dynamic teams under a load of 6). Dynamic teams let the runtime give
-  // fewer threads than asked, by the free cores. Per thread: call it on each solving thread.
-  if (const char* t = getenv("XTHREADS")) { omp_set_dynamic(0); omp_set_num_threads(atoi(t)); } else omp_set_dynamic(1);
+  // The solvers' own loops (element forces and stiffness, gap queries) get the free cores, no
+  // more than the thread allowed before its first solve (OMP_NUM_THREADS, or 1 set by the GUI's
+  // worker). CHOLMOD's regions, which ask for 4 threads whatever the setting, run serial
+  // (SerialParallelRegions in sparse_cholesky.h). Per thread: call it on each solving thread.
+  thread_local const int allowed = omp_get_max_threads();
+  omp_set_dynamic(0);
+  omp_set_num_threads(free_cores(allowed));
 #endif
 }
 

@@ -183,9 +183,10 @@ class StaticSolver {
   std::unique_ptr<Impl> impl_;
 };
 
-/// Keeps the sparse factorisations from oversubscribing the cores: OpenBLAS single-threaded, and
-/// dynamic OpenMP teams on the calling thread (CHOLMOD asks for 4 threads regardless of
-/// OMP_NUM_THREADS). Cheap; call it on every thread that factorises (solvers do it themselves).
+/// Keeps the solvers from oversubscribing the cores: OpenBLAS single-threaded, and the calling
+/// thread's OpenMP teams sized to the cores the load average leaves free (this process counted
+/// out), at most what the thread allowed before (OMP_NUM_THREADS). Cheap; call it on every thread
+/// that solves (solvers do it themselves).
 void limit_solver_threads();
 
 /// Residual Pᵀ(f_int(x) + f_ext) (for tests and reports).
