@@ -1,8 +1,11 @@
-// The case file's table of parameters (design/case_parameters.h): every entry is written and read
-// back, and every entry refuses a value outside its range in one line naming its key.
+// The case file's tables of parameters (design/case_parameters.h): every entry is written and read
+// back, every number refuses a value outside its range and every name of a kind an unknown name, in
+// one line naming its key; every key a written case holds is in a table or in the by-hand list.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <set>
 
 #include "socketsmith/core/errors.h"
 #include "socketsmith/core/units.h"
@@ -39,7 +42,7 @@ json document_with(std::string_view section, std::string_view name, const json& 
         type = t;
         break;
       }
-    leaf["type"] = to_string(type);
+    if (name != "type") leaf["type"] = to_string(type);
     return json{{"design", {{"spots", json::array({leaf})}}}};
   }
   std::string path(section);
@@ -89,12 +92,12 @@ TEST(CaseParameters, every_spot_parameter_is_written_and_read_back) {
   }
 }
 
-template <class Owner>
-void expect_refused(const Parameter<Owner>& p, const json& value, const std::string& needle) {
+template <class P>
+void expect_refused(const P& p, const json& value, const std::string& needle) {
   const json doc = document_with(p.section(), p.name(), value);
   try {
     parse_case(doc);
-    ADD_FAILURE() << p.key() << ": no error for " << doc.dump();
+    ADD_FAILURE() << "no error for " << doc.dump();
   } catch (const InvalidInputError& e) {
     const std::string m = e.what();
     EXPECT_NE(m.find(needle), std::string::npos) << m;
@@ -166,6 +169,171 @@ TEST(CaseParameters, a_key_is_found_and_set_in_the_users_units) {
   set_file_value(*find_spot_parameter("r_h_mm"), s, 12, "set");
   EXPECT_DOUBLE_EQ(s.r_h, 0.012);
   EXPECT_EQ(find_spot_parameter("design.spots[].r_h_mm"), nullptr);  // a spot's field by its name
+}
+
+/// The value at @p p's key in a written case ("design.spots[]" → the first spot), or null.
+template <class Owner>
+json written_at(const json& doc, const TextParameter<Owner>& p) {
+  json node = doc;
+  std::string section(p.section());
+  for (size_t start = 0;;) {
+    const size_t dot = section.find('.', start);
+    std::string part = section.substr(start, dot == std::string::npos ? std::string::npos : dot - start);
+    const bool is_list = part.size() > 2 && part.compare(part.size() - 2, 2, "[]") == 0;
+    if (is_list) part.resize(part.size() - 2);
+    if (!node.contains(part)) return nullptr;
+    node = is_list ? node[part][0] : node[part];
+    if (dot == std::string::npos) break;
+    start = dot + 1;
+  }
+  const std::string name(p.name());
+  return node.contains(name) ? node[name] : json();
+}
+
+TEST(CaseParameters, every_name_of_every_kind_is_written_and_read_back) {
+  for (const auto& p : case_text_parameters()) {
+    SCOPED_TRACE(std::string(p.key));
+    for (std::string_view name : p.names) {
+      SCOPED_TRACE(std::string(name));
+      CaseFile c;
+      c.socket.attachment.enabled = true;  // the bolt is written only with its platform
+      p.set(c, std::string(name), "test");
+      EXPECT_EQ(p.get(c), name);
+      const json written = case_to_json(c);
+      if (p.written == Written::Always || !p.is_default(c)) EXPECT_EQ(written_at(written, p), name);
+      const CaseFile back = parse_case(written);
+      EXPECT_EQ(p.get(back), name);
+      EXPECT_EQ(case_to_json(back), written);
+    }
+  }
+  const SpotTextParameter& type = *find_spot_text_parameter("type");
+  ASSERT_EQ(type.names.size(), 4u);
+  for (std::string_view name : type.names) {
+    CaseFile c;
+    Spot s;
+    type.set(s, std::string(name), "test");
+    EXPECT_EQ(to_string(s.type), name);  // the name the rest of socketsmith gives the type
+    c.spots.push_back(s);
+    const json written = case_to_json(c);
+    EXPECT_EQ(written_at(written, type), name);
+    EXPECT_EQ(type.get(parse_case(written).spots.at(0)), name);
+  }
+}
+
+TEST(CaseParameters, a_kinds_aliases_are_read_and_written_by_their_name) {
+  CaseFile c;
+  set_case_text(c, "limb.type", "TF", "test");
+  set_case_text(c, "brim.template", "quadrilateral", "test");
+  set_case_text(c, "limb.side", "l", "test");
+  EXPECT_EQ(c.limb.type, geometry::LimbType::Transfemoral);
+  const json written = case_to_json(c);
+  EXPECT_EQ(written["limb"]["type"], "transfemoral");
+  EXPECT_EQ(written["limb"]["side"], "left");
+  EXPECT_EQ(written["brim"]["template"], "quad");
+}
+
+TEST(CaseParameters, an_unknown_name_is_refused_in_one_line_listing_the_allowed_ones) {
+  const auto check = [](const auto& table) {
+    for (const auto& p : table) {
+      if (p.names.empty()) continue;
+      SCOPED_TRACE(std::string(p.key));
+      const json doc = document_with(p.section(), p.name(), "zz-unknown");
+      try {
+        parse_case(doc);
+        ADD_FAILURE() << p.key << ": no error for " << doc.dump();
+      } catch (const InvalidInputError& e) {
+        const std::string m = e.what();
+        EXPECT_NE(m.find("'zz-unknown'"), std::string::npos) << m;
+        for (std::string_view name : p.names) EXPECT_NE(m.find(name), std::string::npos) << name << " in " << m;
+        EXPECT_EQ(m.find('\n'), std::string::npos) << "one line: " << m;
+      }
+      expect_refused(p, 3, "'" + named(p.key) + "' must be a string (got 3)");
+    }
+  };
+  check(case_text_parameters());
+  check(spot_text_parameters());
+  // The generic message of a kind without a parser of its own (design.objective) and set_case_text's.
+  CaseFile c;
+  try {
+    set_case_text(c, "design.objective", "comfort", "--objective");
+    ADD_FAILURE() << "no error";
+  } catch (const InvalidInputError& e) {
+    EXPECT_EQ(std::string(e.what()), "--objective 'comfort' is not known (pressure, ratio or uniform)");
+  }
+  EXPECT_THROW(set_case_text(c, "design.objectives", "ratio", "test"), InvalidInputError);
+}
+
+TEST(CaseParameters, every_text_is_written_and_read_back_and_an_empty_one_refused_where_it_means_nothing) {
+  const std::string text = "P-7 \"a\" ü\t<b>";
+  for (const auto& p : case_text_parameters()) {
+    if (!p.names.empty()) continue;
+    SCOPED_TRACE(std::string(p.key));
+    CaseFile c;
+    p.set(c, text, "test");
+    const json written = case_to_json(c);
+    EXPECT_EQ(written_at(written, p), text);
+    EXPECT_EQ(p.get(parse_case(written)), text);
+    const bool is_empty_refused = p.key == "limb.file" || p.key == "limb.bones";
+    if (is_empty_refused) expect_refused(p, "", "case file: " + std::string(p.key) + " is empty: give ");
+    else EXPECT_EQ(p.get(parse_case(document_with(p.section(), p.name(), ""))), "");
+  }
+}
+
+/// Every key of @p j as a dotted path (a list of objects as "a[].b"); a key by hand is not entered
+/// unless it is a list of objects (design.spots: its entries are the spot tables').
+void written_keys(const json& j, const std::string& prefix, std::set<std::string>& out) {
+  const auto is_by_hand = [](const std::string& k) {
+    return std::find(kKeysByHand.begin(), kKeysByHand.end(), k) != kKeysByHand.end();
+  };
+  for (const auto& [k, v] : j.items()) {
+    const std::string key = prefix.empty() ? k : prefix + "." + k;
+    if (v.is_array() && !v.empty() && v[0].is_object()) {
+      out.insert(key);
+      for (const auto& e : v) written_keys(e, key + "[]", out);
+    } else if (v.is_object() && !is_by_hand(key)) {
+      written_keys(v, key, out);  // a section
+    } else {
+      out.insert(key);
+    }
+  }
+}
+
+TEST(CaseParameters, every_key_a_written_case_holds_is_in_a_table_or_in_the_by_hand_list) {
+  CaseFile c;
+  c.limb.units = "mm";
+  c.limb.side = geometry::Side::Left;
+  c.limb.axis = Eigen::Vector3d(0, 0, 1);
+  c.limb.anterior = Eigen::Vector3d(0, 1, 0);
+  c.limb.cut_height_m = 0.18;
+  c.patient_id = "P";
+  c.patient_note = "N";
+  c.thresholds["PT"] = 189e3;
+  c.poisson_ratio = 0.45;
+  c.solve_mode = DesignSolveMode::Auto;
+  c.landmarks["PT"] = Eigen::Vector3d(0, -0.06, 0.01);
+  for (SpotType t : {SpotType::Cos2, SpotType::Sig2, SpotType::CosSig, SpotType::Grad}) {
+    Spot s;
+    s.name = to_string(t);
+    s.type = t;
+    s.max_amplitude_pa = 50e3;
+    c.spots.push_back(s);
+  }
+  c.brim = BrimTemplate::Kbm;
+  c.brim_key_points.push_back({"anterior", 0.0, 0.16});
+  c.socket.attachment.enabled = true;
+  std::set<std::string> keys;
+  written_keys(case_to_json(c), "", keys);
+  written_keys(case_to_json(CaseFile{}), "", keys);  // limb.generate_seed: without a limb file
+  std::set<std::string> tables, by_hand(kKeysByHand.begin(), kKeysByHand.end());
+  for (const auto& p : case_parameters()) tables.emplace(p.key());
+  for (const auto& p : spot_parameters()) tables.emplace(p.key());
+  for (const auto& p : case_text_parameters()) tables.emplace(p.key);
+  for (const auto& p : spot_text_parameters()) tables.emplace(p.key);
+  for (const auto& k : keys) EXPECT_TRUE(tables.count(k) || by_hand.count(k)) << k << " is written by hand, unlisted";
+  for (const auto& k : by_hand) {
+    EXPECT_EQ(tables.count(k), 0u) << k << " is in a table and in the by-hand list";
+    if (k != "socket.attachment.enabled") EXPECT_EQ(keys.count(k), 1u) << k << " is listed by hand but not written";
+  }
 }
 
 }  // namespace

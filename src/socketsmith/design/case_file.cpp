@@ -64,28 +64,22 @@ Eigen::Vector3d vec3(const json& j, const std::string& where) {
   require(v.allFinite(), "case file: '{}' is not finite", where);
   return v;
 }
-
-std::string objective_name(OptimizerOptions::Objective o) {
-  switch (o) {
-    case OptimizerOptions::Objective::Ratio: return "ratio";
-    case OptimizerOptions::Objective::Uniform: return "uniform";
-    default: return "pressure";
-  }
-}
 }  // namespace
 
 json spot_to_json(const Spot& s) {
-  json j{{"name", s.name}, {"type", to_string(s.type)}};
+  json j = json::object();
+  write_text_parameters(j, "design.spots[]", s);
   write_parameters(j, "design.spots[]", s);
   return j;
 }
 
 Spot spot_from_json(const json& j, const std::string& where) {
-  check_keys(j, where, section_keys("design.spots[]", {"name", "type"}));
+  check_keys(j, where, section_keys("design.spots[]", {}));
   Spot s;
-  s.name = text(j, "name", where, where);
-  require(j.contains("type"), "case file: '{}' has no 'type' (cos2, sig2, cos-sig or grad)", where);
-  s.type = parse_spot_type(text(j, "type", where, ""));
+  s.name = where;  // a spot without a name
+  read_text_parameters(j, "design.spots[]", where, s);
+  require(j.contains("type"), "case file: '{}' has no 'type' ({})", where,
+          listed_names(*find_spot_text_parameter("type")));
   s.amplitude_pa = 10e3;  // a spot without amplitude_kpa
   read_parameters(j, "design.spots[]", where, s);
   return s;
@@ -121,21 +115,11 @@ DesignSolveMode default_solve_mode(const std::string& model) {
 namespace {
 void parse_limb(const json& j, CaseFile& c) {
   CaseLimb& limb = c.limb;
-  check_keys(j, "limb", section_keys("limb", {"file", "bones", "units", "type", "side", "anterior", "axis",
-                                              "generate_seed"}));
-  limb.file = text(j, "file", "limb", "");
-  require(!j.contains("file") || !limb.file.empty(),
-          "case file: limb.file is empty: give the scan's path (STL/OBJ/PLY), or remove 'file' to use the generated "
-          "sample limb");
-  limb.bones = text(j, "bones", "limb", "auto");
-  require(!limb.bones.empty(), "case file: limb.bones is empty: give auto, estimate, none or the path of a bone file");
-  limb.units = text(j, "units", "limb", "");
-  if (!limb.units.empty()) (void)units::parse_length_unit(limb.units);
+  check_keys(j, "limb", section_keys("limb", {"anterior", "axis", "generate_seed"}));
+  read_text_parameters(j, "limb", "limb", c);
   read_parameters(j, "limb", "limb", c);
   if (j.contains("axis"))
     limb.axis = check_limb_direction(vec3(j.at("axis"), "limb.axis"), LimbDirection::Axis, "case file: 'limb.axis'");
-  limb.type = geometry::parse_limb_type(text(j, "type", "limb", "transtibial"));
-  if (j.contains("side")) limb.side = geometry::parse_side(text(j, "side", "limb", ""));
   if (j.contains("anterior"))
     limb.anterior =
         check_limb_direction(vec3(j.at("anterior"), "limb.anterior"), LimbDirection::Anterior, "case file: 'limb.anterior'");
@@ -149,9 +133,8 @@ void parse_limb(const json& j, CaseFile& c) {
 }
 
 void parse_patient(const json& j, CaseFile& c) {
-  check_keys(j, "patient", section_keys("patient", {"id", "note", "thresholds_kpa"}));
-  c.patient_id = text(j, "id", "patient", "");
-  c.patient_note = text(j, "note", "patient", "");
+  check_keys(j, "patient", section_keys("patient", {"thresholds_kpa"}));
+  read_text_parameters(j, "patient", "patient", c);
   read_parameters(j, "patient", "patient", c);
   if (j.contains("thresholds_kpa")) {
     const auto& t = j.at("thresholds_kpa");
@@ -166,10 +149,10 @@ void parse_patient(const json& j, CaseFile& c) {
 }
 
 void parse_tissue(const json& j, CaseFile& c) {
-  check_keys(j, "tissue", section_keys("tissue", {"model", "constants", "poisson", "solve"}));
-  c.model = text(j, "model", "tissue", c.model);
-  require(c.model == "mss-cs" || c.model == "mss-cf" || c.model == "mss" || c.model == "fe" || c.model == "neo-hookean",
-          "case file: tissue.model '{}' is not known (mss-cs, mss-cf, mss, fe or neo-hookean)", c.model);
+  check_keys(j, "tissue", section_keys("tissue", {"poisson"}));
+  read_text_parameters(j, "tissue", "tissue", c);  // model, constants, solve
+  // A model named without a solve gets its own; neither named keeps the default pair.
+  if (j.contains("model") && !j.contains("solve")) c.solve_mode = default_solve_mode(c.model);
   if (j.contains("poisson")) {
     const bool continuum = c.model == "fe" || c.model == "neo-hookean";
     require(continuum || c.model == "mss-cf",
@@ -179,25 +162,13 @@ void parse_tissue(const json& j, CaseFile& c) {
     c.poisson_ratio = check_input(continuum ? limits::kFePoisson : limits::kCfPoisson,
                                   number(j, "poisson", "tissue", 0.45), "case file: tissue.poisson");
   }
-  c.constants = text(j, "constants", "tissue", c.constants);
-  require(c.constants == "recommended" || c.constants == "thesis" || c.constants == "cube-fit" ||
-              c.constants == "cube-targets",
-          "case file: tissue.constants '{}' is not known (cube-targets, recommended, thesis or cube-fit)", c.constants);
   read_parameters(j, "tissue", "tissue", c);
-  // A model named without a solve gets its own; neither named keeps the default pair.
-  const DesignSolveMode fallback = j.contains("model") ? default_solve_mode(c.model) : c.solve_mode;
-  c.solve_mode = parse_design_solve_mode(text(j, "solve", "tissue", to_string(fallback)));
 }
 
 void parse_design(const json& j, CaseFile& c) {
-  check_keys(j, "design", section_keys("design", {"spots", "objective"}));
+  check_keys(j, "design", section_keys("design", {"spots"}));
   read_parameters(j, "design", "design", c);
-  const std::string obj = text(j, "objective", "design", "pressure");
-  require(obj == "pressure" || obj == "ratio" || obj == "uniform",
-          "case file: design.objective '{}' is not known (pressure, ratio or uniform)", obj);
-  c.objective = obj == "ratio"     ? OptimizerOptions::Objective::Ratio
-                : obj == "uniform" ? OptimizerOptions::Objective::Uniform
-                                   : OptimizerOptions::Objective::Pressure;
+  read_text_parameters(j, "design", "design", c);
   if (!j.contains("spots")) return;
   const auto& s = j.at("spots");
   if (s.is_string()) {
@@ -212,8 +183,8 @@ void parse_design(const json& j, CaseFile& c) {
 }
 
 void parse_brim(const json& j, CaseFile& c) {
-  check_keys(j, "brim", {"template", "key_points"});
-  if (j.contains("template")) c.brim = parse_brim_template(text(j, "template", "brim", ""));
+  check_keys(j, "brim", section_keys("brim", {"key_points"}));
+  read_text_parameters(j, "brim", "brim", c);
   if (!j.contains("key_points")) return;
   const auto& k = j.at("key_points");
   require(k.is_array(), "case file: brim.key_points must be a list of {{\"theta_deg\", \"h_mm\"}}");
@@ -229,10 +200,10 @@ void parse_brim(const json& j, CaseFile& c) {
 /// socket.attachment (issue 22): the distal platform and its four holes.
 void parse_socket_attachment(const json& a, CaseFile& c) {
   const std::string w = "socket.attachment";
-  check_keys(a, w, section_keys(w, {"enabled", "bolt", "offset_mm"}));
+  check_keys(a, w, section_keys(w, {"enabled", "offset_mm"}));
   SocketAttachment& t = c.socket.attachment;
   t.enabled = flag(a, "enabled", w, true);
-  t.bolt = text(a, "bolt", w, t.bolt);
+  read_text_parameters(a, w, w, c);
   t.bolt_diameter_m = bolt_diameter_m(t.bolt);
   t.hole_diameter_m = clearance_hole_diameter_m(t.bolt);  // unless hole_diameter_mm is given
   read_parameters(a, w, w, c);
@@ -303,11 +274,9 @@ CaseFile read_case(const std::filesystem::path& path) {
 
 namespace {
 json limb_json(const CaseFile& c) {
-  json limb{{"bones", c.limb.bones}, {"type", geometry::to_string(c.limb.type)}};
-  if (!c.limb.file.empty()) limb["file"] = c.limb.file;
-  else limb["generate_seed"] = c.limb.generate_seed;
-  if (!c.limb.units.empty()) limb["units"] = c.limb.units;
-  if (c.limb.side) limb["side"] = geometry::to_string(*c.limb.side);
+  json limb = json::object();
+  write_text_parameters(limb, "limb", c);
+  if (c.limb.file.empty()) limb["generate_seed"] = c.limb.generate_seed;
   if (c.limb.anterior) limb["anterior"] = {c.limb.anterior->x(), c.limb.anterior->y(), c.limb.anterior->z()};
   if (c.limb.axis) limb["axis"] = {c.limb.axis->x(), c.limb.axis->y(), c.limb.axis->z()};
   write_parameters(limb, "limb", c);
@@ -317,8 +286,7 @@ json limb_json(const CaseFile& c) {
 json patient_json(const CaseFile& c) {
   json patient = json::object();
   write_parameters(patient, "patient", c);
-  if (!c.patient_id.empty()) patient["id"] = c.patient_id;
-  if (!c.patient_note.empty()) patient["note"] = c.patient_note;
+  write_text_parameters(patient, "patient", c);
   if (!c.thresholds.empty()) {
     json t = json::object();
     for (const auto& [code, v] : c.thresholds) t[code] = v / 1e3;
@@ -328,8 +296,9 @@ json patient_json(const CaseFile& c) {
 }
 
 json design_json(const CaseFile& c) {
-  json design{{"objective", objective_name(c.objective)}};
+  json design = json::object();
   write_parameters(design, "design", c);
+  write_text_parameters(design, "design", c);
   if (c.spots.empty()) {
     design["spots"] = "default";
   } else {
@@ -342,7 +311,7 @@ json design_json(const CaseFile& c) {
 
 json brim_json(const CaseFile& c) {
   json brim = json::object();
-  if (c.brim) brim["template"] = to_string(*c.brim);
+  write_text_parameters(brim, "brim", c);
   if (!c.brim_key_points.empty()) {
     json k = json::array();
     for (const auto& p : c.brim_key_points) {
@@ -362,7 +331,8 @@ json socket_json(const CaseFile& c) {
   socket["alignment"] = alignment;
   const SocketAttachment& t = c.socket.attachment;
   if (t.enabled) {
-    json a{{"bolt", t.bolt}, {"offset_mm", {t.offset_anterior_m / units::mm, t.offset_medial_m / units::mm}}};
+    json a{{"offset_mm", {t.offset_anterior_m / units::mm, t.offset_medial_m / units::mm}}};
+    write_text_parameters(a, "socket.attachment", c);
     write_parameters(a, "socket.attachment", c);
     socket["attachment"] = a;
   }
@@ -371,13 +341,11 @@ json socket_json(const CaseFile& c) {
 }  // namespace
 
 json case_to_json(const CaseFile& c) {
-  json tissue{{"model", c.model}, {"constants", c.constants}}, mesh = json::object();
+  json tissue = json::object(), mesh = json::object();
+  write_text_parameters(tissue, "tissue", c);  // the solve only when it is not the model's own
   write_parameters(tissue, "tissue", c);
   write_parameters(mesh, "mesh", c);
   if (c.poisson_ratio) tissue["poisson"] = *c.poisson_ratio;
-  // The solve is written only when it is not the model's own, so that a document whose model is
-  // edited (a replay case, a Python dict) gets the new model's solve, as a hand-written one does.
-  if (c.solve_mode != default_solve_mode(c.model)) tissue["solve"] = to_string(c.solve_mode);
   json doc{{"socketsmith_case", 1},  {"limb", limb_json(c)}, {"patient", patient_json(c)},
            {"tissue", tissue},        {"mesh", mesh},         {"design", design_json(c)},
            {"brim", brim_json(c)},    {"socket", socket_json(c)}};

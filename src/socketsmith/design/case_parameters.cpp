@@ -1,5 +1,6 @@
 #include "socketsmith/design/case_parameters.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <optional>
@@ -10,6 +11,7 @@
 #include "socketsmith/core/errors.h"
 #include "socketsmith/core/units.h"
 #include "socketsmith/design/case_file_detail.h"
+#include "socketsmith/geometry/limb_frame.h"
 
 namespace socketsmith::design {
 namespace {
@@ -73,9 +75,129 @@ Parameter<typename MemberPath<Path...>::Owner> flag(std::string_view key, std::s
           &MemberPath<Path...>::set};
 }
 
+template <auto... Path>
+using OwnerOf = typename MemberPath<Path...>::Owner;
+/// The type of the member at the end of Path, as declared (std::optional<geometry::Side>).
+template <auto... Path>
+using HeldBy = std::decay_t<decltype(MemberPath<Path...>::in(std::declval<OwnerOf<Path...>&>()))>;
+template <class T>
+struct Unoptional {
+  using type = T;
+};
+template <class T>
+struct Unoptional<std::optional<T>> {
+  using type = T;
+};
+/// The kind's value type: the member's, without its std::optional.
+template <auto... Path>
+using KindOf = typename Unoptional<HeldBy<Path...>>::type;
+
+template <class E>
+using Choices = std::vector<std::pair<std::string_view, E>>;
+
+std::string listed(const std::vector<std::string_view>& names) {
+  std::string out;
+  for (size_t i = 0; i < names.size(); ++i)
+    out += fmt::format("{}{}", i == 0 ? "" : i + 1 == names.size() ? " or " : ", ", names[i]);
+  return out;
+}
+
+bool is_listed(const std::vector<std::string_view>& names, const std::string& text) {
+  return std::find(names.begin(), names.end(), text) != names.end();
+}
+
+/// @p p not written while its value is that of a default-constructed owner.
+template <class Owner>
+TextParameter<Owner> unless_as_default(TextParameter<Owner> p) {
+  p.is_default = [get = p.get](const Owner& o) {
+    static const Owner kDefault{};
+    return get(o) == get(kDefault);
+  };
+  return p;
+}
+
+/// A name of a kind held as an enum (or a std::optional of one): @p choices pairs each allowed name
+/// with its value, in the order an error lists them. A name is read by @p parse, the kind's own
+/// parser (its aliases, its message), or without one looked up in choices: "<name> 'x' is not
+/// known (a, b or c)". The value is written as its name in choices.
+template <auto... Path>
+TextParameter<OwnerOf<Path...>> kind(std::string_view key, std::string_view help, Choices<KindOf<Path...>> choices,
+                                     KindOf<Path...> (*parse)(const std::string&) = nullptr,
+                                     Written written = Written::Always) {
+  using P = MemberPath<Path...>;
+  using E = KindOf<Path...>;
+  TextParameter<OwnerOf<Path...>> p{key, help, {}, written, {}, {}, {}};
+  for (const auto& c : choices) p.names.push_back(c.first);
+  p.get = [choices](const OwnerOf<Path...>& o) -> std::string {
+    const auto& held = P::in(o);
+    const E* v = nullptr;
+    if constexpr (IsOptional<HeldBy<Path...>>::value) v = held ? &*held : nullptr;
+    else v = &held;
+    for (const auto& [name, value] : choices)
+      if (v && value == *v) return std::string(name);
+    return "";
+  };
+  p.set = [choices, parse, names = p.names](OwnerOf<Path...>& o, const std::string& text, std::string_view name) {
+    if (parse) {
+      P::in(o) = parse(text);
+      return;
+    }
+    for (const auto& [n, value] : choices)
+      if (n == text) {
+        P::in(o) = value;
+        return;
+      }
+    fail("{} '{}' is not known ({})", name, text, listed(names));
+  };
+  return unless_as_default(p);
+}
+
+/// A name of a kind held as text (tissue.model "mss-cs"): one of @p names, checked by @p check (the
+/// kind's own check and message) or, without one, against names as kind() does.
+template <auto... Path>
+TextParameter<OwnerOf<Path...>> kind_text(std::string_view key, std::string_view help,
+                                          std::vector<std::string_view> names,
+                                          void (*check)(const std::string&) = nullptr,
+                                          Written written = Written::Always) {
+  using P = MemberPath<Path...>;
+  TextParameter<OwnerOf<Path...>> p{key, help, names, written, {}, {}, {}};
+  p.get = [](const OwnerOf<Path...>& o) { return std::string(P::in(o)); };
+  p.set = [check, names](OwnerOf<Path...>& o, const std::string& text, std::string_view name) {
+    if (check) check(text);
+    else require(is_listed(names, text), "{} '{}' is not known ({})", name, text, listed(names));
+    P::in(o) = text;
+  };
+  return unless_as_default(p);
+}
+
+/// Free text; @p if_empty, when given, refuses an empty text: "<name> is empty: <if_empty>".
+template <auto... Path>
+TextParameter<OwnerOf<Path...>> free_text(std::string_view key, std::string_view help, Written written,
+                                          std::string_view if_empty = {}) {
+  using P = MemberPath<Path...>;
+  TextParameter<OwnerOf<Path...>> p{key, help, {}, written, {}, {}, {}};
+  p.get = [](const OwnerOf<Path...>& o) { return std::string(P::in(o)); };
+  p.set = [if_empty](OwnerOf<Path...>& o, const std::string& text, std::string_view name) {
+    require(!text.empty() || if_empty.empty(), "{} is empty: {}", name, if_empty);
+    P::in(o) = text;
+  };
+  return unless_as_default(p);
+}
+
 using C = CaseFile;
 using S = Spot;
 using W = Written;
+using geometry::LimbType;
+using geometry::Side;
+using Objective = OptimizerOptions::Objective;
+
+/// tissue.solve is written only when it is not the tissue model's own (default_solve_mode), so that
+/// a document whose model is edited (a replay case, a Python dict) gets the new model's solve, as a
+/// hand-written one does.
+CaseTextParameter solve_written_unless_the_models(CaseTextParameter p) {
+  p.is_default = [](const CaseFile& c) { return c.solve_mode == default_solve_mode(c.model); };
+  return p;
+}
 }  // namespace
 
 // One line a parameter: the member, its limit (key, unit, range, hint — input_limits.h) and when
@@ -144,6 +266,63 @@ const std::vector<SpotParameter>& spot_parameters() {
   return table;
 }
 
+// One line a name or text: the member, its key, its help, its names with their values (and the
+// kind's own parser where it has one) and when it is written. Read in this order within a section.
+const std::vector<CaseTextParameter>& case_text_parameters() {
+  static const std::vector<CaseTextParameter> table{
+      free_text<&C::limb, &CaseLimb::file>(
+          "limb.file", "the scan: STL, OBJ, PLY or AOP, relative to the case file's folder; omitted: the generated "
+          "sample limb", W::UnlessDefault,
+          "give the scan's path (STL/OBJ/PLY), or remove 'file' to use the generated sample limb"),
+      free_text<&C::limb, &CaseLimb::bones>(
+          "limb.bones", "auto (bone shells in the file, else estimated) | estimate | none | a bone file", W::Always,
+          "give auto, estimate, none or the path of a bone file"),
+      kind_text<&C::limb, &CaseLimb::units>(
+          "limb.units", "what the limb file's numbers are; omitted: guessed from the size", {"mm", "m"},
+          [](const std::string& t) { if (!t.empty()) (void)units::parse_length_unit(t); }, W::UnlessDefault),
+      kind<&C::limb, &CaseLimb::type>("limb.type", "the amputation level",
+                                      {{"transtibial", LimbType::Transtibial}, {"transfemoral", LimbType::Transfemoral}},
+                                      &geometry::parse_limb_type),
+      kind<&C::limb, &CaseLimb::side>("limb.side", "the limb's side; omitted: from the fibula / hemipelvis, else estimated",
+                                      {{"right", Side::Right}, {"left", Side::Left}}, &geometry::parse_side,
+                                      W::UnlessDefault),
+      free_text<&C::patient_id>("patient.id", "the patient's identifier, shown in the report", W::UnlessDefault),
+      free_text<&C::patient_note>("patient.note", "free text, shown (escaped) in the report", W::UnlessDefault),
+      kind_text<&C::model>("tissue.model", "the stump's tissue model (docs/tissue.md)",
+                           {"mss-cs", "mss-cf", "mss", "fe", "neo-hookean"}),
+      kind_text<&C::constants>("tissue.constants", "the MSS-CS corrective springs' constants",
+                               {"cube-targets", "recommended", "thesis", "cube-fit"}),
+      solve_written_unless_the_models(kind<&C::solve_mode>(
+          "tissue.solve", "the design solve; omitted: the model's (nonlinear for neo-hookean, else linear)",
+          {{"nonlinear", DesignSolveMode::Nonlinear}, {"linear", DesignSolveMode::Linear},
+           {"auto", DesignSolveMode::Auto}},
+          &parse_design_solve_mode, W::UnlessDefault)),
+      kind<&C::objective>("design.objective",
+                          "pressure: most even pressure; ratio: most even pressure / threshold; uniform: least CV",
+                          {{"pressure", Objective::Pressure}, {"ratio", Objective::Ratio}, {"uniform", Objective::Uniform}}),
+      kind<&C::brim>("brim.template", "the brim's shape; omitted: the limb type's (ptb transtibial, ics transfemoral)",
+                     {{"ptb", BrimTemplate::Ptb}, {"ptb-sc", BrimTemplate::PtbSc}, {"ptb-scsp", BrimTemplate::PtbScsp},
+                      {"kbm", BrimTemplate::Kbm}, {"tsb", BrimTemplate::Tsb}, {"quad", BrimTemplate::Quad},
+                      {"ics", BrimTemplate::Ics}, {"custom", BrimTemplate::Custom}},
+                     &parse_brim_template, W::UnlessDefault),
+      kind_text<&C::socket, &SocketOptions::attachment, &SocketAttachment::bolt>(
+          "socket.attachment.bolt", "the adapter's bolt; sets the clearance hole by ISO 273 (medium)",
+          {"M4", "M5", "M6", "M8"}, [](const std::string& b) { (void)bolt_diameter_m(b); }),
+  };
+  return table;
+}
+
+const std::vector<SpotTextParameter>& spot_text_parameters() {
+  static const std::vector<SpotTextParameter> table{
+      free_text<&S::name>("design.spots[].name", "the spot's name", W::Always),
+      kind<&S::type>("design.spots[].type", "the spot's shape (thesis Table 6)",
+                     {{"cos2", SpotType::Cos2}, {"sig2", SpotType::Sig2}, {"cos-sig", SpotType::CosSig},
+                      {"grad", SpotType::Grad}},
+                     &parse_spot_type),
+  };
+  return table;
+}
+
 bool spot_type_uses(SpotType type, std::string_view name) {
   const auto any = [&](std::initializer_list<std::string_view> names) {
     for (auto n : names)
@@ -196,6 +375,36 @@ const SpotParameter* find_spot_parameter(std::string_view name) {
   return nullptr;
 }
 
+namespace {
+template <class Table>
+const typename Table::value_type* find_key(const Table& table, std::string_view key) {
+  for (const auto& p : table)
+    if (p.key == key) return &p;
+  return nullptr;
+}
+}  // namespace
+
+const CaseTextParameter* find_case_text_parameter(std::string_view key) {
+  return find_key(case_text_parameters(), key);
+}
+
+const SpotTextParameter* find_spot_text_parameter(std::string_view name) {
+  for (const auto& p : spot_text_parameters())
+    if (p.name() == name) return &p;
+  return nullptr;
+}
+
+template <class Owner>
+std::string listed_names(const TextParameter<Owner>& p) {
+  return listed(p.names);
+}
+
+void set_case_text(CaseFile& c, std::string_view key, const std::string& text, std::string_view name) {
+  const CaseTextParameter* p = find_case_text_parameter(key);
+  require(p != nullptr, "{}: '{}' is not a name or text of the case file (design/case_parameters.h)", name, key);
+  p->set(c, text, name);
+}
+
 template <class Owner>
 double file_value(const Parameter<Owner>& p, const Owner& owner) {
   return p.is_flag ? p.get(owner) : si_to_file(p.limit.unit, p.get(owner));
@@ -220,6 +429,12 @@ template <class Owner>
 const std::vector<Parameter<Owner>>& parameters() {
   if constexpr (std::is_same_v<Owner, Spot>) return spot_parameters();
   else return case_parameters();
+}
+
+template <class Owner>
+const std::vector<TextParameter<Owner>>& text_parameters() {
+  if constexpr (std::is_same_v<Owner, Spot>) return spot_text_parameters();
+  else return case_text_parameters();
 }
 
 bool same(double a, double b) { return a == b || (std::isnan(a) && std::isnan(b)); }
@@ -259,11 +474,31 @@ void write_parameters(json& j, std::string_view section, const Owner& owner) {
   }
 }
 
+template <class Owner>
+void read_text_parameters(const json& j, std::string_view section, const std::string& where, Owner& owner) {
+  for (const auto& p : text_parameters<Owner>()) {
+    const std::string key(p.name());
+    if (p.section() != section || !j.contains(key)) continue;
+    p.set(owner, detail::text(j, key, where, ""), fmt::format("case file: {}.{}", where, key));
+  }
+}
+
+template <class Owner>
+void write_text_parameters(json& j, std::string_view section, const Owner& owner) {
+  for (const auto& p : text_parameters<Owner>())
+    if (p.section() == section && (p.written == Written::Always || !p.is_default(owner)))
+      j[std::string(p.name())] = p.get(owner);
+}
+
 std::set<std::string> section_keys(std::string_view section, std::set<std::string> others) {
-  for (const auto& p : case_parameters())
-    if (p.section() == section) others.emplace(p.name());
-  for (const auto& p : spot_parameters())
-    if (p.section() == section) others.emplace(p.name());
+  const auto add = [&](const auto& table) {
+    for (const auto& p : table)
+      if (p.section() == section) others.emplace(p.name());
+  };
+  add(case_parameters());
+  add(spot_parameters());
+  add(case_text_parameters());
+  add(spot_text_parameters());
   return others;
 }
 
@@ -275,5 +510,11 @@ template void read_parameters(const json&, std::string_view, const std::string&,
 template void read_parameters(const json&, std::string_view, const std::string&, Spot&);
 template void write_parameters(json&, std::string_view, const CaseFile&);
 template void write_parameters(json&, std::string_view, const Spot&);
+template std::string listed_names(const CaseTextParameter&);
+template std::string listed_names(const SpotTextParameter&);
+template void read_text_parameters(const json&, std::string_view, const std::string&, CaseFile&);
+template void read_text_parameters(const json&, std::string_view, const std::string&, Spot&);
+template void write_text_parameters(json&, std::string_view, const CaseFile&);
+template void write_text_parameters(json&, std::string_view, const Spot&);
 
 }  // namespace socketsmith::design
