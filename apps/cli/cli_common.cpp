@@ -5,6 +5,10 @@
 #include <iostream>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
+
+#include "socketsmith/core/errors.h"
+#include "socketsmith/design/case_parameters.h"
 
 namespace socketsmith::cli {
 
@@ -38,14 +42,22 @@ CLI::Validator sign_check(bool is_zero_allowed) {
 CLI::Validator positive() { return sign_check(false); }
 CLI::Validator non_negative() { return sign_check(true); }
 
+std::vector<std::string> case_names(std::string_view key) {
+  const design::CaseTextParameter* p = design::find_case_text_parameter(key);
+  require(p != nullptr && !p->names.empty(), "case_names: '{}' is not a name of a kind in the case file", key);
+  return {p->names.begin(), p->names.end()};
+}
+
+std::string case_names_help(std::string_view key) { return fmt::format("{}", fmt::join(case_names(key), " | ")); }
+
 void add_model_flags(CLI::App& app, ModelFlags& f) {
   app.add_option("--model", f.model, "tissue model: mss-cs (thesis), mss-cf (Golec hybrid), mss (springs only), fe "
                  "(hexahedral finite elements, St Venant-Kirchhoff: CalculiX's C3D8 on the same mesh), neo-hookean (the "
                  "same elements, compressible neo-Hookean: CalculiX's *HYPERELASTIC, NEO HOOKE; large strains)")
-      ->check(CLI::IsMember({"mss", "mss-cs", "mss-cf", "fe", "neo-hookean"}));
+      ->check(CLI::IsMember(case_names("tissue.model")));
   app.add_option("--constants", f.constants, "MSS-CS constants preset: cube-targets (default: meets the cube's 5 %/2 %, carries the "
                  "sheared cube), recommended (same linearisation, no dead zone: 6.4 %/2.6 %), thesis or cube-fit; see docs/VALIDATION.md")
-      ->check(CLI::IsMember({"thesis", "recommended", "cube-fit", "cube-targets"}));
+      ->check(CLI::IsMember(case_names("tissue.constants")));
   app.add_option("--golec-a", f.golec_a, "override Golec's A (eq. 2), > 0");
   app.add_option("--alpha", f.alpha, "override the corrective rest-length ratio alpha (eq. 4), > 1");
   app.add_option("--c", f.c, "override the corrective stiffness constant C (eq. 8), >= 0");

@@ -2,6 +2,8 @@
 /// Shared pieces of the socketsmith command-line tool.
 
 #include <string>
+#include <string_view>
+#include <vector>
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
@@ -31,6 +33,12 @@ CLI::Validator within(const design::InputLimit& limit);
 CLI::Validator positive();
 /// A finite number ≥ 0.
 CLI::Validator non_negative();
+
+/// The names the case file allows for @p key ("tissue.model", design/case_parameters.h): a flag
+/// that takes the same names checks them with these (CLI::IsMember) ...
+std::vector<std::string> case_names(std::string_view key);
+/// ... and lists them in its help: "transtibial | transfemoral".
+std::string case_names_help(std::string_view key);
 
 void add_model_flags(CLI::App& app, ModelFlags& flags);
 tissue::MassSpringOptions make_model_options(const ModelFlags& flags);

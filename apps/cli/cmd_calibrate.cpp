@@ -127,7 +127,7 @@ void register_calibrate(CLI::App& app) {
   cube->add_option("--keep-linearisation", flags->keep_linearisation,
                    "keep A and the spring modulus ratio of this preset (fit alpha, C, beta only): the linearised model, "
                    "and every linear design, stays the same")
-      ->check(CLI::IsMember({"thesis", "recommended", "cube-fit", "cube-targets"}));
+      ->check(CLI::IsMember(case_names("tissue.constants")));
   cube->add_option("--min-dead-zone", flags->min_dead_zone,
                    "lower bound of the corrective dead zone d, a volume fraction (default 0; > 0 makes the nonlinear "
                    "model exactly its linearisation for volume changes up to d)")

@@ -101,8 +101,8 @@ void register_limb(CLI::App& app) {
   auto flags = std::make_shared<LimbFlags>();
   auto* gen = limb->add_subcommand(
       "generate", "generate a seeded residual limb (skin + bones) as a multi-shell mesh in mm with a .json sidecar");
-  gen->add_option("--type", flags->type, "transtibial | transfemoral")->required();
-  gen->add_option("--side", flags->side, "right | left (default right)");
+  gen->add_option("--type", flags->type, case_names_help("limb.type"))->required();
+  gen->add_option("--side", flags->side, case_names_help("limb.side") + " (default right)");
   gen->add_option("--seed", flags->seed, "seed of the shape jitter (0: the nominal limb; default 1)");
   gen->add_option("--length-mm", flags->length_mm,
                   "residual length [mm]: knee joint line to distal end (transtibial), proximal cut to distal end "

@@ -325,14 +325,14 @@ void register_mesh(CLI::App& app) {
                   "bones: FILE | auto (shells of the limb file, else estimated) | estimate | none");
   cmd->add_option("--units", f->units, "length unit of the files: mm | m (default: guessed from the size)");
   cmd->add_option("--scale", f->scale, "multiply coordinates after unit conversion (e.g. 0.45 for femur-normalised shapes)");
-  cmd->add_option("--type", f->type, "transtibial | transfemoral");
+  cmd->add_option("--type", f->type, case_names_help("limb.type"));
   cmd->add_option("--anterior", f->anterior, "front of the limb as a direction x,y,z in the file's frame");
   cmd->add_option("--axis", f->axis,
                   "long axis of the limb, distal to proximal, as x,y,z in the file's frame (default: the femur's "
                   "shaft, else estimated from the skin)");
   cmd->add_flag("--force-size", f->force_size,
                 "accept a limb whose size after units and --scale is outside the anatomical range of its type");
-  cmd->add_option("--side", f->side, "right | left");
+  cmd->add_option("--side", f->side, case_names_help("limb.side"));
   // The case file's range (a cut of 0 or below was silently read as "not given").
   cmd->add_option("--cut-height-mm", f->cut_height_mm, "proximal cut above the distal end (default: just below the open rim)")
       ->check(within(design::limits::kCutHeight));

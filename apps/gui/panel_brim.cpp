@@ -6,6 +6,7 @@
 #include <imgui.h>
 
 #include "app_impl.h"
+#include "socketsmith/design/case_parameters.h"
 
 namespace socketsmith::gui {
 
@@ -13,12 +14,13 @@ namespace socketsmith::gui {
 void App::draw_brim_panel() {
   const design::CaseFile& doc = session_.document();
   const pipeline::DesignSetup& setup = *session_.setup();
-  const bool tt = setup.model.type == geometry::LimbType::Transtibial;
-  const std::vector<design::BrimTemplate> kinds =
-      tt ? std::vector<design::BrimTemplate>{design::BrimTemplate::Ptb, design::BrimTemplate::PtbSc,
-                                             design::BrimTemplate::PtbScsp, design::BrimTemplate::Kbm,
-                                             design::BrimTemplate::Tsb}
-         : std::vector<design::BrimTemplate>{design::BrimTemplate::Quad, design::BrimTemplate::Ics};
+  // The templates of this limb's type, as the case file names them (case_parameters.h).
+  const design::CaseTextParameter& brim = *design::find_case_text_parameter("brim.template");
+  std::vector<design::BrimTemplate> kinds;
+  for (std::string_view name : brim.names) {
+    const design::BrimTemplate k = design::parse_brim_template(std::string(name));
+    if (k != design::BrimTemplate::Custom && design::limb_type_of(k) == setup.model.type) kinds.push_back(k);
+  }
   const std::string current = design::to_string(doc.brim.value_or(design::default_brim(setup.model.type))) +
                               (doc.brim_key_points.empty() ? "" : " (edited)");
   if (ImGui::BeginCombo("template", current.c_str())) {
@@ -26,6 +28,7 @@ void App::draw_brim_panel() {
       if (ImGui::Selectable(design::to_string(k).c_str(), k == doc.brim)) session_.set_brim_template(k);
     ImGui::EndCombo();
   }
+  if (ImGui::IsItemHovered()) ImGui::SetTooltip("%s", std::string(brim.help).c_str());
   const auto key_points = setup.brim.key_points();  // a copy: a move replaces the setup's brim
   for (int i = 0; i < static_cast<int>(key_points.size()); ++i) {
     ImGui::PushID(1000 + i);

@@ -21,9 +21,15 @@ void App::draw_design_panel() {
   }
   if (ImGui::CollapsingHeader("Spots", ImGuiTreeNodeFlags_DefaultOpen)) {
     ImGui::BeginDisabled(session_.is_optimising());  // the optimiser's result replaces the spots
-    const char* types[] = {"cos2", "sig2", "cos-sig", "grad"};
+    // The spot types as the case file names them (case_parameters.h); the view places the chosen one.
+    const design::SpotTextParameter& type = *design::find_spot_text_parameter("type");
     ImGui::SetNextItemWidth(90);
-    ImGui::Combo("type", &new_spot_type_, types, 4);
+    if (ImGui::BeginCombo("type", std::string(type.names[new_spot_type_]).c_str())) {
+      for (int i = 0; i < static_cast<int>(type.names.size()); ++i)
+        if (ImGui::Selectable(std::string(type.names[i]).c_str(), i == new_spot_type_)) new_spot_type_ = i;
+      ImGui::EndCombo();
+    }
+    if (ImGui::IsItemHovered()) ImGui::SetTooltip("%s", std::string(type.help).c_str());
     ImGui::SameLine();
     ImGui::SetNextItemWidth(90);
     ImGui::DragFloat("kPa", &new_spot_amplitude_kpa_, 0.5f, 0.0f, 500.0f, "%.1f");

@@ -9,6 +9,7 @@
 
 #include "app_impl.h"
 #include "socketsmith/core/errors.h"
+#include "socketsmith/design/case_parameters.h"
 
 namespace socketsmith::gui {
 
@@ -52,10 +53,9 @@ void App::handle_view_input(int x, int y, int width, int height) {
     if (is_placing_spot_ && drag_distance_px_ < 4 && session_.has_design()) {
       const auto [o, dir] = camera_.ray(m.x - x, m.y - y, width, height);
       if (const auto hit = pick(skin, o, dir)) {
-        const design::SpotType types[] = {design::SpotType::Cos2, design::SpotType::Sig2, design::SpotType::CosSig,
-                                          design::SpotType::Grad};
+        const std::string_view type = design::find_spot_text_parameter("type")->names[new_spot_type_];
         try {
-          add_spot_at(hit->point, types[new_spot_type_], new_spot_amplitude_kpa_ * 1e3);
+          add_spot_at(hit->point, design::parse_spot_type(std::string(type)), new_spot_amplitude_kpa_ * 1e3);
         } catch (const Error& e) {
           session_.show_error(e.what());
         }
