@@ -198,6 +198,18 @@ CaseTextParameter solve_written_unless_the_models(CaseTextParameter p) {
   p.is_default = [](const CaseFile& c) { return c.solve_mode == default_solve_mode(c.model); };
   return p;
 }
+
+/// socket.attachment.bolt sets the bolt's diameter and its clearance hole by ISO 273 beside the
+/// name (a hole_diameter_mm read after it overrides the hole).
+CaseTextParameter bolt_sets_its_hole(CaseTextParameter p) {
+  p.set = [set = p.set](CaseFile& c, const std::string& text, std::string_view name) {
+    set(c, text, name);
+    SocketAttachment& t = c.socket.attachment;
+    t.bolt_diameter_m = bolt_diameter_m(t.bolt);
+    t.hole_diameter_m = clearance_hole_diameter_m(t.bolt);
+  };
+  return p;
+}
 }  // namespace
 
 // One line a parameter: the member, its limit (key, unit, range, hint — input_limits.h) and when
@@ -305,9 +317,9 @@ const std::vector<CaseTextParameter>& case_text_parameters() {
                       {"kbm", BrimTemplate::Kbm}, {"tsb", BrimTemplate::Tsb}, {"quad", BrimTemplate::Quad},
                       {"ics", BrimTemplate::Ics}, {"custom", BrimTemplate::Custom}},
                      &parse_brim_template, W::UnlessDefault),
-      kind_text<&C::socket, &SocketOptions::attachment, &SocketAttachment::bolt>(
+      bolt_sets_its_hole(kind_text<&C::socket, &SocketOptions::attachment, &SocketAttachment::bolt>(
           "socket.attachment.bolt", "the adapter's bolt; sets the clearance hole by ISO 273 (medium)",
-          {"M4", "M5", "M6", "M8"}, [](const std::string& b) { (void)bolt_diameter_m(b); }),
+          {"M4", "M5", "M6", "M8"}, [](const std::string& b) { (void)bolt_diameter_m(b); })),
   };
   return table;
 }
