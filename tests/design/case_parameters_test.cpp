@@ -200,7 +200,9 @@ TEST(CaseParameters, every_name_of_every_kind_is_written_and_read_back) {
       p.set(c, std::string(name), "test");
       EXPECT_EQ(p.get(c), name);
       const json written = case_to_json(c);
-      if (p.written == Written::Always || !p.is_default(c)) EXPECT_EQ(written_at(written, p), name);
+      if (p.written == Written::Always || !p.is_default(c)) {
+        EXPECT_EQ(written_at(written, p), name);
+      }
       const CaseFile back = parse_case(written);
       EXPECT_EQ(p.get(back), name);
       EXPECT_EQ(case_to_json(back), written);
@@ -332,7 +334,9 @@ TEST(CaseParameters, every_key_a_written_case_holds_is_in_a_table_or_in_the_by_h
   for (const auto& k : keys) EXPECT_TRUE(tables.count(k) || by_hand.count(k)) << k << " is written by hand, unlisted";
   for (const auto& k : by_hand) {
     EXPECT_EQ(tables.count(k), 0u) << k << " is in a table and in the by-hand list";
-    if (k != "socket.attachment.enabled") EXPECT_EQ(keys.count(k), 1u) << k << " is listed by hand but not written";
+    if (k != "socket.attachment.enabled") {
+      EXPECT_EQ(keys.count(k), 1u) << k << " is listed by hand but not written";
+    }
   }
 }
 
