@@ -92,23 +92,6 @@ tissue::MassSpringOptions make_model_options(const ModelFlags& f) {
 
 tissue::TissueMaterial make_material(const ModelFlags& f) { return {f.youngs_modulus_kpa * 1e3, f.density}; }
 
-nlohmann::json to_json(const tissue::MassSpringOptions& o, const tissue::TissueMaterial& m) {
-  nlohmann::json j;
-  j["model"] = tissue::to_string(o.kind);
-  j["youngs_modulus_pa"] = m.youngs_modulus_pa;
-  j["density_kg_m3"] = m.density_kg_m3;
-  if (o.kind == tissue::TissueModelKind::MssCs)
-    j["corrective"] = {{"golec_a", o.corrective.golec_a}, {"alpha", o.corrective.alpha}, {"c", o.corrective.c},
-                       {"beta", o.corrective.beta}, {"law", tissue::to_string(o.corrective.law)},
-                       {"spring_modulus_ratio", o.corrective.spring_modulus_ratio},
-                       {"dead_zone", o.corrective.dead_zone}};
-  else
-    j["golec_a"] = o.corrective.golec_a;
-  if (o.kind == tissue::TissueModelKind::MssCf) j["cf_poisson_ratio"] = o.cf_poisson_ratio;
-  if (tissue::is_continuum(o.kind)) j["fe_poisson_ratio"] = o.fe_poisson_ratio;
-  return j;
-}
-
 void print_json(const nlohmann::json& j) { std::cout << j.dump(2) << std::endl; }
 
 }  // namespace socketsmith::cli

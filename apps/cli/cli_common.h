@@ -43,7 +43,6 @@ std::string case_names_help(std::string_view key);
 void add_model_flags(CLI::App& app, ModelFlags& flags);
 tissue::MassSpringOptions make_model_options(const ModelFlags& flags);
 tissue::TissueMaterial make_material(const ModelFlags& flags);
-nlohmann::json to_json(const tissue::MassSpringOptions& options, const tissue::TissueMaterial& material);
 
 /// Prints JSON to stdout (for --json).
 void print_json(const nlohmann::json& j);
