@@ -95,14 +95,4 @@ scan::TruthEstimate parse_truth(const std::string& t, const char* cmd) {
   fail("{}: --truth '{}' is not known (expected pnp or kabsch)", cmd, t);
 }
 
-nlohmann::json pair_errors_json(const scan::PairErrors& e) {
-  return {{"mean_mm", e.mean_m / units::mm}, {"rms_mm", e.rms_m / units::mm}, {"min_mm", e.min_m / units::mm},
-          {"max_mm", e.max_m / units::mm}, {"pairs", e.pairs}};
-}
-
-nlohmann::json registration_json(const scan::RegistrationResult& r) {
-  return {{"method", r.method}, {"iterations", r.iterations}, {"converged", r.converged},
-          {"initial", pair_errors_json(r.initial)}, {"final", pair_errors_json(r.final)}};
-}
-
 }  // namespace socketsmith::cli::scan_cli

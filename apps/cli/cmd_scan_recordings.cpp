@@ -272,11 +272,7 @@ void run_calibrate(const CalibrateFlags& f) {
   for (const auto& s : rec.sensors) {
     const scan::SensorCalibrationResult r = scan::calibrate_sensor(s, pattern, o, progress);
     models.push_back(r.model);
-    scan::EdgeErrors before, after;
-    for (const auto& ob : r.observations) {
-      before.add(ob.detection, scan::compensated_corners(ob.detection, nullptr));
-      after.add(ob.detection, scan::compensated_corners(ob.detection, &r.model));
-    }
+    const scan::TrainingDimensionErrors dim = scan::training_dimension_errors(r);
     nlohmann::json e;
     e["name"] = s.name;
     e["frames"] = s.frames.size();
@@ -287,7 +283,7 @@ void run_calibrate(const CalibrateFlags& f) {
     e["fx_px"] = r.fx;
     e["fy_px"] = r.fy;
     e["corner_rms_mm"] = {{"before", r.rms_before_mm}, {"after", r.rms_after_mm}};
-    e["dimension_error_mm"] = {{"before", before.stats().mean_mm}, {"after", after.stats().mean_mm}};
+    e["dimension_error_mm"] = {{"before", dim.before.mean_mm}, {"after", dim.after.mean_mm}};
     e["model"] = f.model;
     js.push_back(e);
     if (!f.json)
@@ -296,7 +292,7 @@ void run_calibrate(const CalibrateFlags& f) {
                 s.name, r.observations.size(), s.frames.size() / static_cast<size_t>(o.frames_per_pose),
                 o.frames_per_pose == 1 ? "frames" : fmt::format("poses of {} frames", o.frames_per_pose),
                 r.model.corners, r.rms_before_mm, r.rms_after_mm,
-                before.stats().mean_mm, after.stats().mean_mm, r.fx, r.fy);
+                dim.before.mean_mm, dim.after.mean_mm, r.fx, r.fy);
   }
   scan::write_compensation_json(f.out, models);
   nlohmann::json j;
@@ -341,7 +337,7 @@ void run_register(const RegisterFlags& f) {
     for (int b = a + 1; b < refs.num_sensors(); ++b)
       if (const int n = refs.shared(a, b); n > 0) shared[refs.sensor_names[static_cast<size_t>(a)] + "-" + refs.sensor_names[static_cast<size_t>(b)]] = n;
   j["shared_points"] = shared;
-  j["registration"] = registration_json(r);
+  j["registration"] = scan::registration_json(r);
   nlohmann::json moved = nlohmann::json::array();
   for (size_t s = 0; s < start.size(); ++s) {
     const scan::PoseError e = scan::pose_error(r.world_from_sensor[s], start[s]);
@@ -349,7 +345,7 @@ void run_register(const RegisterFlags& f) {
                      {"turned_deg", e.rotation_rad * 180.0 / M_PI}});
   }
   j["pose_changes"] = moved;
-  scan::write_rig_file(f.out, refs.sensor_names, r.world_from_sensor, registration_json(r).dump());
+  scan::write_rig_file(f.out, refs.sensor_names, r.world_from_sensor, scan::registration_json(r).dump());
   j["wall_s"] = elapsed_s(t0);
   if (f.json) {
     print_json(j);

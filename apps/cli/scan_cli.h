@@ -194,8 +194,6 @@ std::vector<scan::ErrorCompensation> ring_compensation(const std::string& path, 
 scan::CompensationForm parse_model(const std::string& name, const char* cmd);
 scan::CornerDepth parse_corner_depth(const std::string& name, const char* cmd);
 scan::TruthEstimate parse_truth(const std::string& t, const char* cmd);
-nlohmann::json pair_errors_json(const scan::PairErrors& e);
-nlohmann::json registration_json(const scan::RegistrationResult& r);
 
 // The runs on recordings (cmd_scan_recordings.cpp).
 void run_simulate(const SimulateFlags& f);

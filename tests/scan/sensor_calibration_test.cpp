@@ -70,6 +70,22 @@ TEST(SensorCalibration, learned_compensation_reduces_held_out_chessboard_errors)
   }
 }
 
+TEST(SensorCalibration, the_training_dimension_errors_are_those_of_its_own_boards_without_and_with_the_model) {
+  const Session& x = session();
+  const SensorCalibrationResult r = calibrate_sensor(x.training.sensors[0], *x.training.chessboard);
+  const TrainingDimensionErrors e = training_dimension_errors(r);
+  EdgeErrors raw;
+  for (const auto& ob : r.observations) raw.add(ob.detection, compensated_corners(ob.detection, nullptr));
+  EXPECT_EQ(e.before.mean_mm, raw.stats().mean_mm);
+  EXPECT_EQ(e.before.count, raw.stats().count);
+  EXPECT_EQ(e.after.count, e.before.count) << "the same corners, corrected";
+  EXPECT_GT(e.before.count, 0);
+  EXPECT_LT(e.after.mean_mm, e.before.mean_mm) << "the model fits its own boards";
+  SensorCalibrationResult none = r;
+  none.observations.clear();
+  EXPECT_EQ(training_dimension_errors(none).before.count, 0);
+}
+
 TEST(SensorCalibration, ray_polynomial_model_follows_the_radial_and_wiggling_depth_errors_better_than_linear_rates) {
   // The session's unit has the default radial bias (3 mm × ρ²) and wiggling (1.5 mm, period 0.5 m):
   // neither is linear in (u, v, d).

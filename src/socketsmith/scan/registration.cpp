@@ -14,6 +14,7 @@
 
 #include "socketsmith/core/atomic_file.h"
 #include "socketsmith/core/errors.h"
+#include "socketsmith/core/units.h"
 #include "socketsmith/scan/sensor_calibration.h"
 
 namespace socketsmith::scan {
@@ -117,6 +118,16 @@ PairErrors pair_errors(const ReferenceSet& refs, const std::vector<Eigen::Isomet
   e.mean_m = sum / e.pairs;
   e.rms_m = std::sqrt(sum2 / e.pairs);
   return e;
+}
+
+nlohmann::json pair_errors_json(const PairErrors& e) {
+  return {{"mean_mm", e.mean_m / units::mm}, {"rms_mm", e.rms_m / units::mm}, {"min_mm", e.min_m / units::mm},
+          {"max_mm", e.max_m / units::mm}, {"pairs", e.pairs}};
+}
+
+nlohmann::json registration_json(const RegistrationResult& r) {
+  return {{"method", r.method}, {"iterations", r.iterations}, {"converged", r.converged},
+          {"initial", pair_errors_json(r.initial)}, {"final", pair_errors_json(r.final)}};
 }
 
 RegistrationResult register_multiset(const ReferenceSet& refs, const std::vector<Eigen::Isometry3d>& initial,

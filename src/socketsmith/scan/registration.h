@@ -11,6 +11,7 @@
 #include <vector>
 
 #include <Eigen/Geometry>
+#include <nlohmann/json.hpp>
 
 #include "socketsmith/core/progress.h"
 #include "socketsmith/scan/chessboard.h"
@@ -47,6 +48,8 @@ struct PairErrors {
   int pairs = 0;
 };
 PairErrors pair_errors(const ReferenceSet& refs, const std::vector<Eigen::Isometry3d>& world_from_sensor);
+/// {"mean_mm", "rms_mm", "min_mm", "max_mm", "pairs"}: the reports' form of @p e.
+nlohmann::json pair_errors_json(const PairErrors& e);
 
 /// Settings of the registrations.
 struct RegistrationOptions {
@@ -65,6 +68,9 @@ struct RegistrationResult {
   bool converged = false;
   std::string method;   ///< "multi-set" or "sequential"
 };
+/// {"method", "iterations", "converged", "initial", "final"} (pair_errors_json): the reports' and
+/// the rig files' form of @p r.
+nlohmann::json registration_json(const RegistrationResult& r);
 
 /// Multi-set registration (thesis Table 2), starting from @p initial (one pose per sensor).
 /// @throws InvalidInputError naming the sensor when one shares fewer than min_shared_points

@@ -332,6 +332,15 @@ DimensionStats EdgeErrors::stats() const {
   return s;
 }
 
+TrainingDimensionErrors training_dimension_errors(const SensorCalibrationResult& r) {
+  EdgeErrors before, after;
+  for (const auto& ob : r.observations) {
+    before.add(ob.detection, compensated_corners(ob.detection, nullptr));
+    after.add(ob.detection, compensated_corners(ob.detection, &r.model));
+  }
+  return {before.stats(), after.stats()};
+}
+
 SensorCalibrationResult calibrate_sensor(const SensorRecording& sensor, const ChessboardPattern& pattern,
                                          const SensorCalibrationOptions& o, const ProgressCallback& progress) {
   check_calibration_inputs(sensor, pattern, o);

@@ -96,4 +96,12 @@ struct EdgeErrors {
 /// Corners of @p detection corrected by @p model ((I − ε) P), or unchanged when null.
 std::vector<Eigen::Vector3d> compensated_corners(const ChessboardDetection& detection, const ErrorCompensation* model);
 
+/// A calibration's dimension errors on its own training poses, without and with the model it
+/// learned (`scan calibrate`'s "dimension_error_mm"; the held-out frames are the chessboard
+/// experiment's, experiments.h).
+struct TrainingDimensionErrors {
+  DimensionStats before, after;
+};
+TrainingDimensionErrors training_dimension_errors(const SensorCalibrationResult& result);
+
 }  // namespace socketsmith::scan
