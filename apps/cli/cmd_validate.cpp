@@ -3,16 +3,12 @@
 #include <filesystem>
 
 #include "cli_common.h"
-#include "socketsmith/core/atomic_file.h"
 #include "socketsmith/core/errors.h"
 #include "socketsmith/core/log.h"
 #include "socketsmith/core/progress.h"
 #include "socketsmith/calculix/cube_validation.h"
 #include "socketsmith/pipeline/design_pipeline.h"
 #include "socketsmith/pipeline/design_validation.h"
-#include "socketsmith/report/csv.h"
-#include "socketsmith/report/plot_raster.h"
-#include "socketsmith/report/svg_plot.h"
 
 namespace socketsmith::cli {
 namespace {
@@ -54,7 +50,6 @@ struct CubeFlags {
 
 void run_validate_cube(const CubeFlags& f) {
   const fs::path out(f.out);
-  ensure_directory(out);
   calculix::CubeFeOptions o;
   o.edge_m = f.edge_mm * 1e-3;
   o.divisions = f.divisions;
@@ -64,53 +59,12 @@ void run_validate_cube(const CubeFlags& f) {
   o.increments = f.increments;
   o.element = calculix::parse_element_type(f.element);
   o.ccx = ccx_options(f.ccx);
-  const auto r = calculix::run_cube_fe(o, out);
-  std::vector<std::vector<double>> rows;
-  for (size_t k = 0; k < r.force_n.size(); ++k)
-    rows.push_back({r.force_n[k], r.fe_displacement_m[k] * 1e3, r.analytic_displacement_m[k] * 1e3,
-                    r.fe_pressure_pa[k] / 1e3, r.analytic_pressure_pa[k] / 1e3});
-  report::write_csv(out / "cube_fe.csv",
-                    {"force_n", "fe_displacement_mm", "analytic_displacement_mm", "fe_pressure_kpa", "analytic_pressure_kpa"},
-                    rows);
-  const auto scaled = [](const std::vector<double>& v, double s) {
-    std::vector<double> o2;
-    for (double x : v) o2.push_back(x * s);
-    return o2;
-  };
-  report::Plot pd;
-  pd.title = "Cube: top displacement, CalculiX vs analytic";
-  pd.x_label = "plate force [N]";
-  pd.y_label = "displacement [mm]";
-  pd.series = {{"CalculiX", r.force_n, scaled(r.fe_displacement_m, 1e3), "", false, true, 2},
-               {"analytic F L / (A E)", r.force_n, scaled(r.analytic_displacement_m, 1e3), "", true, false, 2}};
-  report::Plot pp = pd;
-  pp.title = "Cube: top contact pressure, CalculiX vs analytic";
-  pp.y_label = "pressure [kPa]";
-  pp.series = {{"CalculiX (mean nodal CPRESS)", r.force_n, scaled(r.fe_pressure_pa, 1e-3), "", false, true, 2},
-               {"analytic F / (A (1 + ν ε)²)", r.force_n, scaled(r.analytic_pressure_pa, 1e-3), "", true, false, 2}};
-  report::write_svg_grid(out / "cube_fe.svg", {pd, pp}, 2);
-  report::write_plot_grid_png(out / "cube_fe.png", {pd, pp}, 2);
-  nlohmann::json j{{"nodes", r.nodes},
-                   {"elements", r.elements},
-                   {"element", calculix::to_string(o.element)},
-                   {"youngs_modulus_kpa", f.youngs_kpa},
-                   {"poisson_ratio", f.poisson},
-                   {"max_force_n", r.force_n.back()},
-                   {"max_displacement_rel_error", r.max_displacement_rel_error},
-                   {"max_pressure_rel_error", r.max_pressure_rel_error},
-                   {"displacement", report::to_json(r.displacement, 1e3, "_mm")},
-                   {"pressure", report::to_json(r.pressure, 1e-3, "_kpa")},
-                   {"pressure_without_edges", report::to_json(r.interior_pressure, 1e-3, "_kpa")},
-                   {"ccx_wall_s", r.ccx.wall_s},
-                   {"ccx_increments", r.ccx.increments},
-                   {"deck", "cube.inp"},
-                   {"outputs", {"cube.inp", "cube.frd", "cube.dat", "cube.log", "cube_fe.csv", "cube_fe.svg", "cube_fe.png", "summary.json"}},
-                   {"out", out.string()}};
-  write_text_atomically(out / "summary.json", j.dump(2) + "\n");
+  const calculix::CubeFeValidation v = calculix::validate_cube_fe(o, out);
   if (f.json) {
-    print_json(j);
+    print_json(v.summary);
     return;
   }
+  const calculix::CubeFeResult& r = v.result;
   log::info("validate cube: {} nodes, {} elements ({}), ccx {:.1f} s", r.nodes, r.elements, calculix::to_string(o.element),
             r.ccx.wall_s);
   log::info("validate cube: top displacement max error {:.2f} % of analytic; contact pressure max error {:.2f} %, "

@@ -1,6 +1,7 @@
 // CalculiX for real: the cube against the analytic solution (a coarse lattice, a few seconds),
 // and the runner's answers when ccx is missing or rejects a deck.
 #include <filesystem>
+#include <fstream>
 
 #include <gtest/gtest.h>
 
@@ -105,6 +106,34 @@ TEST(CubeFe, calculix_matches_the_analytic_uniaxial_solution) {
   EXPECT_LT(r.max_pressure_rel_error, 0.02);  // ccx's contact area vs (1 + ν ε)²: 1.4 %
   EXPECT_GT(r.pressure.r, 0.98);
   EXPECT_TRUE(fs::exists(r.deck));
+}
+
+TEST(CubeFe, the_validation_writes_its_table_plots_and_a_summary_of_the_run) {
+  if (!have_ccx()) GTEST_SKIP() << "ccx not installed (calculix-ccx)";
+  CubeFeOptions o;
+  o.divisions = 2;
+  o.increments = 2;
+  o.youngs_modulus_pa = 40e3;
+  const fs::path out = fs::path(SOCKETSMITH_BINARY_DIR) / "fe_test_runs" / "cube_validation";
+  fs::remove_all(out);
+  const CubeFeValidation v = validate_cube_fe(o, out);
+  for (const char* name : {"cube.inp", "cube_fe.csv", "cube_fe.svg", "cube_fe.png", "summary.json"})
+    EXPECT_TRUE(fs::exists(out / name)) << name;
+  const nlohmann::json& j = v.summary;
+  std::ifstream in(out / "summary.json");
+  EXPECT_EQ(j, nlohmann::json::parse(in));
+  EXPECT_EQ(j["nodes"], 27);
+  EXPECT_EQ(j["elements"], 8);
+  EXPECT_EQ(j["element"], "C3D8");
+  EXPECT_EQ(j["youngs_modulus_kpa"], 40.0);
+  EXPECT_EQ(j["poisson_ratio"], 0.45);
+  EXPECT_NEAR(j["max_force_n"].get<double>(), 8.0, 0.05);
+  EXPECT_LT(j["max_displacement_rel_error"].get<double>(), 0.02);
+  EXPECT_EQ(j["max_displacement_rel_error"], v.result.max_displacement_rel_error);
+  EXPECT_TRUE(j["displacement"].contains("mae_mm"));
+  EXPECT_TRUE(j["pressure"].contains("mae_kpa"));
+  EXPECT_EQ(j["outputs"].size(), 8u);
+  EXPECT_EQ(j["out"], out.string());
 }
 
 }  // namespace

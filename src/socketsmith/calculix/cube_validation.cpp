@@ -9,6 +9,9 @@
 #include "socketsmith/core/errors.h"
 #include "socketsmith/calculix/dat_reader.h"
 #include "socketsmith/calculix/frd_reader.h"
+#include "socketsmith/report/csv.h"
+#include "socketsmith/report/plot_raster.h"
+#include "socketsmith/report/svg_plot.h"
 #include "socketsmith/volume/box_mesher.h"
 
 namespace socketsmith::calculix {
@@ -181,6 +184,66 @@ CubeFeResult run_cube_fe(const CubeFeOptions& o, const std::filesystem::path& di
                       res.ccx.frd.string(), res.ccx.dat.string(), res.ccx.log.string());
   compare_with_analytic(nodal, res);
   return res;
+}
+
+namespace {
+
+std::vector<double> scaled(const std::vector<double>& v, double s) {
+  std::vector<double> out;
+  for (double x : v) out.push_back(x * s);
+  return out;
+}
+
+/// cube_fe.csv, cube_fe.svg and cube_fe.png: CalculiX against the analytic solution.
+void write_cube_fe_files(const CubeFeResult& r, const std::filesystem::path& out) {
+  std::vector<std::vector<double>> rows;
+  for (size_t k = 0; k < r.force_n.size(); ++k)
+    rows.push_back({r.force_n[k], r.fe_displacement_m[k] * 1e3, r.analytic_displacement_m[k] * 1e3,
+                    r.fe_pressure_pa[k] / 1e3, r.analytic_pressure_pa[k] / 1e3});
+  report::write_csv(out / "cube_fe.csv",
+                    {"force_n", "fe_displacement_mm", "analytic_displacement_mm", "fe_pressure_kpa", "analytic_pressure_kpa"},
+                    rows);
+  report::Plot pd;
+  pd.title = "Cube: top displacement, CalculiX vs analytic";
+  pd.x_label = "plate force [N]";
+  pd.y_label = "displacement [mm]";
+  pd.series = {{"CalculiX", r.force_n, scaled(r.fe_displacement_m, 1e3), "", false, true, 2},
+               {"analytic F L / (A E)", r.force_n, scaled(r.analytic_displacement_m, 1e3), "", true, false, 2}};
+  report::Plot pp = pd;
+  pp.title = "Cube: top contact pressure, CalculiX vs analytic";
+  pp.y_label = "pressure [kPa]";
+  pp.series = {{"CalculiX (mean nodal CPRESS)", r.force_n, scaled(r.fe_pressure_pa, 1e-3), "", false, true, 2},
+               {"analytic F / (A (1 + ν ε)²)", r.force_n, scaled(r.analytic_pressure_pa, 1e-3), "", true, false, 2}};
+  report::write_svg_grid(out / "cube_fe.svg", {pd, pp}, 2);
+  report::write_plot_grid_png(out / "cube_fe.png", {pd, pp}, 2);
+}
+
+}  // namespace
+
+CubeFeValidation validate_cube_fe(const CubeFeOptions& o, const std::filesystem::path& out) {
+  ensure_directory(out);
+  CubeFeValidation v;
+  v.result = run_cube_fe(o, out);
+  const CubeFeResult& r = v.result;
+  write_cube_fe_files(r, out);
+  v.summary = {{"nodes", r.nodes},
+               {"elements", r.elements},
+               {"element", to_string(o.element)},
+               {"youngs_modulus_kpa", o.youngs_modulus_pa / 1e3},
+               {"poisson_ratio", o.poisson_ratio},
+               {"max_force_n", r.force_n.back()},
+               {"max_displacement_rel_error", r.max_displacement_rel_error},
+               {"max_pressure_rel_error", r.max_pressure_rel_error},
+               {"displacement", report::to_json(r.displacement, 1e3, "_mm")},
+               {"pressure", report::to_json(r.pressure, 1e-3, "_kpa")},
+               {"pressure_without_edges", report::to_json(r.interior_pressure, 1e-3, "_kpa")},
+               {"ccx_wall_s", r.ccx.wall_s},
+               {"ccx_increments", r.ccx.increments},
+               {"deck", "cube.inp"},
+               {"outputs", {"cube.inp", "cube.frd", "cube.dat", "cube.log", "cube_fe.csv", "cube_fe.svg", "cube_fe.png", "summary.json"}},
+               {"out", out.string()}};
+  write_text_atomically(out / "summary.json", v.summary.dump(2) + "\n");
+  return v;
 }
 
 }  // namespace socketsmith::calculix

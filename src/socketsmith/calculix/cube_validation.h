@@ -10,11 +10,14 @@
 /// Keep the strain small (the default 8 N is 6.4 %): at the thesis's 80 N (64 %) ccx's contact
 /// area (3.70e-3 m² on the default cube) is neither A nor the linear theory's, and the nodal
 /// pressures, uniform as they should be, are F over that area. It checks the deck writer, the runner and both
-/// readers end to end on a problem whose answer is known.
+/// readers end to end on a problem whose answer is known. validate_cube_fe is the whole of
+/// `socketsmith validate cube`: the run and its table, plots and summary.
 
 #include <filesystem>
 #include <string>
 #include <vector>
+
+#include <nlohmann/json.hpp>
 
 #include "socketsmith/calculix/calculix_deck.h"
 #include "socketsmith/calculix/ccx_runner.h"
@@ -54,5 +57,17 @@ struct CubeFeResult {
 /// @throws InvalidInputError for bad options or a missing ccx; SolverError (with ccx's message)
 ///         when ccx fails — the deck and log are kept in @p dir.
 CubeFeResult run_cube_fe(const CubeFeOptions& options, const std::filesystem::path& dir);
+
+/// A cube run with its outputs.
+struct CubeFeValidation {
+  CubeFeResult result;
+  nlohmann::json summary;  ///< summary.json: sizes, material, errors, the agreement of displacement and pressure
+};
+
+/// Creates @p out, runs run_cube_fe there and writes cube_fe.csv (per increment: force [N],
+/// CalculiX's and the analytic displacement [mm] and pressure [kPa]), cube_fe.svg and cube_fe.png
+/// (displacement and pressure, CalculiX against analytic) and summary.json, each atomically.
+/// @throws as run_cube_fe (nothing but the deck and ccx's files written then).
+CubeFeValidation validate_cube_fe(const CubeFeOptions& options, const std::filesystem::path& out);
 
 }  // namespace socketsmith::calculix
