@@ -7,6 +7,7 @@
 
 #include <fmt/format.h>
 
+#include "socketsmith/core/enum_names.h"
 #include "socketsmith/core/errors.h"
 
 namespace socketsmith::calculix {
@@ -100,21 +101,15 @@ std::string static_card(const FeSteps& st) {
 
 }  // namespace
 
-std::string to_string(ElementType type) {
-  switch (type) {
-    case ElementType::C3D8: return "C3D8";
-    case ElementType::C3D8I: return "C3D8I";
-    case ElementType::C3D8R: return "C3D8R";
-  }
-  return "C3D8";
-}
+constexpr EnumName<ElementType> kElementTypes[] = {
+    {ElementType::C3D8, "C3D8"}, {ElementType::C3D8I, "C3D8I"}, {ElementType::C3D8R, "C3D8R"}};
+
+std::string to_string(ElementType type) { return name_of(kElementTypes, type, "C3D8"); }
 
 ElementType parse_element_type(const std::string& text) {
   std::string t = text;
   std::transform(t.begin(), t.end(), t.begin(), [](unsigned char c) { return static_cast<char>(std::toupper(c)); });
-  if (t == "C3D8") return ElementType::C3D8;
-  if (t == "C3D8I") return ElementType::C3D8I;
-  if (t == "C3D8R") return ElementType::C3D8R;
+  if (const auto type = find_named(kElementTypes, t)) return *type;
   fail("element type '{}' is not known (expected c3d8, c3d8i or c3d8r)", text);
 }
 

@@ -7,6 +7,7 @@
 #include <numbers>
 
 #include "socketsmith/core/atomic_file.h"
+#include "socketsmith/core/enum_names.h"
 #include "socketsmith/core/errors.h"
 #include "socketsmith/core/log.h"
 #include "socketsmith/calculix/dat_reader.h"
@@ -374,36 +375,21 @@ double standing_restart_force_n(const std::vector<DatBlock>& dat, const FeSteps&
   return f1 > 0 && std::abs(f1 - steps.donning_force_n) > 0.02 * steps.axial_load_n ? f1 : none;
 }
 
-std::string to_string(DesignCheckMode mode) {
-  switch (mode) {
-    case DesignCheckMode::Contact: return "contact";
-    case DesignCheckMode::Load: return "load";
-    case DesignCheckMode::Donning: return "donning";
-  }
-  return "contact";
-}
+constexpr EnumName<DesignCheckMode> kCheckModes[] = {
+    {DesignCheckMode::Contact, "contact"}, {DesignCheckMode::Load, "load"}, {DesignCheckMode::Donning, "donning"}};
+constexpr EnumName<FePressure> kFePressures[] = {
+    {FePressure::NodalForce, "force"}, {FePressure::SurfaceStress, "stress"}, {FePressure::Cpress, "cpress"}};
+
+std::string to_string(DesignCheckMode mode) { return name_of(kCheckModes, mode, "contact"); }
 
 DesignCheckMode parse_design_check_mode(const std::string& text) {
-  if (text == "contact") return DesignCheckMode::Contact;
-  if (text == "load") return DesignCheckMode::Load;
-  if (text == "donning") return DesignCheckMode::Donning;
-  fail("FE check mode '{}' is not known (expected contact, load or donning)", text);
+  return parse_named(kCheckModes, text, "FE check mode '{}' is not known (expected contact, load or donning)");
 }
 
-std::string to_string(FePressure what) {
-  switch (what) {
-    case FePressure::NodalForce: return "force";
-    case FePressure::SurfaceStress: return "stress";
-    case FePressure::Cpress: return "cpress";
-  }
-  return "force";
-}
+std::string to_string(FePressure what) { return name_of(kFePressures, what, "force"); }
 
 FePressure parse_fe_pressure(const std::string& text) {
-  if (text == "force") return FePressure::NodalForce;
-  if (text == "stress") return FePressure::SurfaceStress;
-  if (text == "cpress") return FePressure::Cpress;
-  fail("FE pressure '{}' is not known (expected force, stress or cpress)", text);
+  return parse_named(kFePressures, text, "FE pressure '{}' is not known (expected force, stress or cpress)");
 }
 
 DesignCheckResult check_design(const DesignedStump& d, const DesignCheckOptions& o, const std::filesystem::path& dir,

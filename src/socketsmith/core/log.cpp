@@ -6,6 +6,7 @@
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
+#include "socketsmith/core/enum_names.h"
 #include "socketsmith/core/errors.h"
 
 namespace socketsmith::log {
@@ -34,12 +35,9 @@ void set_level(Level lvl) { g_level = lvl; }
 Level level() { return g_level; }
 
 Level parse_level(std::string_view text) {
-  if (text == "debug") return Level::Debug;
-  if (text == "info") return Level::Info;
-  if (text == "warn") return Level::Warn;
-  if (text == "error") return Level::Error;
-  if (text == "off") return Level::Off;
-  fail("log::parse_level: unknown level '{}' (expected debug|info|warn|error|off)", text);
+  static constexpr EnumName<Level> kLevels[] = {
+      {Level::Debug, "debug"}, {Level::Info, "info"}, {Level::Warn, "warn"}, {Level::Error, "error"}, {Level::Off, "off"}};
+  return parse_named(kLevels, text, "log::parse_level: unknown level '{}' (expected debug|info|warn|error|off)");
 }
 
 void write(Level lvl, std::string_view message) {

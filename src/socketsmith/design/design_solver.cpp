@@ -5,6 +5,7 @@
 #include <cmath>
 
 
+#include "socketsmith/core/enum_names.h"
 #include "socketsmith/core/errors.h"
 #include "socketsmith/core/units.h"
 #include "socketsmith/design/input_limits.h"
@@ -83,20 +84,13 @@ ConstraintStatus check_constraints(const RadarValues& r, const RadarTargets& t, 
   return s;
 }
 
-std::string to_string(DesignSolveMode mode) {
-  switch (mode) {
-    case DesignSolveMode::Nonlinear: return "nonlinear";
-    case DesignSolveMode::Linear: return "linear";
-    case DesignSolveMode::Auto: return "auto";
-  }
-  return "?";
-}
+constexpr EnumName<DesignSolveMode> kSolveModes[] = {
+    {DesignSolveMode::Nonlinear, "nonlinear"}, {DesignSolveMode::Linear, "linear"}, {DesignSolveMode::Auto, "auto"}};
+
+std::string to_string(DesignSolveMode mode) { return name_of(kSolveModes, mode); }
 
 DesignSolveMode parse_design_solve_mode(const std::string& text) {
-  if (text == "nonlinear") return DesignSolveMode::Nonlinear;
-  if (text == "linear") return DesignSolveMode::Linear;
-  if (text == "auto") return DesignSolveMode::Auto;
-  fail("design solve mode '{}' is not known (expected nonlinear, linear or auto)", text);
+  return parse_named(kSolveModes, text, "design solve mode '{}' is not known (expected nonlinear, linear or auto)");
 }
 
 struct DesignSolver::Impl {

@@ -1,8 +1,10 @@
 #include "socketsmith/design/spots.h"
 
+#include <cctype>
 #include <cmath>
 #include <numbers>
 
+#include "socketsmith/core/enum_names.h"
 #include "socketsmith/core/errors.h"
 
 namespace socketsmith::design {
@@ -19,23 +21,22 @@ double ccw_span(double a, double b) {
   if (d < 0) d += 2 * kPi;
   return d;
 }
+
+std::string upper(std::string_view name) {
+  std::string u(name);
+  for (char& c : u) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+  return u;
+}
 }  // namespace
 
-std::string to_string(SpotType type) {
-  switch (type) {
-    case SpotType::Cos2: return "cos2";
-    case SpotType::Sig2: return "sig2";
-    case SpotType::CosSig: return "cos-sig";
-    case SpotType::Grad: return "grad";
-  }
-  return "?";
-}
+constexpr EnumName<SpotType> kSpotTypes[] = {
+    {SpotType::Cos2, "cos2"}, {SpotType::Sig2, "sig2"}, {SpotType::CosSig, "cos-sig"}, {SpotType::Grad, "grad"}};
+
+std::string to_string(SpotType type) { return name_of(kSpotTypes, type); }
 
 SpotType parse_spot_type(const std::string& text) {
-  if (text == "cos2" || text == "COS2") return SpotType::Cos2;
-  if (text == "sig2" || text == "SIG2") return SpotType::Sig2;
-  if (text == "cos-sig" || text == "COS-SIG") return SpotType::CosSig;
-  if (text == "grad" || text == "GRAD") return SpotType::Grad;
+  for (const auto& n : kSpotTypes)  // the name, or the name all in upper case as the thesis prints it
+    if (text == n.name || text == upper(n.name)) return n.value;
   fail("spot type '{}' is not known (expected cos2, sig2, cos-sig or grad)", text);
 }
 

@@ -7,6 +7,7 @@
 #include <map>
 #include <numbers>
 
+#include "socketsmith/core/enum_names.h"
 #include "socketsmith/core/errors.h"
 #include "socketsmith/geometry/mesh_checks.h"
 #include "socketsmith/geometry/socket_cavity.h"
@@ -63,36 +64,23 @@ double percentile(std::vector<double> v, double q) {
 
 }  // namespace
 
-std::string to_string(ShapeKind kind) {
-  switch (kind) {
-    case ShapeKind::Auto: return "auto";
-    case ShapeKind::Surface: return "surface";
-    case ShapeKind::Socket: return "socket";
-  }
-  return "?";
-}
+constexpr EnumName<ShapeKind> kShapeKinds[] = {
+    {ShapeKind::Auto, "auto"}, {ShapeKind::Surface, "surface"}, {ShapeKind::Socket, "socket"}};
+constexpr EnumName<AlignmentSeed> kAlignmentSeeds[] = {
+    {AlignmentSeed::Auto, "auto"},           {AlignmentSeed::Frames, "frames"}, {AlignmentSeed::Landmarks, "landmarks"},
+    {AlignmentSeed::Identity, "identity"}, {AlignmentSeed::None, "none"}};
+
+std::string to_string(ShapeKind kind) { return name_of(kShapeKinds, kind); }
 
 ShapeKind parse_shape_kind(const std::string& text) {
-  for (ShapeKind k : {ShapeKind::Auto, ShapeKind::Surface, ShapeKind::Socket})
-    if (lower(text) == to_string(k)) return k;
+  if (const auto kind = find_named(kShapeKinds, lower(text))) return *kind;
   fail("shape kind '{}' is not known (expected auto, surface or socket)", text);
 }
 
-std::string to_string(AlignmentSeed seed) {
-  switch (seed) {
-    case AlignmentSeed::Auto: return "auto";
-    case AlignmentSeed::Frames: return "frames";
-    case AlignmentSeed::Landmarks: return "landmarks";
-    case AlignmentSeed::Identity: return "identity";
-    case AlignmentSeed::None: return "none";
-  }
-  return "?";
-}
+std::string to_string(AlignmentSeed seed) { return name_of(kAlignmentSeeds, seed); }
 
 AlignmentSeed parse_alignment_seed(const std::string& text) {
-  for (AlignmentSeed s : {AlignmentSeed::Auto, AlignmentSeed::Frames, AlignmentSeed::Landmarks, AlignmentSeed::Identity,
-                          AlignmentSeed::None})
-    if (lower(text) == to_string(s)) return s;
+  if (const auto seed = find_named(kAlignmentSeeds, lower(text))) return *seed;
   fail("alignment seed '{}' is not known (expected auto, frames, landmarks, identity or none)", text);
 }
 

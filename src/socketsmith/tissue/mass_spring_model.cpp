@@ -4,6 +4,7 @@
 #include <cmath>
 #include <unordered_map>
 
+#include "socketsmith/core/enum_names.h"
 #include "socketsmith/core/errors.h"
 #include "socketsmith/tissue/spring.h"
 #include "socketsmith/volume/hex_element.h"
@@ -70,32 +71,21 @@ HexSpringStiffness hex_spring_stiffness(double golec_a, double spring_modulus_pa
 
 }  // namespace
 
-std::string to_string(TissueModelKind kind) {
-  switch (kind) {
-    case TissueModelKind::Mss: return "mss";
-    case TissueModelKind::MssCs: return "mss-cs";
-    case TissueModelKind::MssCf: return "mss-cf";
-    case TissueModelKind::StVenantKirchhoff: return "fe";
-    case TissueModelKind::NeoHookean: return "neo-hookean";
-  }
-  return "?";
-}
+constexpr EnumName<TissueModelKind> kModelKinds[] = {
+    {TissueModelKind::Mss, "mss"},   {TissueModelKind::MssCs, "mss-cs"}, {TissueModelKind::MssCf, "mss-cf"},
+    {TissueModelKind::StVenantKirchhoff, "fe"}, {TissueModelKind::NeoHookean, "neo-hookean"}};
+constexpr EnumName<DampingLaw> kDampingLaws[] = {{DampingLaw::ThesisEq3, "thesis-eq3"}, {DampingLaw::Critical, "critical"}};
+
+std::string to_string(TissueModelKind kind) { return name_of(kModelKinds, kind); }
 
 TissueModelKind parse_tissue_model(const std::string& name) {
-  if (name == "mss") return TissueModelKind::Mss;
-  if (name == "mss-cs") return TissueModelKind::MssCs;
-  if (name == "mss-cf") return TissueModelKind::MssCf;
-  if (name == "fe") return TissueModelKind::StVenantKirchhoff;
-  if (name == "neo-hookean") return TissueModelKind::NeoHookean;
-  fail("unknown tissue model '{}' (expected mss-cs, mss-cf, mss, fe or neo-hookean)", name);
+  return parse_named(kModelKinds, name, "unknown tissue model '{}' (expected mss-cs, mss-cf, mss, fe or neo-hookean)");
 }
 
-std::string to_string(DampingLaw law) { return law == DampingLaw::ThesisEq3 ? "thesis-eq3" : "critical"; }
+std::string to_string(DampingLaw law) { return name_of(kDampingLaws, law); }
 
 DampingLaw parse_damping_law(const std::string& name) {
-  if (name == "thesis-eq3") return DampingLaw::ThesisEq3;
-  if (name == "critical") return DampingLaw::Critical;
-  fail("unknown damping law '{}' (expected critical or thesis-eq3)", name);
+  return parse_named(kDampingLaws, name, "unknown damping law '{}' (expected critical or thesis-eq3)");
 }
 
 MassSpringModel::MassSpringModel(const volume::HexMesh& mesh, const TissueMaterial& material,
