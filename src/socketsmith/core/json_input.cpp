@@ -86,4 +86,12 @@ nlohmann::json parse_json_input(std::string_view text, std::string_view label) {
   }
 }
 
+nlohmann::json parse_json_stream(std::istream& in, const std::string& path, std::string_view who) {
+  try {
+    return nlohmann::json::parse(in);
+  } catch (const nlohmann::json::exception& e) {
+    fail("{}: '{}' is not valid JSON ({})", who, path, e.what());
+  }
+}
+
 }  // namespace socketsmith

@@ -8,6 +8,7 @@
 
 #include "socketsmith/core/atomic_file.h"
 #include "socketsmith/core/errors.h"
+#include "socketsmith/core/json_input.h"
 
 namespace socketsmith::scan {
 namespace fs = std::filesystem;
@@ -54,12 +55,7 @@ void write_compensation_json(const fs::path& path, const std::vector<ErrorCompen
 std::vector<ErrorCompensation> read_compensation_json(const fs::path& path) {
   std::ifstream in(path);
   if (!in) fail<IoError>("read_compensation_json: cannot open '{}' (write it with socketsmith scan calibrate)", path.string());
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(in);
-  } catch (const nlohmann::json::exception& e) {
-    fail("read_compensation_json: '{}' is not valid JSON ({})", path.string(), e.what());
-  }
+  nlohmann::json j = parse_json_stream(in, path.string(), "read_compensation_json");
   require(j.is_object() && j.value("format", std::string()) == "socketsmith-scan-compensation",
           "read_compensation_json: '{}' is not a compensation model (expected \"format\": "
           "\"socketsmith-scan-compensation\", written by socketsmith scan calibrate)",

@@ -12,6 +12,7 @@
 
 #include "socketsmith/core/atomic_file.h"
 #include "socketsmith/core/errors.h"
+#include "socketsmith/core/json_input.h"
 #include "socketsmith/core/units.h"
 
 namespace socketsmith::scan {
@@ -155,11 +156,7 @@ namespace {
 nlohmann::json read_json_file(const fs::path& path, const char* what) {
   std::ifstream in(path);
   if (!in) fail<IoError>("{}: cannot open '{}' (check the path in rig.json or the recording folder)", what, path.string());
-  try {
-    return nlohmann::json::parse(in);
-  } catch (const nlohmann::json::exception& e) {
-    fail("{}: '{}' is not valid JSON ({})", what, path.string(), e.what());
-  }
+  return parse_json_stream(in, path.string(), what);
 }
 
 double number(const nlohmann::json& j, const char* key, const fs::path& path, bool required, double fallback) {

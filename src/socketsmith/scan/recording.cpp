@@ -10,6 +10,7 @@
 
 #include "socketsmith/core/atomic_file.h"
 #include "socketsmith/core/errors.h"
+#include "socketsmith/core/json_input.h"
 
 namespace socketsmith::scan {
 namespace fs = std::filesystem;
@@ -62,12 +63,7 @@ std::vector<fs::path> list_frames(const fs::path& sub, const std::string& prefix
 /// Parses rig.json from @p in (opened by the caller on @p rig_path) and checks its "sensors" array.
 nlohmann::json read_rig_json(std::ifstream& in, const fs::path& rig_path) {
   if (!in) fail<IoError>("read_recording: '{}' is missing (a recording needs rig.json, see docs/scan.md)", rig_path.string());
-  nlohmann::json rig;
-  try {
-    rig = nlohmann::json::parse(in);
-  } catch (const nlohmann::json::exception& e) {
-    fail("read_recording: '{}' is not valid JSON ({})", rig_path.string(), e.what());
-  }
+  nlohmann::json rig = parse_json_stream(in, rig_path.string(), "read_recording");
   require(rig.is_object() && rig.contains("sensors") && rig["sensors"].is_array() && !rig["sensors"].empty(),
           "read_recording: '{}' has no \"sensors\" array (expected one entry per depth sensor)", rig_path.string());
   return rig;
