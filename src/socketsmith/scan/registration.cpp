@@ -14,6 +14,7 @@
 
 #include "socketsmith/core/atomic_file.h"
 #include "socketsmith/core/errors.h"
+#include "socketsmith/core/json_input.h"
 #include "socketsmith/core/units.h"
 #include "socketsmith/scan/sensor_calibration.h"
 
@@ -130,9 +131,24 @@ nlohmann::json registration_json(const RegistrationResult& r) {
           {"initial", pair_errors_json(r.initial)}, {"final", pair_errors_json(r.final)}};
 }
 
+namespace {
+
+/// The result a registration @p method starts from: @p initial (checked) and its errors.
+RegistrationResult start_registration(const ReferenceSet& refs, const std::vector<Eigen::Isometry3d>& initial,
+                                      const RegistrationOptions& o, const char* method) {
+  check_initial(refs, initial, o);
+  RegistrationResult r;
+  r.method = method;
+  r.world_from_sensor = initial;
+  r.initial = pair_errors(refs, initial);
+  return r;
+}
+
+}  // namespace
+
 RegistrationResult register_multiset(const ReferenceSet& refs, const std::vector<Eigen::Isometry3d>& initial,
                                      const RegistrationOptions& o) {
-  check_initial(refs, initial, o);
+  RegistrationResult r = start_registration(refs, initial, o, "multi-set");
   const auto obs = by_sensor(refs);
   const int n = refs.num_sensors();
   // who[point] = sensors that saw it.
@@ -148,10 +164,6 @@ RegistrationResult register_multiset(const ReferenceSet& refs, const std::vector
             refs.sensor_names[static_cast<size_t>(s)], shared, o.min_shared_points,
             refs.sensor_names[static_cast<size_t>(s)]);
   }
-  RegistrationResult r;
-  r.method = "multi-set";
-  r.world_from_sensor = initial;
-  r.initial = pair_errors(refs, initial);
   for (int it = 1; it <= o.max_iterations; ++it) {
     double moved = 0.0;
     for (int s = 0; s < n; ++s) {
@@ -181,13 +193,9 @@ RegistrationResult register_multiset(const ReferenceSet& refs, const std::vector
 
 RegistrationResult register_sequential(const ReferenceSet& refs, const std::vector<Eigen::Isometry3d>& initial,
                                        const RegistrationOptions& o) {
-  check_initial(refs, initial, o);
+  RegistrationResult r = start_registration(refs, initial, o, "sequential");
   const auto obs = by_sensor(refs);
   const int n = refs.num_sensors();
-  RegistrationResult r;
-  r.method = "sequential";
-  r.world_from_sensor = initial;
-  r.initial = pair_errors(refs, initial);
   for (int k = 1; k < n; ++k) {
     const int prev = (o.fixed_sensor + k - 1) % n, s = (o.fixed_sensor + k) % n;
     std::vector<Vec3> src, dst;
@@ -346,12 +354,7 @@ void write_rig_file(const std::filesystem::path& path, const std::vector<std::st
 void apply_rig_file(Recording& rec, const std::filesystem::path& path) {
   std::ifstream in(path);
   if (!in) fail<IoError>("--rig: cannot open '{}' (expected a rig file written by 'scan register')", path.string());
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(in);
-  } catch (const nlohmann::json::exception& e) {
-    fail("--rig: '{}' is not valid JSON ({})", path.string(), e.what());
-  }
+  nlohmann::json j = parse_json_stream(in, path.string(), "--rig");
   require(j.is_object() && j.contains("sensors") && j["sensors"].is_array(),
           "--rig: '{}' has no \"sensors\" array (expected a rig file written by 'scan register')", path.string());
   for (SensorRecording& s : rec.sensors) {
