@@ -244,33 +244,25 @@ void open_document(Out& out, double width, double height) {
 
 }  // namespace
 
-std::string xml_escape(std::string_view text) {
+std::string escape_markup(std::string_view text, std::string_view apostrophe, bool drop_controls) {
   std::string out;
   out.reserve(text.size());
   for (char c : text) {
     switch (c) {
-      case '&':
-        out += "&amp;";
-        break;
-      case '<':
-        out += "&lt;";
-        break;
-      case '>':
-        out += "&gt;";
-        break;
-      case '"':
-        out += "&quot;";
-        break;
-      case '\'':
-        out += "&apos;";
-        break;
+      case '&': out += "&amp;"; break;
+      case '<': out += "&lt;"; break;
+      case '>': out += "&gt;"; break;
+      case '"': out += "&quot;"; break;
+      case '\'': out += apostrophe; break;
       default:
-        if (static_cast<unsigned char>(c) < 0x20 && c != '\t' && c != '\n' && c != '\r') break;
+        if (drop_controls && static_cast<unsigned char>(c) < 0x20 && c != '\t' && c != '\n' && c != '\r') break;
         out += c;
     }
   }
   return out;
 }
+
+std::string xml_escape(std::string_view text) { return escape_markup(text, "&apos;", true); }
 
 std::string render_svg(const Plot& plot) {
   validate_plot(plot, "render_svg");

@@ -32,6 +32,11 @@ std::string render_svg_grid(const std::vector<Plot>& panels, int columns);
 void write_svg_grid(const std::filesystem::path& path, const std::vector<Plot>& panels,
                     int columns);
 
+/// Escapes &, <, >, " and ' (as @p apostrophe) for markup text and attribute values; with
+/// @p drop_controls, drops the control characters XML 1.0 does not allow (all but tab, line feed
+/// and carriage return). xml_escape and html_escape are its two uses.
+std::string escape_markup(std::string_view text, std::string_view apostrophe, bool drop_controls);
+
 /// Escapes &, <, >, " and ' for XML text and attribute values; drops characters that XML 1.0
 /// does not allow (control characters other than tab, line feed and carriage return).
 std::string xml_escape(std::string_view text);
