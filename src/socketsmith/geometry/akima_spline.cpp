@@ -42,6 +42,18 @@ void check_input(const char* who, const std::vector<double>& x, const std::vecto
             y[i]);
 }
 
+/// Appends the key points (@p x, @p y) to @p xs, @p ys in increasing x.
+void append_sorted(const std::vector<double>& x, const std::vector<double>& y, std::vector<double>& xs,
+                   std::vector<double>& ys) {
+  std::vector<int> order(x.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::sort(order.begin(), order.end(), [&](int a, int b) { return x[a] < x[b]; });
+  for (int i : order) {
+    xs.push_back(x[i]);
+    ys.push_back(y[i]);
+  }
+}
+
 }  // namespace
 
 PeriodicAkimaSpline::PeriodicAkimaSpline(const std::vector<double>& theta, const std::vector<double>& h) {
@@ -53,13 +65,7 @@ PeriodicAkimaSpline::PeriodicAkimaSpline(const std::vector<double>& theta, const
     if (a >= std::numbers::pi) a -= kTwoPi;
     wrapped[i] = a;
   }
-  std::vector<int> order(n);
-  std::iota(order.begin(), order.end(), 0);
-  std::sort(order.begin(), order.end(), [&](int a, int b) { return wrapped[a] < wrapped[b]; });
-  for (int i : order) {
-    x_.push_back(wrapped[i]);
-    y_.push_back(h[i]);
-  }
+  append_sorted(wrapped, h, x_, y_);
   for (int i = 0; i < n; ++i) {
     const double gap = i + 1 < n ? x_[i + 1] - x_[i] : x_[0] + kTwoPi - x_[i];
     require(gap > 1e-9, "PeriodicAkimaSpline: two key points at the same angle {:.6f} rad (modulo 2 pi); "
@@ -108,13 +114,7 @@ double PeriodicAkimaSpline::derivative(double theta) const {
 AkimaSpline::AkimaSpline(const std::vector<double>& x, const std::vector<double>& y) {
   check_input("AkimaSpline", x, y);
   const int n = static_cast<int>(x.size());
-  std::vector<int> order(n);
-  std::iota(order.begin(), order.end(), 0);
-  std::sort(order.begin(), order.end(), [&](int a, int b) { return x[a] < x[b]; });
-  for (int i : order) {
-    x_.push_back(x[i]);
-    y_.push_back(y[i]);
-  }
+  append_sorted(x, y, x_, y_);
   const double span = x_.back() - x_.front();
   for (int i = 0; i + 1 < n; ++i)
     require(x_[i + 1] - x_[i] > 1e-12 * std::max(span, 1e-300),
