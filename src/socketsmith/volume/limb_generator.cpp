@@ -31,24 +31,6 @@ using shape::wrap_angle;
 /// Smooth minimum (log-sum-exp with softness k), exact away from the crossing.
 double smooth_min(double a, double b, double k) { return std::min(a, b) - k * std::log1p(std::exp(-std::abs(a - b) / k)); }
 
-/// SplitMix64 (Steele, Lea, Flood 2014): a portable, well-mixed stream from a 64-bit seed, so a
-/// seed gives the same limb with every standard library.
-class SplitMix64 {
- public:
-  explicit SplitMix64(std::uint64_t seed) : state_(seed) {}
-  std::uint64_t next() {
-    std::uint64_t z = (state_ += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return z ^ (z >> 31);
-  }
-  /// Uniform in [-1, 1).
-  double symmetric() { return 2.0 * static_cast<double>(next() >> 11) * 0x1.0p-53 - 1.0; }
-
- private:
-  std::uint64_t state_;
-};
-
 // ---------------------------------------------------------------------------------------------
 // The analytic skin: r(theta, h) = cap(h) * section_h(theta), where section_h is a raw anatomical
 // shape, translated so that its area centroid lies on the axis, and scaled so that its perimeter
@@ -217,11 +199,6 @@ class SkinModel {
 };
 
 // ---------------------------------------------------------------------------------------------
-
-void check_range(const char* field, double value, double lo, double hi, const char* unit, const char* what = "") {
-  if (!std::isfinite(value) || value < lo || value > hi)
-    fail("generate_limb: {} = {} is out of range (expected {} to {}{}{})", field, value, lo, hi, unit, what);
-}
 
 /// Bone sizes follow the knee (transtibial) or thigh (transfemoral) circumference.
 double bone_size_factor(const LimbShapeParams& p) {
@@ -473,97 +450,6 @@ void place_transfemoral_points_and_landmarks(const TriMesh& closed_skin, double 
 }  // namespace
 
 // -------------------------------------------------------------------------------------------------
-
-LimbShapeParams default_params(LimbType type, std::uint64_t seed) {
-  LimbShapeParams p;
-  p.type = type;
-  p.seed = seed;
-  const bool tt = type == LimbType::Transtibial;
-  if (!tt) {
-    p.residual_length_m = 0.27;
-    p.proximal_extension_m = 0.09;
-    p.proximal_circumference_m = 0.48;
-    p.distal_circumference_m = 0.71 * 0.48;
-    p.distal_cap_height_m = 0.05;
-    p.ap_ml_ratio = 0.90;
-    p.anterior_flattening = 0.0;
-  }
-  if (seed == 0) return p;
-  SplitMix64 rng(seed * 0x2545F4914F6CDD1Dull + (tt ? 0x1234567ull : 0x7654321ull));
-  auto jitter = [&](double& x, double half) { x += half * rng.symmetric(); };
-  auto jitter_rel = [&](double& x, double rel) { x *= 1.0 + rel * rng.symmetric(); };
-  jitter(p.residual_length_m, tt ? 0.02 : 0.03);
-  jitter(p.proximal_extension_m, 0.01);
-  jitter_rel(p.proximal_circumference_m, 0.06);
-  double ratio = tt ? 0.77 : 0.71;
-  jitter(ratio, 0.06);
-  p.distal_circumference_m = ratio * p.proximal_circumference_m;
-  jitter(p.distal_cap_height_m, tt ? 0.005 : 0.008);
-  jitter(p.bulbousness, 0.25);
-  jitter(p.ap_ml_ratio, 0.05);
-  if (tt) jitter(p.anterior_flattening, 0.03);
-  else rng.next();
-  jitter(p.posterior_fullness, 0.04);
-  BoneTemplateParams& b = p.bones;
-  jitter(b.tibia_plateau_width_m, 0.004);
-  b.tibia_plateau_depth_m = 0.66 * b.tibia_plateau_width_m;
-  jitter_rel(b.tibia_plateau_depth_m, 0.05);
-  jitter_rel(b.tibia_shaft_radius_m, 0.08);
-  jitter_rel(b.tibia_distal_radius_m, 0.08);
-  jitter(b.tibia_end_height_m, 0.005);
-  jitter(b.tibia_bevel, 0.1);
-  jitter(b.crest_tissue_m, 0.002);
-  jitter(b.tibia_medial_shift_m, 0.002);
-  jitter_rel(b.fibula_head_radius_m, 0.08);
-  jitter_rel(b.fibula_shaft_radius_m, 0.1);
-  jitter(b.fibula_shortening_m, 0.01);
-  jitter(b.fibula_angle_rad, 8.0 * kDeg);
-  jitter(b.femur_condyle_width_m, 0.004);
-  jitter(b.femur_condyle_depth_m, 0.003);
-  jitter_rel(b.patella_width_m, 0.07);
-  jitter_rel(b.patella_height_m, 0.07);
-  jitter_rel(b.patella_thickness_m, 0.07);
-  jitter(b.patella_tissue_m, 0.0015);
-  jitter_rel(b.femur_shaft_radius_m, 0.07);
-  jitter(b.femur_end_height_m, 0.015);
-  jitter(b.femur_lateral_fraction, 0.05);
-  jitter(b.femur_anterior_fraction, 0.04);
-  if (!tt) {
-    jitter(b.trochanter_height_m, 0.008);
-    jitter_rel(b.trochanter_prominence_m, 0.15);
-    jitter_rel(b.ischium_radius_m, 0.1);
-    jitter_rel(b.ischium_offset_m, 0.08);
-    jitter(b.ischium_angle_rad, 8.0 * kDeg);
-    jitter_rel(b.pubic_ramus_length_m, 0.08);
-    jitter(b.pubic_ramus_angle_rad, 8.0 * kDeg);
-    jitter(b.pubic_ramus_rise_m, 0.006);
-  }
-  return p;
-}
-
-std::pair<double, double> residual_length_range(LimbType type) {
-  return type == LimbType::Transtibial ? std::pair{0.06, 0.30} : std::pair{0.10, 0.45};
-}
-
-void validate(const LimbShapeParams& p) {
-  const bool tt = p.type == LimbType::Transtibial;
-  const auto [lo, hi] = residual_length_range(p.type);
-  check_range("residual_length_m", p.residual_length_m, lo, hi, " m", tt ? " for a transtibial limb" : " for a transfemoral limb");
-  if (tt) check_range("proximal_extension_m", p.proximal_extension_m, 0.0, 0.12, " m");
-  else check_range("proximal_extension_m", p.proximal_extension_m, 0.0, 0.15, " m", " above the ischial tuberosity");
-  if (tt) check_range("proximal_circumference_m", p.proximal_circumference_m, 0.26, 0.60, " m", " for a transtibial limb");
-  else check_range("proximal_circumference_m", p.proximal_circumference_m, 0.30, 0.80, " m", " for a transfemoral limb");
-  check_range("distal_circumference_m", p.distal_circumference_m, 0.5 * p.proximal_circumference_m,
-              1.1 * p.proximal_circumference_m, " m", ", 0.5 to 1.1 × the proximal circumference");
-  check_range("distal_cap_height_m", p.distal_cap_height_m, 0.01, std::min(0.09, 0.5 * p.residual_length_m), " m",
-              ", at most half the residual length");
-  check_range("bulbousness", p.bulbousness, 0.0, 1.0, "");
-  check_range("ap_ml_ratio", p.ap_ml_ratio, 0.6, 1.3, "");
-  check_range("anterior_flattening", p.anterior_flattening, 0.0, 0.3, "");
-  check_range("posterior_fullness", p.posterior_fullness, 0.0, 0.4, "");
-  check_range("ring_vertices", p.ring_vertices, 24, 256, "");
-  validate(p.bones);
-}
 
 GeneratedLimb generate_limb(const LimbShapeParams& params) {
   validate(params);
