@@ -48,25 +48,15 @@ void check_donning_flags(const DonningFlags& f) {
 
 /// The request of the flags, in SI units.
 pipeline::DonningRequest donning_request(const DonningFlags& f) {
-  pipeline::DonningRequest q;
-  q.case_file = f.case_file;
-  q.limb = f.limb;
-  q.socket = f.socket;
-  q.units = f.units;
-  q.target_nodes = f.target_nodes;
-  q.start_offset_m = f.offset_mm * 1e-3;
-  q.steps = f.steps;
-  q.max_step_m = f.step_mm * 1e-3;
-  q.stick_stiffness_ratio = f.stick_stiffness;
-  q.friction = f.friction;
-  q.penalty_factor = f.penalty_factor;
-  q.reuse_cg = f.reuse_cg;
+  pipeline::DonningRequest q{.case_file = f.case_file, .limb = f.limb, .socket = f.socket, .units = f.units,
+                             .target_nodes = f.target_nodes, .start_offset_m = f.offset_mm * 1e-3, .steps = f.steps,
+                             .max_step_m = f.step_mm * 1e-3, .stick_stiffness_ratio = f.stick_stiffness,
+                             .friction = f.friction, .penalty_factor = f.penalty_factor, .reuse_cg = f.reuse_cg,
+                             .stand = !f.no_stand, .progress = console_progress(1.0)};
   if (!f.wall.empty()) q.smooth_wall = f.wall == "smooth";
   q.body = f.body == "linearised" ? pipeline::DonnedBody::Linearised
            : f.body == "nonlinear" ? pipeline::DonnedBody::Nonlinear
                                    : pipeline::DonnedBody::Design;
-  q.stand = !f.no_stand;
-  q.progress = console_progress(1.0);
   return q;
 }
 

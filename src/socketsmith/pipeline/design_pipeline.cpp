@@ -170,14 +170,9 @@ std::unique_ptr<DesignSetup> prepare_design(const design::CaseFile& c, const fs:
   report_progress(progress, 0.0, "design: reading the limb");
   const auto [limb, extra] = load_limb(c, generated_limb_stl, s->limb_label);
   s->limb = limb;
-  volume::LimbInputOptions lo;
-  lo.type = c.limb.type;
-  lo.anterior = c.limb.anterior;
-  lo.axis = c.limb.axis;
-  lo.side = c.limb.side;
-  lo.cut_height_m = c.limb.cut_height_m;
-  lo.estimate_bones = c.limb.bones != "none";
-  lo.force_size = c.limb.force_size;
+  const volume::LimbInputOptions lo{.type = c.limb.type, .axis = c.limb.axis, .anterior = c.limb.anterior,
+                                    .side = c.limb.side, .cut_height_m = c.limb.cut_height_m,
+                                    .estimate_bones = c.limb.bones != "none", .force_size = c.limb.force_size};
   s->model = volume::prepare_limb(limb, extra, lo);
   auto& model = s->model;
   for (const auto& [code, p] : c.landmarks) {
@@ -332,16 +327,11 @@ design::TemplateCheck template_check(const DesignSetup& setup, const design::Des
 
 std::vector<report::RadarAxis> radar_axes(const DesignSetup& setup, const design::DesignState& state) {
   const design::CaseFile& c = setup.case_file;
-  report::RadarInputs ri;
-  ri.force_n = state.radar.force_n;
-  ri.torque_nm = state.radar.torque_nm;
-  ri.stability_n = state.radar.stability_n;
-  ri.body_mass_kg = c.patient.body_mass_kg;
-  ri.prosthesis_mass_kg = c.patient.prosthesis_mass_kg;
-  ri.stump_length_m = setup.model.length_m;
-  ri.force_tolerance = c.patient.force_tolerance;
-  ri.torque_tolerance = c.patient.torque_tolerance;
-  ri.gravity = units::kGravity;
+  const report::RadarInputs ri{.force_n = state.radar.force_n, .torque_nm = state.radar.torque_nm,
+                               .stability_n = state.radar.stability_n, .body_mass_kg = c.patient.body_mass_kg,
+                               .prosthesis_mass_kg = c.patient.prosthesis_mass_kg,
+                               .stump_length_m = setup.model.length_m, .force_tolerance = c.patient.force_tolerance,
+                               .torque_tolerance = c.patient.torque_tolerance, .gravity = units::kGravity};
   auto axes = report::seven_radar_axes(ri);
   const bool* oks[] = {&state.status.force_ok[0], &state.status.force_ok[1], &state.status.force_ok[2],
                        &state.status.torque_ok[0], &state.status.torque_ok[1], &state.status.torque_ok[2],
