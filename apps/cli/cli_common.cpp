@@ -94,4 +94,10 @@ tissue::TissueMaterial make_material(const ModelFlags& f) { return {f.youngs_mod
 
 void print_json(const nlohmann::json& j) { std::cout << j.dump(2) << std::endl; }
 
+CLI::App* add_command_group(CLI::App& parent, const std::string& name, const std::string& description) {
+  auto* group = parent.add_subcommand(name, description);
+  group->require_subcommand(1);
+  return group;
+}
+
 }  // namespace socketsmith::cli

@@ -41,6 +41,9 @@ std::vector<std::string> case_names(std::string_view key);
 std::string case_names_help(std::string_view key);
 
 void add_model_flags(CLI::App& app, ModelFlags& flags);
+
+/// A command made of subcommands (`check mesh`, `validate cube`), of which one must be given.
+CLI::App* add_command_group(CLI::App& parent, const std::string& name, const std::string& description);
 tissue::MassSpringOptions make_model_options(const ModelFlags& flags);
 tissue::TissueMaterial make_material(const ModelFlags& flags);
 

@@ -104,8 +104,7 @@ void run(const CalibrateFlags& f) {
 }  // namespace
 
 void register_calibrate(CLI::App& app) {
-  auto* cal = app.add_subcommand("calibrate", "calibrate model constants against an analytic experiment");
-  cal->require_subcommand(1);
+  auto* cal = add_command_group(app, "calibrate", "calibrate model constants against an analytic experiment");
   auto flags = std::make_shared<CalibrateFlags>();
   auto* cube = cal->add_subcommand("cube", "fit the MSS-CS constants (A, alpha, C, beta) to the cube experiment");
   cube->add_option("--out", flags->out, "output folder for calibration.json");

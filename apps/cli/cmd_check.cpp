@@ -42,8 +42,7 @@ void run(const CheckFlags& f) {
 }  // namespace
 
 void register_check(CLI::App& app) {
-  auto* chk = app.add_subcommand("check", "inspect an input file");
-  chk->require_subcommand(1);
+  auto* chk = add_command_group(app, "check", "inspect an input file");
   auto flags = std::make_shared<CheckFlags>();
   auto* mesh = chk->add_subcommand("mesh", "read a surface mesh (STL/OBJ/PLY/AOP) and report units, size and topology");
   mesh->add_option("file", flags->file, "mesh file")->required();

@@ -96,8 +96,7 @@ void run_generate(const LimbFlags& f) {
 }  // namespace
 
 void register_limb(CLI::App& app) {
-  auto* limb = app.add_subcommand("limb", "parametric residual limbs");
-  limb->require_subcommand(1);
+  auto* limb = add_command_group(app, "limb", "parametric residual limbs");
   auto flags = std::make_shared<LimbFlags>();
   auto* gen = limb->add_subcommand(
       "generate", "generate a seeded residual limb (skin + bones) as a multi-shell mesh in mm with a .json sidecar");

@@ -203,12 +203,10 @@ void add_board_experiment_commands(CLI::App* exp) {
 }  // namespace
 
 void register_scan(CLI::App& app) {
-  auto* scan_cmd = app.add_subcommand("scan", "multi-sensor depth scans: simulate a Kinect v2 rig, reconstruct a limb");
-  scan_cmd->require_subcommand(1);
+  auto* scan_cmd = add_command_group(app, "scan", "multi-sensor depth scans: simulate a Kinect v2 rig, reconstruct a limb");
   add_simulate_command(scan_cmd);
   add_reconstruct_command(scan_cmd);
-  auto* exp = scan_cmd->add_subcommand("experiment", "the thesis's scan experiments on simulated recordings");
-  exp->require_subcommand(1);
+  auto* exp = add_command_group(*scan_cmd, "experiment", "the thesis's scan experiments on simulated recordings");
   add_limb_experiment_command(exp);
   add_register_command(scan_cmd);
   add_registration_experiment_command(exp);

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <filesystem>
 
+#include "cli_common.h"
 #include "scan_cli.h"
 #include "socketsmith/core/errors.h"
 #include "socketsmith/core/units.h"
@@ -43,6 +44,12 @@ void add_compensation_form_flags(CLI::App& cmd, std::string& model, int& depth_d
 
 double elapsed_s(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+bool print_summary_json(nlohmann::json& j, std::chrono::steady_clock::time_point t0, bool as_json) {
+  j["wall_s"] = elapsed_s(t0);
+  if (as_json) print_json(j);
+  return as_json;
 }
 
 std::vector<scan::CameraIntrinsics> rig_intrinsics(const std::string& calibration, int sensors) {

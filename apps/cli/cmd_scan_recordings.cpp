@@ -150,11 +150,7 @@ void run_simulate(const SimulateFlags& f) {
     summary += fmt::format("{}{} {} px", summary.empty() ? "" : ", ", s.name, valid);
   }
   j["sensors"] = js;
-  j["wall_s"] = elapsed_s(t0);
-  if (f.json) {
-    print_json(j);
-    return;
-  }
+  if (print_summary_json(j, t0, f.json)) return;
   log::info("simulated {} sensor(s) x {} frame(s) of the {}; valid pixels: {}; wrote recording '{}' in {:.2f} s.",
             f.sensors, f.frames, what, summary, f.out, elapsed_s(t0));
 }
@@ -302,11 +298,7 @@ void run_calibrate(const CalibrateFlags& f) {
   j["truth"] = f.truth;
   j["pattern"] = {{"inner_cols", pattern.inner_cols}, {"inner_rows", pattern.inner_rows}, {"square_mm", pattern.square_m * 1e3}};
   j["sensors"] = js;
-  j["wall_s"] = elapsed_s(t0);
-  if (f.json) {
-    print_json(j);
-    return;
-  }
+  if (print_summary_json(j, t0, f.json)) return;
   log::info("wrote the error models of {} sensor(s) to '{}' in {:.1f} s (use: scan reconstruct --compensation {}).",
             models.size(), f.out, elapsed_s(t0), f.out);
 }
@@ -346,11 +338,7 @@ void run_register(const RegisterFlags& f) {
   }
   j["pose_changes"] = moved;
   scan::write_rig_file(f.out, refs.sensor_names, r.world_from_sensor, scan::registration_json(r).dump());
-  j["wall_s"] = elapsed_s(t0);
-  if (f.json) {
-    print_json(j);
-    return;
-  }
+  if (print_summary_json(j, t0, f.json)) return;
   log::info("registered {} sensors ({}) on {} reference points: pair error mean {:.3f} mm, max {:.3f} mm (from {:.2f} / "
             "{:.2f} mm at the rig's poses) after {} iteration(s); wrote {} in {:.1f} s.",
             refs.num_sensors(), r.method, refs.point_names.size(), r.final.mean_m / units::mm, r.final.max_m / units::mm,

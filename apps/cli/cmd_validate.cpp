@@ -219,8 +219,7 @@ void add_case_flags(CLI::App& cmd, DesignFlags& f) {
 }  // namespace
 
 void register_validate(CLI::App& app) {
-  auto* v = app.add_subcommand("validate", "compare socketsmith with CalculiX (ccx) on the same mesh");
-  v->require_subcommand(1);
+  auto* v = add_command_group(app, "validate", "compare socketsmith with CalculiX (ccx) on the same mesh");
 
   auto cf = std::make_shared<CubeFlags>();
   auto* cube = v->add_subcommand("cube", "the thesis's cube in CalculiX against the analytic solution (checks the FE chain)");

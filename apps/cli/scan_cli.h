@@ -184,6 +184,9 @@ void add_session_flags(CLI::App& cmd, SessionFlags& f, const std::string& compen
 void add_compensation_form_flags(CLI::App& cmd, std::string& model, int& depth_degree, bool& refine_distortion);
 /// Seconds since @p t0.
 double elapsed_s(std::chrono::steady_clock::time_point t0);
+/// A scan command's summary @p j gets its wall time since @p t0 ("wall_s") and, with --json
+/// (@p as_json), is printed on stdout. True when printed: the command then logs nothing.
+bool print_summary_json(nlohmann::json& j, std::chrono::steady_clock::time_point t0, bool as_json);
 /// Intrinsics for the simulated rig: --calibration is an iai_kinect2 root (one serial folder per
 /// sensor, in name order, reused cyclically), a serial folder, or a calib_ir.yaml.
 std::vector<scan::CameraIntrinsics> rig_intrinsics(const std::string& calibration, int sensors);
