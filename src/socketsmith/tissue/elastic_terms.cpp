@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "socketsmith/core/enum_names.h"
 #include "socketsmith/core/errors.h"
 #include "socketsmith/tissue/spring.h"
 
@@ -12,14 +13,14 @@ using Eigen::Matrix3d;
 using Eigen::VectorXd;
 using volume::Vec3;
 
-std::string to_string(CorrectiveLaw law) {
-  return law == CorrectiveLaw::Symmetric ? "symmetric" : "compression-only";
-}
+constexpr EnumName<CorrectiveLaw> kCorrectiveLaws[] = {{CorrectiveLaw::Symmetric, "symmetric"},
+                                                       {CorrectiveLaw::CompressionOnly, "compression-only"}};
+
+std::string to_string(CorrectiveLaw law) { return name_of(kCorrectiveLaws, law); }
 
 CorrectiveLaw parse_corrective_law(const std::string& name) {
-  if (name == "symmetric") return CorrectiveLaw::Symmetric;
-  if (name == "compression-only") return CorrectiveLaw::CompressionOnly;
-  fail("unknown corrective-spring law '{}' (expected symmetric or compression-only)", name);
+  return parse_named(kCorrectiveLaws, name,
+                     "unknown corrective-spring law '{}' (expected symmetric or compression-only)");
 }
 
 CorrectiveSpringConstants CorrectiveSpringConstants::thesis() { return {0.5, 1.4, 25.0, 2.0, CorrectiveLaw::Symmetric}; }
