@@ -4,6 +4,9 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
+#include <thread>
+
+#include <dlfcn.h>
 
 #include "socketsmith/tissue/sparse_cholesky.h"
 
@@ -87,6 +90,35 @@ TEST(SparseCholesky, orders_a_matrix_of_another_pattern_again) {
   wider.makeCompressed();
   ASSERT_TRUE(chol.factorize(wider));
   expect_solves_like_dense(chol, wider);
+}
+
+/// An OpenMP runtime function of the library's (the tests are built without OpenMP).
+template <class F>
+F omp(const char* name) {
+  return reinterpret_cast<F>(dlsym(RTLD_DEFAULT, name));
+}
+
+TEST(SolverThreads, teams_are_fixed_never_more_than_the_cores_or_the_threads_own_limit) {
+  // OpenMP's dynamic teams count the solve's own thread as load (one thread on 2 cores, always):
+  // the solvers size their teams themselves, within the cores and the limit the thread had.
+  const auto get_dynamic = omp<int (*)()>("omp_get_dynamic");
+  const auto max_threads = omp<int (*)()>("omp_get_max_threads");
+  const auto num_procs = omp<int (*)()>("omp_get_num_procs");
+  const auto set_threads = omp<void (*)(int)>("omp_set_num_threads");
+  if (!get_dynamic || !max_threads || !num_procs || !set_threads) GTEST_SKIP() << "built without OpenMP";
+  std::thread([&] {
+    limit_solver_threads();
+    EXPECT_EQ(get_dynamic(), 0);
+    EXPECT_GE(max_threads(), 1);
+    EXPECT_LE(max_threads(), num_procs());
+  }).join();
+  std::thread([&] {  // a thread limited to one (the GUI's worker) stays at one
+    set_threads(1);
+    limit_solver_threads();
+    EXPECT_EQ(max_threads(), 1);
+    limit_solver_threads();
+    EXPECT_EQ(max_threads(), 1);
+  }).join();
 }
 
 }  // namespace
