@@ -258,8 +258,8 @@ TEST(DesignCheckValidation, the_closed_loop_socket_donned_and_stood_on_in_calcul
   // (NEO HOOKE twin, ν 0.45, NLGEOM): CalculiX's pressures against the design and against
   // socketsmith's own donned-and-stood pressures. The default design (template-following PTB),
   // 2026-11-26: at 3k nodes, 4 donnings, CalculiX vs design MAE 1.19 kPa, p99 10.0, R 0.955 (means
-  // 12.29 / 11.71 kPa); here, 1.8k nodes, 2 donnings: MAE 1.25 kPa, p99 7.89, R 0.964 (means 12.47 /
-  // 11.87); CalculiX vs socketsmith MAE 1.23 kPa, R 0.948; socketsmith's open loop MAE 3.45, R 0.830.
+  // 12.29 / 11.71 kPa); here, 1.8k nodes, 2 donnings: MAE 1.18 kPa, p99 6.03, R 0.970 (means 12.44 /
+  // 11.87); CalculiX vs socketsmith MAE 1.25 kPa, R 0.940; socketsmith's open loop MAE 3.45, R 0.829.
   // Bars: issue 20's MAE (1.5 kPa) and, with a margin under the measured value, its R.
   design::CaseFile c = pipeline::demo_case(1800);
   c.model = "neo-hookean";

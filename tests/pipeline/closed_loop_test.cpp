@@ -132,15 +132,14 @@ TEST_F(ClosedLoopRun, the_corrected_socket_delivers_the_design_better_than_the_o
   EXPECT_NEAR(loop.iterations[0].below_brim.mae, open.mae, 1e-6);
   EXPECT_NEAR(loop.iterations[loop.best].below_brim.mae, closed.mae, 1e-6);
   EXPECT_NEAR(loop.iterations[loop.best].below_brim.p99, closed.p99, 1e-6);
-  // Measured at 1.8k nodes (the default neo-Hookean stump, nonlinear; 2026-11-29: donning 1, refits
-  // 1-4 — the fourth did worse than the third, so the third's socket was donned — donning 2, whose
-  // first refit did worse: stop): MAE 3.45 → 0.95 kPa, 99th percentile 13.8 → 9.5 kPa, R 0.829 →
-  // 0.951 (MSS-CS linearised, 2026-11-26: 1.88 → 0.57 kPa, 14.6 → 6.0 kPa, R 0.755 → 0.938). Bars: issue
-  // 20's MAE (1.5 kPa) and R (0.95) with a margin below them; its 99th percentile (4 kPa) is met at
-  // 3k and 8k nodes, not at 1.8k (docs/design.md).
+  // Measured at 1.8k nodes (the default neo-Hookean stump, nonlinear; 3 donnings + 12 refits, donning
+  // 2 kept, 3 nodes dragged above the brim by it): MAE 3.45 → 0.68 kPa, 99th percentile 13.8 → 5.8 kPa,
+  // R 0.829 → 0.966. Bars: issue 20's MAE (1.5 kPa) and R (0.95) with a margin below them; its 99th
+  // percentile (4 kPa) is met at 3k and 8k nodes, not here. (When the nodes dragged above the brim
+  // still corrected the wall: MAE 0.95 kPa, 99th percentile 9.5 kPa.)
   EXPECT_LT(closed.mae, 0.5 * open.mae) << "open " << open.mae << " Pa, closed " << closed.mae << " Pa";
   EXPECT_LT(closed.mae, 1.2e3);
-  EXPECT_LT(closed.p99, open.p99);
+  EXPECT_LT(closed.p99, 7e3);
   EXPECT_GT(closed.r, open.r);
   EXPECT_GT(closed.r, 0.94);
   EXPECT_NEAR(closed.mean_a, closed.mean_b, 0.05 * closed.mean_b);  // the level: no gap left
@@ -158,6 +157,33 @@ TEST_F(ClosedLoopRun, the_corrected_socket_delivers_the_design_better_than_the_o
   ASSERT_TRUE(d.completed && d.stood) << d.message;
   for (size_t i = 0; i < skin.nodes.size(); ++i)
     EXPECT_NEAR(d.contacts[i].pressure_pa, loop.closed_loop_pa[i], 1.0) << "skin node " << i;
+  // The nodes flagged as dragged out of the socket are those this donning leaves above the brim
+  // (height above brim(θ) in the socket's frame, from the cylindrical coordinates here), and the
+  // in-socket figures are over the others.
+  const auto& frame = setup.model.frame;
+  const Eigen::Vector3d stood = d.final_offset_m * frame.axis.normalized();
+  std::vector<char> in_socket(skin.nodes.size(), 0);
+  int dragged = 0;
+  for (size_t i = 0; i < skin.nodes.size(); ++i) {
+    if (!loop.below_brim[i]) continue;
+    const auto cy = frame.to_cylindrical(d.positions.segment<3>(3 * skin.nodes[i]) - stood);
+    const bool above = cy.h > setup.brim.height(cy.theta);
+    EXPECT_EQ(loop.dragged_out[i] != 0, above) << "skin node " << i;
+    dragged += above ? 1 : 0;
+    in_socket[i] = above ? 0 : 1;
+  }
+  EXPECT_EQ(dragged, loop.iterations[loop.best].dragged_out);
+  EXPECT_GT(dragged, 0);  // 3 at 1.8k: friction drags the ring below the brim up by about a node spacing
+  const Agreement kept_in = agreement(loop.closed_loop_pa, loop.target_pa, in_socket);
+  EXPECT_NEAR(loop.iterations[loop.best].in_socket.p99, kept_in.p99, 1e-6);
+  EXPECT_NEAR(loop.iterations[loop.best].in_socket.mae, kept_in.mae, 1e-6);
+  // A node dragged above the brim corrects no wall: its deficit does not pull the rim in. (When it
+  // did, each correction moved the wall vertices above the brim further in: −2.6 mm in the socket
+  // kept here, to the 5 mm clamp on generated limbs; −0.75 mm now.)
+  double rim_in = 0;
+  for (size_t i = 0; i < skin.nodes.size(); ++i)
+    if (!loop.below_brim[i]) rim_in = std::min(rim_in, loop.wall_offset_m[i]);
+  EXPECT_GT(rim_in, -1.5e-3);
   // Where the loop moved the wall: within its bound, and not nowhere.
   double max_offset = 0;
   for (double v : loop.wall_offset_m) max_offset = std::max(max_offset, std::abs(v));
@@ -180,8 +206,12 @@ TEST_F(ClosedLoopRun, outputs_carry_the_designed_open_and_closed_loop_pressures)
   EXPECT_FALSE(j["landmarks"].empty());
   const auto t = report::read_csv(out_ / "delivered.csv");
   const auto designed = t.column("designed_pa"), closed = t.column("closed_loop_pa"), open = t.column("open_loop_pa");
+  const auto dragged = t.column("dragged_out");
   ASSERT_EQ(designed.size(), loop.target_pa.size());
+  EXPECT_EQ(std::count(dragged.begin(), dragged.end(), 1.0), j["dragged_out_nodes"].get<long>());
+  EXPECT_EQ(j["dragged_out_nodes"].get<int>(), loop.iterations[loop.best].dragged_out);
   for (size_t i = 0; i < designed.size(); i += 11) {
+    EXPECT_EQ(dragged[i] != 0, loop.dragged_out[i] != 0);
     EXPECT_NEAR(designed[i], loop.target_pa[i], 1e-6 * (1 + loop.target_pa[i]));
     EXPECT_NEAR(closed[i], loop.closed_loop_pa[i], 1e-6 * (1 + loop.closed_loop_pa[i]));
     EXPECT_NEAR(open[i], loop.open_loop_pa[i], 1e-6 * (1 + loop.open_loop_pa[i]));

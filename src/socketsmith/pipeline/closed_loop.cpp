@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <string>
 #include <tuple>
 #include <unordered_map>
 
@@ -145,28 +146,43 @@ class AndersonMixing {
   std::vector<std::vector<double>> x_, f_;
 };
 
+/// Each skin node's position donned and stood, in the socket's frame (the socket's standing offset
+/// along @p axis taken off).
+std::vector<Vec3> donned_in_socket(const volume::SkinSurface& skin, const contact::DonningResult& d, const Vec3& axis) {
+  std::vector<Vec3> out(skin.nodes.size());
+  const Vec3 stood = d.final_offset_m * axis;
+  for (size_t i = 0; i < out.size(); ++i) out[i] = d.positions.segment<3>(3 * skin.nodes[i]) - stood;
+  return out;
+}
+
 /// The wall's correction at each skin node's vertex: the skin's normal displacement under the excess
 /// of @p delivered over @p target (smoothed), ω-relaxed, moved to where each node touches the wall.
+/// Only the nodes @p in_socket (compared, and donned below the brim) correct the wall: a node that
+/// donning dragged above the brim touches no wall a correction could move, and its deficit, moved
+/// onto the vertices above the brim, only pulled the rim in from one correction to the next (seed 7,
+/// 3k: to the 5 mm clamp, raising the 99th percentile of the ring below from 5.8 to 10 kPa).
 std::vector<double> wall_corrections(design::DesignSolver& solver, const design::DesignState& state,
-                                     const std::vector<char>& below_brim, const std::vector<int>& compared,
+                                     const std::vector<int>& in_socket,
                                      const std::vector<double>& delivered, const std::vector<double>& target,
-                                     const contact::DonningResult& d, const Vec3& axis,
-                                     const std::vector<double>& offset, double spacing, const ClosedLoopOptions& options) {
+                                     const std::vector<Vec3>& donned, const std::vector<double>& offset,
+                                     double spacing, const ClosedLoopOptions& options) {
   const auto& skin = solver.skin();
   const size_t n = skin.nodes.size();
   std::vector<double> excess(n, 0.0);
-  for (int i : compared) excess[i] = delivered[i] - target[i];
-  excess = smooth_on_skin(skin, below_brim, std::move(excess), options.smoothing_passes);
+  std::vector<char> use(n, 0);
+  for (int i : in_socket) {
+    excess[i] = delivered[i] - target[i];
+    use[i] = 1;
+  }
+  excess = smooth_on_skin(skin, use, std::move(excess), options.smoothing_passes);
   const std::vector<double> un = solver.normal_displacement(excess, state);
   std::vector<double> corr(n);
-  std::vector<Vec3> wall(n), donned(n);
-  const Vec3 stood = d.final_offset_m * axis;
+  std::vector<Vec3> wall(n);
   for (size_t i = 0; i < n; ++i) {
     corr[i] = -options.relaxation * un[i];
     wall[i] = state.skin_positions[i] + offset[i] * state.skin_normals[i];
-    donned[i] = d.positions.segment<3>(3 * skin.nodes[i]) - stood;
   }
-  return corrections_on_wall(wall, donned, corr, compared, 0.5 * spacing);
+  return corrections_on_wall(wall, donned, corr, in_socket, 0.5 * spacing);
 }
 
 constexpr double kWorseMargin = 1.05;  // a refit is worse than its round's best above this × its score
@@ -177,9 +193,22 @@ struct RoundBest {  ///< a socket of the closed loop and its tolerance_score
   design::SocketResult socket;
 };
 
-/// How far a stage is from the tolerances: max(MAE / its tolerance, p99 / its tolerance); ≤ 1 within.
-double tolerance_score(const report::ErrorStats& s, const ClosedLoopOptions& o) {
-  return std::max(s.mae / o.mae_tolerance_pa, s.p99 / o.p99_tolerance_pa);
+/// What the below-brim figures of @p it owe to nodes dragged out of the socket ("" when none are).
+std::string dragged_out_note(const ClosedLoopIteration& it) {
+  if (it.dragged_out == 0) return {};
+  return fmt::format(" ({} nodes dragged above the brim by donning, designed up to {:.1f} kPa; the others: MAE {:.2f} "
+                     "kPa, 99th percentile {:.2f} kPa)",
+                     it.dragged_out, it.dragged_out_max_target_pa / 1e3, it.in_socket.mae / 1e3, it.in_socket.p99 / 1e3);
+}
+
+/// How far a stage is from the tolerances: max(MAE / its tolerance, p99 / its tolerance) below the
+/// brim, the nodes dragged out of the socket included; ≤ 1 within. (Steering by the nodes still in
+/// the socket instead stopped the loop earlier and left more nodes dragged out: on the 12 limbs of
+/// docs/sweeps/closed_loop_limbs.json the 99th percentile below the brim was 2.4–13.6 kPa, 7 over
+/// 4 kPa, against 2.1–9.7 kPa, 2 over, when the loop goes on while they count: its corrections of the
+/// ring below the brim ease the drag, 20 nodes dragged out → 14 on seed 6.)
+double tolerance_score(const ClosedLoopIteration& it, const ClosedLoopOptions& o) {
+  return std::max(it.below_brim.mae / o.mae_tolerance_pa, it.below_brim.p99 / o.p99_tolerance_pa);
 }
 
 /// One run of the closed loop: the socket worn now, its donning simulation, the counters of the
@@ -227,17 +256,17 @@ class LoopRun {
       }
       const std::vector<double> delivered = record(d, refitted);
       const ClosedLoopIteration& it = r_.iterations.back();
-      const bool within = it.below_brim.mae <= options_.mae_tolerance_pa && it.below_brim.p99 <= options_.p99_tolerance_pa;
-      const double score = tolerance_score(it.below_brim, options_);
+      const double score = tolerance_score(it, options_);
+      const bool within = score <= 1.0;
       if (!refitted) {
         round_ = {score, offset_, socket_};
         keep_if_best(score, delivered, d);
         if (within) {
           r_.converged = true;
           r_.message = fmt::format("converged after {} donnings and {} refits: below the brim MAE {:.2f} kPa, 99th "
-                                   "percentile {:.2f} kPa",
+                                   "percentile {:.2f} kPa{}",
                                    full_donnings_, r_.iterations.size() - full_donnings_, it.below_brim.mae / 1e3,
-                                   it.below_brim.p99 / 1e3);
+                                   it.below_brim.p99 / 1e3, dragged_out_note(it));
           break;
         }
       }
@@ -258,7 +287,7 @@ class LoopRun {
         continue;
       }
       if (!refitted && full_donnings_ >= options_.max_donnings) break;
-      if (!correct_wall(d, delivered, refitted)) break;
+      if (!correct_wall(delivered, refitted)) break;
       if (options_.refits_per_donning > 0) {
         ++refits_;
         d = sim_->refit(socket_.solid);
@@ -323,6 +352,19 @@ class LoopRun {
     std::vector<double> delivered(n_);
     for (size_t i = 0; i < n_; ++i) delivered[i] = d.contacts[i].pressure_pa;
     it.below_brim = report::compare_fields(delivered, r_.target_pa, compared_);
+    donned_ = donned_in_socket(skin_, d, axis_);
+    in_socket_.clear();
+    dragged_out_.assign(n_, 0);
+    for (int i : compared_) {
+      if (!design::above_brim(setup_.brim, donned_[i], setup_.model.frame)) {
+        in_socket_.push_back(i);
+        continue;
+      }
+      dragged_out_[i] = 1;
+      ++it.dragged_out;
+      it.dragged_out_max_target_pa = std::max(it.dragged_out_max_target_pa, r_.target_pa[i]);
+    }
+    if (in_socket_.size() >= 3) it.in_socket = report::compare_fields(delivered, r_.target_pa, in_socket_);
     it.stood_offset_m = d.final_offset_m;
     it.axial_friction_n = d.series.empty() ? 0.0 : d.series.back().axial_friction_n;
     it.factorizations = d.series.empty() ? 0 : static_cast<int>(d.series.back().factorizations);
@@ -333,6 +375,7 @@ class LoopRun {
               refitted ? "refit" : "donning", refitted ? refits_ : full_donnings_, it.below_brim.mae / 1e3,
               it.below_brim.p99 / 1e3, it.below_brim.r, it.below_brim.mean_a / 1e3, it.below_brim.mean_b / 1e3,
               it.axial_friction_n, state_.radar.stability_n, it.max_offset_m * 1e3, d.seconds);
+    if (it.dragged_out > 0) log::info("closed loop: {} —{}", refitted ? "refit" : "donning", dragged_out_note(it));
     // Friction: the design counts on sliding friction μ p at every node (its axial share μ p |n × a|);
     // donned and stood, the socket mobilises a share of what its delivered pressures make available
     // (nodes stuck by the donning's friction history carry less).
@@ -356,16 +399,17 @@ class LoopRun {
     r_.best = static_cast<int>(r_.iterations.size()) - 1;
     r_.closed_loop_pa = delivered;
     r_.wall_offset_m = offset_;
+    r_.dragged_out = dragged_out_;
     r_.socket = socket_;
     r_.donning = d;
   }
 
-  /// The next wall: the correction of the delivered pressures (Anderson-mixed over the round's
+  /// The next wall: the correction of the last donning's @p delivered pressures (Anderson-mixed over the round's
   /// refits), the designed skin moved by δ along its normals, the socket built on it. False when
   /// the socket could not be built (the loop stops with the reason).
-  bool correct_wall(const contact::DonningResult& d, const std::vector<double>& delivered, bool refitted) {
-    const std::vector<double> on_wall = wall_corrections(solver_, state_, r_.below_brim, compared_, delivered,
-                                                         r_.target_pa, d, axis_, offset_, spacing_, options_);
+  bool correct_wall(const std::vector<double>& delivered, bool refitted) {
+    const std::vector<double> on_wall = wall_corrections(solver_, state_, in_socket_, delivered,
+                                                         r_.target_pa, donned_, offset_, spacing_, options_);
     if (!refitted) history_.clear();  // a donning from scratch: the refits' map starts again
     offset_ = history_.next(offset_, on_wall);
     for (auto& v : offset_) v = std::clamp(v, -options_.max_offset_m, options_.max_offset_m);
@@ -386,11 +430,11 @@ class LoopRun {
   ClosedLoopResult finish() {
     for (int k = 0; k <= r_.best; ++k) r_.kept_donning += r_.iterations[k].refit ? 0 : 1;
     if (r_.message.empty()) {
-      const auto& b = r_.iterations[r_.best].below_brim;
+      const auto& b = r_.iterations[r_.best].below_brim;  // all of them, the dragged-out ones included
       r_.message = fmt::format("{} donnings without meeting the tolerances ({:.2f} / {:.2f} kPa); kept donning {}: MAE "
-                               "{:.2f} kPa, 99th percentile {:.2f} kPa",
+                               "{:.2f} kPa, 99th percentile {:.2f} kPa{}",
                                full_donnings_, options_.mae_tolerance_pa / 1e3, options_.p99_tolerance_pa / 1e3,
-                               r_.kept_donning, b.mae / 1e3, b.p99 / 1e3);
+                               r_.kept_donning, b.mae / 1e3, b.p99 / 1e3, dragged_out_note(r_.iterations[r_.best]));
     }
     return std::move(r_);
   }
@@ -406,6 +450,9 @@ class LoopRun {
   contact::DonningOptions don_;
   design::SocketOptions sopt_;
   std::vector<int> compared_;  // skin nodes below the brim
+  std::vector<Vec3> donned_;       // the last donning's skin, in the socket's frame
+  std::vector<int> in_socket_;     // compared nodes it left below the brim
+  std::vector<char> dragged_out_;  // per skin node: compared, and dragged above the brim
   double spacing_ = 0;         // their mean spacing [m]
   AndersonMixing history_;
   design::SocketResult socket_;  // the socket worn now

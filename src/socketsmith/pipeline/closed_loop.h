@@ -94,6 +94,12 @@ struct ClosedLoopOptions {
 struct ClosedLoopIteration {
   bool refit = false;              ///< a refit of the worn socket, else a donning from scratch
   report::ErrorStats below_brim;   ///< delivered (a) vs target (b), skin nodes below the brim [Pa]
+  /// Skin nodes below the brim that donning and standing left above it (friction drags the skin
+  /// proximally: 5–9 mm on generated limbs at μ 0.5): no wall can press them, so their designed
+  /// pressure is not delivered whatever the correction.
+  int dragged_out = 0;
+  double dragged_out_max_target_pa = 0.0;  ///< the largest designed pressure among them [Pa]
+  report::ErrorStats in_socket;    ///< as below_brim, over the nodes below the brim still in the socket [Pa]
   double max_offset_m = 0.0;       ///< max |δ| of the socket donned [m]
   double mean_offset_m = 0.0;      ///< mean δ below the brim [m] (> 0: the wall moved outwards)
   double stood_offset_m = 0.0;     ///< where the socket stood, relative to its designed pose along the axis [m]
@@ -120,6 +126,7 @@ struct ClosedLoopResult {
   std::vector<double> open_loop_pa;    ///< delivered by the open-loop socket [Pa]
   std::vector<double> closed_loop_pa;  ///< delivered by the kept socket [Pa]
   std::vector<double> wall_offset_m;   ///< δ of the kept socket per skin node [m]
+  std::vector<char> dragged_out;       ///< per skin node: below the brim, dragged above it by the kept donning
   std::vector<char> below_brim;        ///< skin nodes compared (1: below the brim)
   std::vector<std::vector<double>> delivered_by_iteration;  ///< per donning, per skin node [Pa]
   std::vector<std::vector<double>> offset_by_iteration;     ///< per donning, δ per skin node [m]

@@ -27,11 +27,12 @@ void write_delivered_csvs(const design::DesignState& state, const ClosedLoopResu
   const size_t n = state.skin_positions.size();
   report::CsvTable t;
   t.header = {"x_m", "y_m", "z_m", "above_brim", "threshold_pa", "designed_pa", "open_loop_pa", "closed_loop_pa",
-              "wall_offset_mm"};
+              "wall_offset_mm", "dragged_out"};
   for (size_t i = 0; i < n; ++i) {
     const auto& p = state.skin_positions[i];
     t.rows.push_back({p.x(), p.y(), p.z(), loop.below_brim[i] ? 0.0 : 1.0, thresholds[i], loop.target_pa[i],
-                      loop.open_loop_pa[i], loop.closed_loop_pa[i], loop.wall_offset_m[i] * 1e3});
+                      loop.open_loop_pa[i], loop.closed_loop_pa[i], loop.wall_offset_m[i] * 1e3,
+                      loop.dragged_out[i] ? 1.0 : 0.0});
   }
   report::write_csv(out / "delivered.csv", t.header, t.rows, 12);
   report::CsvTable h;
@@ -79,6 +80,9 @@ nlohmann::json iterations_json(const ClosedLoopResult& loop, report::ReportDeliv
     const auto& it = loop.iterations[k];
     iterations.push_back({{"refit", it.refit},
                           {"below_brim", stats_json(it.below_brim)},
+                          {"in_socket", stats_json(it.in_socket)},
+                          {"dragged_out_nodes", it.dragged_out},
+                          {"dragged_out_max_designed_kpa", it.dragged_out_max_target_pa / 1e3},
                           {"max_wall_offset_mm", it.max_offset_m * 1e3},
                           {"mean_wall_offset_mm", it.mean_offset_m * 1e3},
                           {"stood_at_mm", it.stood_offset_m * 1e3},
@@ -246,6 +250,15 @@ nlohmann::json write_closed_loop_outputs(const DesignSetup& setup, const DesignR
   const nlohmann::json iterations = iterations_json(loop, delivery);
   add_delivery_maps(setup, result, loop, out, delivery);
   add_delivery_plots(setup, loop, delivery);
+  const ClosedLoopIteration& kept = loop.iterations[loop.best];
+  if (kept.dragged_out > 0)
+    delivery.details.push_back(
+        {"dragged out of the socket",
+         fmt::format("{} skin nodes below the brim (designed up to {:.1f} kPa) end above it once donned and stood on: "
+                     "friction drags the skin proximally and no wall can press them. Without them: MAE {:.2f} kPa, "
+                     "99th percentile {:.2f} kPa. A higher brim there, or a liner (lower friction), keeps them in.",
+                     kept.dragged_out, kept.dragged_out_max_target_pa / 1e3, kept.in_socket.mae / 1e3,
+                     kept.in_socket.p99 / 1e3)});
   return {{"converged", loop.converged},
           {"message", loop.message},
           {"donnings", std::count_if(loop.iterations.begin(), loop.iterations.end(), [](const auto& it) { return !it.refit; })},
@@ -259,7 +272,10 @@ nlohmann::json write_closed_loop_outputs(const DesignSetup& setup, const DesignR
           {"iterations", iterations},
           {"regions", regions},
           {"landmarks", landmarks},
-          {"max_wall_offset_mm", loop.iterations[loop.best].max_offset_m * 1e3},
+          {"max_wall_offset_mm", kept.max_offset_m * 1e3},
+          {"dragged_out_nodes", kept.dragged_out},
+          {"dragged_out_max_designed_kpa", kept.dragged_out_max_target_pa / 1e3},
+          {"in_socket", stats_json(kept.in_socket)},
           {"outputs", {"delivered.csv", "delivered_iterations.csv", "delivered_map.png", "delivered_error_map.png"}}};
 }
 
