@@ -164,6 +164,8 @@ TEST_F(ClosedLoopRun, the_corrected_socket_delivers_the_design_better_than_the_o
   const Eigen::Vector3d stood = d.final_offset_m * frame.axis.normalized();
   std::vector<char> in_socket(skin.nodes.size(), 0);
   int dragged = 0;
+  double highest = 0;
+  const auto& kept = loop.iterations[loop.best];
   for (size_t i = 0; i < skin.nodes.size(); ++i) {
     if (!loop.below_brim[i]) continue;
     const auto cy = frame.to_cylindrical(d.positions.segment<3>(3 * skin.nodes[i]) - stood);
@@ -171,8 +173,15 @@ TEST_F(ClosedLoopRun, the_corrected_socket_delivers_the_design_better_than_the_o
     EXPECT_EQ(loop.dragged_out[i] != 0, above) << "skin node " << i;
     dragged += above ? 1 : 0;
     in_socket[i] = above ? 0 : 1;
+    if (!above) continue;
+    highest = std::max(highest, cy.h - setup.brim.height(cy.theta));
+    // Inside the arc reported (degrees from anterior towards medial, through increasing angles).
+    const double deg = std::fmod(cy.theta * 180 / M_PI + 360, 360);
+    const double span = std::fmod(kept.dragged_out_to_deg - kept.dragged_out_from_deg + 360, 360);
+    EXPECT_LE(std::fmod(deg - kept.dragged_out_from_deg + 360, 360), span + 1e-9) << "skin node " << i;
   }
-  EXPECT_EQ(dragged, loop.iterations[loop.best].dragged_out);
+  EXPECT_EQ(dragged, kept.dragged_out);
+  EXPECT_NEAR(kept.dragged_out_height_m, highest, 1e-12);
   EXPECT_GT(dragged, 0);  // 3 at 1.8k: friction drags the ring below the brim up by about a node spacing
   const Agreement kept_in = agreement(loop.closed_loop_pa, loop.target_pa, in_socket);
   EXPECT_NEAR(loop.iterations[loop.best].in_socket.p99, kept_in.p99, 1e-6);

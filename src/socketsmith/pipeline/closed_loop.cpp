@@ -4,8 +4,10 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <numbers>
 #include <string>
 #include <tuple>
+#include <utility>
 #include <unordered_map>
 
 #include "socketsmith/core/errors.h"
@@ -193,12 +195,36 @@ struct RoundBest {  ///< a socket of the closed loop and its tolerance_score
   design::SocketResult socket;
 };
 
+/// The shortest arc holding every angle of @p theta [rad]: (from, to) through increasing angles
+/// (to < from when the arc crosses ±π).
+std::pair<double, double> smallest_arc(std::vector<double> theta) {
+  std::sort(theta.begin(), theta.end());
+  const size_t n = theta.size();
+  size_t after_gap = 0;
+  double gap = theta[0] + 2 * std::numbers::pi - theta[n - 1];  // the gap across ±π
+  for (size_t k = 1; k < n; ++k)
+    if (theta[k] - theta[k - 1] > gap) {
+      gap = theta[k] - theta[k - 1];
+      after_gap = k;
+    }
+  return {theta[after_gap], theta[(after_gap + n - 1) % n]};
+}
+
+/// An angle of the limb frame as shown: degrees in [0, 360) from anterior towards medial.
+double shown_deg(double theta) {
+  const double d = theta * 180.0 / std::numbers::pi;
+  return d < 0 ? d + 360.0 : d;
+}
+
 /// What the below-brim figures of @p it owe to nodes dragged out of the socket ("" when none are).
 std::string dragged_out_note(const ClosedLoopIteration& it) {
   if (it.dragged_out == 0) return {};
-  return fmt::format(" ({} nodes dragged above the brim by donning, designed up to {:.1f} kPa; the others: MAE {:.2f} "
-                     "kPa, 99th percentile {:.2f} kPa)",
-                     it.dragged_out, it.dragged_out_max_target_pa / 1e3, it.in_socket.mae / 1e3, it.in_socket.p99 / 1e3);
+  return fmt::format(" ({} nodes dragged above the brim by donning, up to {:.1f} mm, between {:.0f}° and {:.0f}° from "
+                     "anterior towards medial, designed up to {:.1f} kPa; the others: MAE {:.2f} kPa, 99th percentile "
+                     "{:.2f} kPa)",
+                     it.dragged_out, it.dragged_out_height_m * 1e3, it.dragged_out_from_deg, it.dragged_out_to_deg,
+                     it.dragged_out_max_target_pa / 1e3, it.in_socket.mae / 1e3,
+                     it.in_socket.p99 / 1e3);
 }
 
 /// How far a stage is from the tolerances: max(MAE / its tolerance, p99 / its tolerance) below the
@@ -355,14 +381,24 @@ class LoopRun {
     donned_ = donned_in_socket(skin_, d, axis_);
     in_socket_.clear();
     dragged_out_.assign(n_, 0);
+    std::vector<double> angles;
     for (int i : compared_) {
-      if (!design::above_brim(setup_.brim, donned_[i], setup_.model.frame)) {
+      const geometry::Cylindrical cy = setup_.model.frame.to_cylindrical(donned_[i]);
+      const double above = cy.h - setup_.brim.height(cy.theta);  // as design::above_brim
+      if (above <= 0) {
         in_socket_.push_back(i);
         continue;
       }
       dragged_out_[i] = 1;
       ++it.dragged_out;
       it.dragged_out_max_target_pa = std::max(it.dragged_out_max_target_pa, r_.target_pa[i]);
+      it.dragged_out_height_m = std::max(it.dragged_out_height_m, above);
+      angles.push_back(cy.theta);
+    }
+    if (!angles.empty()) {
+      const auto [from, to] = smallest_arc(angles);
+      it.dragged_out_from_deg = shown_deg(from);
+      it.dragged_out_to_deg = shown_deg(to);
     }
     if (in_socket_.size() >= 3) it.in_socket = report::compare_fields(delivered, r_.target_pa, in_socket_);
     it.stood_offset_m = d.final_offset_m;

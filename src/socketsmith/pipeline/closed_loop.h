@@ -99,6 +99,11 @@ struct ClosedLoopIteration {
   /// pressure is not delivered whatever the correction.
   int dragged_out = 0;
   double dragged_out_max_target_pa = 0.0;  ///< the largest designed pressure among them [Pa]
+  double dragged_out_height_m = 0.0;       ///< how far above the brim the highest of them ended [m]
+  /// The shortest arc of the limb frame holding them, from `from` to `to` through increasing θ, in
+  /// degrees [0, 360) from anterior towards medial (to < from when it passes anterior) [deg]: where
+  /// a higher brim would keep them in.
+  double dragged_out_from_deg = 0.0, dragged_out_to_deg = 0.0;
   report::ErrorStats in_socket;    ///< as below_brim, over the nodes below the brim still in the socket [Pa]
   double max_offset_m = 0.0;       ///< max |δ| of the socket donned [m]
   double mean_offset_m = 0.0;      ///< mean δ below the brim [m] (> 0: the wall moved outwards)

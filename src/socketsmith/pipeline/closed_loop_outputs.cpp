@@ -83,6 +83,7 @@ nlohmann::json iterations_json(const ClosedLoopResult& loop, report::ReportDeliv
                           {"in_socket", stats_json(it.in_socket)},
                           {"dragged_out_nodes", it.dragged_out},
                           {"dragged_out_max_designed_kpa", it.dragged_out_max_target_pa / 1e3},
+                          {"dragged_out_height_mm", it.dragged_out_height_m * 1e3},
                           {"max_wall_offset_mm", it.max_offset_m * 1e3},
                           {"mean_wall_offset_mm", it.mean_offset_m * 1e3},
                           {"stood_at_mm", it.stood_offset_m * 1e3},
@@ -254,10 +255,12 @@ nlohmann::json write_closed_loop_outputs(const DesignSetup& setup, const DesignR
   if (kept.dragged_out > 0)
     delivery.details.push_back(
         {"dragged out of the socket",
-         fmt::format("{} skin nodes below the brim (designed up to {:.1f} kPa) end above it once donned and stood on: "
-                     "friction drags the skin proximally and no wall can press them. Without them: MAE {:.2f} kPa, "
-                     "99th percentile {:.2f} kPa. A higher brim there, or a liner (lower friction), keeps them in.",
-                     kept.dragged_out, kept.dragged_out_max_target_pa / 1e3, kept.in_socket.mae / 1e3,
+         fmt::format("{} skin nodes below the brim (designed up to {:.1f} kPa) end above it once donned and stood on, "
+                     "up to {:.1f} mm, between {:.0f}° and {:.0f}° from anterior towards medial: friction drags the "
+                     "skin proximally and no wall can press them. Without them: MAE {:.2f} kPa, 99th percentile "
+                     "{:.2f} kPa. A brim higher there by that much, or a liner (lower friction), keeps them in.",
+                     kept.dragged_out, kept.dragged_out_max_target_pa / 1e3, kept.dragged_out_height_m * 1e3,
+                     kept.dragged_out_from_deg, kept.dragged_out_to_deg, kept.in_socket.mae / 1e3,
                      kept.in_socket.p99 / 1e3)});
   return {{"converged", loop.converged},
           {"message", loop.message},
@@ -275,6 +278,8 @@ nlohmann::json write_closed_loop_outputs(const DesignSetup& setup, const DesignR
           {"max_wall_offset_mm", kept.max_offset_m * 1e3},
           {"dragged_out_nodes", kept.dragged_out},
           {"dragged_out_max_designed_kpa", kept.dragged_out_max_target_pa / 1e3},
+          {"dragged_out_height_mm", kept.dragged_out_height_m * 1e3},
+          {"dragged_out_arc_deg", {kept.dragged_out_from_deg, kept.dragged_out_to_deg}},
           {"in_socket", stats_json(kept.in_socket)},
           {"outputs", {"delivered.csv", "delivered_iterations.csv", "delivered_map.png", "delivered_error_map.png"}}};
 }
