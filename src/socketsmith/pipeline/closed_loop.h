@@ -155,6 +155,20 @@ struct LandmarkDelivery {
   double threshold_pa = 0, target_pa = 0, open_loop_pa = 0, closed_loop_pa = 0;
 };
 
+/// A landmark's zone on the skin: the nodes @p use marks (below the brim) within its radius, at
+/// most 15 mm, with their area; the zone's mean of a field is area-weighted.
+struct LandmarkZone {
+  std::string code;
+  std::vector<int> nodes;
+  double area_m2 = 0;
+  /// The area-weighted mean of @p field (per skin node) over the zone.
+  double mean(const std::vector<double>& field, const std::vector<double>& area_m2_per_node) const;
+};
+
+/// The zones of the setup's landmarks among the skin nodes where @p use is 1; a landmark with no
+/// node there (above the brim, off the stump) has none.
+std::vector<LandmarkZone> landmark_zones(const DesignSetup& setup, const std::vector<char>& use);
+
 struct DeliverySummary {
   std::vector<RegionDelivery> regions;
   std::vector<LandmarkDelivery> landmarks;

@@ -203,29 +203,35 @@ DeliverySummary summarise_delivery(const DesignSetup& setup, const ClosedLoopRes
       if (loop.below_brim[s.index]) subset.push_back(s.index);
     if (subset.size() >= 3) region(path.key, path.name, subset);
   }
-  for (const auto& l : setup.model.landmarks) {
-    LandmarkDelivery ld;
-    ld.code = l.code;
-    const double radius = std::min(l.radius_m, 0.015);
-    double w = 0;
-    for (int i : below) {
-      if ((skin.positions[i] - l.position).norm() > radius) continue;
-      const double a = skin.area_m2[i];
-      ++ld.nodes;
-      w += a;
-      ld.threshold_pa += a * setup.thresholds[i];
-      ld.target_pa += a * loop.target_pa[i];
-      ld.open_loop_pa += a * loop.open_loop_pa[i];
-      ld.closed_loop_pa += a * loop.closed_loop_pa[i];
-    }
-    if (ld.nodes == 0) continue;  // above the brim (or off the stump): not loaded by the socket
-    ld.threshold_pa /= w;
-    ld.target_pa /= w;
-    ld.open_loop_pa /= w;
-    ld.closed_loop_pa /= w;
-    d.landmarks.push_back(ld);
-  }
+  for (const auto& z : landmark_zones(setup, loop.below_brim))
+    d.landmarks.push_back({z.code, static_cast<int>(z.nodes.size()), z.mean(setup.thresholds, skin.area_m2),
+                           z.mean(loop.target_pa, skin.area_m2), z.mean(loop.open_loop_pa, skin.area_m2),
+                           z.mean(loop.closed_loop_pa, skin.area_m2)});
   return d;
+}
+
+double LandmarkZone::mean(const std::vector<double>& field, const std::vector<double>& area_m2_per_node) const {
+  double s = 0;
+  for (int i : nodes) s += area_m2_per_node[i] * field[i];
+  return s / area_m2;
+}
+
+std::vector<LandmarkZone> landmark_zones(const DesignSetup& setup, const std::vector<char>& use) {
+  const auto& skin = setup.solver->skin();
+  require(use.size() == skin.nodes.size(), "landmark_zones: {} flags for {} skin nodes", use.size(), skin.nodes.size());
+  std::vector<LandmarkZone> zones;
+  for (const auto& l : setup.model.landmarks) {
+    LandmarkZone z;
+    z.code = l.code;
+    const double radius = std::min(l.radius_m, 0.015);
+    for (size_t i = 0; i < skin.nodes.size(); ++i)
+      if (use[i] && (skin.positions[i] - l.position).norm() <= radius) {
+        z.nodes.push_back(static_cast<int>(i));
+        z.area_m2 += skin.area_m2[i];
+      }
+    if (!z.nodes.empty()) zones.push_back(std::move(z));
+  }
+  return zones;
 }
 
 nlohmann::json write_closed_loop_outputs(const DesignSetup& setup, const DesignResult& result,

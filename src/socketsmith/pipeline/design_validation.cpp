@@ -10,6 +10,7 @@
 #include "socketsmith/core/log.h"
 #include "socketsmith/core/units.h"
 #include "socketsmith/calculix/ccx_runner.h"
+#include "socketsmith/pipeline/closed_loop.h"
 #include "socketsmith/pipeline/validation_inputs.h"
 #include "socketsmith/report/csv.h"
 #include "socketsmith/report/design_report.h"
@@ -349,6 +350,22 @@ void add_delivered_comparison(const DesignValidation& v, nlohmann::json& j) {
   j["calculix_vs_socketsmith_delivered"] =
       report::to_json(report::compare_fields(r.fe_value, delivered, socket_nodes), scale, suffix);
   j["socketsmith_delivered_from"] = v.donning_from_closed_loop ? "the closed loop's kept donning" : "a donning in this run";
+  // Each landmark's pressure / threshold over its zone (issue 20: within 10 % of the design's).
+  const DesignSetup& setup = *v.artifacts.setup;
+  std::vector<char> on_socket(skin.nodes.size(), 0);
+  for (int i : socket_nodes) on_socket[i] = 1;
+  nlohmann::json landmarks = nlohmann::json::array();
+  for (const auto& z : landmark_zones(setup, on_socket)) {
+    const double threshold = z.mean(setup.thresholds, skin.area_m2);
+    const double designed = z.mean(r.socketsmith_value, skin.area_m2) / threshold;
+    landmarks.push_back({{"code", z.code},
+                         {"nodes", z.nodes.size()},
+                         {"threshold_kpa", threshold / 1e3},
+                         {"designed_ratio", designed},
+                         {"calculix_ratio", z.mean(r.fe_value, skin.area_m2) / threshold},
+                         {"socketsmith_ratio", z.mean(delivered, skin.area_m2) / threshold}});
+  }
+  j["landmarks"] = landmarks;
 }
 
 }  // namespace
