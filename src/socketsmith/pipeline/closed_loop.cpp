@@ -160,9 +160,10 @@ std::vector<Vec3> donned_in_socket(const volume::SkinSurface& skin, const contac
 /// The wall's correction at each skin node's vertex: the skin's normal displacement under the excess
 /// of @p delivered over @p target (smoothed), ω-relaxed, moved to where each node touches the wall.
 /// Only the nodes @p in_socket (compared, and donned below the brim) correct the wall: a node that
-/// donning dragged above the brim touches no wall a correction could move, and its deficit, moved
-/// onto the vertices above the brim, only pulled the rim in from one correction to the next (seed 7,
-/// 3k: to the 5 mm clamp, raising the 99th percentile of the ring below from 5.8 to 10 kPa).
+/// donning dragged above the brim touches at most the brim's lip, which no correction shapes, and
+/// its deficit, moved onto the vertices above the brim, only pulled the rim in from one correction
+/// to the next (seed 7, 3k: to the 5 mm clamp, raising the 99th percentile of the ring below from
+/// 5.8 to 10 kPa).
 std::vector<double> wall_corrections(design::DesignSolver& solver, const design::DesignState& state,
                                      const std::vector<int>& in_socket,
                                      const std::vector<double>& delivered, const std::vector<double>& target,

@@ -95,8 +95,8 @@ struct ClosedLoopIteration {
   bool refit = false;              ///< a refit of the worn socket, else a donning from scratch
   report::ErrorStats below_brim;   ///< delivered (a) vs target (b), skin nodes below the brim [Pa]
   /// Skin nodes below the brim that donning and standing left above it (friction drags the skin
-  /// proximally: 5–9 mm on generated limbs at μ 0.5): no wall can press them, so their designed
-  /// pressure is not delivered whatever the correction.
+  /// proximally: 3–9 mm on generated limbs at μ 0.5): only the brim's lip, which the corrections do
+  /// not shape, still presses them (from nothing to most of their designed pressure).
   int dragged_out = 0;
   double dragged_out_max_target_pa = 0.0;  ///< the largest designed pressure among them [Pa]
   double dragged_out_height_m = 0.0;       ///< how far above the brim the highest of them ended [m]
