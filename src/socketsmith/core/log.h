@@ -26,21 +26,14 @@ Level parse_level(std::string_view text);
 
 void write(Level level, std::string_view message);
 
+/// Formats and writes a message at @p at, only when the current level lets it through.
 template <class... Args>
-void debug(fmt::format_string<Args...> f, Args&&... args) {
-  if (level() <= Level::Debug) write(Level::Debug, fmt::format(f, std::forward<Args>(args)...));
+void write_at(Level at, fmt::format_string<Args...> f, Args&&... args) {
+  if (level() <= at) write(at, fmt::format(f, std::forward<Args>(args)...));
 }
-template <class... Args>
-void info(fmt::format_string<Args...> f, Args&&... args) {
-  if (level() <= Level::Info) write(Level::Info, fmt::format(f, std::forward<Args>(args)...));
-}
-template <class... Args>
-void warn(fmt::format_string<Args...> f, Args&&... args) {
-  if (level() <= Level::Warn) write(Level::Warn, fmt::format(f, std::forward<Args>(args)...));
-}
-template <class... Args>
-void error(fmt::format_string<Args...> f, Args&&... args) {
-  if (level() <= Level::Error) write(Level::Error, fmt::format(f, std::forward<Args>(args)...));
-}
+template <class... Args> void debug(fmt::format_string<Args...> f, Args&&... a) { write_at(Level::Debug, f, std::forward<Args>(a)...); }
+template <class... Args> void info(fmt::format_string<Args...> f, Args&&... a) { write_at(Level::Info, f, std::forward<Args>(a)...); }
+template <class... Args> void warn(fmt::format_string<Args...> f, Args&&... a) { write_at(Level::Warn, f, std::forward<Args>(a)...); }
+template <class... Args> void error(fmt::format_string<Args...> f, Args&&... a) { write_at(Level::Error, f, std::forward<Args>(a)...); }
 
 }  // namespace socketsmith::log
