@@ -18,22 +18,37 @@ namespace fs = std::filesystem;
 
 nlohmann::json finite_or_null(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
 
+/// A cube row's number columns as cube.csv and summary.json's rows name them. cube.csv holds the
+/// first kCsvColumns; *_reference (the uniaxial state of the model's own energy) and the stiffness
+/// eigenvalue are NaN where there is none: null in the JSON, nan in the CSV.
+struct RowColumn {
+  const char* name;
+  double tissue::CubeRow::*value;
+  bool is_null_when_not_finite;
+};
+constexpr RowColumn kRowColumns[] = {
+    {"weight_n", &tissue::CubeRow::weight_n, false},
+    {"top_pressure_analytic_pa", &tissue::CubeRow::top_pressure_analytic_pa, false},
+    {"top_pressure_pa", &tissue::CubeRow::top_pressure_pa, false},
+    {"displacement_ratio_analytic", &tissue::CubeRow::displacement_ratio_analytic, false},
+    {"displacement_ratio", &tissue::CubeRow::displacement_ratio, false},
+    {"volume_ratio", &tissue::CubeRow::volume_ratio, false},
+    {"displacement_ratio_reference", &tissue::CubeRow::displacement_ratio_reference, true},
+    {"volume_ratio_reference", &tissue::CubeRow::volume_ratio_reference, true},
+    {"top_pressure_true_pa", &tissue::CubeRow::top_pressure_true_pa, false},
+    {"nodal_pressure_spread", &tissue::CubeRow::nodal_pressure_spread, false},
+    {"lateral_stretch", &tissue::CubeRow::lateral_stretch, false},
+    {"min_stiffness_eigenvalue_n_per_m", &tissue::CubeRow::min_stiffness_eigenvalue, true}};
+constexpr size_t kCsvColumns = 8;
+
 nlohmann::json rows_json(const tissue::CubeExperimentResult& r) {
   nlohmann::json rows = nlohmann::json::array();
-  for (const auto& row : r.rows)
-    rows.push_back({{"weight_n", row.weight_n},
-                    {"top_pressure_analytic_pa", row.top_pressure_analytic_pa},
-                    {"top_pressure_pa", row.top_pressure_pa},
-                    {"top_pressure_true_pa", row.top_pressure_true_pa},
-                    {"nodal_pressure_spread", row.nodal_pressure_spread},
-                    {"displacement_ratio_analytic", row.displacement_ratio_analytic},
-                    {"displacement_ratio", row.displacement_ratio},
-                    {"displacement_ratio_reference", finite_or_null(row.displacement_ratio_reference)},
-                    {"volume_ratio_reference", finite_or_null(row.volume_ratio_reference)},
-                    {"volume_ratio", row.volume_ratio},
-                    {"lateral_stretch", row.lateral_stretch},
-                    {"newton_iterations", row.newton_iterations},
-                    {"min_stiffness_eigenvalue_n_per_m", finite_or_null(row.min_stiffness_eigenvalue)}});
+  for (const auto& row : r.rows) {
+    nlohmann::json j{{"newton_iterations", row.newton_iterations}};
+    for (const RowColumn& c : kRowColumns)
+      j[c.name] = c.is_null_when_not_finite ? finite_or_null(row.*c.value) : nlohmann::json(row.*c.value);
+    rows.push_back(j);
+  }
   return rows;
 }
 
@@ -57,19 +72,17 @@ nlohmann::json model_json(const CubeStudyRun& run, const tissue::MassSpringOptio
 
 std::vector<std::vector<double>> csv_rows(const tissue::CubeExperimentResult& r) {
   std::vector<std::vector<double>> rows;
-  for (const auto& row : r.rows)
-    rows.push_back({row.weight_n, row.top_pressure_analytic_pa, row.top_pressure_pa, row.displacement_ratio_analytic,
-                    row.displacement_ratio, row.volume_ratio, row.displacement_ratio_reference,
-                    row.volume_ratio_reference});
+  for (const auto& row : r.rows) {
+    std::vector<double>& values = rows.emplace_back();
+    for (size_t c = 0; c < kCsvColumns; ++c) values.push_back(row.*kRowColumns[c].value);
+  }
   return rows;
 }
 
 /// cube.csv (the selected model) and cube_all.csv (every model, with its index).
 void write_cube_csvs(const fs::path& out, const std::vector<CubeStudyRun>& runs) {
-  // *_reference: the uniaxial stress state of the model's own energy (continuum models; nan otherwise).
-  const std::vector<std::string> header = {"weight_n", "top_pressure_analytic_pa", "top_pressure_pa",
-                                           "displacement_ratio_analytic", "displacement_ratio", "volume_ratio",
-                                           "displacement_ratio_reference", "volume_ratio_reference"};
+  std::vector<std::string> header;
+  for (size_t c = 0; c < kCsvColumns; ++c) header.emplace_back(kRowColumns[c].name);
   report::write_csv(out / "cube.csv", header, csv_rows(runs.front().result));
   std::vector<std::vector<double>> all_rows;
   std::vector<std::string> h = header;
@@ -89,6 +102,12 @@ struct CubePlots {
   report::Plot vol{"Volume (Fig. 30)", "box weight [N]", "volume [cm^3]", {}, {}, {}, {}, {}};
 };
 
+/// A point of a curve against the box weight: (the row's weight, @p value).
+void add_point(report::PlotSeries& series, const tissue::CubeRow& row, double value) {
+  series.x.push_back(row.weight_n);
+  series.y.push_back(value);
+}
+
 /// The analytic curves (W/A, W/(AE), the initial volume) and, where the selected continuum model
 /// has one, the analytic uniaxial state of its own energy.
 void add_analytic_series(CubePlots& plots, const std::vector<CubeStudyRun>& runs, double v0_cm3) {
@@ -98,17 +117,12 @@ void add_analytic_series(CubePlots& plots, const std::vector<CubeStudyRun>& runs
   report::PlotSeries an_v{"initial volume", {}, {}, "#000000", true, false, 2};
   report::PlotSeries ref_d{runs.front().label + ", analytic", {}, {}, "#555555", true, false, 1}, ref_v = ref_d;
   for (const auto& row : first.rows) {
-    an_p.x.push_back(row.weight_n);
-    an_p.y.push_back(row.top_pressure_analytic_pa / 1e3);
-    an_d.x.push_back(row.weight_n);
-    an_d.y.push_back(row.displacement_ratio_analytic);
-    an_v.x.push_back(row.weight_n);
-    an_v.y.push_back(v0_cm3);
+    add_point(an_p, row, row.top_pressure_analytic_pa / 1e3);
+    add_point(an_d, row, row.displacement_ratio_analytic);
+    add_point(an_v, row, v0_cm3);
     if (!std::isfinite(row.displacement_ratio_reference)) continue;
-    ref_d.x.push_back(row.weight_n);
-    ref_d.y.push_back(row.displacement_ratio_reference);
-    ref_v.x.push_back(row.weight_n);
-    ref_v.y.push_back(row.volume_ratio_reference * v0_cm3);
+    add_point(ref_d, row, row.displacement_ratio_reference);
+    add_point(ref_v, row, row.volume_ratio_reference * v0_cm3);
   }
   plots.pressure.series.push_back(an_p);
   plots.disp.series.push_back(an_d);
@@ -127,12 +141,9 @@ void write_cube_svg(const fs::path& out, const std::vector<CubeStudyRun>& runs, 
   for (const auto& run : runs) {
     report::PlotSeries sp{run.label, {}, {}, "", false, true, 2}, sd = sp, sv = sp;
     for (const auto& row : run.result.rows) {
-      sp.x.push_back(row.weight_n);
-      sp.y.push_back(row.top_pressure_pa / 1e3);
-      sd.x.push_back(row.weight_n);
-      sd.y.push_back(row.displacement_ratio);
-      sv.x.push_back(row.weight_n);
-      sv.y.push_back(row.volume_ratio * v0_cm3);
+      add_point(sp, row, row.top_pressure_pa / 1e3);
+      add_point(sd, row, row.displacement_ratio);
+      add_point(sv, row, row.volume_ratio * v0_cm3);
     }
     plots.pressure.series.push_back(sp);
     plots.disp.series.push_back(sd);
