@@ -68,9 +68,7 @@ void add_reconstruct_command(CLI::App* scan_cmd) {
                   "per-pixel fusion of a sensor's several frames: median (default) | trimmed-mean (mean of the middle "
                   "half, kept at 0.1 mm)");
   rec->add_option("--upsample", rf->upsample, "bilinear up-sampling of the depth frames, 1 to 8 (default 1)");
-  rec->add_option("--grid-mm", rf->grid_mm, "voxel-grid simplification before Poisson [mm] (default 2.5; 0: off)");
-  rec->add_option("--facet-mm", rf->facet_mm, "largest facet of the output surface [mm] (default 8)");
-  rec->add_option("--smooth", rf->smooth, "Taubin smoothing iterations (default 0)");
+  add_surface_flags(*rec, rf->grid_mm, rf->facet_mm, rf->smooth);
   rec->add_flag("--json", rf->json, "print a JSON summary on stdout");
   rec->callback([rf] { run_reconstruct(*rf); });
 }
@@ -132,9 +130,7 @@ void add_limb_experiment_command(CLI::App* exp) {
                     "--seed and --calibration), applied by the back-projection");
   limb->add_option("--radius-mm", lf->radius_mm, "ring radius [mm] (default 750)");
   limb->add_option("--height-mm", lf->height_mm, "sensor height above the limb's centre [mm] (default 0)");
-  limb->add_option("--grid-mm", lf->grid_mm, "voxel-grid simplification before Poisson [mm] (default 2.5)");
-  limb->add_option("--facet-mm", lf->facet_mm, "largest facet of the surface [mm] (default 8)");
-  limb->add_option("--smooth", lf->smooth, "Taubin smoothing iterations (default 0)");
+  add_surface_flags(*limb, lf->grid_mm, lf->facet_mm, lf->smooth);
   limb->add_option("--fusion", lf->fusion,
                    "per-pixel fusion of each sensor's --frames: median (default) | trimmed-mean");
   limb->add_option("--spacing-mm", lf->spacing_mm, "sample spacing of the distance measure [mm] (default 2)");

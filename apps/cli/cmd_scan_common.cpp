@@ -42,6 +42,12 @@ void add_compensation_form_flags(CLI::App& cmd, std::string& model, int& depth_d
   cmd.add_flag("--refine-distortion", refine_distortion, kRefineDistortionHelp);
 }
 
+void add_surface_flags(CLI::App& cmd, double& grid_mm, double& facet_mm, int& smooth) {
+  cmd.add_option("--grid-mm", grid_mm, "voxel-grid simplification before Poisson [mm] (default 2.5; 0: off)");
+  cmd.add_option("--facet-mm", facet_mm, "largest facet of the reconstructed surface [mm] (default 8)");
+  cmd.add_option("--smooth", smooth, "Taubin smoothing iterations (default 0)");
+}
+
 double elapsed_s(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }

@@ -20,7 +20,18 @@
 
 namespace socketsmith::cli::scan_cli {
 
-struct SimulateFlags {
+/// A simulated ring rig: its sensors, their intrinsics and their error model (scan simulate, the
+/// experiments).
+struct RigFlags {
+  int sensors = 4;
+  std::uint64_t seed = 1;
+  double noise_scale = 1.0;
+  double systematic_scale = 1.0;
+  int frames = 1;
+  std::string calibration;
+};
+
+struct SimulateFlags : RigFlags {
   std::string mesh;
   std::string units;
   double cylinder_mm = -1;
@@ -28,17 +39,11 @@ struct SimulateFlags {
   bool box = false;
   double box_yaw_deg = 45.0;
   bool chessboard = false;
-  int sensors = 4;
   double radius_mm = 750;
   double height_mm = 0;
-  std::uint64_t seed = 1;
-  double noise_scale = 1.0;
-  double systematic_scale = 1.0;
-  int frames = 1;
   int frames_per_pose = 1;
   double min_distance_mm = 550;
   double max_distance_mm = 1000;
-  std::string calibration;
   std::string out;
   bool json = false;
 };
@@ -60,16 +65,12 @@ struct CalibrateFlags {
   bool json = false;
 };
 
-struct ExperimentFlags {
+/// The chessboard and cylinder experiments; their --frames are the training board poses.
+struct ExperimentFlags : RigFlags {
+  ExperimentFlags() { frames = 50; }
   std::string which;
   std::string out;
-  std::uint64_t seed = 1;
-  int sensors = 4;
-  int frames = 50;
   int test_frames = 5;
-  double noise_scale = 1.0;
-  double systematic_scale = 1.0;
-  std::string calibration;
   std::string corner_depth = "bilinear";
   std::string model = "linear";
   int depth_degree = 3;
@@ -102,14 +103,8 @@ struct ReconstructFlags {
   bool json = false;
 };
 
-/// The simulated session of an experiment: the ring's sensors and their error model.
-struct SessionFlags {
-  int sensors = 4;
-  std::uint64_t seed = 1;
-  double noise_scale = 1.0;
-  double systematic_scale = 1.0;
-  int frames = 1;
-  std::string calibration;
+/// The simulated session of an experiment on a ring rig, with the learned models it applies.
+struct SessionFlags : RigFlags {
   std::string compensation;
 };
 
@@ -182,6 +177,9 @@ void add_session_flags(CLI::App& cmd, SessionFlags& f, const std::string& compen
 /// The --model, --depth-degree and --refine-distortion flags of a learned error compensation
 /// (scan calibrate and the board experiments).
 void add_compensation_form_flags(CLI::App& cmd, std::string& model, int& depth_degree, bool& refine_distortion);
+/// The --grid-mm, --facet-mm and --smooth flags of a Poisson reconstruction (scan reconstruct and
+/// the limb experiment).
+void add_surface_flags(CLI::App& cmd, double& grid_mm, double& facet_mm, int& smooth);
 /// Seconds since @p t0.
 double elapsed_s(std::chrono::steady_clock::time_point t0);
 /// A scan command's summary @p j gets its wall time since @p t0 ("wall_s") and, with --json
