@@ -5,6 +5,7 @@
 // pipeline::run_sock_ply_case (pipeline/donning_run.h).
 #include <cmath>
 #include <filesystem>
+#include <optional>
 
 #include "cli_common.h"
 #include "socketsmith/contact/donning.h"
@@ -52,11 +53,11 @@ pipeline::DonningRequest donning_request(const DonningFlags& f) {
                              .target_nodes = f.target_nodes, .start_offset_m = f.offset_mm * 1e-3, .steps = f.steps,
                              .max_step_m = f.step_mm * 1e-3, .stick_stiffness_ratio = f.stick_stiffness,
                              .friction = f.friction, .penalty_factor = f.penalty_factor, .reuse_cg = f.reuse_cg,
+                             .smooth_wall = f.wall.empty() ? std::nullopt : std::optional<bool>(f.wall == "smooth"),
+                             .body = f.body == "linearised"  ? pipeline::DonnedBody::Linearised
+                                     : f.body == "nonlinear" ? pipeline::DonnedBody::Nonlinear
+                                                             : pipeline::DonnedBody::Design,
                              .stand = !f.no_stand, .progress = console_progress(1.0)};
-  if (!f.wall.empty()) q.smooth_wall = f.wall == "smooth";
-  q.body = f.body == "linearised" ? pipeline::DonnedBody::Linearised
-           : f.body == "nonlinear" ? pipeline::DonnedBody::Nonlinear
-                                   : pipeline::DonnedBody::Design;
   return q;
 }
 
