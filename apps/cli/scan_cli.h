@@ -48,37 +48,37 @@ struct SimulateFlags : RigFlags {
   bool json = false;
 };
 
-struct CalibrateFlags {
-  std::string recording;
-  std::string out;
-  std::string pattern;
-  double square_mm = -1;
+/// How a compensation is trained from board frames: `scan calibrate` and the experiments that
+/// train one (their help texts differ, so each command registers these itself).
+struct TrainingFlags {
   std::string truth = "pnp";
-  int upsample = 2;
-  int min_frames = 5;
   std::string corner_depth = "bilinear";
   std::string model = "linear";
   int depth_degree = 3;
   bool refine_distortion = false;
+};
+
+struct CalibrateFlags : TrainingFlags {
+  std::string recording;
+  std::string out;
+  std::string pattern;
+  double square_mm = -1;
+  int upsample = 2;
+  int min_frames = 5;
   int frames_per_pose = 0;
   std::string fusion = "trimmed-mean";
   bool json = false;
 };
 
 /// The chessboard and cylinder experiments; their --frames are the training board poses.
-struct ExperimentFlags : RigFlags {
+struct ExperimentFlags : RigFlags, TrainingFlags {
   ExperimentFlags() { frames = 50; }
   std::string which;
   std::string out;
   int test_frames = 5;
-  std::string corner_depth = "bilinear";
-  std::string model = "linear";
-  int depth_degree = 3;
-  bool refine_distortion = false;
   int scan_frames = 1;
   std::string fusion = "median";
   int board_frames_per_pose = 1;
-  std::string truth = "pnp";
   bool no_mesh = false;
   bool json = false;
 };
