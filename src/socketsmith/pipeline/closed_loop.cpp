@@ -226,12 +226,14 @@ double shown_deg(double theta) {
 /// What the below-brim figures of @p it owe to nodes dragged out of the socket ("" when none are).
 std::string dragged_out_note(const ClosedLoopIteration& it) {
   if (it.dragged_out == 0) return {};
+  std::string others;  // no figures when fewer than 3 nodes stayed in the socket
+  if (it.in_socket.count > 0)
+    others = fmt::format("; the others: MAE {:.2f} kPa, 99th percentile {:.2f} kPa", it.in_socket.mae / 1e3,
+                         it.in_socket.p99 / 1e3);
   return fmt::format(" ({} nodes dragged above the brim by donning, up to {:.1f} mm, between {:.0f}° and {:.0f}° from "
-                     "anterior towards medial, designed up to {:.1f} kPa; the others: MAE {:.2f} kPa, 99th percentile "
-                     "{:.2f} kPa)",
+                     "anterior towards medial, designed up to {:.1f} kPa{})",
                      it.dragged_out, it.dragged_out_height_m * 1e3, it.dragged_out_from_deg, it.dragged_out_to_deg,
-                     it.dragged_out_max_target_pa / 1e3, it.in_socket.mae / 1e3,
-                     it.in_socket.p99 / 1e3);
+                     it.dragged_out_max_target_pa / 1e3, others);
 }
 
 /// How far a stage is from the tolerances: max(MAE / its tolerance, p99 / its tolerance) below the
@@ -305,8 +307,8 @@ class LoopRun {
       }
       // A refit within the tolerances by a margin (kCheckScore), or the last of a round, is checked
       // by a donning from scratch; so is the round's best when a refit does worse (1.8k: refits
-      // drift from the fourth on); when
-      // the round's first refit does worse than its donning, nothing is left to gain: the loop stops.
+      // drift from the fourth on); when the round's first refit does worse than its donning,
+      // nothing is left to gain: the loop stops.
       // Worse means kWorseMargin above the round's best: a refit and a donning from scratch differ
       // by path noise (OpenLimb 3k: a round's first refit at MAE 0.69 / p99 4.38 kPa after its
       // donning's 0.67 / 5.17 stopped the loop there; two more refits and a donning reached 0.39 / 3.45).
@@ -448,9 +450,9 @@ class LoopRun {
     r_.donning = d;
   }
 
-  /// The next wall: the correction of the last donning's @p delivered pressures (Anderson-mixed over the round's
-  /// refits), the designed skin moved by δ along its normals, the socket built on it. False when
-  /// the socket could not be built (the loop stops with the reason).
+  /// The next wall: the correction of the last donning's @p delivered pressures (Anderson-mixed
+  /// over the round's refits), the designed skin moved by δ along its normals, the socket built on
+  /// it. False when the socket could not be built (the loop stops with the reason).
   bool correct_wall(const std::vector<double>& delivered, bool refitted) {
     const std::vector<double> on_wall = wall_corrections(solver_, state_, in_socket_, delivered,
                                                          r_.target_pa, donned_, offset_, spacing_, options_);

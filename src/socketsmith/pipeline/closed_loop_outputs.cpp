@@ -263,8 +263,9 @@ nlohmann::json write_closed_loop_outputs(const DesignSetup& setup, const DesignR
         {"dragged out of the socket",
          fmt::format("{} skin nodes below the brim (designed up to {:.1f} kPa) end above it once donned and stood on, "
                      "up to {:.1f} mm, between {:.0f}° and {:.0f}° from anterior towards medial: friction drags the "
-                     "skin proximally, and above the brim only the lip, which the loop does not shape, presses them. Without them: MAE {:.2f} kPa, 99th percentile "
-                     "{:.2f} kPa. A brim higher there by that much, or a liner (lower friction), keeps them in.",
+                     "skin proximally, and above the brim only the lip, which the loop does not shape, presses "
+                     "them. Without them: MAE {:.2f} kPa, 99th percentile {:.2f} kPa. A brim higher there by that "
+                     "much, or a liner (lower friction), keeps them in.",
                      kept.dragged_out, kept.dragged_out_max_target_pa / 1e3, kept.dragged_out_height_m * 1e3,
                      kept.dragged_out_from_deg, kept.dragged_out_to_deg, kept.in_socket.mae / 1e3,
                      kept.in_socket.p99 / 1e3)});
