@@ -116,6 +116,7 @@ bool ContactSolver::Impl::solve_nonlinear(const VectorXd& xs, const std::vector<
     tangent(xs, B, Kp, true);
     if (cholesky(Kp)) return true;
   }
+  llt.invalidate();  // no chord step on an older factor
   Eigen::SparseLU<SparseMatrix> lu;
   lu.compute(K);
   if (lu.info() != Eigen::Success) return false;
@@ -140,6 +141,10 @@ bool ContactSolver::Impl::newton_direction(const VectorXd& xs, const std::vector
     if (!llt.factorize(K)) return false;
     ++factorizations;
     sol = llt.solve(rhs);
+  } else if (chord_now) {
+    const SerialParallelRegions serial;
+    sol = llt.solve(rhs);
+    if (!sol.allFinite()) return false;
   } else if (!solve_nonlinear(xs, B, K, rhs, sol)) {
     return false;
   }
@@ -147,9 +152,25 @@ bool ContactSolver::Impl::newton_direction(const VectorXd& xs, const std::vector
   return !free_axis() || eliminate_free(rhs, sol, h, rs, delta, ds);
 }
 
+bool ContactSolver::Impl::step_direction(const VectorXd& xs, const std::vector<Eigen::Matrix3d>& B, SparseMatrix& K,
+                                         const VectorXd& r, double rs, bool in_tail, VectorXd& delta, double& ds) {
+  // The tangent only when a Newton step is taken: a solve converged at its start (a step where no
+  // node touches, the last friction pass) or stopped at max_newton costs no tangent. In the tail, a
+  // chord step on the last factorisation (ContactOptions::chord_ratio); a fresh tangent when it
+  // gives no direction.
+  chord_now = chord_next && in_tail && !opt.linear_body && llt.valid();
+  if (!chord_now) tangent(xs, B, K);
+  if (newton_direction(xs, B, K, r, rs, delta, ds)) return true;
+  if (!chord_now) return false;
+  chord_now = false;
+  tangent(xs, B, K);
+  return newton_direction(xs, B, K, r, rs, delta, ds);
+}
+
 bool ContactSolver::Impl::newton(VectorXd& xs, Vec3& t, std::vector<NodeContact>& st, std::vector<Vec3>& th,
                                  int& iterations, double& rn, bool& at_kink) {
   at_kink = false;
+  chord_next = false;
   tissue::limit_solver_threads();
   SparseMatrix K;
   std::vector<Eigen::Matrix3d> B;
@@ -170,24 +191,21 @@ bool ContactSolver::Impl::newton(VectorXd& xs, Vec3& t, std::vector<NodeContact>
     const double tol = tolerance(st);
     if (rn <= tol) return true;
     if (log::level() <= log::Level::Debug) {
-      int act = 0;
-      for (const auto& c : st) act += c.active ? 1 : 0;
-      log::debug("contact: Newton {}: |r| {:.3g} N (tol {:.3g}), {} active, potential {:.6g} J", it, rn, tol, act,
-                 pi);
+      const auto act = std::count_if(st.begin(), st.end(), [](const NodeContact& c) { return c.active; });
+      log::debug("contact: Newton {}: |r| {:.3g} N (tol {:.3g}), {} active, potential {:.6g} J", it, rn, tol, act, pi);
     }
     if (it == opt.max_newton) {
       at_kink = rn <= kink_tolerance(st);
       return at_kink;
     }
-    // The tangent only when a Newton step is taken: a solve converged at its start (a step where
-    // no node touches, the last friction pass) or stopped at max_newton costs no tangent.
-    tangent(xs, B, K);
     VectorXd delta;
     double ds = 0;
-    if (!newton_direction(xs, B, K, r, rs, delta, ds)) return false;
+    if (!step_direction(xs, B, K, r, rs, rn <= kRelagResidual * tol, delta, ds)) return false;
     ++iterations;
     double step = 0;
+    const double rn_before = rn;
     const bool accepted = line_search(xs, t, delta, ds, r, rs, rn, pi, st, th, B, conservative, step);
+    chord_next = accepted && step == 1.0 && rn <= opt.chord_ratio * rn_before;
     if (!accepted) {
       log::debug("contact: line search failed at Newton {} (residual {:.3g} N)", it, rn);
       at_kink = rn <= kink_tolerance(st);
@@ -196,7 +214,7 @@ bool ContactSolver::Impl::newton(VectorXd& xs, Vec3& t, std::vector<NodeContact>
     // A node on a kink of the wall (an edge or vertex where the closest face switches) has no
     // point of zero residual: Newton then crawls with tiny steps while Π stops decreasing. Its
     // residual is bounded by the force jump across the kink; accept it when it is small.
-    log::debug("contact: step {:.3g} of the Newton step", step);
+    log::debug("contact: step {:.3g} of the Newton step{}", step, chord_now ? " (chord: on the last factorisation)" : "");
     pi_history.push_back(pi);
     const double moved = step * std::max(delta.cwiseAbs().maxCoeff(), std::abs(ds));
     const size_t nh = pi_history.size();

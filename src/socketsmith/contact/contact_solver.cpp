@@ -254,6 +254,8 @@ ContactSolver::ContactSolver(const tissue::MassSpringModel& model, const tissue:
           "contact: penalty factor {} must be positive", options.penalty_factor);
   require(std::isfinite(options.stick_stiffness_ratio) && options.stick_stiffness_ratio > 0,
           "contact: stick stiffness ratio {} must be positive", options.stick_stiffness_ratio);
+  require(std::isfinite(options.chord_ratio) && options.chord_ratio >= 0 && options.chord_ratio < 1,
+          "contact: chord ratio {} must be in [0, 1) (0: a fresh tangent every Newton step)", options.chord_ratio);
   impl_ = std::make_unique<Impl>(model, dofs, std::move(nodes), std::move(areas), obstacle, options);
   auto& s = *impl_;
   double spacing = 0;

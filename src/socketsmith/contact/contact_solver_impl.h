@@ -30,6 +30,9 @@ struct ContactSolver::Impl {
   std::vector<double> areas;
   Obstacle& obstacle;
   ContactOptions opt;
+  /// Newton's next direction may use the last factorisation (ContactOptions::chord_ratio), and
+  /// the current one does.
+  bool chord_next = false, chord_now = false;
   double k = 0;
   VectorXd x, x_conv, x_prev;        // current, last converged and the one before (predictor)
   Vec3 t_conv = Vec3::Zero(), t_prev = Vec3::Zero();
@@ -185,6 +188,10 @@ struct ContactSolver::Impl {
 
   /// The Newton step (@p delta, and @p ds along free_dir when the obstacle is free) from the
   /// tangent @p K and the residuals @p r, @p rs.
+  /// Newton's direction at @p xs (newton_direction), on the last factorisation when a chord step
+  /// is due (chord_next, @p in_tail: the residual within kRelagResidual × the tolerance).
+  bool step_direction(const VectorXd& xs, const std::vector<Eigen::Matrix3d>& B, SparseMatrix& K, const VectorXd& r,
+                      double rs, bool in_tail, VectorXd& delta, double& ds);
   bool newton_direction(const VectorXd& xs, const std::vector<Eigen::Matrix3d>& B, SparseMatrix& K, const VectorXd& r,
                         double rs, VectorXd& delta, double& ds);
 
