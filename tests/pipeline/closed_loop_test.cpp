@@ -2,6 +2,7 @@
 // embedded sample at 1.8k nodes — the corrected socket delivers the design better than the open-loop
 // one, the numbers reported are those of the socket written (re-donned here independently), and the
 // outputs carry them.
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -231,6 +232,30 @@ TEST_F(ClosedLoopRun, outputs_carry_the_designed_open_and_closed_loop_pressures)
   const std::string html((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   EXPECT_NE(html.find("Delivered pressures"), std::string::npos);
   EXPECT_NE(html.find("closed loop"), std::string::npos);
+}
+
+TEST(ClosedLoop, the_dragged_out_lines_give_in_socket_figures_only_when_nodes_stayed_in) {
+  ClosedLoopIteration it;
+  EXPECT_EQ(dragged_out_note(it), "");
+  EXPECT_EQ(dragged_out_advice(it), "");
+  it.dragged_out = 12;
+  it.dragged_out_height_m = 0.0034;
+  it.dragged_out_max_target_pa = 15700;
+  it.dragged_out_from_deg = 78;
+  it.dragged_out_to_deg = 316;
+  // Fewer than 3 nodes stayed in the socket: their statistics were not computed (count 0) and
+  // must not be printed as zeros.
+  for (const std::string& line : {dragged_out_note(it), dragged_out_advice(it)}) {
+    EXPECT_THAT(line, ::testing::HasSubstr("12 "));
+    EXPECT_THAT(line, ::testing::HasSubstr("3.4 mm"));
+    EXPECT_THAT(line, ::testing::HasSubstr("between 78° and 316°"));
+    EXPECT_THAT(line, ::testing::Not(::testing::HasSubstr("MAE")));
+  }
+  it.in_socket.count = 700;
+  it.in_socket.mae = 360;
+  it.in_socket.p99 = 2160;
+  EXPECT_THAT(dragged_out_note(it), ::testing::HasSubstr("the others: MAE 0.36 kPa, 99th percentile 2.16 kPa"));
+  EXPECT_THAT(dragged_out_advice(it), ::testing::HasSubstr("Without them: MAE 0.36 kPa, 99th percentile 2.16 kPa."));
 }
 
 TEST(ClosedLoop, refuses_bad_options_and_a_design_without_a_socket) {

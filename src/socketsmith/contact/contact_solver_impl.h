@@ -186,12 +186,12 @@ struct ContactSolver::Impl {
   static bool eliminate_free(const Eigen::MatrixXd& rhs, const Eigen::MatrixXd& sol, double h, double rs,
                              VectorXd& delta, double& ds);
 
-  /// The Newton step (@p delta, and @p ds along free_dir when the obstacle is free) from the
-  /// tangent @p K and the residuals @p r, @p rs.
   /// Newton's direction at @p xs (newton_direction), on the last factorisation when a chord step
   /// is due (chord_next, @p in_tail: the residual within kRelagResidual × the tolerance).
   bool step_direction(const VectorXd& xs, const std::vector<Eigen::Matrix3d>& B, SparseMatrix& K, const VectorXd& r,
                       double rs, bool in_tail, VectorXd& delta, double& ds);
+  /// The Newton step (@p delta, and @p ds along free_dir when the obstacle is free) from the
+  /// tangent @p K and the residuals @p r, @p rs.
   bool newton_direction(const VectorXd& xs, const std::vector<Eigen::Matrix3d>& B, SparseMatrix& K, const VectorXd& r,
                         double rs, VectorXd& delta, double& ds);
 

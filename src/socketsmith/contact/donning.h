@@ -73,9 +73,10 @@ struct DonningOptions {
   ///
   /// Tolerances: ‖r‖ ≤ 1e-4 of the contact forces' sum (≈ 0.06 N at 8k nodes), the friction lag
   /// refreshed until the normal forces move by less than 3 % of the largest. Against 1e-5 and 1 %
-  /// the 8k closed loop took 152 instead of 207 Newton steps (with chord steps, ContactOptions::
-  /// chord_ratio), the open-loop donning's pressures within 5 Pa on average and 0.27 kPa at most —
-  /// below what the path's 6 mm steps already differ from a 1 mm path's.
+  /// the 8k closed loop took 151 instead of 207 factorisations (182 Newton steps, 31 of them chord
+  /// steps: ContactOptions::chord_ratio), the open-loop donning's pressures within 5 Pa on average
+  /// and 0.27 kPa at most; against a 1 mm path the 7.5k donning differs by 48 / 869 Pa (mean /
+  /// largest) where it differed by 47 / 839 Pa (docs/contact.md, "Speed").
   ContactOptions contact = [] {
     ContactOptions c;
     c.penalty_factor = 20.0;

@@ -223,18 +223,6 @@ double shown_deg(double theta) {
   return d < 0 ? d + 360.0 : d;
 }
 
-/// What the below-brim figures of @p it owe to nodes dragged out of the socket ("" when none are).
-std::string dragged_out_note(const ClosedLoopIteration& it) {
-  if (it.dragged_out == 0) return {};
-  std::string others;  // no figures when fewer than 3 nodes stayed in the socket
-  if (it.in_socket.count > 0)
-    others = fmt::format("; the others: MAE {:.2f} kPa, 99th percentile {:.2f} kPa", it.in_socket.mae / 1e3,
-                         it.in_socket.p99 / 1e3);
-  return fmt::format(" ({} nodes dragged above the brim by donning, up to {:.1f} mm, between {:.0f}° and {:.0f}° from "
-                     "anterior towards medial, designed up to {:.1f} kPa{})",
-                     it.dragged_out, it.dragged_out_height_m * 1e3, it.dragged_out_from_deg, it.dragged_out_to_deg,
-                     it.dragged_out_max_target_pa / 1e3, others);
-}
 
 /// How far a stage is from the tolerances: max(MAE / its tolerance, p99 / its tolerance) below the
 /// brim, the nodes dragged out of the socket included; ≤ 1 within. (Steering by the nodes still in
@@ -512,6 +500,36 @@ class LoopRun {
 };
 
 }  // namespace
+
+namespace {
+/// "MAE … kPa, 99th percentile … kPa" over the nodes of @p it still in the socket; "" when fewer
+/// than 3 stayed in (their statistics were not computed).
+std::string in_socket_figures(const ClosedLoopIteration& it) {
+  if (it.in_socket.count == 0) return {};
+  return fmt::format("MAE {:.2f} kPa, 99th percentile {:.2f} kPa", it.in_socket.mae / 1e3, it.in_socket.p99 / 1e3);
+}
+}  // namespace
+
+std::string dragged_out_note(const ClosedLoopIteration& it) {
+  if (it.dragged_out == 0) return {};
+  const std::string others = in_socket_figures(it);
+  return fmt::format(" ({} nodes dragged above the brim by donning, up to {:.1f} mm, between {:.0f}° and {:.0f}° from "
+                     "anterior towards medial, designed up to {:.1f} kPa{})",
+                     it.dragged_out, it.dragged_out_height_m * 1e3, it.dragged_out_from_deg, it.dragged_out_to_deg,
+                     it.dragged_out_max_target_pa / 1e3, others.empty() ? "" : "; the others: " + others);
+}
+
+std::string dragged_out_advice(const ClosedLoopIteration& kept) {
+  if (kept.dragged_out == 0) return {};
+  const std::string without = in_socket_figures(kept);
+  return fmt::format("{} skin nodes below the brim (designed up to {:.1f} kPa) end above it once donned and stood on, "
+                     "up to {:.1f} mm, between {:.0f}° and {:.0f}° from anterior towards medial: friction drags the "
+                     "skin proximally, and above the brim only the lip, which the loop does not shape, presses "
+                     "them.{} A brim higher there by that much, or a liner (lower friction), keeps them in.",
+                     kept.dragged_out, kept.dragged_out_max_target_pa / 1e3, kept.dragged_out_height_m * 1e3,
+                     kept.dragged_out_from_deg, kept.dragged_out_to_deg,
+                     without.empty() ? "" : " Without them: " + without + ".");
+}
 
 ClosedLoopResult close_design_loop(DesignSetup& setup, const DesignResult& result, const ClosedLoopOptions& options) {
   check_options(options);

@@ -185,6 +185,13 @@ DeliverySummary summarise_delivery(const DesignSetup& setup, const ClosedLoopRes
 nlohmann::json write_closed_loop_outputs(const DesignSetup& setup, const DesignResult& result,
                                          const std::filesystem::path& out, report::ReportDelivery& delivery);
 
+/// What the below-brim figures of @p it owe to the nodes donning dragged above the brim, for the
+/// loop's log line ("" when none were; no in-socket figures when fewer than 3 nodes stayed in).
+std::string dragged_out_note(const ClosedLoopIteration& it);
+/// The report's sentence on those nodes of the kept socket @p kept, with the prosthetist's options
+/// ("" when none were; no in-socket figures when fewer than 3 nodes stayed in).
+std::string dragged_out_advice(const ClosedLoopIteration& kept);
+
 /// Runs the loop on a design whose constraints are met (result.socket is the open-loop socket).
 /// The setup's DesignSolver provides the compliance (its K₀ is factorised on first use).
 /// @throws InvalidInputError for options out of range or a design without a socket;

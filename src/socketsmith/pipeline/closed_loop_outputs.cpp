@@ -258,17 +258,7 @@ nlohmann::json write_closed_loop_outputs(const DesignSetup& setup, const DesignR
   add_delivery_maps(setup, result, loop, out, delivery);
   add_delivery_plots(setup, loop, delivery);
   const ClosedLoopIteration& kept = loop.iterations[loop.best];
-  if (kept.dragged_out > 0)
-    delivery.details.push_back(
-        {"dragged out of the socket",
-         fmt::format("{} skin nodes below the brim (designed up to {:.1f} kPa) end above it once donned and stood on, "
-                     "up to {:.1f} mm, between {:.0f}° and {:.0f}° from anterior towards medial: friction drags the "
-                     "skin proximally, and above the brim only the lip, which the loop does not shape, presses "
-                     "them. Without them: MAE {:.2f} kPa, 99th percentile {:.2f} kPa. A brim higher there by that "
-                     "much, or a liner (lower friction), keeps them in.",
-                     kept.dragged_out, kept.dragged_out_max_target_pa / 1e3, kept.dragged_out_height_m * 1e3,
-                     kept.dragged_out_from_deg, kept.dragged_out_to_deg, kept.in_socket.mae / 1e3,
-                     kept.in_socket.p99 / 1e3)});
+  if (kept.dragged_out > 0) delivery.details.push_back({"dragged out of the socket", dragged_out_advice(kept)});
   return {{"converged", loop.converged},
           {"message", loop.message},
           {"donnings", std::count_if(loop.iterations.begin(), loop.iterations.end(), [](const auto& it) { return !it.refit; })},
