@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # The main job on the embedded sample: installs what is missing, builds, and runs
 # `socketsmith demo`: the project's generated transtibial limb (skin + tibia, fibula, patella,
-# femur) → an ~8k-node MSS-CS stump → the default pressure-spot layout optimised until the seven
-# radar constraints hold for a 70 kg patient (E = 100 kPa, μ = 0.5) → the socket (5 mm wall,
-# PTB brim, distal pad) and its report. Then the thesis's cube experiment.
+# femur) → an ~8k-node stump (neo-Hookean tissue, solved nonlinearly) → the default pressure-spot
+# layout optimised until the seven radar constraints hold for a 70 kg patient (E = 100 kPa, ν 0.45,
+# μ = 0.5) → the socket (5 mm wall, PTB brim, distal pad) and its report. Then the thesis's cube
+# experiment.
 #   out/demo/case.json            the case (edit it and replay: build/socketsmith design out/demo/case.json --out DIR)
 #   out/demo/socket.stl           the socket, mm, ready to print
 #   out/demo/report.html          patient, radar, pressure maps, profiles, socket measurements

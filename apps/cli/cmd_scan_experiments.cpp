@@ -15,6 +15,19 @@
 #include "scan_cli.h"
 
 namespace socketsmith::cli::scan_cli {
+namespace {
+
+/// Runs an experiment with a console progress line, or quietly and then prints its JSON report
+/// (--json).
+template <class Request, class RunFn>
+auto run_and_report(Request& q, bool json, RunFn&& run) {
+  q.progress = json ? ProgressCallback{} : console_progress(1.0);
+  auto result = run(q);
+  if (json) print_json(result.report);
+  return result;
+}
+
+}  // namespace
 
 /// The limb experiment's rig, simulation, reconstruction and measure from its flags.
 scan::LimbScanOptions limb_scan_options(const LimbExperimentFlags& f, const scan::SensorErrorModel& error) {
@@ -51,12 +64,9 @@ void run_limb_experiment(const LimbExperimentFlags& f) {
   }
   q.options = limb_scan_options(f, error);
   q.sources = {f.calibration, f.compensation};
-  q.progress = f.json ? ProgressCallback{} : console_progress(1.0);
-  const scan::LimbExperimentRun run = scan::run_limb_experiment(q, f.out);
-  if (f.json) {
-    print_json(run.report);
-    return;
-  }
+  const scan::LimbExperimentRun run =
+      run_and_report(q, f.json, [&](const auto& request) { return scan::run_limb_experiment(request, f.out); });
+  if (f.json) return;
   const scan::LimbScanResult& r = run.result;
   const scan::ScanAccuracy& a = r.accuracy;
   const bool watertight = r.reconstruction.check.is_valid_closed_surface();
@@ -92,12 +102,9 @@ void run_registration_experiment(const RegistrationExperimentFlags& f) {
   q.sources = {f.calibration, f.compensation};
   q.corner_depth = f.corner_depth;
   q.pose_error_mm = f.pose_error_mm;
-  q.progress = f.json ? ProgressCallback{} : console_progress(1.0);
-  const scan::RegistrationExperimentRun run = scan::run_registration_experiment(q, f.out);
-  if (f.json) {
-    print_json(run.report);
-    return;
-  }
+  const scan::RegistrationExperimentRun run =
+      run_and_report(q, f.json, [&](const auto& r) { return scan::run_registration_experiment(r, f.out); });
+  if (f.json) return;
   const scan::RegistrationExperimentResult& r = run.result;
   const std::string compensated =
       f.compensation.empty() ? std::string()
@@ -175,12 +182,9 @@ void run_experiment(const ExperimentFlags& f) {
   q.command = board_command(f);
   q.truth = f.truth;
   q.sources.calibration = f.calibration;
-  q.progress = f.json ? ProgressCallback{} : console_progress(1.0);
-  const scan::BoardExperimentRun run = scan::run_board_experiment(q, f.out);
-  if (f.json) {
-    print_json(run.report);
-    return;
-  }
+  const scan::BoardExperimentRun run =
+      run_and_report(q, f.json, [&](const auto& request) { return scan::run_board_experiment(request, f.out); });
+  if (f.json) return;
   log::info("scan experiment {} (seed {}, {} sensors, {} training frames, noise scale {:g}, truth {}): chessboard "
             "dimension errors on held-out frames, raw -> compensated:{}\nwrote {}/{}.json and {}/compensation.json in "
             "{:.1f} s.",

@@ -3,10 +3,12 @@
 // 4 topology, 70 internal.
 #include <cstdio>
 #include <exception>
+#include <optional>
 
 #include <CLI/CLI.hpp>
 
 #include "cli_common.h"
+#include "common/parse_command_line.h"
 #include "socketsmith/core/exit_status.h"
 #include "socketsmith/core/log.h"
 
@@ -31,12 +33,7 @@ int main(int argc, char** argv) {
   cli::register_compare(app);
   cli::register_sweep(app);
   try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    // --help and --version are "errors" with exit code 0: CLI11 prints them.
-    if (e.get_exit_code() == static_cast<int>(CLI::ExitCodes::Success)) return app.exit(e);
-    std::fprintf(stderr, "error: %s (see --help)\n", one_line(e.what()).c_str());
-    return kExitBadInput;
+    if (const std::optional<int> code = apps::parse_command_line(app, argc, argv, "error")) return *code;
   } catch (...) {
     const ExitStatus status = exit_status(std::current_exception());
     std::fprintf(stderr, "%s\n", status.line().c_str());

@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <iostream>
 #include <memory>
+#include <optional>
 
 #include <CLI/CLI.hpp>
 #include <GLFW/glfw3.h>
@@ -15,6 +16,7 @@
 #include <imgui.h>
 
 #include "app.h"
+#include "common/parse_command_line.h"
 #include "headless.h"
 #include "socketsmith/core/errors.h"
 #include "socketsmith/core/exit_status.h"
@@ -139,12 +141,8 @@ int main(int argc, char** argv) {
   cli.add_option("--bench-json", f.bench_json, "headless: also write the --bench-drag result to this JSON file");
   cli.add_option("--width", f.width, "window width [px]")->check(CLI::Range(800, 8000));
   cli.add_option("--height", f.height, "window height [px]")->check(CLI::Range(600, 8000));
-  try {
-    cli.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    if (e.get_exit_code() == static_cast<int>(CLI::ExitCodes::Success)) return cli.exit(e);  // --help
-    std::fprintf(stderr, "socketsmith-gui: %s (see --help)\n", socketsmith::one_line(e.what()).c_str());
-    return socketsmith::kExitBadInput;
+  if (const std::optional<int> code = socketsmith::apps::parse_command_line(cli, argc, argv, "socketsmith-gui")) {
+    return *code;
   }
   if (f.headless && f.case_file.empty() && f.limb_file.empty() && !f.demo) {
     std::fprintf(stderr, "socketsmith-gui: --headless needs --case FILE, --limb FILE or --demo\n");

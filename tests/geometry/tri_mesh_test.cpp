@@ -29,6 +29,21 @@ TEST(TriMesh, volume_and_area_are_invariant_under_rigid_motion) {
   }
 }
 
+TEST(TriMesh, area_centroid_is_the_cubes_centre_and_follows_a_rigid_motion_but_a_flat_surface_has_none) {
+  const TriMesh cube = make_cube(0.3);
+  Vec3 centre = Vec3::Zero();
+  for (const Vec3& v : cube.vertices) centre += v / static_cast<double>(cube.vertices.size());
+  ASSERT_TRUE(area_centroid(cube).has_value());
+  EXPECT_LT((*area_centroid(cube) - centre).norm(), 1e-12);
+  const auto motion = test::random_rigid_motion(3);
+  const auto moved = area_centroid(test::transformed(cube, motion));
+  ASSERT_TRUE(moved.has_value());
+  EXPECT_LT((*moved - motion * centre).norm(), 1e-12);
+  TriMesh collapsed = cube;
+  for (Vec3& v : collapsed.vertices) v = centre;  // every triangle of zero area
+  EXPECT_FALSE(area_centroid(collapsed).has_value());
+}
+
 TEST(TriMesh, icosphere_volume_and_area_converge_to_the_sphere) {
   const double r = 0.07;
   const double v_exact = 4.0 / 3.0 * M_PI * r * r * r;

@@ -76,45 +76,86 @@ void check_brim_request(BrimTemplate kind, LimbType type, double cut_height_m, c
           "make_brim: min_height_fraction = {} is out of range [0, 1)", options.min_height_fraction);
 }
 
+/// Where a transtibial key point's height is measured from.
+enum class HeightFrom {
+  Pt,        ///< the patellar tendon landmark (PT)
+  KneeLine,  ///< the knee joint line, 10 mm above the popliteal crease (POP)
+};
+
+/// One key point of a transtibial template: its angle [deg, anterior 0, medial +] and its height
+/// [mm] above PT or the knee joint line.
+struct TranstibialKeyPoint {
+  BrimTemplate kind;
+  const char* label;
+  double theta_deg;
+  HeightFrom from;
+  double above_mm;
+};
+
+// The transtibial templates, key point by key point (docs/socket_builder.md).
+constexpr TranstibialKeyPoint kTranstibialKeyPoints[] = {
+    {BrimTemplate::Ptb, "anterior (mid-patella)", 0, HeightFrom::Pt, 30},
+    {BrimTemplate::Ptb, "antero-medial", 35, HeightFrom::Pt, 30},
+    {BrimTemplate::Ptb, "medial wing (condyle)", 80, HeightFrom::KneeLine, 20},
+    {BrimTemplate::Ptb, "postero-medial", 110, HeightFrom::KneeLine, 5},
+    {BrimTemplate::Ptb, "medial hamstring relief", 145, HeightFrom::Pt, 0},
+    {BrimTemplate::Ptb, "posterior (popliteal)", 180, HeightFrom::Pt, 10},
+    {BrimTemplate::Ptb, "lateral hamstring relief", -145, HeightFrom::Pt, 5},
+    {BrimTemplate::Ptb, "postero-lateral", -110, HeightFrom::KneeLine, 5},
+    {BrimTemplate::Ptb, "lateral wing (condyle)", -80, HeightFrom::KneeLine, 20},
+    {BrimTemplate::Ptb, "antero-lateral", -35, HeightFrom::Pt, 30},
+    {BrimTemplate::PtbSc, "anterior (mid-patella)", 0, HeightFrom::Pt, 30},
+    {BrimTemplate::PtbSc, "antero-medial", 35, HeightFrom::Pt, 35},
+    {BrimTemplate::PtbSc, "medial wing (supracondylar)", 80, HeightFrom::KneeLine, 50},
+    {BrimTemplate::PtbSc, "postero-medial", 110, HeightFrom::KneeLine, 15},
+    {BrimTemplate::PtbSc, "medial hamstring relief", 145, HeightFrom::Pt, 0},
+    {BrimTemplate::PtbSc, "posterior (popliteal)", 180, HeightFrom::Pt, 10},
+    {BrimTemplate::PtbSc, "lateral hamstring relief", -145, HeightFrom::Pt, 5},
+    {BrimTemplate::PtbSc, "postero-lateral", -110, HeightFrom::KneeLine, 15},
+    {BrimTemplate::PtbSc, "lateral wing (supracondylar)", -80, HeightFrom::KneeLine, 50},
+    {BrimTemplate::PtbSc, "antero-lateral", -35, HeightFrom::Pt, 35},
+    {BrimTemplate::PtbScsp, "anterior (suprapatellar)", 0, HeightFrom::KneeLine, 55},
+    {BrimTemplate::PtbScsp, "antero-medial", 35, HeightFrom::KneeLine, 50},
+    {BrimTemplate::PtbScsp, "medial wing (supracondylar)", 80, HeightFrom::KneeLine, 55},
+    {BrimTemplate::PtbScsp, "postero-medial", 115, HeightFrom::KneeLine, 15},
+    {BrimTemplate::PtbScsp, "medial hamstring relief", 145, HeightFrom::Pt, 0},
+    {BrimTemplate::PtbScsp, "posterior (popliteal)", 180, HeightFrom::Pt, 10},
+    {BrimTemplate::PtbScsp, "lateral hamstring relief", -145, HeightFrom::Pt, 5},
+    {BrimTemplate::PtbScsp, "postero-lateral", -115, HeightFrom::KneeLine, 15},
+    {BrimTemplate::PtbScsp, "lateral wing (supracondylar)", -80, HeightFrom::KneeLine, 55},
+    {BrimTemplate::PtbScsp, "antero-lateral", -35, HeightFrom::KneeLine, 50},
+    {BrimTemplate::Kbm, "anterior (below the patella)", 0, HeightFrom::Pt, 10},
+    {BrimTemplate::Kbm, "antero-medial", 30, HeightFrom::Pt, 15},
+    {BrimTemplate::Kbm, "medial wing (over the condyle)", 80, HeightFrom::KneeLine, 50},
+    {BrimTemplate::Kbm, "postero-medial", 110, HeightFrom::KneeLine, 20},
+    {BrimTemplate::Kbm, "medial hamstring relief", 145, HeightFrom::Pt, 0},
+    {BrimTemplate::Kbm, "posterior (popliteal)", 180, HeightFrom::Pt, 10},
+    {BrimTemplate::Kbm, "lateral hamstring relief", -145, HeightFrom::Pt, 5},
+    {BrimTemplate::Kbm, "postero-lateral", -110, HeightFrom::KneeLine, 20},
+    {BrimTemplate::Kbm, "lateral wing (over the condyle)", -80, HeightFrom::KneeLine, 50},
+    {BrimTemplate::Kbm, "antero-lateral", -30, HeightFrom::Pt, 15},
+    {BrimTemplate::Tsb, "anterior", 0, HeightFrom::KneeLine, 25},
+    {BrimTemplate::Tsb, "antero-medial", 40, HeightFrom::KneeLine, 25},
+    {BrimTemplate::Tsb, "medial", 85, HeightFrom::KneeLine, 30},
+    {BrimTemplate::Tsb, "postero-medial", 130, HeightFrom::KneeLine, 15},
+    {BrimTemplate::Tsb, "posterior", 180, HeightFrom::KneeLine, 5},
+    {BrimTemplate::Tsb, "postero-lateral", -130, HeightFrom::KneeLine, 15},
+    {BrimTemplate::Tsb, "lateral", -85, HeightFrom::KneeLine, 30},
+    {BrimTemplate::Tsb, "antero-lateral", -40, HeightFrom::KneeLine, 25},
+};
+
 /// A transtibial template's key points, heights from the patellar tendon (PT) and the knee joint
 /// line (10 mm above the popliteal crease, POP).
 std::vector<BrimKeyPoint> transtibial_key_points(BrimTemplate kind, const std::vector<volume::Landmark>& landmarks) {
   const double pt = landmark(landmarks, "PT", kind).cylindrical.h;
-  const double k = landmark(landmarks, "POP", kind).cylindrical.h + 10 * kMm;  // knee joint line
-  const double mm = kMm;
-  switch (kind) {
-    case BrimTemplate::Ptb:
-      return {kp("anterior (mid-patella)", 0, pt + 30 * mm), kp("antero-medial", 35, pt + 30 * mm),
-              kp("medial wing (condyle)", 80, k + 20 * mm), kp("postero-medial", 110, k + 5 * mm),
-              kp("medial hamstring relief", 145, pt), kp("posterior (popliteal)", 180, pt + 10 * mm),
-              kp("lateral hamstring relief", -145, pt + 5 * mm), kp("postero-lateral", -110, k + 5 * mm),
-              kp("lateral wing (condyle)", -80, k + 20 * mm), kp("antero-lateral", -35, pt + 30 * mm)};
-    case BrimTemplate::PtbSc:
-      return {kp("anterior (mid-patella)", 0, pt + 30 * mm), kp("antero-medial", 35, pt + 35 * mm),
-              kp("medial wing (supracondylar)", 80, k + 50 * mm), kp("postero-medial", 110, k + 15 * mm),
-              kp("medial hamstring relief", 145, pt), kp("posterior (popliteal)", 180, pt + 10 * mm),
-              kp("lateral hamstring relief", -145, pt + 5 * mm), kp("postero-lateral", -110, k + 15 * mm),
-              kp("lateral wing (supracondylar)", -80, k + 50 * mm), kp("antero-lateral", -35, pt + 35 * mm)};
-    case BrimTemplate::PtbScsp:
-      return {kp("anterior (suprapatellar)", 0, k + 55 * mm), kp("antero-medial", 35, k + 50 * mm),
-              kp("medial wing (supracondylar)", 80, k + 55 * mm), kp("postero-medial", 115, k + 15 * mm),
-              kp("medial hamstring relief", 145, pt), kp("posterior (popliteal)", 180, pt + 10 * mm),
-              kp("lateral hamstring relief", -145, pt + 5 * mm), kp("postero-lateral", -115, k + 15 * mm),
-              kp("lateral wing (supracondylar)", -80, k + 55 * mm), kp("antero-lateral", -35, k + 50 * mm)};
-    case BrimTemplate::Kbm:
-      return {kp("anterior (below the patella)", 0, pt + 10 * mm), kp("antero-medial", 30, pt + 15 * mm),
-              kp("medial wing (over the condyle)", 80, k + 50 * mm), kp("postero-medial", 110, k + 20 * mm),
-              kp("medial hamstring relief", 145, pt), kp("posterior (popliteal)", 180, pt + 10 * mm),
-              kp("lateral hamstring relief", -145, pt + 5 * mm), kp("postero-lateral", -110, k + 20 * mm),
-              kp("lateral wing (over the condyle)", -80, k + 50 * mm), kp("antero-lateral", -30, pt + 15 * mm)};
-    case BrimTemplate::Tsb:
-      return {kp("anterior", 0, k + 25 * mm), kp("antero-medial", 40, k + 25 * mm), kp("medial", 85, k + 30 * mm),
-              kp("postero-medial", 130, k + 15 * mm), kp("posterior", 180, k + 5 * mm),
-              kp("postero-lateral", -130, k + 15 * mm), kp("lateral", -85, k + 30 * mm),
-              kp("antero-lateral", -40, k + 25 * mm)};
-    default:
-      return {};
+  const double knee_line = landmark(landmarks, "POP", kind).cylindrical.h + 10 * kMm;
+  std::vector<BrimKeyPoint> points;
+  for (const TranstibialKeyPoint& p : kTranstibialKeyPoints) {
+    if (p.kind != kind) continue;
+    const double base = p.from == HeightFrom::Pt ? pt : knee_line;
+    points.push_back(kp(p.label, p.theta_deg, base + p.above_mm * kMm));
   }
+  return points;
 }
 
 /// A transfemoral template's key points (quadrilateral or ischial containment).

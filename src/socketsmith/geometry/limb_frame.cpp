@@ -222,21 +222,6 @@ std::optional<Vec3> open_rim_centroid(const TriMesh& skin) {
 
 namespace {
 
-/// Area-weighted mean of the triangle centroids.
-Vec3 area_weighted_centroid(const TriMesh& skin) {
-  double total = 0.0;
-  Vec3 mean = Vec3::Zero();
-  for (int t = 0; t < skin.num_triangles(); ++t) {
-    const auto& tri = skin.triangles[t];
-    const double a = triangle_area(skin, t);
-    mean += a * (skin.vertices[tri[0]] + skin.vertices[tri[1]] + skin.vertices[tri[2]]) / 3.0;
-    total += a;
-  }
-  require(total > 0.0, "limb surface has zero area");
-  mean /= total;
-  return mean;
-}
-
 /// A first axis (distal to proximal) and a point on it, before refinement.
 struct AxisGuess {
   Vec3 axis, centre;
@@ -307,7 +292,9 @@ void refine_axis(const TriMesh& skin, bool open, AxisGuess& g) {
 LimbFrame estimate_limb_axis(const TriMesh& skin) {
   require(skin.num_triangles() >= 4, "limb surface has {} triangles (expected a scanned limb)",
           skin.num_triangles());
-  const Vec3 mean = area_weighted_centroid(skin);
+  const std::optional<Vec3> centroid = area_centroid(skin);
+  require(centroid.has_value(), "limb surface has zero area");
+  const Vec3 mean = *centroid;
   const bool open = !boundary_vertices(skin).empty();
   AxisGuess g = open ? axis_from_rim(skin) : axis_from_pca(skin, mean);
   refine_axis(skin, open, g);

@@ -180,6 +180,19 @@ double triangle_area(const TriMesh& mesh, int t) {
   return 0.5 * (b - a).cross(c - a).norm();
 }
 
+std::optional<Vec3> area_centroid(const TriMesh& mesh) {
+  double total = 0.0;
+  Vec3 mean = Vec3::Zero();
+  for (int t = 0; t < mesh.num_triangles(); ++t) {
+    const auto& tri = mesh.triangles[static_cast<std::size_t>(t)];
+    const double a = triangle_area(mesh, t);
+    mean += a * (mesh.vertices[tri[0]] + mesh.vertices[tri[1]] + mesh.vertices[tri[2]]) / 3.0;
+    total += a;
+  }
+  if (!(total > 0.0)) return std::nullopt;
+  return mean / total;
+}
+
 double surface_area(const TriMesh& mesh) {
   require_valid_indices(mesh, "surface_area");
   double area = 0.0;

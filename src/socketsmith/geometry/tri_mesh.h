@@ -4,6 +4,7 @@
 
 #include <array>
 #include <limits>
+#include <optional>
 #include <vector>
 
 #include <limits>
@@ -50,6 +51,10 @@ double triangle_area(const TriMesh& mesh, int t);
 
 /// Total area [m^2].
 double surface_area(const TriMesh& mesh);
+
+/// Centroid of the surface: the area-weighted mean of the triangles' centroids [m]; std::nullopt
+/// when the surface has no area.
+std::optional<Vec3> area_centroid(const TriMesh& mesh);
 
 /// Signed enclosed volume by the divergence theorem [m^3]: positive for a closed surface with
 /// outward normals, negative when the orientation is inside-out. Meaningless for open surfaces.

@@ -16,16 +16,9 @@ using geometry::TriMesh;
 
 /// Area-weighted mean and principal direction (largest spread) of a surface's triangles.
 std::pair<Vec3, Vec3> principal_direction(const TriMesh& m) {
-  double total = 0.0;
-  Vec3 mean = Vec3::Zero();
-  for (int t = 0; t < m.num_triangles(); ++t) {
-    const auto& tri = m.triangles[t];
-    const double a = geometry::triangle_area(m, t);
-    mean += a * (m.vertices[tri[0]] + m.vertices[tri[1]] + m.vertices[tri[2]]) / 3.0;
-    total += a;
-  }
-  require(total > 0.0, "femur_shaft_axis: the femur has no area (expected a closed bone surface)");
-  mean /= total;
+  const std::optional<Vec3> centroid = geometry::area_centroid(m);
+  require(centroid.has_value(), "femur_shaft_axis: the femur has no area (expected a closed bone surface)");
+  const Vec3 mean = *centroid;
   Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
   for (int t = 0; t < m.num_triangles(); ++t) {
     const auto& tri = m.triangles[t];
