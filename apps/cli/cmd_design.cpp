@@ -100,6 +100,28 @@ void print_summary(const nlohmann::json& j) {
   log::info("design: report {}", (std::filesystem::path(j["out"].get<std::string>()) / "report.html").string());
 }
 
+/// --closed-loop N of design, run and demo.
+void add_closed_loop(CLI::App* cmd, DesignFlags& f) {
+  cmd->add_option("--closed-loop", f.closed_loop,
+                  "don and stand on the socket, correct its wall in up to N donnings (0: the open-loop socket; "
+                  "default: the case's design.closed_loop, else on for a transtibial limb with its "
+                  "design.closed_loop_donnings)")
+      ->check(CLI::Validator(
+          [](std::string& text) -> std::string {
+            return text == "0" ? std::string() : within(design::limits::kClosedLoopDonnings)(text);
+          },
+          "0 (open loop) or " + design::describe(design::limits::kClosedLoopDonnings)));
+}
+
+/// The case with --closed-loop applied (unchanged without it).
+design::CaseFile with_closed_loop(design::CaseFile c, const DesignFlags& f) {
+  if (f.closed_loop >= 0) {
+    c.closed_loop = f.closed_loop > 0;
+    if (f.closed_loop > 0) c.closed_loop_donnings = f.closed_loop;
+  }
+  return c;
+}
+
 int finish(const nlohmann::json& j, bool json) {
   if (json) print_json(j);
   else print_summary(j);
@@ -126,21 +148,10 @@ void register_design(CLI::App& app) {
   cmd->add_flag("--json", f->json, "print the summary as JSON on stdout");
   add_time_limit(cmd, *f);
   add_directions(cmd, *f);
-  cmd->add_option("--closed-loop", f->closed_loop,
-                  "don and stand on the socket, correct its wall in up to N donnings (0: open loop; default: the case's "
-                  "design.closed_loop)")
-      ->check(CLI::Validator(
-          [](std::string& text) -> std::string {
-            return text == "0" ? std::string() : within(design::limits::kClosedLoopDonnings)(text);
-          },
-          "0 (open loop) or " + design::describe(design::limits::kClosedLoopDonnings)));
+  add_closed_loop(cmd, *f);
   cmd->callback([f] {
     const Directions dirs = parse_directions(*f, "design");
-    auto c = with_directions(with_time_limit(design::read_case(f->case_file), *f), dirs);
-    if (f->closed_loop >= 0) {
-      c.closed_loop = f->closed_loop > 0;
-      if (f->closed_loop > 0) c.closed_loop_donnings = f->closed_loop;
-    }
+    const auto c = with_closed_loop(with_directions(with_time_limit(design::read_case(f->case_file), *f), dirs), *f);
     finish(pipeline::run_design(c, f->out, c.optimise && !f->no_optimise, console_progress(1.0)), f->json);
   });
 
@@ -151,9 +162,10 @@ void register_design(CLI::App& app) {
   run->add_flag("--json", r->json, "print the summary as JSON on stdout");
   add_time_limit(run, *r);
   add_directions(run, *r);
+  add_closed_loop(run, *r);
   run->callback([r] {
     const Directions dirs = parse_directions(*r, "run");
-    const auto c = with_directions(with_time_limit(design::read_case(r->case_file), *r), dirs);
+    const auto c = with_closed_loop(with_directions(with_time_limit(design::read_case(r->case_file), *r), dirs), *r);
     const fs::path p(r->case_file);
     const fs::path out = r->out.empty() ? p.parent_path() / (p.stem().string() + "_out") : fs::path(r->out);
     finish(pipeline::run_design(c, out, c.optimise, console_progress(1.0)), r->json);
@@ -166,8 +178,9 @@ void register_design(CLI::App& app) {
   demo->add_option("--target-nodes", d->target_nodes, "stump size (default 8000)")
       ->check(within(design::limits::kTargetNodes));
   demo->add_flag("--json", d->json, "print the summary as JSON on stdout");
+  add_closed_loop(demo, *d);
   demo->callback([d] {
-    const design::CaseFile c = pipeline::demo_case(d->target_nodes);
+    const design::CaseFile c = with_closed_loop(pipeline::demo_case(d->target_nodes), *d);
     ensure_directory(d->out);
     design::write_case(fs::path(d->out) / "case.json", c);
     log::info("demo: case written to {}", (fs::path(d->out) / "case.json").string());

@@ -35,7 +35,8 @@ def run(*args, env=None):
 sweep = {
     "socketsmith_sweep": 1,
     "name": "cli test",
-    "base_case": {"mesh": {"target_nodes": 1000}, "socket": {"subdivisions": 0}},
+    # The open-loop design: the sweep's mechanics are tested here, not the closed loop.
+    "base_case": {"mesh": {"target_nodes": 1000}, "socket": {"subdivisions": 0}, "design": {"closed_loop": False}},
     "grid": {"body_mass_kg": [60, 75], "seeds": [1, 2]},
     # Broken on purpose: out of the body mass range; it must become a failed row, not a failed sweep.
     "cases": [{"body_mass_kg": 500}],

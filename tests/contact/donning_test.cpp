@@ -33,6 +33,7 @@ class Donning : public ::testing::Test {
     // end-to-end check; its donning is DonningNeoHookean's).
     c_.model = "mss-cs";
     c_.solve_mode = design::DesignSolveMode::Linear;
+    c_.closed_loop = false;  // the designed (open-loop) socket: these tests don it themselves
     pipeline::run_design(c_, fs::path(SOCKETSMITH_BINARY_DIR) / "tests" / "donning_design", true, {}, &art_);
   }
   /// The designed socket from @p offset_m below in @p steps, then standing with M g / 2.
@@ -291,6 +292,7 @@ pipeline::DesignArtifacts neo_hookean_design(const std::string& folder) {
   auto c = pipeline::demo_case(1800);
   c.model = "neo-hookean";
   c.solve_mode = design::DesignSolveMode::Nonlinear;
+  c.closed_loop = false;  // the designed (open-loop) socket: these tests don it themselves
   pipeline::DesignArtifacts art;
   pipeline::run_design(c, fs::path(SOCKETSMITH_BINARY_DIR) / "tests" / folder, true, {}, &art);
   return art;

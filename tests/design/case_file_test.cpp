@@ -176,6 +176,26 @@ TEST(CaseFile, an_empty_document_is_the_default_case) {
   EXPECT_EQ(case_to_json(c)["design"]["spots"], "default");
 }
 
+TEST(CaseFile, the_loop_is_closed_by_default_on_a_transtibial_limb_only_and_a_given_value_is_kept) {
+  const CaseFile tt = parse_case(json::object());
+  EXPECT_FALSE(tt.closed_loop.has_value());
+  EXPECT_TRUE(closes_loop(tt));  // docs/design.md, "Closed loop": the default socket delivers its design
+  EXPECT_FALSE(case_to_json(tt)["design"].contains("closed_loop"));  // a replay keeps the default
+  const CaseFile tf = parse_case(json::parse(R"({"limb": {"type": "transfemoral"}})"));
+  EXPECT_FALSE(closes_loop(tf));
+  for (const bool given : {false, true}) {
+    json j = json::object();
+    j["limb"]["type"] = given ? "transfemoral" : "transtibial";
+    j["design"]["closed_loop"] = given;
+    const CaseFile c = parse_case(j);
+    EXPECT_EQ(closes_loop(c), given);
+    const CaseFile again = parse_case(case_to_json(c));
+    ASSERT_TRUE(again.closed_loop.has_value());
+    EXPECT_EQ(*again.closed_loop, given);
+  }
+  EXPECT_THROW(parse_case(json::parse(R"({"design": {"closed_loop": "yes"}})")), InvalidInputError);
+}
+
 TEST(CaseFile, following_the_template_and_the_uniform_objective_are_read_and_kept) {
   EXPECT_TRUE(parse_case(json::object()).follow_template);  // the default: the optimiser aims at the template
   const CaseFile c = parse_case(json::parse(R"({"design": {"follow_template": false, "objective": "uniform"}})"));

@@ -258,8 +258,24 @@ TEST(ClosedLoop, the_dragged_out_lines_give_in_socket_figures_only_when_nodes_st
   EXPECT_THAT(dragged_out_advice(it), ::testing::HasSubstr("Without them: MAE 0.36 kPa, 99th percentile 2.16 kPa."));
 }
 
+TEST(ClosedLoop, a_default_loop_that_fails_keeps_the_open_loop_socket_and_a_loop_asked_for_fails_the_design) {
+  design::CaseFile c = demo_case(1800);
+  c.closed_loop_donnings = 0;  // refused by the loop (a case file cannot say it; code can)
+  ASSERT_FALSE(c.closed_loop.has_value());
+  auto setup = prepare_design(c);
+  const DesignResult r = solve_design(*setup, true);
+  ASSERT_TRUE(r.constraints_met);
+  EXPECT_FALSE(r.closed_loop.has_value());
+  ASSERT_TRUE(r.socket.has_value());  // the open-loop socket, written with a warning
+  EXPECT_THAT(r.closed_loop_failed, ::testing::HasSubstr("0 donnings"));
+  setup->case_file.closed_loop = true;
+  EXPECT_THROW(solve_design(*setup, true), InvalidInputError);
+}
+
 TEST(ClosedLoop, refuses_bad_options_and_a_design_without_a_socket) {
-  auto setup = prepare_design(demo_case(1800));
+  design::CaseFile c = demo_case(1800);
+  c.closed_loop = false;  // the loops below are called by hand
+  auto setup = prepare_design(c);
   DesignResult none;
   EXPECT_THROW(close_design_loop(*setup, none), InvalidInputError);
   DesignResult r = solve_design(*setup, true);

@@ -127,9 +127,16 @@ TEST_F(DemoRun, RadarRecomputedFromSurfaceNodesEqualsTheReportAndTheSocketIsASol
     if (above[i] > 0.5) above_brim.emplace_back(x[i], y[i], z[i]);
   }
   ASSERT_FALSE(above_brim.empty());
+  // The demo closes the loop (a transtibial limb's default): the socket's inner wall is the designed
+  // skin moved by the closed loop's offset along each node's normal (delivered.csv, same rows).
+  ASSERT_TRUE(j.contains("closed_loop")) << "the demo's design closes the loop";
+  const auto delivered = report::read_csv(out_ / "delivered.csv");
+  const auto offset_mm = delivered.column("wall_offset_mm");
+  ASSERT_EQ(offset_mm.size(), x.size());
   std::vector<double> wall;
   for (size_t i = 0; i < x.size(); ++i) {
-    const Eigen::Vector3d q(x[i], y[i], z[i]), n(nx[i], ny[i], nz[i]);
+    const Eigen::Vector3d n(nx[i], ny[i], nz[i]);
+    const Eigen::Vector3d q = Eigen::Vector3d(x[i], y[i], z[i]) + offset_mm[i] * 1e-3 * n;
     if (above[i] > 0.5 || q.dot(ez) < lowest + 0.02) continue;
     double near_brim = 1e9;
     for (const auto& b : above_brim) near_brim = std::min(near_brim, (b - q).norm());
@@ -221,7 +228,8 @@ TEST(DesignFlags, axis_and_anterior_flags_override_the_case_file) {
     std::ofstream c(dir / "case.json");
     c << nlohmann::json{{"socketsmith_case", 1},
                         {"limb", {{"generate_seed", 1}, {"axis", {0.3, 0.0, 1.0}}, {"anterior", {1.0, 0.0, 0.0}}}},
-                        {"mesh", {{"target_nodes", 1500}}}}
+                        {"mesh", {{"target_nodes", 1500}}},
+                        {"design", {{"closed_loop", false}}}}
              .dump();
   }
   const std::string cmd = std::string(SOCKETSMITH_BINARY_DIR) + "/socketsmith design " + (dir / "case.json").string() +
@@ -253,7 +261,8 @@ TEST(TsbCase, a_tsb_design_bears_on_the_whole_skin_below_the_brim) {
     c << nlohmann::json{{"socketsmith_case", 1},
                         {"limb", {{"type", "transtibial"}, {"generate_seed", 3}}},
                         {"brim", {{"template", "tsb"}}},
-                        {"mesh", {{"target_nodes", 3000}}}}
+                        {"mesh", {{"target_nodes", 3000}}},
+                        {"design", {{"closed_loop", false}}}}
              .dump();
   }
   const std::string cmd = std::string(SOCKETSMITH_BINARY_DIR) + "/socketsmith design " + (dir / "tsb.json").string() +
@@ -294,7 +303,9 @@ TEST(ModelOptions, a_case_files_tissue_model_and_poisson_ratio_reach_the_model) 
 void design_demo_1500(const std::string& name, pipeline::DesignArtifacts& art) {
   const fs::path dir = fs::path(SOCKETSMITH_BINARY_DIR) / "tests" / name;
   fs::remove_all(dir);
-  pipeline::run_design(pipeline::demo_case(1500), dir, true, {}, &art);
+  design::CaseFile c = pipeline::demo_case(1500);
+  c.closed_loop = false;  // the designed socket (the CalculiX checks below don it themselves)
+  pipeline::run_design(c, dir, true, {}, &art);
 }
 
 // `validate design --printed-wall`: CalculiX dons the written socket's inner wall, only its faces

@@ -44,6 +44,7 @@ TEST(DesignedSocket, the_demo_with_an_attachment_keeps_its_wall_and_is_drilled_w
   c.socket.attachment.rotation_rad = 20 * kDeg;
   c.socket.attachment.offset_anterior_m = 2 * kMm;
   c.socket.attachment.offset_medial_m = -1 * kMm;
+  c.closed_loop = false;  // the designed socket's wall and drilling
   auto setup = pipeline::prepare_design(c);
   const pipeline::DesignResult res = pipeline::solve_design(*setup, true);
   ASSERT_TRUE(res.constraints_met) << res.state.message;
@@ -138,7 +139,9 @@ TEST_P(RealLimbSocket, keeps_its_wall_with_an_attachment) {
   std::string status;
   if (!l.transfemoral) {
     const design::CaseFile c = design::parse_case(nlohmann::json{
-        {"limb", {{"file", file.string()}, {"units", "mm"}, {"bones", l.bones}}}, {"mesh", {{"target_nodes", 8000}}}});
+        {"limb", {{"file", file.string()}, {"units", "mm"}, {"bones", l.bones}}},
+        {"mesh", {{"target_nodes", 8000}}},
+        {"design", {{"closed_loop", false}}}});
     auto setup = pipeline::prepare_design(c);
     const pipeline::DesignResult res = pipeline::solve_design(*setup, true);
     status = res.constraints_met ? "design met" : "design not met: " + res.state.message;
@@ -202,7 +205,7 @@ TEST_P(EveryLimb, the_socket_keeps_its_wall_and_the_design_means_its_template) {
     limb["file"] = file.string();
     limb["units"] = "mm";
   }
-  nlohmann::json doc = {{"limb", limb}, {"mesh", {{"target_nodes", 3000}}}};
+  nlohmann::json doc = {{"limb", limb}, {"mesh", {{"target_nodes", 3000}}}, {"design", {{"closed_loop", false}}}};
   if (!t.brim.empty()) doc["brim"] = {{"template", t.brim}};
   const design::CaseFile c = design::parse_case(doc);
   auto setup = pipeline::prepare_design(c);

@@ -100,7 +100,9 @@ design::CaseFile limb_case(const fs::path& file, const std::string& units, doubl
   return design::parse_case(nlohmann::json{{"socketsmith_case", 1},
                                            {"limb", {{"file", file.string()}, {"units", units}, {"scale", scale},
                                                      {"type", type}}},
-                                           {"mesh", {{"target_nodes", kNodes}}}});
+                                           {"mesh", {{"target_nodes", kNodes}}},
+                                           // the designs compared, not their closed loops
+                                           {"design", {{"closed_loop", false}}}});
 }
 
 /// @p m turned by @p R and shifted by @p t (both in the mesh's own unit).

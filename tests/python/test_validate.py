@@ -25,6 +25,7 @@ def tiny_fe_case():
     case = socketsmith.demo_case(target_nodes=600)
     case["tissue"]["model"] = "fe"
     case.setdefault("design", {})["follow_template"] = False
+    case["design"]["closed_loop"] = False  # the designed loads are what CalculiX gets in mode "load"
     return case
 
 

@@ -290,7 +290,9 @@ void expect_renders(const std::string& chromium, const fs::path& page, int min_i
 /// A small design of the embedded sample (the smallest stump its socket is built on reliably).
 fs::path small_design(const std::string& name) {
   const fs::path dir = fresh_dir(name);
-  const nlohmann::json j = pipeline::run_design(pipeline::demo_case(1800), dir, true);
+  design::CaseFile c = pipeline::demo_case(1800);
+  c.closed_loop_donnings = 1;  // the default report's "Delivered pressures" section, one donning
+  const nlohmann::json j = pipeline::run_design(c, dir, true);
   EXPECT_TRUE(j.value("constraints_met", false)) << "the 1.8k demo's design should meet its constraints";
   return dir / "report.html";
 }
@@ -329,7 +331,9 @@ TEST(Browser, sock_ply_report_renders_and_prints_to_a4_pdf) {
   REQUIRE_CHROMIUM(chromium);
   const fs::path dir = fresh_dir("sock_ply");
   pipeline::DesignArtifacts art;
-  pipeline::run_design(pipeline::demo_case(1800), dir, true, {}, &art);
+  design::CaseFile c = pipeline::demo_case(1800);
+  c.closed_loop = false;  // the sock-ply study's own donnings are this page's
+  pipeline::run_design(c, dir, true, {}, &art);
   ASSERT_TRUE(art.result.socket.has_value());
   pipeline::SockPlyOptions o;
   o.volume_changes = {-0.04, 0.04};

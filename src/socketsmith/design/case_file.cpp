@@ -364,4 +364,8 @@ std::filesystem::path resolve(const CaseFile& c, const std::string& file) {
   return p.is_absolute() || c.folder.empty() ? p : c.folder / p;
 }
 
+bool closes_loop(const CaseFile& c) {
+  return c.closed_loop.value_or(c.limb.type == geometry::LimbType::Transtibial);
+}
+
 }  // namespace socketsmith::design

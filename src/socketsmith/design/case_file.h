@@ -79,8 +79,9 @@ struct CaseFile {
   bool follow_template = true;
   double time_limit_s = 0.0;               ///< the optimiser's wall-time bound [s]; 0 = none
   /// Closed-loop design (pipeline/closed_loop.h): don and stand on the socket, correct its wall
-  /// until it delivers the designed pressures, write the corrected socket.
-  bool closed_loop = false;
+  /// until it delivers the designed pressures, write the corrected socket. Not given: on for a
+  /// transtibial limb, off for a transfemoral one (closes_loop; its donning is not validated).
+  std::optional<bool> closed_loop;
   int closed_loop_donnings = 4;            ///< donnings at most, the open-loop socket's included, 1–20
   /// The brim template; not given: the limb type's (default_brim: PTB transtibial, ICS transfemoral).
   std::optional<BrimTemplate> brim;
@@ -131,5 +132,10 @@ Spot spot_from_json(const nlohmann::json& j, const std::string& where);
 
 /// Absolute path of a file named in the case.
 std::filesystem::path resolve(const CaseFile& c, const std::string& file);
+
+/// Whether the design closes the loop (pipeline/closed_loop.h): `design.closed_loop` when the case
+/// gives it, else true for a transtibial limb (docs/design.md, "Closed loop": the socket written
+/// then delivers its design) and false for a transfemoral one (its donning is not validated).
+bool closes_loop(const CaseFile& c);
 
 }  // namespace socketsmith::design

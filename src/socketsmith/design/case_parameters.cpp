@@ -233,7 +233,10 @@ const std::vector<CaseParameter>& case_parameters() {
       flag<&C::follow_template>("design.follow_template", "aim at what the brim template means"),
       number<&C::model_pressure_limit>(kModelPressureLimit),
       number<&C::time_limit_s>(kTimeLimit, W::UnlessDefault),
-      flag<&C::closed_loop>("design.closed_loop", "don and stand on the socket, correct its wall"),
+      flag<&C::closed_loop>("design.closed_loop",
+                            "don and stand on the socket, correct its wall (default: transtibial true, "
+                            "transfemoral false)",
+                            W::UnlessDefault),
       number<&C::closed_loop_donnings>(kClosedLoopDonnings),
       number<&C::ischial_share_min>(kIschialShareMin, W::UnlessDefault),
       number<&C::socket, &SocketOptions::thickness_m>(kThickness),

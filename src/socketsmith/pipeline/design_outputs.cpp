@@ -503,6 +503,7 @@ nlohmann::json write_design_outputs(const DesignSetup& setup, const DesignResult
     j["sock_ply"] = sock_ply_json;
     for (const auto& o : sock_ply_json["outputs"]) j["outputs"].push_back(o);
   }
+  if (!result.closed_loop_failed.empty()) j["closed_loop_failed"] = result.closed_loop_failed;
   if (!closed_loop_json.is_null()) {
     j["closed_loop"] = closed_loop_json;
     for (const auto& o : closed_loop_json["outputs"]) j["outputs"].push_back(o);

@@ -274,13 +274,21 @@ DesignResult solve_design(DesignSetup& setup, bool optimise, const ProgressCallb
     } catch (const Error&) {
       r.limb_volume_below_brim_m3 = 0;
     }
-    if (c.closed_loop) {
+    if (design::closes_loop(c)) {
       ClosedLoopOptions lo;
       lo.max_donnings = c.closed_loop_donnings;
       lo.progress = [&](double f, std::string_view stage) { return report_progress(progress, 0.93 + 0.07 * f, stage); };
-      r.closed_loop = close_design_loop(setup, r, lo);
-      log::info("design: closed loop: {}", r.closed_loop->message);
-      r.socket = r.closed_loop->socket;
+      try {
+        r.closed_loop = close_design_loop(setup, r, lo);
+        log::info("design: closed loop: {}", r.closed_loop->message);
+        r.socket = r.closed_loop->socket;
+      } catch (const Error& e) {
+        if (c.closed_loop.has_value()) throw;  // asked for by name: the design fails with the reason
+        r.closed_loop_failed = e.what();
+        log::warn("design: the closed loop failed ({}); the open-loop socket is written, which does not deliver its "
+                  "design as closely (set design.closed_loop to false to skip the loop, or true to make this an error)",
+                  r.closed_loop_failed);
+      }
     }
     // Transfemoral: where the built socket holds the bony ischial tuberosity, in 3D.
     if (setup.model.transfemoral)

@@ -107,6 +107,10 @@ struct DesignResult {
   /// The closed loop (case `design.closed_loop`): the open-loop socket donned and stood on, its
   /// wall corrected; `socket` is then the corrected socket.
   std::optional<ClosedLoopResult> closed_loop;
+  /// Why the closed loop the case did not ask for by name (design::closes_loop's default) stopped
+  /// with an error; `socket` is then the open-loop one. Empty when it ran, or was off. A loop the
+  /// case asks for by name throws instead.
+  std::string closed_loop_failed;
   /// The sock-ply study (`simulate sockply`, run_sock_ply_study): the socket donned on the limb
   /// shrunk and grown; written with the design's outputs and in its report when present.
   std::optional<SockPlyResult> sock_ply;
