@@ -5,6 +5,7 @@
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
+#include <chrono>
 #include <map>
 #include <memory>
 
@@ -12,6 +13,8 @@
 #include "socketsmith/contact/rigid_socket.h"
 #include "socketsmith/core/units.h"
 #include "socketsmith/pipeline/design_pipeline.h"
+#include "socketsmith/tissue/dof_map.h"
+#include "socketsmith/tissue/sparse_cholesky.h"
 
 namespace {
 
@@ -170,6 +173,53 @@ void BM_ClosedLoop(benchmark::State& state) {
   state.counters["r"] = b.r;
 }
 
+/// One Newton step's matrix work on the stump of the donning (the closed loop's dominant cost):
+/// the neo-Hookean body's tangent at the designed state assembled (forces + exact tangent,
+/// reduced to the free dofs) and factorised by CHOLMOD (the pattern analysed once, outside).
+/// Arg 1: CHOLMOD's supernode relaxation (0 its defaults; k > 0: nrelax × k, zrelax × k up to
+/// 0.95; tissue::SparseCholesky uses k = 2).
+void BM_StumpTangent(benchmark::State& state) {
+  const Designed& d = designed(static_cast<int>(state.range(0)));
+  const auto& model = d.setup->solver->model();
+  const tissue::DofMap dofs = tissue::fixed_node_dofs(model.mesh(), "bench");
+  const tissue::VectorXd& x = d.result.state.positions;
+  tissue::SparseMatrix J, K;
+  Eigen::CholmodSupernodalLLT<tissue::SparseMatrix, Eigen::Lower> llt;
+  if (const int k = static_cast<int>(state.range(1)); k > 0) {
+    auto& c = llt.cholmod();
+    for (int i = 0; i < 3; ++i) {
+      c.nrelax[i] *= static_cast<size_t>(k);
+      c.zrelax[i] = std::min(0.95, c.zrelax[i] * k);
+    }
+  }
+  tissue::limit_solver_threads();
+  const tissue::SerialParallelRegions serial;
+  model.jacobian(x, tissue::JacobianKind::Exact, J);
+  dofs.reduce_matrix(J, K);
+  K *= -1.0;
+  llt.analyzePattern(K);
+  double assemble_s = 0, factorise_s = 0;
+  for (auto _ : state) {
+    const auto t0 = std::chrono::steady_clock::now();
+    benchmark::DoNotOptimize(model.elastic_forces(x));
+    model.jacobian(x, tissue::JacobianKind::Exact, J);
+    dofs.reduce_matrix(J, K);
+    K *= -1.0;
+    const auto t1 = std::chrono::steady_clock::now();
+    llt.factorize(K);
+    const auto t2 = std::chrono::steady_clock::now();
+    assemble_s += std::chrono::duration<double>(t1 - t0).count();
+    factorise_s += std::chrono::duration<double>(t2 - t1).count();
+  }
+  const auto n = static_cast<double>(state.iterations());
+  state.counters["assemble_ms"] = 1e3 * assemble_s / n;
+  state.counters["factorise_ms"] = 1e3 * factorise_s / n;
+  state.counters["dofs"] = static_cast<double>(K.rows());
+  state.counters["factor_nnz_M"] = static_cast<double>(llt.cholmod().lnz) / 1e6;
+  state.counters["gflop"] = llt.cholmod().fl / 1e9;
+  state.counters["ok"] = llt.info() == Eigen::Success ? 1 : 0;
+}
+
 }  // namespace
 
 BENCHMARK(BM_ContactQueryPass)->Arg(2000)->Arg(8000)->Arg(20000)->Unit(benchmark::kMillisecond);
@@ -182,4 +232,5 @@ BENCHMARK(BM_Donning)
     ->Iterations(1);
 BENCHMARK(BM_DonningPath)->DenseRange(0, 4)->Unit(benchmark::kSecond)->Iterations(1);
 BENCHMARK(BM_DonningRefit)->Arg(1800)->Arg(7665)->Unit(benchmark::kSecond)->Iterations(1);
+BENCHMARK(BM_StumpTangent)->ArgsProduct({{7665}, {0, 2, 3, 4}})->Unit(benchmark::kMillisecond)->Iterations(10);
 BENCHMARK(BM_ClosedLoop)->Arg(1800)->Arg(7665)->Unit(benchmark::kSecond)->Iterations(1);

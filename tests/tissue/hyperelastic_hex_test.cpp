@@ -2,6 +2,10 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
+#include <cmath>
+#include <vector>
+
 #include <Eigen/Dense>
 #include <Eigen/SparseLU>
 
@@ -44,6 +48,54 @@ TEST(HyperelasticHex, energy_of_an_affine_deformation_is_exact_on_distorted_bric
       EXPECT_LT(f.segment<3>(3 * i).norm(), 1e-9 * boundary_max);
     }
   }
+}
+
+TEST(HyperelasticHex, parallel_assembly_adds_every_element_once_as_the_serial_sums_do) {
+  // The forces and stiffness are added colour by colour in parallel; the result must be the
+  // element-by-element sum, every element visited once, never two sharing a node at one time.
+  const auto mesh = distorted_lattice(0.03, 5);
+  const HyperelasticHexElements fe(mesh, 60e3, 0.45, HyperelasticLaw::NeoHookean);
+  Eigen::VectorXd x(3 * mesh.num_nodes());
+  for (int i = 0; i < mesh.num_nodes(); ++i)
+    x.segment<3>(3 * i) = mesh.nodes[i] + 0.002 * Vector3d(std::sin(7.0 * i), std::cos(5.0 * i), std::sin(3.0 * i));
+  const int n = 3 * mesh.num_nodes();
+  Eigen::MatrixXd K = Eigen::MatrixXd::Zero(n, n), K_serial = K;
+  std::vector<int> visits(static_cast<size_t>(fe.num_elements()), 0);
+  std::vector<std::atomic<int>> busy(static_cast<size_t>(mesh.num_nodes()));
+  std::atomic<int> clashes{0};
+  fe.for_each_element_stiffness(x, false, [&](int e, const HyperelasticHexElements::ElementMatrix& Ke) {
+    const auto& hex = fe.hex(e);
+    for (int a : hex)
+      if (busy[static_cast<size_t>(a)].fetch_add(1) != 0) ++clashes;
+    ++visits[static_cast<size_t>(e)];
+    for (int p = 0; p < 8; ++p)
+      for (int q = 0; q < 8; ++q) K.block<3, 3>(3 * hex[p], 3 * hex[q]) += Ke.block<3, 3>(3 * p, 3 * q);
+    for (int a : hex) busy[static_cast<size_t>(a)].fetch_sub(1);
+  });
+  EXPECT_EQ(clashes.load(), 0);
+  Eigen::VectorXd f_serial = Eigen::VectorXd::Zero(n);
+  for (int e = 0; e < fe.num_elements(); ++e) {
+    EXPECT_EQ(visits[static_cast<size_t>(e)], 1);
+    HyperelasticHexElements::ElementMatrix Ke;
+    fe.element_stiffness(e, x, false, Ke);
+    const auto& hex = fe.hex(e);
+    for (int p = 0; p < 8; ++p)
+      for (int q = 0; q < 8; ++q) K_serial.block<3, 3>(3 * hex[p], 3 * hex[q]) += Ke.block<3, 3>(3 * p, 3 * q);
+    // The element's own forces: the same element alone in a mesh.
+    volume::HexMesh one;
+    for (int a = 0; a < 8; ++a) one.nodes.push_back(mesh.nodes[static_cast<size_t>(hex[a])]);
+    one.hexahedra = {{0, 1, 2, 3, 4, 5, 6, 7}};
+    one.node_tags.assign(8, 0);
+    const HyperelasticHexElements single(one, 60e3, 0.45, HyperelasticLaw::NeoHookean);
+    Eigen::VectorXd xe(24), fe_one = Eigen::VectorXd::Zero(24);
+    for (int a = 0; a < 8; ++a) xe.segment<3>(3 * a) = x.segment<3>(3 * hex[a]);
+    single.add_forces(xe, fe_one);
+    for (int a = 0; a < 8; ++a) f_serial.segment<3>(3 * hex[a]) += fe_one.segment<3>(3 * a);
+  }
+  EXPECT_LT((K - K_serial).norm(), 1e-12 * K_serial.norm());
+  Eigen::VectorXd f = Eigen::VectorXd::Zero(n);
+  fe.add_forces(x, f);
+  EXPECT_LT((f - f_serial).norm(), 1e-12 * f_serial.norm());
 }
 
 TEST(HyperelasticHex, one_brick_has_exactly_the_six_rigid_zero_modes_at_rest) {

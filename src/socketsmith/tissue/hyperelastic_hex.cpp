@@ -57,9 +57,10 @@ double j_minus_two_thirds(double J) {
   return 1.0 / (c * c);
 }
 
-/// Elements per parallel chunk: the chunk's element results are computed in parallel and then
-/// added in element order, so a sum is the same whatever the number of threads.
-constexpr int kChunk = 2048;
+/// Consecutive elements per run of the parallel loops (volume::colour_element_runs): long enough
+/// that a run's elements share nodes and cache lines, short enough that each colour has runs for
+/// every thread.
+constexpr int kRunLength = 64;
 
 }  // namespace
 
@@ -185,7 +186,7 @@ UniaxialStressState uniaxial_stress_state(const HyperelasticMaterial& material, 
 }
 
 HyperelasticHexElements::HyperelasticHexElements(const volume::HexMesh& mesh, double E, double nu, HyperelasticLaw law)
-    : hexes_(mesh.hexahedra), material_(law, E, nu) {
+    : hexes_(mesh.hexahedra), colours_(volume::colour_element_runs(mesh.num_nodes(), mesh.hexahedra, kRunLength)), material_(law, E, nu) {
   const auto& dN = volume::hex_gauss_shape_derivatives();
   gauss_.resize(hexes_.size());
   for (size_t e = 0; e < hexes_.size(); ++e) {
@@ -233,52 +234,42 @@ void HyperelasticHexElements::add_forces(const Eigen::VectorXd& x, Eigen::Vector
 }
 
 bool HyperelasticHexElements::evaluate(const Eigen::VectorXd& x, Eigen::VectorXd* f, double& energy) const {
-  const int ne = num_elements();
   const bool check = material_.needs_positive_volume();
-  std::vector<double> w_e(static_cast<size_t>(ne), 0.0);
-  // Per element: its energy and its 24 nodal forces, then added in element order.
-  std::vector<Eigen::Matrix<double, 3, 8>> f_e(f ? static_cast<size_t>(std::min(ne, kChunk)) : 0);
+  std::vector<double> w_e(hexes_.size(), 0.0);
   Eigen::VectorXd sum;  // the forces, added to *f only when no Gauss point is inverted
   if (f) sum = Eigen::VectorXd::Zero(f->size());
-  bool inverted = false;
-  for (int c0 = 0; c0 < ne && !inverted; c0 += kChunk) {
-    const int c1 = std::min(ne, c0 + kChunk);
+  // Colour by colour: the runs of one colour share no node, so each element adds its 24 nodal
+  // forces to `sum` directly, and every entry gets its terms in the same order whatever the threads.
+  for (const auto& group : colours_) {
+    const int n = static_cast<int>(group.size());
     int bad = 0;
-#pragma omp parallel for schedule(static) reduction(+ : bad)
-    for (int e = c0; e < c1; ++e) {
-      const auto ue = static_cast<size_t>(e);
-      const auto& hex = hexes_[ue];
-      double w = 0.0;
-      Eigen::Matrix<double, 3, 8> fe = Eigen::Matrix<double, 3, 8>::Zero();
-      for (const auto& gp : gauss_[ue]) {
-        const Matrix3d F = deformation_gradient(hex, gp, x);
-        if (check && !(F.determinant() > 0)) {
-          ++bad;
-          break;
+#pragma omp parallel for schedule(dynamic, 1) reduction(+ : bad)
+    for (int k = 0; k < n; ++k)
+      for (int e = group[static_cast<size_t>(k)].begin; e < group[static_cast<size_t>(k)].end; ++e) {
+        const auto ue = static_cast<size_t>(e);
+        const auto& hex = hexes_[ue];
+        double w = 0.0;
+        Eigen::Matrix<double, 3, 8> fe = Eigen::Matrix<double, 3, 8>::Zero();
+        for (const auto& gp : gauss_[ue]) {
+          const Matrix3d F = deformation_gradient(hex, gp, x);
+          if (check && !(F.determinant() > 0)) {
+            ++bad;
+            break;
+          }
+          w += gp.weight * material_.energy_density(F);
+          if (f) {
+            const Matrix3d P = material_.first_piola(F);
+            for (int a = 0; a < 8; ++a) fe.col(a).noalias() -= gp.weight * (P * gp.grad[a]);
+          }
         }
-        w += gp.weight * material_.energy_density(F);
-        if (f) {
-          const Matrix3d P = material_.first_piola(F);
-          for (int a = 0; a < 8; ++a) fe.col(a).noalias() -= gp.weight * (P * gp.grad[a]);
-        }
+        w_e[ue] = w;
+        if (f)
+          for (int a = 0; a < 8; ++a) sum.segment<3>(3 * hex[a]) += fe.col(a);
       }
-      w_e[ue] = w;
-      if (f) f_e[static_cast<size_t>(e - c0)] = fe;
-    }
     if (bad > 0) {
-      inverted = true;
-      break;
+      energy = std::numeric_limits<double>::infinity();
+      return false;
     }
-    if (f)
-      for (int e = c0; e < c1; ++e) {
-        const auto& hex = hexes_[static_cast<size_t>(e)];
-        const auto& fe = f_e[static_cast<size_t>(e - c0)];
-        for (int a = 0; a < 8; ++a) sum.segment<3>(3 * hex[a]) += fe.col(a);
-      }
-  }
-  if (inverted) {
-    energy = std::numeric_limits<double>::infinity();
-    return false;
   }
   if (f) *f += sum;
   energy = 0.0;
@@ -320,23 +311,31 @@ void HyperelasticHexElements::element_stiffness(int e, const Eigen::VectorXd& x,
 
 void HyperelasticHexElements::for_each_element_stiffness(const Eigen::VectorXd& x, bool psd,
                                                          const std::function<void(int, const ElementMatrix&)>& add) const {
-  const int ne = num_elements();
-  std::vector<ElementMatrix> k_e(static_cast<size_t>(std::min(ne, kChunk)));
-  for (int c0 = 0; c0 < ne; c0 += kChunk) {
-    const int c1 = std::min(ne, c0 + kChunk);
+  for (const auto& group : colours_) {
+    const int n = static_cast<int>(group.size());
     bool failed = false;
-#pragma omp parallel for schedule(static)
-    for (int e = c0; e < c1; ++e) {
-      try {
-        element_stiffness(e, x, psd, k_e[static_cast<size_t>(e - c0)]);
-      } catch (const Error&) {
+#pragma omp parallel
+    {
+      ElementMatrix K;
+#pragma omp for schedule(dynamic, 1)
+      for (int k = 0; k < n; ++k) {
+        try {
+          for (int e = group[static_cast<size_t>(k)].begin; e < group[static_cast<size_t>(k)].end; ++e) {
+            element_stiffness(e, x, psd, K);
+            add(e, K);
+          }
+        } catch (const Error&) {
 #pragma omp atomic write
-        failed = true;
+          failed = true;
+        }
       }
     }
     if (failed)  // again on this thread, for the exception and its message
-      for (int e = c0; e < c1; ++e) element_stiffness(e, x, psd, k_e[static_cast<size_t>(e - c0)]);
-    for (int e = c0; e < c1; ++e) add(e, k_e[static_cast<size_t>(e - c0)]);
+      for (const auto& run : group)
+        for (int e = run.begin; e < run.end; ++e) {
+          ElementMatrix K;
+          element_stiffness(e, x, psd, K);
+        }
   }
 }
 

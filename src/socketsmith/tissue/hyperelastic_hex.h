@@ -125,9 +125,11 @@ class HyperelasticHexElements {
   /// semi-definite (for CG and as a preconditioner).
   /// @throws SolverError when the law needs J > 0 and a Gauss point of @p e has J ≤ 0.
   void element_stiffness(int e, const Eigen::VectorXd& x, bool psd, ElementMatrix& K) const;
-  /// Calls @p add(e, K_e) for every element, in element order, with K_e computed in parallel
-  /// (OpenMP, chunks of elements): the sum a caller assembles is the same whatever the number of
-  /// threads. @throws as element_stiffness.
+  /// Calls @p add(e, K_e) for every element, K_e computed and added in parallel (OpenMP): runs of
+  /// consecutive elements go colour by colour (volume::colour_element_runs), so @p add runs
+  /// concurrently only for elements that share no node — it may scatter into per-node storage
+  /// without locks — and the sum a caller assembles is the same whatever the number of threads.
+  /// @throws as element_stiffness (what @p add received before is then incomplete).
   void for_each_element_stiffness(const Eigen::VectorXd& x, bool psd,
                                   const std::function<void(int, const ElementMatrix&)>& add) const;
   /// Smallest det(∂x/∂ξ) over every element's Gauss points at @p x, times 8 so that it has the
@@ -146,6 +148,7 @@ class HyperelasticHexElements {
 
   std::vector<volume::Hex> hexes_;
   std::vector<std::array<GaussPoint, 8>> gauss_;
+  std::vector<std::vector<volume::ElementRun>> colours_;  // runs sharing no node (volume::colour_element_runs)
   HyperelasticMaterial material_;
 };
 

@@ -118,4 +118,48 @@ void validate(const HexMesh& mesh) {
   }
 }
 
+std::vector<std::vector<ElementRun>> colour_element_runs(int num_nodes, const std::vector<Hex>& hexahedra,
+                                                         int run_length) {
+  require(run_length >= 1, "colour_element_runs: run length {} (expected ≥ 1)", run_length);
+  const auto ne = static_cast<int>(hexahedra.size());
+  const int runs = (ne + run_length - 1) / run_length;
+  // The runs touching every node (CSR, each run listed once per node), then first fit: a run takes
+  // the smallest colour none of the runs sharing a node with it and coloured before it has.
+  std::vector<int> start(static_cast<size_t>(num_nodes) + 1, 0), last(static_cast<size_t>(num_nodes), -1);
+  const auto for_each_node_of_run = [&](int r, const auto& visit) {
+    for (int e = r * run_length; e < std::min(ne, (r + 1) * run_length); ++e)
+      for (int n : hexahedra[static_cast<size_t>(e)]) {
+        require(n >= 0 && n < num_nodes, "colour_element_runs: element {} has node {} (expected 0..{})", e, n,
+                num_nodes - 1);
+        if (last[static_cast<size_t>(n)] == r) continue;
+        last[static_cast<size_t>(n)] = r;
+        visit(n);
+      }
+  };
+  for (int r = 0; r < runs; ++r) for_each_node_of_run(r, [&](int n) { ++start[static_cast<size_t>(n) + 1]; });
+  for (size_t i = 1; i < start.size(); ++i) start[i] += start[i - 1];
+  std::vector<int> fill(start.begin(), start.end() - 1), runs_of(static_cast<size_t>(start.back()));
+  std::fill(last.begin(), last.end(), -1);
+  for (int r = 0; r < runs; ++r)
+    for_each_node_of_run(r, [&](int n) { runs_of[static_cast<size_t>(fill[static_cast<size_t>(n)]++)] = r; });
+  std::vector<int> colour(static_cast<size_t>(runs), -1);
+  std::vector<char> taken;
+  std::vector<std::vector<ElementRun>> groups;
+  std::fill(last.begin(), last.end(), -1);
+  for (int r = 0; r < runs; ++r) {
+    taken.assign(groups.size() + 1, 0);
+    for_each_node_of_run(r, [&](int n) {
+      for (int k = start[static_cast<size_t>(n)]; k < start[static_cast<size_t>(n) + 1]; ++k) {
+        const int c = colour[static_cast<size_t>(runs_of[static_cast<size_t>(k)])];
+        if (c >= 0) taken[static_cast<size_t>(c)] = 1;
+      }
+    });
+    const auto c = static_cast<size_t>(std::find(taken.begin(), taken.end(), 0) - taken.begin());
+    if (c == groups.size()) groups.emplace_back();
+    groups[c].push_back({r * run_length, std::min(ne, (r + 1) * run_length)});
+    colour[static_cast<size_t>(r)] = static_cast<int>(c);
+  }
+  return groups;
+}
+
 }  // namespace socketsmith::volume

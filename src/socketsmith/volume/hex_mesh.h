@@ -83,6 +83,20 @@ struct HexQuality {
 };
 HexQuality hex_quality(const HexMesh& mesh);
 
+/// Elements [begin, end) of a mesh, in element order.
+struct ElementRun {
+  int begin = 0, end = 0;
+};
+/// The elements cut into runs of @p run_length consecutive elements, the runs grouped ("colours")
+/// so that no two runs of a group share a node: a parallel loop over one group's runs, each run in
+/// element order, may scatter into per-node storage without locks or atomics and keeps the cache
+/// locality of the element order; adding the groups in turn gives the same sum whatever the number
+/// of threads. Greedy, first fit in run order. run_length 1 colours single elements (8 groups on a
+/// structured grid). @throws InvalidInputError for a node index outside [0, num_nodes) or
+/// run_length < 1.
+std::vector<std::vector<ElementRun>> colour_element_runs(int num_nodes, const std::vector<Hex>& hexahedra,
+                                                         int run_length);
+
 /// Validates indices, tag array size, finite coordinates and positive corner Jacobians.
 /// @throws InvalidInputError (NaN, bad index) or TopologyError (inverted element) naming the
 ///         first offending node/element and the fix.
