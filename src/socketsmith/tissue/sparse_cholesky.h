@@ -55,8 +55,8 @@ class SparseCholesky {
  public:
   /// CHOLMOD's supernodes relaxed twice as far as its defaults (nrelax 8/32/96 columns, zrelax
   /// 0.95/0.2/0.1 of explicit zeros): larger dense blocks for dgemm. On the 7.7k-node stump's
-  /// tangent (17k dofs) a factorisation takes ≈ 14 % less time (`BM_StumpTangent`, six pairs);
-  /// three or four times as far gained nothing more.
+  /// tangent (17k dofs) a factorisation takes ≈ 12 % less time on average, faster in 10 of 12
+  /// back-to-back pairs (`BM_StumpTangent`); three or four times as far gained nothing more.
   SparseCholesky() {
     auto& c = llt_.cholmod();
     for (int i = 0; i < 3; ++i) {
