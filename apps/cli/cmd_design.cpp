@@ -104,7 +104,7 @@ void print_summary(const nlohmann::json& j) {
 void add_closed_loop(CLI::App* cmd, DesignFlags& f) {
   cmd->add_option("--closed-loop", f.closed_loop,
                   "don and stand on the socket, correct its wall in up to N donnings (0: the open-loop socket; "
-                  "default: the case's design.closed_loop, else on for a transtibial limb with its "
+                  "default: the case's design.closed_loop, else on with its "
                   "design.closed_loop_donnings)")
       ->check(CLI::Validator(
           [](std::string& text) -> std::string {

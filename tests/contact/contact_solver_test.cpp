@@ -1,6 +1,7 @@
 // The thesis's cube loaded through a rigid box by contact must match the constrained cube of the
 // foundation issue (thesis Fig. 28): top pressure within 2 % of W/A, same displacements, no node
 // deeper than 0.1 mm in the box.
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -122,20 +123,31 @@ TEST(ContactCube, the_push_solves_the_box_position_with_the_cube) {
   }
 }
 
+/// The cube of neo-Hookean tissue (E 50 kPa) under the box's plane, nonlinear, μ 0.5.
+struct NeoHookeanCube {
+  const ContactCube c;
+  const tissue::MassSpringModel model{c.mesh, {50e3, 1060}, [] {
+                                        tissue::MassSpringOptions mo;
+                                        mo.kind = tissue::TissueModelKind::NeoHookean;
+                                        return mo;
+                                      }()};
+  const tissue::DofMap dofs{model.num_dofs(), c.cons};
+  PlaneObstacle box{Vec3(0, 0, ContactCube::L), Vec3(0, 0, -1)};
+  ContactOptions co = [] {
+    ContactOptions o;
+    o.friction = 0.5;
+    o.linear_body = false;
+    return o;
+  }();
+};
+
 // push_free is the free solve alone: where it converges it lands on the force; where it cannot (a
 // box that touches nothing has no stiffness along the push) it leaves the obstacle and the body
 // exactly where they were — the refit's fall-back starts from the worn state, not from a
 // half-pushed one.
 TEST(ContactCube, a_free_push_that_fails_leaves_the_state_where_it_was) {
-  const ContactCube c;
-  tissue::MassSpringOptions mo;
-  mo.kind = tissue::TissueModelKind::NeoHookean;
-  const tissue::MassSpringModel model(c.mesh, {50e3, 1060}, mo);
-  const tissue::DofMap dofs(model.num_dofs(), c.cons);
-  PlaneObstacle box(Vec3(0, 0, ContactCube::L), Vec3(0, 0, -1));
-  ContactOptions co;
-  co.friction = 0.5;
-  co.linear_body = false;
+  NeoHookeanCube k;
+  auto& [c, model, dofs, box, co] = k;
   ContactSolver solver(model, dofs, c.top, c.top_area, box, co);
   ASSERT_TRUE(solver.move_to(Vec3(0, 0, 0.003)).converged);  // 3 mm above the cube: no contact
   const tissue::VectorXd x0 = solver.positions();
@@ -152,6 +164,34 @@ TEST(ContactCube, a_free_push_that_fails_leaves_the_state_where_it_was) {
   co.linear_body = true;
   ContactSolver linear(model, dofs, c.top, c.top_area, box, co);
   EXPECT_THROW(linear.push_free(Vec3(0, 0, -1), 60.0), InvalidInputError);
+}
+
+// limit_newton: every Newton iteration counts (failed solves too); a solve that reaches the limit
+// stops unconverged without refining its path and leaves the state where it was.
+TEST(ContactCube, a_solve_stops_at_its_newton_limit_and_leaves_the_state_where_it_was) {
+  NeoHookeanCube k;
+  auto& [c, model, dofs, box, co] = k;
+  ContactSolver free_solver(model, dofs, c.top, c.top_area, box, co);
+  const ContactStep ref = free_solver.move_to(Vec3(0, 0, -0.004));
+  ASSERT_TRUE(ref.converged) << ref.message;
+  ASSERT_GE(ref.newton_iterations, 3);
+  EXPECT_EQ(free_solver.newton_iterations_spent(), ref.newton_iterations);
+
+  box.set_translation(Vec3(0, 0, 0));
+  ContactSolver solver(model, dofs, c.top, c.top_area, box, co);
+  const tissue::VectorXd x0 = solver.positions();
+  solver.limit_newton(2);
+  const ContactStep cut = solver.move_to(Vec3(0, 0, -0.004));
+  EXPECT_FALSE(cut.converged);
+  EXPECT_TRUE(cut.out_of_budget);
+  EXPECT_THAT(cut.message, ::testing::HasSubstr("Newton iterations in all (the limit"));
+  EXPECT_EQ(solver.newton_iterations_spent(), 2);  // no sub-steps tried after the limit
+  EXPECT_EQ(solver.positions(), x0);
+  solver.limit_newton(0);  // no limit: the same solve converges to the reference
+  const ContactStep again = solver.move_to(Vec3(0, 0, -0.004));
+  ASSERT_TRUE(again.converged) << again.message;
+  EXPECT_NEAR(again.force_on_obstacle_n.z(), ref.force_on_obstacle_n.z(), 1e-6 * std::abs(ref.force_on_obstacle_n.z()));
+  EXPECT_THROW(solver.limit_newton(-1), InvalidInputError);
 }
 
 TEST(ContactCube, friction_holds_a_sideways_push_below_mu_times_the_normal_force) {

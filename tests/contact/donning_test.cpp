@@ -401,6 +401,30 @@ TEST_F(Donning, a_stalled_path_says_where_the_wall_holds_the_skin_and_names_flag
   std::cout << r.message << "\n";
 }
 
+// A path that grinds (the contact set flipping among a few nodes while Newton runs to its limit,
+// step after step) must end with a message, not after minutes: the donning's Newton iterations
+// are counted in all — failed solves and rejected steps too — and limited.
+TEST_F(Donning, a_path_that_spends_its_newton_limit_ends_there_and_says_where_the_wall_holds_the_skin) {
+  DonningOptions o = standing_path(0, 0.045);  // adaptive steps: rejected trial steps count too
+  const DonningResult full = don(o);
+  ASSERT_TRUE(full.completed) << full.message;
+  EXPECT_GE(full.newton_spent, full.newton_iterations);
+  EXPECT_LT(full.newton_spent, o.max_newton_iterations / 4) << "the default limit is far above a donning's need";
+  o.max_newton_iterations = static_cast<int>(full.newton_spent / 2);
+  const DonningResult cut = don(o);
+  ASSERT_FALSE(cut.completed);
+  EXPECT_LE(cut.newton_spent, o.max_newton_iterations);
+  EXPECT_GE(cut.newton_spent, o.max_newton_iterations - 1);
+  EXPECT_FALSE(cut.series.empty());  // the converged part of the path is kept
+  EXPECT_LT(cut.final_offset_m, -1e-3);
+  EXPECT_THAT(cut.message, ::testing::ContainsRegex("^donning stalled at [0-9.]+ mm below the designed pose"));
+  EXPECT_THAT(cut.message, ::testing::HasSubstr("Newton iterations in all (the limit"));
+  EXPECT_THAT(cut.message, ::testing::HasSubstr("does not settle"));
+  EXPECT_THAT(cut.message, ::testing::HasSubstr("skin nodes touch the wall"));
+  EXPECT_THAT(cut.message, ::testing::Not(::testing::HasSubstr("--steps")));  // more steps would not help
+  std::cout << cut.message << "\n";
+}
+
 TEST_F(Donning, rejects_a_socket_that_grips_at_the_start_and_bad_options) {
   const auto& art = art_;
   ASSERT_TRUE(art.result.socket.has_value());
@@ -419,6 +443,8 @@ TEST_F(Donning, rejects_a_socket_that_grips_at_the_start_and_bad_options) {
   rejected([](DonningOptions& o) { o.start_offset_m = -0.01; });
   rejected([](DonningOptions& o) { o.contact.chord_ratio = 1.0; });
   rejected([](DonningOptions& o) { o.contact.chord_ratio = -0.1; });
+  rejected([](DonningOptions& o) { o.max_newton_iterations = -1; });
+  rejected([](DonningOptions& o) { o.contact.residual_floor_ratio = 0.5; });
 }
 
 }  // namespace

@@ -289,6 +289,32 @@ TEST(ClosedLoop, refuses_bad_options_and_a_design_without_a_socket) {
   o = {};
   o.max_offset_m = -1;
   EXPECT_THROW(close_design_loop(*setup, r, o), InvalidInputError);
+  o = {};
+  o.check_newton_ratio = 0;
+  EXPECT_THROW(close_design_loop(*setup, r, o), InvalidInputError);
+}
+
+// A corrected socket's donning may spend only a multiple of the open-loop donning's Newton
+// iterations (ClosedLoopOptions::check_newton_ratio): one that outspends it ends as a stalled
+// donning, and the loop stops there with the best socket so far and the reason — instead of
+// grinding for minutes.
+TEST(ClosedLoop, a_corrected_socket_whose_donning_outspends_its_newton_limit_stops_the_loop_with_the_best_socket) {
+  design::CaseFile c = demo_case(1800);
+  c.closed_loop = false;  // the loop is called by hand
+  auto setup = prepare_design(c);
+  const DesignResult r = solve_design(*setup, true);
+  ASSERT_TRUE(r.socket.has_value());
+  ClosedLoopOptions o;
+  o.refits_per_donning = 0;  // the first correction is donned from scratch
+  o.check_newton_ratio = 0.2;
+  o.check_newton_min = 0;
+  const ClosedLoopResult loop = close_design_loop(*setup, r, o);
+  EXPECT_FALSE(loop.converged);
+  ASSERT_EQ(loop.iterations.size(), 1u) << loop.message;  // the open-loop donning only
+  EXPECT_EQ(loop.best, 0);
+  EXPECT_THAT(loop.message, ::testing::HasSubstr("stopped after 2 donnings: the corrected socket could not be donned"));
+  EXPECT_THAT(loop.message, ::testing::HasSubstr("Newton iterations in all (the limit"));
+  EXPECT_EQ(loop.closed_loop_pa, loop.open_loop_pa);  // the open-loop socket is kept
 }
 
 }  // namespace

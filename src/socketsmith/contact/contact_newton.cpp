@@ -198,10 +198,12 @@ bool ContactSolver::Impl::newton(VectorXd& xs, Vec3& t, std::vector<NodeContact>
       at_kink = rn <= kink_tolerance(st);
       return at_kink;
     }
+    if (out_of_budget()) return false;
     VectorXd delta;
     double ds = 0;
-    if (!step_direction(xs, B, K, r, rs, rn <= kRelagResidual * tol, delta, ds)) return false;
+    if (!step_direction(xs, B, K, r, rs, in_tail(st, rn), delta, ds)) return false;
     ++iterations;
+    ++newton_spent;
     double step = 0;
     const double rn_before = rn;
     const bool accepted = line_search(xs, t, delta, ds, r, rs, rn, pi, st, th, B, conservative, step);
@@ -238,7 +240,7 @@ bool ContactSolver::Impl::newton(VectorXd& xs, Vec3& t, std::vector<NodeContact>
       pi_history.clear();  // the potential changed
       residual();
     }
-    if (stop_on_new_stick && rn <= kRelagResidual * tolerance(st) && count_new_sticks(st) > 0) {
+    if (stop_on_new_stick && in_tail(st, rn) && count_new_sticks(st) > 0) {
       stopped_on_stick = true;
       return false;
     }
@@ -253,7 +255,7 @@ bool ContactSolver::Impl::refresh_lag_in_newton(const std::vector<NodeContact>& 
   // and state can cycle (8k demo: |r| 0.497 ↔ 0.439 N, a refresh at every step, 48 Newton steps up
   // to max_newton): after kRelagStall refreshes in a row that did not halve the residual, the lag
   // stays until this solve converges and the friction pass after it takes the new one.
-  if (!(opt.friction > 0 && opt.friction_in_newton && rn <= kRelagResidual * tolerance(st) &&
+  if (!(opt.friction > 0 && opt.friction_in_newton && in_tail(st, rn) &&
         rs.stalled < kRelagStall && lag_change(st) > opt.friction_lag_tol))
     return false;
   rs.stalled = rn < kRelagProgress * rs.residual_n ? 0 : rs.stalled + 1;
@@ -324,6 +326,7 @@ ContactStep ContactSolver::Impl::solve(const Vec3& t_start, bool commit) {
     update_lag(st);
   }
   out.converged = ok;
+  out.out_of_budget = !ok && out_of_budget();
   out.residual_n = rn;
   Vec3 F = Vec3::Zero(), T = Vec3::Zero();
   for (size_t i = 0; i < nodes.size(); ++i) {
@@ -352,6 +355,8 @@ ContactStep ContactSolver::Impl::solve(const Vec3& t_start, bool commit) {
     obstacle.set_translation(t);
     last_hist = std::move(th);
     if (commit) commit_last();
+  } else if (out.out_of_budget) {
+    out.message = fmt::format("gave up after {} Newton iterations in all (the limit; residual {:.3g} N)", newton_spent, rn);
   } else if (stopped_on_stick) {
     out.stopped_on_new_stick = true;
     out.message = fmt::format("stopped after {} Newton iterations: a node started sticking", out.newton_iterations);
@@ -411,7 +416,7 @@ bool ContactSolver::Impl::push_free(const Vec3& d, double force_n, double rel_to
 ContactStep ContactSolver::Impl::solve_path(const Vec3& t, bool commit) {
   stopped_on_stick = false;
   ContactStep st = solve(t, commit);
-  if (st.converged || st.stopped_on_new_stick) return st;
+  if (st.converged || st.stopped_on_new_stick || st.out_of_budget) return st;
   int pieces = 2;
   int total_newton = st.newton_iterations;
   for (int depth = 0; depth < 6 && !st.converged; ++depth, pieces *= 2) {
@@ -422,6 +427,7 @@ ContactStep ContactSolver::Impl::solve_path(const Vec3& t, bool commit) {
       total_newton += st.newton_iterations;
       if (!st.converged) break;
     }
+    if (st.out_of_budget) break;
   }
   st.newton_iterations = total_newton;
   if (st.converged) st.message += fmt::format(" (reached through {} sub-steps)", pieces / 2);

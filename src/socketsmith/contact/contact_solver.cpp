@@ -189,10 +189,10 @@ bool ContactSolver::Impl::pcg(const SparseMatrix& K, const VectorXd& b, VectorXd
   return false;
 }
 
-double ContactSolver::Impl::tolerance(const std::vector<NodeContact>& st) const {
+double ContactSolver::Impl::force_sum(const std::vector<NodeContact>& st) {
   double fsum = 0;
   for (const auto& s : st) fsum += s.normal_force_n + s.tangential_n.norm();
-  return opt.rel_tol * std::max(fsum, force_floor);
+  return fsum;
 }
 
 int ContactSolver::Impl::count_new_sticks(const std::vector<NodeContact>& st) const {
@@ -256,6 +256,8 @@ ContactSolver::ContactSolver(const tissue::MassSpringModel& model, const tissue:
           "contact: stick stiffness ratio {} must be positive", options.stick_stiffness_ratio);
   require(std::isfinite(options.chord_ratio) && options.chord_ratio >= 0 && options.chord_ratio < 1,
           "contact: chord ratio {} must be in [0, 1) (0: a fresh tangent every Newton step)", options.chord_ratio);
+  require(std::isfinite(options.residual_floor_ratio) && options.residual_floor_ratio >= 1,
+          "contact: residual floor ratio {} must be ≥ 1 (the floor in E h²)", options.residual_floor_ratio);
   impl_ = std::make_unique<Impl>(model, dofs, std::move(nodes), std::move(areas), obstacle, options);
   auto& s = *impl_;
   double spacing = 0;
@@ -271,9 +273,11 @@ ContactSolver::ContactSolver(const tissue::MassSpringModel& model, const tissue:
   s.was_active.assign(s.nodes.size(), 0);
   s.conv_fn.assign(s.nodes.size(), 0.0);
   s.conv_n.assign(s.nodes.size(), Vec3::Zero());
-  // Residual floor: the force that strains one element of the skin by one (E h²) — a tolerance
-  // of rel_tol of it is far below anything a pressure map shows.
-  s.force_floor = model.material().youngs_modulus_pa * spacing * spacing;
+  // Residual floor: the force that strains one element of the skin by one (E h²), times
+  // ContactOptions::residual_floor_ratio — rel_tol of it is still far below anything a pressure
+  // map shows (1e-4 · 30 E h² is 0.3 % of E on one node's area).
+  s.tail_floor = model.material().youngs_modulus_pa * spacing * spacing;
+  s.force_floor = options.residual_floor_ratio * s.tail_floor;
   s.state.assign(s.nodes.size(), NodeContact{});
   s.conv_state = s.state;
   s.qcache.assign(s.nodes.size(), Impl::QueryCache{});
@@ -319,6 +323,13 @@ void ContactSolver::discard() {
   s.last_hist = s.hist;
   s.obstacle.set_translation(s.t_conv);
 }
+
+void ContactSolver::limit_newton(long iterations) {
+  require(iterations >= 0, "contact: a Newton limit of {} iterations (expected ≥ 0; 0: no limit)", iterations);
+  impl_->newton_limit = iterations > 0 ? impl_->newton_spent + iterations : 0;
+}
+
+long ContactSolver::newton_iterations_spent() const { return impl_->newton_spent; }
 
 void ContactSolver::obstacle_changed() {
   auto& s = *impl_;

@@ -43,6 +43,8 @@ struct ContactSolver::Impl {
   std::vector<NodeContact> state;
   std::vector<NodeContact> conv_state;  // state of the last committed step
   bool stop_on_new_stick = false, stopped_on_stick = false;  // try_move_to(…, true)
+  long newton_spent = 0, newton_limit = 0;  // Newton iterations so far / the limit on them (0: none; limit_newton)
+  bool out_of_budget() const { return newton_limit > 0 && newton_spent >= newton_limit; }
   std::vector<char> was_active;  // active at the last converged step
   struct QueryCache {
     Vec3 p = Vec3::Zero(), t = Vec3::Zero();
@@ -53,6 +55,7 @@ struct ContactSolver::Impl {
   std::vector<double> conv_fn, lag_fn, prev_fn;  // normal force at the last converged step / friction lag
   std::vector<Vec3> conv_n, lag_n;      // wall normal at the last converged step / friction lag
   double force_floor = 1e-3;            // [N] scale of the residual tolerance when forces are small
+  double tail_floor = 1e-3;             // [N] the same for the tail's thresholds (E h², ContactOptions::residual_floor_ratio)
   SparseMatrix K0;         // linear body: reduced stiffness at rest
   SparseMatrix K0c;        // K₀ with every candidate node's 3×3 block in its pattern
   std::vector<Eigen::Index> block_at;  // per candidate node, entry (a, b) at 9 i + 3 b + a: index in K0c's values, −1 fixed
@@ -114,7 +117,13 @@ struct ContactSolver::Impl {
   /// opt.max_reuse_cg iterations for a relative residual of 1e-8.
   bool pcg(const SparseMatrix& K, const VectorXd& b, VectorXd& d);
 
-  double tolerance(const std::vector<NodeContact>& st) const;
+  double tolerance(const std::vector<NodeContact>& st) const { return opt.rel_tol * std::max(force_sum(st), force_floor); }
+  /// Newton's tail, where the friction lag is refreshed, chord steps are taken and a new stick
+  /// stops a try_move_to: ‖r‖ ≤ kRelagResidual · rel_tol · max(Σ |f_contact|, E h²).
+  bool in_tail(const std::vector<NodeContact>& st, double rn) const {
+    return rn <= kRelagResidual * opt.rel_tol * std::max(force_sum(st), tail_floor);
+  }
+  static double force_sum(const std::vector<NodeContact>& st);
   /// The residual accepted at a kink of the wall (see ContactOptions::kink_rel_tol).
   double kink_tolerance(const std::vector<NodeContact>& st) const {
     return opt.kink_rel_tol / opt.rel_tol * tolerance(st);

@@ -67,6 +67,7 @@ struct DonningSimulation::Impl {
   std::vector<int> skin_nodes;
   bool completed = false, stood = false;
   double last_step = 0.0;
+  long spent_at_begin = 0;  ///< the solver's Newton iterations when this run or refit began
   double stand_stiffness = 0.0;  ///< d(axial force)/d(position) over the last standing push [N/m]; 0 unknown
   // The guided path: the socket's offset across the axis is `shift` at `shift_from_m` along the
   // axis and fades linearly to 0 at the designed pose (no sidestep: shift_from_m = 0).
@@ -120,13 +121,19 @@ struct DonningSimulation::Impl {
 
   /// Why the path stopped at @p target, and where the socket holds the skin at @p offset (the last
   /// converged state: the solver went back to it).
-  std::string stalled_message(double target, double offset, const ContactStep& st, double sidestep_m) const {
+  /// @p out_of_budget: the path ground (DonningOptions::max_newton_iterations spent), which more
+  /// steps do not cure.
+  std::string stalled_message(double target, double offset, const ContactStep& st, double sidestep_m,
+                              bool out_of_budget = false) const {
     std::string m = fmt::format("donning stalled at {:.1f} mm below the designed pose (step of {:.2f} mm): {}; at {:.1f} "
                                 "mm {}",
                                 -target * 1e3, (target - offset) * 1e3, st.message, -offset * 1e3,
                                 hardest_grip(solver->contacts(), skin_nodes, solver->positions(), frame));
     if (sidestep_m > 0) m += fmt::format(", after a sidestep of {:.0f} mm", sidestep_m * 1e3);
-    if (!o.start_offset_name.empty()) m += fmt::format("; try more --steps or a smaller {}", o.start_offset_name);
+    if (out_of_budget)
+      m += "; the contact there does not settle: ease the socket where it grips";
+    else if (!o.start_offset_name.empty())
+      m += fmt::format("; try more --steps or a smaller {}", o.start_offset_name);
     return m;
   }
 
@@ -140,6 +147,8 @@ struct DonningSimulation::Impl {
     require(std::isfinite(o.min_step_m) && o.min_step_m > 0, "donning: the shortest step {} mm must be positive",
             o.min_step_m * 1e3);
     o.min_step_m = std::min(o.min_step_m, o.step_m);
+    require(o.max_newton_iterations >= 0, "donning: a limit of {} Newton iterations (expected ≥ 0; 0: no limit)",
+            o.max_newton_iterations);
     require(std::isfinite(o.stand_force_n) && o.stand_force_n >= 0, "donning: standing force {} N must be ≥ 0",
             o.stand_force_n);
     require(std::isfinite(o.friction) && o.friction >= 0 && o.friction <= 2,
@@ -164,6 +173,26 @@ struct DonningSimulation::Impl {
             "down ({} larger than {:.0f})",
             st.contact_nodes, o.start_offset_m * 1e3,
             o.start_offset_name.empty() ? std::string("a start offset") : o.start_offset_name, o.start_offset_m * 1e3);
+  }
+
+  /// A result of run() or refit() begun: the skin nodes, the socket's mass, the path's start; the
+  /// Newton iterations limited from now (DonningOptions::max_newton_iterations).
+  DonningResult begin_result() {
+    DonningResult r;
+    r.start_offset_m = o.start_offset_m;
+    r.nodes = skin_nodes;
+    r.socket_mass_kg = socket.mass_kg();
+    spent_at_begin = solver->newton_iterations_spent();
+    solver->limit_newton(o.max_newton_iterations);
+    return r;
+  }
+  /// … and ended: its Newton iterations in all and its time since @p t0.
+  DonningResult end_result(DonningResult& r, std::chrono::steady_clock::time_point t0, const char* what) const {
+    r.newton_spent = solver->newton_iterations_spent() - spent_at_begin;
+    log::debug("donning: {}: {} Newton iterations in all, {} on the committed steps", what, r.newton_spent,
+               r.newton_iterations);
+    r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return std::move(r);
   }
 
   /// The standing load reached by @p st, the push having started at @p start_at (along the axis)
@@ -249,10 +278,7 @@ DonningResult DonningSimulation::run() {
   const Vec3 axis = s.axis;
   const bool adaptive = o.steps == 0;
   const auto t0 = std::chrono::steady_clock::now();
-  DonningResult r;
-  r.start_offset_m = o.start_offset_m;
-  r.nodes = s.skin_nodes;
-  r.socket_mass_kg = s.socket.mass_kg();
+  DonningResult r = s.begin_result();
   s.check_start();
   r.completed = true;
   // The path: fixed steps, or adaptive ones (DonningOptions::steps). A trial step is kept unless a
@@ -277,6 +303,11 @@ DonningResult DonningSimulation::run() {
     const ContactStep st = refinable ? solver.try_move_to(s.at(target), true) : solver.move_to(s.at(target));
     if (!st.converged) {
       solver.discard();
+      if (st.out_of_budget) {
+        r.completed = false;
+        r.message = s.stalled_message(target, offset, st, r.max_sidestep_m, true);
+        break;
+      }
       if (refinable) {  // a node started sticking: the shortest step; no convergence: half the step
         if (st.stopped_on_new_stick) log::debug("donning: a node started sticking on the way to {:.2f} mm: refined", -target * 1e3);
         step = st.stopped_on_new_stick ? o.min_step_m : std::max(0.5 * step, o.min_step_m);
@@ -315,8 +346,7 @@ DonningResult DonningSimulation::run() {
   r.positions = solver.positions();
   s.completed = r.completed;
   if (r.completed && o.stand_force_n > 0) s.stand(r);
-  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  return r;
+  return s.end_result(r, t0, "run");
 }
 
 DonningResult DonningSimulation::refit(const geometry::TriMesh& socket_solid) {
@@ -325,10 +355,7 @@ DonningResult DonningSimulation::refit(const geometry::TriMesh& socket_solid) {
   const auto t0 = std::chrono::steady_clock::now();
   s.socket.replace_solid(socket_solid);
   s.solver->obstacle_changed();
-  DonningResult r;
-  r.nodes = s.skin_nodes;
-  r.socket_mass_kg = s.socket.mass_kg();
-  r.start_offset_m = s.o.start_offset_m;
+  DonningResult r = s.begin_result();
   if (s.stood && s.o.stand_force_n > 0 && s.o.contact.free_push && !s.o.contact.linear_body) {
     // The new wall's equilibrium and the standing position in one solve (the socket free along the
     // axis under the standing load); when it fails, nothing has moved and the two steps below
@@ -338,8 +365,7 @@ DonningResult DonningSimulation::refit(const geometry::TriMesh& socket_solid) {
     if (st.converged) {
       s.record_stand(r, st, -1.0, start_at);
       r.completed = true;
-      r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      return r;
+      return s.end_result(r, t0, "refit");
     }
     log::debug("donning: the refit's one-solve standing did not converge ({}); the new wall first, then the load",
                st.message);
@@ -374,8 +400,7 @@ DonningResult DonningSimulation::refit(const geometry::TriMesh& socket_solid) {
       s.stand(r);
     }
   }
-  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  return r;
+  return s.end_result(r, t0, "refit");
 }
 
 DonningResult simulate_donning(const tissue::MassSpringModel& model, const std::vector<int>& skin_nodes,

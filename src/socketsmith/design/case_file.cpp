@@ -365,7 +365,7 @@ std::filesystem::path resolve(const CaseFile& c, const std::string& file) {
 }
 
 bool closes_loop(const CaseFile& c) {
-  return c.closed_loop.value_or(c.limb.type == geometry::LimbType::Transtibial);
+  return c.closed_loop.value_or(true);
 }
 
 }  // namespace socketsmith::design

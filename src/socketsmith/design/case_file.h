@@ -79,8 +79,8 @@ struct CaseFile {
   bool follow_template = true;
   double time_limit_s = 0.0;               ///< the optimiser's wall-time bound [s]; 0 = none
   /// Closed-loop design (pipeline/closed_loop.h): don and stand on the socket, correct its wall
-  /// until it delivers the designed pressures, write the corrected socket. Not given: on for a
-  /// transtibial limb, off for a transfemoral one (closes_loop; its donning is not validated).
+  /// until it delivers the designed pressures, write the corrected socket. Not given: on, for both
+  /// levels (closes_loop; docs/design.md, "Closed loop").
   std::optional<bool> closed_loop;
   int closed_loop_donnings = 4;            ///< donnings at most, the open-loop socket's included, 1–20
   /// The brim template; not given: the limb type's (default_brim: PTB transtibial, ICS transfemoral).

@@ -39,6 +39,9 @@ void check_options(const ClosedLoopOptions& o) {
           o.smoothing_passes);
   require(std::isfinite(o.max_offset_m) && o.max_offset_m > 0 && o.max_offset_m <= 0.02,
           "closed loop: largest wall correction {} mm (expected in (0, 20] mm)", o.max_offset_m * 1e3);
+  require(std::isfinite(o.check_newton_ratio) && o.check_newton_ratio > 0 && o.check_newton_min >= 0,
+          "closed loop: a corrected socket's Newton limit {} × the open-loop donning's, at least {} (expected > 0, ≥ 0)",
+          o.check_newton_ratio, o.check_newton_min);
 }
 
 /// Area-weighted averages of @p v over each node and its neighbours on the skin's quads, @p passes
@@ -337,7 +340,18 @@ class LoopRun {
     refits_ = 0;
     sim_ = std::make_unique<contact::DonningSimulation>(solver_.model(), skin_.nodes, skin_.area_m2, socket_.solid,
                                                         setup_.model.frame, don_);
-    return sim_->run();
+    contact::DonningResult d = sim_->run();
+    if (full_donnings_ == 1 && d.completed) {
+      // ClosedLoopOptions::check_newton_ratio
+      const auto cap = static_cast<long>(
+          std::max({1.0, static_cast<double>(options_.check_newton_min),
+                             options_.check_newton_ratio * static_cast<double>(d.newton_spent)}));
+      if (don_.max_newton_iterations == 0 || cap < don_.max_newton_iterations)
+        don_.max_newton_iterations = static_cast<int>(cap);
+      log::debug("closed loop: the open-loop donning spent {} Newton iterations; a corrected socket's may spend {}",
+                 d.newton_spent, don_.max_newton_iterations);
+    }
+    return d;
   }
 
   /// A donning or refit that did not stand: a failed refit is donned from scratch (true: go on);

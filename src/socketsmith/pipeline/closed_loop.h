@@ -79,6 +79,14 @@ struct ClosedLoopOptions {
   /// Largest wall correction |δ| [m], > 0: a correction that would move the wall further is
   /// clamped (the loop corrects a design, it does not redesign it).
   double max_offset_m = 0.005;
+  /// A corrected socket differs from the open-loop one by millimetres, and its donning needs about
+  /// as many Newton iterations (8k transtibial: 56 then 54; OpenLimbTF 3k: 233 then 431, 8k: 211
+  /// then 172). A donning (or refit) of a corrected socket may spend check_newton_ratio × the
+  /// open-loop donning's, at least check_newton_min (and never more than donning's own limit): one
+  /// that grinds (OpenLimbTF 3k before ContactOptions::residual_floor_ratio: 5,200 iterations, 6 of
+  /// the run's 8 minutes) then ends as a stalled donning and the loop keeps its best socket so far.
+  double check_newton_ratio = 4.0;  ///< > 0
+  int check_newton_min = 300;       ///< ≥ 0
   /// The donning: start, steps, penalty, smooth wall. Its friction and standing force are set
   /// from the case's patient (μ, M g / 2) unless `keep_donning_loads` is true.
   contact::DonningOptions donning;
