@@ -55,9 +55,12 @@ struct DonningOptions {
   /// steps, the refinements and the standing push included); 0: no limit. A path that grinds —
   /// the contact set flipping among a few nodes while Newton runs to its limit step after step —
   /// then ends as a stalled one (completed = false, a message naming where), not after minutes.
-  /// Measured: the 8k transtibial closed loop's donnings spend 90–110, the 3k transfemoral one's
-  /// 100–400; a grinding transfemoral donning (before ContactOptions::residual_floor_ratio) 5,200.
-  int max_newton_iterations = 2000;
+  /// Measured: the 8k transtibial closed loop's donnings spend 54–56; transfemoral ones at 3k
+  /// 170–430, and 2,416 on the generated limb of seed 10 (a long path, refined at every other step:
+  /// 178 s) — where a limit of 2,000 failed its design; a grinding donning (before
+  /// ContactOptions::residual_floor_ratio) 5,200. The closed loop limits a corrected socket's
+  /// donning further (ClosedLoopOptions::check_newton_ratio).
+  int max_newton_iterations = 6000;
   /// Contact against the smoothed inner wall (RigidSocket::set_smooth_wall) instead of its facets:
   /// nodes sliding along the wall do not cross its kinks (7.5k nodes: 203 instead of 390
   /// factorisations; below the brim R 0.742 / MAE 1.91 kPa against the design vs 0.750 / 1.84 on the
