@@ -182,7 +182,7 @@ TEST(CaseFile, the_loop_is_closed_by_default_on_both_levels_and_a_given_value_is
   EXPECT_TRUE(closes_loop(tt));  // docs/design.md, "Closed loop": the default socket delivers its design
   EXPECT_FALSE(case_to_json(tt)["design"].contains("closed_loop"));  // a replay keeps the default
   const CaseFile tf = parse_case(json::parse(R"({"limb": {"type": "transfemoral"}})"));
-  EXPECT_TRUE(closes_loop(tf));  // since 2026-11-30: 4 transfemoral limbs measured (docs/design.md)
+  EXPECT_TRUE(closes_loop(tf));  // since 2026-11-30: 11 transfemoral limbs measured (docs/design.md)
   for (const bool given : {false, true}) {
     json j = json::object();
     j["limb"]["type"] = given ? "transfemoral" : "transtibial";

@@ -187,12 +187,11 @@ struct DonningSimulation::Impl {
     return r;
   }
   /// … and ended: its Newton iterations in all and its time since @p t0.
-  DonningResult end_result(DonningResult& r, std::chrono::steady_clock::time_point t0, const char* what) const {
+  void end_result(DonningResult& r, std::chrono::steady_clock::time_point t0, const char* what) const {
     r.newton_spent = solver->newton_iterations_spent() - spent_at_begin;
     log::debug("donning: {}: {} Newton iterations in all, {} on the committed steps", what, r.newton_spent,
                r.newton_iterations);
     r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    return std::move(r);
   }
 
   /// The standing load reached by @p st, the push having started at @p start_at (along the axis)
@@ -346,7 +345,8 @@ DonningResult DonningSimulation::run() {
   r.positions = solver.positions();
   s.completed = r.completed;
   if (r.completed && o.stand_force_n > 0) s.stand(r);
-  return s.end_result(r, t0, "run");
+  s.end_result(r, t0, "run");
+  return r;
 }
 
 DonningResult DonningSimulation::refit(const geometry::TriMesh& socket_solid) {
@@ -365,7 +365,8 @@ DonningResult DonningSimulation::refit(const geometry::TriMesh& socket_solid) {
     if (st.converged) {
       s.record_stand(r, st, -1.0, start_at);
       r.completed = true;
-      return s.end_result(r, t0, "refit");
+      s.end_result(r, t0, "refit");
+      return r;
     }
     log::debug("donning: the refit's one-solve standing did not converge ({}); the new wall first, then the load",
                st.message);
@@ -400,7 +401,8 @@ DonningResult DonningSimulation::refit(const geometry::TriMesh& socket_solid) {
       s.stand(r);
     }
   }
-  return s.end_result(r, t0, "refit");
+  s.end_result(r, t0, "refit");
+  return r;
 }
 
 DonningResult simulate_donning(const tissue::MassSpringModel& model, const std::vector<int>& skin_nodes,
