@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Regenerates the GUI screenshots of docs/gui.md (docs/images/gui_*.png) with the headless mode of
 # socketsmith-gui under Xvfb: the demo stump (8k nodes), a spot added at the patellar tendon,
-# the optimiser, the displacement with the socket, the threshold map with a KBM brim.
+# the optimiser, the displacement with the socket, what the socket delivers (the closed loop, about a
+# minute at 8k), the threshold map with a KBM brim.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 [ -x build/socketsmith-gui ] || { echo "gui_screenshots: build socketsmith-gui first (scripts/build.sh)"; exit 2; }
@@ -21,6 +22,9 @@ cat > "$tmp/script.json" <<'JSON'
   {"do": "field", "value": "displacement"},
   {"do": "view", "yaw_deg": 150, "pitch_deg": 10, "bones": false, "socket": true},
   {"do": "screenshot", "name": "gui_displacement.png"},
+  {"do": "field", "value": "delivered"},
+  {"do": "view", "yaw_deg": 35, "pitch_deg": 12, "bones": false, "socket": false},
+  {"do": "screenshot", "name": "gui_delivered.png"},
   {"do": "brim", "template": "kbm"},
   {"do": "field", "value": "threshold"},
   {"do": "view", "yaw_deg": 60, "pitch_deg": 15, "bones": true, "socket": false, "stump_opacity": 0.55},

@@ -32,15 +32,18 @@ const char* to_string(Field field) {
     case Field::Displacement: return "displacement";
     case Field::Deviation: return "deviation";
     case Field::Rectification: return "rectification";
+    case Field::Delivered: return "delivered";
+    case Field::DeliveryError: return "delivery_error";
   }
   return "pressure";
 }
 
 Field parse_field(const std::string& text) {
   for (Field f : {Field::Pressure, Field::Threshold, Field::Ratio, Field::Displacement, Field::Deviation,
-                  Field::Rectification})
+                  Field::Rectification, Field::Delivered, Field::DeliveryError})
     if (text == to_string(f)) return f;
-  fail("colour field '{}' is not known (use pressure, threshold, ratio, displacement, deviation or rectification)",
+  fail("colour field '{}' is not known (use pressure, threshold, ratio, displacement, deviation, rectification, "
+       "delivered or delivery_error)",
        text);
 }
 
@@ -50,6 +53,10 @@ void App::set_field(Field field) {
   if (field == Field::Rectification) {
     session_.ask_rectification();
     is_rectification_table_opening_ = true;
+  }
+  if (field == Field::Delivered || field == Field::DeliveryError) {
+    session_.ask_delivery();
+    is_delivery_table_opening_ = true;
   }
 }
 
@@ -138,6 +145,10 @@ void App::follow_session() {
     seen_rectification_ = session_.rectification_serial();
     if (field_ == Field::Rectification) colours_dirty_ = true;
   }
+  if (session_.delivery_serial() != seen_delivery_) {
+    seen_delivery_ = session_.delivery_serial();
+    if (field_ == Field::Delivered || field_ == Field::DeliveryError) colours_dirty_ = true;
+  }
 }
 
 void App::install_scene() {
@@ -188,6 +199,7 @@ void App::update_colours() {
   const auto& above = session_.setup()->solver->above_brim();
   const auto& state = session_.state();
   const auto& deviation_m = session_.deviation_m();
+  const pipeline::DeliveryCheck* delivered = session_.delivery();
   std::vector<double> v(n, std::numeric_limits<double>::quiet_NaN());
   for (size_t i = 0; i < n; ++i) {
     switch (field_) {
@@ -208,17 +220,31 @@ void App::update_colours() {
         if (const RectificationChart* c = session_.rectification(); c && i < c->rectification.vertex_m.size())
           v[i] = c->rectification.vertex_m[i] * 1e3;
         break;
+      case Field::Delivered:
+        if (delivered && i < delivered->below_brim.size() && delivered->below_brim[i])
+          v[i] = delivered->closed_loop_pa[i] / 1e3;
+        break;
+      case Field::DeliveryError:
+        if (delivered && i < delivered->below_brim.size() && delivered->below_brim[i])
+          v[i] = (delivered->closed_loop_pa[i] - delivered->target_pa[i]) / 1e3;
+        break;
     }
   }
   if (is_auto_range_) {
     double hi = 0;
     for (double x : v)
-      if (std::isfinite(x)) hi = std::max(hi, field_ == Field::Deviation ? std::abs(x) : x);
+      if (std::isfinite(x)) hi = std::max(hi, is_signed(field_) ? std::abs(x) : x);
     range_min_ = 0;
     range_max_ = field_ == Field::Ratio ? 1.2f : static_cast<float>(hi > 0 ? hi : 1.0);
-    if (field_ == Field::Deviation) {  // symmetric about 0: blue inside, red outside
+    if (field_ == Field::Deviation || field_ == Field::DeliveryError) {  // symmetric about 0
       range_max_ = static_cast<float>(report::nice_ceil(hi > 0 ? hi : 1.0));
       range_min_ = -range_max_;
+    }
+    if (field_ == Field::Delivered && delivered) {  // the designed pressures' range: the two maps compare
+      double designed = 0;
+      for (size_t i = 0; i < delivered->target_pa.size(); ++i)
+        if (delivered->below_brim[i]) designed = std::max(designed, delivered->target_pa[i] / 1e3);
+      range_max_ = static_cast<float>(report::nice_ceil(designed > 0 ? designed : 1.0));
     }
     if (const RectificationChart* c = session_.rectification(); field_ == Field::Rectification && c) {  // the report's bar
       range_max_ = static_cast<float>(pipeline::rectification_span_mm(c->rectification));
@@ -263,6 +289,8 @@ void App::frame(int width, int height) {
       if (ImGui::IsKeyPressed(GLFW_KEY_4)) set_field(Field::Displacement);
       if (ImGui::IsKeyPressed(GLFW_KEY_5) && !session_.deviation_m().empty()) set_field(Field::Deviation);
       if (ImGui::IsKeyPressed(GLFW_KEY_6)) set_field(Field::Rectification);
+      if (ImGui::IsKeyPressed(GLFW_KEY_7)) set_field(Field::Delivered);
+      if (ImGui::IsKeyPressed(GLFW_KEY_8)) set_field(Field::DeliveryError);
       if (ImGui::IsKeyPressed(GLFW_KEY_F) && session_.has_design())
         camera_.frame(geometry::bounding_box(session_.setup()->model.skin));
       if (ImGui::IsKeyPressed(GLFW_KEY_ESCAPE)) is_placing_spot_ = false;

@@ -25,10 +25,13 @@ namespace socketsmith::gui {
 
 /// The field the stump is coloured by. Deviation: the signed distance from the stump's skin to a
 /// second shape (compare_with), > 0 where that shape lies outside. Rectification: socket minus
-/// limb (pipeline::compute_rectification), < 0 where the socket indents the tissue.
-enum class Field { Pressure, Threshold, Ratio, Displacement, Deviation, Rectification };
+/// limb (pipeline::compute_rectification), < 0 where the socket indents the tissue. Delivered:
+/// the pressure the corrected socket delivers donned and stood on (pipeline::DeliveryCheck);
+/// DeliveryError: that minus the designed pressure.
+enum class Field { Pressure, Threshold, Ratio, Displacement, Deviation, Rectification, Delivered, DeliveryError };
 const char* to_string(Field field);
-/// "pressure" | "threshold" | "ratio" | "displacement" | "deviation" | "rectification";
+/// "pressure" | "threshold" | "ratio" | "displacement" | "deviation" | "rectification" | "delivered" |
+/// "delivery_error";
 /// @throws InvalidInputError otherwise.
 Field parse_field(const std::string& text);
 
@@ -54,8 +57,8 @@ class App {
   /// Adds a spot at the skin point nearest @p point (world [m]) and selects it.
   void add_spot_at(const Vec3& point, design::SpotType type, double amplitude_pa);
   void remove_spot(int index);
-  /// Colours the stump by @p field; Rectification also asks the session for its chart, kept up to
-  /// date after every design from then on.
+  /// Colours the stump by @p field; Rectification also asks the session for its chart, Delivered and
+  /// DeliveryError for the delivery check, each kept up to date after every design from then on.
   void set_field(Field field);
   void set_view_toggles(bool bones, bool landmarks, bool socket, float stump_opacity) {
     stump_alpha_ = stump_opacity;
@@ -100,6 +103,7 @@ class App {
   void draw_feedback_panel();
   void draw_template_check();
   void draw_rectification();
+  void draw_delivery();
   void draw_viewport_overlay(int x, int y, int width, int height);
   void draw_view_controls(int x, int y);
   void draw_file_dialog();
@@ -113,8 +117,10 @@ class App {
   bool is_headless_;
   pipeline::DesignSession session_;
   /// The session's serials when the view last followed it.
-  std::uint64_t seen_setup_ = 0, seen_brim_ = 0, seen_state_ = 0, seen_comparison_ = 0, seen_rectification_ = 0;
+  std::uint64_t seen_setup_ = 0, seen_brim_ = 0, seen_state_ = 0, seen_comparison_ = 0, seen_rectification_ = 0,
+                seen_delivery_ = 0;
   bool is_rectification_table_opening_ = false;  // set_field(Rectification) opens its table once
+  bool is_delivery_table_opening_ = false;       // set_field(Delivered or DeliveryError): its section
   /// The libraries' log lines (any thread), newest last, for the Log panel.
   struct LogLines {
     std::mutex mutex;

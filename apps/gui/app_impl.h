@@ -18,9 +18,15 @@ constexpr float kLeftPanel = 390, kRightPanel = 440;  ///< the Design and Feedba
 /// The colour map of a field: viridis for the thresholds, diverging (blue inside, red outside) for
 /// the deviation of a compared shape and the rectification (as the report's), the clinicians'
 /// pressure map for the rest.
+/// The fields shown on a diverging map, symmetric about 0.
+inline bool is_signed(Field field) {
+  return field == Field::Deviation || field == Field::Rectification || field == Field::DeliveryError;
+}
+
 inline report::Colormap field_colormap(Field field) {
   return field == Field::Threshold                                   ? report::Colormap::Viridis
-         : field == Field::Deviation || field == Field::Rectification ? report::Colormap::Diverging
+         : field == Field::Deviation || field == Field::Rectification || field == Field::DeliveryError
+             ? report::Colormap::Diverging
                                                                       : report::Colormap::Pressure;
 }
 

@@ -63,6 +63,79 @@ double load_average() {
   return l;
 }
 
+/// The design as the window shows it, for write_state: radar, spots, template regions, the
+/// compared shape's deviation, the colour field, the rectification chart and the delivery check.
+json live_state(const App& app) {
+  const pipeline::DesignSession& session = app.session();
+  require(session.state().has_value(), "write_state: no design solved yet");
+  const auto& st = *session.state();
+  json spots = json::array();
+  for (const auto& sp : session.document().spots) spots.push_back(design::spot_to_json(sp));
+  json j{{"radar",
+                {{"fx_n", st.radar.force_n.x()},
+                 {"fy_n", st.radar.force_n.y()},
+                 {"fz_n", st.radar.force_n.z()},
+                 {"tx_nm", st.radar.torque_nm.x()},
+                 {"ty_nm", st.radar.torque_nm.y()},
+                 {"tz_nm", st.radar.torque_nm.z()},
+                 {"stability_n", st.radar.stability_n}}},
+               {"constraints_met", st.status.all_ok()},
+               {"max_pressure_ratio", st.max_requested_ratio},
+               {"max_displacement_mm", st.max_displacement_m * 1e3},
+               {"spots", spots}};
+  if (const auto& t = session.template_check())
+    j["template_regions"] = {{"template", t->template_name},
+                             {"met", t->met},
+                             {"tolerant_to_sensitive", t->tolerant_to_sensitive},
+                             {"distal_fifth_share", t->distal_fifth.axial_share},
+                             {"cv_below_brim", t->cv_below_brim}};
+  if (!session.deviation_m().empty()) {  // the compared shape's deviation on the skin [mm]
+    json dev = json::array();
+    for (double d : session.deviation_m()) dev.push_back(std::isfinite(d) ? json(d * 1e3) : json());
+    j["deviation_mm"] = dev;
+    j["comparison"] = session.comparison();
+  }
+  j["field"] = to_string(app.field());
+  j["colour_range"] = {app.colour_range().first, app.colour_range().second};
+  if (const pipeline::RectificationChart* c = session.rectification()) {  // the table as the window draws it
+    json rows = json::array();
+    for (const pipeline::RectificationRow& r : session.rectification_rows())
+      rows.push_back({{"code", r.code},
+                      {"name", r.name},
+                      {"rectification_mm", std::isfinite(r.mm) ? json(r.mm) : json()},
+                      {"shown", r.value},
+                      {"kind", r.kind},
+                      {"measured", r.measured}});
+    j["rectification"] = {{"wall", c->wall_source},
+                          {"min_mm", c->rectification.min_m * 1e3},
+                          {"max_mm", c->rectification.max_m * 1e3},
+                          {"mean_mm", c->rectification.mean_m * 1e3},
+                          {"seconds", c->seconds},
+                          {"landmarks", rows}};
+  }
+  if (const pipeline::DeliveryCheck* d = session.delivery()) {  // the delivery check as the window shows it
+    json regions = json::object(), landmarks = json::array();
+    for (const pipeline::RegionDelivery& r : d->summary.regions)
+      regions[r.key] = {{"open_loop", report::to_json(r.open_loop, 1e-3, "_kpa")},
+                        {"closed_loop", report::to_json(r.closed_loop, 1e-3, "_kpa")}};
+    for (const pipeline::LandmarkDelivery& l : d->summary.landmarks)
+      landmarks.push_back({{"code", l.code},
+                           {"threshold_kpa", l.threshold_pa / 1e3},
+                           {"target_kpa", l.target_pa / 1e3},
+                           {"open_loop_kpa", l.open_loop_pa / 1e3},
+                           {"closed_loop_kpa", l.closed_loop_pa / 1e3}});
+    j["delivery"] = {{"converged", d->converged},
+                     {"message", d->message},
+                     {"donnings", d->donnings},
+                     {"refits", d->refits},
+                     {"seconds", d->seconds},
+                     {"of_shown_design", d->state == session.state_serial()},
+                     {"regions", regions},
+                     {"landmarks", landmarks}};
+  }
+  return j;
+}
+
 }  // namespace
 
 void HeadlessRunner::run_action(const json& a, int width, int height) {
@@ -87,55 +160,8 @@ void HeadlessRunner::run_action(const json& a, int width, int height) {
   } else if (what == "screenshot") {
     require(!options_.screenshot_dir.empty(), "screenshot: give --screenshot-dir");
     app_.screenshot(options_.screenshot_dir / a.at("name").get<std::string>(), width, height);
-  } else if (what == "write_state") {
-    // The live design as the window shows it (for tests: compare with `socketsmith design`).
-    require(session.state().has_value(), "write_state: no design solved yet");
-    const auto& st = *session.state();
-    json spots = json::array();
-    for (const auto& sp : session.document().spots) spots.push_back(design::spot_to_json(sp));
-    json j{{"radar",
-                  {{"fx_n", st.radar.force_n.x()},
-                   {"fy_n", st.radar.force_n.y()},
-                   {"fz_n", st.radar.force_n.z()},
-                   {"tx_nm", st.radar.torque_nm.x()},
-                   {"ty_nm", st.radar.torque_nm.y()},
-                   {"tz_nm", st.radar.torque_nm.z()},
-                   {"stability_n", st.radar.stability_n}}},
-                 {"constraints_met", st.status.all_ok()},
-                 {"max_pressure_ratio", st.max_requested_ratio},
-                 {"max_displacement_mm", st.max_displacement_m * 1e3},
-                 {"spots", spots}};
-    if (const auto& t = session.template_check())
-      j["template_regions"] = {{"template", t->template_name},
-                               {"met", t->met},
-                               {"tolerant_to_sensitive", t->tolerant_to_sensitive},
-                               {"distal_fifth_share", t->distal_fifth.axial_share},
-                               {"cv_below_brim", t->cv_below_brim}};
-    if (!session.deviation_m().empty()) {  // the compared shape's deviation on the skin [mm]
-      json dev = json::array();
-      for (double d : session.deviation_m()) dev.push_back(std::isfinite(d) ? json(d * 1e3) : json());
-      j["deviation_mm"] = dev;
-      j["comparison"] = session.comparison();
-    }
-    j["field"] = to_string(app_.field());
-    j["colour_range"] = {app_.colour_range().first, app_.colour_range().second};
-    if (const pipeline::RectificationChart* c = session.rectification()) {  // the table as the window draws it
-      json rows = json::array();
-      for (const pipeline::RectificationRow& r : session.rectification_rows())
-        rows.push_back({{"code", r.code},
-                        {"name", r.name},
-                        {"rectification_mm", std::isfinite(r.mm) ? json(r.mm) : json()},
-                        {"shown", r.value},
-                        {"kind", r.kind},
-                        {"measured", r.measured}});
-      j["rectification"] = {{"wall", c->wall_source},
-                            {"min_mm", c->rectification.min_m * 1e3},
-                            {"max_mm", c->rectification.max_m * 1e3},
-                            {"mean_mm", c->rectification.mean_m * 1e3},
-                            {"seconds", c->seconds},
-                            {"landmarks", rows}};
-    }
-    write_text_atomically(a.at("path").get<std::string>(), j.dump(2) + "\n");
+  } else if (what == "write_state") {  // the live design as the window shows it (tests: compare with `design`)
+    write_text_atomically(a.at("path").get<std::string>(), live_state(app_).dump(2) + "\n");
   } else if (what == "wait_frames") {
     settle_ = std::max(settle_, a.at("count").get<int>());
   } else {

@@ -96,6 +96,86 @@ void App::draw_rectification() {
   }
 }
 
+/// What the socket delivers (pipeline::DeliveryCheck): the closed loop of the shown design run on
+/// release — its progress, then below the brim and on each path the open-loop and the corrected
+/// socket against the design, and at each landmark the pressure/threshold ratio.
+void App::draw_delivery() {
+  const auto& state = session_.state();
+  if (!state) return;
+  if (is_delivery_table_opening_) ImGui::SetNextItemOpen(true);
+  is_delivery_table_opening_ = false;
+  if (!ImGui::CollapsingHeader("Delivered (donned and stood on)")) return;
+  if (!session_.is_delivery_asked()) {
+    ImGui::TextWrapped("Don the socket that Export would write and stand on it (friction, half the body weight), "
+                       "correct its wall until it delivers this design, and compare: what Export runs, here after "
+                       "every design.");
+    if (ImGui::SmallButton("Check what the socket delivers")) set_field(Field::Delivered);
+  } else if (ImGui::SmallButton("Stop checking")) {
+    session_.stop_delivery();
+  }
+  if (session_.document().closed_loop == false)
+    ImGui::TextColored(ImVec4(1.0f, 0.78f, 0.3f, 1.0f), "The case sets design.closed_loop false: Export writes the "
+                                                         "open-loop socket, not the corrected one.");
+  if (const auto [f, stage] = session_.delivery_progress(); f >= 0)
+    ImGui::ProgressBar(static_cast<float>(f), ImVec2(-1, 0), stage.c_str());
+  else if (session_.is_delivery_asked() && !state->status.all_ok())
+    ImGui::TextDisabled("No socket to don: the constraints are not all met.");
+  if (const std::string error = session_.delivery_error(); !error.empty()) {
+    ImGui::PushStyleColor(ImGuiCol_Text, IM_COL32(255, 110, 100, 255));
+    ImGui::TextWrapped("Not checked: %s", error.c_str());
+    ImGui::PopStyleColor();
+  }
+  const pipeline::DeliveryCheck* d = session_.delivery();
+  if (!d) return;
+  ImGui::PushStyleColor(ImGuiCol_Text, d->converged ? IM_COL32(90, 220, 110, 255) : IM_COL32(255, 200, 80, 255));
+  ImGui::TextWrapped("Closed loop %s (%d donnings, %d refits, %.0f s).", d->converged ? "converged" : "not converged",
+                     d->donnings, d->refits, d->seconds);
+  ImGui::PopStyleColor();
+  if (ImGui::IsItemHovered()) ImGui::SetTooltip("%s", d->message.c_str());
+  if (d->state != session_.state_serial()) ImGui::TextDisabled("(of the design before: updating)");
+  ImGui::TextWrapped("Against the design, open-loop socket -> corrected socket (the one exported):");
+  if (ImGui::BeginTable("delivery", 4, ImGuiTableFlags_Borders | ImGuiTableFlags_SizingStretchProp)) {
+    for (const char* h : {"region", "MAE kPa", "p99 kPa", "R"}) ImGui::TableSetupColumn(h);
+    ImGui::TableHeadersRow();
+    for (const pipeline::RegionDelivery& r : d->summary.regions) {
+      ImGui::TableNextRow();
+      ImGui::TableNextColumn();
+      const std::string shown = r.key == "mid_circumference" ? "mid circ." : r.key.substr(0, r.key.find('_')) + " " +
+                                                                             r.key.substr(r.key.find('_') + 1);
+      ImGui::TextUnformatted(r.key.find('_') == std::string::npos ? r.key.c_str() : shown.c_str());
+      if (ImGui::IsItemHovered())
+        ImGui::SetTooltip("%s: mean %.1f kPa delivered by the corrected socket, %.1f kPa designed", r.name.c_str(),
+                          r.closed_loop.mean_a / 1e3, r.closed_loop.mean_b / 1e3);
+      ImGui::TableNextColumn();
+      ImGui::Text("%.2f -> %.2f", r.open_loop.mae / 1e3, r.closed_loop.mae / 1e3);
+      ImGui::TableNextColumn();
+      ImGui::Text("%.1f -> %.1f", r.open_loop.p99 / 1e3, r.closed_loop.p99 / 1e3);
+      ImGui::TableNextColumn();
+      ImGui::Text("%.2f -> %.2f", r.open_loop.r, r.closed_loop.r);
+    }
+    ImGui::EndTable();
+  }
+  if (ImGui::BeginTable("delivery_landmarks", 4, ImGuiTableFlags_Borders | ImGuiTableFlags_SizingStretchProp)) {
+    for (const char* h : {"landmark", "designed p/T", "open loop p/T", "corrected p/T"}) ImGui::TableSetupColumn(h);
+    ImGui::TableHeadersRow();
+    for (const pipeline::LandmarkDelivery& l : d->summary.landmarks) {
+      if (l.threshold_pa <= 0) continue;
+      ImGui::TableNextRow();
+      ImGui::TableNextColumn();
+      ImGui::TextUnformatted(l.code.c_str());
+      for (double p : {l.target_pa, l.open_loop_pa, l.closed_loop_pa}) {
+        ImGui::TableNextColumn();
+        ImGui::Text("%.2f", p / l.threshold_pa);
+      }
+    }
+    ImGui::EndTable();
+  }
+  if (field_ != Field::Delivered && ImGui::SmallButton("Colour by delivered")) set_field(Field::Delivered);
+  if (field_ != Field::Delivered && field_ != Field::DeliveryError) ImGui::SameLine();
+  if (field_ != Field::DeliveryError && ImGui::SmallButton("Colour by delivered - designed"))
+    set_field(Field::DeliveryError);
+}
+
 void App::draw_feedback_panel() {
   if (const auto& job = session_.job()) {
     const std::string stage = job->stage_text();
@@ -134,6 +214,7 @@ void App::draw_feedback_panel() {
   }
   draw_template_check();
   draw_rectification();
+  draw_delivery();
   if (ImGui::CollapsingHeader("Log")) {
     ImGui::BeginChild("log", ImVec2(0, 160), true, ImGuiWindowFlags_HorizontalScrollbar);
     std::lock_guard lock(log_->mutex);

@@ -91,6 +91,11 @@ void App::show_hover(int x, int y, int width, int height) {
       field_ == Field::Rectification && rc && node < static_cast<int>(rc->rectification.vertex_m.size()) &&
       std::isfinite(rc->rectification.vertex_m[node]))
     text += fmt::format("\nsocket - limb {:+.2f} mm", rc->rectification.vertex_m[node] * 1e3);
+  if (const pipeline::DeliveryCheck* d = session_.delivery();
+      (field_ == Field::Delivered || field_ == Field::DeliveryError) && d &&
+      node < static_cast<int>(d->below_brim.size()) && d->below_brim[node])
+    text += fmt::format("\ndelivered {:.1f} kPa (designed {:.1f}, open-loop socket {:.1f})",
+                        d->closed_loop_pa[node] / 1e3, d->target_pa[node] / 1e3, d->open_loop_pa[node] / 1e3);
   ImGui::SetTooltip("%s", text.c_str());
 }
 

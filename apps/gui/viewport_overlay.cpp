@@ -23,6 +23,8 @@ void App::draw_viewport_overlay(int x, int y, int width, int height) {
                       : field_ == Field::Threshold                              ? "threshold [kPa]"
                       : field_ == Field::Deviation                              ? "deviation [mm]"
                       : field_ == Field::Rectification                          ? "socket - limb [mm]"
+                      : field_ == Field::Delivered                              ? "delivered [kPa]"
+                      : field_ == Field::DeliveryError                          ? "delivered - designed [kPa]"
                                                                                 : "pressure [kPa]";
   colour_bar(dl, ImVec2(x + width - 70.0f, y + 60.0f), ImVec2(18, 240), field_colormap(field_), range_min_, range_max_,
              "");
@@ -50,7 +52,7 @@ void App::draw_viewport_overlay(int x, int y, int width, int height) {
   }
   const std::string help = is_placing_spot_ ? "click on the stump to place the spot (Esc: stop)"
                                             : "left drag: orbit   right/middle drag: pan   wheel: zoom   F: frame   "
-                                              "1-6: field";
+                                              "1-8: field";
   dl->AddText(ImVec2(x + 10.0f, y + height - 22.0f), IM_COL32(60, 60, 60, 255), help.c_str());
   draw_view_controls(x, y);
 }
@@ -63,12 +65,15 @@ void App::draw_view_controls(int x, int y) {
                ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoMove |
                    ImGuiWindowFlags_NoSavedSettings);
   const char* fields[] = {"applied pressure [kPa]", "pain threshold [kPa]", "pressure / threshold", "displacement [mm]",
-                          "deviation of the compared shape [mm]", "rectification [mm]"};
+                          "deviation of the compared shape [mm]", "rectification [mm]",
+                          "delivered pressure [kPa]", "delivered - designed [kPa]"};
   // The deviation is offered once a second shape was compared (File > Compare with a second shape),
   // the rectification once a design is shown.
   std::vector<Field> offered{Field::Pressure, Field::Threshold, Field::Ratio, Field::Displacement};
   if (!session_.deviation_m().empty()) offered.push_back(Field::Deviation);
   if (session_.state()) offered.push_back(Field::Rectification);
+  if (session_.state()) offered.push_back(Field::Delivered);
+  if (session_.state()) offered.push_back(Field::DeliveryError);
   ImGui::SetNextItemWidth(200);
   if (ImGui::BeginCombo("colour", fields[static_cast<int>(field_)])) {
     for (Field f : offered)
@@ -79,11 +84,13 @@ void App::draw_view_controls(int x, int y) {
     ImGui::TextDisabled("vs %s (> 0: it lies outside the limb)", session_.comparison_file().c_str());
   if (field_ == Field::Rectification)  // the table is in the feedback panel
     ImGui::TextDisabled("blue: indentation, red: relief; grey above the brim");
+  if (field_ == Field::Delivered || field_ == Field::DeliveryError)  // the table is in the feedback panel
+    ImGui::TextDisabled(session_.delivery() ? "donned and stood on; grey above the brim"
+                                            : "grey until the delivery check has run (feedback panel)");
   if (ImGui::Checkbox("auto range", &is_auto_range_)) colours_dirty_ = true;
   if (!is_auto_range_) {
     ImGui::SetNextItemWidth(200);
-    const bool is_signed = field_ == Field::Deviation || field_ == Field::Rectification;
-    if (ImGui::DragFloatRange2("range", &range_min_, &range_max_, 0.1f, is_signed ? -100.0f : 0.0f, 1000.0f))
+    if (ImGui::DragFloatRange2("range", &range_min_, &range_max_, 0.1f, is_signed(field_) ? -100.0f : 0.0f, 1000.0f))
       colours_dirty_ = true;
   }
   ImGui::SetNextItemWidth(200);

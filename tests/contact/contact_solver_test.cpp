@@ -194,6 +194,41 @@ TEST(ContactCube, a_solve_stops_at_its_newton_limit_and_leaves_the_state_where_i
   EXPECT_THROW(solver.limit_newton(-1), InvalidInputError);
 }
 
+// The contact's residual tolerance is rel_tol · max(Σ |f_contact|, residual_floor_ratio · E h²):
+// forces above the floor are solved to rel_tol of themselves, a light touch (a few millinewtons)
+// only to rel_tol of the floor, 30 E h² by default — without the floor Newton chased a fraction of a
+// millinewton while the contact set flipped among a few nodes (transfemoral check donning: 5,200
+// Newton iterations).
+TEST(ContactCube, the_residual_tolerance_is_rel_tol_of_the_contact_forces_or_of_the_floor_when_they_are_below_it) {
+  NeoHookeanCube k;
+  auto& [c, model, dofs, box, co] = k;
+  co.friction = 0;  // Σ |f_contact| is then |F_z| (every normal along the plane's)
+  const auto solve = [&](double depth_m, double floor_ratio) {
+    box.set_translation(Vec3(0, 0, 0));
+    ContactOptions o = co;
+    o.residual_floor_ratio = floor_ratio;
+    ContactSolver solver(model, dofs, c.top, c.top_area, box, o);
+    const ContactStep s = solver.move_to(Vec3(0, 0, -depth_m));
+    EXPECT_TRUE(s.converged) << s.message;
+    EXPECT_LE(s.residual_n, s.tolerance_n);
+    return s;
+  };
+  // On this cube E h² is 2.45 N: a 4 mm press (10.9 N) is above it, under 30 E h².
+  const ContactStep deep = solve(0.004, 30), deep_unfloored = solve(0.004, 1);
+  EXPECT_NEAR(deep_unfloored.tolerance_n, co.rel_tol * std::abs(deep_unfloored.force_on_obstacle_n.z()),
+              1e-9 * deep_unfloored.tolerance_n);
+  const ContactStep light = solve(2e-7, 30), light_unfloored = solve(2e-7, 1);
+  ASSERT_GT(light.contact_nodes, 0);
+  std::printf("[ measured ] contact forces: deep %.3g N, light %.3g N; tolerance of the light touch %.3g N (%.3g N "
+              "with the floor at E h²)\n",
+              std::abs(deep.force_on_obstacle_n.z()), std::abs(light.force_on_obstacle_n.z()), light.tolerance_n,
+              light_unfloored.tolerance_n);
+  EXPECT_GT(light.tolerance_n, 10 * co.rel_tol * std::abs(light.force_on_obstacle_n.z()));
+  EXPECT_NEAR(light.tolerance_n, 30 * light_unfloored.tolerance_n, 1e-9 * light.tolerance_n);
+  EXPECT_NEAR(deep.tolerance_n, light.tolerance_n, 1e-9 * light.tolerance_n) << "the floor is above the deep press's forces";
+  EXPECT_GT(deep.tolerance_n, 5 * deep_unfloored.tolerance_n);
+}
+
 TEST(ContactCube, friction_holds_a_sideways_push_below_mu_times_the_normal_force) {
   // A block glued to the ground, pressed by the plane and dragged sideways: stick below μ N, slip above.
   const ContactCube c;

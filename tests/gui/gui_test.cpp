@@ -513,5 +513,70 @@ TEST(GuiRectification, the_table_is_the_reports_and_the_stump_shows_it_on_a_dive
   EXPECT_GT(blue, 5 * red);
 }
 
+// What the socket delivers, in the window (issue 20: "the closed loop runs on release"): colour
+// by "delivered" asks for the delivery check; once the optimised design has settled it runs the
+// closed loop on its own thread, and the window shows the delivered pressures on the stump and the
+// table of open-loop and corrected socket against the design. Its figures are the export's: the
+// same design exported from the window runs `design`, whose closed loop writes design.json's
+// "closed_loop" — the window's below-the-brim and path figures must be those.
+TEST(GuiDelivery, the_closed_loop_runs_after_the_design_settles_and_its_figures_are_the_exports) {
+  const fs::path dir = kBin / "tests" / "gui_delivery";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const json script = {{"actions",
+                        {{{"do", "optimise"}},
+                         {{"do", "field"}, {"value", "delivered"}},
+                         {{"do", "view"}, {"bones", false}, {"socket", false}},
+                         {{"do", "screenshot"}, {"name", "delivered.png"}},
+                         {{"do", "write_state"}, {"path", (dir / "state.json").string()}},
+                         {{"do", "export"}, {"dir", (dir / "export").string()}}}}};
+  std::ofstream(dir / "script.json") << script.dump();
+  ASSERT_EQ(run_gui("--headless --demo --target-nodes 1500 --script " + (dir / "script.json").string() +
+                        " --frames 1 --screenshot-dir " + dir.string(),
+                    dir / "gui.log"),
+            0)
+      << read_text(dir / "gui.log");
+  const std::string log = read_text(dir / "gui.log");
+  const json state = read_json(dir / "state.json");
+  EXPECT_EQ(state["field"], "delivered");
+  ASSERT_TRUE(state["constraints_met"].get<bool>()) << log;
+  ASSERT_TRUE(state.contains("delivery")) << "no delivery check in the window\n" << log;
+  const json& gui = state["delivery"];
+  EXPECT_TRUE(gui["of_shown_design"].get<bool>());
+  const json lib = read_json(dir / "export" / "design.json")["closed_loop"];
+  ASSERT_FALSE(lib.is_null()) << "the export did not close the loop";
+  EXPECT_EQ(gui["donnings"], lib["donnings"]);
+  EXPECT_EQ(gui["refits"], lib["refits"]);
+  ASSERT_EQ(gui["regions"].size(), lib["regions"].size());
+  for (const auto& [key, region] : lib["regions"].items())
+    for (const char* stage : {"open_loop", "closed_loop"})
+      for (const char* k : {"mae_kpa", "p99_kpa", "mean_a_kpa", "mean_b_kpa"})
+        EXPECT_NEAR(gui["regions"][key][stage][k].get<double>(), region[stage][k].get<double>(), 0.01)
+            << key << " " << stage << " " << k;
+  const json& below = gui["regions"]["below_brim"];
+  EXPECT_LT(below["closed_loop"]["mae_kpa"].get<double>(), 0.5 * below["open_loop"]["mae_kpa"].get<double>());
+  EXPECT_GT(below["closed_loop"]["r"].get<double>(), 0.95);
+  EXPECT_FALSE(gui["landmarks"].empty());
+
+  // The screenshot: the stump carries the delivered pressures (coloured below the brim; without a
+  // check it stays grey: no data).
+  int w = 0, h = 0, n = 0;
+  unsigned char* px = stbi_load((dir / "delivered.png").string().c_str(), &w, &h, &n, 3);
+  ASSERT_NE(px, nullptr);
+  const int x0 = 390 + (w - 830) / 3, x1 = 390 + 2 * (w - 830) / 3, y0 = h / 3, y1 = 2 * h / 3;
+  long covered = 0, coloured = 0;
+  for (int y = y0; y < y1; ++y)
+    for (int x = x0; x < x1; ++x) {
+      const unsigned char* p = px + 3 * (static_cast<size_t>(y) * w + x);
+      if (std::abs(p[0] - 237) + std::abs(p[1] - 240) + std::abs(p[2] - 245) <= 12) continue;  // background
+      ++covered;
+      if (std::max({p[0], p[1], p[2]}) - std::min({p[0], p[1], p[2]}) > 40) ++coloured;
+    }
+  stbi_image_free(px);
+  ASSERT_GT(covered, static_cast<long>(x1 - x0) * (y1 - y0) / 7) << "the stump fills the middle of the view";
+  std::printf("[ measured ] stump pixels: %ld, coloured %.1f %%\n", covered, 100.0 * coloured / covered);
+  EXPECT_GT(static_cast<double>(coloured) / covered, 0.5) << "the stump is not coloured by the delivered pressures";
+}
+
 }  // namespace
 }  // namespace socketsmith

@@ -204,5 +204,63 @@ TEST(DesignSession, replaying_the_journal_of_the_edits_gives_the_same_socket_as_
   EXPECT_NEAR(direct.state()->radar.force_n.z(), replayed.state()->radar.force_n.z(), 1e-6);
 }
 
+// The delivery check (issue 20: "the closed loop runs on release"): asked for, it runs once the
+// design has settled — on the design shown: its targets are the shown state's pressures below the
+// brim — and closes the loop (the corrected socket delivers the design far better than the open-
+// loop one). An edit while it runs stops it: the check installed is of the edited design, and the
+// one stopped is never installed. A design without a socket (a constraint not met) is not checked.
+TEST(DesignSession, the_delivery_check_closes_the_loop_of_the_shown_design_and_an_edit_restarts_it) {
+  DesignSession s;
+  open_demo(s);
+  s.optimise();
+  ASSERT_TRUE(s.wait_idle());
+  ASSERT_TRUE(s.state()->status.all_ok());
+  s.ask_delivery();
+  s.poll();
+  ASSERT_TRUE(s.is_checking_delivery()) << "a settled design with a socket is checked at once";
+  EXPECT_FALSE(s.is_idle());
+  s.set_thickness(0.006);  // a new design (its state solved again) while the check runs
+  ASSERT_TRUE(s.wait_idle(std::chrono::minutes(3)));
+  ASSERT_EQ(s.delivery_error(), "");
+  const DeliveryCheck* d = s.delivery();
+  ASSERT_NE(d, nullptr);
+  EXPECT_EQ(s.delivery_serial(), 1u) << "the check stopped by the edit was installed";
+  EXPECT_EQ(d->state, s.state_serial()) << "the check is not of the design shown";
+  // Its targets are the shown design's pressures below the brim.
+  const auto& shown = s.state()->pressure_pa;
+  ASSERT_EQ(d->target_pa.size(), shown.size());
+  int compared = 0;
+  double worst = 0;
+  for (size_t i = 0; i < shown.size(); ++i) {
+    if (!d->below_brim[i]) continue;
+    ++compared;
+    worst = std::max(worst, std::abs(d->target_pa[i] - shown[i]));
+  }
+  EXPECT_GT(compared, 100);
+  EXPECT_LT(worst, 1.0) << "largest difference of the check's target from the shown design [Pa]";
+  // The loop closed: below the brim the corrected socket is within the loop's tolerances.
+  const auto below = std::find_if(d->summary.regions.begin(), d->summary.regions.end(),
+                                  [](const RegionDelivery& r) { return r.key == "below_brim"; });
+  ASSERT_NE(below, d->summary.regions.end());
+  std::printf("[ measured ] delivery check: %d donnings + %d refits, %.1f s; below the brim MAE %.2f -> %.2f kPa, "
+              "p99 %.2f -> %.2f kPa, R %.3f -> %.3f\n",
+              d->donnings, d->refits, d->seconds, below->open_loop.mae / 1e3, below->closed_loop.mae / 1e3,
+              below->open_loop.p99 / 1e3, below->closed_loop.p99 / 1e3, below->open_loop.r, below->closed_loop.r);
+  EXPECT_GE(d->donnings, 2);
+  EXPECT_LT(below->closed_loop.mae, 0.5 * below->open_loop.mae);
+  EXPECT_LT(below->closed_loop.mae, 1000.0);
+  EXPECT_GT(below->closed_loop.r, 0.95);
+  EXPECT_FALSE(d->summary.landmarks.empty());
+
+  // A constraint broken: no socket, so no check (the last one stays, of the design before).
+  s.set_spot_value(0, "amplitude_kpa", 3 * s.document().spots[0].amplitude_pa / 1e3 + 20.0);
+  ASSERT_TRUE(s.wait_idle());
+  ASSERT_FALSE(s.state()->status.all_ok());
+  EXPECT_FALSE(s.is_checking_delivery());
+  ASSERT_NE(s.delivery(), nullptr);
+  EXPECT_NE(s.delivery()->state, s.state_serial());
+  EXPECT_EQ(s.delivery_serial(), 1u);
+}
+
 }  // namespace
 }  // namespace socketsmith::pipeline

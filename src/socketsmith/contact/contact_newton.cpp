@@ -328,6 +328,7 @@ ContactStep ContactSolver::Impl::solve(const Vec3& t_start, bool commit) {
   out.converged = ok;
   out.out_of_budget = !ok && out_of_budget();
   out.residual_n = rn;
+  out.tolerance_n = tolerance(st);
   Vec3 F = Vec3::Zero(), T = Vec3::Zero();
   for (size_t i = 0; i < nodes.size(); ++i) {
     if (!st[i].active && st[i].tangential_n.squaredNorm() == 0) continue;

@@ -110,6 +110,8 @@ struct ContactStep {
   bool converged = false;
   int newton_iterations = 0;
   double residual_n = 0.0;
+  /// The residual Newton had to reach at the end: rel_tol · max(Σ |f_contact|, residual_floor_ratio · E h²) [N]
+  double tolerance_n = 0.0;
   Vec3 force_on_obstacle_n = Vec3::Zero();   ///< Σ of the contact forces on the obstacle (third law)
   Vec3 torque_on_obstacle_nm = Vec3::Zero(); ///< about the obstacle's translation origin
   int contact_nodes = 0;

@@ -51,6 +51,10 @@ DesignSession::~DesignSession() {
   worker_.reset();  // joins the solve thread before the solver goes
   if (job_ && job_->done.valid()) job_->done.wait();
   if (rectification_job_.valid()) rectification_job_.wait();
+  if (delivery_job_) {
+    delivery_job_->cancel->store(true);  // it stops at its next progress report
+    delivery_job_->done.wait();
+  }
 }
 
 void DesignSession::show_error(const std::string& message) {

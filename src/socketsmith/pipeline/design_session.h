@@ -3,9 +3,9 @@
 /// One case as the interactive design edits it, without a window: the case document, edits in
 /// clinical units (each one undoable, each one starting a design solve), undo/redo, autosave, the
 /// prepared stump with its solve worker (design_worker.h), the results a window draws (the design
-/// state, radar, pressure profiles, template regions, rectification chart, a compared shape's
-/// deviation), save and export. Everything slow (preparing a case, solving, optimising, exporting,
-/// comparing, the rectification chart) runs on other threads; poll() installs what finished and
+/// state, radar, pressure profiles, template regions, rectification chart, what the socket
+/// delivers, a compared shape's deviation), save and export. Everything slow (preparing a case, solving, optimising, exporting,
+/// comparing, the rectification chart, the delivery check) runs on other threads; poll() installs what finished and
 /// the serials say what changed. socketsmith-gui's App draws a session and turns input into its
 /// calls (docs/gui.md); tests drive one without a display (tests/pipeline/design_session_test.cpp).
 ///
@@ -54,6 +54,25 @@ struct RectificationChart {
   std::string error;          ///< set when it could not be computed
   double seconds = 0;         ///< the time it took (socket and chart), on its own thread
   std::uint64_t setup = 0;    ///< which setup and which shown state it belongs to
+  std::uint64_t state = 0;
+};
+
+/// What the socket of the shown design delivers (docs/gui.md, "Delivered"): the socket *Export*
+/// would write, donned and stood on (friction, half the body weight) and its wall corrected until
+/// it delivers the design — the closed loop `socketsmith design` runs (close_design_loop), on the
+/// case as edited, prepared and solved afresh on a thread of its own.
+struct DeliveryCheck {
+  std::vector<double> target_pa;       ///< designed, per skin node (0 above the brim) [Pa]
+  std::vector<double> open_loop_pa;    ///< delivered by the open-loop socket, per skin node [Pa]
+  std::vector<double> closed_loop_pa;  ///< delivered by the corrected socket (the one exported) [Pa]
+  std::vector<char> below_brim;        ///< skin nodes compared (1: below the brim)
+  DeliverySummary summary;             ///< by region and at the landmarks, as the report's table
+  bool converged = false;              ///< the loop met its tolerances
+  int donnings = 0, refits = 0;        ///< what it ran
+  std::string message;                 ///< how the loop ended, one line
+  std::string error;                   ///< set when it could not run (then nothing else is)
+  double seconds = 0;                  ///< the whole check: preparing, solving, the loop
+  std::uint64_t setup = 0;             ///< which setup and which shown state it belongs to
   std::uint64_t state = 0;
 };
 
@@ -177,6 +196,21 @@ class DesignSession {
   std::string rectification_error() const;
   /// The landmark table of rectification() as shown (empty without a chart).
   std::vector<RectificationRow> rectification_rows() const;
+  /// Asks for the delivery check (DeliveryCheck), run once each design has settled — no solve
+  /// waiting, no slider held, no optimisation running — with every constraint met (else there is
+  /// no socket to don); an edit while it runs stops it, and it starts again on the new design.
+  void ask_delivery() { is_delivery_asked_ = true; }
+  /// Stops asking (and stops a check that runs); the last check stays shown.
+  void stop_delivery();
+  bool is_delivery_asked() const { return is_delivery_asked_; }
+  /// The last check of the shown limb (maybe of a design before: its `state`), nullptr before one.
+  const DeliveryCheck* delivery() const;
+  /// Why the last check of the shown limb could not run; empty otherwise.
+  std::string delivery_error() const;
+  bool is_checking_delivery() const { return delivery_job_.has_value(); }
+  /// The running check's fraction [0, 1] and stage; {-1, ""} when none runs.
+  std::pair<double, std::string> delivery_progress() const;
+
   /// The socket as shown: the designed skin below the brim moved out by the wall thickness (its
   /// outer wall), on the rest skin's triangles; empty before a solve.
   geometry::TriMesh socket_preview() const;
@@ -214,6 +248,7 @@ class DesignSession {
   std::uint64_t state_serial() const { return state_serial_; }
   std::uint64_t comparison_serial() const { return comparison_serial_; }
   std::uint64_t rectification_serial() const { return rectification_serial_; }
+  std::uint64_t delivery_serial() const { return delivery_serial_; }  ///< bumped when a check is installed
 
   /// The last errors (one line each, newest last, at most 20) and the last note ("saved …").
   const std::vector<std::string>& errors() const { return errors_; }
@@ -232,6 +267,8 @@ class DesignSession {
   void poll_worker();
   void poll_rectification();
   void start_rectification();
+  void poll_delivery();
+  void start_delivery();
   void update_feedback();
   void edit(const std::function<void()>& change, bool brim_changed = false);
   void push_history();
@@ -275,10 +312,19 @@ class DesignSession {
   bool is_rectification_asked_ = false;
   std::optional<RectificationChart> rectification_;  // of the shown state, or of an earlier one
   std::future<RectificationChart> rectification_job_;
+  bool is_delivery_asked_ = false;
+  std::optional<DeliveryCheck> delivery_;  // of the shown limb, or of an earlier one
+  struct DeliveryJob {
+    std::future<DeliveryCheck> done;
+    std::uint64_t setup = 0, state = 0;  // the design it checks
+    std::shared_ptr<std::atomic<bool>> cancel = std::make_shared<std::atomic<bool>>(false);
+    SessionJob progress;                 // its fraction and stage (progress.done unused)
+  };
+  std::optional<DeliveryJob> delivery_job_;
   std::string solve_status_, optimiser_message_;
   bool is_optimising_ = false;
   std::uint64_t setup_serial_ = 0, brim_serial_ = 0, state_serial_ = 0, comparison_serial_ = 0,
-                rectification_serial_ = 0;
+                rectification_serial_ = 0, delivery_serial_ = 0;
   std::vector<std::string> errors_;
   std::string info_;
 };

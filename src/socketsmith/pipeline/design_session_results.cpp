@@ -106,13 +106,18 @@ void DesignSession::poll() {
   poll_jobs();
   poll_worker();
   poll_rectification();
+  poll_delivery();
 }
 
 bool DesignSession::is_idle() const {
   // A rectification chart asked for and not yet of the shown design counts as work to wait for.
   const bool chart_due = is_rectification_asked_ && state_ &&
                          (!rectification_ || rectification_->setup != setup_serial_ || rectification_->state != state_serial_);
-  return !job_ && !is_solving() && !is_optimising_ && !rectification_job_.valid() && !chart_due;
+  // So does a delivery check asked for and not yet of the shown design (when it has a socket).
+  const bool check_due = is_delivery_asked_ && state_ && state_->status.all_ok() &&
+                         (!delivery_ || delivery_->setup != setup_serial_ || delivery_->state != state_serial_);
+  return !job_ && !is_solving() && !is_optimising_ && !rectification_job_.valid() && !chart_due &&
+         !delivery_job_ && !check_due;
 }
 
 bool DesignSession::wait_idle(std::chrono::steady_clock::duration timeout) {
