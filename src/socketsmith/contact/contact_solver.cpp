@@ -7,6 +7,7 @@
 #include "socketsmith/contact/contact_solver_impl.h"
 #include "socketsmith/contact/contact_terms.h"
 #include "socketsmith/core/errors.h"
+#include "socketsmith/core/log.h"
 
 namespace socketsmith::contact {
 
@@ -336,6 +337,32 @@ void ContactSolver::obstacle_changed() {
   s.qcache.assign(s.nodes.size(), Impl::QueryCache{});
   // One query before any parallel one (CGAL builds its distance-query structures lazily).
   (void)s.obstacle.gap(s.x.segment<3>(3 * s.nodes.front()));
+}
+
+bool ContactSolver::predict_wall_change() {
+  auto& s = *impl_;
+  if (!s.llt.valid() || s.conv_state.size() != s.nodes.size()) return false;
+  const auto& ri = s.dofs.reduced_index();
+  VectorXd f = VectorXd::Zero(s.dofs.num_reduced());
+  int moved = 0;
+  for (size_t i = 0; i < s.nodes.size(); ++i) {
+    const NodeContact& c = s.conv_state[i];
+    if (!c.active) continue;
+    const Gap g = s.wall_gap(i, s.x_conv.segment<3>(3 * s.nodes[i]));
+    if (!g.valid) continue;
+    const Vec3 df = -s.k * s.areas[i] * (g.gap_m - c.gap_m) * c.normal;  // the contact force's change
+    for (int a = 0; a < 3; ++a)
+      if (const int r = ri[3 * s.nodes[i] + a]; r >= 0) f[r] += df[a];
+    ++moved;
+  }
+  if (moved == 0) return false;
+  VectorXd guess = s.x_conv;
+  s.dofs.add_expanded(s.llt.solve(f), guess);
+  const VectorXd before = s.x;
+  s.warm_start(guess, s.obstacle.translation());
+  const bool taken = s.x != before;
+  log::debug("contact: the new wall's predicted start {} ({} nodes followed it)", taken ? "taken" : "not taken", moved);
+  return taken;
 }
 
 const VectorXd& ContactSolver::positions() const { return impl_->x; }

@@ -355,6 +355,7 @@ DonningResult DonningSimulation::refit(const geometry::TriMesh& socket_solid) {
   const auto t0 = std::chrono::steady_clock::now();
   s.socket.replace_solid(socket_solid);
   s.solver->obstacle_changed();
+  s.solver->predict_wall_change();
   DonningResult r = s.begin_result();
   if (s.stood && s.o.stand_force_n > 0 && s.o.contact.free_push && !s.o.contact.linear_body) {
     // The new wall's equilibrium and the standing position in one solve (the socket free along the

@@ -73,6 +73,9 @@ class PlaneObstacle : public Obstacle {
     g.stiffness_shape = normal_ * normal_.transpose();
     return g;
   }
+  /// Moves the plane itself (a change of the obstacle's geometry, as RigidSocket::replace_solid;
+  /// then ContactSolver::obstacle_changed).
+  void set_point(const Vec3& point) { point_ = point; }
 
  private:
   Vec3 point_, normal_;
