@@ -193,6 +193,26 @@ TEST(DatReader, a_failed_standing_step_restarts_from_calculix_own_step1_reaction
   EXPECT_TRUE(std::isnan(standing_restart_force_n(b, st)));
   st.axial_load_n = 343.2;
   EXPECT_TRUE(std::isnan(standing_restart_force_n({b[0]}, st)));  // step 1 never ended
+
+  // A socket axis off the global z: ccx prints the reference node in its *TRANSFORM system, each
+  // row ended by "L" (OpenLimbTF, 2026-11-30: the rows were dropped and the rerun never ran). The
+  // load is then the local z, whatever the global direction.
+  const char* local = R"(
+ forces (fx,fy,fz) for set REF and time  0.1000000E+01
+
+    900001 -5.975673E+00 -3.387061E+00  1.472898E+02 L
+)";
+  const auto l = parse_dat(local, "fixture");
+  ASSERT_EQ(l.size(), 1u);
+  ASSERT_EQ(l[0].rows.size(), 1u);
+  EXPECT_TRUE(l[0].local);
+  EXPECT_FALSE(b[0].local);
+  EXPECT_DOUBLE_EQ(l[0].rows[0][3], 147.2898);
+  st.donning_force_n = 176.1;
+  st.load_direction = Vec3(-0.012, 0.0559, 0.9984);
+  EXPECT_DOUBLE_EQ(standing_restart_force_n(l, st), 147.2898);
+  EXPECT_THROW(parse_dat(" forces (fx,fy,fz) for set REF and time  0.1E+01\n 900001 1.0 L 2.0\n", "x").at(0).rows.at(0),
+               std::out_of_range);  // "L" only at the end of a row
 }
 
 }  // namespace

@@ -23,8 +23,9 @@ std::string_view trim(std::string_view s) {
   return s;
 }
 
-/// All numbers of a line when it consists of numbers only (true), else false.
-bool numbers_of(std::string_view line, std::vector<double>& out) {
+/// All numbers of a line when it consists of numbers only (true), else false. A node row in a
+/// local system ends with "L" after its numbers: @p local (when given) is then set.
+bool numbers_of(std::string_view line, std::vector<double>& out, bool* local = nullptr) {
   out.clear();
   std::string s(line);
   const char* p = s.c_str();
@@ -33,7 +34,13 @@ bool numbers_of(std::string_view line, std::vector<double>& out) {
     if (!*p) break;
     char* q = nullptr;
     const double v = std::strtod(p, &q);
-    if (q == p) return false;
+    if (q == p) {
+      if (local && !out.empty() && (*p == 'L' || *p == 'l') && trim(std::string_view(p + 1)).empty()) {
+        *local = true;
+        return true;
+      }
+      return false;
+    }
     out.push_back(v);
     p = q;
   }
@@ -78,7 +85,7 @@ std::vector<DatBlock> parse_dat(std::string_view text, const std::string& source
       continue;
     }
     if (!in_block) continue;
-    if (numbers_of(line, nums)) blocks.back().rows.push_back(nums);
+    if (numbers_of(line, nums, &blocks.back().local)) blocks.back().rows.push_back(nums);
     // Sub-headers of the contact statistics ("total surface force ...") are skipped.
   }
   return blocks;

@@ -22,6 +22,9 @@ struct DatBlock {
   /// force and moment (6), centre and mean normal (6), moment about the centre (3),
   /// area, normal force (+ = tension) and shear force (3).
   std::vector<std::vector<double>> rows;
+  /// The rows are in their node's local system (a *TRANSFORM: ccx ends such rows with "L"), not
+  /// the global one — the reference node of a socket whose axis is not the global z.
+  bool local = false;
 };
 
 /// Parses .dat text. @throws InvalidInputError naming the source and line on a malformed number.

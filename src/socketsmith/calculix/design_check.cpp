@@ -371,7 +371,9 @@ double standing_restart_force_n(const std::vector<DatBlock>& dat, const FeSteps&
   const double none = std::numeric_limits<double>::quiet_NaN();
   const DatBlock* b = block_at(dat, "forces", "REF", 1.0);
   if (steps.axial_load_n <= 0 || !b || b->rows.empty() || b->rows[0].size() < 4) return none;
-  const double f1 = Vec3(b->rows[0][1], b->rows[0][2], b->rows[0][3]).dot(steps.load_direction);
+  // In the reference node's local system (a socket axis off the global z) the load is its local z
+  // (calculix_deck: the REF transform); otherwise along the load direction.
+  const double f1 = b->local ? b->rows[0][3] : Vec3(b->rows[0][1], b->rows[0][2], b->rows[0][3]).dot(steps.load_direction);
   return f1 > 0 && std::abs(f1 - steps.donning_force_n) > 0.02 * steps.axial_load_n ? f1 : none;
 }
 
