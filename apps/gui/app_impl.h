@@ -15,19 +15,18 @@ namespace socketsmith::gui {
 constexpr double kDeg = std::numbers::pi / 180.0;
 constexpr float kLeftPanel = 390, kRightPanel = 440;  ///< the Design and Feedback panels' widths [px]
 
-/// The colour map of a field: viridis for the thresholds, diverging (blue inside, red outside) for
-/// the deviation of a compared shape and the rectification (as the report's), the clinicians'
-/// pressure map for the rest.
-/// The fields shown on a diverging map, symmetric about 0.
+/// The fields shown on a diverging map, symmetric about 0: the deviation of a compared shape, the
+/// rectification and delivered minus designed.
 inline bool is_signed(Field field) {
   return field == Field::Deviation || field == Field::Rectification || field == Field::DeliveryError;
 }
 
+/// The colour map of a field: viridis for the thresholds, diverging (blue inside, red outside) for
+/// the signed fields (as the report's), the clinicians' pressure map for the rest.
 inline report::Colormap field_colormap(Field field) {
-  return field == Field::Threshold                                   ? report::Colormap::Viridis
-         : field == Field::Deviation || field == Field::Rectification || field == Field::DeliveryError
-             ? report::Colormap::Diverging
-                                                                      : report::Colormap::Pressure;
+  return field == Field::Threshold ? report::Colormap::Viridis
+         : is_signed(field)        ? report::Colormap::Diverging
+                                   : report::Colormap::Pressure;
 }
 
 }  // namespace socketsmith::gui

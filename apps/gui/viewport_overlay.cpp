@@ -68,12 +68,10 @@ void App::draw_view_controls(int x, int y) {
                           "deviation of the compared shape [mm]", "rectification [mm]",
                           "delivered pressure [kPa]", "delivered - designed [kPa]"};
   // The deviation is offered once a second shape was compared (File > Compare with a second shape),
-  // the rectification once a design is shown.
+  // the rectification and the delivered pressures once a design is shown.
   std::vector<Field> offered{Field::Pressure, Field::Threshold, Field::Ratio, Field::Displacement};
   if (!session_.deviation_m().empty()) offered.push_back(Field::Deviation);
-  if (session_.state()) offered.push_back(Field::Rectification);
-  if (session_.state()) offered.push_back(Field::Delivered);
-  if (session_.state()) offered.push_back(Field::DeliveryError);
+  if (session_.state()) offered.insert(offered.end(), {Field::Rectification, Field::Delivered, Field::DeliveryError});
   ImGui::SetNextItemWidth(200);
   if (ImGui::BeginCombo("colour", fields[static_cast<int>(field_)])) {
     for (Field f : offered)

@@ -386,7 +386,7 @@ void ContactSolver::Impl::commit_last() {
   }
 }
 
-void ContactSolver::Impl::warm_start(const VectorXd& guess, const Vec3& t) {
+bool ContactSolver::Impl::warm_start(const VectorXd& guess, const Vec3& t) {
   lag_fn = conv_fn;
   lag_n = conv_n;
   std::vector<NodeContact> s1, s2;
@@ -394,7 +394,9 @@ void ContactSolver::Impl::warm_start(const VectorXd& guess, const Vec3& t) {
   double p0 = 0, p1 = 0;
   const VectorXd r0 = evaluate(x, t, s1, h1, nullptr, &p0);
   const VectorXd r1 = evaluate(guess, t, s2, h2, nullptr, &p1, nullptr, true);  // may be inverted
-  if (r1.allFinite() && (std::isfinite(p0) ? p1 < p0 : r1.norm() < r0.norm())) x = guess;
+  if (!(r1.allFinite() && (std::isfinite(p0) ? p1 < p0 : r1.norm() < r0.norm()))) return false;
+  x = guess;
+  return true;
 }
 
 bool ContactSolver::Impl::push_free(const Vec3& d, double force_n, double rel_tol, ContactStep& out, double start_m) {

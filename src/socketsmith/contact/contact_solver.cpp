@@ -358,9 +358,7 @@ bool ContactSolver::predict_wall_change() {
   if (moved == 0) return false;
   VectorXd guess = s.x_conv;
   s.dofs.add_expanded(s.llt.solve(f), guess);
-  const VectorXd before = s.x;
-  s.warm_start(guess, s.obstacle.translation());
-  const bool taken = s.x != before;
+  const bool taken = s.warm_start(guess, s.obstacle.translation());
   log::debug("contact: the new wall's predicted start {} ({} nodes followed it)", taken ? "taken" : "not taken", moved);
   return taken;
 }

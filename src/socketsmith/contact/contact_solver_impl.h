@@ -221,8 +221,8 @@ struct ContactSolver::Impl {
   void commit_last();
 
   /// Starts the next solve at translation t from @p guess instead of the last solution when its
-  /// potential there is lower (same friction lag as solve() starts with).
-  void warm_start(const VectorXd& guess, const Vec3& t);
+  /// potential there is lower (same friction lag as solve() starts with). @return whether it was.
+  bool warm_start(const VectorXd& guess, const Vec3& t);
 
   /// push_with_force in one solve: the obstacle's position along @p d one more unknown, its
   /// equilibrium under @p force_n, Newton starting @p start_m along @p d; true (the step committed

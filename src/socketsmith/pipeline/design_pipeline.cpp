@@ -236,6 +236,12 @@ design::SocketResult build_design_socket(const geometry::TriMesh& designed_skin,
   return design::build_socket(designed_skin, frame, brim, options);
 }
 
+ClosedLoopOptions closed_loop_options(const design::CaseFile& c) {
+  ClosedLoopOptions lo;
+  lo.max_donnings = c.closed_loop_donnings;
+  return lo;
+}
+
 DesignResult solve_design(DesignSetup& setup, bool optimise, const ProgressCallback& progress) {
   const design::CaseFile& c = setup.case_file;
   auto& solver = *setup.solver;
@@ -275,8 +281,7 @@ DesignResult solve_design(DesignSetup& setup, bool optimise, const ProgressCallb
       r.limb_volume_below_brim_m3 = 0;
     }
     if (design::closes_loop(c)) {
-      ClosedLoopOptions lo;
-      lo.max_donnings = c.closed_loop_donnings;
+      ClosedLoopOptions lo = closed_loop_options(c);
       lo.progress = [&](double f, std::string_view stage) { return report_progress(progress, 0.93 + 0.07 * f, stage); };
       try {
         r.closed_loop = close_design_loop(setup, r, lo);

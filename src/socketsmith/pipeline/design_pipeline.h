@@ -116,6 +116,9 @@ struct DesignResult {
   std::optional<SockPlyResult> sock_ply;
 };
 
+/// The closed loop's settings for case @p c as `design` runs it (without progress).
+ClosedLoopOptions closed_loop_options(const design::CaseFile& c);
+
 /// Stage 2. Optimises (or solves the setup's spots) and builds the socket when every constraint
 /// holds, then closes the loop when the case asks for it. Never builds a socket that violates the
 /// constraints.

@@ -85,6 +85,8 @@ struct SessionJob {
   std::shared_ptr<std::string> stage = std::make_shared<std::string>();
   /// The stage line as last reported (any thread may report it).
   std::string stage_text() const;
+  /// A callback that keeps the fraction and stage here; it asks to stop once @p cancel is set.
+  ProgressCallback reporter(std::shared_ptr<std::atomic<bool>> cancel = nullptr) const;
 };
 
 class DesignSession {
@@ -268,6 +270,10 @@ class DesignSession {
   void poll_rectification();
   void start_rectification();
   void poll_delivery();
+  /// The last check is of the shown limb and design.
+  bool is_delivery_current() const {
+    return delivery_ && delivery_->setup == setup_serial_ && delivery_->state == state_serial_;
+  }
   void start_delivery();
   void update_feedback();
   void edit(const std::function<void()>& change, bool brim_changed = false);
@@ -318,7 +324,7 @@ class DesignSession {
     std::future<DeliveryCheck> done;
     std::uint64_t setup = 0, state = 0;  // the design it checks
     std::shared_ptr<std::atomic<bool>> cancel = std::make_shared<std::atomic<bool>>(false);
-    SessionJob progress;                 // its fraction and stage (progress.done unused)
+    SessionJob progress;                 // its fraction and stage (progress.done unused: `done` above)
   };
   std::optional<DeliveryJob> delivery_job_;
   std::string solve_status_, optimiser_message_;

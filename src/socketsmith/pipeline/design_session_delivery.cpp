@@ -19,7 +19,7 @@ DeliveryCheck check_delivery(design::CaseFile c, const ProgressCallback& progres
   const auto t0 = std::chrono::steady_clock::now();
   DeliveryCheck d;
   try {
-    const int donnings = c.closed_loop_donnings;
+    ClosedLoopOptions loop_options = closed_loop_options(c);  // the export's loop
     c.optimise = false;
     c.closed_loop = false;  // solve_design builds the open-loop socket; the loop runs below, with its own progress
     const auto part = [&](double lo, double hi) {
@@ -31,10 +31,8 @@ DeliveryCheck check_delivery(design::CaseFile c, const ProgressCallback& progres
     const DesignResult r = solve_design(*setup, false, part(0.06, 0.1));
     require(r.constraints_met, "the constraints are not all met ({}): there is no socket to don",
             r.state.status.failing());
-    ClosedLoopOptions lo;
-    lo.max_donnings = donnings;
-    lo.progress = part(0.1, 1.0);
-    ClosedLoopResult loop = close_design_loop(*setup, r, lo);
+    loop_options.progress = part(0.1, 1.0);
+    ClosedLoopResult loop = close_design_loop(*setup, r, loop_options);
     d.summary = summarise_delivery(*setup, loop);
     d.converged = loop.converged;
     d.message = loop.message;
@@ -86,7 +84,7 @@ void DesignSession::poll_delivery() {
     }
   }
   if (!is_delivery_asked_ || !setup_ || !state_ || !state_->status.all_ok()) return;
-  if (delivery_ && delivery_->setup == setup_serial_ && delivery_->state == state_serial_) return;
+  if (is_delivery_current()) return;
   // Once the shown design has settled, as the rectification chart.
   if (is_solving() || edit_start_ || is_optimising_ || job_) return;
   start_delivery();
@@ -97,13 +95,7 @@ void DesignSession::start_delivery() {
   job.setup = setup_serial_;
   job.state = state_serial_;
   job.progress.what = "checking what the socket delivers";
-  ProgressCallback progress = [fraction = job.progress.fraction, stage_mutex = job.progress.stage_mutex,
-                               stage = job.progress.stage, cancel = job.cancel](double f, std::string_view s) {
-    fraction->store(f);
-    std::lock_guard lock(*stage_mutex);
-    *stage = s;
-    return !cancel->load();
-  };
+  ProgressCallback progress = job.progress.reporter(job.cancel);
   // A copy of the case as edited: the window goes on editing it meanwhile.
   job.done = std::async(std::launch::async, [c = case_, progress, setup = job.setup, state = job.state] {
     DeliveryCheck d = check_delivery(c, progress);

@@ -17,6 +17,16 @@ std::string SessionJob::stage_text() const {
   return *stage;
 }
 
+ProgressCallback SessionJob::reporter(std::shared_ptr<std::atomic<bool>> cancel) const {
+  return [fraction = fraction, stage_mutex = stage_mutex, stage = stage, cancel = std::move(cancel)](
+             double f, std::string_view s) {
+    fraction->store(f);
+    std::lock_guard lock(*stage_mutex);
+    *stage = s;
+    return !cancel || !cancel->load();
+  };
+}
+
 // ------------------------------------------------------------------------------------------------
 // Jobs
 // ------------------------------------------------------------------------------------------------
@@ -28,13 +38,7 @@ bool DesignSession::start_job(const std::string& what, std::function<void(const 
   }
   SessionJob job;
   job.what = what;
-  ProgressCallback progress = [fraction = job.fraction, stage_mutex = job.stage_mutex, stage = job.stage](
-                                  double f, std::string_view s) {
-    fraction->store(f);
-    std::lock_guard lock(*stage_mutex);
-    *stage = s;
-    return true;
-  };
+  ProgressCallback progress = job.reporter();
   job.done = std::async(std::launch::async, [work = std::move(work), progress] { work(progress); });
   job_ = std::move(job);
   return true;
@@ -114,8 +118,7 @@ bool DesignSession::is_idle() const {
   const bool chart_due = is_rectification_asked_ && state_ &&
                          (!rectification_ || rectification_->setup != setup_serial_ || rectification_->state != state_serial_);
   // So does a delivery check asked for and not yet of the shown design (when it has a socket).
-  const bool check_due = is_delivery_asked_ && state_ && state_->status.all_ok() &&
-                         (!delivery_ || delivery_->setup != setup_serial_ || delivery_->state != state_serial_);
+  const bool check_due = is_delivery_asked_ && state_ && state_->status.all_ok() && !is_delivery_current();
   return !job_ && !is_solving() && !is_optimising_ && !rectification_job_.valid() && !chart_due &&
          !delivery_job_ && !check_due;
 }
