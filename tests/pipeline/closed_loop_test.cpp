@@ -10,6 +10,8 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <string>
+#include <tuple>
 
 #include <nlohmann/json.hpp>
 
@@ -214,6 +216,20 @@ TEST_F(ClosedLoopRun, outputs_carry_the_designed_open_and_closed_loop_pressures)
               loop.iterations[loop.best].below_brim.mae / 1e3, 1e-9);
   EXPECT_TRUE(j["regions"].contains("front_line"));
   EXPECT_FALSE(j["landmarks"].empty());
+  // Each donning's landmark deviation: the landmark whose zone's pressure / threshold is furthest
+  // from the design's, relative to the design's (to 0.1 below it) — recomputed from the landmarks
+  // written for the kept socket.
+  double furthest = 0;
+  std::string code;
+  for (const auto& l : j["landmarks"]) {
+    const double designed = l["designed_ratio"].get<double>();
+    const double dev = std::abs(l["closed_loop_ratio"].get<double>() - designed) / std::max(designed, 0.1);
+    if (dev >= furthest) std::tie(furthest, code) = std::tie(dev, l["code"].get_ref<const std::string&>());
+  }
+  const auto& kept_json = j["iterations"][loop.best];
+  EXPECT_NEAR(kept_json["landmark_deviation"].get<double>(), furthest, 1e-9);
+  EXPECT_EQ(kept_json["landmark_furthest"].get<std::string>(), code);
+  EXPECT_GT(j["iterations"][0]["landmark_deviation"].get<double>(), furthest);  // the open-loop socket's, further
   const auto t = report::read_csv(out_ / "delivered.csv");
   const auto designed = t.column("designed_pa"), closed = t.column("closed_loop_pa"), open = t.column("open_loop_pa");
   const auto dragged = t.column("dragged_out");

@@ -237,6 +237,30 @@ double tolerance_score(const ClosedLoopIteration& it, const ClosedLoopOptions& o
   return std::max(it.below_brim.mae / o.mae_tolerance_pa, it.below_brim.p99 / o.p99_tolerance_pa);
 }
 
+/// The landmarks' zones below the brim, with their mean threshold and designed pressure, to measure
+/// each donning's landmark deviation (ClosedLoopIteration::landmark_deviation, reported).
+struct LandmarkTargets {
+  std::vector<LandmarkZone> zones;
+  std::vector<double> threshold_pa, target_pa;
+  LandmarkTargets(const DesignSetup& setup, const std::vector<char>& below_brim, const std::vector<double>& target)
+      : zones(landmark_zones(setup, below_brim)) {
+    const auto& area = setup.solver->skin().area_m2;
+    for (const auto& z : zones) {
+      threshold_pa.push_back(z.mean(setup.thresholds, area));
+      target_pa.push_back(z.mean(target, area));
+    }
+  }
+  /// Sets @p it's landmark deviation from @p delivered.
+  void measure(const std::vector<double>& delivered, const std::vector<double>& area, ClosedLoopIteration& it) const {
+    for (size_t k = 0; k < zones.size(); ++k) {
+      const double designed = target_pa[k] / threshold_pa[k];
+      const double dev = std::abs(zones[k].mean(delivered, area) / threshold_pa[k] - designed) / std::max(designed, 0.1);
+      if (dev >= it.landmark_deviation) std::tie(it.landmark_deviation, it.landmark_worst) = std::tie(dev, zones[k].code);
+    }
+  }
+};
+
+
 /// One run of the closed loop: the socket worn now, its donning simulation, the counters of the
 /// donnings and refits, and the result being built.
 class LoopRun {
@@ -270,6 +294,7 @@ class LoopRun {
     require(compared_.size() >= 3, "closed loop: only {} skin nodes lie below the brim; lower the brim",
             compared_.size());
     for (int i : compared_) spacing_ += std::sqrt(skin_.area_m2[i]) / static_cast<double>(compared_.size());
+    landmarks_ = std::make_unique<LandmarkTargets>(setup, r_.below_brim, r_.target_pa);
   }
 
   ClosedLoopResult run() {
@@ -290,9 +315,9 @@ class LoopRun {
         if (within) {
           r_.converged = true;
           r_.message = fmt::format("converged after {} donnings and {} refits: below the brim MAE {:.2f} kPa, 99th "
-                                   "percentile {:.2f} kPa{}",
+                                   "percentile {:.2f} kPa{}{}",
                                    full_donnings_, r_.iterations.size() - full_donnings_, it.below_brim.mae / 1e3,
-                                   it.below_brim.p99 / 1e3, dragged_out_note(it));
+                                   it.below_brim.p99 / 1e3, landmark_note(it), dragged_out_note(it));
           break;
         }
       }
@@ -390,6 +415,7 @@ class LoopRun {
     std::vector<double> delivered(n_);
     for (size_t i = 0; i < n_; ++i) delivered[i] = d.contacts[i].pressure_pa;
     it.below_brim = report::compare_fields(delivered, r_.target_pa, compared_);
+    landmarks_->measure(delivered, skin_.area_m2, it);
     donned_ = donned_in_socket(skin_, d, axis_);
     in_socket_.clear();
     dragged_out_.assign(n_, 0);
@@ -419,9 +445,10 @@ class LoopRun {
     it.donning_seconds = d.seconds;
     it.socket_seconds = socket_seconds_;
     log::info("closed loop: {} {} — below the brim MAE {:.2f} kPa, 99th percentile {:.2f} kPa, R {:.3f}, mean {:.2f} vs "
-              "{:.2f} kPa designed; friction carries {:.0f} N ({:.0f} N designed); wall moved up to {:.2f} mm; {:.1f} s",
+              "{:.2f} kPa designed{}; friction carries {:.0f} N ({:.0f} N designed); wall moved up to {:.2f} mm; {:.1f} s",
               refitted ? "refit" : "donning", refitted ? refits_ : full_donnings_, it.below_brim.mae / 1e3,
               it.below_brim.p99 / 1e3, it.below_brim.r, it.below_brim.mean_a / 1e3, it.below_brim.mean_b / 1e3,
+              landmark_note(it),
               it.axial_friction_n, state_.radar.stability_n, it.max_offset_m * 1e3, d.seconds);
     if (it.dragged_out > 0) log::info("closed loop: {} —{}", refitted ? "refit" : "donning", dragged_out_note(it));
     // Friction: the design counts on sliding friction μ p at every node (its axial share μ p |n × a|);
@@ -479,10 +506,12 @@ class LoopRun {
     for (int k = 0; k <= r_.best; ++k) r_.kept_donning += r_.iterations[k].refit ? 0 : 1;
     if (r_.message.empty()) {
       const auto& b = r_.iterations[r_.best].below_brim;  // all of them, the dragged-out ones included
-      r_.message = fmt::format("{} donnings without meeting the tolerances ({:.2f} / {:.2f} kPa); kept donning {}: MAE "
-                               "{:.2f} kPa, 99th percentile {:.2f} kPa{}",
+      const ClosedLoopIteration& kept = r_.iterations[r_.best];
+      r_.message = fmt::format("{} donnings without meeting the tolerances ({:.2f} / {:.2f} kPa); "
+                               "kept donning {}: MAE {:.2f} kPa, 99th percentile {:.2f} kPa{}{}",
                                full_donnings_, options_.mae_tolerance_pa / 1e3, options_.p99_tolerance_pa / 1e3,
-                               r_.kept_donning, b.mae / 1e3, b.p99 / 1e3, dragged_out_note(r_.iterations[r_.best]));
+                               r_.kept_donning, b.mae / 1e3, b.p99 / 1e3,
+                               landmark_note(kept), dragged_out_note(kept));
     }
     return std::move(r_);
   }
@@ -498,6 +527,7 @@ class LoopRun {
   contact::DonningOptions don_;
   design::SocketOptions sopt_;
   std::vector<int> compared_;  // skin nodes below the brim
+  std::unique_ptr<LandmarkTargets> landmarks_;
   std::vector<Vec3> donned_;       // the last donning's skin, in the socket's frame
   std::vector<int> in_socket_;     // compared nodes it left below the brim
   std::vector<char> dragged_out_;  // per skin node: compared, and dragged above the brim
@@ -523,6 +553,11 @@ std::string in_socket_figures(const ClosedLoopIteration& it) {
   return fmt::format("MAE {:.2f} kPa, 99th percentile {:.2f} kPa", it.in_socket.mae / 1e3, it.in_socket.p99 / 1e3);
 }
 }  // namespace
+
+std::string landmark_note(const ClosedLoopIteration& it) {
+  if (it.landmark_worst.empty()) return {};
+  return fmt::format(", landmarks within {:.0f} % ({})", 100 * it.landmark_deviation, it.landmark_worst);
+}
 
 std::string dragged_out_note(const ClosedLoopIteration& it) {
   if (it.dragged_out == 0) return {};

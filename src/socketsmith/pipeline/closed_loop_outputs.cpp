@@ -89,14 +89,17 @@ nlohmann::json iterations_json(const ClosedLoopResult& loop, report::ReportDeliv
                           {"stood_at_mm", it.stood_offset_m * 1e3},
                           {"axial_friction_n", it.axial_friction_n},
                           {"friction_utilisation", it.friction_utilisation},
+                          {"landmark_deviation", it.landmark_deviation},
+                          {"landmark_furthest", it.landmark_worst},
                           {"factorizations", it.factorizations},
                           {"donning_seconds", it.donning_seconds},
                           {"socket_seconds", it.socket_seconds}});
     delivery.details.push_back({fmt::format("{} {}", it.refit ? "refit" : "donning", k + 1),
-                                fmt::format("MAE {:.2f} kPa, 99th percentile {:.2f} kPa, R {:.3f}; wall moved up to "
+                                fmt::format("MAE {:.2f} kPa, 99th percentile {:.2f} kPa, R {:.3f}{}; wall moved up to "
                                             "{:.2f} mm; stood {:+.2f} mm from the designed pose; friction mobilised "
                                             "{:.0f} %; {:.1f} s{}",
                                             it.below_brim.mae / 1e3, it.below_brim.p99 / 1e3, it.below_brim.r,
+                                            landmark_note(it),
                                             it.max_offset_m * 1e3, it.stood_offset_m * 1e3,
                                             100 * it.friction_utilisation, it.donning_seconds,
                                             static_cast<int>(k) == loop.best ? " (kept)" : "")});
