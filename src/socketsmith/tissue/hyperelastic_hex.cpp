@@ -74,31 +74,32 @@ Lame lame_constants(double E, double nu) {
 HyperelasticMaterial::HyperelasticMaterial(HyperelasticLaw law, double E, double nu)
     : law_(law), lame_(lame_constants(E, nu)) {}
 
-double HyperelasticMaterial::energy_density(const Matrix3d& F) const {
+double HyperelasticMaterial::energy_density(const Matrix3d& F) const { return energy_and_stress(F, nullptr); }
+
+Matrix3d HyperelasticMaterial::first_piola(const Matrix3d& F) const {
+  Matrix3d P;
+  (void)energy_and_stress(F, &P);
+  return P;
+}
+
+double HyperelasticMaterial::energy_and_stress(const Matrix3d& F, Matrix3d* P) const {
   const double lambda = lame_.lambda, mu = lame_.mu;
   if (law_ == HyperelasticLaw::StVenantKirchhoff) {
     const Matrix3d E = 0.5 * (F.transpose() * F - Matrix3d::Identity());
     const double tr = E.trace();
+    if (P) *P = F * (lambda * tr * Matrix3d::Identity() + 2.0 * mu * E);
     return 0.5 * lambda * tr * tr + mu * E.squaredNorm();
   }
   const double J = F.determinant();
-  if (!(J > 0)) return std::numeric_limits<double>::infinity();
-  // C10 (J^(−2/3) I1 − 3) + (J − 1)²/D1 with C10 = μ/2, 1/D1 = K/2.
-  return 0.5 * mu * (j_minus_two_thirds(J) * F.squaredNorm() - 3.0) + 0.5 * bulk_modulus() * (J - 1) * (J - 1);
-}
-
-Matrix3d HyperelasticMaterial::first_piola(const Matrix3d& F) const {
-  const double lambda = lame_.lambda, mu = lame_.mu;
-  if (law_ == HyperelasticLaw::StVenantKirchhoff) {
-    const Matrix3d E = 0.5 * (F.transpose() * F - Matrix3d::Identity());
-    return F * (lambda * E.trace() * Matrix3d::Identity() + 2.0 * mu * E);
+  if (!(J > 0)) {
+    SOCKETSMITH_ASSERT(P == nullptr);
+    return std::numeric_limits<double>::infinity();
   }
+  // W = C10 (J^(−2/3) I1 − 3) + (J − 1)²/D1 with C10 = μ/2, 1/D1 = K/2;
   // P = μ J^(−2/3) F − (μ/3) I1 J^(−5/3) H + K (J − 1) H, with H = ∂J/∂F.
-  const double J = F.determinant();
-  SOCKETSMITH_ASSERT(J > 0);
-  const double j23 = j_minus_two_thirds(J);
-  const Matrix3d H = cofactor(F);
-  return mu * j23 * F + (bulk_modulus() * (J - 1) - mu / 3.0 * F.squaredNorm() * j23 / J) * H;
+  const double j23 = j_minus_two_thirds(J), I1 = F.squaredNorm(), K = bulk_modulus();
+  if (P) *P = mu * j23 * F + (K * (J - 1) - mu / 3.0 * I1 * j23 / J) * cofactor(F);
+  return 0.5 * mu * (j23 * I1 - 3.0) + 0.5 * K * (J - 1) * (J - 1);
 }
 
 Tangent HyperelasticMaterial::tangent(const Matrix3d& F, bool psd) const {
@@ -256,11 +257,13 @@ bool HyperelasticHexElements::evaluate(const Eigen::VectorXd& x, Eigen::VectorXd
             ++bad;
             break;
           }
-          w += gp.weight * material_.energy_density(F);
-          if (f) {
-            const Matrix3d P = material_.first_piola(F);
-            for (int a = 0; a < 8; ++a) fe.col(a).noalias() -= gp.weight * (P * gp.grad[a]);
+          if (!f) {
+            w += gp.weight * material_.energy_density(F);
+            continue;
           }
+          Matrix3d P;
+          w += gp.weight * material_.energy_and_stress(F, &P);
+          for (int a = 0; a < 8; ++a) fe.col(a).noalias() -= gp.weight * (P * gp.grad[a]);
         }
         w_e[ue] = w;
         if (f)

@@ -64,6 +64,10 @@ class HyperelasticMaterial {
   double energy_density(const Eigen::Matrix3d& F) const;
   /// First Piola–Kirchhoff stress P = ∂W/∂F [Pa]. @pre det F > 0 when needs_positive_volume().
   Eigen::Matrix3d first_piola(const Eigen::Matrix3d& F) const;
+  /// W(F), and P(F) into @p P when given, sharing det F and its cube root (the forces need both
+  /// at every Gauss point). @pre det F > 0 when needs_positive_volume() and @p P is given;
+  /// without @p P, +∞ there.
+  double energy_and_stress(const Eigen::Matrix3d& F, Eigen::Matrix3d* P) const;
   /// A = ∂P/∂F [Pa] (symmetric 9×9). @p psd: a symmetric positive semi-definite surrogate —
   /// St Venant–Kirchhoff: the stress S in the geometric term δ_ik S_JL projected on its positive
   /// part (the material term is PSD already); neo-Hookean: A projected on its positive eigen-part
