@@ -153,7 +153,7 @@ void BM_DonningRefit(benchmark::State& state) {
   state.counters["completed"] = r.completed && r.stood ? 1 : 0;
 }
 
-/// The whole closed loop of the demo design (3 donnings, 3 refits each, the defaults).
+/// The whole closed loop of the demo design with the loop's default options (ClosedLoopOptions).
 void BM_ClosedLoop(benchmark::State& state) {
   auto& d = const_cast<Designed&>(designed(static_cast<int>(state.range(0))));
   if (!d.result.socket) {
