@@ -242,6 +242,7 @@ double tolerance_score(const ClosedLoopIteration& it, const ClosedLoopOptions& o
 struct LandmarkTargets {
   std::vector<LandmarkZone> zones;
   std::vector<double> threshold_pa, target_pa;
+  LandmarkTargets() = default;
   LandmarkTargets(const DesignSetup& setup, const std::vector<char>& below_brim, const std::vector<double>& target)
       : zones(landmark_zones(setup, below_brim)) {
     const auto& area = setup.solver->skin().area_m2;
@@ -255,11 +256,10 @@ struct LandmarkTargets {
     for (size_t k = 0; k < zones.size(); ++k) {
       const double designed = target_pa[k] / threshold_pa[k];
       const double dev = std::abs(zones[k].mean(delivered, area) / threshold_pa[k] - designed) / std::max(designed, 0.1);
-      if (dev >= it.landmark_deviation) std::tie(it.landmark_deviation, it.landmark_worst) = std::tie(dev, zones[k].code);
+      if (dev >= it.landmark_deviation) std::tie(it.landmark_deviation, it.landmark_furthest) = std::tie(dev, zones[k].code);
     }
   }
 };
-
 
 /// One run of the closed loop: the socket worn now, its donning simulation, the counters of the
 /// donnings and refits, and the result being built.
@@ -294,7 +294,7 @@ class LoopRun {
     require(compared_.size() >= 3, "closed loop: only {} skin nodes lie below the brim; lower the brim",
             compared_.size());
     for (int i : compared_) spacing_ += std::sqrt(skin_.area_m2[i]) / static_cast<double>(compared_.size());
-    landmarks_ = std::make_unique<LandmarkTargets>(setup, r_.below_brim, r_.target_pa);
+    landmarks_ = LandmarkTargets(setup, r_.below_brim, r_.target_pa);
   }
 
   ClosedLoopResult run() {
@@ -415,7 +415,7 @@ class LoopRun {
     std::vector<double> delivered(n_);
     for (size_t i = 0; i < n_; ++i) delivered[i] = d.contacts[i].pressure_pa;
     it.below_brim = report::compare_fields(delivered, r_.target_pa, compared_);
-    landmarks_->measure(delivered, skin_.area_m2, it);
+    landmarks_.measure(delivered, skin_.area_m2, it);
     donned_ = donned_in_socket(skin_, d, axis_);
     in_socket_.clear();
     dragged_out_.assign(n_, 0);
@@ -505,8 +505,8 @@ class LoopRun {
   ClosedLoopResult finish() {
     for (int k = 0; k <= r_.best; ++k) r_.kept_donning += r_.iterations[k].refit ? 0 : 1;
     if (r_.message.empty()) {
-      const auto& b = r_.iterations[r_.best].below_brim;  // all of them, the dragged-out ones included
       const ClosedLoopIteration& kept = r_.iterations[r_.best];
+      const auto& b = kept.below_brim;  // all of them, the dragged-out ones included
       r_.message = fmt::format("{} donnings without meeting the tolerances ({:.2f} / {:.2f} kPa); "
                                "kept donning {}: MAE {:.2f} kPa, 99th percentile {:.2f} kPa{}{}",
                                full_donnings_, options_.mae_tolerance_pa / 1e3, options_.p99_tolerance_pa / 1e3,
@@ -527,7 +527,7 @@ class LoopRun {
   contact::DonningOptions don_;
   design::SocketOptions sopt_;
   std::vector<int> compared_;  // skin nodes below the brim
-  std::unique_ptr<LandmarkTargets> landmarks_;
+  LandmarkTargets landmarks_;  // the landmarks' zones below the brim
   std::vector<Vec3> donned_;       // the last donning's skin, in the socket's frame
   std::vector<int> in_socket_;     // compared nodes it left below the brim
   std::vector<char> dragged_out_;  // per skin node: compared, and dragged above the brim
@@ -555,8 +555,8 @@ std::string in_socket_figures(const ClosedLoopIteration& it) {
 }  // namespace
 
 std::string landmark_note(const ClosedLoopIteration& it) {
-  if (it.landmark_worst.empty()) return {};
-  return fmt::format(", landmarks within {:.0f} % ({})", 100 * it.landmark_deviation, it.landmark_worst);
+  if (it.landmark_furthest.empty()) return {};
+  return fmt::format(", landmarks within {:.0f} % ({})", 100 * it.landmark_deviation, it.landmark_furthest);
 }
 
 std::string dragged_out_note(const ClosedLoopIteration& it) {

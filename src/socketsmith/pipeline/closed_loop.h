@@ -119,7 +119,7 @@ struct ClosedLoopIteration {
   /// scratch moves it by what refits cannot see (generated transfemoral limb, seed 2: refits took the
   /// distal femur from 39 % to 9 %, the next donning put it back at 49 %).
   double landmark_deviation = 0.0;
-  std::string landmark_worst;
+  std::string landmark_furthest;
   double max_offset_m = 0.0;       ///< max |δ| of the socket donned [m]
   double mean_offset_m = 0.0;      ///< mean δ below the brim [m] (> 0: the wall moved outwards)
   double stood_offset_m = 0.0;     ///< where the socket stood, relative to its designed pose along the axis [m]

@@ -90,7 +90,7 @@ nlohmann::json iterations_json(const ClosedLoopResult& loop, report::ReportDeliv
                           {"axial_friction_n", it.axial_friction_n},
                           {"friction_utilisation", it.friction_utilisation},
                           {"landmark_deviation", it.landmark_deviation},
-                          {"landmark_furthest", it.landmark_worst},
+                          {"landmark_furthest", it.landmark_furthest},
                           {"factorizations", it.factorizations},
                           {"donning_seconds", it.donning_seconds},
                           {"socket_seconds", it.socket_seconds}});
