@@ -146,6 +146,11 @@ void run_validate_design(const DesignFlags& f) {
               r.converged ? "" : "PARTIAL ", what, r.ccx.wall_s, v.socketsmith_wall_s, v.artifacts.result.state.seconds);
     log::info("validate design: force designed {:.1f} N, CalculiX {:.1f} N; mean designed {:.2f}, CalculiX {:.2f}",
               r.designed_force_n, r.fe_force_n, r.all.mean_b * scale, r.all.mean_a * scale);
+    if (v.stand_force_n > 0)
+      log::info("validate design: CalculiX {} {:.0f} N {:+.2f} mm past the designed pose (socketsmith stood {:+.2f} mm "
+                "past it; CalculiX's donned socket carried {:.0f} N; {} ccx run{})",
+                r.stood ? "stood with" : "carried only", r.stand_reached_force_n, r.stand_offset_m * 1e3,
+                v.socketsmith_stand_offset_m * 1e3, r.donned_force_n, r.ccx_runs, r.ccx_runs == 1 ? "" : "s");
     const auto line = [&](const std::string& name, const report::ErrorStats& st) {
       log::info("validate design: {:<26} n {:4d}  MAE {:.2f} ± {:.2f} {}  R {:.2f}  max {:.2f}", name, st.count,
                 st.mae * scale, st.sd * scale, unit, st.r, st.max_error * scale);
@@ -168,7 +173,7 @@ void run_validate_design(const DesignFlags& f) {
     log::info("validate design: outputs in {}", out.string());
   }
   if (!r.converged)
-    fail<SolverError>("validate design: {} (the partial comparison is in {}, labelled PARTIAL)", r.ccx.message,
+    fail<SolverError>("validate design: {} (the partial comparison is in {}, labelled PARTIAL)", r.message,
                       (out / "summary.json").string());
 }
 
@@ -245,9 +250,9 @@ void register_validate(CLI::App& app) {
   des->add_option("--clearance-mm", df->clearance_mm, "where the socket fit starts outside the skin [mm] (default 1)")
       ->check(positive());
   des->add_flag("--stand", df->stand,
-                "with --mode donning: then push the socket with half the body weight (the thesis's second step) in "
-                "CalculiX, and compare socketsmith's own donned-and-stood pressures too (the closed loop's when the "
-                "case runs one)");
+                "with --mode donning: then stand on the socket with half the body weight (the thesis's second step; "
+                "CalculiX moves it up the axis and is compared where it carries the load), and compare socketsmith's "
+                "own donned-and-stood pressures too (the closed loop's when the case runs one)");
   des->add_flag("--against-donning", df->against_donning,
                 "with --mode donning: compare CalculiX's donning with socketsmith's own donning simulation "
                 "(contact solver, same travel and μ) instead of with the designed pressures (thesis ch. 3)");
@@ -262,8 +267,8 @@ void register_validate(CLI::App& app) {
                                            "the contact pressures (thesis ch. 3)");
   add_case_flags(*don, *dn);
   don->add_flag("--stand", dn->stand,
-                "then push the socket with half the body weight in both (the thesis's second step; CalculiX's load "
-                "starts from socketsmith's donning force so the reaction does not drop)");
+                "then stand on the socket with half the body weight in both (the thesis's second step; CalculiX moves "
+                "the socket up the axis and is compared where it carries the load)");
   don->callback([dn] {
     if (dn->case_file.empty() && !dn->demo) fail("validate donning: give a case file or --demo");
     dn->mode = "donning";

@@ -1,6 +1,7 @@
 #include "socketsmith/calculix/calculix_deck.h"
 #include "socketsmith/calculix/design_check.h"
 
+#include <limits>
 #include <map>
 #include <numbers>
 #include <sstream>
@@ -133,8 +134,7 @@ TEST(CalculixDeck, socket_contact_and_the_two_steps_follow_calculix_md) {
   DeckSpec& s = bp.spec;
   s.contact.friction = 0.5;
   s.steps.donning_travel_m = Vec3(0, 0, 0.03);
-  s.steps.axial_load_n = 300;
-  s.steps.donning_force_n = 150;
+  s.steps.stand_travel_m = 0.004;
   const std::string deck = write_deck(s);
   const auto blocks = parse_blocks(deck);
   // Each top face is face S2 (+z, local face 1) of a top-layer element.
@@ -145,11 +145,14 @@ TEST(CalculixDeck, socket_contact_and_the_two_steps_follow_calculix_md) {
   EXPECT_EQ(blocks.find("*NODE, NSET=NSOCK")->second.size(), 8u);
   EXPECT_EQ(blocks.find("*SURFACE, NAME=SSOCK, TYPE=ELEMENT")->second.at(0), "9, S1");
   EXPECT_EQ(numbers(blocks.find("*FRICTION")->second.at(0)), (std::vector<double>{0.5, 5e7}));
-  EXPECT_EQ(numbers(blocks.find("*AMPLITUDE, NAME=A2")->second.at(0)), (std::vector<double>{0, 0.5, 1, 1}));
   EXPECT_EQ(blocks.count("*STEP, NLGEOM, INC=1000"), 2u);
-  EXPECT_NE(deck.find("900001, 3, 3, 0.03\n"), std::string::npos);
-  EXPECT_NE(deck.find("*CLOAD, AMPLITUDE=A2\n900001, 3, 300\n"), std::string::npos);
-  EXPECT_NE(deck.find("*BOUNDARY, OP=NEW\nBONE, 1, 3\n900002, 1, 3\n900001, 1, 1\n900001, 2, 2\n"), std::string::npos);
+  // Step 1 moves the socket 30 mm up; step 2 (standing) 4 mm further, under displacement control:
+  // ccx's values are totals from the start, the rotation held, no force and no amplitude.
+  EXPECT_NE(deck.find("900001, 1, 1, 0\n900001, 2, 2, 0\n900001, 3, 3, 0.03\n900002, 1, 3\n"), std::string::npos);
+  EXPECT_NE(deck.find("*BOUNDARY, OP=NEW\nBONE, 1, 3\n900001, 1, 1, 0\n900001, 2, 2, 0\n900001, 3, 3, 0.034\n900002, 1, 3\n"),
+            std::string::npos);
+  EXPECT_EQ(deck.find("*CLOAD"), std::string::npos);
+  EXPECT_EQ(deck.find("*AMPLITUDE"), std::string::npos);
   EXPECT_NE(deck.find("*RIGID BODY, NSET=NSOCK, REF NODE=900001, ROT NODE=900002"), std::string::npos);
   EXPECT_EQ(deck.find("ENCASTRE"), std::string::npos);  // CALCULIX.md: fails in ccx
   // Every step writes the stump's stress: the contact pressure is −n·σ·n (surface_pressure.h), since
@@ -165,43 +168,29 @@ TEST(CalculixDeck, socket_contact_and_the_two_steps_follow_calculix_md) {
   for (auto it = el_print.first; it != el_print.second; ++it) EXPECT_EQ(it->second, std::vector<std::string>{"S"});
 }
 
-TEST(CalculixDeck, a_socket_carrying_more_than_the_load_after_donning_is_unloaded_gradually) {
-  BoxAndPlate bp(0.02);
-  FeSteps& st = bp.spec.steps;
-  st.donning_travel_m = Vec3(0, 0, 0.03);
-  st.axial_load_n = 300;
-  st.donning_force_n = 405;
-  const auto blocks = parse_blocks(write_deck(bp.spec));
-  // The step-2 load starts at the donning force (405 N = 1.35 × 300) and comes down to 300 N.
-  const auto a = numbers(blocks.find("*AMPLITUDE, NAME=A2")->second.at(0));
-  ASSERT_EQ(a.size(), 4u);
-  EXPECT_DOUBLE_EQ(a[1], 1.35);
-  EXPECT_EQ(a[3], 1.0);
-}
-
-TEST(CalculixDeck, a_load_along_a_slanted_axis_gets_a_local_frame_on_the_reference_node) {
+TEST(CalculixDeck, a_standing_step_along_a_slanted_axis_moves_the_socket_along_it) {
   BoxAndPlate bp(0.02);
   DeckSpec& s = bp.spec;
   const Vec3 axis = Vec3(0.1, -0.2, 1.0).normalized();
   s.steps.donning_travel_m = 0.03 * axis;
-  s.steps.axial_load_n = 300;
-  s.steps.donning_force_n = 150;
+  s.steps.stand_travel_m = -0.002;  // a socket carrying more than the load when donned comes back down
   s.steps.load_direction = axis;
   const std::string deck = write_deck(s);
-  const auto blocks = parse_blocks(deck);
-  const auto& tr = blocks.find("*TRANSFORM, NSET=REF, TYPE=R")->second;
-  ASSERT_EQ(tr.size(), 1u);
-  const auto ab = numbers(tr[0]);
-  ASSERT_EQ(ab.size(), 6u);
-  const Vec3 e1(ab[0], ab[1], ab[2]), e2(ab[3], ab[4], ab[5]);
-  EXPECT_NEAR(e1.norm(), 1.0, 1e-9);
-  EXPECT_NEAR(e1.dot(e2), 0.0, 1e-9);
-  EXPECT_LT((e1.cross(e2) - axis).norm(), 1e-9);  // ccx's local z = a × b is the axis
-  // Step 1 moves the socket 30 mm along local z; step 2 holds local x, y and pushes along z.
-  EXPECT_NE(deck.find("900001, 3, 3, 0.03\n"), std::string::npos);
-  EXPECT_NE(deck.find("900001, 1, 1, 0\n"), std::string::npos);
-  EXPECT_NE(deck.find("*CLOAD, AMPLITUDE=A2\n900001, 3, 300\n"), std::string::npos);
-  EXPECT_NE(deck.find("900002, 1, 3\n900001, 1, 1\n900001, 2, 2\n"), std::string::npos);
+  EXPECT_EQ(deck.find("*TRANSFORM"), std::string::npos);  // every component prescribed: no local frame
+  const auto step2 = deck.substr(deck.find("*BOUNDARY, OP=NEW"));
+  const auto blocks = parse_blocks(step2);
+  const auto& bc = blocks.find("*BOUNDARY, OP=NEW")->second;
+  Vec3 u = Vec3::Zero();
+  for (const auto& line : bc) {
+    const auto v = numbers(line);
+    if (v.size() == 4 && v[0] == 900001) u[static_cast<int>(v[1]) - 1] = v[3];
+  }
+  EXPECT_LT((u - 0.028 * axis).norm(), 1e-12);
+  s.steps.load_direction = Vec3::Zero();
+  EXPECT_THROW(write_deck(s), InvalidInputError);
+  s.steps.load_direction = axis;
+  s.steps.stand_travel_m = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(write_deck(s), InvalidInputError);
 }
 
 TEST(CalculixDeck, a_shell_with_prescribed_node_displacements_is_not_a_rigid_body) {
@@ -217,8 +206,8 @@ TEST(CalculixDeck, a_shell_with_prescribed_node_displacements_is_not_a_rigid_bod
   s.socket_node_displacements.resize(3);
   EXPECT_THROW(write_deck(s), InvalidInputError);
   s.socket_node_displacements.assign(8, Vec3::Zero());
-  s.steps.axial_load_n = 100;
-  EXPECT_THROW(write_deck(s), InvalidInputError);  // a load step needs a rigid socket
+  s.steps.stand_travel_m = 0.002;
+  EXPECT_THROW(write_deck(s), InvalidInputError);  // a standing step needs a rigid socket
 }
 
 TEST(CalculixDeck, extruded_shell_elements_are_not_inverted_and_face_the_body) {

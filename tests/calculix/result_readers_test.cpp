@@ -2,7 +2,12 @@
 // the deck is in calculix_deck_test's style), cut to a few records.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
 
 #include "socketsmith/core/errors.h"
 #include "socketsmith/calculix/dat_reader.h"
@@ -160,43 +165,76 @@ TEST(DatReader, node_prints_and_contact_statistics) {
   EXPECT_EQ(block_at(b, "statistics", "REF", 0.25), nullptr);
 }
 
-// The standing check's rerun starts its load ramp from CalculiX's own reaction at the end of step 1
-// (time 1), along the load; no rerun when step 1 did not end, when the reaction is within 2 % of
-// the load of the start that failed, or when there is no standing step.
-TEST(DatReader, a_failed_standing_step_restarts_from_calculix_own_step1_reaction) {
-  const char* dat = R"(
- forces (fx,fy,fz) for set REF and time  0.9000000E+00
+/// A .dat of the reference node from @p rows (time, force along z, displacement along z).
+std::string reference_dat(const std::vector<std::array<double, 3>>& rows) {
+  std::string dat;
+  for (const auto& [t, f, u] : rows) {
+    dat += fmt::format(" displacements (vx,vy,vz) for set REF and time  {:.7E}\n\n    900001  0.000000E+00  0.000000E+00  {:.7E}\n\n", t, u);
+    dat += fmt::format(" forces (fx,fy,fz) for set REF and time  {:.7E}\n\n    900001  3.000000E+00  1.600000E+01  {:.7E}\n\n", t, f);
+  }
+  return dat;
+}
 
-    900001  1.000000E+00  2.000000E+00  3.000000E+02
+// CalculiX's standing step under displacement control: the state compared is interpolated between
+// the first two increments whose reactions bracket the load (step 1's end counts: time 1), the pose
+// past the donned one with it. A reaction that dips first (friction turning, the 2k thigh: 147 → 135 N)
+// is not a crossing.
+TEST(DatReader, the_standing_pose_is_where_the_reference_nodes_reaction_reaches_the_load) {
+  const auto dat = parse_dat(reference_dat({{0.9, 100, 0.054}, {1.0, 147, 0.06}, {1.1, 135, 0.0604}, {1.2, 200, 0.0608},
+                                            {1.35, 300, 0.0614}, {1.5, 400, 0.062}, {1.7, 390, 0.0628}}),
+                             "fixture");
+  auto p = standing_pose(dat, 343.2, Vec3::UnitZ());
+  EXPECT_DOUBLE_EQ(p.donned_force_n, 147);
+  ASSERT_TRUE(p.reached);
+  EXPECT_DOUBLE_EQ(p.time_a, 1.35);
+  EXPECT_DOUBLE_EQ(p.time_b, 1.5);
+  EXPECT_NEAR(p.weight, 0.432, 1e-12);
+  EXPECT_NEAR(p.displacement_m, 0.0014 + 0.432 * 0.0006, 1e-12);
+  EXPECT_DOUBLE_EQ(p.last_time, 1.7);
+  EXPECT_NEAR(p.last_displacement_m, 0.0028, 1e-12);
+  // Along a slanted load direction the force is the row's projection on it.
+  const Vec3 dir(0, 0.6, 0.8);
+  p = standing_pose(dat, 0.6 * 16 + 0.8 * 400, dir);
+  ASSERT_TRUE(p.reached);
+  EXPECT_DOUBLE_EQ(p.time_b, 1.5);
+  EXPECT_NEAR(p.weight, 1.0, 1e-12);
+  // A socket that carried more than the load when donned, pushed back down: the crossing downwards.
+  p = standing_pose(parse_dat(reference_dat({{1.0, 405, 0.03}, {1.2, 380, 0.0296}, {1.4, 330, 0.0292}}), "f"), 343.2,
+                    Vec3::UnitZ());
+  ASSERT_TRUE(p.reached);
+  EXPECT_DOUBLE_EQ(p.time_a, 1.2);
+  EXPECT_NEAR(p.weight, (380 - 343.2) / 50, 1e-12);
+  EXPECT_NEAR(p.displacement_m, -0.0004 - 0.0004 * (380 - 343.2) / 50, 1e-12);
+  // Step 1 never ended: nothing stood, and no rerun can help.
+  p = standing_pose(parse_dat(reference_dat({{0.9, 100, 0.054}}), "f"), 343.2, Vec3::UnitZ());
+  EXPECT_FALSE(p.reached);
+  EXPECT_TRUE(std::isnan(p.donned_force_n));
+  EXPECT_TRUE(std::isnan(standing_retry_travel_m(p, 0.004, 343.2)));
+}
 
- forces (fx,fy,fz) for set REF and time  0.1000000E+01
+// A push that did not reach the load is run again: further the same way when it ran to its end
+// (the gain extrapolated ×1.5, 1.5 to 4 times the travel), the other way when the donned socket was
+// already past the load (as far as the step's stiffness asks, ×1.5); not when ccx gave up on the way.
+TEST(DatReader, a_standing_push_short_of_the_load_is_retried_from_calculix_own_reactions) {
+  // The 2k thigh (2026-11-30): 147 N donned, 243 N 2.43 mm further; the load 343.2 N.
+  auto p = standing_pose(parse_dat(reference_dat({{1.0, 147.3, 0.06}, {1.5, 181.7, 0.0612}, {2.0, 242.7, 0.06243}}), "f"),
+                         343.2, Vec3::UnitZ());
+  EXPECT_FALSE(p.reached);
+  EXPECT_NEAR(standing_retry_travel_m(p, 0.00243, 343.2), 0.00243 * 1.5 * (343.2 - 147.3) / (242.7 - 147.3), 1e-12);
+  // Pushed on while the donned socket already carried 384 N: back down, 1.5 × 40.8 N over the step's 20 N/mm.
+  p = standing_pose(parse_dat(reference_dat({{1.0, 384, 0.03}, {2.0, 404, 0.031}}), "f"), 343.2, Vec3::UnitZ());
+  EXPECT_NEAR(standing_retry_travel_m(p, 0.001, 343.2), -1.5 * 40.8 / 20e3, 1e-12);
+  // ccx stopped at time 1.4 short of the load: it would stop there again.
+  p = standing_pose(parse_dat(reference_dat({{1.0, 147.3, 0.06}, {1.4, 181.7, 0.061}}), "f"), 343.2, Vec3::UnitZ());
+  EXPECT_TRUE(std::isnan(standing_retry_travel_m(p, 0.0025, 343.2)));
+  // A push that gained nothing: twice as far.
+  p = standing_pose(parse_dat(reference_dat({{1.0, 147.3, 0.06}, {2.0, 140, 0.061}}), "f"), 343.2, Vec3::UnitZ());
+  EXPECT_NEAR(standing_retry_travel_m(p, 0.001, 343.2), 0.002, 1e-15);
+}
 
-    900001  3.000000E+00  1.600000E+01  3.840000E+02
-
- forces (fx,fy,fz) for set REF and time  0.1020000E+01
-
-    900001  3.000000E+00  1.600000E+01  2.950000E+02
-)";
-  const auto b = parse_dat(dat, "fixture");
-  FeSteps st;
-  st.axial_load_n = 343.2;
-  st.load_direction = Vec3::UnitZ();
-  st.donning_force_n = 295.0;
-  EXPECT_DOUBLE_EQ(standing_restart_force_n(b, st), 384.0);  // time 1, not the last block
-  st.load_direction = Vec3(0, 0.6, 0.8);
-  EXPECT_DOUBLE_EQ(standing_restart_force_n(b, st), 0.6 * 16 + 0.8 * 384);
-  st.load_direction = Vec3::UnitZ();
-  st.donning_force_n = 380.0;  // within 2 % of 343 N: the same ramp again
-  EXPECT_TRUE(std::isnan(standing_restart_force_n(b, st)));
-  st.donning_force_n = 295.0;
-  st.axial_load_n = 0;  // no standing step
-  EXPECT_TRUE(std::isnan(standing_restart_force_n(b, st)));
-  st.axial_load_n = 343.2;
-  EXPECT_TRUE(std::isnan(standing_restart_force_n({b[0]}, st)));  // step 1 never ended
-
-  // A socket axis off the global z: ccx prints the reference node in its *TRANSFORM system, each
-  // row ended by "L" (OpenLimbTF, 2026-11-30: the rows were dropped and the rerun never ran). The
-  // load is then the local z, whatever the global direction.
+// A socket axis off the global z with a *TRANSFORM on the reference node: ccx prints its rows in the
+// local system, each ended by "L" (OpenLimbTF, 2026-11-30: the rows were dropped).
+TEST(DatReader, rows_in_a_nodes_local_system_are_read_and_marked) {
   const char* local = R"(
  forces (fx,fy,fz) for set REF and time  0.1000000E+01
 
@@ -206,11 +244,8 @@ TEST(DatReader, a_failed_standing_step_restarts_from_calculix_own_step1_reaction
   ASSERT_EQ(l.size(), 1u);
   ASSERT_EQ(l[0].rows.size(), 1u);
   EXPECT_TRUE(l[0].local);
-  EXPECT_FALSE(b[0].local);
   EXPECT_DOUBLE_EQ(l[0].rows[0][3], 147.2898);
-  st.donning_force_n = 176.1;
-  st.load_direction = Vec3(-0.012, 0.0559, 0.9984);
-  EXPECT_DOUBLE_EQ(standing_restart_force_n(l, st), 147.2898);
+  EXPECT_FALSE(parse_dat(reference_dat({{1.0, 147, 0.06}}), "f")[0].local);
   EXPECT_THROW(parse_dat(" forces (fx,fy,fz) for set REF and time  0.1E+01\n 900001 1.0 L 2.0\n", "x").at(0).rows.at(0),
                std::out_of_range);  // "L" only at the end of a row
 }

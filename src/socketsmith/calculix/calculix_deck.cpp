@@ -59,8 +59,8 @@ void check_spec(const DeckSpec& s) {
           "write_deck: maximum increment {} (expected in [initial increment {}, 1])", st.max_increment, st.initial_increment);
   require(st.max_increments > 0, "write_deck: max_increments {} (expected > 0)", st.max_increments);
   require(finite(st.donning_travel_m), "write_deck: the donning travel is not finite");
-  require(st.axial_load_n >= 0 && std::isfinite(st.axial_load_n) && std::isfinite(st.donning_force_n),
-          "write_deck: axial load {} N, donning force {} N (expected finite, the load ≥ 0)", st.axial_load_n, st.donning_force_n);
+  require(std::isfinite(st.stand_travel_m), "write_deck: standing travel {} m (expected finite)", st.stand_travel_m);
+  require(finite(st.load_direction) && st.load_direction.norm() > 0, "write_deck: the load direction is not a direction");
   if (s.socket) {
     const auto& sh = *s.socket;
     const int nh = static_cast<int>(sh.hexahedra.size()), nel = nh + static_cast<int>(sh.wedges.size());
@@ -82,15 +82,15 @@ void check_spec(const DeckSpec& s) {
             "write_deck: {} socket node displacements for {} socket nodes", s.socket_node_displacements.size(),
             sh.nodes.size());
     for (const auto& d : s.socket_node_displacements) require(finite(d), "write_deck: a socket node displacement is not finite");
-    require(s.socket_node_displacements.empty() || st.axial_load_n == 0,
-            "write_deck: an axial load step needs a rigid socket (no prescribed node displacements)");
+    require(s.socket_node_displacements.empty() || st.stand_travel_m == 0,
+            "write_deck: a standing step needs a rigid socket (no prescribed node displacements)");
     require(s.contact.penalty_pa_per_m > 0, "write_deck: contact penalty {} Pa/m (expected > 0)", s.contact.penalty_pa_per_m);
     require(s.contact.friction >= 0, "write_deck: friction {} (expected ≥ 0)", s.contact.friction);
     require(s.contact.stick_slope_pa_per_m > 0, "write_deck: stick slope {} Pa/m (expected > 0)",
             s.contact.stick_slope_pa_per_m);
   } else {
     require(!s.nodal_forces.empty(), "write_deck: nothing loads the stump (no nodal forces and no socket)");
-    require(st.axial_load_n == 0, "write_deck: an axial load step needs a socket");
+    require(st.stand_travel_m == 0, "write_deck: a standing step needs a socket");
   }
 }
 
@@ -120,9 +120,6 @@ struct DeckLayout {
   int nn = 0, ne = 0;                ///< stump nodes and elements
   int sock_node0 = 0, sock_elem0 = 0;  ///< first socket node and element id (1-based)
   bool rigid = false;                ///< the socket is a rigid body on a reference node
-  bool ref_local = false;            ///< the reference node has a local frame (a slanted load)
-  Vec3 load_dir = Vec3::UnitZ();
-  Eigen::Matrix3d ref_axes = Eigen::Matrix3d::Identity();  ///< columns e1, e2, load_dir with e1 × e2 = load_dir
 };
 
 DeckLayout layout_of(const DeckSpec& s) {
@@ -132,23 +129,10 @@ DeckLayout layout_of(const DeckSpec& s) {
   L.sock_node0 = L.nn + 1;
   L.sock_elem0 = L.ne + 1;
   L.rigid = s.socket && s.socket_node_displacements.empty();
-  // A load step along a direction that is not a coordinate axis: the reference node gets a local
-  // frame and its boundary conditions are written in it.
-  L.load_dir = s.steps.load_direction.normalized();
-  L.ref_local = L.rigid && s.steps.axial_load_n > 0 && L.load_dir.cwiseAbs().maxCoeff() < 1.0 - 1e-12;
-  if (L.ref_local) {
-    Eigen::Index k = 0;
-    L.load_dir.cwiseAbs().minCoeff(&k);
-    Vec3 e1 = Vec3::Unit(k) - Vec3::Unit(k).dot(L.load_dir) * L.load_dir;
-    e1.normalize();
-    L.ref_axes.col(0) = e1;
-    L.ref_axes.col(1) = L.load_dir.cross(e1);
-    L.ref_axes.col(2) = L.load_dir;
-  }
   return L;
 }
 
-/// The stump's and the socket's nodes, the rigid body's reference nodes and their frame.
+/// The stump's and the socket's nodes and the rigid body's reference nodes.
 void write_nodes(std::string& out, const DeckSpec& s, const DeckLayout& L) {
   const auto& m = *s.stump;
   out += "*NODE, NSET=NLIMB\n";
@@ -164,13 +148,6 @@ void write_nodes(std::string& out, const DeckSpec& s, const DeckLayout& L) {
   const auto& r = s.socket->reference_point;
   out += fmt::format("*NODE, NSET=REF\n{}, {:.12g}, {:.12g}, {:.12g}\n", kRefNode, r.x(), r.y(), r.z());
   out += fmt::format("*NODE, NSET=ROT\n{}, {:.12g}, {:.12g}, {:.12g}\n", kRotNode, r.x(), r.y(), r.z());
-  if (L.ref_local) {
-    // The reference node's degrees of freedom in a frame whose local z is the load direction,
-    // so that step 2 can hold the socket across the axis and push it along (CALCULIX.md).
-    const auto& a = L.ref_axes;
-    out += fmt::format("*TRANSFORM, NSET=REF, TYPE=R\n{:.12g}, {:.12g}, {:.12g}, {:.12g}, {:.12g}, {:.12g}\n",
-                       a.col(0).x(), a.col(0).y(), a.col(0).z(), a.col(1).x(), a.col(1).y(), a.col(1).z());
-  }
 }
 
 /// The elements, the bone's node set, the skin's element set and the contact surfaces.
@@ -267,6 +244,16 @@ std::string step_outputs(const DeckSpec& s, const DeckLayout& L) {
   return o;
 }
 
+/// The rigid socket's reference node at @p displacement from its start [m] (round-off across the
+/// axis written as 0), its rotation held.
+void write_reference_pose(std::string& out, const Vec3& displacement) {
+  for (int c = 0; c < 3; ++c) {
+    const double u = std::abs(displacement[c]) < 1e-12 * displacement.norm() ? 0.0 : displacement[c];
+    out += fmt::format("{}, {}, {}, {:.12g}\n", kRefNode, c + 1, c + 1, u);
+  }
+  out += fmt::format("{}, 1, 3\n", kRotNode);
+}
+
 /// Step 1: nodal forces, or donning under displacement control.
 void write_first_step(std::string& out, const DeckSpec& s, const DeckLayout& L) {
   const auto& st = s.steps;
@@ -274,13 +261,7 @@ void write_first_step(std::string& out, const DeckSpec& s, const DeckLayout& L) 
   out += "*BOUNDARY\n";
   if (!s.fixed_nodes.empty()) out += "BONE, 1, 3\n";
   for (const auto& [v, c] : s.fixed_components) out += fmt::format("{}, {}, {}\n", v + 1, c + 1, c + 1);
-  if (L.rigid) {
-    Vec3 travel = L.ref_axes.transpose() * st.donning_travel_m;  // in the reference node's frame
-    for (int c = 0; c < 3; ++c)
-      if (std::abs(travel[c]) < 1e-12 * st.donning_travel_m.norm()) travel[c] = 0.0;  // round-off across the axis
-    for (int c = 0; c < 3; ++c) out += fmt::format("{}, {}, {}, {:.12g}\n", kRefNode, c + 1, c + 1, travel[c]);
-    out += fmt::format("{}, 1, 3\n", kRotNode);
-  }
+  if (L.rigid) write_reference_pose(out, st.donning_travel_m);
   for (size_t i = 0; i < s.socket_node_displacements.size(); ++i)
     for (int c = 0; c < 3; ++c)
       out += fmt::format("{}, {}, {}, {:.12g}\n", L.sock_node0 + static_cast<int>(i), c + 1, c + 1,
@@ -294,29 +275,21 @@ void write_first_step(std::string& out, const DeckSpec& s, const DeckLayout& L) 
   out += step_outputs(s, L);
 }
 
-/// Step 2 (standing): the socket pushed along the load direction with the axial load, ramped by
-/// amplitude A2 from step 1's reaction.
+/// Step 2 (standing): the reference node moved on by the standing travel along the load
+/// direction; ccx's *BOUNDARY values are totals from the start, so the donning travel is in them.
 void write_load_step(std::string& out, const DeckSpec& s, const DeckLayout& L) {
   const auto& st = s.steps;
   FeSteps st2 = st;
-  st2.initial_increment = std::min(st.initial_increment, 0.02);
-  st2.max_increment = std::max(st2.initial_increment, std::min(st.max_increment, 0.05));
-  // Not below 1e-3: when step 2 diverges (an ill-posed push, CALCULIX.md) it should say so in
-  // minutes, not after dozens of 60-iteration cutbacks.
+  // Displacement control is well posed: increments of a tenth or a fifth of the push (the 2k thigh
+  // socket: 6 increments, 6–10 iterations each), fine enough to interpolate the standing pose.
+  st2.initial_increment = 0.1;
+  st2.max_increment = 0.2;
   st2.min_increment = std::min(std::max(st.min_increment, 1e-3), st2.initial_increment);
   out += static_card(st2);
   out += "*BOUNDARY, OP=NEW\n";
   if (!s.fixed_nodes.empty()) out += "BONE, 1, 3\n";
   for (const auto& [v, c] : s.fixed_components) out += fmt::format("{}, {}, {}\n", v + 1, c + 1, c + 1);
-  out += fmt::format("{}, 1, 3\n", kRotNode);
-  // The reference node is free along the load and held in the two directions across it (in its
-  // local frame when the load is not along a coordinate axis).
-  const Vec3 d = L.ref_axes.transpose() * L.load_dir;  // (0, 0, 1) in a local frame
-  for (int c = 0; c < 3; ++c)
-    if (std::abs(d[c]) < 1e-12) out += fmt::format("{}, {}, {}\n", kRefNode, c + 1, c + 1);
-  out += "*CLOAD, AMPLITUDE=A2\n";
-  for (int c = 0; c < 3; ++c)
-    if (std::abs(d[c]) >= 1e-12) out += fmt::format("{}, {}, {:.12g}\n", kRefNode, c + 1, st.axial_load_n * d[c]);
+  write_reference_pose(out, st.donning_travel_m + st.stand_travel_m * st.load_direction.normalized());
   out += step_outputs(s, L);
 }
 
@@ -331,11 +304,7 @@ std::string write_deck(const DeckSpec& s) {
   write_nodes(out, s, L);
   write_elements_and_sets(out, s, L);
   write_materials_and_contact(out, s, L);
-  const bool load_step = s.socket && s.steps.axial_load_n > 0;
-  if (load_step) {
-    const double a0 = std::max(s.steps.donning_force_n / s.steps.axial_load_n, 0.0);
-    out += fmt::format("*AMPLITUDE, NAME=A2\n0., {:.9g}, 1., 1.\n", a0);
-  }
+  const bool load_step = s.socket && s.steps.stand_travel_m != 0;
   write_first_step(out, s, L);
   if (load_step) write_load_step(out, s, L);
   return out;

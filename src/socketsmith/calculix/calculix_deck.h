@@ -81,14 +81,13 @@ struct FeSteps {
   double min_increment = 1e-5;      ///< in (0, initial_increment]
   double max_increment = 0.1;       ///< in [initial_increment, 1]
   int max_increments = 1000;        ///< > 0
-  /// > 0: a second step applies this force on the socket's reference node along
-  /// load_direction (CALCULIX.md: amplitude from donning_force_n so the reaction does not drop).
-  /// The load ramps from donning_force_n to axial_load_n, downwards too: a socket that already
-  /// carries more than the load at the end of step 1 is unloaded gradually (a sudden drop stopped
-  /// CalculiX on cutbacks: OpenLimb's mean transtibial limb, 405 N at the pose for a 343 N stand).
-  double axial_load_n = 0.0;
+  /// ≠ 0: a second step (standing) moves the rigid socket's reference node this much further along
+  /// load_direction [m] (> 0: further onto the stump), from where step 1 left it, under displacement
+  /// control. A push under a force leaves the socket free along the axis, and ccx's contact set then
+  /// chatters on a thigh socket whose walls are nearly parallel to the push (docs/VALIDATION.md); the
+  /// pose where the reaction equals the standing load is read from the increments (design_check.h).
+  double stand_travel_m = 0.0;
   Vec3 load_direction = Vec3::UnitZ();  ///< unit
-  double donning_force_n = 0.0;         ///< step-1 reaction along load_direction [N], ≥ 0
 };
 
 /// Everything a deck holds.

@@ -1,6 +1,7 @@
 #include "socketsmith/calculix/design_check.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <deque>
 #include <limits>
@@ -96,8 +97,11 @@ void check_input(const DesignedStump& d, const DesignCheckOptions& o) {
           d.skin_normals.size(), d.skin_areas_m2.size(), d.above_brim.size(), ns);
   require(o.clearance_m > 0, "check_design: clearance {} m (expected > 0)", o.clearance_m);
   require(o.socket_thickness_m > 0, "check_design: socket thickness {} m (expected > 0)", o.socket_thickness_m);
-  require(std::isfinite(o.stand_force_n) && o.stand_force_n >= 0 && std::isfinite(o.donning_force_n),
+  require(std::isfinite(o.stand_force_n) && o.stand_force_n >= 0,
           "check_design: standing force {} N (expected ≥ 0: half the body weight)", o.stand_force_n);
+  require(o.stand_force_n == 0 || (std::isfinite(o.stand_travel_m) && o.stand_travel_m != 0),
+          "check_design: standing travel {} m (expected a push ≠ 0 past the donned pose with a standing force)",
+          o.stand_travel_m);
   require(o.stand_force_n == 0 || o.mode == DesignCheckMode::Donning,
           "check_design: a standing load needs the donning mode (the socket is pushed up after donning)");
   require(std::any_of(d.above_brim.begin(), d.above_brim.end(), [](char c) { return !c; }),
@@ -149,9 +153,8 @@ RigidShell donning_socket(const DesignedStump& d, const DesignCheckOptions& o,
   }
   spec.steps.donning_travel_m = -down;
   if (o.stand_force_n > 0) {
-    spec.steps.axial_load_n = o.stand_force_n;
+    spec.steps.stand_travel_m = o.stand_travel_m;
     spec.steps.load_direction = d.frame.axis.normalized();
-    spec.steps.donning_force_n = std::max(0.0, o.donning_force_n);
   }
   return shell;
 }
@@ -195,28 +198,43 @@ struct ComparedIncrement {
   const DatBlock* gauss = nullptr;
   const FrdBlock* disp = nullptr;
   const FrdBlock* cont = nullptr;
+  double time = 0;  ///< total time (the .dat's when it has the increment)
 };
 
-/// The increment compared: the .frd's last, unless the .dat's element stresses (printed at
-/// converged increments only) end earlier — when ccx gives up it writes its last, unconverged
-/// state to the .frd — then the last increment both files have.
+/// The .frd's block @p name nearest total time @p time, within the .frd's six digits; null if none.
+const FrdBlock* frd_block_at(const FrdResults& frd, std::string_view name, double time) {
+  const FrdBlock* best = nullptr;
+  for (const auto& b : frd.blocks)
+    if (b.name == name && std::abs(b.time - time) <= 1e-5 * std::max(1.0, std::abs(time)) &&
+        (!best || std::abs(b.time - time) < std::abs(best->time - time)))
+      best = &b;
+  return best;
+}
+
+/// The increment at total time @p time; NaN: the .frd's last, unless the .dat's element stresses
+/// (printed at converged increments only) end earlier — when ccx gives up it writes its last,
+/// unconverged state to the .frd — then the last increment both files have.
 /// @throws SolverError when there is none (or, with @p contact, it has no contact block).
 ComparedIncrement compared_increment(const FrdResults& frd, const std::vector<DatBlock>& dat, bool contact,
-                                     const std::string& ccx_message) {
+                                     const std::string& ccx_message,
+                                     double time = std::numeric_limits<double>::quiet_NaN()) {
   ComparedIncrement inc;
-  inc.gauss = contact ? last_block(dat, "stresses", "SKINEL") : nullptr;
-  inc.disp = frd.last("DISP");
-  if (inc.gauss && inc.disp && std::abs(inc.disp->time - inc.gauss->time) > 1e-6)
-    for (auto it = frd.blocks.rbegin(); it != frd.blocks.rend(); ++it)
-      if (it->name == "DISP" && std::abs(it->time - inc.gauss->time) < 1e-6) {
-        inc.disp = &*it;
-        break;
-      }
+  if (std::isnan(time)) {
+    inc.gauss = contact ? last_block(dat, "stresses", "SKINEL") : nullptr;
+    inc.disp = frd.last("DISP");
+    if (inc.gauss && inc.disp && !frd_block_at(frd, "DISP", inc.gauss->time)) inc.gauss = nullptr;
+    if (inc.gauss) inc.disp = frd_block_at(frd, "DISP", inc.gauss->time);
+  } else {
+    inc.gauss = contact ? block_at(dat, "stresses", "SKINEL", time) : nullptr;
+    inc.disp = frd_block_at(frd, "DISP", time);
+  }
   if (contact && inc.disp)
     for (const auto& b : frd.blocks)
       if (b.name == "CONTACT" && b.step == inc.disp->step && b.increment == inc.disp->increment) inc.cont = &b;
   if (!inc.disp || (contact && !inc.cont))
-    fail<SolverError>("validate design: CalculiX produced no converged increment: {}", ccx_message);
+    fail<SolverError>("validate design: CalculiX produced no converged increment{}: {}",
+                      std::isnan(time) ? "" : fmt::format(" at time {:.4f}", time), ccx_message);
+  inc.time = inc.gauss ? inc.gauss->time : inc.disp->time;
   return inc;
 }
 
@@ -236,8 +254,7 @@ void fe_stress_pressures(const DesignedStump& d, const std::vector<HexFace>& ski
   std::vector<double> areas;
   const auto normals = deformed_surface_normals(mesh, deformed, skin_faces, skin.nodes, &areas);
   if (stress) res.fe_stress_pressure_pa = normal_surface_pressure(*stress, skin.nodes, normals, nn);
-  // Both files give the total time of an increment.
-  if (inc.gauss && std::abs(inc.gauss->time - inc.disp->time) < 1e-6)
+  if (inc.gauss)
     res.fe_force_pressure_pa = nodal_force_pressure(mesh, deformed, *inc.gauss, skin.nodes, normals, areas);
 }
 
@@ -268,8 +285,8 @@ void compare_contact_pressures(const DesignedStump& d, const DesignCheckOptions&
     res.fe_penetration_m[i] = std::max(0.0, -copen[skin.nodes[i]]);
     res.max_penetration_m = std::max(res.max_penetration_m, res.fe_penetration_m[i]);
   }
-  if (const auto* st = last_block(dat, "statistics", "SLIMB"); st && !st->rows.empty() && st->rows[0].size() >= 3)
-    res.fe_force_n = Vec3(st->rows[0][0], st->rows[0][1], st->rows[0][2]).norm();
+  const DatBlock* st = inc.gauss ? block_at(dat, "statistics", "SLIMB", inc.time) : last_block(dat, "statistics", "SLIMB");
+  if (st && !st->rows.empty() && st->rows[0].size() >= 3) res.fe_force_n = Vec3(st->rows[0][0], st->rows[0][1], st->rows[0][2]).norm();
 }
 
 /// Load mode: the FE displacement of the skin against the designed one, and the force on the bones.
@@ -335,29 +352,30 @@ void compare_paths(const DesignedStump& d, DesignCheckResult& res) {
   }
 }
 
-/// Writes and runs the deck. A standing step that fails after step 1 ended is run once more with
-/// its load ramp starting from CalculiX's own step-1 reaction instead of socketsmith's estimate
-/// (DesignCheckOptions::donning_force_n): a ramp that starts tens of newtons below the reaction
-/// the socket has drops the load at once, and ccx cut back to nothing on the first increment (the
-/// printed wall on the 3k demo: 384 N at the pose, an estimate of ~300 N).
-CcxOptions run_deck(DeckSpec& spec, const std::filesystem::path& dir, const std::string& job, const CcxOptions& ccx,
-                    DesignCheckResult& res) {
+/// Writes and runs the deck. A standing step that ended short of the load, or pushed the wrong way
+/// (CalculiX's donned socket carried more, or less, than socketsmith's), is run once more with the
+/// travel CalculiX's own reactions ask for (standing_retry_travel_m).
+CcxOptions run_deck(DeckSpec& spec, double stand_force_n, const std::filesystem::path& dir, const std::string& job,
+                    const CcxOptions& ccx, DesignCheckResult& res) {
   write_text_atomically(res.deck, write_deck(spec));
   CcxOptions co = ccx;
-  co.num_steps = spec.steps.axial_load_n > 0 ? 2 : 1;
+  co.num_steps = spec.steps.stand_travel_m != 0 ? 2 : 1;
   res.ccx = run_ccx(dir, job, co);
   res.ccx_runs = 1;
-  res.load_step_start_n = co.num_steps == 2 ? spec.steps.donning_force_n : 0.0;
-  if (!res.ccx.converged && co.num_steps == 2 && std::filesystem::exists(res.ccx.dat)) {
-    const double f1 = standing_restart_force_n(read_dat(res.ccx.dat), spec.steps);
-    if (std::isfinite(f1)) {
-      log::info("validate: CalculiX's standing step failed from {:.0f} N; again from its own step-1 reaction, {:.0f} N",
-                spec.steps.donning_force_n, f1);
-      spec.steps.donning_force_n = f1;
+  res.stand_travel_m = spec.steps.stand_travel_m;
+  if (co.num_steps == 2 && std::filesystem::exists(res.ccx.dat)) {
+    const StandingPose pose = standing_pose(read_dat(res.ccx.dat), stand_force_n, spec.steps.load_direction);
+    const double retry = pose.reached ? std::numeric_limits<double>::quiet_NaN()
+                                      : standing_retry_travel_m(pose, spec.steps.stand_travel_m, stand_force_n);
+    if (std::isfinite(retry)) {
+      log::info("validate: CalculiX's socket carried {:.0f} N donned and {:.0f} N {:+.2f} mm past that pose, not the "
+                "standing {:.0f} N; standing again with a push of {:+.2f} mm",
+                pose.donned_force_n, pose.last_force_n, pose.last_displacement_m * 1e3, stand_force_n, retry * 1e3);
+      spec.steps.stand_travel_m = retry;
       write_text_atomically(res.deck, write_deck(spec));
       res.ccx = run_ccx(dir, job, co);
       res.ccx_runs = 2;
-      res.load_step_start_n = f1;
+      res.stand_travel_m = retry;
     }
   }
   res.converged = res.ccx.converged;
@@ -365,16 +383,103 @@ CcxOptions run_deck(DeckSpec& spec, const std::filesystem::path& dir, const std:
   return co;
 }
 
+/// The fields CalculiX gives at increment @p inc, into @p res: displacements and the compared
+/// quantity (contact pressures or, Load mode, displacements).
+void read_increment(const DesignedStump& d, const DesignCheckOptions& o, const DeckSpec& spec, const FrdResults& frd,
+                    const std::vector<DatBlock>& dat, const ComparedIncrement& inc, DesignCheckResult& res) {
+  const int nn = d.mesh->num_nodes(), ns = static_cast<int>(d.skin->nodes.size());
+  const auto u1 = inc.disp->dense("D1", nn), u2 = inc.disp->dense("D2", nn), u3 = inc.disp->dense("D3", nn);
+  res.fe_displacement_m.resize(nn);
+  for (int k = 0; k < nn; ++k) res.fe_displacement_m[k] = Vec3(u1[k], u2[k], u3[k]);
+  res.socketsmith_value.assign(ns, 0.0);
+  res.fe_value.assign(ns, 0.0);
+  res.fe_penetration_m.assign(ns, 0.0);
+  if (o.mode != DesignCheckMode::Load)
+    compare_contact_pressures(d, o, spec.skin_faces, frd, dat, inc, res);
+  else
+    compare_displacements(d, dat, res);
+}
+
+/// @p a ← (1 − w) a + w b over the fields read_increment reads (a field one of them lacks is dropped).
+void interpolate_increments(DesignCheckResult& a, const DesignCheckResult& b, double w) {
+  const auto lerp = [w](auto& x, const auto& y) {
+    if (x.size() != y.size()) {
+      x.clear();
+      return;
+    }
+    for (size_t i = 0; i < x.size(); ++i) x[i] = (1 - w) * x[i] + w * y[i];
+  };
+  lerp(a.fe_displacement_m, b.fe_displacement_m);
+  lerp(a.fe_value, b.fe_value);
+  lerp(a.fe_penetration_m, b.fe_penetration_m);
+  lerp(a.fe_cpress_pa, b.fe_cpress_pa);
+  lerp(a.fe_stress_pressure_pa, b.fe_stress_pressure_pa);
+  lerp(a.fe_force_pressure_pa, b.fe_force_pressure_pa);
+  a.fe_force_n = (1 - w) * a.fe_force_n + w * b.fe_force_n;
+  a.max_penetration_m = a.fe_penetration_m.empty() ? 0.0 : *std::max_element(a.fe_penetration_m.begin(), a.fe_penetration_m.end());
+}
+
+bool is_reference_set(const DatBlock& b) {
+  return b.set.size() == 3 && std::toupper(static_cast<unsigned char>(b.set[0])) == 'R' &&
+         std::toupper(static_cast<unsigned char>(b.set[1])) == 'E' && std::toupper(static_cast<unsigned char>(b.set[2])) == 'F';
+}
+
+/// The reference node's value along @p direction in a printed block (its rows local to the node's
+/// *TRANSFORM when ccx says so: then the load is the local z).
+double along(const DatBlock& b, const Vec3& direction) {
+  const auto& r = b.rows[0];
+  return b.local ? r[3] : Vec3(r[1], r[2], r[3]).dot(direction);
+}
+
 }  // namespace
 
-double standing_restart_force_n(const std::vector<DatBlock>& dat, const FeSteps& steps) {
+StandingPose standing_pose(const std::vector<DatBlock>& dat, double load_n, const Vec3& direction) {
+  StandingPose p;
+  std::vector<std::array<double, 3>> series;  // time, force, displacement from step 1's end on
+  for (const auto& b : dat) {
+    if (b.time < 1.0 - 1e-9 || b.rows.empty() || b.rows[0].size() < 4 || !is_reference_set(b)) continue;
+    const bool force = b.title.starts_with("forces"), disp = b.title.starts_with("displacements");
+    if (!force && !disp) continue;
+    if (series.empty() || std::abs(series.back()[0] - b.time) > 1e-9)
+      series.push_back({b.time, std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN()});
+    series.back()[force ? 1 : 2] = along(b, direction);
+  }
+  std::erase_if(series, [](const auto& e) { return std::isnan(e[1]); });
+  if (series.empty() || std::abs(series[0][0] - 1.0) > 1e-9) return p;
+  p.donned_force_n = series[0][1];
+  p.last_time = series.back()[0];
+  p.last_force_n = series.back()[1];
+  p.last_displacement_m = std::isnan(series.back()[2]) || std::isnan(series[0][2]) ? 0.0 : series.back()[2] - series[0][2];
+  for (size_t i = 0; i < series.size() && !p.reached; ++i) {
+    const auto& a = series[i == 0 ? 0 : i - 1];
+    const auto& b = series[i];
+    const double fa = a[1] - load_n, fb = b[1] - load_n;
+    if (!(fa == 0 || fb == 0 || (fa < 0) != (fb < 0)) || (i == 0 && fa != 0)) continue;
+    p.reached = true;
+    p.time_a = a[0];
+    p.time_b = b[0];
+    p.weight = fa == fb ? 0.0 : fa / (fa - fb);
+    const double ua = std::isnan(a[2]) ? 0.0 : a[2], ub = std::isnan(b[2]) ? 0.0 : b[2];
+    p.displacement_m = (1 - p.weight) * ua + p.weight * ub - (std::isnan(series[0][2]) ? 0.0 : series[0][2]);
+  }
+  return p;
+}
+
+double standing_retry_travel_m(const StandingPose& p, double travel_m, double load_n) {
   const double none = std::numeric_limits<double>::quiet_NaN();
-  const DatBlock* b = block_at(dat, "forces", "REF", 1.0);
-  if (steps.axial_load_n <= 0 || !b || b->rows.empty() || b->rows[0].size() < 4) return none;
-  // In the reference node's local system (a socket axis off the global z) the load is its local z
-  // (calculix_deck: the REF transform); otherwise along the load direction.
-  const double f1 = b->local ? b->rows[0][3] : Vec3(b->rows[0][1], b->rows[0][2], b->rows[0][3]).dot(steps.load_direction);
-  return f1 > 0 && std::abs(f1 - steps.donning_force_n) > 0.02 * steps.axial_load_n ? f1 : none;
+  if (std::isnan(p.donned_force_n) || travel_m == 0 || p.reached) return none;
+  const double need = load_n - p.donned_force_n;  // pushing on (> 0) raises the reaction
+  const double pushed = p.last_time > 1.0 ? p.last_displacement_m : 0.0;
+  if ((need > 0) != (travel_m > 0)) {
+    // The wrong way: as far as the step's own stiffness asks for, else as far as the first push.
+    const double k = std::abs(pushed) > 0 ? std::abs(p.last_force_n - p.donned_force_n) / std::abs(pushed) : 0.0;
+    const double reach = k > 0 ? std::max(std::abs(travel_m), 1.5 * std::abs(need) / k) : std::abs(travel_m);
+    return std::copysign(reach, need);
+  }
+  if (p.last_time < 2.0 - 1e-6) return none;  // ccx gave up on the way: it would again
+  const double gained = p.last_force_n - p.donned_force_n;
+  const double factor = gained * need > 0 ? std::clamp(1.5 * need / gained, 1.5, 4.0) : 2.0;
+  return factor * travel_m;
 }
 
 constexpr EnumName<DesignCheckMode> kCheckModes[] = {
@@ -429,29 +534,46 @@ DesignCheckResult check_design(const DesignedStump& d, const DesignCheckOptions&
   }
   ensure_directory(dir);
   res.deck = dir / (job + ".inp");
-  const CcxOptions co = run_deck(spec, dir, job, o.ccx, res);
+  const CcxOptions co = run_deck(spec, o.stand_force_n, dir, job, o.ccx, res);
 
   FrdResults frd;
   if (std::filesystem::exists(res.ccx.frd)) frd = read_frd(res.ccx.frd);
   std::vector<DatBlock> dat;
   if (std::filesystem::exists(res.ccx.dat)) dat = read_dat(res.ccx.dat);
-  const ComparedIncrement inc = compared_increment(frd, dat, contact, res.ccx.message);
-  if (!res.converged)
-    res.message = fmt::format("PARTIAL results (step {}, time {:.3f} of {}): {}", inc.disp->step, inc.disp->time,
-                              co.num_steps, res.ccx.message);
-  const int nn = mesh.num_nodes();
-  {
-    const auto u1 = inc.disp->dense("D1", nn), u2 = inc.disp->dense("D2", nn), u3 = inc.disp->dense("D3", nn);
-    res.fe_displacement_m.resize(nn);
-    for (int k = 0; k < nn; ++k) res.fe_displacement_m[k] = Vec3(u1[k], u2[k], u3[k]);
+  const StandingPose pose = co.num_steps == 2 ? standing_pose(dat, o.stand_force_n, spec.steps.load_direction) : StandingPose{};
+  if (pose.reached) {
+    // CalculiX standing: between the two increments whose reactions bracket the load.
+    read_increment(d, o, spec, frd, dat, compared_increment(frd, dat, contact, res.ccx.message, pose.time_a), res);
+    DesignCheckResult b;
+    read_increment(d, o, spec, frd, dat, compared_increment(frd, dat, contact, res.ccx.message, pose.time_b), b);
+    interpolate_increments(res, b, pose.weight);
+    res.stood = true;
+    res.stand_offset_m = pose.displacement_m;
+    res.stand_reached_force_n = o.stand_force_n;
+    if (!res.converged)
+      res.message = fmt::format("stood at {:.0f} N {:+.2f} mm past the designed pose; ccx stopped beyond it (time {:.3f} of 2): {}",
+                                o.stand_force_n, pose.displacement_m * 1e3, pose.last_time, res.ccx.message);
+    res.converged = true;
+  } else {
+    const ComparedIncrement inc = compared_increment(frd, dat, contact, res.ccx.message);
+    if (!res.converged)
+      res.message = fmt::format("PARTIAL results (step {}, time {:.3f} of {}): {}", inc.disp->step, inc.disp->time,
+                                co.num_steps, res.ccx.message);
+    else if (co.num_steps == 2) {
+      res.converged = false;
+      res.message = fmt::format("PARTIAL results: CalculiX's socket carries {:.0f} N at its furthest pose ({:+.2f} mm "
+                                "past the designed pose), not the standing {:.0f} N (donned: {:.0f} N)",
+                                pose.last_force_n, pose.last_displacement_m * 1e3, o.stand_force_n, pose.donned_force_n);
+    }
+    read_increment(d, o, spec, frd, dat, inc, res);
   }
-  res.socketsmith_value.assign(ns, 0.0);
-  res.fe_value.assign(ns, 0.0);
-  res.fe_penetration_m.assign(ns, 0.0);
-  if (contact)
-    compare_contact_pressures(d, o, spec.skin_faces, frd, dat, inc, res);
-  else
-    compare_displacements(d, dat, res);
+  if (co.num_steps == 2) {
+    res.donned_force_n = pose.donned_force_n;
+    if (!pose.reached) {
+      res.stand_offset_m = pose.last_displacement_m;
+      res.stand_reached_force_n = pose.last_force_n;
+    }
+  }
   compare_regions(skin, adj, contact, res);
   compare_paths(d, res);
   return res;

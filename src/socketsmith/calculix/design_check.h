@@ -21,6 +21,7 @@
 ///   total applied force vs the bones' reaction.
 
 #include <filesystem>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -89,10 +90,17 @@ struct DesignCheckOptions {
   double clearance_m = 1e-3;           ///< start of the fit outside the rest skin [m], > 0
   double socket_thickness_m = 3e-3;    ///< the rigid layer [m], > 0
   double donning_travel_m = 0.03;      ///< Donning: start this far distally along the axis [m], > 0
-  /// Donning: > 0 adds the thesis's second step, the socket pushed up the axis with this force [N]
-  /// (half the body weight), its amplitude starting at donning_force_n so the reaction does not drop.
+  /// Donning: > 0 adds the thesis's second step, standing with this force on the socket [N] (half
+  /// the body weight): the socket is moved on by stand_travel_m along the axis under displacement
+  /// control, and CalculiX's standing state is the one interpolated between the two increments whose
+  /// reactions bracket this force (StandingPose).
   double stand_force_n = 0.0;
-  double donning_force_n = 0.0;        ///< estimate of the step-1 axial reaction [N], ≥ 0
+  /// The standing step's push past the donned pose [m], signed (> 0: further onto the stump; < 0: a
+  /// socket that carries more than the load when donned comes back down), ≠ 0 with a standing force.
+  /// Estimate it beyond the pose of the load (the validation: twice socketsmith's own standing travel):
+  /// a push that ends short of the load, or goes the wrong way, is run once more with a travel
+  /// from CalculiX's own reactions (standing_retry_travel_m).
+  double stand_travel_m = 0.0;
   double initial_increment = 0.05;
   double max_increment = 0.1;
   FePressure fe_pressure = FePressure::NodalForce;
@@ -128,7 +136,7 @@ struct DesignCheckResult {
   FePressure fe_pressure = FePressure::NodalForce;  ///< the one compared
   /// Socket nodes, each FE pressure against socketsmith (whichever is compared).
   report::ErrorStats all_cpress, all_stress, all_force;
-  std::vector<Vec3> fe_displacement_m;    ///< per mesh node (last increment)
+  std::vector<Vec3> fe_displacement_m;    ///< per mesh node (the compared state)
   std::vector<int> brim_ring;             ///< per skin node: rings of quads from the brim (0 = above)
   report::ErrorStats all;                         ///< socket nodes (ring ≥ 1)
   report::ErrorStats one_ring_away;               ///< ring ≥ 2
@@ -147,18 +155,39 @@ struct DesignCheckResult {
   std::filesystem::path deck;
   bool converged = false;
   std::string message;                    ///< ccx's message (partial results when not converged)
-  /// Where the standing step's load ramp started [N] (DesignCheckOptions::donning_force_n, or
-  /// CalculiX's own step-1 reaction when the first try's step 2 failed from the estimate; 0: no
-  /// standing step).
-  double load_step_start_n = 0;
-  int ccx_runs = 0;                       ///< 2 when step 2 was run again from CalculiX's own reaction
+  // The standing step (DesignCheckOptions::stand_force_n > 0):
+  bool stood = false;                     ///< CalculiX's reaction reached the standing load: compared there
+  double donned_force_n = 0;              ///< CalculiX's axial reaction at the end of donning [N]
+  double stand_travel_m = 0;              ///< the push of the (last) run's step 2 past the donned pose [m]
+  /// CalculiX's pose at the standing load, along the axis past the designed pose [m]; when not stood,
+  /// its furthest pose, where it carried stand_reached_force_n.
+  double stand_offset_m = 0;
+  double stand_reached_force_n = 0;       ///< the axial reaction compared [N]: the load when stood
+  int ccx_runs = 0;                       ///< 2 when step 2 was run again with a travel from CalculiX's reactions
 };
 
-/// Where a failed standing step should start its load ramp when run again [N]: CalculiX's own axial
-/// reaction at the end of step 1 (the REF node's forces at time 1 in @p dat, along
-/// steps.load_direction), when step 1 ended with a positive reaction more than 2 % of the load
-/// away from steps.donning_force_n, the ramp's start that failed; else NaN (no rerun would differ).
-double standing_restart_force_n(const std::vector<DatBlock>& dat, const FeSteps& steps);
+/// CalculiX's standing step read from the reference node's printed reactions and displacements:
+/// where the reaction along the load direction reaches the load.
+struct StandingPose {
+  double donned_force_n = std::numeric_limits<double>::quiet_NaN();  ///< at the end of step 1 (time 1); NaN: it never ended
+  double last_time = 0;           ///< the furthest increment printed (total time; > 1 in step 2)
+  double last_force_n = 0;        ///< its reaction [N]
+  double last_displacement_m = 0;  ///< its reference node's displacement along the load direction [m]
+  bool reached = false;           ///< two increments bracket the load (step 1's end counts)
+  double time_a = 0, time_b = 0;  ///< those increments' total times (the first crossing)
+  double weight = 0;              ///< of increment b, in [0, 1]: the state at the load is (1 − w) a + w b
+  double displacement_m = 0;      ///< the reference node's displacement along the load at the load [m]
+};
+/// @p dat's reference node (set REF) in step 2 against @p load_n along the unit @p direction.
+StandingPose standing_pose(const std::vector<DatBlock>& dat, double load_n, const Vec3& direction);
+
+/// The standing travel to run step 2 again with [m] when @p pose did not reach @p load_n after a
+/// push of @p travel_m: the other way when the donned socket already carried more (less) than the
+/// load and the push went further on (back), as far as CalculiX's stiffness in the step asks for,
+/// times 1.5; further the same way when the push ran to its end short of the load (the gain
+/// extrapolated, times 1.5: 1.5 to 4 times the travel). NaN when a rerun would not help: step 1
+/// never ended, or step 2 stopped (ccx gave up) short of the load on its way.
+double standing_retry_travel_m(const StandingPose& pose, double travel_m, double load_n);
 
 /// Writes <dir>/<job>.inp, runs ccx, reads and compares. When ccx fails after some increments,
 /// the last converged increment is compared and the result says so (converged = false).

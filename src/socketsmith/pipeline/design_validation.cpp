@@ -207,6 +207,16 @@ nlohmann::json write_comparison_files(const DesignValidation& v, bool against_do
   return paths_json;
 }
 
+}  // namespace
+
+double calculix_stand_travel_m(const contact::DonningResult& ours) {
+  require(ours.stood && ours.series.size() >= 2, "validate: socketsmith's donning did not stand ({})", ours.message);
+  const double s = 3.0 * (ours.series.back().offset_m - ours.series[ours.series.size() - 2].offset_m);
+  return std::abs(s) >= 0.5e-3 ? s : std::copysign(0.5e-3, s);
+}
+
+namespace {
+
 /// CalculiX's check of @p v's socket as the flags @p o ask.
 calculix::DesignCheckOptions check_options(const design::CaseFile& c, const DesignValidationOptions& o,
                                            const calculix::FeMaterial& material, const DesignValidation& v) {
@@ -221,7 +231,7 @@ calculix::DesignCheckOptions check_options(const design::CaseFile& c, const Desi
   co.initial_increment = o.initial_increment;
   co.donning_travel_m = o.travel_m;
   co.stand_force_n = v.stand_force_n;
-  co.donning_force_n = v.donning_force_n;
+  if (v.stand_force_n > 0) co.stand_travel_m = calculix_stand_travel_m(*v.donning);
   co.max_increment = std::max(0.1, o.initial_increment);
   co.fe_pressure = o.fe_pressure;
   co.nonlinear_geometry = !o.small_strain;
@@ -265,9 +275,9 @@ void design_and_don(const design::CaseFile& c, const DesignValidationOptions& o,
   if (!o.against_donning && !o.stand) return;
   run_own_donning(c, o, v);
   if (o.stand && v.donning->series.size() >= 2) {
-    // The FE's load step starts from the donning force at the designed pose (socketsmith's estimate).
+    const auto& series = v.donning->series;
     v.stand_force_n = 0.5 * c.patient.body_mass_kg * units::kGravity;
-    v.donning_force_n = std::max(0.0, v.donning->series[v.donning->series.size() - 2].axial_force_n);
+    v.socketsmith_stand_offset_m = series.back().offset_m - series[series.size() - 2].offset_m;
   }
   if (o.against_donning) use_donning_pressures(*v.donning, v.stump);
 }
@@ -301,7 +311,12 @@ nlohmann::json validation_summary(const design::CaseFile& c, const DesignValidat
                    {"against_donning", o.against_donning},
                    {"socketsmith_body", ours_linear ? "linearised" : "nonlinear"},
                    {"stand_force_n", v.stand_force_n},
-                   {"fe_load_step_starts_at_n", r.load_step_start_n},
+                   {"fe_stood", r.stood},
+                   {"fe_donned_force_n", r.donned_force_n},
+                   {"fe_stand_travel_mm", r.stand_travel_m * 1e3},
+                   {"fe_stand_offset_mm", r.stand_offset_m * 1e3},
+                   {"fe_stand_force_reached_n", r.stand_reached_force_n},
+                   {"socketsmith_stand_offset_mm", v.socketsmith_stand_offset_m * 1e3},
                    {"ccx_runs", r.ccx_runs},
                    {"designed_force_n", r.designed_force_n},
                    {"fe_force_n", r.fe_force_n},
@@ -389,8 +404,9 @@ DesignValidation validate_design(const design::CaseFile& c, const DesignValidati
   v.check_options = check_options(c, o, material, v);
   const calculix::DesignCheckOptions& co = v.check_options;
   if (v.stand_force_n > 0)
-    log::info("validate donning: CalculiX step 2 pushes the socket with {:.1f} N (from {:.1f} N, socketsmith's donning "
-              "force)", v.stand_force_n, v.donning_force_n);
+    log::info("validate donning: CalculiX step 2 pushes the socket {:+.2f} mm past the designed pose and stands where "
+              "it carries {:.1f} N (socketsmith stood {:+.2f} mm past it)", co.stand_travel_m * 1e3, v.stand_force_n,
+              v.socketsmith_stand_offset_m * 1e3);
   log::info("validate design: CalculiX {} check ({} nodes, {} elements, {}, {}, ν {}, {})", to_string(co.mode),
             mesh.num_nodes(), mesh.num_hexahedra(), to_string(co.element),
             material.is_neo_hookean ? "neo-Hookean" : "linear elastic", material.poisson_ratio,

@@ -71,10 +71,17 @@ struct DesignValidation {
   std::optional<contact::DonningResult> donning;  ///< socketsmith's own (against_donning or stand)
   bool donning_from_closed_loop = false;  ///< the closed loop's kept donning, not one run here
   double stand_force_n = 0.0;           ///< CalculiX's step 2 force [N] (0 without stand)
-  double donning_force_n = 0.0;         ///< where CalculiX's step 2 starts [N]
+  double socketsmith_stand_offset_m = 0.0;  ///< socketsmith's stood pose past the designed pose [m]
   double socketsmith_wall_s = 0.0;      ///< the whole design run [s]
   nlohmann::json summary;               ///< summary.json
 };
+
+/// The push CalculiX's standing step is given past the donned pose [m] (calculix::DesignCheckOptions::
+/// stand_travel_m) from socketsmith's own donning and standing @p ours: three times socketsmith's standing
+/// travel, at least 0.5 mm (CalculiX's tissue stood softer on the thigh, stiffer under the printed
+/// wall of the 3k demo; a push that falls short is run again from CalculiX's own reactions).
+/// @throws InvalidInputError when @p ours did not stand.
+double calculix_stand_travel_m(const contact::DonningResult& ours);
 
 /// Designs @p c into @p out/design, checks it in CalculiX and writes the comparison into @p out.
 /// A CalculiX run that stops after some increments is compared on its last converged increment
