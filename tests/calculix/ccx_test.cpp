@@ -9,6 +9,8 @@
 #include "socketsmith/core/errors.h"
 #include "socketsmith/calculix/ccx_runner.h"
 #include "socketsmith/calculix/cube_validation.h"
+#include "socketsmith/calculix/design_check.h"
+#include "socketsmith/volume/box_mesher.h"
 
 namespace socketsmith::calculix {
 namespace {
@@ -68,6 +70,53 @@ TEST(CcxRunner, a_relative_executable_path_runs_from_the_job_folder) {
   EXPECT_EQ(fs::path(found), (base / "bin" / "fake_ccx").lexically_normal());
   EXPECT_TRUE(run.converged) << run.message;
   EXPECT_EQ(run.exit_code, 0) << run.message;
+}
+
+/// A stand-in ccx (a shell script) that answers as ccx does when it stops inside step 1 after one
+/// increment (exit 255, as its factorisation did on OpenLimb's transtibial donning), recording the
+/// *STATIC line of every deck it is given.
+fs::path ccx_stopping_in_step_one(const fs::path& dir) {
+  const fs::path exe = dir / "fake_ccx";
+  write_text_atomically(exe, "#!/bin/sh\n"
+                             "grep -A1 '^\\*STATIC' \"$2.inp\" | sed -n 2p >> statics.txt\n"
+                             "echo ' STEP 1'\necho ' increment 1 attempt 1'\necho ' actual step time=0.05'\n"
+                             "echo ' convergence'\necho ' increment 2 attempt 1'\nexit 255\n");
+  fs::permissions(exe, fs::perms::owner_all);
+  return exe;
+}
+
+// A donning that ccx gives up on its way is run once more with increments half as long, once.
+TEST(DesignCheck, a_first_step_stopped_on_its_way_runs_again_with_shorter_increments) {
+  const auto dir = work_dir("step1_retry");
+  volume::BoxMeshOptions bo;
+  bo.size = Vec3(0.02, 0.02, 0.04);
+  bo.divisions = {2, 2, 4};
+  const volume::HexMesh mesh = volume::mesh_box(bo);
+  const volume::SkinSurface skin = volume::extract_skin_surface(mesh);
+  DesignedStump d;
+  d.mesh = &mesh;
+  d.skin = &skin;
+  for (int k = 0; k < mesh.num_nodes(); ++k)
+    if (mesh.nodes[k].z() < 1e-9) d.fixed_nodes.push_back(k);
+  d.designed_positions = mesh.nodes;
+  d.pressure_pa.assign(skin.nodes.size(), 0.0);
+  d.skin_normals = skin.normal;
+  d.skin_areas_m2 = skin.area_m2;
+  d.above_brim.assign(skin.nodes.size(), 0);
+  d.stump_length_m = 0.04;
+  DesignCheckOptions o;
+  o.mode = DesignCheckMode::Donning;
+  o.stand_force_n = 343.2;
+  o.stand_travel_m = 0.002;
+  o.ccx.executable = ccx_stopping_in_step_one(dir).string();
+  EXPECT_THROW(check_design(d, o, dir, "box"), SolverError);  // no increment written at all
+  std::ifstream in(dir / "statics.txt");
+  std::string first, second, third;
+  std::getline(in, first);
+  std::getline(in, second);
+  EXPECT_EQ(first, "0.05, 1., 1e-05, 0.1");
+  EXPECT_EQ(second, "0.025, 1., 1e-05, 0.025");
+  EXPECT_FALSE(std::getline(in, third)) << "a third run: " << third;
 }
 
 TEST(CcxRunner, a_rejected_deck_is_reported_with_the_log_error_line) {

@@ -262,8 +262,9 @@ TEST(DesignCheckValidation, the_closed_loop_socket_donned_and_stood_on_in_calcul
   // (NEO HOOKE twin, ν 0.45, NLGEOM): CalculiX's pressures against the design and against
   // socketsmith's own donned-and-stood pressures. The default design (template-following PTB),
   // 2026-11-26: at 3k nodes, 4 donnings, CalculiX vs design MAE 1.19 kPa, p99 10.0, R 0.955 (means
-  // 12.29 / 11.71 kPa); here, 1.8k nodes, 2 donnings: MAE 1.18 kPa, p99 6.03, R 0.970 (means 12.44 /
-  // 11.87); CalculiX vs socketsmith MAE 1.25 kPa, R 0.940; socketsmith's open loop MAE 3.45, R 0.829.
+  // 12.29 / 11.71 kPa); here, 1.8k nodes, 2 donnings (standing under displacement control, 2026-11-30): MAE
+  // 1.14 kPa, p99 6.08, R 0.971 (means 12.39 / 11.87); CalculiX vs socketsmith MAE 1.25 kPa, R 0.938;
+  // socketsmith's open loop MAE 3.45, R 0.830.
   // Bars: issue 20's MAE (1.5 kPa) and, with a margin under the measured value, its R.
   design::CaseFile c = pipeline::demo_case(1800);
   c.model = "neo-hookean";
@@ -330,9 +331,10 @@ TEST(DesignCheckValidation, the_closed_loop_socket_donned_and_stood_on_in_calcul
 }
 
 // StandValidation (below) reduced for the default test run, which runs DesignCheckValidation.*: the
-// same two steps on the sample at 600 nodes (49 s of CPU, ccx included). Measured: 604 nodes, R 0.904, MAE
-// 1.46 kPa, means 12.59 (CalculiX) / 11.76 kPa, bone reaction 343.5 N, penetration 0.19 mm; the bars
-// are these with a margin, the reaction against M g / 2 of the sample's 70 kg.
+// same two steps on the sample at 600 nodes (49 s of CPU, ccx included). Measured (standing under
+// displacement control, 2026-11-30): 604 nodes, R 0.896, MAE 1.51 kPa, means 12.60 (CalculiX) / 11.75
+// kPa, contact force 343.5 N at the interpolated standing pose, penetration 0.20 mm; the bars are these
+// with a margin, the force against M g / 2 of the sample's 70 kg.
 TEST(DesignCheckValidation, reduced_the_fe_models_donning_and_standing_agree_with_a_small_strain_calculix) {
   const auto r = donning_against_calculix("stand_fe_600", 600, "fe", 0.5, true, 0.45, true, true);
   ASSERT_TRUE(r.converged) << r.message;
