@@ -289,6 +289,10 @@ TEST(DesignCheckValidation, the_closed_loop_socket_donned_and_stood_on_in_calcul
   o.stand_travel_m = pipeline::calculix_stand_travel_m(loop.donning);
   const auto r = check_design(d, o, run_dir("closed_loop_nh_1800_fe"));
   ASSERT_TRUE(r.converged) << r.message;
+  EXPECT_TRUE(r.stood);
+  std::printf("[ info ] CalculiX stood the socket %.2f mm past the designed pose (push %.2f mm, %d ccx run(s)); "
+              "socketsmith %.2f mm\n", r.stand_offset_m * 1e3, r.stand_travel_m * 1e3, r.ccx_runs,
+              (loop.donning.series.back().offset_m - loop.donning.series.at(loop.donning.series.size() - 2).offset_m) * 1e3);
   EXPECT_NEAR(r.fe_force_n, o.stand_force_n, 0.02 * o.stand_force_n);
   std::vector<int> socket_nodes;
   for (size_t i = 0; i < r.brim_ring.size(); ++i)
@@ -338,6 +342,11 @@ TEST(DesignCheckValidation, the_closed_loop_socket_donned_and_stood_on_in_calcul
 TEST(DesignCheckValidation, reduced_the_fe_models_donning_and_standing_agree_with_a_small_strain_calculix) {
   const auto r = donning_against_calculix("stand_fe_600", 600, "fe", 0.5, true, 0.45, true, true);
   ASSERT_TRUE(r.converged) << r.message;
+  // CalculiX reached the standing load on its push and is compared there (not at the push's end).
+  EXPECT_TRUE(r.stood);
+  EXPECT_DOUBLE_EQ(r.stand_reached_force_n, 0.5 * 70.0 * units::kGravity);
+  EXPECT_GT(r.stand_offset_m, 0.0);
+  EXPECT_LT(r.stand_offset_m, r.stand_travel_m);
   const double half_weight = 0.5 * 70.0 * units::kGravity;
   std::printf("[ info ] fe model, donning + standing vs small-strain CalculiX, %d nodes: MAE %.2f kPa, R %.3f, "
               "reaction %.1f N (M g / 2 = %.1f N), means %.2f / %.2f kPa, penetration %.2f mm\n",
