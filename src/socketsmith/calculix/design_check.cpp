@@ -1,7 +1,6 @@
 #include "socketsmith/calculix/design_check.h"
 
 #include <algorithm>
-#include <cctype>
 #include <cmath>
 #include <deque>
 #include <limits>
@@ -365,14 +364,17 @@ bool stopped_in_first_step(const CcxRun& run) {
 /// load, or pushed the wrong way (CalculiX's donned socket carried more, or less, than
 /// socketsmith's), is run once more with the travel CalculiX's own reactions ask for
 /// (standing_retry_travel_m).
+/// The last run's .dat is returned in @p dat and, with a standing step, its standing pose in @p pose.
 CcxOptions run_deck(DeckSpec& spec, double stand_force_n, const std::filesystem::path& dir, const std::string& job,
-                    const CcxOptions& ccx, DesignCheckResult& res) {
+                    const CcxOptions& ccx, DesignCheckResult& res, std::vector<DatBlock>& dat, StandingPose& pose) {
   CcxOptions co = ccx;
   co.num_steps = spec.steps.stand_travel_m != 0 ? 2 : 1;
   const auto run = [&] {
     write_text_atomically(res.deck, write_deck(spec));
     res.ccx = run_ccx(dir, job, co);
     ++res.ccx_runs;
+    dat = std::filesystem::exists(res.ccx.dat) ? read_dat(res.ccx.dat) : std::vector<DatBlock>{};
+    pose = co.num_steps == 2 ? standing_pose(dat, stand_force_n, spec.steps.load_direction) : StandingPose{};
   };
   run();
   if (stopped_in_first_step(res.ccx)) {
@@ -384,10 +386,8 @@ CcxOptions run_deck(DeckSpec& spec, double stand_force_n, const std::filesystem:
     run();
   }
   res.stand_travel_m = spec.steps.stand_travel_m;
-  if (co.num_steps == 2 && std::filesystem::exists(res.ccx.dat)) {
-    const StandingPose pose = standing_pose(read_dat(res.ccx.dat), stand_force_n, spec.steps.load_direction);
-    const double retry = pose.reached ? std::numeric_limits<double>::quiet_NaN()
-                                      : standing_retry_travel_m(pose, spec.steps.stand_travel_m, stand_force_n);
+  if (co.num_steps == 2 && !pose.reached) {
+    const double retry = standing_retry_travel_m(pose, spec.steps.stand_travel_m, stand_force_n);
     if (std::isfinite(retry)) {
       log::info("validate: CalculiX's socket carried {:.0f} N donned and {:.0f} N {:+.2f} mm past that pose, not the "
                 "standing {:.0f} N; standing again with a push of {:+.2f} mm",
@@ -492,13 +492,12 @@ DesignCheckResult check_design(const DesignedStump& d, const DesignCheckOptions&
   }
   ensure_directory(dir);
   res.deck = dir / (job + ".inp");
-  const CcxOptions co = run_deck(spec, o.stand_force_n, dir, job, o.ccx, res);
+  std::vector<DatBlock> dat;
+  StandingPose pose;
+  const CcxOptions co = run_deck(spec, o.stand_force_n, dir, job, o.ccx, res, dat, pose);
 
   FrdResults frd;
   if (std::filesystem::exists(res.ccx.frd)) frd = read_frd(res.ccx.frd);
-  std::vector<DatBlock> dat;
-  if (std::filesystem::exists(res.ccx.dat)) dat = read_dat(res.ccx.dat);
-  const StandingPose pose = co.num_steps == 2 ? standing_pose(dat, o.stand_force_n, spec.steps.load_direction) : StandingPose{};
   if (pose.reached) {
     // CalculiX standing: between the two increments whose reactions bracket the load.
     read_increment(d, o, spec, frd, dat, compared_increment(frd, dat, contact, res.ccx.message, pose.time_a), res);

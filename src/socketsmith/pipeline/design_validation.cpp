@@ -209,9 +209,13 @@ nlohmann::json write_comparison_files(const DesignValidation& v, bool against_do
 
 }  // namespace
 
-double calculix_stand_travel_m(const contact::DonningResult& ours) {
+double stand_offset_m(const contact::DonningResult& ours) {
   require(ours.stood && ours.series.size() >= 2, "validate: socketsmith's donning did not stand ({})", ours.message);
-  const double s = 3.0 * (ours.series.back().offset_m - ours.series[ours.series.size() - 2].offset_m);
+  return ours.series.back().offset_m - ours.series[ours.series.size() - 2].offset_m;
+}
+
+double calculix_stand_travel_m(const contact::DonningResult& ours) {
+  const double s = 3.0 * stand_offset_m(ours);
   return std::abs(s) >= 0.5e-3 ? s : std::copysign(0.5e-3, s);
 }
 
@@ -275,9 +279,8 @@ void design_and_don(const design::CaseFile& c, const DesignValidationOptions& o,
   if (!o.against_donning && !o.stand) return;
   run_own_donning(c, o, v);
   if (o.stand && v.donning->series.size() >= 2) {
-    const auto& series = v.donning->series;
     v.stand_force_n = 0.5 * c.patient.body_mass_kg * units::kGravity;
-    v.socketsmith_stand_offset_m = series.back().offset_m - series[series.size() - 2].offset_m;
+    v.socketsmith_stand_offset_m = stand_offset_m(*v.donning);
   }
   if (o.against_donning) use_donning_pressures(*v.donning, v.stump);
 }

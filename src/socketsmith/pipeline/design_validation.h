@@ -76,11 +76,14 @@ struct DesignValidation {
   nlohmann::json summary;               ///< summary.json
 };
 
+/// Where socketsmith's donning @p ours stood the socket: its standing pose past the donned (designed)
+/// one along the axis [m]. @throws InvalidInputError when @p ours did not stand.
+double stand_offset_m(const contact::DonningResult& ours);
+
 /// The push CalculiX's standing step is given past the donned pose [m] (calculix::DesignCheckOptions::
-/// stand_travel_m) from socketsmith's own donning and standing @p ours: three times socketsmith's standing
-/// travel, at least 0.5 mm (CalculiX's tissue stood softer on the thigh, stiffer under the printed
-/// wall of the 3k demo; a push that falls short is run again from CalculiX's own reactions).
-/// @throws InvalidInputError when @p ours did not stand.
+/// stand_travel_m): three times stand_offset_m(@p ours), at least 0.5 mm (CalculiX stood OpenLimb's
+/// sockets 1.4–1.8 times as far, the 3k demo's printed wall barely at all; a push that falls short is
+/// run again from CalculiX's own reactions). @throws as stand_offset_m.
 double calculix_stand_travel_m(const contact::DonningResult& ours);
 
 /// Designs @p c into @p out/design, checks it in CalculiX and writes the comparison into @p out.
