@@ -5,6 +5,7 @@
 #include <cmath>
 #include <iostream>
 #include <numbers>
+#include <vector>
 
 #include "socketsmith/contact/rigid_socket.h"
 #include "socketsmith/core/errors.h"
@@ -166,6 +167,58 @@ TEST(RigidSocket, smoothed_wall_follows_the_facets_and_turns_smoothly_across_the
     EXPECT_NEAR(dir.dot(g.stiffness_shape * dir), std::pow(g.gradient_norm * g.normal.dot(dir), 2), 1e-9);
   }
   EXPECT_NEAR(g.gradient_norm, 1.0, 0.05);
+}
+
+// A socket designed on a stump has its wall's vertices where the skin's nodes are: the smoothed
+// wall fitted to those nodes' footprints gives the nodes the facets' gap (what CalculiX and the
+// printed socket give them), where the wall through the facets on average lies a sagitta inside
+// the facets at the vertices and pressed the nodes a third harder (docs/contact.md).
+TEST(RigidSocket, smoothed_wall_fitted_to_the_skin_gives_its_nodes_the_facets_gap) {
+  const double ri = 0.05, H = 0.2;
+  const int seg = 24;
+  RigidSocket s(ringed_pipe(ri, 0.055, H, seg, 20), z_frame());
+  const double dphi = 2 * std::numbers::pi / seg, sagitta = ri * (1 - std::cos(dphi / 2));
+  const auto at = [&](double r, double phi, double z) { return Vec3(r * std::cos(phi), r * std::sin(phi), z); };
+  // Skin nodes at rest 1 mm outside the wall, at its vertices' angles and heights.
+  std::vector<Vec3> skin;
+  for (int k = 0; k < seg; ++k)
+    for (int r = 4; r <= 16; ++r) skin.push_back(at(ri + 0.001, dphi * k, H * r / 20));
+  const auto worst = [&](const std::vector<Vec3>& points) {
+    double mean = 0, most = 0;
+    for (const Vec3& p : points) {
+      s.set_smooth_wall(false);
+      const double f = s.gap(p).gap_m;
+      s.set_smooth_wall(true);
+      const Gap g = s.gap(p);
+      EXPECT_TRUE(g.valid);
+      mean += (g.gap_m - f) / static_cast<double>(points.size());
+      most = std::max(most, std::abs(g.gap_m - f));
+    }
+    return std::pair{mean, most};
+  };
+  // Through the facets on average: a node at a vertex is inside the smoothed wall by most of a sagitta.
+  const auto [mean0, most0] = worst(skin);
+  EXPECT_LT(mean0, -0.5 * sagitta) << "sagitta " << sagitta;
+  s.fit_smooth_wall_to(skin);
+  const auto [mean1, most1] = worst(skin);
+  EXPECT_LT(std::abs(mean1), 0.05 * sagitta) << "sagitta " << sagitta;
+  EXPECT_LT(most1, 0.15 * sagitta) << "sagitta " << sagitta;
+  // Nodes in the middle of the facets now find the smoothed wall outside them (the price), by
+  // less than a sagitta and a half.
+  std::vector<Vec3> between;
+  for (int k = 0; k < seg; ++k) between.push_back(at(ri + 0.001, dphi * (k + 0.5), 0.1));
+  const auto [mean2, most2] = worst(between);
+  EXPECT_GT(mean2, 0.0);
+  EXPECT_LT(most2, 1.5 * sagitta);
+  std::cout << "sagitta " << sagitta * 1e3 << " mm; smoothed minus faceted gap at the nodes, mean / largest: " << mean0 * 1e3
+            << " / " << most0 * 1e3 << " mm through the facets on average, " << mean1 * 1e3 << " / " << most1 * 1e3
+            << " fitted; between the nodes " << mean2 * 1e3 << " / " << most2 * 1e3 << "\n";
+  // A wall corrected while it is worn keeps the fit.
+  s.replace_solid(ringed_pipe(ri, 0.055, H, seg, 20));
+  EXPECT_NEAR(worst(skin).first, mean1, 1e-12);
+  // Nodes far from the wall do not count: the wall stays through the facets on average.
+  s.fit_smooth_wall_to({Vec3(0, 0, 0.1)});
+  EXPECT_NEAR(worst(skin).first, mean0, 1e-12);
 }
 
 // A coarse, strongly curved wall (a hexagonal pipe: its facets' normals 60° apart, each vertex's

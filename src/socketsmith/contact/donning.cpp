@@ -80,6 +80,12 @@ struct DonningSimulation::Impl {
         socket(solid, limb_frame, o.socket_density_kg_m3), dofs(tissue::fixed_node_dofs(m.mesh(), "donning")),
         skin_nodes(nodes) {
     socket.set_smooth_wall(o.smooth_wall);
+    if (o.smooth_wall) {  // fitted to the facets where this skin touches them (rigid_socket.h)
+      std::vector<Vec3> rest;
+      rest.reserve(nodes.size());
+      for (const int n : nodes) rest.push_back(m.mesh().nodes[n]);
+      socket.fit_smooth_wall_to(std::move(rest));
+    }
     ContactOptions co = o.contact;
     co.friction = o.friction;
     socket.set_translation(-o.start_offset_m * axis);

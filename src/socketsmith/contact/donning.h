@@ -61,10 +61,10 @@ struct DonningOptions {
   /// ContactOptions::residual_floor_ratio) 5,200. The closed loop limits a corrected socket's
   /// donning further (ClosedLoopOptions::check_newton_ratio).
   int max_newton_iterations = 6000;
-  /// Contact against the smoothed inner wall (RigidSocket::set_smooth_wall) instead of its facets:
-  /// nodes sliding along the wall do not cross its kinks (7.5k nodes: 203 instead of 390
-  /// factorisations; below the brim R 0.742 / MAE 1.91 kPa against the design vs 0.750 / 1.84 on the
-  /// facets; docs/contact.md).
+  /// Contact against the smoothed inner wall (RigidSocket::set_smooth_wall), fitted to the facets
+  /// at the skin nodes' footprints (RigidSocket::fit_smooth_wall_to), instead of the facets: nodes
+  /// sliding along the wall do not cross its kinks and meet it where they would meet the facets
+  /// (docs/contact.md).
   bool smooth_wall = true;
   /// Penalty, tolerances (its friction is set from `friction`). The penalty factor is 20 here
   /// (15 kPa penetrates ~45 µm at E = 100 kPa, h = 6 mm): against a faceted socket wall, a stiffer

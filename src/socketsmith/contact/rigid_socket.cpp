@@ -70,6 +70,7 @@ void RigidSocket::replace_solid(geometry::TriMesh solid) {
   RigidSocket fresh(std::move(solid), frame_, density_);
   fresh.set_translation(translation());
   fresh.smooth_ = smooth_;
+  if (!fit_points_.empty()) fresh.fit_smooth_wall_to(std::move(fit_points_));
   *this = std::move(fresh);
 }
 
@@ -255,6 +256,7 @@ void RigidSocket::centre_vertex_surfaces(const std::vector<int>& wall_of) {
     for (size_t j = 0; j < wall_c_.size(); ++j)
       if (cnt[j] > 0) wall_c_[j] += sum[j] / cnt[j];
   }
+  wall_c_facets_ = wall_c_;
 }
 
 std::optional<Gap> RigidSocket::smooth_gap(const Vec3& q, Gap g) const {
@@ -267,22 +269,7 @@ std::optional<Gap> RigidSocket::smooth_gap(const Vec3& q, Gap g) const {
   // closest facet switched on a strongly curved wall (Newton's line search then stalled there). The
   // gradient is exact (the ramp's and n̄'s derivatives included); the stiffness is ∇g ∇gᵀ (the term
   // g ∇²g is of the order of the penetration over the wall's radius of curvature: negligible).
-  Eigen::Vector3i c;
-  for (int a = 0; a < 3; ++a) c[a] = static_cast<int>(std::floor((q[a] - grid_lo_[a]) / cell_));
-  const Eigen::Vector3i lo = (c.array() - 1).max(0), hi = (c + Eigen::Vector3i::Ones()).cwiseMin(grid_dim_ - Eigen::Vector3i::Ones());
-  const auto for_support = [&](auto&& visit) {
-    for (int z = lo[2]; z <= hi[2]; ++z)
-      for (int y = lo[1]; y <= hi[1]; ++y)
-        for (int x = lo[0]; x <= hi[0]; ++x) {
-          const int cell = (z * grid_dim_[1] + y) * grid_dim_[0] + x;
-          for (int k = cell_start_[cell]; k < cell_start_[cell + 1]; ++k) {
-            const int j = cell_items_[k];
-            const Vec3 d = q - wall_v_[j];
-            const double u = 1.0 - d.squaredNorm() / wall_rho2_[j];
-            if (u > 0) visit(j, d, u);
-          }
-        }
-  };
+  const auto for_support = [&](auto&& visit) { for_vertex_support(q, visit); };
   // The mean normal n̄ and its gradient ∂n̄/∂q = (I − n̄n̄ᵀ) Σ n_j ∇w_jᵀ / |m|.
   Vec3 m = Vec3::Zero();
   Eigen::Matrix3d dm = Eigen::Matrix3d::Zero();

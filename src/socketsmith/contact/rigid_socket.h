@@ -9,6 +9,7 @@
 /// outer wall (the thesis's node-to-triangle test, eqs. 11–12, against both walls would push deep
 /// nodes the wrong way).
 
+#include <cmath>
 #include <memory>
 #include <optional>
 #include <utility>
@@ -125,10 +126,40 @@ class RigidSocket : public Obstacle {
   /// The lip's radius: half the wall's thickness (median from the inner wall), 1–5 mm [m].
   double lip_radius_m() const { return lip_radius_; }
   bool smooth_wall() const { return smooth_; }
+  /// Fits the smoothed wall to the facets where a stump touches them: @p points are the skin's
+  /// nodes at rest (world = solid coordinates, the socket at its designed pose); each vertex
+  /// surface's offset is set, between the surface through the vertices and the one through the
+  /// facets on average, so that the smoothed gap vanishes at the nodes' footprints on the facets
+  /// (their closest points, within 10 mm) as far as it can. The
+  /// nodes sit near the wall's vertices when the socket was designed on this stump, where a wall
+  /// passing through the facets on average lies inside them by the facets' sagitta (0.2–0.5 mm
+  /// on a 3k stump's 8 mm facets): that socket pressed a third more than its facets (docs/contact.md,
+  /// "The smoothed wall's level"). Kept by replace_solid; no points: through the facets on average.
+  void fit_smooth_wall_to(std::vector<Vec3> points);
 
  private:
   /// The smoothed gap at @p q (g: the facets' gap there), or nothing where no vertex's support covers q.
   std::optional<Gap> smooth_gap(const Vec3& q, Gap g) const;
+  /// Calls visit(j, q − v_j, u_j) for every wall vertex j whose support holds @p q (u_j = 1 −
+  /// |q − v_j|²/ρ_j² > 0), from the 27 grid cells about q.
+  template <class Visit>
+  void for_vertex_support(const Vec3& q, Visit&& visit) const {
+    Eigen::Vector3i c;
+    for (int a = 0; a < 3; ++a) c[a] = static_cast<int>(std::floor((q[a] - grid_lo_[a]) / cell_));
+    const Eigen::Vector3i lo = (c.array() - 1).max(0);
+    const Eigen::Vector3i hi = (c + Eigen::Vector3i::Ones()).cwiseMin(grid_dim_ - Eigen::Vector3i::Ones());
+    for (int z = lo[2]; z <= hi[2]; ++z)
+      for (int y = lo[1]; y <= hi[1]; ++y)
+        for (int x = lo[0]; x <= hi[0]; ++x) {
+          const int cell = (z * grid_dim_[1] + y) * grid_dim_[0] + x;
+          for (int k = cell_start_[cell]; k < cell_start_[cell + 1]; ++k) {
+            const int j = cell_items_[k];
+            const Vec3 d = q - wall_v_[j];
+            const double u = 1.0 - d.squaredNorm() / wall_rho2_[j];
+            if (u > 0) visit(j, d, u);
+          }
+        }
+  }
   /// The closest point of @p q (solid coordinates) on the lip: the rounded edge along the inner
   /// wall's rims, a tube of lip_radius_ about the rim moved lip_radius_ into the wall.
   struct LipHit {
@@ -169,6 +200,8 @@ class RigidSocket : public Obstacle {
   // uniform grid of them (cell = the largest radius; a query looks at its 27 cells).
   std::vector<Vec3> wall_v_, wall_n_;
   std::vector<double> wall_rho2_, wall_c_;  // squared support radii; offsets of the vertex surfaces
+  std::vector<double> wall_c_facets_;       // the offsets through the facets on average
+  std::vector<Vec3> fit_points_;            // the skin nodes the wall is fitted to (fit_smooth_wall_to)
   std::vector<Eigen::Matrix3d> wall_h_;     // curvature of each vertex's quadric (tangential)
   double cell_ = 1.0;
   Vec3 grid_lo_ = Vec3::Zero();
