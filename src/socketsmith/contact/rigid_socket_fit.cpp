@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <cmath>
 #include <optional>
+#include <utility>
+#include <vector>
 
 #include "socketsmith/contact/rigid_socket.h"
 #include "socketsmith/core/log.h"
@@ -47,22 +49,27 @@ void RigidSocket::fit_smooth_wall_to(std::vector<Vec3> points) {
     }
     return r;
   };
+  // A footprint's residual falls on the vertices whose supports hold it, by their share of it (the
+  // shares do not change with the offsets: found once).
+  std::vector<std::vector<std::pair<int, double>>> shares(feet.size());
+  std::vector<double> den(wall_v_.size(), 0.0);
+  for (size_t i = 0; i < feet.size(); ++i) {
+    double total = 0;
+    for_vertex_support(feet[i], [&](int j, const Vec3&, double u) {
+      shares[i].emplace_back(j, u * u * u * u);
+      total += u * u * u * u;
+    });
+    for (auto& [j, w] : shares[i]) {
+      w /= total;
+      den[j] += w;
+    }
+  }
   double max0 = 0, mean0 = 0, max1 = 0, mean1 = 0;
   std::vector<double> r = residuals(max0, mean0);
   for (int sweep = 0; sweep < kFitSweeps; ++sweep) {
-    // A footprint's residual falls on the vertices whose supports hold it, by their share of it.
-    std::vector<double> num(wall_v_.size(), 0.0), den(wall_v_.size(), 0.0);
-    for (size_t i = 0; i < feet.size(); ++i) {
-      const Vec3& q = feet[i];
-      double total = 0;
-      for_vertex_support(q, [&](int, const Vec3&, double u) { total += u * u * u * u; });
-      if (total <= 0) continue;
-      for_vertex_support(q, [&](int j, const Vec3&, double u) {
-        const double share = u * u * u * u / total;
-        num[j] += share * r[i];
-        den[j] += share;
-      });
-    }
+    std::vector<double> num(wall_v_.size(), 0.0);
+    for (size_t i = 0; i < feet.size(); ++i)
+      for (const auto& [j, w] : shares[i]) num[j] += w * r[i];
     for (size_t j = 0; j < wall_c_.size(); ++j) {
       if (den[j] > 0) wall_c_[j] += num[j] / (den[j] + kFitShareFloor);
       // Between the surface through the vertices (c = 0) and the one through the facets on

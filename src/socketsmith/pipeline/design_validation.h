@@ -81,9 +81,10 @@ struct DesignValidation {
 double stand_offset_m(const contact::DonningResult& ours);
 
 /// The push CalculiX's standing step is given past the donned pose [m] (calculix::DesignCheckOptions::
-/// stand_travel_m): three times stand_offset_m(@p ours), at least 0.5 mm (CalculiX stood OpenLimb's
-/// sockets 1.4–1.8 times as far, the 3k demo's printed wall barely at all; a push that falls short is
-/// run again from CalculiX's own reactions). @throws as stand_offset_m.
+/// stand_travel_m): three times stand_offset_m(@p ours), at least 0.5 mm (CalculiX stands the sockets
+/// measured within 15 % of socketsmith's offset, the 3k demo's printed wall barely at all; the
+/// interpolation needs the load bracketed; a push that falls short is run again from CalculiX's own
+/// reactions). @throws as stand_offset_m.
 double calculix_stand_travel_m(const contact::DonningResult& ours);
 
 /// Designs @p c into @p out/design, checks it in CalculiX and writes the comparison into @p out.
