@@ -294,6 +294,16 @@ TEST(DesignCheckValidation, the_closed_loop_socket_donned_and_stood_on_in_calcul
               "socketsmith %.2f mm\n", r.stand_offset_m * 1e3, r.stand_travel_m * 1e3, r.ccx_runs,
               pipeline::stand_offset_m(loop.donning) * 1e3);
   EXPECT_NEAR(r.fe_force_n, o.stand_force_n, 0.02 * o.stand_force_n);
+  // Friction carries the same share of the standing load in both (the design's eq. 42 holds it at
+  // μ Σ p A sin θ): 2026-12-01, CalculiX 74.5 % of the axial push its skin nodes feel (332 N: 3 %
+  // short of its socket's reaction), socketsmith 75.8 %. A friction law that lost its slip
+  // direction or its μ would move one of them by far more.
+  const double fe_share = r.fe_axial_friction_n / r.fe_axial_force_n;
+  const double our_share = loop.donning.series.back().axial_friction_n / loop.donning.series.back().axial_force_n;
+  std::printf("[ info ] friction carries %.1f %% of the axial push in CalculiX (%.0f of %.0f N), %.1f %% in socketsmith\n",
+              100 * fe_share, r.fe_axial_friction_n, r.fe_axial_force_n, 100 * our_share);
+  EXPECT_NEAR(r.fe_axial_force_n, r.fe_force_n, 0.06 * r.fe_force_n);
+  EXPECT_NEAR(fe_share, our_share, 0.05);
   std::vector<int> socket_nodes;
   for (size_t i = 0; i < r.brim_ring.size(); ++i)
     if (r.brim_ring[i] >= 1) socket_nodes.push_back(static_cast<int>(i));

@@ -107,6 +107,30 @@ TEST(SurfacePressure, nodal_force_pressure_integrates_the_traction_a_node_carrie
   EXPECT_NEAR(p[edge], -(a + slope * h / 3), 1e-6);
 }
 
+TEST(SurfacePressure, nodal_forces_split_into_the_pressure_and_the_shear_the_top_carries) {
+  // σ_zz = −8 kPa and σ_xz = 3 kPa on the 20 × 20 mm top: its nodes' forces add up to the traction
+  // σ·n times the area — 3.2 N into the box, 1.2 N of shear along +x — and the pressure ignores the
+  // shear (at the centre: the nodes on the x = 0 and x = 20 mm edges also carry the sides' σ_xz,
+  // ±3 kPa, which cancel in the total).
+  Box b;
+  Eigen::Matrix3d s = Eigen::Matrix3d::Zero();
+  s(2, 2) = -8e3;
+  s(0, 2) = s(2, 0) = 3e3;
+  const auto st = gauss_stresses(b.mesh, b.mesh.nodes, [&](const Vec3&) { return s; });
+  std::vector<double> areas;
+  const auto n = deformed_surface_normals(b.mesh, b.mesh.nodes, b.top, b.top_nodes, &areas);
+  std::vector<Vec3> f;
+  const auto p = nodal_force_pressure(b.mesh, b.mesh.nodes, st, b.top_nodes, n, areas, &f);
+  ASSERT_EQ(f.size(), b.top_nodes.size());
+  Vec3 total = Vec3::Zero();
+  for (const auto& v : f) total += v;
+  EXPECT_NEAR(total.z(), -3.2, 1e-9);
+  EXPECT_NEAR(total.x(), 1.2, 1e-9);
+  EXPECT_NEAR(total.y(), 0.0, 1e-9);
+  EXPECT_NEAR(p[4], 8e3, 1e-6);
+  EXPECT_NEAR(f[4].x(), 3e3 * 1e-4, 1e-12);
+}
+
 TEST(SurfacePressure, nodal_force_pressure_of_a_uniform_stress_on_a_rotated_box_and_reduced_integration) {
   Box b;
   const Eigen::Matrix3d rot = Eigen::AngleAxisd(M_PI / 6, Vec3::UnitX()).toRotationMatrix();

@@ -253,8 +253,15 @@ void fe_stress_pressures(const DesignedStump& d, const std::vector<HexFace>& ski
   std::vector<double> areas;
   const auto normals = deformed_surface_normals(mesh, deformed, skin_faces, skin.nodes, &areas);
   if (stress) res.fe_stress_pressure_pa = normal_surface_pressure(*stress, skin.nodes, normals, nn);
-  if (inc.gauss)
-    res.fe_force_pressure_pa = nodal_force_pressure(mesh, deformed, *inc.gauss, skin.nodes, normals, areas);
+  if (!inc.gauss) return;
+  std::vector<Vec3> force;
+  res.fe_force_pressure_pa = nodal_force_pressure(mesh, deformed, *inc.gauss, skin.nodes, normals, areas, &force);
+  const Vec3 axis = d.frame.axis.normalized();
+  res.fe_axial_force_n = res.fe_axial_friction_n = 0;
+  for (size_t k = 0; k < force.size(); ++k) {
+    res.fe_axial_force_n += force[k].dot(axis);
+    res.fe_axial_friction_n += (force[k] - force[k].dot(normals[k]) * normals[k]).dot(axis);
+  }
 }
 
 /// Contact modes: the FE contact pressure by the chosen measure against the designed pressure,
@@ -434,7 +441,9 @@ void interpolate_increments(DesignCheckResult& a, const DesignCheckResult& b, do
   lerp(a.fe_cpress_pa, b.fe_cpress_pa);
   lerp(a.fe_stress_pressure_pa, b.fe_stress_pressure_pa);
   lerp(a.fe_force_pressure_pa, b.fe_force_pressure_pa);
-  a.fe_force_n = (1 - w) * a.fe_force_n + w * b.fe_force_n;
+  for (auto [x, y] : {std::pair{&a.fe_force_n, b.fe_force_n}, std::pair{&a.fe_axial_force_n, b.fe_axial_force_n},
+                       std::pair{&a.fe_axial_friction_n, b.fe_axial_friction_n}})
+    *x = (1 - w) * *x + w * y;
   a.max_penetration_m = a.fe_penetration_m.empty() ? 0.0 : *std::max_element(a.fe_penetration_m.begin(), a.fe_penetration_m.end());
 }
 

@@ -163,6 +163,10 @@ struct DesignCheckResult {
   /// its furthest pose, where it carried stand_reached_force_n.
   double stand_offset_m = 0;
   double stand_reached_force_n = 0;       ///< the axial reaction compared [N]: the load when stood
+  /// Of the socket's push on the skin along the axis (Σ f·axis over the skin nodes, f the nodal-force
+  /// measure's force), the part its tangential tractions carry: friction [N] (Contact modes with the
+  /// nodal-force measure; 0 without it).
+  double fe_axial_force_n = 0, fe_axial_friction_n = 0;
   /// ccx runs: one more when step 1 stopped on its way (again with increments half as long), one more
   /// when step 2 ended short of the load (again with a travel from CalculiX's reactions).
   int ccx_runs = 0;

@@ -73,7 +73,8 @@ std::vector<double> normal_surface_pressure(const FrdBlock& stress, const std::v
 
 std::vector<double> nodal_force_pressure(const volume::HexMesh& mesh, const std::vector<Vec3>& positions,
                                          const DatBlock& stresses, const std::vector<int>& nodes,
-                                         const std::vector<Vec3>& normals, const std::vector<double>& areas) {
+                                         const std::vector<Vec3>& normals, const std::vector<double>& areas,
+                                         std::vector<Vec3>* forces) {
   const int nn = mesh.num_nodes(), ne = mesh.num_hexahedra();
   require(static_cast<int>(positions.size()) == nn, "nodal_force_pressure: {} positions for {} nodes", positions.size(), nn);
   require(nodes.size() == normals.size() && nodes.size() == areas.size(),
@@ -137,6 +138,10 @@ std::vector<double> nodal_force_pressure(const volume::HexMesh& mesh, const std:
   std::vector<double> p(nodes.size(), 0.0);
   for (size_t k = 0; k < nodes.size(); ++k)
     if (areas[k] > 0) p[k] = -normals[k].dot(force[nodes[k]]) / areas[k];
+  if (forces) {
+    forces->resize(nodes.size());
+    for (size_t k = 0; k < nodes.size(); ++k) (*forces)[k] = force[nodes[k]];
+  }
   return p;
 }
 

@@ -49,10 +49,13 @@ std::vector<double> normal_surface_pressure(const FrdBlock& stress, const std::v
 ///        (element id = hexahedron + 1, integration point 1..8 in CalculiX's order — ξ fastest, then
 ///        η, then ζ — or 1 for a reduced-integration element, then the six components).
 /// @param normals,areas the nodes' deformed outward unit normals and areas [m²].
+/// @param forces when given, the force f at each of @p nodes [N] (what the socket pushes with: its
+///        normal part −p A n, the rest friction).
 /// @throws InvalidInputError when a row's element or point is out of range, a used element has
 ///         rows missing, or the sizes differ.
 std::vector<double> nodal_force_pressure(const volume::HexMesh& mesh, const std::vector<Vec3>& positions,
                                          const DatBlock& stresses, const std::vector<int>& nodes,
-                                         const std::vector<Vec3>& normals, const std::vector<double>& areas);
+                                         const std::vector<Vec3>& normals, const std::vector<double>& areas,
+                                         std::vector<Vec3>* forces = nullptr);
 
 }  // namespace socketsmith::calculix

@@ -323,6 +323,8 @@ nlohmann::json validation_summary(const design::CaseFile& c, const DesignValidat
                    {"ccx_runs", r.ccx_runs},
                    {"designed_force_n", r.designed_force_n},
                    {"fe_force_n", r.fe_force_n},
+                   {"fe_axial_force_n", r.fe_axial_force_n},
+                   {"fe_axial_friction_n", r.fe_axial_friction_n},
                    {"mean_designed_kpa", r.mean_designed_pa / 1e3},
                    {"mean_fe_kpa", r.mean_fe_pa / 1e3},
                    {"fe_pressure", contact ? to_string(r.fe_pressure) : "none"},
@@ -368,6 +370,12 @@ void add_delivered_comparison(const DesignValidation& v, nlohmann::json& j) {
   j["calculix_vs_socketsmith_delivered"] =
       report::to_json(report::compare_fields(r.fe_value, delivered, socket_nodes), scale, suffix);
   j["socketsmith_delivered_from"] = v.donning_from_closed_loop ? "the closed loop's kept donning" : "a donning in this run";
+  // How each carries the socket's axial push: the design's friction assumption (eq. 42) is where a
+  // difference in the normal pressures starts.
+  if (!v.donning->series.empty()) {
+    j["socketsmith_axial_force_n"] = v.donning->series.back().axial_force_n;
+    j["socketsmith_axial_friction_n"] = v.donning->series.back().axial_friction_n;
+  }
   // Each landmark's pressure / threshold over its zone (issue 20: within 10 % of the design's).
   const DesignSetup& setup = *v.artifacts.setup;
   std::vector<char> on_socket(skin.nodes.size(), 0);
