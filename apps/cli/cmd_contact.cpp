@@ -33,6 +33,7 @@ struct DonningFlags {
   std::string wall;  // "" = the default (DonningOptions::smooth_wall)
   std::string body = "design";  // design | linearised | nonlinear
   bool no_stand = false;
+  bool rigid_wall = false;
   bool json = false;
 };
 
@@ -54,6 +55,7 @@ pipeline::DonningRequest donning_request(const DonningFlags& f) {
                              .max_step_m = f.step_mm * 1e-3, .stick_stiffness_ratio = f.stick_stiffness,
                              .friction = f.friction, .penalty_factor = f.penalty_factor, .reuse_cg = f.reuse_cg,
                              .smooth_wall = f.wall.empty() ? std::nullopt : std::optional<bool>(f.wall == "smooth"),
+                             .rigid_wall = f.rigid_wall,
                              .body = f.body == "linearised"  ? pipeline::DonnedBody::Linearised
                                      : f.body == "nonlinear" ? pipeline::DonnedBody::Nonlinear
                                                              : pipeline::DonnedBody::Design,
@@ -161,6 +163,9 @@ void register_contact(CLI::App& app) {
                   "friction's elastic stick as a fraction of the contact penalty (default 0.2: ~75 µm of elastic slip "
                   "at 10 kPa; 1: as stiff as the penalty)")
       ->check(positive());
+  don->add_flag("--rigid-wall", f->rigid_wall,
+                "no penetration of the socket wall (augmented Lagrangian contact: the penalty's ~60 µm at 15 kPa "
+                "removed; ~1.5x the time; on when the case sets design.closed_loop_rigid_wall)");
   don->add_option("--reuse-cg", f->reuse_cg,
                   "CG iterations on the last factorisation before refactorising (default 0: always factorise)")
       ->check(CLI::Range(0, 1000));

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 
 #include "socketsmith/contact/contact_solver.h"
 #include "socketsmith/core/errors.h"
@@ -291,6 +292,37 @@ TEST(ContactCube, friction_holds_a_sideways_push_below_mu_times_the_normal_force
   EXPECT_NEAR(std::abs(st.force_on_obstacle_n.x()), co.friction * N2, 1e-3 * N2);
 }
 
+TEST(ContactCube, the_augmented_lagrangian_removes_the_penetration_and_presses_as_a_rigid_wall) {
+  // The neo-Hookean cube with its top pushed 4 mm down by the box, frictionless. A soft penalty
+  // (factor 1: k = E / h, 6 kPa/mm against the cube's ~1 kPa/mm) lets the top sink into the box and
+  // carries less than a rigid box would; the augmented Lagrangian, same penalty, carries what a
+  // penalty 1000× stiffer carries, with the top where the box is.
+  NeoHookeanCube k;
+  k.co.friction = 0.0;
+  const auto press = [&](double factor, double augmented_tol, double& penetration) {
+    PlaneObstacle box(Vec3(0, 0, ContactCube::L), Vec3(0, 0, -1));
+    ContactOptions co = k.co;
+    co.penalty_factor = factor;
+    co.augmented_tol = augmented_tol;
+    co.max_friction_passes = 20;
+    ContactSolver solver(k.model, k.dofs, k.c.top, k.c.top_area, box, co);
+    const ContactStep st = solver.move_to(Vec3(0, 0, -0.004));
+    EXPECT_TRUE(st.converged) << st.message;
+    penetration = st.max_penetration_m;
+    return st.force_on_obstacle_n.z();
+  };
+  double d_penalty = 0, d_augmented = 0, d_stiff = 0;
+  const double f_penalty = press(1.0, 0.0, d_penalty);
+  const double f_augmented = press(1.0, 1e-3, d_augmented);
+  const double f_stiff = press(1000.0, 0.0, d_stiff);
+  std::printf("[ info ] penalty %.2f N (%.0f µm in), augmented %.2f N (%.1f µm), stiff penalty %.2f N (%.1f µm)\n", f_penalty,
+              d_penalty * 1e6, f_augmented, d_augmented * 1e6, f_stiff, d_stiff * 1e6);
+  EXPECT_GT(d_penalty, 3e-4);  // the soft penalty: a fraction of a millimetre
+  EXPECT_LT(d_augmented, 0.01 * d_penalty);
+  EXPECT_LT(f_penalty, 0.9 * f_stiff);  // the penetration is compliance in series with the cube
+  EXPECT_NEAR(f_augmented, f_stiff, 0.01 * f_stiff);
+}
+
 TEST(ContactSolver, rejects_bad_input) {
   const ContactCube c;
   const tissue::MassSpringModel model(c.mesh, {50e3, 1060}, {});
@@ -300,6 +332,9 @@ TEST(ContactSolver, rejects_bad_input) {
   co.friction = -1;
   EXPECT_THROW(ContactSolver(model, dofs, c.top, c.top_area, box, co), InvalidInputError);
   EXPECT_THROW(ContactSolver(model, dofs, c.top, {}, box, {}), InvalidInputError);
+  co = {};
+  co.augmented_tol = -0.1;
+  EXPECT_THROW(ContactSolver(model, dofs, c.top, c.top_area, box, co), InvalidInputError);
 }
 
 }  // namespace

@@ -294,6 +294,7 @@ ContactStep ContactSolver::Impl::solve(const Vec3& t_start, bool commit) {
   const auto t0 = std::chrono::steady_clock::now();
   ContactStep out;
   VectorXd xs = x;
+  alm = conv_alm;  // the multipliers of the last committed step (a discarded solve's are not kept)
   predict_start(t, xs);
   std::vector<NodeContact> st;
   std::vector<Vec3> th;
@@ -316,14 +317,15 @@ ContactStep ContactSolver::Impl::solve(const Vec3& t_start, bool commit) {
   bool ok = false;
   for (int pass = 0; pass < opt.max_friction_passes; ++pass) {
     ++out.friction_passes;
-    bool kink = false;
-    ok = newton(xs, t, st, th, out.newton_iterations, rn, kink);
-    out.at_kink = kink;
-    if (!ok || opt.friction == 0) break;
-    out.friction_lag_change = lag_change(st);
-    if (out.friction_lag_change <= opt.friction_lag_tol) break;
-    if (pass + 1 == opt.max_friction_passes) break;  // keep the lag of the solved pass
-    update_lag(st);
+    out.at_kink = false;
+    ok = newton(xs, t, st, th, out.newton_iterations, rn, out.at_kink);
+    if (!ok) break;
+    out.friction_lag_change = opt.friction > 0 ? lag_change(st) : 0.0;
+    const bool relag = out.friction_lag_change > opt.friction_lag_tol;
+    const bool augment = opt.augmented_tol > 0 && augmentation_change(st) > opt.augmented_tol;
+    if ((!relag && !augment) || pass + 1 == opt.max_friction_passes) break;  // keep the lag of the solved pass
+    if (relag) update_lag(st);
+    if (augment) update_augmentation(st);
   }
   out.converged = ok;
   out.out_of_budget = !ok && out_of_budget();
@@ -379,6 +381,7 @@ void ContactSolver::Impl::commit_last() {
   hist = last_hist;
   conv_state = state;
   prev_fn = conv_fn;
+  conv_alm = alm;
   for (size_t i = 0; i < state.size(); ++i) {
     was_active[i] = state[i].active ? 1 : 0;
     conv_fn[i] = state[i].normal_force_n;

@@ -47,7 +47,7 @@ VectorXd ContactSolver::Impl::evaluate(const VectorXd& xs, const Vec3& t, std::v
     const int nd = nodes[i];
     const Vec3 p = xs.segment<3>(3 * nd);
     const Gap& g = gaps[i];
-    const PenaltyTerm pen = penalty_term(g, k * areas[i]);
+    const PenaltyTerm pen = penalty_term(g, k * areas[i], alm[i]);
     Eigen::Matrix3d B = pen.term.stiffness;
     Vec3 f = pen.term.force;
     if (pen.active) {
@@ -82,7 +82,8 @@ void ContactSolver::Impl::query_gaps(const VectorXd& xs, const Vec3& t) {
   for (int i = 0; i < n_nodes; ++i) {
     const Vec3 p = xs.segment<3>(3 * nodes[i]);
     QueryCache& c = qcache[i];
-    if (c.clearance > 0 && c.clearance > (p - c.p).norm() + (t - c.t).norm()) {
+    // (A node with a multiplier may press from a small gap: it is always queried.)
+    if (alm[i] == 0 && c.clearance > 0 && c.clearance > (p - c.p).norm() + (t - c.t).norm()) {
       gaps[i] = Gap{};
       gaps[i].gap_m = c.clearance;  // a lower bound; the node is not in contact
       continue;
@@ -214,6 +215,21 @@ double ContactSolver::Impl::lag_change(const std::vector<NodeContact>& st) const
   return fmax > 0 ? change / fmax : (change > 0 ? 1.0 : 0.0);
 }
 
+double ContactSolver::Impl::augmentation_change(const std::vector<NodeContact>& st) const {
+  double change = 0, fmax = 0;
+  for (size_t i = 0; i < st.size(); ++i) {
+    if (st[i].active) change = std::max(change, k * areas[i] * std::abs(st[i].gap_m));
+    else if (alm[i] > 0) change = std::max(change, alm[i]);  // a multiplier left on a node that let go
+    fmax = std::max(fmax, st[i].normal_force_n);
+  }
+  return fmax > 0 ? change / fmax : (change > 0 ? 1.0 : 0.0);
+}
+
+void ContactSolver::Impl::update_augmentation(const std::vector<NodeContact>& st) {
+  for (size_t i = 0; i < st.size(); ++i)
+    alm[i] = st[i].active ? std::max(0.0, alm[i] - k * areas[i] * st[i].gap_m) : 0.0;
+}
+
 void ContactSolver::Impl::update_lag(const std::vector<NodeContact>& st) {
   const double change = lag_change(st);
   const double w = last_lag_change > 0 && change > 0.8 * last_lag_change ? 0.5 : 1.0;
@@ -255,6 +271,8 @@ ContactSolver::ContactSolver(const tissue::MassSpringModel& model, const tissue:
           "contact: penalty factor {} must be positive", options.penalty_factor);
   require(std::isfinite(options.stick_stiffness_ratio) && options.stick_stiffness_ratio > 0,
           "contact: stick stiffness ratio {} must be positive", options.stick_stiffness_ratio);
+  require(std::isfinite(options.augmented_tol) && options.augmented_tol >= 0,
+          "contact: augmented Lagrangian tolerance {} must be ≥ 0 (0: the penalty alone)", options.augmented_tol);
   require(std::isfinite(options.chord_ratio) && options.chord_ratio >= 0 && options.chord_ratio < 1,
           "contact: chord ratio {} must be in [0, 1) (0: a fresh tangent every Newton step)", options.chord_ratio);
   require(std::isfinite(options.residual_floor_ratio) && options.residual_floor_ratio >= 1,
@@ -273,6 +291,8 @@ ContactSolver::ContactSolver(const tissue::MassSpringModel& model, const tissue:
   s.hist.assign(s.nodes.size(), Vec3::Zero());
   s.was_active.assign(s.nodes.size(), 0);
   s.conv_fn.assign(s.nodes.size(), 0.0);
+  s.alm.assign(s.nodes.size(), 0.0);
+  s.conv_alm = s.alm;
   s.conv_n.assign(s.nodes.size(), Vec3::Zero());
   // Residual floor: the force that strains one element of the skin by one (E h²), times
   // ContactOptions::residual_floor_ratio — rel_tol of it is still far below anything a pressure
@@ -322,6 +342,7 @@ void ContactSolver::discard() {
   s.state = s.conv_state;
   s.last_t = s.t_conv;
   s.last_hist = s.hist;
+  s.alm = s.conv_alm;
   s.obstacle.set_translation(s.t_conv);
 }
 

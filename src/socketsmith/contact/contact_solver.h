@@ -54,6 +54,12 @@ struct ContactOptions {
   /// max_friction_passes times.
   int max_friction_passes = 6;
   double friction_lag_tol = 0.01;
+  /// Augmented Lagrangian: after a converged pass each node's multiplier λ takes its normal force
+  /// (the penalty's force becomes (λ + k A (−gap)) |∇gap|), and passes repeat — with the friction
+  /// lag's, within max_friction_passes — until the penalty part k A |gap| of every normal force is
+  /// at most this share of the largest: the penetration p / k, compliance in series with the
+  /// tissue, goes to zero with the penalty's conditioning. 0: a pure penalty.
+  double augmented_tol = 0.0;
   /// Also refresh the friction lag inside Newton: once the residual is within 100× the tolerance
   /// and the normal forces have moved from the lag by more than friction_lag_tol, they become the
   /// lag at once, instead of only after a converged Newton solve (false: only the friction passes).

@@ -54,6 +54,7 @@ struct ContactSolver::Impl {
   std::vector<Gap> gaps;           // scratch of evaluate()
   std::vector<double> conv_fn, lag_fn, prev_fn;  // normal force at the last converged step / friction lag
   std::vector<Vec3> conv_n, lag_n;      // wall normal at the last converged step / friction lag
+  std::vector<double> alm, conv_alm;    // augmented Lagrangian multipliers [N]: this solve's / the last committed step's
   double force_floor = 1e-3;            // [N] scale of the residual tolerance when forces are small
   double tail_floor = 1e-3;             // [N] the same for the tail's thresholds (E h², ContactOptions::residual_floor_ratio)
   SparseMatrix K0;         // linear body: reduced stiffness at rest
@@ -147,6 +148,11 @@ struct ContactSolver::Impl {
   /// not shrink the change (a node at the socket's rim can otherwise flip in and out of contact
   /// with every refresh, its friction pushing it out and its absence letting it back: a 2-cycle).
   void update_lag(const std::vector<NodeContact>& st);
+  /// Augmented Lagrangian (ContactOptions::augmented_tol): the largest penalty part k A |gap| of
+  /// the normal forces of @p st (the penetration's share, what a multiplier update removes) / the
+  /// largest normal force; and the update, each multiplier taking its node's λ + k A (−gap).
+  double augmentation_change(const std::vector<NodeContact>& st) const;
+  void update_augmentation(const std::vector<NodeContact>& st);
   double last_lag_change = 0;  // of the last refresh in this solve
 
   /// A trial point x + a·delta of the line search, with its residual, potential and slope.

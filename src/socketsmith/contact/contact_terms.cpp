@@ -2,13 +2,14 @@
 
 namespace socketsmith::contact {
 
-PenaltyTerm penalty_term(const Gap& gap, double kA) {
+PenaltyTerm penalty_term(const Gap& gap, double kA, double lambda_n) {
   PenaltyTerm p;
-  if (!gap.valid || !(gap.gap_m < 0)) return p;
+  const double push = lambda_n - kA * gap.gap_m;  // λ + k A (−gap)
+  if (!gap.valid || !(push > 0)) return p;
   p.active = true;
-  p.normal_force_n = kA * (-gap.gap_m) * gap.gradient_norm;
+  p.normal_force_n = push * gap.gradient_norm;
   NodeTerm& t = p.term;
-  t.energy = 0.5 * kA * gap.gap_m * gap.gap_m;
+  t.energy = 0.5 * push * push / kA;
   t.force = p.normal_force_n * gap.normal;
   // Inside a face: stiffness along the normal only; on an edge or a vertex the force points to a
   // fixed point of the wall (f = kA (c − x)), stiff in every direction.

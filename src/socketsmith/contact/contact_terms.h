@@ -31,13 +31,18 @@ struct NodeTerm {
 /// zero on a flat face, of relative size |gap| / radius on a curved wall (µm against cm), and
 /// including it made the tangent indefinite at nodes deep in the brim's lip (CHANGELOG.md,
 /// 2026-11-29: 132 fall-backs to the projected tangent in a 3k closed loop).
+/// With a multiplier λ > 0 (augmented Lagrangian) the term is (λ − kA gap)² / (2 kA) where
+/// λ − kA gap > 0: its normal force (λ − kA gap) |∇gap|, the same stiffness; λ = 0 is the penalty.
+/// Raising λ to the normal force and solving again drives the penetration to zero with the
+/// penalty's conditioning (ContactOptions::augmented_tol).
 /// @param kA the penalty stiffness k times the node's area [N/m]
+/// @param lambda_n the node's multiplier [N], ≥ 0
 struct PenaltyTerm {
   NodeTerm term;
   bool active = false;         ///< the node penetrates the wall
   double normal_force_n = 0.0; ///< k A (−gap) |∇gap|: the force along the wall's normal [N]
 };
-PenaltyTerm penalty_term(const Gap& gap, double kA);
+PenaltyTerm penalty_term(const Gap& gap, double kA, double lambda_n = 0.0);
 
 /// One node's lagged friction (quasi-static, IPC's lagged Coulomb model in incremental form): an
 /// elastic stick of stiffness kT between the node and the wall, capped at μ f̄ with f̄ the lagged

@@ -99,6 +99,11 @@ struct DonningOptions {
   ProgressCallback progress;
 };
 
+/// ContactOptions::augmented_tol for a wall the skin does not penetrate (case key
+/// design.closed_loop_rigid_wall, `simulate donning --rigid-wall`): passes until the penalty part
+/// of every normal force is ≤ 2 % of the largest.
+inline constexpr double kRigidWallAugmentedTol = 0.02;
+
 /// One point of the donning path.
 struct DonningSample {
   double offset_m = 0.0;          ///< socket position along the axis relative to the designed pose (< 0: below)

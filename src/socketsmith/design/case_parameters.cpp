@@ -238,6 +238,10 @@ const std::vector<CaseParameter>& case_parameters() {
                             "transfemoral false)",
                             W::UnlessDefault),
       number<&C::closed_loop_donnings>(kClosedLoopDonnings),
+      flag<&C::closed_loop_rigid_wall>("design.closed_loop_rigid_wall",
+                                       "closed loop: no penetration of the socket wall (augmented Lagrangian "
+                                       "contact; ~1.5x the loop's time)",
+                                       W::UnlessDefault),
       number<&C::ischial_share_min>(kIschialShareMin, W::UnlessDefault),
       number<&C::socket, &SocketOptions::thickness_m>(kThickness),
       number<&C::socket, &SocketOptions::distal_thickness_m>(kDistalThickness, W::UnlessDefault, true),

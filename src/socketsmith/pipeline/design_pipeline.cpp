@@ -239,6 +239,7 @@ design::SocketResult build_design_socket(const geometry::TriMesh& designed_skin,
 ClosedLoopOptions closed_loop_options(const design::CaseFile& c) {
   ClosedLoopOptions lo;
   lo.max_donnings = c.closed_loop_donnings;
+  if (c.closed_loop_rigid_wall) lo.donning.contact.augmented_tol = contact::kRigidWallAugmentedTol;
   return lo;
 }
 

@@ -47,6 +47,9 @@ struct DonningRequest {
   double penalty_factor = 20.0;     ///< contact penalty k = factor · E / h
   int reuse_cg = -1;                ///< CG iterations before refactorising; < 0: the donning's default
   std::optional<bool> smooth_wall;  ///< the socket wall for contact; unset: DonningOptions' default
+  /// No penetration of the wall (augmented Lagrangian, contact::kRigidWallAugmentedTol); also on
+  /// when the case file asks it of its closed loop (design.closed_loop_rigid_wall).
+  bool rigid_wall = false;
   DonnedBody body = DonnedBody::Design;
   bool stand = true;                ///< then stand with half the body weight
   ProgressCallback progress;        ///< 0–0.3 the stump (and design), 0.3–0.95 the donning, 1 done
