@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <functional>
 #include <iostream>
@@ -255,6 +256,44 @@ TEST_F(Donning, a_refit_keeps_the_worn_state_and_follows_a_looser_wall_as_a_donn
   // Measured at 1.8k nodes: 1.47 vs 1.45 mm higher; mean |refit − full| 59 Pa, |worn − full| 800 Pa (1.39 mm and
   // 110 Pa before the refit predicted its push from the last standing stiffness).
   EXPECT_LT(dr.dsum, 0.25 * dw.dsum);  // the refit is much closer to the full donning than the old state was
+}
+
+TEST_F(Donning, a_rigid_wall_is_not_penetrated_stands_the_socket_sooner_and_its_refit_keeps_it_so) {
+  // The augmented Lagrangian (DonningOptions::contact.augmented_tol): the same donning and standing
+  // with the penetration removed — compliance in series with the tissue, so the socket pushed to
+  // the standing load stops sooner; a refit of the same socket moves nothing and stays without
+  // penetration.
+  const auto& setup = *art_.setup;
+  const auto& solver = *setup.solver;
+  DonningOptions o;
+  o.friction = c_.patient.friction;
+  o.stand_force_n = 0.5 * c_.patient.body_mass_kg * units::kGravity;
+  const DonningResult penalty = don(o);
+  ASSERT_TRUE(penalty.completed && penalty.stood) << penalty.message;
+  o.contact.augmented_tol = kRigidWallAugmentedTol;
+  DonningSimulation sim(solver.model(), solver.skin().nodes, solver.skin().area_m2, art_.result.socket->solid,
+                        setup.model.frame, o);
+  const DonningResult rigid = sim.run();
+  ASSERT_TRUE(rigid.completed && rigid.stood) << rigid.message;
+  const double pen_penalty = penalty.series.back().max_penetration_m, pen_rigid = rigid.series.back().max_penetration_m;
+  double sum_penalty = 0, sum_rigid = 0;
+  for (size_t i = 0; i < rigid.contacts.size(); ++i) {
+    sum_penalty += penalty.contacts[i].pressure_pa;
+    sum_rigid += rigid.contacts[i].pressure_pa;
+  }
+  std::printf("[ info ] penetration %.1f µm → %.2f µm; pressures summed %+.1f %%; stood %.2f → %.2f mm\n",
+              pen_penalty * 1e6, pen_rigid * 1e6, 100 * (sum_rigid / sum_penalty - 1), penalty.final_offset_m * 1e3,
+              rigid.final_offset_m * 1e3);
+  EXPECT_GT(pen_penalty, 20e-6);
+  EXPECT_LT(pen_rigid, 0.1 * pen_penalty);
+  // Under the standing load the pressures carry the same weight: the stiffer wall shows in where it
+  // stands (1.8k, MSS-CS linearised: 0.75 → 0.52 mm past the pose; summed pressures +0.7 %).
+  EXPECT_LT(rigid.final_offset_m, penalty.final_offset_m - 0.1e-3);
+  const DonningResult same = sim.refit(art_.result.socket->solid);
+  ASSERT_TRUE(same.completed && same.stood) << same.message;
+  const auto d = pressure_difference(same, rigid);
+  EXPECT_LT(d.dmax, 0.01 * d.pmax);
+  EXPECT_LT(same.series.back().max_penetration_m, 0.1 * pen_penalty);
 }
 
 TEST_F(Donning, a_distal_platform_leaves_the_cavity_that_the_stump_meets_as_it_is) {
