@@ -46,6 +46,13 @@ class Donning : public ::testing::Test {
     o.stand_force_n = 0.5 * c_.patient.body_mass_kg * units::kGravity;
     return o;
   }
+  /// The default path with the sample's friction, then standing with M g / 2.
+  static DonningOptions worn() {
+    DonningOptions o;
+    o.friction = c_.patient.friction;
+    o.stand_force_n = 0.5 * c_.patient.body_mass_kg * units::kGravity;
+    return o;
+  }
   /// Nodal contact pressures of @p a against the reference @p b: largest and summed absolute
   /// difference, largest and summed reference pressure [Pa].
   struct PressureDifference {
@@ -222,9 +229,7 @@ TEST_F(Donning, the_default_path_gives_the_fine_stiff_stick_path_pressures) {
 TEST_F(Donning, a_refit_keeps_the_worn_state_and_follows_a_looser_wall_as_a_donning_from_scratch_does) {
   const auto& setup = *art_.setup;
   const auto& solver = *setup.solver;
-  DonningOptions o;
-  o.friction = c_.patient.friction;
-  o.stand_force_n = 0.5 * c_.patient.body_mass_kg * units::kGravity;
+  DonningOptions o = worn();
   DonningSimulation sim(solver.model(), solver.skin().nodes, solver.skin().area_m2, art_.result.socket->solid,
                         setup.model.frame, o);
   const DonningResult worn = sim.run();
@@ -265,9 +270,7 @@ TEST_F(Donning, a_rigid_wall_is_not_penetrated_stands_the_socket_sooner_and_its_
   // penetration.
   const auto& setup = *art_.setup;
   const auto& solver = *setup.solver;
-  DonningOptions o;
-  o.friction = c_.patient.friction;
-  o.stand_force_n = 0.5 * c_.patient.body_mass_kg * units::kGravity;
+  DonningOptions o = worn();
   const DonningResult penalty = don(o);
   ASSERT_TRUE(penalty.completed && penalty.stood) << penalty.message;
   o.contact.augmented_tol = kRigidWallAugmentedTol;
