@@ -288,6 +288,20 @@ TEST(ClosedLoop, a_default_loop_that_fails_keeps_the_open_loop_socket_and_a_loop
   EXPECT_THROW(solve_design(*setup, true), InvalidInputError);
 }
 
+TEST(ClosedLoop, the_rigid_wall_key_reaches_every_donning_of_the_case_and_survives_a_round_trip) {
+  // design.closed_loop_rigid_wall: the loop's donnings (closed_loop_options) and the others of the
+  // case's socket (case_augmented_tol) get the augmented Lagrangian; without it, the penalty alone.
+  const design::CaseFile plain = design::parse_case(nlohmann::json::object());
+  EXPECT_EQ(case_augmented_tol(plain), 0.0);
+  EXPECT_EQ(closed_loop_options(plain).donning.contact.augmented_tol, 0.0);
+  const design::CaseFile rigid =
+      design::parse_case(nlohmann::json::parse(R"({"design": {"closed_loop_rigid_wall": true}})"));
+  EXPECT_TRUE(rigid.closed_loop_rigid_wall);
+  EXPECT_EQ(case_augmented_tol(rigid), contact::kRigidWallAugmentedTol);
+  EXPECT_EQ(closed_loop_options(rigid).donning.contact.augmented_tol, contact::kRigidWallAugmentedTol);
+  EXPECT_TRUE(design::parse_case(design::case_to_json(rigid)).closed_loop_rigid_wall);
+}
+
 TEST(ClosedLoop, refuses_bad_options_and_a_design_without_a_socket) {
   design::CaseFile c = demo_case(1800);
   c.closed_loop = false;  // the loops below are called by hand

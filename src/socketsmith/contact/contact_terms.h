@@ -39,8 +39,8 @@ struct NodeTerm {
 /// @param lambda_n the node's multiplier [N], ≥ 0
 struct PenaltyTerm {
   NodeTerm term;
-  bool active = false;         ///< the node penetrates the wall
-  double normal_force_n = 0.0; ///< k A (−gap) |∇gap|: the force along the wall's normal [N]
+  bool active = false;         ///< the node presses on the wall: λ + k A (−gap) > 0 (with λ = 0, it penetrates)
+  double normal_force_n = 0.0; ///< (λ + k A (−gap)) |∇gap|: the force along the wall's normal [N]
 };
 PenaltyTerm penalty_term(const Gap& gap, double kA, double lambda_n = 0.0);
 

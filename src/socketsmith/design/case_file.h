@@ -83,9 +83,10 @@ struct CaseFile {
   /// levels (closes_loop; docs/design.md, "Closed loop").
   std::optional<bool> closed_loop;
   int closed_loop_donnings = 4;            ///< donnings at most, the open-loop socket's included, 1–20
-  /// The closed loop's donnings against a wall the skin does not penetrate (augmented Lagrangian
+  /// The closed loop's donnings — and the case's other donnings of its socket (`simulate donning
+  /// --case`, `validate design`) — against a wall the skin does not penetrate (augmented Lagrangian
   /// contact, ContactOptions::augmented_tol) instead of the penalty's ~60 µm at 15 kPa: the
-  /// pressures a rigid socket delivers, ~1.5× the loop's time (docs/contact.md, "Penalty").
+  /// pressures a rigid socket delivers, ~1.5× the loop's time (docs/contact.md, "Penetration").
   bool closed_loop_rigid_wall = false;
   /// The brim template; not given: the limb type's (default_brim: PTB transtibial, ICS transfemoral).
   std::optional<BrimTemplate> brim;

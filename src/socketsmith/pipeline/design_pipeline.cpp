@@ -239,8 +239,12 @@ design::SocketResult build_design_socket(const geometry::TriMesh& designed_skin,
 ClosedLoopOptions closed_loop_options(const design::CaseFile& c) {
   ClosedLoopOptions lo;
   lo.max_donnings = c.closed_loop_donnings;
-  if (c.closed_loop_rigid_wall) lo.donning.contact.augmented_tol = contact::kRigidWallAugmentedTol;
+  lo.donning.contact.augmented_tol = case_augmented_tol(c);
   return lo;
+}
+
+double case_augmented_tol(const design::CaseFile& c) {
+  return c.closed_loop_rigid_wall ? contact::kRigidWallAugmentedTol : 0.0;
 }
 
 DesignResult solve_design(DesignSetup& setup, bool optimise, const ProgressCallback& progress) {

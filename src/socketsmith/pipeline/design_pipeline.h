@@ -118,6 +118,10 @@ struct DesignResult {
 
 /// The closed loop's settings for case @p c as `design` runs it (without progress).
 ClosedLoopOptions closed_loop_options(const design::CaseFile& c);
+/// The contact's augmented Lagrangian tolerance the case asks of every donning of its socket (the
+/// closed loop's, `simulate donning --case`, `validate design`'s own): contact::kRigidWallAugmentedTol
+/// with design.closed_loop_rigid_wall, else 0 (the penalty alone).
+double case_augmented_tol(const design::CaseFile& c);
 
 /// Stage 2. Optimises (or solves the setup's spots) and builds the socket when every constraint
 /// holds, then closes the loop when the case asks for it. Never builds a socket that violates the

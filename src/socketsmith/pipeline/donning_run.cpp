@@ -285,7 +285,7 @@ contact::DonningOptions donning_options(const DonningRequest& q, const DonningIn
   o.contact.stick_stiffness_ratio = q.stick_stiffness_ratio;
   if (q.reuse_cg >= 0) o.contact.max_reuse_cg = q.reuse_cg;
   if (q.smooth_wall) o.smooth_wall = *q.smooth_wall;
-  if (q.rigid_wall || c.closed_loop_rigid_wall) o.contact.augmented_tol = contact::kRigidWallAugmentedTol;
+  o.contact.augmented_tol = q.rigid_wall ? contact::kRigidWallAugmentedTol : case_augmented_tol(c);
   // The donned stump: the design's (its tissue model as it was solved: the closed loop's rule), or
   // as asked. MSS-CS has no energy, so its "nonlinear" body is the lattice's own Newton.
   const bool design_linear =
