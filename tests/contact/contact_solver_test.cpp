@@ -195,6 +195,21 @@ TEST(ContactCube, a_solve_stops_at_its_newton_limit_and_leaves_the_state_where_i
   EXPECT_THROW(solver.limit_newton(-1), InvalidInputError);
 }
 
+// A contact solve that fails says why in one line (the Newton loop's diagnosis, tissue::run_newton)
+// (here: the iteration limit of each solve).
+TEST(ContactCube, a_failed_solve_says_why_in_one_line) {
+  NeoHookeanCube k;
+  auto& [c, model, dofs, box, co] = k;
+  co.max_newton = 1;  // one Newton step per solve: not enough for 4 mm into the cube, even in 64 sub-steps
+  co.kink_rel_tol = co.rel_tol;  // no acceptance at a kink (a flat wall has none)
+  ContactSolver solver(model, dofs, c.top, c.top_area, box, co);
+  const ContactStep st = solver.move_to(Vec3(0, 0, -0.004));
+  EXPECT_FALSE(st.converged);
+  EXPECT_THAT(st.message, ::testing::HasSubstr("contact solve did not converge after"));
+  EXPECT_THAT(st.message, ::testing::HasSubstr(": not converged after 1 iterations (residual"));
+  EXPECT_EQ(st.message.find('\n'), std::string::npos);
+}
+
 // The contact's residual tolerance is rel_tol · max(Σ |f_contact|, residual_floor_ratio · E h²):
 // forces above the floor are solved to rel_tol of themselves, a light touch (a few millinewtons)
 // only to rel_tol of the floor, 30 E h² by default — without the floor Newton chased a fraction of a

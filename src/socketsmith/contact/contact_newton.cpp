@@ -11,6 +11,7 @@
 #include "socketsmith/contact/contact_solver_impl.h"
 #include "socketsmith/core/errors.h"
 #include "socketsmith/core/log.h"
+#include "socketsmith/tissue/newton_loop.h"
 #include "socketsmith/tissue/static_solver.h"
 
 namespace socketsmith::contact {
@@ -167,85 +168,122 @@ bool ContactSolver::Impl::step_direction(const VectorXd& xs, const std::vector<E
   return newton_direction(xs, B, K, r, rs, delta, ds);
 }
 
-bool ContactSolver::Impl::newton(VectorXd& xs, Vec3& t, std::vector<NodeContact>& st, std::vector<Vec3>& th,
-                                 int& iterations, double& rn, bool& at_kink) {
-  at_kink = false;
-  chord_next = false;
-  tissue::limit_solver_threads();
-  SparseMatrix K;
-  std::vector<Eigen::Matrix3d> B;
-  std::vector<double> pi_history;
-  double pi = 0, rs = 0;
-  RelagState relags;
-  int tiny_steps = 0;  // line-search steps below kTinyStep in a row
-  VectorXd r;
-  const auto residual = [&] {
-    r = evaluate(xs, t, st, th, &B, &pi);
-    rs = free_residual(st);
-    pi -= free_force_n * t.dot(free_dir);  // the push's work (0 unless free)
-    rn = std::hypot(r.norm(), rs);
-  };
-  residual();
-  const bool conservative = std::isfinite(pi);
-  for (int it = 0; it <= opt.max_newton; ++it) {
-    const double tol = tolerance(st);
-    if (rn <= tol) return true;
+/// The contact solve's half of Newton (tissue/newton_loop.h) at one obstacle position with the
+/// friction lag fixed: the iterate (positions, the obstacle's translation when it is free), the
+/// residual and potential Π, the direction (CHOLMOD, a chord step in the tail), the line search on
+/// Π, and what the loop cannot know: a node on a kink of the wall, the friction lag refreshed in the
+/// tail, a new stick that stops a try_move_to, the Newton budget shared by a donning's solves.
+class ContactSolver::Impl::Newton final : public tissue::NewtonProblem {
+ public:
+  Newton(Impl& s, VectorXd& xs, Vec3& t, std::vector<NodeContact>& st, std::vector<Vec3>& th, int& iterations)
+      : s_(s), xs_(xs), t_(t), st_(st), th_(th), iterations_(iterations) {
+    residual();
+    conservative_ = std::isfinite(pi_);
+  }
+  double residual_norm() const override { return rn_; }
+  double tolerance() const override { return s_.tolerance(st_); }
+  bool proceed(int it) override {
     if (log::level() <= log::Level::Debug) {
-      const auto act = std::count_if(st.begin(), st.end(), [](const NodeContact& c) { return c.active; });
-      log::debug("contact: Newton {}: |r| {:.3g} N (tol {:.3g}), {} active, potential {:.6g} J", it, rn, tol, act, pi);
+      const auto act = std::count_if(st_.begin(), st_.end(), [](const NodeContact& c) { return c.active; });
+      log::debug("contact: Newton {}: |r| {:.3g} N (tol {:.3g}), {} active, potential {:.6g} J", it, rn_, tolerance(),
+                 act, pi_);
     }
-    if (it == opt.max_newton) {
-      at_kink = rn <= kink_tolerance(st);
-      return at_kink;
+    if (!s_.out_of_budget()) return true;
+    reason_ = fmt::format("the Newton iterations allowed ({}) are spent", s_.newton_limit);
+    return false;
+  }
+  Result direction() override {
+    if (!s_.step_direction(xs_, B_, K_, r_, rs_, s_.in_tail(st_, rn_), delta_, ds_)) {
+      reason_ = s_.free_axis() ? "the tangent is singular, or nothing holds the obstacle along its push"
+                               : "the tangent is singular";
+      return Result::Failed;
     }
-    if (out_of_budget()) return false;
-    VectorXd delta;
-    double ds = 0;
-    if (!step_direction(xs, B, K, r, rs, in_tail(st, rn), delta, ds)) return false;
-    ++iterations;
-    ++newton_spent;
-    double step = 0;
-    const double rn_before = rn;
-    const bool accepted = line_search(xs, t, delta, ds, r, rs, rn, pi, st, th, B, conservative, step);
-    chord_next = accepted && step == 1.0 && rn <= opt.chord_ratio * rn_before;
-    if (!accepted) {
-      log::debug("contact: line search failed at Newton {} (residual {:.3g} N)", it, rn);
-      at_kink = rn <= kink_tolerance(st);
-      return at_kink;
-    }
+    ++iterations_;
+    ++s_.newton_spent;
+    return Result::Done;
+  }
+  Result line_search() override {
+    const double rn_before = rn_;
+    const bool accepted = s_.line_search(xs_, t_, delta_, ds_, r_, rs_, rn_, pi_, st_, th_, B_, conservative_, step_);
+    s_.chord_next = accepted && step_ == 1.0 && rn_ <= s_.opt.chord_ratio * rn_before;
+    if (accepted) return Result::Done;
+    log::debug("contact: line search failed (residual {:.3g} N)", rn_);
+    return Result::Failed;
+  }
+  bool accept_short(tissue::NewtonStop) override { return at_kink(); }
+  Next after_step() override {
     // A node on a kink of the wall (an edge or vertex where the closest face switches) has no
     // point of zero residual: Newton then crawls with tiny steps while Π stops decreasing. Its
     // residual is bounded by the force jump across the kink; accept it when it is small.
-    log::debug("contact: step {:.3g} of the Newton step{}", step, chord_now ? " (chord: on the last factorisation)" : "");
-    pi_history.push_back(pi);
-    const double moved = step * std::max(delta.cwiseAbs().maxCoeff(), std::abs(ds));
-    const size_t nh = pi_history.size();
-    const bool flat = nh > 5 && conservative &&
-                      pi_history[nh - 6] - pi <= 1e-6 * std::max(std::abs(pi), 1e-30);
-    if ((moved <= opt.kink_step_tol_m || flat) && rn > tolerance(st) && rn <= kink_tolerance(st)) {
-      at_kink = true;
-      return true;
-    }
+    log::debug("contact: step {:.3g} of the Newton step{}", step_, s_.chord_now ? " (chord: on the last factorisation)" : "");
+    pi_history_.push_back(pi_);
+    const double moved = step_ * std::max(delta_.cwiseAbs().maxCoeff(), std::abs(ds_));
+    const size_t nh = pi_history_.size();
+    const bool flat = nh > 5 && conservative_ && pi_history_[nh - 6] - pi_ <= 1e-6 * std::max(std::abs(pi_), 1e-30);
+    if ((moved <= s_.opt.kink_step_tol_m || flat) && rn_ > tolerance() && at_kink()) return Next::Accept;
     // Stalled: the line search has cut the step to a sliver kStallSteps times in a row with the
     // residual above the kink's. Newton then only crawls until the search fails (AmpScan's limb:
     // steps 0.008 → 2e-9 over 12 more iterations, each with up to 30 trial evaluations); the caller
     // refines the path instead.
-    tiny_steps = step < kTinyStep ? tiny_steps + 1 : 0;
-    if (tiny_steps >= kStallSteps && rn > kink_tolerance(st)) {
-      log::debug("contact: Newton stalled at {} (steps below {:.3g} of the Newton step, residual {:.3g} N)", it,
-                 kTinyStep, rn);
-      return false;
+    tiny_steps_ = step_ < kTinyStep ? tiny_steps_ + 1 : 0;
+    if (tiny_steps_ >= kStallSteps && !at_kink()) {
+      reason_ = fmt::format("stalled: the line search cut the step below {:.3g} of Newton's {} times in a row (residual "
+                            "{:.3g} N)", kTinyStep, kStallSteps, rn_);
+      return Next::Stop;
     }
-    if (refresh_lag_in_newton(st, rn, relags)) {
-      pi_history.clear();  // the potential changed
+    if (s_.refresh_lag_in_newton(st_, rn_, relags_)) {
+      pi_history_.clear();  // the potential changed
       residual();
     }
-    if (stop_on_new_stick && in_tail(st, rn) && count_new_sticks(st) > 0) {
-      stopped_on_stick = true;
-      return false;
+    if (s_.stop_on_new_stick && s_.in_tail(st_, rn_) && s_.count_new_sticks(st_) > 0) {
+      s_.stopped_on_stick = true;
+      reason_ = "a node started sticking";
+      return Next::Stop;
     }
+    return Next::Continue;
   }
-  return false;
+  std::string stop_reason() const override { return reason_; }
+
+ private:
+  /// The residual is within what a node on a kink of the wall leaves (ContactOptions::kink_rel_tol).
+  bool at_kink() const { return rn_ <= s_.kink_tolerance(st_); }
+  void residual() {
+    r_ = s_.evaluate(xs_, t_, st_, th_, &B_, &pi_);
+    rs_ = s_.free_residual(st_);
+    pi_ -= s_.free_force_n * t_.dot(s_.free_dir);  // the push's work (0 unless free)
+    rn_ = std::hypot(r_.norm(), rs_);
+  }
+
+  Impl& s_;
+  VectorXd& xs_;
+  Vec3& t_;
+  std::vector<NodeContact>& st_;
+  std::vector<Vec3>& th_;
+  int& iterations_;
+  SparseMatrix K_;
+  std::vector<Eigen::Matrix3d> B_;
+  std::vector<double> pi_history_;
+  VectorXd r_, delta_;
+  double pi_ = 0, rs_ = 0, rn_ = 0, ds_ = 0, step_ = 0;
+  bool conservative_ = false;
+  RelagState relags_;
+  int tiny_steps_ = 0;  // line-search steps below kTinyStep in a row
+  std::string reason_;
+};
+
+bool ContactSolver::Impl::newton(VectorXd& xs, Vec3& t, std::vector<NodeContact>& st, std::vector<Vec3>& th,
+                                 int& iterations, double& rn, bool& at_kink) {
+  chord_next = false;
+  tissue::limit_solver_threads();
+  Newton problem(*this, xs, t, st, th, iterations);
+  tissue::NewtonLoopOptions o;
+  o.max_iterations = opt.max_newton;
+  const tissue::NewtonOutcome out = tissue::run_newton(problem, o);
+  rn = out.residual;
+  at_kink = out.stop == tissue::NewtonStop::Accepted;
+  newton_message = out.message;
+  if (!out.ok()) log::debug("contact: Newton: {}", out.message);
+  return out.ok();
 }
 
 bool ContactSolver::Impl::refresh_lag_in_newton(const std::vector<NodeContact>& st, double rn, RelagState& rs) {
@@ -364,8 +402,8 @@ ContactStep ContactSolver::Impl::solve(const Vec3& t_start, bool commit) {
     out.stopped_on_new_stick = true;
     out.message = fmt::format("stopped after {} Newton iterations: a node started sticking", out.newton_iterations);
   } else {
-    out.message = fmt::format("contact solve did not converge after {} Newton iterations (residual {:.3g} N)",
-                              out.newton_iterations, rn);
+    out.message = fmt::format("contact solve did not converge after {} Newton iterations in {} friction pass(es): {}",
+                              out.newton_iterations, out.friction_passes, newton_message);
   }
   return out;
 }

@@ -5,6 +5,7 @@
 /// the steps along a path and the pushes in contact_newton.cpp.
 
 #include <limits>
+#include <string>
 #include <vector>
 
 #include "socketsmith/contact/contact_solver.h"
@@ -210,8 +211,11 @@ struct ContactSolver::Impl {
   bool newton_direction(const VectorXd& xs, const std::vector<Eigen::Matrix3d>& B, SparseMatrix& K, const VectorXd& r,
                         double rs, VectorXd& delta, double& ds);
 
-  /// Newton on the equilibrium at translation t with the friction lag fixed; updates xs (and t
-  /// when the obstacle is free along free_dir).
+  /// Newton on the equilibrium at translation t with the friction lag fixed (tissue::run_newton
+  /// with its half, Newton, in contact_newton.cpp); updates xs (and t when the obstacle is free
+  /// along free_dir). @p at_kink: accepted short of the tolerance at a kink of the wall.
+  class Newton;
+  std::string newton_message;  // how the last Newton solve ended (one line)
   bool newton(VectorXd& xs, Vec3& t, std::vector<NodeContact>& st, std::vector<Vec3>& th, int& iterations,
               double& rn, bool& at_kink);
 

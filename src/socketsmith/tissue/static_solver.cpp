@@ -18,6 +18,7 @@
 
 #include "socketsmith/core/errors.h"
 #include "socketsmith/core/log.h"
+#include "socketsmith/tissue/newton_loop.h"
 #include "socketsmith/tissue/sparse_cholesky.h"
 #include "socketsmith/volume/hex_element.h"
 
@@ -300,71 +301,68 @@ std::string StaticSolver::stall_diagnosis(const VectorXd& x, StaticResult& res, 
   return fmt::format("at the last equilibrium {}; {}", facts, verdict);
 }
 
+/// The static solve's half of Newton (newton_loop.h): the iterate x, its residual r = Pᵀ(f_int + f_ext),
+/// BiCGSTAB on the exact tangent preconditioned by the reused CHOLMOD factor of K_psd (renewed
+/// when it has aged, or for a retry), a backtracking line search on ‖r‖ that rejects inverted
+/// elements.
+class StaticSolver::Newton final : public NewtonProblem {
+ public:
+  Newton(StaticSolver::Impl& s, const AppliedLoad& load, VectorXd& x, double tol, StaticResult& res)
+      : s_(s), load_(load), x_(x), tol_(tol), res_(res), r_(static_residual(s.model, s.dofs, load.at(x), x)),
+        rnorm_(r_.norm()) {}
+  double residual_norm() const override { return rnorm_; }
+  double tolerance() const override { return tol_; }
+  Result direction() override {
+    fresh_ = !s_.chol.valid() || s_.stale();
+    if (fresh_ && !s_.factorize(x_, res_)) {
+      reason_ = "the stiffness matrix is singular: the model is not constrained against rigid motion";
+      return Result::Failed;
+    }
+    return s_.direction(load_, x_, r_, fresh_, res_, delta_, kit_, krylov_ok_) ? Result::Done : Result::RetryFresh;
+  }
+  Result line_search() override {
+    int inverted_trials = 0;
+    if (s_.line_search(load_, delta_, it_, kit_, krylov_ok_, x_, r_, rnorm_, inverted_trials)) {
+      ++it_;
+      return Result::Done;
+    }
+    if (!fresh_) {
+      s_.chol.invalidate();  // retry with a fresh factorisation at this iterate
+      return Result::RetryFresh;
+    }
+    ++s_.failed_searches;
+    if (inverted_trials > 0) ++s_.failed_searches_inverting;
+    return Result::Failed;
+  }
+  std::string stop_reason() const override { return reason_; }
+
+ private:
+  StaticSolver::Impl& s_;
+  const AppliedLoad& load_;
+  VectorXd& x_;
+  double tol_;
+  StaticResult& res_;
+  VectorXd r_, delta_;
+  double rnorm_;
+  bool fresh_ = false, krylov_ok_ = false;
+  int kit_ = 0, it_ = 0;
+  std::string reason_;
+};
+
 /// One Newton solve toward @p load from @p x, at most @p max_iterations iterations, to
 /// residual @p tol. Accumulates statistics into @p res; on failure @p x holds the last iterate.
 bool StaticSolver::newton(const AppliedLoad& load, VectorXd& x, int max_iterations, double tol, StaticResult& res,
                           int stall_iterations) {
-  Impl& s = *impl_;
-  VectorXd r = static_residual(model_, dofs_, load.at(x), x);
-  double rnorm = r.norm();
-  std::vector<double> history;  // ‖r‖ at the start of each iteration
-  int it = 0;
-  // A retry of the same iterate with a fresh factorisation (at most one per iterate: the retry is
-  // fresh) is neither an iteration of the budget nor a point of the stall test.
-  auto retry_iterate = [&] {
-    history.pop_back();
-    --it;
-    --res.iterations;
-  };
-  for (; it < max_iterations; ++it, ++res.iterations) {
-    if (!std::isfinite(rnorm)) {
-      res.message = "diverged: residual is not finite";
-      return false;
-    }
-    if (rnorm <= tol) {
-      res.residual_n = rnorm;
-      return true;
-    }
-    history.push_back(rnorm);
-    const int k = stall_iterations;
-    if (k > 0 && static_cast<int>(history.size()) > k &&
-        rnorm > (1.0 - options_.stall_reduction) * history[history.size() - 1 - k]) {
-      res.residual_n = rnorm;
-      res.message = fmt::format("stalled: the residual fell from {:.3g} to {:.3g} N in the last {} iterations (by less "
-                                "than {:.0f} %)", history[history.size() - 1 - k], rnorm, k, 100 * options_.stall_reduction);
-      return false;
-    }
-    const bool fresh = !s.chol.valid() || s.stale();
-    if (fresh && !s.factorize(x, res)) {
-      res.message = "the stiffness matrix is singular: the model is not constrained against rigid motion";
-      return false;
-    }
-    VectorXd delta;
-    int kit = 0;
-    bool krylov_ok = false;
-    if (!s.direction(load, x, r, fresh, res, delta, kit, krylov_ok)) {
-      retry_iterate();
-      continue;
-    }
-    int inverted_trials = 0;
-    if (!s.line_search(load, delta, it, kit, krylov_ok, x, r, rnorm, inverted_trials)) {
-      if (!fresh) {
-        s.chol.invalidate();  // retry with a fresh factorisation at this iterate
-        retry_iterate();
-        continue;
-      }
-      ++s.failed_searches;
-      if (inverted_trials > 0) ++s.failed_searches_inverting;
-      res.residual_n = rnorm;
-      res.message = fmt::format("diverged: no step along the Newton direction reduces the residual ({:.3g} N)", rnorm);
-      return false;
-    }
-  }
-  res.residual_n = rnorm;
-  if (rnorm <= tol) return true;  // the last iteration's step converged
-  res.message = fmt::format("not converged after {} iterations (residual {:.3g} N, tolerance {:.3g} N)", max_iterations,
-                            rnorm, tol);
-  return false;
+  Newton problem(*impl_, load, x, tol, res);
+  NewtonLoopOptions o;
+  o.max_iterations = max_iterations;
+  o.stall_iterations = stall_iterations;
+  o.stall_reduction = options_.stall_reduction;
+  const NewtonOutcome out = run_newton(problem, o);
+  res.iterations += out.iterations;
+  res.residual_n = out.residual;
+  if (!out.ok()) res.message = out.message;
+  return out.ok();
 }
 
 StaticResult StaticSolver::solve(const VectorXd& f_ext, VectorXd& x) {

@@ -157,6 +157,7 @@ class StaticSolver {
 
  private:
   struct Impl;
+  class Newton;  // the static solve's half of Newton (newton_loop.h)
   /// The load of one Newton solve: constant + scale · moving(x).
   struct AppliedLoad {
     VectorXd constant;
