@@ -81,7 +81,7 @@ struct DesignFlags {
   bool no_optimise = false;
   int target_nodes = 0;  // 0: the case's
   std::string mode = "contact";
-  std::string element = "c3d8";
+  std::string element;  // empty: the tissue's twin (c3d8, or c3d8i for tissue.element fbar)
   double poisson = -1;  // < 0: the case's continuum model's ν, else 0.45 (the thesis's)
   double penalty = 1e9;
   double stick_slope = 5e7;
@@ -114,7 +114,7 @@ void run_validate_design(const DesignFlags& f) {
   o.neo_hookean = f.neo_hookean;
   o.small_strain = f.small_strain;
   o.printed_wall = f.printed_wall;
-  o.element = calculix::parse_element_type(f.element);
+  if (!f.element.empty()) o.element = calculix::parse_element_type(f.element);
   o.penalty_pa_per_m = f.penalty;
   o.stick_slope_pa_per_m = f.stick_slope;
   o.friction = f.friction;
@@ -187,7 +187,8 @@ void add_case_flags(CLI::App& cmd, DesignFlags& f) {
   cmd.add_flag("--no-optimise", f.no_optimise, "solve the case's spots as given");
   cmd.add_option("--target-nodes", f.target_nodes, "stump size (default: the case's)")
       ->check(within(design::limits::kTargetNodes));
-  cmd.add_option("--element", f.element, "c3d8 | c3d8i | c3d8r (default c3d8)");
+  cmd.add_option("--element", f.element,
+                 "c3d8 | c3d8i | c3d8r (default: the tissue's twin, c3d8, or c3d8i for tissue.element fbar)");
   cmd.add_option("--poisson", f.poisson,
                  "tissue Poisson ratio in CalculiX (default: the case's fe or neo-hookean model's, else 0.45, the thesis's)")
       ->check(CLI::Range(0.0, 0.4999));

@@ -363,7 +363,7 @@ std::shared_ptr<Validation> validate(const py::object& case_obj, const std::stri
   o.poisson_ratio = a.poisson.value_or(-1.0);
   o.neo_hookean = a.neo_hookean;
   o.small_strain = a.small_strain;
-  o.element = calculix::parse_element_type(a.element);
+  if (!a.element.empty()) o.element = calculix::parse_element_type(a.element);
   o.penalty_pa_per_m = a.penalty;
   o.stick_slope_pa_per_m = a.stick_slope;
   o.friction = a.friction.value_or(-1.0);
@@ -698,7 +698,7 @@ PYBIND11_MODULE(_core, m) {
       py::arg("case"), py::arg("out"), py::kw_only(), py::arg("mode") = "contact", py::arg("against_donning") = false,
       py::arg("stand") = false, py::arg("nonlinear_body") = false, py::arg("optimise") = py::none(),
       py::arg("poisson") = py::none(), py::arg("neo_hookean") = false, py::arg("small_strain") = false,
-      py::arg("element") = "c3d8", py::arg("fe_pressure") = "force", py::arg("penalty") = 1e9,
+      py::arg("element") = "", py::arg("fe_pressure") = "force", py::arg("penalty") = 1e9,
       py::arg("stick_slope") = 5e7, py::arg("friction") = py::none(), py::arg("clearance_mm") = 1.0,
       py::arg("travel_mm") = 60.0, py::arg("initial_increment") = 0.05, py::arg("ccx") = "ccx",
       py::arg("ccx_threads") = 1, py::arg("ccx_time_limit_s") = 3600.0, py::arg("target_nodes") = py::none(),

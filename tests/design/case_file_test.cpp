@@ -253,6 +253,15 @@ TEST(CaseFile, bad_input_is_one_line_naming_the_key) {
   expect_error(R"({"tissue": {"model": "fe", "poisson": 0.5}})", "tissue.poisson = 0.5 is outside [0, 0.5)");
   expect_error(R"({"tissue": {"model": "neo-hookean", "poisson": 0.5}})", "tissue.poisson = 0.5 is outside [0, 0.5)");
   expect_error(R"({"tissue": {"model": "mss-cf", "poisson": 0.2}})", "tissue.poisson = 0.2 is outside [0.25, 0.5)");
+  expect_error(R"({"tissue": {"model": "mss-cs", "element": "fbar"}})", "tissue.element 'fbar' is for the neo-hookean model");
+  expect_error(R"({"tissue": {"element": "c3d8r"}})", "unknown element formulation 'c3d8r'");
+  {  // tissue.element: fbar read, written and read back; c3d8 (the default) not written
+    const CaseFile f = parse_case(json::parse(R"({"tissue": {"element": "fbar"}})"));
+    EXPECT_EQ(f.element, tissue::HexFormulation::FBar);
+    EXPECT_EQ(case_to_json(f)["tissue"]["element"], "fbar");
+    EXPECT_EQ(parse_case(case_to_json(f)).element, tissue::HexFormulation::FBar);
+    EXPECT_FALSE(case_to_json(parse_case(json::parse("{}")))["tissue"].contains("element"));
+  }
   expect_error(R"({"mesh": {"target_nodes": 10}})", "target_nodes = 10");
   expect_error(R"({"limb": {"units": "inch"}})", "inch");
   expect_error(R"({"limb": {"type": "banana"}})", "banana");

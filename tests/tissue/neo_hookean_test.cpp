@@ -85,6 +85,21 @@ std::vector<std::pair<const char*, Matrix3d>> large_strains() {
   return {{"30% compression + shear", c30}, {"60% compression + shear", c60}, {"simple shear 0.6", shear}};
 }
 
+/// The elements' forces at @p x into @p f, and their largest difference from central differences
+/// (step @p eps) of the energy [N].
+double force_fd_error(const HyperelasticHexElements& fe, const Eigen::VectorXd& x, double eps, Eigen::VectorXd& f) {
+  f = Eigen::VectorXd::Zero(x.size());
+  fe.add_forces(x, f);
+  double worst = 0.0;
+  for (Eigen::Index c = 0; c < x.size(); ++c) {
+    Eigen::VectorXd p = x, q = x;
+    p[c] += eps;
+    q[c] -= eps;
+    worst = std::max(worst, std::abs(-(fe.energy(p) - fe.energy(q)) / (2 * eps) - f[c]));
+  }
+  return worst;
+}
+
 TEST(NeoHookean, forces_match_finite_differences_of_the_energy_at_large_strain) {
   const double a = 0.03;
   const auto mesh = distorted_lattice(a, 11);
@@ -92,16 +107,8 @@ TEST(NeoHookean, forces_match_finite_differences_of_the_energy_at_large_strain) 
   for (const auto& [name, F] : large_strains()) {
     const Eigen::VectorXd x = mapped(mesh, F, 0.02 * a / 3, 3);
     ASSERT_GT(fe.min_gauss_jacobian(x), 0) << name;
-    Eigen::VectorXd f = Eigen::VectorXd::Zero(x.size());
-    fe.add_forces(x, f);
-    const double eps = 1e-7 * a;
-    double worst = 0.0;
-    for (Eigen::Index c = 0; c < x.size(); ++c) {
-      Eigen::VectorXd p = x, q = x;
-      p[c] += eps;
-      q[c] -= eps;
-      worst = std::max(worst, std::abs(-(fe.energy(p) - fe.energy(q)) / (2 * eps) - f[c]));
-    }
+    Eigen::VectorXd f;
+    const double worst = force_fd_error(fe, x, 1e-7 * a, f);
     std::printf("[ info ] %s: force vs energy FD, max error %.2e of max force %.3g N\n", name, worst / f.cwiseAbs().maxCoeff(),
                 f.cwiseAbs().maxCoeff());
     EXPECT_LT(worst, 1e-6 * f.cwiseAbs().maxCoeff()) << name;
@@ -218,20 +225,22 @@ TEST(NeoHookean, one_brick_has_exactly_the_six_rigid_zero_modes_at_rest) {
 
 TEST(NeoHookean, energy_of_a_homogeneous_deformation_is_volume_times_w_on_distorted_bricks) {
   // x = F X: the same F at every Gauss point, integrated exactly by the 2×2×2 rule whatever the
-  // element shapes; interior nodes carry no force (patch test).
+  // element shapes; interior nodes carry no force (patch test). F-bar too: its J̄ is then J.
   const double a = 0.03;
   const auto mesh = distorted_lattice(a, 3);
-  const HyperelasticHexElements fe(mesh, kE, kNu, HyperelasticLaw::NeoHookean);
-  for (const auto& [name, F] : large_strains()) {
-    const Eigen::VectorXd x = mapped(mesh, F);
-    const double expected = a * a * a * neo_hookean_w(F, kE, kNu);
-    EXPECT_NEAR(fe.energy(x), expected, 1e-12 * expected) << name;
-    Eigen::VectorXd f = Eigen::VectorXd::Zero(x.size());
-    fe.add_forces(x, f);
-    for (int i = 0; i < mesh.num_nodes(); ++i)
-      if (mesh.nodes[i].minCoeff() > 1e-9 && mesh.nodes[i].maxCoeff() < a - 1e-9) {
-        EXPECT_LT(f.segment<3>(3 * i).norm(), 1e-9 * f.cwiseAbs().maxCoeff()) << name;
-      }
+  for (const auto formulation : {HexFormulation::Full, HexFormulation::FBar}) {
+    for (const auto& [name, F] : large_strains()) {
+      const HyperelasticHexElements fe(mesh, kE, kNu, HyperelasticLaw::NeoHookean, formulation);
+      const Eigen::VectorXd x = mapped(mesh, F);
+      const double expected = a * a * a * neo_hookean_w(F, kE, kNu);
+      EXPECT_NEAR(fe.energy(x), expected, 1e-12 * expected) << name;
+      Eigen::VectorXd f = Eigen::VectorXd::Zero(x.size());
+      fe.add_forces(x, f);
+      for (int i = 0; i < mesh.num_nodes(); ++i)
+        if (mesh.nodes[i].minCoeff() > 1e-9 && mesh.nodes[i].maxCoeff() < a - 1e-9) {
+          EXPECT_LT(f.segment<3>(3 * i).norm(), 1e-9 * f.cwiseAbs().maxCoeff()) << name;
+        }
+    }
   }
 }
 
@@ -441,6 +450,101 @@ TEST(NeoHookean, cube_under_a_follower_pressure_reaches_the_analytic_true_stress
               p / 1e3, s, s_end, r.iterations);
   EXPECT_NEAR(s, s_end, 1e-6);
   EXPECT_NEAR(m.total_volume(x) / m.total_volume(m.rest_positions()), u.volume_ratio, 1e-6);
+}
+
+// F-bar (HexFormulation::FBar): the deviatoric energy at the Gauss points, the volumetric one at
+// the element centre. Its derivatives by finite differences, the patch test, and the locking it
+// removes.
+TEST(FBar, forces_and_tangent_match_finite_differences_at_large_strain) {
+  const double a = 0.03;
+  const auto mesh = distorted_lattice(a, 11);
+  const HyperelasticHexElements fe(mesh, kE, kNu, HyperelasticLaw::NeoHookean, HexFormulation::FBar);
+  MassSpringOptions o;
+  o.kind = TissueModelKind::NeoHookean;
+  o.fe_poisson_ratio = kNu;
+  o.hex_formulation = HexFormulation::FBar;
+  const MassSpringModel m(mesh, {kE, 1060}, o);
+  for (const auto& [name, F] : large_strains()) {
+    const Eigen::VectorXd x = mapped(mesh, F, 0.02 * a / 3, 3);
+    ASSERT_GT(fe.min_gauss_jacobian(x), 0) << name;
+    Eigen::VectorXd f;
+    const double worst = force_fd_error(fe, x, 1e-7 * a, f);
+    EXPECT_LT(worst, 1e-6 * f.cwiseAbs().maxCoeff()) << name;
+    SparseMatrix J;
+    m.jacobian(x, JacobianKind::Exact, J);
+    const MatrixXd Jd(J);
+    const MatrixXd fd = fd_jacobian([&](const Eigen::VectorXd& y) { return m.elastic_forces(y); }, x, 1e-7 * a);
+    const double rel = (fd - Jd).norm() / Jd.norm();
+    std::printf("[ info ] F-bar, %s: force vs energy FD %.2e of the largest force, tangent vs force FD %.2e\n", name,
+                worst / f.cwiseAbs().maxCoeff(), rel);
+    EXPECT_LT(rel, 1e-6) << name;
+    EXPECT_LT((Jd - Jd.transpose()).norm(), 1e-12 * Jd.norm()) << name;
+    // The PSD tangent: symmetric, no negative eigenvalue.
+    m.jacobian(x, JacobianKind::SymmetricPsd, J);
+    const Eigen::VectorXd ev = Eigen::SelfAdjointEigenSolver<MatrixXd>(-MatrixXd(J)).eigenvalues();
+    EXPECT_GT(ev.minCoeff(), -1e-9 * ev.maxCoeff()) << name;
+  }
+}
+
+TEST(FBar, one_brick_has_the_six_rigid_zero_modes_and_only_the_neo_hookean_law_has_it) {
+  HyperelasticHexElements::ElementMatrix K;  // one brick: the six rigid modes and no other zero mode
+  const auto brick = small_lattice(1, 0.01);
+  const HyperelasticHexElements one(brick, kE, kNu, HyperelasticLaw::NeoHookean, HexFormulation::FBar);
+  one.element_stiffness(0, mapped(brick, Matrix3d::Identity()), false, K);
+  const Eigen::VectorXd ev = Eigen::SelfAdjointEigenSolver<HyperelasticHexElements::ElementMatrix>(K).eigenvalues();
+  for (int k = 0; k < 6; ++k) EXPECT_LT(std::abs(ev[k]), 1e-9 * ev[23]);
+  EXPECT_GT(ev[6], 1e-4 * ev[23]);
+  EXPECT_THROW(HyperelasticHexElements(brick, kE, kNu, HyperelasticLaw::StVenantKirchhoff, HexFormulation::FBar),
+               InvalidInputError);
+  EXPECT_EQ(parse_hex_formulation(to_string(HexFormulation::FBar)), HexFormulation::FBar);
+  EXPECT_THROW(parse_hex_formulation("c3d8r"), InvalidInputError);
+}
+
+/// A 4×4×4 block clamped at its base, a small shear force on its top: the top's mean sideways
+/// move [m] at shear modulus 17.2 kPa and Poisson ratio @p nu.
+double sheared_block(double nu, HexFormulation formulation) {
+  const double edge = 0.04, mu = 17.24e3;
+  volume::BoxMeshOptions bo;
+  bo.size = volume::Vec3::Constant(edge);
+  bo.divisions = {4, 4, 4};
+  const auto mesh = volume::mesh_box(bo);
+  MassSpringOptions o;
+  o.kind = TissueModelKind::NeoHookean;
+  o.fe_poisson_ratio = nu;
+  o.hex_formulation = formulation;
+  const MassSpringModel m(mesh, {2 * mu * (1 + nu), 1060}, o);
+  DofConstraints c;
+  std::vector<int> top;
+  for (int i = 0; i < mesh.num_nodes(); ++i) {
+    if (mesh.nodes[i].z() < 1e-9)
+      for (int d = 0; d < 3; ++d) c.fixed.push_back(dof(i, d));
+    if (mesh.nodes[i].z() > edge - 1e-9) top.push_back(i);
+  }
+  const DofMap dofs(m.num_dofs(), c);
+  StaticSolver solver(m, dofs);
+  Eigen::VectorXd f = Eigen::VectorXd::Zero(m.num_dofs()), x = m.rest_positions();
+  for (int i : top) f[3 * i] = 0.5 / static_cast<double>(top.size());  // 0.5 N: 1.5e-2 strain
+  const StaticResult r = solver.solve(f, x);
+  EXPECT_TRUE(r.converged) << r.message;
+  double u = 0;
+  for (int i : top) u += (x[3 * i] - m.rest_positions()[3 * i]) / static_cast<double>(top.size());
+  return u;
+}
+
+// Volumetric locking: as ν → 0.5 the fully integrated hexahedron stiffens in a deformation that
+// keeps the volume only on average over the element; F-bar, whose volume change is one number per
+// element, does not. At the same shear modulus the block then barely notices ν with F-bar.
+TEST(FBar, removes_the_volumetric_locking_of_the_fully_integrated_hexahedron) {
+  const double full_03 = sheared_block(0.3, HexFormulation::Full), fbar_03 = sheared_block(0.3, HexFormulation::FBar);
+  const double full_45 = sheared_block(0.45, HexFormulation::Full), fbar_45 = sheared_block(0.45, HexFormulation::FBar);
+  const double full_499 = sheared_block(0.499, HexFormulation::Full),
+               fbar_499 = sheared_block(0.499, HexFormulation::FBar);
+  std::printf("[ info ] sheared block, top move full / F-bar [mm]: ν 0.3 %.4f / %.4f, ν 0.45 %.4f / %.4f, ν 0.499 %.4f / "
+              "%.4f\n", 1e3 * full_03, 1e3 * fbar_03, 1e3 * full_45, 1e3 * fbar_45, 1e3 * full_499, 1e3 * fbar_499);
+  EXPECT_GT(fbar_499, fbar_45 * 0.8);  // F-bar: ν from 0.45 to 0.499 costs little
+  EXPECT_LT(full_499, 0.8 * fbar_499);  // the full element locks
+  EXPECT_GT(fbar_45, full_45);          // and is stiffer at the default ν already
+  EXPECT_NEAR(fbar_03, full_03, 0.1 * full_03);  // at ν 0.3 they nearly agree
 }
 
 }  // namespace

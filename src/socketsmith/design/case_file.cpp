@@ -163,6 +163,10 @@ void parse_tissue(const json& j, CaseFile& c) {
                                   number(j, "poisson", "tissue", 0.45), "case file: tissue.poisson");
   }
   read_parameters(j, "tissue", "tissue", c);
+  require(c.element == tissue::HexFormulation::Full || c.model == "neo-hookean",
+          "case file: tissue.element 'fbar' is for the neo-hookean model (tissue.model is '{}'); use model "
+          "neo-hookean or remove tissue.element",
+          c.model);
 }
 
 void parse_design(const json& j, CaseFile& c) {

@@ -57,6 +57,9 @@ struct CaseFile {
   /// the model's default. MSS and MSS-CS have none of their own (their lattice's is 1/4).
   std::optional<double> poisson_ratio;
   std::string constants = "cube-targets";  ///< cube-targets | recommended | thesis | cube-fit
+  /// The hexahedra's integration: c3d8 (CalculiX's C3D8, the default) | fbar (F-bar, neo-hookean
+  /// only: no volumetric locking; docs/tissue.md, "Locking").
+  tissue::HexFormulation element = tissue::HexFormulation::Full;
   double youngs_modulus_pa = 100e3;
   double density_kg_m3 = 1060.0;
   /// The model's own when the case file does not say (default_solve_mode): nonlinear for

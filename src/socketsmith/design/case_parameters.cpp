@@ -311,6 +311,10 @@ const std::vector<CaseTextParameter>& case_text_parameters() {
                            {"mss-cs", "mss-cf", "mss", "fe", "neo-hookean"}),
       kind_text<&C::constants>("tissue.constants", "the MSS-CS corrective springs' constants",
                                {"cube-targets", "recommended", "thesis", "cube-fit"}),
+      kind<&C::element>("tissue.element",
+                        "the hexahedra: c3d8 (CalculiX's C3D8) or fbar (F-bar: no volumetric locking; neo-hookean only)",
+                        {{"c3d8", tissue::HexFormulation::Full}, {"fbar", tissue::HexFormulation::FBar}},
+                        &tissue::parse_hex_formulation, W::UnlessDefault),
       solve_written_unless_the_models(kind<&C::solve_mode>(
           "tissue.solve", "the design solve; omitted: the model's (nonlinear for neo-hookean, else linear)",
           {{"nonlinear", DesignSolveMode::Nonlinear}, {"linear", DesignSolveMode::Linear},

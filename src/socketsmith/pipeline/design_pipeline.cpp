@@ -106,6 +106,7 @@ tissue::MassSpringOptions model_options(const design::CaseFile& c) {
   // MSS and MSS-CF use Golec's springs with the thesis's A.
   o.corrective = o.kind == tissue::TissueModelKind::MssCs ? tissue::CorrectiveSpringConstants::preset(c.constants)
                                                           : tissue::CorrectiveSpringConstants::thesis();
+  if (tissue::is_continuum(o.kind)) o.hex_formulation = c.element;
   if (c.poisson_ratio) {
     if (tissue::is_continuum(o.kind)) o.fe_poisson_ratio = *c.poisson_ratio;
     if (o.kind == tissue::TissueModelKind::MssCf) o.cf_poisson_ratio = *c.poisson_ratio;

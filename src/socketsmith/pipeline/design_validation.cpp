@@ -228,7 +228,9 @@ calculix::DesignCheckOptions check_options(const design::CaseFile& c, const Desi
   calculix::DesignCheckOptions co;
   co.mode = o.mode;
   co.material = material;
-  co.element = o.element;
+  co.element = o.element ? *o.element
+                         : c.element == tissue::HexFormulation::FBar ? calculix::ElementType::C3D8I
+                                                                      : calculix::ElementType::C3D8;
   co.contact.penalty_pa_per_m = o.penalty_pa_per_m;
   co.contact.stick_slope_pa_per_m = o.stick_slope_pa_per_m;
   co.contact.friction = o.friction >= 0 ? o.friction : c.patient.friction;

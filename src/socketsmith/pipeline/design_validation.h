@@ -38,7 +38,8 @@ struct DesignValidationOptions {
   bool neo_hookean = false;             ///< neo-Hookean in CalculiX (automatic for a neo-hookean case)
   bool small_strain = false;            ///< CalculiX without NLGEOM (not with a neo-Hookean tissue)
   bool printed_wall = false;            ///< Donning: CalculiX dons the printed socket's wall (DesignCheckOptions)
-  calculix::ElementType element = calculix::ElementType::C3D8;
+  /// CalculiX's element; empty: the tissue's twin (C3D8, or C3D8I for tissue.element fbar).
+  std::optional<calculix::ElementType> element;
   double penalty_pa_per_m = 1e9;        ///< contact penalty [Pa/m], > 0
   double stick_slope_pa_per_m = 5e7;    ///< CalculiX's friction stick slope [Pa/m], > 0
   double friction = -1.0;               ///< μ, [0, 2]; < 0: the case's

@@ -57,6 +57,17 @@ double j_minus_two_thirds(double J) {
   return 1.0 / (c * c);
 }
 
+/// IPC-style projection of @p A on its positive eigen-part. A tangent positive semi-definite to
+/// round-off (at rest the rotations are exact zero modes) is kept as is; a Cholesky of
+/// A + 1e-10 @p scale I tells that cheaply.
+void project_to_psd(Tangent& A, double scale) {
+  const Tangent shifted = A + 1e-10 * scale * Tangent::Identity();
+  Eigen::LLT<Tangent> llt(shifted);
+  if (llt.info() == Eigen::Success) return;
+  Eigen::SelfAdjointEigenSolver<Tangent> eig(A);
+  A = eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).asDiagonal() * eig.eigenvectors().transpose();
+}
+
 /// Consecutive elements per run of the parallel loops (volume::colour_element_runs): long enough
 /// that a run's elements share nodes and cache lines, short enough that each colour has runs for
 /// every thread.
@@ -71,8 +82,25 @@ Lame lame_constants(double E, double nu) {
   return {E * nu / ((1 + nu) * (1 - 2 * nu)), E / (2 * (1 + nu))};
 }
 
+const char* to_string(HexFormulation f) { return f == HexFormulation::FBar ? "fbar" : "c3d8"; }
+
+HexFormulation parse_hex_formulation(const std::string& name) {
+  if (name == "c3d8") return HexFormulation::Full;
+  if (name == "fbar") return HexFormulation::FBar;
+  fail("unknown element formulation '{}' (expected c3d8 or fbar)", name);
+}
+
 HyperelasticMaterial::HyperelasticMaterial(HyperelasticLaw law, double E, double nu)
     : law_(law), lame_(lame_constants(E, nu)) {}
+
+HyperelasticMaterial HyperelasticMaterial::deviatoric_part() const {
+  require(law_ == HyperelasticLaw::NeoHookean,
+          "finite elements: only the neo-Hookean law splits into a deviatoric and a volumetric part (F-bar needs "
+          "\"model\": \"neo-hookean\")");
+  HyperelasticMaterial m = *this;
+  m.volumetric_scale_ = 0.0;
+  return m;
+}
 
 double HyperelasticMaterial::energy_density(const Matrix3d& F) const { return energy_and_stress(F, nullptr); }
 
@@ -97,7 +125,7 @@ double HyperelasticMaterial::energy_and_stress(const Matrix3d& F, Matrix3d* P) c
   }
   // W = C10 (J^(−2/3) I1 − 3) + (J − 1)²/D1 with C10 = μ/2, 1/D1 = K/2;
   // P = μ J^(−2/3) F − (μ/3) I1 J^(−5/3) H + K (J − 1) H, with H = ∂J/∂F.
-  const double j23 = j_minus_two_thirds(J), I1 = F.squaredNorm(), K = bulk_modulus();
+  const double j23 = j_minus_two_thirds(J), I1 = F.squaredNorm(), K = volumetric_scale_ * bulk_modulus();
   if (P) *P = mu * j23 * F + (K * (J - 1) - mu / 3.0 * I1 * j23 / J) * cofactor(F);
   return 0.5 * mu * (j23 * I1 - 3.0) + 0.5 * K * (J - 1) * (J - 1);
 }
@@ -125,23 +153,13 @@ Tangent HyperelasticMaterial::tangent(const Matrix3d& F, bool psd) const {
   const double J = F.determinant();
   SOCKETSMITH_ASSERT(J > 0);
   const double I1 = F.squaredNorm(), j23 = j_minus_two_thirds(J), j53 = j23 / J, j83 = j53 / J;
-  const double kappa = bulk_modulus();
+  const double kappa = volumetric_scale_ * bulk_modulus();
   const Vec9 f = vec(F), h = vec(cofactor(F));
   A = (kappa * (J - 1) - mu / 3.0 * I1 * j53) * determinant_hessian(F);
   A.noalias() += (kappa + 5.0 / 9.0 * mu * I1 * j83) * h * h.transpose();
   A.noalias() -= 2.0 / 3.0 * mu * j53 * (f * h.transpose() + h * f.transpose());
   A.diagonal().array() += mu * j23;
-  if (psd) {
-    // IPC-style projection on the positive eigen-part. A point whose tangent is positive
-    // semi-definite to round-off (at rest its rotations are exact zero modes) is kept as is; a
-    // Cholesky of A + 1e-10 μ I tells that cheaply.
-    const Tangent shifted = A + 1e-10 * mu * Tangent::Identity();
-    Eigen::LLT<Tangent> llt(shifted);
-    if (llt.info() != Eigen::Success) {
-      Eigen::SelfAdjointEigenSolver<Tangent> eig(A);
-      A = eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).asDiagonal() * eig.eigenvectors().transpose();
-    }
-  }
+  if (psd) project_to_psd(A, mu);
   return A;
 }
 
@@ -186,8 +204,11 @@ UniaxialStressState uniaxial_stress_state(const HyperelasticMaterial& material, 
   return out;
 }
 
-HyperelasticHexElements::HyperelasticHexElements(const volume::HexMesh& mesh, double E, double nu, HyperelasticLaw law)
-    : hexes_(mesh.hexahedra), colours_(volume::colour_element_runs(mesh.num_nodes(), mesh.hexahedra, kRunLength)), material_(law, E, nu) {
+HyperelasticHexElements::HyperelasticHexElements(const volume::HexMesh& mesh, double E, double nu, HyperelasticLaw law,
+                                                 HexFormulation formulation)
+    : hexes_(mesh.hexahedra), colours_(volume::colour_element_runs(mesh.num_nodes(), mesh.hexahedra, kRunLength)),
+      material_(law, E, nu), formulation_(formulation),
+      gauss_material_(formulation == HexFormulation::FBar ? material_.deviatoric_part() : material_) {
   const auto& dN = volume::hex_gauss_shape_derivatives();
   gauss_.resize(hexes_.size());
   for (size_t e = 0; e < hexes_.size(); ++e) {
@@ -234,8 +255,39 @@ void HyperelasticHexElements::add_forces(const Eigen::VectorXd& x, Eigen::Vector
     for (const auto& gp : gauss_[e]) (void)checked_deformation_gradient(e, gp, x);
 }
 
-bool HyperelasticHexElements::evaluate(const Eigen::VectorXd& x, Eigen::VectorXd* f, double& energy) const {
+bool HyperelasticHexElements::element_energy(size_t e, const Eigen::VectorXd& x, Eigen::Matrix<double, 3, 8>* fe,
+                                             double& w) const {
   const bool check = material_.needs_positive_volume();
+  const bool fbar = formulation_ == HexFormulation::FBar;
+  const auto& hex = hexes_[e];
+  const auto& points = gauss_[e];
+  std::array<Matrix3d, 8> F;
+  double volume = 0.0, deformed = 0.0;  // the element's volume at rest and now (F-bar)
+  for (int g = 0; g < 8; ++g) {
+    F[g] = deformation_gradient(hex, points[g], x);
+    const double J = F[g].determinant();
+    if (check && !(J > 0)) return false;
+    volume += points[g].weight;
+    deformed += points[g].weight * J;
+  }
+  // F-bar's volumetric part: V · K/2 (J̄ − 1)² with J̄ = v/V, its stress K (J̄ − 1) H at every point.
+  const double K = material_.bulk_modulus(), Jbar = deformed / volume;
+  w = fbar ? volume * 0.5 * K * (Jbar - 1) * (Jbar - 1) : 0.0;
+  for (int g = 0; g < 8; ++g) {
+    const auto& gp = points[g];
+    if (!fe) {
+      w += gp.weight * gauss_material_.energy_density(F[g]);
+      continue;
+    }
+    Matrix3d P;
+    w += gp.weight * gauss_material_.energy_and_stress(F[g], &P);
+    if (fbar) P += K * (Jbar - 1) * cofactor(F[g]);
+    for (int a = 0; a < 8; ++a) fe->col(a).noalias() -= gp.weight * (P * gp.grad[a]);
+  }
+  return true;
+}
+
+bool HyperelasticHexElements::evaluate(const Eigen::VectorXd& x, Eigen::VectorXd* f, double& energy) const {
   std::vector<double> w_e(hexes_.size(), 0.0);
   Eigen::VectorXd sum;  // the forces, added to *f only when no Gauss point is inverted
   if (f) sum = Eigen::VectorXd::Zero(f->size());
@@ -248,26 +300,15 @@ bool HyperelasticHexElements::evaluate(const Eigen::VectorXd& x, Eigen::VectorXd
     for (int k = 0; k < n; ++k)
       for (int e = group[static_cast<size_t>(k)].begin; e < group[static_cast<size_t>(k)].end; ++e) {
         const auto ue = static_cast<size_t>(e);
-        const auto& hex = hexes_[ue];
         double w = 0.0;
         Eigen::Matrix<double, 3, 8> fe = Eigen::Matrix<double, 3, 8>::Zero();
-        for (const auto& gp : gauss_[ue]) {
-          const Matrix3d F = deformation_gradient(hex, gp, x);
-          if (check && !(F.determinant() > 0)) {
-            ++bad;
-            break;
-          }
-          if (!f) {
-            w += gp.weight * material_.energy_density(F);
-            continue;
-          }
-          Matrix3d P;
-          w += gp.weight * material_.energy_and_stress(F, &P);
-          for (int a = 0; a < 8; ++a) fe.col(a).noalias() -= gp.weight * (P * gp.grad[a]);
+        if (!element_energy(ue, x, f ? &fe : nullptr, w)) {
+          ++bad;
+          continue;
         }
         w_e[ue] = w;
         if (f)
-          for (int a = 0; a < 8; ++a) sum.segment<3>(3 * hex[a]) += fe.col(a);
+          for (int a = 0; a < 8; ++a) sum.segment<3>(3 * hexes_[ue][a]) += fe.col(a);
       }
     if (bad > 0) {
       energy = std::numeric_limits<double>::infinity();
@@ -290,10 +331,38 @@ void HyperelasticHexElements::element_stiffness(int e, const Eigen::VectorXd& x,
   require(e >= 0 && e < num_elements(), "element_stiffness: element {} (expected 0..{})", e, num_elements() - 1);
   K.setZero();
   const auto ue = static_cast<size_t>(e);
+  if (formulation_ == HexFormulation::Full) {
+    for (const auto& gp : gauss_[ue]) add_point_stiffness(gp, material_.tangent(checked_deformation_gradient(ue, gp, x), psd), K);
+  } else {
+    // F-bar: Π_e = Σ_g w W_dev(F_g) + V U(J̄), J̄ = Σ_g w J_g / V, U = K/2 (J̄ − 1)². Its Hessian:
+    // Σ_g w Gᵀ (A_dev + U'(J̄) ∂²J/∂F²) G + U''/V b bᵀ with b = Σ_g w Gᵀ vec(H_g) = V ∂J̄/∂x_e.
+    std::array<Matrix3d, 8> F;
+    double volume = 0.0, deformed = 0.0;
+    for (int g = 0; g < 8; ++g) {
+      F[g] = checked_deformation_gradient(ue, gauss_[ue][g], x);
+      volume += gauss_[ue][g].weight;
+      deformed += gauss_[ue][g].weight * F[g].determinant();
+    }
+    const double kappa = material_.bulk_modulus(), dU = kappa * (deformed / volume - 1);
+    Eigen::Matrix<double, 24, 1> b = Eigen::Matrix<double, 24, 1>::Zero();
+    for (int g = 0; g < 8; ++g) {
+      const auto& gp = gauss_[ue][g];
+      Tangent A = gauss_material_.tangent(F[g], false);
+      A.noalias() += dU * determinant_hessian(F[g]);
+      if (psd) project_to_psd(A, material_.lame().mu);
+      add_point_stiffness(gp, A, K);
+      const Matrix3d H = cofactor(F[g]);
+      for (int a = 0; a < 8; ++a) b.segment<3>(3 * a) += gp.weight * (H * gp.grad[a]);
+    }
+    K.noalias() += (kappa / volume) * b * b.transpose();  // PSD; the lower blocks are mirrored below
+  }
+  for (int a = 1; a < 8; ++a)
+    K.block(3 * a, 0, 3, 3 * a) = K.block(0, 3 * a, 3 * a, 3).transpose();
+}
+
+void HyperelasticHexElements::add_point_stiffness(const GaussPoint& gp, const Tangent& A, ElementMatrix& K) {
   Eigen::Matrix<double, 9, 24> AG;
-  for (const auto& gp : gauss_[ue]) {
-    const Tangent A = material_.tangent(checked_deformation_gradient(ue, gp, x), psd);
-    // G = ∂vec(F)/∂x_e has G(i + 3j, 3a + m) = δ_im g_a,j, so (A G)(:, 3a + n) = Σ_l A(:, n + 3l) g_a,l
+  // G = ∂vec(F)/∂x_e has G(i + 3j, 3a + m) = δ_im g_a,j, so (A G)(:, 3a + n) = Σ_l A(:, n + 3l) g_a,l
     // and (Gᵀ A G)(3a + m, :) = Σ_j g_a,j (A G)(m + 3j, :): K = Σ_g w Gᵀ A G without forming G.
     for (int a = 0; a < 8; ++a) {
       const Vector3d& g = gp.grad[a];
@@ -306,10 +375,7 @@ void HyperelasticHexElements::element_stiffness(int e, const Eigen::VectorXd& x,
       K.block(3 * a, 3 * a, 3, cols).noalias() += g[0] * AG.block(0, 3 * a, 3, cols) +
                                                   g[1] * AG.block(3, 3 * a, 3, cols) +
                                                   g[2] * AG.block(6, 3 * a, 3, cols);
-    }
   }
-  for (int a = 1; a < 8; ++a)
-    K.block(3 * a, 0, 3, 3 * a) = K.block(0, 3 * a, 3 * a, 3).transpose();
 }
 
 void HyperelasticHexElements::for_each_element_stiffness(const Eigen::VectorXd& x, bool psd,

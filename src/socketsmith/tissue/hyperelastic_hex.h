@@ -18,6 +18,7 @@
 
 #include <array>
 #include <functional>
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
@@ -39,6 +40,21 @@ enum class HyperelasticLaw {
   StVenantKirchhoff,  ///< W = λ/2 tr(E)² + μ E:E; defined for any F (softens in strong compression)
   NeoHookean,         ///< W = C10 (Ī1 − 3) + (1/D1)(J − 1)²; +∞ for J ≤ 0
 };
+
+/// How an element integrates its energy.
+enum class HexFormulation {
+  Full,  ///< every term at the 2×2×2 Gauss points: CalculiX's C3D8; locks as ν → 0.5 (docs/tissue.md, "Locking")
+  /// F-bar with the element's mean dilatation: F̄ = (J̄/J)^(1/3) F at each Gauss point, J̄ = v/V
+  /// the element's volume ratio (its Gauss-integrated J). For the neo-Hookean law
+  /// W(F̄) = C10 (Ī1(F) − 3) + (J̄ − 1)²/D1: the deviatoric part at the Gauss points, one volume
+  /// change per element (Simo–Taylor–Pister's Q1/P0), an energy with a symmetric exact tangent that
+  /// passes the patch test. Does not lock in volume; CalculiX's nearest element is C3D8I.
+  FBar,
+};
+/// "c3d8", "fbar".
+const char* to_string(HexFormulation f);
+/// @throws InvalidInputError for an unknown name.
+HexFormulation parse_hex_formulation(const std::string& name);
 
 /// One material point of an isotropic hyperelastic law: W(F), P(F) = ∂W/∂F and A(F) = ∂P/∂F.
 /// vec(F) is column-major: index i + 3j holds F_ij.
@@ -75,9 +91,14 @@ class HyperelasticMaterial {
   /// @pre det F > 0 when needs_positive_volume().
   Tangent tangent(const Eigen::Matrix3d& F, bool psd) const;
 
+  /// The same law without its volumetric part (neo-Hookean: W = C10 (Ī1 − 3), K taken as 0 in
+  /// the stress and tangent; bulk_modulus() still the law's): F-bar's Gauss-point part.
+  HyperelasticMaterial deviatoric_part() const;
+
  private:
   HyperelasticLaw law_;
   Lame lame_;
+  double volumetric_scale_ = 1.0;  // 0: the deviatoric part only
 };
 
 /// A homogeneous uniaxial stress state F = diag(t, t, s) of a material: lateral stresses
@@ -107,11 +128,14 @@ class HyperelasticHexElements {
 
   /// @throws InvalidInputError for E ≤ 0, ν outside [0, 0.5); TopologyError for a hexahedron
   ///         whose Jacobian is not positive at a Gauss point.
+  ///         InvalidInputError for HexFormulation::FBar with a law other than neo-Hookean.
   HyperelasticHexElements(const volume::HexMesh& mesh, double youngs_modulus_pa, double poisson_ratio,
-                          HyperelasticLaw law = HyperelasticLaw::StVenantKirchhoff);
+                          HyperelasticLaw law = HyperelasticLaw::StVenantKirchhoff,
+                          HexFormulation formulation = HexFormulation::Full);
 
   int num_elements() const { return static_cast<int>(hexes_.size()); }
   const HyperelasticMaterial& material() const { return material_; }
+  HexFormulation formulation() const { return formulation_; }
   /// Element @p e's nodes (the mesh's hexahedron @p e).
   const volume::Hex& hex(int e) const { return hexes_[static_cast<size_t>(e)]; }
 
@@ -150,10 +174,18 @@ class HyperelasticHexElements {
   /// F at a Gauss point of element @p e, checked against inversion when the law needs J > 0.
   Eigen::Matrix3d checked_deformation_gradient(size_t e, const GaussPoint& gp, const Eigen::VectorXd& x) const;
 
+  /// Adds w Gᵀ A G of the point @p gp (the blocks on and above the diagonal) to @p K.
+  static void add_point_stiffness(const GaussPoint& gp, const HyperelasticMaterial::Tangent& A, ElementMatrix& K);
+  /// Element @p e's energy at @p x and, when @p fe is given, its nodal internal forces subtracted
+  /// into it; false when a point that needs J > 0 has not.
+  bool element_energy(size_t e, const Eigen::VectorXd& x, Eigen::Matrix<double, 3, 8>* fe, double& w) const;
+
   std::vector<volume::Hex> hexes_;
   std::vector<std::array<GaussPoint, 8>> gauss_;
   std::vector<std::vector<volume::ElementRun>> colours_;  // runs sharing no node (volume::colour_element_runs)
   HyperelasticMaterial material_;
+  HexFormulation formulation_ = HexFormulation::Full;
+  HyperelasticMaterial gauss_material_;  // at the Gauss points: material_, or its deviatoric part (F-bar)
 };
 
 }  // namespace socketsmith::tissue

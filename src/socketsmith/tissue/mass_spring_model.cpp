@@ -21,6 +21,9 @@ void check_inputs(const TissueMaterial& material, const MassSpringOptions& optio
   const double E = material.youngs_modulus_pa, rho = material.density_kg_m3;
   require(std::isfinite(E) && E > 0, "MassSpringModel: Young's modulus {} Pa (expected > 0, e.g. 50e3)", E);
   require(std::isfinite(rho) && rho > 0, "MassSpringModel: density {} kg/m^3 (expected > 0, e.g. 1060)", rho);
+  require(options.hex_formulation == HexFormulation::Full || options.kind == TissueModelKind::NeoHookean,
+          "MassSpringModel: the F-bar element is for the neo-Hookean model only (model '{}'; use \"model\": "
+          "\"neo-hookean\" or the c3d8 element)", to_string(options.kind));
   const auto& cs = options.corrective;
   require(std::isfinite(cs.golec_a) && cs.golec_a > 0, "MassSpringModel: Golec A = {} (expected > 0)", cs.golec_a);
   require(std::isfinite(cs.alpha) && cs.alpha > 1, "MassSpringModel: alpha = {} (expected > 1, eq. 4)", cs.alpha);
@@ -130,7 +133,8 @@ void MassSpringModel::build_terms() {
       continuum_ = std::make_shared<const HyperelasticTerm>(std::make_shared<const HyperelasticHexElements>(
           mesh_, E, options_.fe_poisson_ratio,
           options_.kind == TissueModelKind::NeoHookean ? HyperelasticLaw::NeoHookean
-                                                       : HyperelasticLaw::StVenantKirchhoff));
+                                                       : HyperelasticLaw::StVenantKirchhoff,
+          options_.hex_formulation));
       terms_ = {continuum_};
       break;
   }

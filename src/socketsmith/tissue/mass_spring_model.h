@@ -75,6 +75,9 @@ struct MassSpringOptions {
   /// Poisson ratio ν of the continuum models (fe, neo-hookean) [-], in [0, 0.5) (the thesis's
   /// Abaqus check: 0.45)
   double fe_poisson_ratio = 0.45;
+  /// How the continuum models' hexahedra integrate their energy: CalculiX's C3D8 (full) or F-bar
+  /// (neo-hookean only; docs/tissue.md, "Locking").
+  HexFormulation hex_formulation = HexFormulation::Full;
   DampingLaw damping_law = DampingLaw::Critical;
   double damping_ratio = 1.0;      ///< ζ multiplying the damping law [-], ≥ 0
 };

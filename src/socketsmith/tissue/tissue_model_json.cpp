@@ -15,7 +15,10 @@ nlohmann::json tissue_model_json(const MassSpringOptions& o, const TissueMateria
   else
     j["golec_a"] = o.corrective.golec_a;
   if (o.kind == TissueModelKind::MssCf) j["cf_poisson_ratio"] = o.cf_poisson_ratio;
-  if (is_continuum(o.kind)) j["fe_poisson_ratio"] = o.fe_poisson_ratio;
+  if (is_continuum(o.kind)) {
+    j["fe_poisson_ratio"] = o.fe_poisson_ratio;
+    j["element"] = to_string(o.hex_formulation);
+  }
   return j;
 }
 
