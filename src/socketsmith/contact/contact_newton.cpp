@@ -210,7 +210,7 @@ class ContactSolver::Impl::Newton final : public tissue::NewtonProblem {
     log::debug("contact: line search failed (residual {:.3g} N)", rn_);
     return Result::Failed;
   }
-  bool accept_short(tissue::NewtonStop) override { return at_kink(); }
+  bool accept_short(tissue::NewtonStop) override { return kink_accepted(); }
   Next after_step() override {
     // A node on a kink of the wall (an edge or vertex where the closest face switches) has no
     // point of zero residual: Newton then crawls with tiny steps while Π stops decreasing. Its
@@ -220,7 +220,7 @@ class ContactSolver::Impl::Newton final : public tissue::NewtonProblem {
     const double moved = step_ * std::max(delta_.cwiseAbs().maxCoeff(), std::abs(ds_));
     const size_t nh = pi_history_.size();
     const bool flat = nh > 5 && conservative_ && pi_history_[nh - 6] - pi_ <= 1e-6 * std::max(std::abs(pi_), 1e-30);
-    if ((moved <= s_.opt.kink_step_tol_m || flat) && rn_ > tolerance() && at_kink()) return Next::Accept;
+    if ((moved <= s_.opt.kink_step_tol_m || flat) && rn_ > tolerance() && kink_accepted()) return Next::Accept;
     // Stalled: the line search has cut the step to a sliver kStallSteps times in a row with the
     // residual above the kink's. Newton then only crawls until the search fails (AmpScan's limb:
     // steps 0.008 → 2e-9 over 12 more iterations, each with up to 30 trial evaluations); the caller
@@ -247,6 +247,12 @@ class ContactSolver::Impl::Newton final : public tissue::NewtonProblem {
  private:
   /// The residual is within what a node on a kink of the wall leaves (ContactOptions::kink_rel_tol).
   bool at_kink() const { return rn_ <= s_.kink_tolerance(st_); }
+  /// at_kink(), and then the reason the message gives.
+  bool kink_accepted() {
+    if (!at_kink()) return false;
+    reason_ = fmt::format("a node on a kink of the wall (within {:.3g} N)", s_.kink_tolerance(st_));
+    return true;
+  }
   void residual() {
     r_ = s_.evaluate(xs_, t_, st_, th_, &B_, &pi_);
     rs_ = s_.free_residual(st_);

@@ -255,23 +255,33 @@ void HyperelasticHexElements::add_forces(const Eigen::VectorXd& x, Eigen::Vector
     for (const auto& gp : gauss_[e]) (void)checked_deformation_gradient(e, gp, x);
 }
 
-bool HyperelasticHexElements::element_energy(size_t e, const Eigen::VectorXd& x, Eigen::Matrix<double, 3, 8>* fe,
-                                             double& w) const {
-  const bool check = material_.needs_positive_volume();
-  const bool fbar = formulation_ == HexFormulation::FBar;
-  const auto& hex = hexes_[e];
-  const auto& points = gauss_[e];
-  std::array<Matrix3d, 8> F;
-  double volume = 0.0, deformed = 0.0;  // the element's volume at rest and now (F-bar)
+bool HyperelasticHexElements::gauss_gradients(size_t e, const Eigen::VectorXd& x, std::array<Matrix3d, 8>& F,
+                                             double& volume, double& jbar) const {
+  const bool fbar = formulation_ == HexFormulation::FBar, check = material_.needs_positive_volume();
+  double deformed = 0.0;
+  volume = 0.0;
   for (int g = 0; g < 8; ++g) {
-    F[g] = deformation_gradient(hex, points[g], x);
+    const auto& gp = gauss_[e][g];
+    F[g] = deformation_gradient(hexes_[e], gp, x);
+    if (!check && !fbar) continue;
     const double J = F[g].determinant();
     if (check && !(J > 0)) return false;
-    volume += points[g].weight;
-    deformed += points[g].weight * J;
+    volume += gp.weight;
+    deformed += gp.weight * J;
   }
+  jbar = fbar ? deformed / volume : 1.0;
+  return true;
+}
+
+bool HyperelasticHexElements::element_energy(size_t e, const Eigen::VectorXd& x, Eigen::Matrix<double, 3, 8>* fe,
+                                             double& w) const {
+  const bool fbar = formulation_ == HexFormulation::FBar;
+  const auto& points = gauss_[e];
+  std::array<Matrix3d, 8> F;
+  double volume = 0.0, Jbar = 1.0;
+  if (!gauss_gradients(e, x, F, volume, Jbar)) return false;
   // F-bar's volumetric part: V · K/2 (J̄ − 1)² with J̄ = v/V, its stress K (J̄ − 1) H at every point.
-  const double K = material_.bulk_modulus(), Jbar = deformed / volume;
+  const double K = material_.bulk_modulus();
   w = fbar ? volume * 0.5 * K * (Jbar - 1) * (Jbar - 1) : 0.0;
   for (int g = 0; g < 8; ++g) {
     const auto& gp = points[g];
@@ -337,13 +347,10 @@ void HyperelasticHexElements::element_stiffness(int e, const Eigen::VectorXd& x,
     // F-bar: Π_e = Σ_g w W_dev(F_g) + V U(J̄), J̄ = Σ_g w J_g / V, U = K/2 (J̄ − 1)². Its Hessian:
     // Σ_g w Gᵀ (A_dev + U'(J̄) ∂²J/∂F²) G + U''/V b bᵀ with b = Σ_g w Gᵀ vec(H_g) = V ∂J̄/∂x_e.
     std::array<Matrix3d, 8> F;
-    double volume = 0.0, deformed = 0.0;
-    for (int g = 0; g < 8; ++g) {
-      F[g] = checked_deformation_gradient(ue, gauss_[ue][g], x);
-      volume += gauss_[ue][g].weight;
-      deformed += gauss_[ue][g].weight * F[g].determinant();
-    }
-    const double kappa = material_.bulk_modulus(), dU = kappa * (deformed / volume - 1);
+    double volume = 0.0, Jbar = 1.0;
+    if (!gauss_gradients(ue, x, F, volume, Jbar))
+      for (const auto& gp : gauss_[ue]) (void)checked_deformation_gradient(ue, gp, x);  // throws, naming the element
+    const double kappa = material_.bulk_modulus(), dU = kappa * (Jbar - 1);
     Eigen::Matrix<double, 24, 1> b = Eigen::Matrix<double, 24, 1>::Zero();
     for (int g = 0; g < 8; ++g) {
       const auto& gp = gauss_[ue][g];

@@ -176,6 +176,10 @@ class HyperelasticHexElements {
 
   /// Adds w Gᵀ A G of the point @p gp (the blocks on and above the diagonal) to @p K.
   static void add_point_stiffness(const GaussPoint& gp, const HyperelasticMaterial::Tangent& A, ElementMatrix& K);
+  /// F at element @p e's Gauss points into @p F; with F-bar also the element's rest volume V and
+  /// volume ratio J̄ = Σ_g w J_g / V (else J̄ = 1). False when a point that needs J > 0 has not.
+  bool gauss_gradients(size_t e, const Eigen::VectorXd& x, std::array<Eigen::Matrix3d, 8>& F, double& volume,
+                       double& jbar) const;
   /// Element @p e's energy at @p x and, when @p fe is given, its nodal internal forces subtracted
   /// into it; false when a point that needs J > 0 has not.
   bool element_energy(size_t e, const Eigen::VectorXd& x, Eigen::Matrix<double, 3, 8>* fe, double& w) const;

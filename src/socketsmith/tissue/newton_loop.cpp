@@ -9,20 +9,6 @@
 
 namespace socketsmith::tissue {
 
-const char* to_string(NewtonStop s) {
-  switch (s) {
-    case NewtonStop::Converged: return "converged";
-    case NewtonStop::Accepted: return "accepted short of the tolerance";
-    case NewtonStop::NotFinite: return "residual not finite";
-    case NewtonStop::Stalled: return "stalled";
-    case NewtonStop::NoDirection: return "no direction";
-    case NewtonStop::LineSearchFailed: return "line search failed";
-    case NewtonStop::IterationLimit: return "iteration limit";
-    case NewtonStop::Stopped: return "stopped";
-  }
-  return "?";
-}
-
 namespace {
 
 std::string with_reason(std::string message, const std::string& reason) {
@@ -42,12 +28,18 @@ NewtonOutcome run_newton(NewtonProblem& p, const NewtonLoopOptions& o) {
     out.message = std::move(message);
     return out;
   };
-  const auto short_of = [&](NewtonStop why, std::string message) {
-    if (!p.accept_short(why)) return finish(why, std::move(message));
+  const auto accepted = [&] {
     return finish(NewtonStop::Accepted,
                   with_reason(fmt::format("accepted after {} iterations with residual {:.3g} N (tolerance {:.3g} N)",
                                           out.iterations, out.residual, out.tolerance),
                               p.stop_reason()));
+  };
+  const auto stopped = [&] {
+    return finish(NewtonStop::Stopped,
+                  with_reason(fmt::format("stopped after {} iterations", out.iterations), p.stop_reason()));
+  };
+  const auto short_of = [&](NewtonStop why, std::string message) {
+    return p.accept_short(why) ? accepted() : finish(why, std::move(message));
   };
   for (;;) {
     out.residual = p.residual_norm();
@@ -60,9 +52,7 @@ NewtonOutcome run_newton(NewtonProblem& p, const NewtonLoopOptions& o) {
       return short_of(NewtonStop::IterationLimit,
                       fmt::format("not converged after {} iterations (residual {:.3g} N, tolerance {:.3g} N)",
                                   out.iterations, out.residual, out.tolerance));
-    if (!p.proceed(out.iterations))
-      return finish(NewtonStop::Stopped, with_reason(fmt::format("stopped after {} iterations", out.iterations),
-                                                     p.stop_reason()));
+    if (!p.proceed(out.iterations)) return stopped();
     history.push_back(out.residual);
     const auto k = static_cast<size_t>(o.stall_iterations);
     if (k > 0 && history.size() > k && out.residual > (1.0 - o.stall_reduction) * history[history.size() - 1 - k])
@@ -96,13 +86,7 @@ NewtonOutcome run_newton(NewtonProblem& p, const NewtonLoopOptions& o) {
     if (next == NewtonProblem::Next::Continue) continue;
     out.residual = p.residual_norm();
     out.tolerance = p.tolerance();
-    if (next == NewtonProblem::Next::Accept)
-      return finish(NewtonStop::Accepted,
-                    with_reason(fmt::format("accepted after {} iterations with residual {:.3g} N (tolerance {:.3g} N)",
-                                            out.iterations, out.residual, out.tolerance),
-                                p.stop_reason()));
-    return finish(NewtonStop::Stopped,
-                  with_reason(fmt::format("stopped after {} iterations", out.iterations), p.stop_reason()));
+    return next == NewtonProblem::Next::Accept ? accepted() : stopped();
   }
 }
 

@@ -27,9 +27,6 @@ enum class NewtonStop {
   Stopped,           ///< the problem stopped the solve (NewtonProblem::stop_reason says why)
 };
 
-/// The name of @p s in messages ("converged", "line search failed", …).
-const char* to_string(NewtonStop s);
-
 struct NewtonLoopOptions {
   int max_iterations = 80;  ///< Newton directions per solve, ≥ 0 (retries of an iterate not counted)
   /// The stall test: the solve stops when the residual has fallen by less than stall_reduction
