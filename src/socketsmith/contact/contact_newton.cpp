@@ -168,11 +168,9 @@ bool ContactSolver::Impl::step_direction(const VectorXd& xs, const std::vector<E
   return newton_direction(xs, B, K, r, rs, delta, ds);
 }
 
-/// The contact solve's half of Newton (tissue/newton_loop.h) at one obstacle position with the
-/// friction lag fixed: the iterate (positions, the obstacle's translation when it is free), the
-/// residual and potential Π, the direction (CHOLMOD, a chord step in the tail), the line search on
-/// Π, and what the loop cannot know: a node on a kink of the wall, the friction lag refreshed in the
-/// tail, a new stick that stops a try_move_to, the Newton budget shared by a donning's solves.
+/// The contact solve's half of Newton (tissue/newton_loop.h), friction lag fixed: the iterate, its
+/// residual and potential Π, direction, line search on Π, and what the loop cannot know (a kink of
+/// the wall, the lag refreshed in the tail, a new stick, the Newton budget of a donning).
 class ContactSolver::Impl::Newton final : public tissue::NewtonProblem {
  public:
   Newton(Impl& s, VectorXd& xs, Vec3& t, std::vector<NodeContact>& st, std::vector<Vec3>& th, int& iterations)
@@ -206,9 +204,7 @@ class ContactSolver::Impl::Newton final : public tissue::NewtonProblem {
     const double rn_before = rn_;
     const bool accepted = s_.line_search(xs_, t_, delta_, ds_, r_, rs_, rn_, pi_, st_, th_, B_, conservative_, step_);
     s_.chord_next = accepted && step_ == 1.0 && rn_ <= s_.opt.chord_ratio * rn_before;
-    if (accepted) return Result::Done;
-    log::debug("contact: line search failed (residual {:.3g} N)", rn_);
-    return Result::Failed;
+    return accepted ? Result::Done : Result::Failed;  // the loop's message says which
   }
   bool accept_short(tissue::NewtonStop) override { return kink_accepted(); }
   Next after_step() override {
@@ -226,7 +222,7 @@ class ContactSolver::Impl::Newton final : public tissue::NewtonProblem {
     // steps 0.008 → 2e-9 over 12 more iterations, each with up to 30 trial evaluations); the caller
     // refines the path instead.
     tiny_steps_ = step_ < kTinyStep ? tiny_steps_ + 1 : 0;
-    if (tiny_steps_ >= kStallSteps && !at_kink()) {
+    if (tiny_steps_ >= kStallSteps && rn_ > s_.kink_tolerance(st_)) {
       reason_ = fmt::format("stalled: the line search cut the step below {:.3g} of Newton's {} times in a row (residual "
                             "{:.3g} N)", kTinyStep, kStallSteps, rn_);
       return Next::Stop;
@@ -245,11 +241,10 @@ class ContactSolver::Impl::Newton final : public tissue::NewtonProblem {
   std::string stop_reason() const override { return reason_; }
 
  private:
-  /// The residual is within what a node on a kink of the wall leaves (ContactOptions::kink_rel_tol).
-  bool at_kink() const { return rn_ <= s_.kink_tolerance(st_); }
-  /// at_kink(), and then the reason the message gives.
+  /// The residual is within what a node on a kink of the wall leaves (ContactOptions::kink_rel_tol);
+  /// then the message says so.
   bool kink_accepted() {
-    if (!at_kink()) return false;
+    if (rn_ > s_.kink_tolerance(st_)) return false;
     reason_ = fmt::format("a node on a kink of the wall (within {:.3g} N)", s_.kink_tolerance(st_));
     return true;
   }
