@@ -92,6 +92,9 @@ struct DesignFlags {
   bool neo_hookean = false;
   bool small_strain = false;
   bool printed_wall = false;
+  int shell_subdivision = 1;
+  bool shell_on_wall = false;
+  bool shell_lip = false;
   bool nonlinear_body = false;  // validate donning: socketsmith's donning with the nonlinear tissue model
   bool against_donning = false;
   std::string fe_pressure = "force";
@@ -114,6 +117,9 @@ void run_validate_design(const DesignFlags& f) {
   o.neo_hookean = f.neo_hookean;
   o.small_strain = f.small_strain;
   o.printed_wall = f.printed_wall;
+  o.shell_subdivision = f.shell_subdivision;
+  o.shell_on_wall = f.shell_on_wall;
+  o.shell_lip = f.shell_lip;
   if (!f.element.empty()) o.element = calculix::parse_element_type(f.element);
   o.penalty_pa_per_m = f.penalty;
   o.stick_slope_pa_per_m = f.stick_slope;
@@ -204,6 +210,16 @@ void add_case_flags(CLI::App& cmd, DesignFlags& f) {
                "donning: CalculiX dons the printed socket's inner wall (brim and lip as built, C3D6 wedges; instead of a "
                "C3D8 shell on the skin below the brim; ccx stands the 1.8k demo's socket with it, not yet the 3k demo's or "
                "OpenLimb's limb, docs/VALIDATION.md)");
+  cmd.add_option("--shell-subdivision", f.shell_subdivision,
+                 "donning: each skin quad of CalculiX's socket shell split n x n (default 1)")
+      ->check(CLI::Range(1, 4));
+  cmd.add_flag("--shell-on-wall", f.shell_on_wall,
+               "donning: CalculiX's socket shell laid on the smoothed wall socketsmith's own donning touches, instead of "
+               "bilinear quads through the wall at the skin nodes (with --shell-subdivision 2 it agrees better with "
+               "socketsmith node by node; docs/VALIDATION.md)");
+  cmd.add_flag("--shell-lip", f.shell_lip,
+               "donning, with --shell-on-wall: the shell also across the brim, its points past the rim on socketsmith's "
+               "lip (a rounded rim instead of the skin quads' staircase)");
   cmd.add_option("--penalty", f.penalty, "contact penalty stiffness [Pa/m] (default 1e9)")->check(positive());
   cmd.add_option("--stick-slope", f.stick_slope,
                  "CalculiX's friction stick slope [Pa/m] (default 5e7, CALCULIX.md; socketsmith's stick is 0.2 x its penalty)")

@@ -228,6 +228,40 @@ TEST(CalculixDeck, extruded_shell_elements_are_not_inverted_and_face_the_body) {
   for (int k = 0; k < 4; ++k) EXPECT_EQ(m.nodes[sh.hexahedra[0][f[k]]].z(), 0.0);
 }
 
+TEST(CalculixDeck, subdivided_quads_share_their_edges_keep_their_orientation_and_lie_on_the_patches) {
+  // Two quads side by side on a saddle-free bent strip (x from 0 to 2, z up at x = 2), facing +z-ish.
+  const std::vector<Vec3> pts{{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {2, 0, 0.5}, {2, 1, 0.5}};
+  const std::vector<Vec3> nrm(6, Vec3::UnitZ());
+  const std::vector<std::array<int, 4>> quads{{0, 1, 2, 3}, {1, 4, 5, 2}};
+  for (const int n : {1, 2, 3}) {
+    SCOPED_TRACE(n);
+    const auto s = subdivide_quads(pts, nrm, quads, n);
+    // (n+1)² points per quad, the shared edge's n+1 once: 2(n+1)² − (n+1) in all.
+    EXPECT_EQ(s.points.size(), static_cast<size_t>(2 * (n + 1) * (n + 1) - (n + 1)));
+    ASSERT_EQ(s.quads.size(), static_cast<size_t>(2 * n * n));
+    for (int k = 0; k < 6; ++k) EXPECT_EQ(s.points[k], pts[k]);  // the corners keep their ids
+    // Every edge of the refined surface is used by one or two sub-quads, in opposite directions
+    // when shared (one consistent orientation, no crack along the old shared edge).
+    std::map<std::pair<int, int>, int> used;
+    double area = 0;
+    for (const auto& q : s.quads) {
+      for (int k = 0; k < 4; ++k) ++used[{q[k], q[(k + 1) % 4]}];
+      const Vec3 a = (s.points[q[2]] - s.points[q[0]]).cross(s.points[q[3]] - s.points[q[1]]);
+      EXPECT_GT(a.z(), 0);  // the parents' orientation
+      area += 0.5 * a.norm();
+    }
+    int interior = 0;
+    for (const auto& [e, count] : used) {
+      EXPECT_EQ(count, 1);
+      if (used.count({e.second, e.first})) ++interior;
+    }
+    EXPECT_EQ(interior, 2 * (4 * n * n - 3 * n));  // each interior edge of the 2n × n grid seen from both sides
+    EXPECT_NEAR(area, 1.0 + std::hypot(1.0, 0.5), 1e-12);  // planar patches: the area is kept
+  }
+  EXPECT_THROW(subdivide_quads(pts, nrm, quads, 0), InvalidInputError);
+  EXPECT_THROW(subdivide_quads(pts, nrm, {{0, 1, 2, 7}}, 2), InvalidInputError);
+}
+
 /// Signed volume of a C3D6 wedge (three tetrahedra; > 0 when 0-1-2 turns counter-clockwise seen
 /// from 3-4-5, CalculiX's positive orientation).
 double wedge_volume(const RigidShell& sh, const std::array<int, 6>& w) {

@@ -352,6 +352,47 @@ TEST(DesignedStump, the_printed_wall_is_the_written_sockets_cavity_facing_the_ax
   EXPECT_GE(wall_bottom, solid_bottom - 1e-9);
 }
 
+// The donning check's shell is laid on the wall socketsmith's own donning touches (the smoothed
+// wall fitted to the rest skin): DesignedStump::wall_surface projects a point near the wall onto
+// it. On the 1.5k demo's socket: the designed skin below the brim lies within a millimetre of it
+// (the socket is the designed skin), the projection is idempotent, a point 2 mm inside the cavity
+// lands where the skin node itself does, the normal points out of the cavity, and a point far
+// from the wall is refused.
+TEST(DesignedStump, the_shell_is_laid_on_socketsmiths_smoothed_wall) {
+  pipeline::DesignArtifacts art;
+  design_demo_1500("pipeline_wall_surface", art);
+  ASSERT_TRUE(art.result.socket.has_value());
+  const auto d = pipeline::designed_stump(art);
+  ASSERT_TRUE(static_cast<bool>(d.wall_surface));
+  const auto& skin = *d.skin;
+  int checked = 0;
+  double worst = 0, worst_inside = 0;
+  for (size_t i = 0; i < skin.nodes.size(); ++i) {
+    if (d.above_brim[i]) continue;
+    const Eigen::Vector3d p = d.designed_positions[skin.nodes[i]], n = d.skin_normals[i].normalized();
+    const auto on = d.wall_surface(p);
+    if (!on) continue;  // the distal cup's pad, the brim's rim: not every node faces the smoothed wall
+    ++checked;
+    worst = std::max(worst, (on->first - p).norm());
+    EXPECT_NEAR(on->second.norm(), 1.0, 1e-9);
+    EXPECT_GT(on->second.dot(n), 0.5) << "skin node " << i;
+    const auto again = d.wall_surface(on->first);
+    ASSERT_TRUE(again.has_value());
+    EXPECT_LT((again->first - on->first).norm(), 1e-7);
+    const auto from_inside = d.wall_surface(on->first - 0.0005 * on->second);
+    ASSERT_TRUE(from_inside.has_value());
+    worst_inside = std::max(worst_inside, (from_inside->first - on->first).norm());
+  }
+  int below = 0;
+  for (char a : d.above_brim) below += !a;
+  EXPECT_GT(checked, below * 9 / 10);
+  EXPECT_LT(worst, 1e-3);
+  // Newton follows the smoothed gap's gradient, not a straight normal: 0.1–0.4 mm along the wall on
+  // this socket (measured 2026-12-01), a shift along the surface, not off it.
+  EXPECT_LT(worst_inside, 0.5e-3);
+  EXPECT_FALSE(d.wall_surface(d.frame.origin + 0.5 * d.stump_length_m * d.frame.axis.normalized()).has_value());  // on the axis, far from the wall
+}
+
 // The GUI's rectification chart (issue 23) is computed from a solved state before anything is
 // written: pipeline::designed_wall builds the socket as solve_design does and picks its wall as the
 // report does. On the optimised 1.5k demo (every constraint met, no closed loop) it must give the

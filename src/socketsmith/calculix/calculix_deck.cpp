@@ -366,6 +366,59 @@ RigidShell extrude_wall(const std::vector<Vec3>& vertices, const std::vector<std
   return sh;
 }
 
+QuadSurface subdivide_quads(const std::vector<Vec3>& points, const std::vector<Vec3>& normals,
+                            const std::vector<std::array<int, 4>>& quads, int n) {
+  require(points.size() == normals.size(), "subdivide_quads: {} points but {} normals", points.size(), normals.size());
+  require(n >= 1, "subdivide_quads: {} divisions (expected ≥ 1)", n);
+  const int np = static_cast<int>(points.size());
+  QuadSurface s{points, normals, {}};
+  s.quads.reserve(quads.size() * n * n);
+  // A point on the edge a→b at k/n from a, keyed from the edge's lower id so both quads find it.
+  std::map<std::array<int, 3>, int> on_edge;
+  const auto add = [&s](const Vec3& p, const Vec3& nrm) {
+    s.points.push_back(p);
+    s.normals.push_back(nrm.normalized());
+    return static_cast<int>(s.points.size()) - 1;
+  };
+  std::vector<int> id((n + 1) * (n + 1));
+  for (const auto& q : quads) {
+    for (int v : q) require(v >= 0 && v < np, "subdivide_quads: quad uses point {} ({} points)", v, np);
+    const auto edge_point = [&](int a, int b, int k) -> int {
+      if (k == 0) return a;
+      if (k == n) return b;
+      const std::array<int, 3> key = a < b ? std::array<int, 3>{a, b, k} : std::array<int, 3>{b, a, n - k};
+      const auto it = on_edge.find(key);
+      if (it != on_edge.end()) return it->second;
+      const double t = static_cast<double>(k) / n;
+      const int i = add((1 - t) * points[a] + t * points[b], (1 - t) * normals[a] + t * normals[b]);
+      on_edge.emplace(key, i);
+      return i;
+    };
+    for (int j = 0; j <= n; ++j)
+      for (int i = 0; i <= n; ++i) {
+        int& at = id[j * (n + 1) + i];
+        if (j == 0) at = edge_point(q[0], q[1], i);
+        else if (j == n) at = edge_point(q[3], q[2], i);
+        else if (i == 0) at = edge_point(q[0], q[3], j);
+        else if (i == n) at = edge_point(q[1], q[2], j);
+        else {
+          const double u = static_cast<double>(i) / n, v = static_cast<double>(j) / n;
+          const double w[4] = {(1 - u) * (1 - v), u * (1 - v), u * v, (1 - u) * v};
+          Vec3 p = Vec3::Zero(), nrm = Vec3::Zero();
+          for (int c = 0; c < 4; ++c) {
+            p += w[c] * points[q[c]];
+            nrm += w[c] * normals[q[c]];
+          }
+          at = add(p, nrm);
+        }
+      }
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i)
+        s.quads.push_back({id[j * (n + 1) + i], id[j * (n + 1) + i + 1], id[(j + 1) * (n + 1) + i + 1], id[(j + 1) * (n + 1) + i]});
+  }
+  return s;
+}
+
 RigidShell extrude_shell(const std::vector<Vec3>& points, const std::vector<Vec3>& normals,
                          const std::vector<std::array<int, 4>>& quads, double thickness_m) {
   require(points.size() == normals.size(), "extrude_shell: {} points but {} normals", points.size(), normals.size());

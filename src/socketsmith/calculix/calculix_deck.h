@@ -137,6 +137,18 @@ std::vector<HexFace> faces_of_quads(const volume::HexMesh& mesh,
 RigidShell extrude_wall(const std::vector<Vec3>& vertices, const std::vector<std::array<int, 3>>& triangles,
                         double thickness_m);
 
+/// A surface of quads split @p n × @p n: each quad's points on its bilinear patch, the points on a
+/// shared edge (and the corners) shared with the neighbouring quad, the sub-quads ordered as their
+/// quad. @p points' first entries are the corners' (the same ids); normals interpolated and
+/// normalised. n = 1 returns the surface as given.
+/// @throws InvalidInputError when sizes differ, an index is out of range, or n < 1.
+struct QuadSurface {
+  std::vector<Vec3> points, normals;
+  std::vector<std::array<int, 4>> quads;
+};
+QuadSurface subdivide_quads(const std::vector<Vec3>& points, const std::vector<Vec3>& normals,
+                            const std::vector<std::array<int, 4>>& quads, int n);
+
 /// A rigid shell from a surface of quads facing a body: the quads (node ids into @p points,
 /// counter-clockwise seen from the side away from the body, i.e. their normal points away from
 /// the body) extruded by @p thickness_m along the per-point @p normals (away from the body).

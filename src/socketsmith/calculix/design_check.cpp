@@ -5,6 +5,7 @@
 #include <deque>
 #include <limits>
 #include <numbers>
+#include <tuple>
 
 #include "socketsmith/core/atomic_file.h"
 #include "socketsmith/core/enum_names.h"
@@ -70,19 +71,50 @@ std::vector<int> brim_rings(const std::vector<std::vector<int>>& adj, const std:
 }
 
 /// The designed socket as a shell on the skin quads below the brim (at the closed loop's wall
-/// positions when given), moved by @p down.
+/// positions when given), each quad split n × n, moved by @p down. Laid on socketsmith's wall when
+/// @p on_wall, with the quads across the brim when they were given: their points past the rim land on the lip, and a
+/// point past the lip drops its quad. The thickness is halved until no element is inverted (the
+/// lip curves tighter than the socket is thick; the shell is rigid, its thickness does not count).
 RigidShell donned_skin_shell(const DesignedStump& d, const std::vector<std::array<int, 4>>& socket_quads,
-                             const Vec3& down, double thickness_m) {
+                             const Vec3& down, double thickness_m, int subdivision, bool on_wall) {
   const auto& skin = *d.skin;
   const int ns = static_cast<int>(skin.nodes.size());
   require(d.wall_positions.empty() || static_cast<int>(d.wall_positions.size()) == ns,
           "check_design: {} wall positions for {} skin nodes", d.wall_positions.size(), ns);
   std::vector<Vec3> inner(ns), normal(ns);
   for (int i = 0; i < ns; ++i) {
-    inner[i] = (d.wall_positions.empty() ? d.designed_positions[skin.nodes[i]] : d.wall_positions[i]) + down;
+    inner[i] = d.wall_positions.empty() ? d.designed_positions[skin.nodes[i]] : d.wall_positions[i];
     normal[i] = d.skin_normals[i].normalized();
   }
-  return extrude_shell(inner, normal, socket_quads, thickness_m);
+  QuadSurface s = subdivide_quads(inner, normal, socket_quads, subdivision);
+  std::vector<char> used(s.points.size(), 0), off(s.points.size(), 0);
+  for (const auto& q : s.quads)
+    for (int v : q) used[v] = 1;
+  for (size_t k = 0; k < s.points.size(); ++k) {
+    if (!used[k]) continue;
+    if (on_wall) {
+      if (const auto on = d.wall_surface(s.points[k])) std::tie(s.points[k], s.normals[k]) = *on;
+      else off[k] = 1;
+    }
+    s.points[k] += down;
+  }
+  std::vector<std::array<int, 4>> quads;
+  const size_t per = static_cast<size_t>(subdivision) * subdivision;
+  for (size_t k = 0; k < s.quads.size(); ++k) {
+    const auto& parent = socket_quads[k / per];
+    const bool across_brim = std::any_of(parent.begin(), parent.end(), [&](int v) { return d.above_brim[v] != 0; });
+    const auto& q = s.quads[k];
+    if (across_brim && std::any_of(q.begin(), q.end(), [&](int v) { return off[v] != 0; })) continue;
+    quads.push_back(q);
+  }
+  require(!quads.empty(), "check_design: no socket quad faces socketsmith's wall (the socket does not fit its stump)");
+  for (double t = thickness_m;; t *= 0.5) {
+    RigidShell shell = extrude_shell(s.points, s.normals, quads, t);
+    volume::HexMesh m;
+    m.nodes = shell.nodes;
+    m.hexahedra = shell.hexahedra;
+    if (volume::hex_quality(m).inverted == 0 || t < 1e-4) return shell;
+  }
 }
 
 void check_input(const DesignedStump& d, const DesignCheckOptions& o) {
@@ -96,6 +128,12 @@ void check_input(const DesignedStump& d, const DesignCheckOptions& o) {
           d.skin_normals.size(), d.skin_areas_m2.size(), d.above_brim.size(), ns);
   require(o.clearance_m > 0, "check_design: clearance {} m (expected > 0)", o.clearance_m);
   require(o.socket_thickness_m > 0, "check_design: socket thickness {} m (expected > 0)", o.socket_thickness_m);
+  require(!o.shell_on_wall || d.wall_surface,
+          "check_design: the shell on socketsmith's wall needs that wall (DesignedStump::wall_surface; a design that "
+          "does not meet its constraints has no socket)");
+  require(!o.shell_lip || o.shell_on_wall, "check_design: the shell's lip is laid on socketsmith's wall (shell_lip needs shell_on_wall)");
+  require(o.shell_subdivision >= 1 && o.shell_subdivision <= 4,
+          "check_design: shell subdivision {} (expected 1–4: each skin quad of the socket split n × n)", o.shell_subdivision);
   require(std::isfinite(o.stand_force_n) && o.stand_force_n >= 0,
           "check_design: standing force {} N (expected ≥ 0: half the body weight)", o.stand_force_n);
   require(o.stand_force_n == 0 || (std::isfinite(o.stand_travel_m) && o.stand_travel_m != 0),
@@ -123,12 +161,15 @@ DeckSpec base_deck(const DesignedStump& d, const DesignCheckOptions& o) {
   return spec;
 }
 
-/// The skin quads (in local skin ids) that lie wholly below the brim: the socket's.
-std::vector<std::array<int, 4>> socket_quads_below_brim(const DesignedStump& d, const std::vector<int>& skin_of) {
+/// The skin quads (in local skin ids) that lie wholly below the brim: the socket's; @p across_brim:
+/// also those with a node below it (the shell laid on socketsmith's wall reaches its rim and lip).
+std::vector<std::array<int, 4>> socket_quads_below_brim(const DesignedStump& d, const std::vector<int>& skin_of,
+                                                        bool across_brim) {
   std::vector<std::array<int, 4>> socket_quads;  // local skin ids
   for (const auto& q : d.skin->quads) {
     std::array<int, 4> l{skin_of[q[0]], skin_of[q[1]], skin_of[q[2]], skin_of[q[3]]};
-    if (!d.above_brim[l[0]] && !d.above_brim[l[1]] && !d.above_brim[l[2]] && !d.above_brim[l[3]]) socket_quads.push_back(l);
+    const int above = (d.above_brim[l[0]] != 0) + (d.above_brim[l[1]] != 0) + (d.above_brim[l[2]] != 0) + (d.above_brim[l[3]] != 0);
+    if (above == 0 || (across_brim && above < 4)) socket_quads.push_back(l);
   }
   require(!socket_quads.empty(), "check_design: no skin quad lies wholly below the brim (no socket to check)");
   return socket_quads;
@@ -148,7 +189,7 @@ RigidShell donning_socket(const DesignedStump& d, const DesignCheckOptions& o,
     for (auto& v : moved) v += down;
     shell = extrude_wall(moved, d.socket_wall.triangles, o.socket_thickness_m);
   } else {
-    shell = donned_skin_shell(d, socket_quads, down, o.socket_thickness_m);
+    shell = donned_skin_shell(d, socket_quads, down, o.socket_thickness_m, o.shell_subdivision, o.shell_on_wall);
   }
   spec.steps.donning_travel_m = -down;
   if (o.stand_force_n > 0) {
@@ -490,7 +531,8 @@ DesignCheckResult check_design(const DesignedStump& d, const DesignCheckOptions&
   RigidShell shell;
   const bool contact = o.mode != DesignCheckMode::Load;
   if (contact) {
-    const auto socket_quads = socket_quads_below_brim(d, skin_of);
+    const bool on_wall = o.mode == DesignCheckMode::Donning && !o.printed_wall && o.shell_on_wall && o.shell_lip;
+    const auto socket_quads = socket_quads_below_brim(d, skin_of, on_wall);  // across the brim onto the lip
     shell = o.mode == DesignCheckMode::Donning ? donning_socket(d, o, socket_quads, spec)
                                                : contact_socket(d, o, socket_quads, spec);
     spec.socket = &shell;

@@ -243,6 +243,9 @@ calculix::DesignCheckOptions check_options(const design::CaseFile& c, const Desi
   co.fe_pressure = o.fe_pressure;
   co.nonlinear_geometry = !o.small_strain;
   co.printed_wall = o.printed_wall;
+  co.shell_subdivision = o.shell_subdivision;
+  co.shell_on_wall = o.shell_on_wall;
+  co.shell_lip = o.shell_lip;
   co.ccx = o.ccx;
   return co;
 }
@@ -252,8 +255,10 @@ calculix::DesignCheckOptions check_options(const design::CaseFile& c, const Desi
 void check_validation_flags(const DesignValidationOptions& o) {
   require(!o.against_donning || o.mode == calculix::DesignCheckMode::Donning,
           "validate design: --against-donning needs --mode donning");
-  require((!o.stand && !o.printed_wall) || o.mode == calculix::DesignCheckMode::Donning,
-          "validate design: {} needs --mode donning (the socket is donned, then stood on)", o.stand ? "--stand" : "--printed-wall");
+  const char* donning_flag = o.stand ? "--stand" : o.printed_wall ? "--printed-wall" : o.shell_on_wall ? "--shell-on-wall" : nullptr;
+  require(!donning_flag || o.mode == calculix::DesignCheckMode::Donning,
+          "validate design: {} needs --mode donning (the socket is donned, then stood on)", donning_flag ? donning_flag : "");
+  require(!o.shell_lip || o.shell_on_wall, "validate design: --shell-lip needs --shell-on-wall (the lip is socketsmith's)");
   require(!o.nonlinear_body || o.against_donning,
           "validate design: --nonlinear-body sets socketsmith's donning body: use it with validate donning");
 }

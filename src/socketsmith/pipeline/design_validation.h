@@ -38,6 +38,9 @@ struct DesignValidationOptions {
   bool neo_hookean = false;             ///< neo-Hookean in CalculiX (automatic for a neo-hookean case)
   bool small_strain = false;            ///< CalculiX without NLGEOM (not with a neo-Hookean tissue)
   bool printed_wall = false;            ///< Donning: CalculiX dons the printed socket's wall (DesignCheckOptions)
+  int shell_subdivision = 1;            ///< Donning: the shell's quads split n × n (DesignCheckOptions), 1–4
+  bool shell_on_wall = false;           ///< Donning: the shell laid on socketsmith's smoothed wall (DesignCheckOptions)
+  bool shell_lip = false;               ///< Donning, shell_on_wall: the shell across the brim onto the lip (DesignCheckOptions)
   /// CalculiX's element; empty: the tissue's twin (C3D8, or C3D8I for tissue.element fbar).
   std::optional<calculix::ElementType> element;
   double penalty_pa_per_m = 1e9;        ///< contact penalty [Pa/m], > 0

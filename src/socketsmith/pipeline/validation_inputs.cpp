@@ -1,8 +1,38 @@
 #include "socketsmith/pipeline/validation_inputs.h"
 
+#include <cmath>
+#include <memory>
+
 #include "socketsmith/core/errors.h"
 
 namespace socketsmith::pipeline {
+namespace {
+
+using Vec3 = Eigen::Vector3d;
+
+/// socketsmith's contact surface of the socket @p solid — its smoothed wall, fitted to the skin at
+/// rest @p rest as socketsmith's donning fits it (contact/donning.cpp) — as the CalculiX check's
+/// projection: a point within 3 mm of the wall to its closest point on the wall (Newton on the
+/// smoothed gap along its gradient) and the outward normal there.
+std::function<std::optional<std::pair<Vec3, Vec3>>(const Vec3&)> smoothed_wall_surface(const geometry::TriMesh& solid,
+                                                                                       const geometry::LimbFrame& frame,
+                                                                                       std::vector<Vec3> rest) {
+  auto socket = std::make_shared<contact::RigidSocket>(solid, frame);
+  socket->set_smooth_wall(true);
+  socket->fit_smooth_wall_to(std::move(rest));
+  return [socket](const Vec3& p) -> std::optional<std::pair<Vec3, Vec3>> {
+    Vec3 q = p;
+    for (int it = 0; it < 8; ++it) {
+      const contact::Gap g = socket->gap(q);
+      if (!g.valid || std::abs(g.gap_m) > 3e-3 || !(g.gradient_norm > 0)) return std::nullopt;
+      if (std::abs(g.gap_m) < 1e-8 || it == 7) return std::pair<Vec3, Vec3>{q, -g.normal};
+      q -= g.gap_m / g.gradient_norm * g.normal;  // the wall lies gap/|∇gap| behind q along its normal
+    }
+    return std::nullopt;
+  };
+}
+
+}  // namespace
 
 calculix::FeMaterial fe_material(const design::CaseFile& c) {
   calculix::FeMaterial m;
@@ -46,6 +76,11 @@ calculix::DesignedStump designed_stump(const DesignArtifacts& artifacts, bool pr
   // socket), its inner wall, brim and lip as built, is what the donning check dons.
   const auto& loop = artifacts.result.closed_loop;
   const design::SocketResult* socket = loop ? &loop->socket : artifacts.result.socket ? &*artifacts.result.socket : nullptr;
+  if (socket) {
+    std::vector<Vec3> rest;
+    for (const int n : d.skin->nodes) rest.push_back(mesh.nodes[n]);
+    d.wall_surface = smoothed_wall_surface(socket->solid, setup.model.frame, std::move(rest));
+  }
   if (socket && printed_wall) {
     geometry::TriMesh wall = contact::RigidSocket(socket->solid, setup.model.frame).inner_wall();
     // Only the faces that look towards the axis (or straight up: the distal cup): with the lip's
