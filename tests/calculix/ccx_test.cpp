@@ -1,7 +1,9 @@
 // CalculiX for real: the cube against the analytic solution (a coarse lattice, a few seconds),
 // and the runner's answers when ccx is missing or rejects a deck.
+#include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 
 #include <gtest/gtest.h>
 
@@ -117,6 +119,87 @@ TEST(DesignCheck, a_first_step_stopped_on_its_way_runs_again_with_shorter_increm
   EXPECT_EQ(first, "0.05, 1., 1e-05, 0.1");
   EXPECT_EQ(second, "0.025, 1., 1e-05, 0.025");
   EXPECT_FALSE(std::getline(in, third)) << "a third run: " << third;
+}
+
+/// The socket shell's inner nodes of a written donning deck (the first half of NSOCK).
+std::vector<Vec3> inner_socket_nodes(const fs::path& deck) {
+  std::ifstream in(deck);
+  std::string line;
+  std::vector<Vec3> nodes;
+  bool in_socket = false;
+  while (std::getline(in, line)) {
+    if (!line.empty() && line[0] == '*') {
+      in_socket = line.rfind("*NODE, NSET=NSOCK", 0) == 0;
+      continue;
+    }
+    if (!in_socket) continue;
+    Vec3 p;
+    char comma;
+    int id;
+    std::istringstream row(line);
+    row >> id >> comma >> p.x() >> comma >> p.y() >> comma >> p.z();
+    nodes.push_back(p);
+  }
+  nodes.resize(nodes.size() / 2);
+  return nodes;
+}
+
+// `validate design --shell-on-wall --shell-subdivision 2`: the donning deck's shell has each skin
+// quad split 2 × 2 and every point laid where DesignedStump::wall_surface puts it (here a wall
+// 1 mm beside the box in +x, to tell the two apart), then moved distally by the travel. Without
+// the flags, the shell is the skin quads through the nodes, as before.
+TEST(DesignCheck, the_donning_shell_is_subdivided_and_laid_on_socketsmiths_wall) {
+  const auto dir = work_dir("shell_on_wall");
+  volume::BoxMeshOptions bo;
+  bo.size = Vec3(0.02, 0.02, 0.04);
+  bo.divisions = {2, 2, 4};
+  const volume::HexMesh mesh = volume::mesh_box(bo);
+  const volume::SkinSurface skin = volume::extract_skin_surface(mesh);
+  DesignedStump d;
+  d.mesh = &mesh;
+  d.skin = &skin;
+  for (int k = 0; k < mesh.num_nodes(); ++k)
+    if (mesh.nodes[k].z() < 1e-9) d.fixed_nodes.push_back(k);
+  d.designed_positions = mesh.nodes;
+  d.pressure_pa.assign(skin.nodes.size(), 0.0);
+  d.skin_normals = skin.normal;
+  d.skin_areas_m2 = skin.area_m2;
+  d.above_brim.assign(skin.nodes.size(), 0);
+  d.stump_length_m = 0.04;
+  const Vec3 beside(0.001, 0, 0);
+  d.wall_surface = [&](const Vec3& p) { return std::optional<std::pair<Vec3, Vec3>>({p + beside, Vec3::UnitX()}); };
+  DesignCheckOptions o;
+  o.mode = DesignCheckMode::Donning;
+  o.ccx.executable = ccx_stopping_in_step_one(dir).string();
+  const Vec3 down(0, 0, -o.donning_travel_m);
+  // The box's 40 skin quads: 42 corners; split 2 × 2, + 80 edge and 40 face points.
+  EXPECT_THROW(check_design(d, o, dir, "box"), SolverError);
+  auto inner = inner_socket_nodes(dir / "box.inp");
+  ASSERT_EQ(inner.size(), 42u);
+  for (const auto& p : inner) {
+    const Vec3 q = p - down;
+    const double to_face = std::min({q.x(), 0.02 - q.x(), q.y(), 0.02 - q.y(), q.z(), 0.04 - q.z()});
+    EXPECT_NEAR(to_face, 0.0, 1e-9);  // on the box: the skin itself
+  }
+  o.shell_on_wall = true;
+  o.shell_subdivision = 2;
+  EXPECT_THROW(check_design(d, o, dir, "box"), SolverError);
+  inner = inner_socket_nodes(dir / "box.inp");
+  ASSERT_EQ(inner.size(), 162u);
+  for (const auto& p : inner) {
+    const Vec3 q = p - down - beside;
+    const double to_face = std::min({q.x(), 0.02 - q.x(), q.y(), 0.02 - q.y(), q.z(), 0.04 - q.z()});
+    EXPECT_NEAR(to_face, 0.0, 1e-9);
+    for (int a = 0; a < 3; ++a) EXPECT_NEAR(std::remainder(q[a], 0.005), 0.0, 1e-9);  // half a quad apart
+  }
+  // The refusals: a lip without the wall, the wall without one given.
+  o.shell_lip = true;
+  o.shell_on_wall = false;
+  EXPECT_THROW(check_design(d, o, dir, "box"), InvalidInputError);
+  o.shell_lip = false;
+  o.shell_on_wall = true;
+  d.wall_surface = nullptr;
+  EXPECT_THROW(check_design(d, o, dir, "box"), InvalidInputError);
 }
 
 TEST(CcxRunner, a_rejected_deck_is_reported_with_the_log_error_line) {
