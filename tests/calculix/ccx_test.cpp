@@ -74,6 +74,33 @@ TEST(CcxRunner, a_relative_executable_path_runs_from_the_job_folder) {
   EXPECT_EQ(run.exit_code, 0) << run.message;
 }
 
+/// A 20 × 20 × 40 mm box of 2 × 2 × 4 hexahedra as a designed stump: fixed at z = 0, its skin
+/// undeformed and unloaded, all of it below the brim.
+struct BoxStump {
+  volume::HexMesh mesh;
+  volume::SkinSurface skin;
+  DesignedStump d;
+  BoxStump() {
+    volume::BoxMeshOptions bo;
+    bo.size = Vec3(0.02, 0.02, 0.04);
+    bo.divisions = {2, 2, 4};
+    mesh = volume::mesh_box(bo);
+    skin = volume::extract_skin_surface(mesh);
+    d.mesh = &mesh;
+    d.skin = &skin;
+    for (int k = 0; k < mesh.num_nodes(); ++k)
+      if (mesh.nodes[k].z() < 1e-9) d.fixed_nodes.push_back(k);
+    d.designed_positions = mesh.nodes;
+    d.pressure_pa.assign(skin.nodes.size(), 0.0);
+    d.skin_normals = skin.normal;
+    d.skin_areas_m2 = skin.area_m2;
+    d.above_brim.assign(skin.nodes.size(), 0);
+    d.stump_length_m = 0.04;
+  }
+  BoxStump(const BoxStump&) = delete;  // d points into this object
+  BoxStump& operator=(const BoxStump&) = delete;
+};
+
 /// A stand-in ccx (a shell script) that answers as ccx does when it stops inside step 1 after one
 /// increment (exit 255, as its factorisation did on OpenLimb's transtibial donning), recording the
 /// *STATIC line of every deck it is given.
@@ -90,22 +117,8 @@ fs::path ccx_stopping_in_step_one(const fs::path& dir) {
 // A donning that ccx gives up on its way is run once more with increments half as long, once.
 TEST(DesignCheck, a_first_step_stopped_on_its_way_runs_again_with_shorter_increments) {
   const auto dir = work_dir("step1_retry");
-  volume::BoxMeshOptions bo;
-  bo.size = Vec3(0.02, 0.02, 0.04);
-  bo.divisions = {2, 2, 4};
-  const volume::HexMesh mesh = volume::mesh_box(bo);
-  const volume::SkinSurface skin = volume::extract_skin_surface(mesh);
-  DesignedStump d;
-  d.mesh = &mesh;
-  d.skin = &skin;
-  for (int k = 0; k < mesh.num_nodes(); ++k)
-    if (mesh.nodes[k].z() < 1e-9) d.fixed_nodes.push_back(k);
-  d.designed_positions = mesh.nodes;
-  d.pressure_pa.assign(skin.nodes.size(), 0.0);
-  d.skin_normals = skin.normal;
-  d.skin_areas_m2 = skin.area_m2;
-  d.above_brim.assign(skin.nodes.size(), 0);
-  d.stump_length_m = 0.04;
+  BoxStump box;
+  DesignedStump& d = box.d;
   DesignCheckOptions o;
   o.mode = DesignCheckMode::Donning;
   o.stand_force_n = 343.2;
@@ -150,22 +163,8 @@ std::vector<Vec3> inner_socket_nodes(const fs::path& deck) {
 // the flags, the shell is the skin quads through the nodes, as before.
 TEST(DesignCheck, the_donning_shell_is_subdivided_and_laid_on_socketsmiths_wall) {
   const auto dir = work_dir("shell_on_wall");
-  volume::BoxMeshOptions bo;
-  bo.size = Vec3(0.02, 0.02, 0.04);
-  bo.divisions = {2, 2, 4};
-  const volume::HexMesh mesh = volume::mesh_box(bo);
-  const volume::SkinSurface skin = volume::extract_skin_surface(mesh);
-  DesignedStump d;
-  d.mesh = &mesh;
-  d.skin = &skin;
-  for (int k = 0; k < mesh.num_nodes(); ++k)
-    if (mesh.nodes[k].z() < 1e-9) d.fixed_nodes.push_back(k);
-  d.designed_positions = mesh.nodes;
-  d.pressure_pa.assign(skin.nodes.size(), 0.0);
-  d.skin_normals = skin.normal;
-  d.skin_areas_m2 = skin.area_m2;
-  d.above_brim.assign(skin.nodes.size(), 0);
-  d.stump_length_m = 0.04;
+  BoxStump box;
+  DesignedStump& d = box.d;
   const Vec3 beside(0.001, 0, 0);
   d.wall_surface = [&](const Vec3& p) { return std::optional<std::pair<Vec3, Vec3>>({p + beside, Vec3::UnitX()}); };
   DesignCheckOptions o;
