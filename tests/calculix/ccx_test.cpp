@@ -191,6 +191,16 @@ TEST(DesignCheck, the_donning_shell_is_subdivided_and_laid_on_socketsmiths_wall)
     EXPECT_NEAR(to_face, 0.0, 1e-9);
     for (int a = 0; a < 3; ++a) EXPECT_NEAR(std::remainder(q[a], 0.005), 0.0, 1e-9);  // half a quad apart
   }
+  // Points below the brim that do not face the wall (here the box's top) keep their place.
+  d.wall_surface = [&](const Vec3& p) {
+    return p.z() > 0.04 - 1e-9 ? std::nullopt : std::optional<std::pair<Vec3, Vec3>>({p + beside, Vec3::UnitX()});
+  };
+  EXPECT_THROW(check_design(d, o, dir, "box"), SolverError);
+  inner = inner_socket_nodes(dir / "box.inp");
+  ASSERT_EQ(inner.size(), 162u);
+  int on_top = 0;
+  for (const auto& p : inner) on_top += std::abs(p.z() - down.z() - 0.04) < 1e-9 && p.x() < 0.02 + 1e-9;
+  EXPECT_EQ(on_top, 25);  // the top's 5 × 5 points, not moved beside the box
   // The refusals: a lip without the wall, the wall without one given.
   o.shell_lip = true;
   o.shell_on_wall = false;

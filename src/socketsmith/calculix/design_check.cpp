@@ -100,13 +100,19 @@ RigidShell donned_skin_shell(const DesignedStump& d, const std::vector<std::arra
   }
   std::vector<std::array<int, 4>> quads;
   const size_t per = static_cast<size_t>(subdivision) * subdivision;
+  std::vector<char> kept_off(s.points.size(), 0);  // points below the brim that do not face the wall
   for (size_t k = 0; k < s.quads.size(); ++k) {
     const auto& parent = socket_quads[k / per];
     const bool across_brim = std::any_of(parent.begin(), parent.end(), [&](int v) { return d.above_brim[v] != 0; });
     const auto& q = s.quads[k];
     if (across_brim && std::any_of(q.begin(), q.end(), [&](int v) { return off[v] != 0; })) continue;
+    if (!across_brim)
+      for (int v : q) kept_off[v] = off[v];
     quads.push_back(q);
   }
+  if (const auto n = std::count(kept_off.begin(), kept_off.end(), 1); n > 0)
+    log::warn("validate: {} point(s) of the socket shell below the brim do not face socketsmith's wall; they keep their "
+              "place between the skin nodes", n);
   require(!quads.empty(), "check_design: no socket quad faces socketsmith's wall (the socket does not fit its stump)");
   for (double t = thickness_m;; t *= 0.5) {
     RigidShell shell = extrude_shell(s.points, s.normals, quads, t);
@@ -531,8 +537,8 @@ DesignCheckResult check_design(const DesignedStump& d, const DesignCheckOptions&
   RigidShell shell;
   const bool contact = o.mode != DesignCheckMode::Load;
   if (contact) {
-    const bool on_wall = o.mode == DesignCheckMode::Donning && !o.printed_wall && o.shell_on_wall && o.shell_lip;
-    const auto socket_quads = socket_quads_below_brim(d, skin_of, on_wall);  // across the brim onto the lip
+    const bool to_lip = o.mode == DesignCheckMode::Donning && !o.printed_wall && o.shell_on_wall && o.shell_lip;
+    const auto socket_quads = socket_quads_below_brim(d, skin_of, to_lip);
     shell = o.mode == DesignCheckMode::Donning ? donning_socket(d, o, socket_quads, spec)
                                                : contact_socket(d, o, socket_quads, spec);
     spec.socket = &shell;
