@@ -201,7 +201,10 @@ TEST(DesignCheck, the_donning_shell_is_subdivided_and_laid_on_socketsmiths_wall)
   int on_top = 0;
   for (const auto& p : inner) on_top += std::abs(p.z() - down.z() - 0.04) < 1e-9 && p.x() < 0.02 + 1e-9;
   EXPECT_EQ(on_top, 25);  // the top's 5 × 5 points, not moved beside the box
-  // The refusals: a lip without the wall, the wall without one given.
+  // The refusals: the printed wall with a shell option, a lip without the wall, the wall without one given.
+  o.printed_wall = true;
+  EXPECT_THROW(check_design(d, o, dir, "box"), InvalidInputError);
+  o.printed_wall = false;
   o.shell_lip = true;
   o.shell_on_wall = false;
   EXPECT_THROW(check_design(d, o, dir, "box"), InvalidInputError);

@@ -15,6 +15,7 @@
 #include "socketsmith/geometry/mesh_checks.h"
 #include "socketsmith/pipeline/design_pipeline.h"
 #include "socketsmith/pipeline/prosthetist_checks.h"
+#include "socketsmith/pipeline/design_validation.h"
 #include "socketsmith/pipeline/validation_inputs.h"
 #include "socketsmith/geometry/mesh_io.h"
 #include "socketsmith/geometry/surface_query.h"
@@ -391,6 +392,25 @@ TEST(DesignedStump, the_shell_is_laid_on_socketsmiths_smoothed_wall) {
   // this socket (measured 2026-12-01), a shift along the surface, not off it.
   EXPECT_LT(worst_inside, 0.5e-3);
   EXPECT_FALSE(d.wall_surface(d.frame.origin + 0.5 * d.stump_length_m * d.frame.axis.normalized()).has_value());  // on the axis, far from the wall
+}
+
+// summary.json's "fe_socket" says which socket CalculiX checked, for every combination of the flags.
+TEST(DesignValidation, the_summary_names_the_socket_calculix_checked) {
+  calculix::DesignCheckOptions o;
+  EXPECT_EQ(pipeline::fe_socket_description(o), "skin quads below the brim, fitted onto the designed skin");
+  o.mode = calculix::DesignCheckMode::Load;
+  EXPECT_EQ(pipeline::fe_socket_description(o), "none (designed loads)");
+  o.mode = calculix::DesignCheckMode::Donning;
+  EXPECT_EQ(pipeline::fe_socket_description(o), "skin quads below the brim, through the wall at the skin nodes");
+  o.shell_subdivision = 2;
+  o.shell_on_wall = true;
+  o.shell_lip = true;
+  EXPECT_EQ(pipeline::fe_socket_description(o),
+            "skin quads below the brim, each split 2 x 2, laid on socketsmith's smoothed wall, across the brim onto its lip");
+  o = {};
+  o.mode = calculix::DesignCheckMode::Donning;
+  o.printed_wall = true;
+  EXPECT_EQ(pipeline::fe_socket_description(o), "the printed socket's inner wall (C3D6 wedges)");
 }
 
 // The GUI's rectification chart (issue 23) is computed from a solved state before anything is

@@ -138,6 +138,8 @@ void check_input(const DesignedStump& d, const DesignCheckOptions& o) {
           "check_design: the shell on socketsmith's wall needs that wall (DesignedStump::wall_surface; a design that "
           "does not meet its constraints has no socket)");
   require(!o.shell_lip || o.shell_on_wall, "check_design: the shell's lip is laid on socketsmith's wall (shell_lip needs shell_on_wall)");
+  require(!o.printed_wall || (!o.shell_on_wall && o.shell_subdivision == 1),
+          "check_design: the printed wall is donned as built (no shell to split or lay on the wall)");
   require(o.shell_subdivision >= 1 && o.shell_subdivision <= 4,
           "check_design: shell subdivision {} (expected 1–4: each skin quad of the socket split n × n)", o.shell_subdivision);
   require(std::isfinite(o.stand_force_n) && o.stand_force_n >= 0,

@@ -54,9 +54,9 @@ struct DesignedStump {
   /// donning check's rigid socket is built on it.
   std::vector<Vec3> wall_positions;
   /// socketsmith's own contact surface, when it has one: a point near the socket's inner wall (at
-  /// its designed pose) to the closest point of the wall socketsmith's donning and standing touch
-  /// (its smoothed wall) and the outward normal there (away from the stump); nothing where the
-  /// point does not face that wall. The donning check's shell is laid on it
+  /// its designed pose) projected onto the wall socketsmith's donning and standing touch (its
+  /// smoothed wall) and the outward normal there (away from the stump); nothing where the point
+  /// does not face that wall. The donning check's shell is laid on it
   /// (DesignCheckOptions::shell_subdivision). Empty: the shell's quads through wall_positions are the wall.
   std::function<std::optional<std::pair<Vec3, Vec3>>(const Vec3&)> wall_surface;
   /// The printed socket's inner wall as built (cavity, brim and lip; triangles facing the cavity)

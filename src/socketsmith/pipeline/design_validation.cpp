@@ -5,6 +5,8 @@
 #include <cmath>
 #include <limits>
 
+#include <fmt/format.h>
+
 #include "socketsmith/core/atomic_file.h"
 #include "socketsmith/core/errors.h"
 #include "socketsmith/core/log.h"
@@ -259,6 +261,8 @@ void check_validation_flags(const DesignValidationOptions& o) {
   require(!donning_flag || o.mode == calculix::DesignCheckMode::Donning,
           "validate design: {} needs --mode donning (the socket is donned, then stood on)", donning_flag ? donning_flag : "");
   require(!o.shell_lip || o.shell_on_wall, "validate design: --shell-lip needs --shell-on-wall (the lip is socketsmith's)");
+  require(!o.printed_wall || (!o.shell_on_wall && o.shell_subdivision == 1),
+          "validate design: --printed-wall dons the written socket as built: drop --shell-on-wall and --shell-subdivision");
   require(!o.nonlinear_body || o.against_donning,
           "validate design: --nonlinear-body sets socketsmith's donning body: use it with validate donning");
 }
@@ -311,6 +315,7 @@ nlohmann::json validation_summary(const design::CaseFile& c, const DesignValidat
                    {"nodes", r.nodes},
                    {"elements", r.elements},
                    {"socket_elements", r.socket_elements},
+                   {"fe_socket", fe_socket_description(co)},
                    {"element", to_string(co.element)},
                    {"poisson_ratio", material.poisson_ratio},
                    {"nlgeom", co.nonlinear_geometry},
@@ -403,6 +408,17 @@ void add_delivered_comparison(const DesignValidation& v, nlohmann::json& j) {
 }
 
 }  // namespace
+
+std::string fe_socket_description(const calculix::DesignCheckOptions& o) {
+  if (o.mode == calculix::DesignCheckMode::Load) return "none (designed loads)";
+  if (o.mode == calculix::DesignCheckMode::Contact) return "skin quads below the brim, fitted onto the designed skin";
+  if (o.printed_wall) return "the printed socket's inner wall (C3D6 wedges)";
+  std::string d = "skin quads below the brim";
+  if (o.shell_subdivision > 1) d += fmt::format(", each split {} x {}", o.shell_subdivision, o.shell_subdivision);
+  d += o.shell_on_wall ? ", laid on socketsmith's smoothed wall" : ", through the wall at the skin nodes";
+  if (o.shell_lip) d += ", across the brim onto its lip";
+  return d;
+}
 
 ComparedQuantity compared_quantity(calculix::DesignCheckMode mode) {
   if (mode == calculix::DesignCheckMode::Load) return {1e3, "mm", "_mm", "displacement"};

@@ -56,6 +56,10 @@ struct DesignValidationOptions {
   bool write_case = false;              ///< also write the case as OUT/case.json (one made in memory, to replay it)
 };
 
+/// CalculiX's socket as summary.json's "fe_socket" names it: which shell or wall was donned (or
+/// fitted), so a run's figures say what they checked.
+std::string fe_socket_description(const calculix::DesignCheckOptions& o);
+
 /// How a check's compared field is reported: contact pressure in kPa, or (Load) displacement in mm.
 struct ComparedQuantity {
   double scale = 1e-3;             ///< SI → the reported unit

@@ -12,9 +12,9 @@ using Vec3 = Eigen::Vector3d;
 
 /// socketsmith's contact surface of the socket @p solid — its smoothed wall, fitted to the skin at
 /// rest @p rest as socketsmith's donning fits it (contact/donning.cpp) — as the CalculiX check's
-/// projection: a point within 3 mm of the wall to its closest point on the wall (Newton on the
-/// smoothed gap along its gradient) and the outward normal there. The wall is built on the first
-/// call (only `--shell-on-wall` asks for it).
+/// projection: a point within 3 mm of the wall onto the wall (Newton on the smoothed gap along its
+/// gradient; a path along the gradient, not the exact closest point) and the outward normal there.
+/// The wall is built on the first call (only `--shell-on-wall` asks for it).
 std::function<std::optional<std::pair<Vec3, Vec3>>(const Vec3&)> smoothed_wall_surface(const geometry::TriMesh& solid,
                                                                                        const geometry::LimbFrame& frame,
                                                                                        std::vector<Vec3> rest) {
