@@ -1,10 +1,14 @@
 // CalculiX for real: the cube against the analytic solution (a coarse lattice, a few seconds),
 // and the runner's answers when ccx is missing or rejects a deck.
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <numbers>
 #include <sstream>
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include "socketsmith/core/atomic_file.h"
@@ -101,17 +105,21 @@ struct BoxStump {
   BoxStump& operator=(const BoxStump&) = delete;
 };
 
-/// A stand-in ccx (a shell script) that answers as ccx does when it stops inside step 1 after one
-/// increment (exit 255, as its factorisation did on OpenLimb's transtibial donning), recording the
-/// *STATIC line of every deck it is given.
-fs::path ccx_stopping_in_step_one(const fs::path& dir) {
+/// A stand-in ccx in @p dir: a shell script of @p body (run as `ccx -i JOB`: the job is $2).
+fs::path stand_in_ccx(const fs::path& dir, const std::string& body) {
   const fs::path exe = dir / "fake_ccx";
-  write_text_atomically(exe, "#!/bin/sh\n"
-                             "grep -A1 '^\\*STATIC' \"$2.inp\" | sed -n 2p >> statics.txt\n"
-                             "echo ' STEP 1'\necho ' increment 1 attempt 1'\necho ' actual step time=0.05'\n"
-                             "echo ' convergence'\necho ' increment 2 attempt 1'\nexit 255\n");
+  write_text_atomically(exe, "#!/bin/sh\n" + body);
   fs::permissions(exe, fs::perms::owner_all);
   return exe;
+}
+
+/// A stand-in ccx that answers as ccx does when it stops inside step 1 after one increment (exit
+/// 255, as its factorisation did on OpenLimb's transtibial donning), recording the *STATIC line of
+/// every deck it is given.
+fs::path ccx_stopping_in_step_one(const fs::path& dir) {
+  return stand_in_ccx(dir, "grep -A1 '^\\*STATIC' \"$2.inp\" | sed -n 2p >> statics.txt\n"
+                           "echo ' STEP 1'\necho ' increment 1 attempt 1'\necho ' actual step time=0.05'\n"
+                           "echo ' convergence'\necho ' increment 2 attempt 1'\nexit 255\n");
 }
 
 // A donning that ccx gives up on its way is run once more with increments half as long, once.
@@ -132,6 +140,41 @@ TEST(DesignCheck, a_first_step_stopped_on_its_way_runs_again_with_shorter_increm
   EXPECT_EQ(first, "0.05, 1., 1e-05, 0.1");
   EXPECT_EQ(second, "0.025, 1., 1e-05, 0.025");
   EXPECT_FALSE(std::getline(in, third)) << "a third run: " << third;
+}
+
+/// A stand-in ccx that finishes both steps of every deck it is given with the reference node's
+/// reactions of validate donning --stand on the MSS-CS demo at 1.8k (2026-12-01): 229 N donned and
+/// only 42 N more at the end of the push, whatever the push; each run's push recorded.
+fs::path ccx_standing_short(const fs::path& dir) {
+  std::string dat;
+  for (const auto& [t, f, u] : {std::array<double, 3>{1.0, 228.7, 0.06}, {2.0, 270.8, 0.0628}}) {
+    dat += fmt::format(" displacements (vx,vy,vz) for set REF and time  {:.7E}\n\n    900001  0  0  {:.7E}\n\n", t, u);
+    dat += fmt::format(" forces (fx,fy,fz) for set REF and time  {:.7E}\n\n    900001  0  0  {:.7E}\n\n", t, f);
+  }
+  write_text_atomically(dir / "reactions.dat", dat);
+  return stand_in_ccx(dir, "grep -c '^\\*STEP' \"$2.inp\" >> runs.txt\ncp reactions.dat \"$2.dat\"\n"
+                           "echo ' STEP 1'\necho ' STEP 2'\necho ' Job finished'\n");
+}
+
+// A standing push that ends short of the load is run again from CalculiX's own reactions, twice at
+// most (the demo's first push went the wrong way and its second, extrapolated from the unloading
+// stiffness, fell short: 271 of 343 N).
+TEST(DesignCheck, a_standing_push_short_of_the_load_is_run_again_twice_at_most) {
+  const auto dir = work_dir("stand_retry");
+  BoxStump box;
+  DesignCheckOptions o;
+  o.mode = DesignCheckMode::Donning;
+  o.stand_force_n = 343.2;
+  o.stand_travel_m = 0.002;
+  o.ccx.executable = ccx_standing_short(dir).string();
+  try {
+    check_design(box.d, o, dir, "box");  // no .frd: the fields are not there to read
+  } catch (const Error&) {
+  }
+  std::ifstream in(dir / "runs.txt");
+  int runs = 0;
+  for (std::string line; std::getline(in, line); ++runs) EXPECT_EQ(line, "2");  // donning and standing
+  EXPECT_EQ(runs, 3);
 }
 
 /// The socket shell's inner nodes of a written donning deck (the first half of NSOCK).

@@ -258,7 +258,9 @@ TEST(ContactCube, the_predicted_start_on_a_moved_wall_reaches_the_same_state_in_
     EXPECT_TRUE(solver.move_to(t).converged);
     box.set_point(Vec3(0, 0, ContactCube::L - 0.0008));  // the wall 0.8 mm further in
     solver.obstacle_changed();
-    if (predict) EXPECT_TRUE(solver.predict_wall_change());
+    if (predict) {
+      EXPECT_TRUE(solver.predict_wall_change());
+    }
     const ContactStep st = solver.move_to(t);
     EXPECT_TRUE(st.converged) << st.message;
     return st;

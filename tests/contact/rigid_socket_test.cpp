@@ -169,6 +169,27 @@ TEST(RigidSocket, smoothed_wall_follows_the_facets_and_turns_smoothly_across_the
   EXPECT_NEAR(g.gradient_norm, 1.0, 0.05);
 }
 
+// A point near the wall is laid onto it (CalculiX's shell on socketsmith's wall): on the smoothed
+// wall of a ringed pipe the gap there vanishes, the point moved along the wall's normal (radially),
+// the normal given points out of the cavity; beyond the reach, nothing.
+TEST(RigidSocket, a_point_near_the_wall_is_laid_onto_it) {
+  const double ri = 0.05;
+  RigidSocket s(ringed_pipe(ri, 0.055, 0.2, 48, 40), z_frame());
+  s.set_smooth_wall(true);
+  for (const double r : {ri - 2e-3, ri - 1e-4, ri + 1e-3}) {
+    const Vec3 p(r * std::cos(0.3), r * std::sin(0.3), 0.1);
+    const auto on = s.onto_wall(p);
+    ASSERT_TRUE(on.has_value()) << r;
+    EXPECT_NEAR(s.gap(on->first).gap_m, 0.0, 1e-8);
+    const Vec3 radial(std::cos(0.3), std::sin(0.3), 0);
+    const Vec3 moved = on->first - p;
+    EXPECT_LT(moved.cross(radial).norm(), 1e-3 * moved.norm() + 1e-12);  // along the radius
+    EXPECT_GT(on->second.dot(radial), 0.9999);                     // out of the cavity
+  }
+  EXPECT_FALSE(s.onto_wall(Vec3(0.04, 0, 0.1)).has_value());  // 10 mm inside the wall: out of reach
+  EXPECT_TRUE(s.onto_wall(Vec3(0.04, 0, 0.1), 0.012).has_value());
+}
+
 // A socket designed on a stump has its wall's vertices where the skin's nodes are: the smoothed
 // wall fitted to those nodes' footprints gives the nodes the facets' gap (what CalculiX and the
 // printed socket give them), where the wall through the facets on average lies a sagitta inside

@@ -13,6 +13,7 @@
 #include "socketsmith/core/log.h"
 #include "socketsmith/calculix/dat_reader.h"
 #include "socketsmith/calculix/frd_reader.h"
+#include "socketsmith/calculix/socket_shell.h"
 #include "socketsmith/calculix/surface_pressure.h"
 #include "socketsmith/report/design_report.h"
 
@@ -70,59 +71,6 @@ std::vector<int> brim_rings(const std::vector<std::vector<int>>& adj, const std:
   return ring;
 }
 
-/// The designed socket as a shell on the skin quads below the brim (at the closed loop's wall
-/// positions when given), each quad split n × n, moved by @p down. Laid on socketsmith's wall when
-/// @p on_wall, with the quads across the brim when they were given: their points past the rim land on the lip, and a
-/// point past the lip drops its quad. The thickness is halved until no element is inverted (the
-/// lip curves tighter than the socket is thick; the shell is rigid, its thickness does not count).
-RigidShell donned_skin_shell(const DesignedStump& d, const std::vector<std::array<int, 4>>& socket_quads,
-                             const Vec3& down, double thickness_m, int subdivision, bool on_wall) {
-  const auto& skin = *d.skin;
-  const int ns = static_cast<int>(skin.nodes.size());
-  require(d.wall_positions.empty() || static_cast<int>(d.wall_positions.size()) == ns,
-          "check_design: {} wall positions for {} skin nodes", d.wall_positions.size(), ns);
-  std::vector<Vec3> inner(ns), normal(ns);
-  for (int i = 0; i < ns; ++i) {
-    inner[i] = d.wall_positions.empty() ? d.designed_positions[skin.nodes[i]] : d.wall_positions[i];
-    normal[i] = d.skin_normals[i].normalized();
-  }
-  QuadSurface s = subdivide_quads(inner, normal, socket_quads, subdivision);
-  std::vector<char> used(s.points.size(), 0), off(s.points.size(), 0);
-  for (const auto& q : s.quads)
-    for (int v : q) used[v] = 1;
-  for (size_t k = 0; k < s.points.size(); ++k) {
-    if (!used[k]) continue;
-    if (on_wall) {
-      if (const auto on = d.wall_surface(s.points[k])) std::tie(s.points[k], s.normals[k]) = *on;
-      else off[k] = 1;
-    }
-    s.points[k] += down;
-  }
-  std::vector<std::array<int, 4>> quads;
-  const size_t per = static_cast<size_t>(subdivision) * subdivision;
-  std::vector<char> kept_off(s.points.size(), 0);  // points below the brim that do not face the wall
-  for (size_t k = 0; k < s.quads.size(); ++k) {
-    const auto& parent = socket_quads[k / per];
-    const bool across_brim = std::any_of(parent.begin(), parent.end(), [&](int v) { return d.above_brim[v] != 0; });
-    const auto& q = s.quads[k];
-    if (across_brim && std::any_of(q.begin(), q.end(), [&](int v) { return off[v] != 0; })) continue;
-    if (!across_brim)
-      for (int v : q) kept_off[v] = off[v];
-    quads.push_back(q);
-  }
-  if (const auto n = std::count(kept_off.begin(), kept_off.end(), 1); n > 0)
-    log::warn("validate: {} point(s) of the socket shell below the brim do not face socketsmith's wall; they keep their "
-              "place between the skin nodes", n);
-  require(!quads.empty(), "check_design: no socket quad faces socketsmith's wall (the socket does not fit its stump)");
-  for (double t = thickness_m;; t *= 0.5) {
-    RigidShell shell = extrude_shell(s.points, s.normals, quads, t);
-    volume::HexMesh m;
-    m.nodes = shell.nodes;
-    m.hexahedra = shell.hexahedra;
-    if (volume::hex_quality(m).inverted == 0 || t < 1e-4) return shell;
-  }
-}
-
 void check_input(const DesignedStump& d, const DesignCheckOptions& o) {
   require(d.mesh && d.skin, "check_design: no stump mesh or skin surface");
   require(!o.printed_wall || o.mode == DesignCheckMode::Donning,
@@ -169,20 +117,6 @@ DeckSpec base_deck(const DesignedStump& d, const DesignCheckOptions& o) {
   return spec;
 }
 
-/// The skin quads (in local skin ids) that lie wholly below the brim: the socket's; @p across_brim:
-/// also those with a node below it (the shell laid on socketsmith's wall reaches its rim and lip).
-std::vector<std::array<int, 4>> socket_quads_below_brim(const DesignedStump& d, const std::vector<int>& skin_of,
-                                                        bool across_brim) {
-  std::vector<std::array<int, 4>> socket_quads;  // local skin ids
-  for (const auto& q : d.skin->quads) {
-    std::array<int, 4> l{skin_of[q[0]], skin_of[q[1]], skin_of[q[2]], skin_of[q[3]]};
-    const int above = (d.above_brim[l[0]] != 0) + (d.above_brim[l[1]] != 0) + (d.above_brim[l[2]] != 0) + (d.above_brim[l[3]] != 0);
-    if (above == 0 || (across_brim && above < 4)) socket_quads.push_back(l);
-  }
-  require(!socket_quads.empty(), "check_design: no skin quad lies wholly below the brim (no socket to check)");
-  return socket_quads;
-}
-
 /// Donning mode: the designed socket (the printed wall, or the shell on the skin), rigid, moved
 /// distally by the travel; the steps push it back up by the reference node, then stand on it.
 RigidShell donning_socket(const DesignedStump& d, const DesignCheckOptions& o,
@@ -197,7 +131,7 @@ RigidShell donning_socket(const DesignedStump& d, const DesignCheckOptions& o,
     for (auto& v : moved) v += down;
     shell = extrude_wall(moved, d.socket_wall.triangles, o.socket_thickness_m);
   } else {
-    shell = donned_skin_shell(d, socket_quads, down, o.socket_thickness_m, o.shell_subdivision, o.shell_on_wall);
+    shell = donned_skin_shell(d, socket_quads, down, o);
   }
   spec.steps.donning_travel_m = -down;
   if (o.stand_force_n > 0) {
@@ -418,8 +352,9 @@ bool stopped_in_first_step(const CcxRun& run) {
 /// long (OpenLimb's mean transtibial limb at 3k: ccx's factorisation gave up at 25 % of the donning
 /// with increments of 5 %, and went through with 2.5 %). A standing step that ended short of the
 /// load, or pushed the wrong way (CalculiX's donned socket carried more, or less, than
-/// socketsmith's), is run once more with the travel CalculiX's own reactions ask for
-/// (standing_retry_travel_m).
+/// socketsmith's), is run again with the travel CalculiX's own reactions ask for
+/// (standing_retry_travel_m), twice at most: a first push the wrong way measures the unloading
+/// stiffness (friction reversed), too stiff to extrapolate the loading from.
 /// The last run's .dat is returned in @p dat and, with a standing step, its standing pose in @p pose.
 CcxOptions run_deck(DeckSpec& spec, double stand_force_n, const std::filesystem::path& dir, const std::string& job,
                     const CcxOptions& ccx, DesignCheckResult& res, std::vector<DatBlock>& dat, StandingPose& pose) {
@@ -442,16 +377,15 @@ CcxOptions run_deck(DeckSpec& spec, double stand_force_n, const std::filesystem:
     run();
   }
   res.stand_travel_m = spec.steps.stand_travel_m;
-  if (co.num_steps == 2 && !pose.reached) {
+  for (int pass = 0; pass < 2 && co.num_steps == 2 && !pose.reached; ++pass) {
     const double retry = standing_retry_travel_m(pose, spec.steps.stand_travel_m, stand_force_n);
-    if (std::isfinite(retry)) {
-      log::info("validate: CalculiX's socket carried {:.0f} N donned and {:.0f} N {:+.2f} mm past that pose, not the "
-                "standing {:.0f} N; standing again with a push of {:+.2f} mm",
-                pose.donned_force_n, pose.last_force_n, pose.last_displacement_m * 1e3, stand_force_n, retry * 1e3);
-      spec.steps.stand_travel_m = retry;
-      run();
-      res.stand_travel_m = retry;
-    }
+    if (!std::isfinite(retry)) break;
+    log::info("validate: CalculiX's socket carried {:.0f} N donned and {:.0f} N {:+.2f} mm past that pose, not the "
+              "standing {:.0f} N; standing again with a push of {:+.2f} mm",
+              pose.donned_force_n, pose.last_force_n, pose.last_displacement_m * 1e3, stand_force_n, retry * 1e3);
+    spec.steps.stand_travel_m = retry;
+    run();
+    res.stand_travel_m = retry;
   }
   res.converged = res.ccx.converged;
   res.message = res.ccx.message;

@@ -187,8 +187,8 @@ struct DesignCheckResult {
   /// measure's force), the part its tangential tractions carry: friction [N] (Contact modes with the
   /// nodal-force measure; 0 without it).
   double fe_axial_force_n = 0, fe_axial_friction_n = 0;
-  /// ccx runs: one more when step 1 stopped on its way (again with increments half as long), one more
-  /// when step 2 ended short of the load (again with a travel from CalculiX's reactions).
+  /// ccx runs: one more when step 1 stopped on its way (again with increments half as long), up to
+  /// two more when step 2 ended short of the load (again with a travel from CalculiX's reactions).
   int ccx_runs = 0;
 };
 

@@ -54,7 +54,24 @@ std::string hardest_grip(const std::vector<NodeContact>& contacts, const std::ve
                      touching, cy.h * 1e3, side, deg, contacts[k].pressure_pa / 1e3);
 }
 
+/// The rest positions of @p model's nodes @p nodes.
+std::vector<Vec3> rest_positions(const tissue::MassSpringModel& model, const std::vector<int>& nodes) {
+  std::vector<Vec3> rest;
+  rest.reserve(nodes.size());
+  for (const int n : nodes) rest.push_back(model.mesh().nodes[n]);
+  return rest;
+}
+
 }  // namespace
+
+RigidSocket donning_socket(const geometry::TriMesh& solid, const geometry::LimbFrame& frame,
+                           std::vector<Vec3> skin_at_rest, const DonningOptions& options) {
+  RigidSocket socket(solid, frame, options.socket_density_kg_m3);
+  socket.set_smooth_wall(options.smooth_wall);
+  // Fitted to the facets where this skin touches them (rigid_socket.h).
+  if (options.smooth_wall) socket.fit_smooth_wall_to(std::move(skin_at_rest));
+  return socket;
+}
 
 struct DonningSimulation::Impl {
   const tissue::MassSpringModel& model;
@@ -77,15 +94,8 @@ struct DonningSimulation::Impl {
   Impl(const tissue::MassSpringModel& m, const std::vector<int>& nodes, const std::vector<double>& areas,
        const geometry::TriMesh& solid, const geometry::LimbFrame& limb_frame, const DonningOptions& options)
       : model(m), o(checked(options, m, nodes, solid, limb_frame)), frame(limb_frame), axis(limb_frame.axis.normalized()),
-        socket(solid, limb_frame, o.socket_density_kg_m3), dofs(tissue::fixed_node_dofs(m.mesh(), "donning")),
-        skin_nodes(nodes) {
-    socket.set_smooth_wall(o.smooth_wall);
-    if (o.smooth_wall) {  // fitted to the facets where this skin touches them (rigid_socket.h)
-      std::vector<Vec3> rest;
-      rest.reserve(nodes.size());
-      for (const int n : nodes) rest.push_back(m.mesh().nodes[n]);
-      socket.fit_smooth_wall_to(std::move(rest));
-    }
+        socket(donning_socket(solid, limb_frame, rest_positions(m, nodes), o)),
+        dofs(tissue::fixed_node_dofs(m.mesh(), "donning")), skin_nodes(nodes) {
     ContactOptions co = o.contact;
     co.friction = o.friction;
     socket.set_translation(-o.start_offset_m * axis);

@@ -147,6 +147,13 @@ struct DonningResult {
   double max_sidestep_m = 0.0;
 };
 
+/// The socket @p solid (closed, [m], at its designed pose) as the donning dons it: a RigidSocket of
+/// options.socket_density_kg_m3 whose contact wall, with options.smooth_wall, is the smoothed wall
+/// fitted to the skin @p skin_at_rest (the skin nodes' rest positions). The CalculiX check lays its
+/// shell on this same wall (pipeline/validation_inputs.cpp).
+RigidSocket donning_socket(const geometry::TriMesh& solid, const geometry::LimbFrame& frame,
+                           std::vector<Vec3> skin_at_rest, const DonningOptions& options = {});
+
 /// Simulates donning @p socket_solid (closed, [m], at its designed pose) onto the stump @p mesh
 /// (nodes tagged kNodeFixed are held) whose candidate nodes are the skin nodes @p skin_nodes with
 /// rest nodal areas @p skin_areas. The body is the linearised MSS model of @p model (K₀).

@@ -136,6 +136,11 @@ class RigidSocket : public Obstacle {
   /// on a 3k stump's 8 mm facets): that socket pressed a third more than its facets (docs/contact.md,
   /// "The smoothed wall's level"). Kept by replace_solid; no points: through the facets on average.
   void fit_smooth_wall_to(std::vector<Vec3> points);
+  /// Point @p p within @p reach_m of the contact wall (the smoothed one when on) moved onto it, with
+  /// the wall's normal there pointing out of the cavity; nothing farther away or where the gap is
+  /// not defined. Newton on the gap along its gradient: a path along the gradient, not the exact
+  /// closest point (CalculiX's socket shell is laid on socketsmith's wall with it).
+  std::optional<std::pair<Vec3, Vec3>> onto_wall(const Vec3& p, double reach_m = 3e-3) const;
 
  private:
   /// The smoothed gap at @p q (g: the facets' gap there), or nothing where no vertex's support covers q.

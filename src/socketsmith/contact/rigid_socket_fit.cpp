@@ -1,6 +1,6 @@
 // The smoothed wall fitted to the facets where the stump's skin touches them (RigidSocket,
 // rigid_socket.h): per-vertex offsets of the vertex surfaces, so that the smoothed gap vanishes at
-// the skin nodes' footprints on the facets.
+// the skin nodes' footprints on the facets; points laid onto that wall.
 #include <algorithm>
 #include <cmath>
 #include <optional>
@@ -82,6 +82,18 @@ void RigidSocket::fit_smooth_wall_to(std::vector<Vec3> points) {
   log::debug("socket wall: smoothed wall fitted to {} skin footprints on the facets: gap there {:.3f} mm on average, "
              "{:.3f} at most (through the facets on average: {:.3f}, {:.3f})",
              feet.size(), mean1 * 1e3, max1 * 1e3, mean0 * 1e3, max0 * 1e3);
+}
+
+std::optional<std::pair<Vec3, Vec3>> RigidSocket::onto_wall(const Vec3& p, double reach_m) const {
+  Vec3 q = p;
+  constexpr int kSteps = 8;
+  for (int it = 0; it < kSteps; ++it) {
+    const Gap g = gap(q);
+    if (!g.valid || std::abs(g.gap_m) > reach_m || !(g.gradient_norm > 0)) return std::nullopt;
+    if (std::abs(g.gap_m) < 1e-8 || it == kSteps - 1) return std::pair<Vec3, Vec3>{q, -g.normal};
+    q -= g.gap_m / g.gradient_norm * g.normal;  // the wall lies gap/|∇gap| behind q along its normal
+  }
+  return std::nullopt;
 }
 
 }  // namespace socketsmith::contact

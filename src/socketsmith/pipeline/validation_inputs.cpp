@@ -10,10 +10,9 @@ namespace {
 
 using Vec3 = Eigen::Vector3d;
 
-/// socketsmith's contact surface of the socket @p solid — its smoothed wall, fitted to the skin at
-/// rest @p rest as socketsmith's donning fits it (contact/donning.cpp) — as the CalculiX check's
-/// projection: a point within 3 mm of the wall onto the wall (Newton on the smoothed gap along its
-/// gradient; a path along the gradient, not the exact closest point) and the outward normal there.
+/// socketsmith's contact surface of the socket @p solid — the wall its donning touches, fitted to the
+/// skin at rest @p rest (contact::donning_socket) — as the CalculiX check's projection
+/// (RigidSocket::onto_wall: a point within 3 mm of the wall onto it, and the outward normal there).
 /// The wall is built on the first call (only `--shell-on-wall` asks for it).
 std::function<std::optional<std::pair<Vec3, Vec3>>(const Vec3&)> smoothed_wall_surface(const geometry::TriMesh& solid,
                                                                                        const geometry::LimbFrame& frame,
@@ -25,20 +24,10 @@ std::function<std::optional<std::pair<Vec3, Vec3>>(const Vec3&)> smoothed_wall_s
     std::unique_ptr<contact::RigidSocket> socket;
   };
   auto wall = std::make_shared<Wall>(Wall{solid, frame, std::move(rest), nullptr});
-  return [wall](const Vec3& p) -> std::optional<std::pair<Vec3, Vec3>> {
-    if (!wall->socket) {
-      wall->socket = std::make_unique<contact::RigidSocket>(wall->solid, wall->frame);
-      wall->socket->set_smooth_wall(true);
-      wall->socket->fit_smooth_wall_to(std::move(wall->rest));
-    }
-    Vec3 q = p;
-    for (int it = 0; it < 8; ++it) {
-      const contact::Gap g = wall->socket->gap(q);
-      if (!g.valid || std::abs(g.gap_m) > 3e-3 || !(g.gradient_norm > 0)) return std::nullopt;
-      if (std::abs(g.gap_m) < 1e-8 || it == 7) return std::pair<Vec3, Vec3>{q, -g.normal};
-      q -= g.gap_m / g.gradient_norm * g.normal;  // the wall lies gap/|∇gap| behind q along its normal
-    }
-    return std::nullopt;
+  return [wall](const Vec3& p) {
+    if (!wall->socket)
+      wall->socket = std::make_unique<contact::RigidSocket>(contact::donning_socket(wall->solid, wall->frame, std::move(wall->rest)));
+    return wall->socket->onto_wall(p);
   };
 }
 

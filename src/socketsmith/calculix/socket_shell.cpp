@@ -1,0 +1,73 @@
+#include "socketsmith/calculix/socket_shell.h"
+
+#include <algorithm>
+#include <cmath>
+#include <tuple>
+
+#include "socketsmith/core/errors.h"
+#include "socketsmith/core/log.h"
+#include "socketsmith/volume/hex_mesh.h"
+
+namespace socketsmith::calculix {
+
+std::vector<std::array<int, 4>> socket_quads_below_brim(const DesignedStump& d, const std::vector<int>& skin_of,
+                                                        bool across_brim) {
+  std::vector<std::array<int, 4>> socket_quads;  // local skin ids
+  for (const auto& q : d.skin->quads) {
+    std::array<int, 4> l{skin_of[q[0]], skin_of[q[1]], skin_of[q[2]], skin_of[q[3]]};
+    const int above = (d.above_brim[l[0]] != 0) + (d.above_brim[l[1]] != 0) + (d.above_brim[l[2]] != 0) + (d.above_brim[l[3]] != 0);
+    if (above == 0 || (across_brim && above < 4)) socket_quads.push_back(l);
+  }
+  require(!socket_quads.empty(), "check_design: no skin quad lies wholly below the brim (no socket to check)");
+  return socket_quads;
+}
+
+RigidShell donned_skin_shell(const DesignedStump& d, const std::vector<std::array<int, 4>>& socket_quads,
+                             const Vec3& down, const DesignCheckOptions& o) {
+  const auto& skin = *d.skin;
+  const int ns = static_cast<int>(skin.nodes.size()), subdivision = o.shell_subdivision;
+  require(d.wall_positions.empty() || static_cast<int>(d.wall_positions.size()) == ns,
+          "check_design: {} wall positions for {} skin nodes", d.wall_positions.size(), ns);
+  std::vector<Vec3> inner(ns), normal(ns);
+  for (int i = 0; i < ns; ++i) {
+    inner[i] = d.wall_positions.empty() ? d.designed_positions[skin.nodes[i]] : d.wall_positions[i];
+    normal[i] = d.skin_normals[i].normalized();
+  }
+  QuadSurface s = subdivide_quads(inner, normal, socket_quads, subdivision);
+  std::vector<char> used(s.points.size(), 0), off(s.points.size(), 0);
+  for (const auto& q : s.quads)
+    for (int v : q) used[v] = 1;
+  for (size_t k = 0; k < s.points.size(); ++k) {
+    if (!used[k]) continue;
+    if (o.shell_on_wall) {
+      if (const auto on = d.wall_surface(s.points[k])) std::tie(s.points[k], s.normals[k]) = *on;
+      else off[k] = 1;
+    }
+    s.points[k] += down;
+  }
+  std::vector<std::array<int, 4>> quads;
+  const size_t per = static_cast<size_t>(subdivision) * subdivision;
+  std::vector<char> kept_off(s.points.size(), 0);  // points below the brim that do not face the wall
+  for (size_t k = 0; k < s.quads.size(); ++k) {
+    const auto& parent = socket_quads[k / per];
+    const bool across_brim = std::any_of(parent.begin(), parent.end(), [&](int v) { return d.above_brim[v] != 0; });
+    const auto& q = s.quads[k];
+    if (across_brim && std::any_of(q.begin(), q.end(), [&](int v) { return off[v] != 0; })) continue;
+    if (!across_brim)
+      for (int v : q) kept_off[v] = off[v];
+    quads.push_back(q);
+  }
+  if (const auto n = std::count(kept_off.begin(), kept_off.end(), 1); n > 0)
+    log::warn("validate: {} point(s) of the socket shell below the brim do not face socketsmith's wall; they keep their "
+              "place between the skin nodes", n);
+  require(!quads.empty(), "check_design: no socket quad faces socketsmith's wall (the socket does not fit its stump)");
+  for (double t = o.socket_thickness_m;; t *= 0.5) {
+    RigidShell shell = extrude_shell(s.points, s.normals, quads, t);
+    volume::HexMesh m;
+    m.nodes = shell.nodes;
+    m.hexahedra = shell.hexahedra;
+    if (volume::hex_quality(m).inverted == 0 || t < 1e-4) return shell;
+  }
+}
+
+}  // namespace socketsmith::calculix
