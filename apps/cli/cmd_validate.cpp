@@ -220,7 +220,10 @@ void add_case_flags(CLI::App& cmd, DesignFlags& f) {
   cmd.add_flag("--shell-lip", f.shell_lip,
                "donning, with --shell-on-wall: the shell also across the brim, its points past the rim on socketsmith's "
                "lip (a rounded rim instead of the skin quads' staircase)");
-  cmd.add_option("--penalty", f.penalty, "contact penalty stiffness [Pa/m] (default 1e9)")->check(positive());
+  cmd.add_option("--penalty", f.penalty,
+                 "CalculiX's contact penalty stiffness [Pa/m] (default 1e9); 0: socketsmith's own donning penalty on "
+                 "this stump, 20 E / h (the same contact law on both sides; docs/VALIDATION.md)")
+      ->check(non_negative());
   cmd.add_option("--stick-slope", f.stick_slope,
                  "CalculiX's friction stick slope [Pa/m] (default 5e7, CALCULIX.md; socketsmith's stick is 0.2 x its penalty)")
       ->check(positive());

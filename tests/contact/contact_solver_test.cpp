@@ -43,6 +43,26 @@ struct ContactCube {
   }
 };
 
+// The penalty a solver uses is the one contact_penalty_pa_per_m gives (CalculiX's check takes it
+// from there with --penalty 0): factor · E / h, h the mean √area (here the cube's top, 7 × 7 nodes
+// of 1/4, 1/2 or 1 element face: mean √area = h (25 + 20/√2 + 4/2) / 49), or the value set.
+TEST(ContactCube, the_penalty_is_factor_times_e_over_the_mean_node_spacing) {
+  const ContactCube c;
+  const tissue::TissueMaterial mat{50e3, 1060};
+  const tissue::MassSpringModel model(c.mesh, mat, tissue::MassSpringOptions{});
+  const tissue::DofMap dofs(model.num_dofs(), c.cons);
+  PlaneObstacle box(Vec3(0, 0, ContactCube::L), Vec3(0, 0, -1));
+  ContactOptions co;
+  co.penalty_factor = 20;
+  const double h = ContactCube::L / ContactCube::n, spacing = h * (25 + 20 / std::sqrt(2.0) + 2) / 49;
+  EXPECT_NEAR(contact_penalty_pa_per_m(co, 50e3, c.top_area), 20 * 50e3 / spacing, 1e-6);
+  EXPECT_DOUBLE_EQ(ContactSolver(model, dofs, c.top, c.top_area, box, co).penalty(),
+                   contact_penalty_pa_per_m(co, 50e3, c.top_area));
+  co.penalty_pa_per_m = 3e8;
+  EXPECT_DOUBLE_EQ(contact_penalty_pa_per_m(co, 50e3, c.top_area), 3e8);
+  EXPECT_THROW(contact_penalty_pa_per_m(ContactOptions{}, 50e3, {1e-4, 0.0}), InvalidInputError);
+}
+
 TEST(ContactCube, matches_the_constrained_cube_at_every_weight) {
   const ContactCube c;
   tissue::MassSpringOptions mo;  // MSS-CS, default (cube-targets) constants

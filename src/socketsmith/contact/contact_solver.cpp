@@ -279,13 +279,9 @@ ContactSolver::ContactSolver(const tissue::MassSpringModel& model, const tissue:
           "contact: residual floor ratio {} must be ≥ 1 (the floor in E h²)", options.residual_floor_ratio);
   impl_ = std::make_unique<Impl>(model, dofs, std::move(nodes), std::move(areas), obstacle, options);
   auto& s = *impl_;
+  s.k = contact_penalty_pa_per_m(options, model.material().youngs_modulus_pa, s.areas);
   double spacing = 0;
-  for (double a : s.areas) {
-    require(std::isfinite(a) && a > 0, "contact: a nodal area is not positive ({} m^2)", a);
-    spacing += std::sqrt(a) / static_cast<double>(s.areas.size());
-  }
-  s.k = options.penalty_pa_per_m > 0 ? options.penalty_pa_per_m
-                                     : options.penalty_factor * model.material().youngs_modulus_pa / spacing;
+  for (double a : s.areas) spacing += std::sqrt(a) / static_cast<double>(s.areas.size());
   s.x = s.x_conv = model.rest_positions();
   s.t_conv = obstacle.translation();
   s.hist.assign(s.nodes.size(), Vec3::Zero());
@@ -388,5 +384,14 @@ const VectorXd& ContactSolver::positions() const { return impl_->x; }
 const std::vector<NodeContact>& ContactSolver::contacts() const { return impl_->state; }
 const std::vector<int>& ContactSolver::nodes() const { return impl_->nodes; }
 double ContactSolver::penalty() const { return impl_->k; }
+
+double contact_penalty_pa_per_m(const ContactOptions& options, double youngs_pa, const std::vector<double>& areas) {
+  double spacing = 0;
+  for (double a : areas) {
+    require(std::isfinite(a) && a > 0, "contact: a nodal area is not positive ({} m^2)", a);
+    spacing += std::sqrt(a) / static_cast<double>(areas.size());
+  }
+  return options.penalty_pa_per_m > 0 ? options.penalty_pa_per_m : options.penalty_factor * youngs_pa / spacing;
+}
 
 }  // namespace socketsmith::contact

@@ -206,4 +206,10 @@ class ContactSolver {
   std::unique_ptr<Impl> impl_;
 };
 
+/// The penalty k [Pa/m] a ContactSolver with @p options uses on a body of Young's modulus
+/// @p youngs_pa whose candidate nodes have the nodal areas @p areas [m²]: options.penalty_pa_per_m
+/// when set, else penalty_factor · E / h, h the mean √area (CalculiX's check can use the same: `validate
+/// design --penalty 0`). @throws InvalidInputError for an area that is not positive.
+double contact_penalty_pa_per_m(const ContactOptions& options, double youngs_pa, const std::vector<double>& areas);
+
 }  // namespace socketsmith::contact

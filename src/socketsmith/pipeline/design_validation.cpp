@@ -233,7 +233,13 @@ calculix::DesignCheckOptions check_options(const design::CaseFile& c, const Desi
   co.element = o.element ? *o.element
                          : c.element == tissue::HexFormulation::FBar ? calculix::ElementType::C3D8I
                                                                       : calculix::ElementType::C3D8;
-  co.contact.penalty_pa_per_m = o.penalty_pa_per_m;
+  // 0: socketsmith's own donning penalty on this stump (20 E / h), the same contact law on both sides.
+  const auto& solver = *v.artifacts.setup->solver;
+  const double ours = contact::contact_penalty_pa_per_m(contact::DonningOptions{}.contact,
+                                                        solver.model().material().youngs_modulus_pa, solver.skin().area_m2);
+  co.contact.penalty_pa_per_m = o.penalty_pa_per_m > 0 ? o.penalty_pa_per_m : ours;
+  log::info("validate design: CalculiX's contact penalty {:.3g} Pa/m (socketsmith's donning: {:.3g})",
+            co.contact.penalty_pa_per_m, ours);
   co.contact.stick_slope_pa_per_m = o.stick_slope_pa_per_m;
   co.contact.friction = o.friction >= 0 ? o.friction : c.patient.friction;
   co.clearance_m = o.clearance_m;
@@ -263,6 +269,8 @@ void check_validation_flags(const DesignValidationOptions& o) {
   require(!o.shell_lip || o.shell_on_wall, "validate design: --shell-lip needs --shell-on-wall (the lip is socketsmith's)");
   require(!o.printed_wall || (!o.shell_on_wall && o.shell_subdivision == 1),
           "validate design: --printed-wall dons the written socket as built: drop --shell-on-wall and --shell-subdivision");
+  require(std::isfinite(o.penalty_pa_per_m) && o.penalty_pa_per_m >= 0,
+          "validate design: penalty {} Pa/m (expected ≥ 0; 0: socketsmith's own)", o.penalty_pa_per_m);
   require(!o.nonlinear_body || o.against_donning,
           "validate design: --nonlinear-body sets socketsmith's donning body: use it with validate donning");
 }

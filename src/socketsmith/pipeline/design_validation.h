@@ -43,7 +43,7 @@ struct DesignValidationOptions {
   bool shell_lip = false;               ///< Donning, shell_on_wall: the shell across the brim onto the lip (DesignCheckOptions)
   /// CalculiX's element; empty: the tissue's twin (C3D8, or C3D8I for tissue.element fbar).
   std::optional<calculix::ElementType> element;
-  double penalty_pa_per_m = 1e9;        ///< contact penalty [Pa/m], > 0
+  double penalty_pa_per_m = 1e9;        ///< CalculiX's contact penalty [Pa/m]; 0: socketsmith's donning's (20 E / h)
   double stick_slope_pa_per_m = 5e7;    ///< CalculiX's friction stick slope [Pa/m], > 0
   double friction = -1.0;               ///< μ, [0, 2]; < 0: the case's
   double clearance_m = 1e-3;            ///< Contact: the fit starts this far outside the skin [m], > 0
