@@ -261,6 +261,18 @@ bool ContactSolver::Impl::eliminate_free(const Eigen::MatrixXd& rhs, const Eigen
   return delta.allFinite();
 }
 
+namespace {
+/// The candidates' mean node spacing h: the mean √ of their nodal areas [m].
+double mean_node_spacing_m(const std::vector<double>& areas) {
+  double spacing = 0;
+  for (double a : areas) {
+    require(std::isfinite(a) && a > 0, "contact: a nodal area is not positive ({} m^2)", a);
+    spacing += std::sqrt(a) / static_cast<double>(areas.size());
+  }
+  return spacing;
+}
+}  // namespace
+
 ContactSolver::ContactSolver(const tissue::MassSpringModel& model, const tissue::DofMap& dofs, std::vector<int> nodes,
                              std::vector<double> areas, Obstacle& obstacle, const ContactOptions& options) {
   require(nodes.size() == areas.size() && !nodes.empty(), "contact: {} candidate nodes for {} areas", nodes.size(),
@@ -279,9 +291,8 @@ ContactSolver::ContactSolver(const tissue::MassSpringModel& model, const tissue:
           "contact: residual floor ratio {} must be ≥ 1 (the floor in E h²)", options.residual_floor_ratio);
   impl_ = std::make_unique<Impl>(model, dofs, std::move(nodes), std::move(areas), obstacle, options);
   auto& s = *impl_;
+  const double spacing = mean_node_spacing_m(s.areas);
   s.k = contact_penalty_pa_per_m(options, model.material().youngs_modulus_pa, s.areas);
-  double spacing = 0;
-  for (double a : s.areas) spacing += std::sqrt(a) / static_cast<double>(s.areas.size());
   s.x = s.x_conv = model.rest_positions();
   s.t_conv = obstacle.translation();
   s.hist.assign(s.nodes.size(), Vec3::Zero());
@@ -386,12 +397,8 @@ const std::vector<int>& ContactSolver::nodes() const { return impl_->nodes; }
 double ContactSolver::penalty() const { return impl_->k; }
 
 double contact_penalty_pa_per_m(const ContactOptions& options, double youngs_pa, const std::vector<double>& areas) {
-  double spacing = 0;
-  for (double a : areas) {
-    require(std::isfinite(a) && a > 0, "contact: a nodal area is not positive ({} m^2)", a);
-    spacing += std::sqrt(a) / static_cast<double>(areas.size());
-  }
-  return options.penalty_pa_per_m > 0 ? options.penalty_pa_per_m : options.penalty_factor * youngs_pa / spacing;
+  return options.penalty_pa_per_m > 0 ? options.penalty_pa_per_m
+                                      : options.penalty_factor * youngs_pa / mean_node_spacing_m(areas);
 }
 
 }  // namespace socketsmith::contact

@@ -238,8 +238,9 @@ calculix::DesignCheckOptions check_options(const design::CaseFile& c, const Desi
   const double ours = contact::contact_penalty_pa_per_m(contact::DonningOptions{}.contact,
                                                         solver.model().material().youngs_modulus_pa, solver.skin().area_m2);
   co.contact.penalty_pa_per_m = o.penalty_pa_per_m > 0 ? o.penalty_pa_per_m : ours;
-  log::info("validate design: CalculiX's contact penalty {:.3g} Pa/m (socketsmith's donning: {:.3g})",
-            co.contact.penalty_pa_per_m, ours);
+  if (o.mode != calculix::DesignCheckMode::Load)
+    log::info("validate design: CalculiX's contact penalty {:.3g} Pa/m (socketsmith's donning: {:.3g})",
+              co.contact.penalty_pa_per_m, ours);
   co.contact.stick_slope_pa_per_m = o.stick_slope_pa_per_m;
   co.contact.friction = o.friction >= 0 ? o.friction : c.patient.friction;
   co.clearance_m = o.clearance_m;
