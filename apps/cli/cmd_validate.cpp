@@ -83,7 +83,7 @@ struct DesignFlags {
   std::string mode = "contact";
   std::string element;  // empty: the tissue's twin (c3d8, or c3d8i for tissue.element fbar)
   double poisson = -1;  // < 0: the case's continuum model's ν, else 0.45 (the thesis's)
-  double penalty = 1e9;
+  double penalty = -1;  // < 0: the default (DesignValidationOptions::penalty_pa_per_m)
   double stick_slope = 5e7;
   double friction = -1;  // < 0: the case's μ
   double clearance_mm = 1.0;
@@ -121,7 +121,7 @@ void run_validate_design(const DesignFlags& f) {
   o.shell_on_wall = f.shell_on_wall;
   o.shell_lip = f.shell_lip;
   if (!f.element.empty()) o.element = calculix::parse_element_type(f.element);
-  o.penalty_pa_per_m = f.penalty;
+  if (f.penalty >= 0) o.penalty_pa_per_m = f.penalty;
   o.stick_slope_pa_per_m = f.stick_slope;
   o.friction = f.friction;
   o.clearance_m = f.clearance_mm * 1e-3;
@@ -221,8 +221,9 @@ void add_case_flags(CLI::App& cmd, DesignFlags& f) {
                "donning, with --shell-on-wall: the shell also across the brim, its points past the rim on socketsmith's "
                "lip (a rounded rim instead of the skin quads' staircase)");
   cmd.add_option("--penalty", f.penalty,
-                 "CalculiX's contact penalty stiffness [Pa/m] (default 1e9); 0: socketsmith's own donning penalty on "
-                 "this stump, 20 E / h (the same contact law on both sides; docs/VALIDATION.md)")
+                 "CalculiX's contact penalty stiffness [Pa/m]; 0: socketsmith's own donning penalty on this stump, "
+                 "20 E / h (default with --mode donning: the same contact law on both sides, docs/VALIDATION.md; "
+                 "1e9 with --mode contact or a case whose closed loop dons on a rigid wall)")
       ->check(non_negative());
   cmd.add_option("--stick-slope", f.stick_slope,
                  "CalculiX's friction stick slope [Pa/m] (default 5e7, CALCULIX.md; socketsmith's stick is 0.2 x its penalty)")

@@ -343,8 +343,8 @@ struct ValidateArgs {
   std::string mode, element, fe_pressure, ccx;
   bool against_donning = false, stand = false, nonlinear_body = false, neo_hookean = false, small_strain = false;
   std::optional<bool> optimise;
-  std::optional<double> poisson, friction;
-  double penalty = 1e9, stick_slope = 5e7, clearance_mm = 1.0, travel_mm = 60.0, initial_increment = 0.05;
+  std::optional<double> poisson, friction, penalty;  // penalty: empty, the default (DesignValidationOptions)
+  double stick_slope = 5e7, clearance_mm = 1.0, travel_mm = 60.0, initial_increment = 0.05;
   int ccx_threads = 1;
   double ccx_time_limit_s = 3600;
   std::optional<int> target_nodes;
@@ -668,7 +668,7 @@ PYBIND11_MODULE(_core, m) {
   m.def("validate", [](const py::object& case_obj, const std::string& out, const std::string& mode, bool against_donning,
                        bool stand, bool nonlinear_body, std::optional<bool> optimise, std::optional<double> poisson,
                        bool neo_hookean, bool small_strain, const std::string& element, const std::string& fe_pressure,
-                       double penalty, double stick_slope, std::optional<double> friction, double clearance_mm,
+                       std::optional<double> penalty, double stick_slope, std::optional<double> friction, double clearance_mm,
                        double travel_mm, double initial_increment, const std::string& ccx, int ccx_threads,
                        double ccx_time_limit_s, std::optional<int> target_nodes, const py::object& progress,
                        const std::optional<std::string>& folder) {
@@ -698,7 +698,7 @@ PYBIND11_MODULE(_core, m) {
       py::arg("case"), py::arg("out"), py::kw_only(), py::arg("mode") = "contact", py::arg("against_donning") = false,
       py::arg("stand") = false, py::arg("nonlinear_body") = false, py::arg("optimise") = py::none(),
       py::arg("poisson") = py::none(), py::arg("neo_hookean") = false, py::arg("small_strain") = false,
-      py::arg("element") = "", py::arg("fe_pressure") = "force", py::arg("penalty") = 1e9,
+      py::arg("element") = "", py::arg("fe_pressure") = "force", py::arg("penalty") = py::none(),
       py::arg("stick_slope") = 5e7, py::arg("friction") = py::none(), py::arg("clearance_mm") = 1.0,
       py::arg("travel_mm") = 60.0, py::arg("initial_increment") = 0.05, py::arg("ccx") = "ccx",
       py::arg("ccx_threads") = 1, py::arg("ccx_time_limit_s") = 3600.0, py::arg("target_nodes") = py::none(),

@@ -230,6 +230,15 @@ TEST_F(ClosedLoopRun, outputs_carry_the_designed_open_and_closed_loop_pressures)
   EXPECT_NEAR(kept_json["landmark_deviation"].get<double>(), furthest, 1e-9);
   EXPECT_EQ(kept_json["landmark_furthest"].get<std::string>(), code);
   EXPECT_GT(j["iterations"][0]["landmark_deviation"].get<double>(), furthest);  // the open-loop socket's, further
+  // The delivery bar of the kept socket: the same worst landmark, and each item as its figure says.
+  const auto& bar = j["bar"];
+  const auto& below = j["regions"]["below_brim"]["closed_loop"];
+  EXPECT_NEAR(bar["worst_landmark_deviation"].get<double>(), furthest, 1e-9);
+  EXPECT_EQ(bar["mae_met"].get<bool>(), below["mae_kpa"].get<double>() <= 1.5);
+  EXPECT_EQ(bar["p99_met"].get<bool>(), below["p99_kpa"].get<double>() <= 4.0);
+  EXPECT_EQ(bar["landmarks_met"].get<bool>(), furthest <= 0.1);
+  EXPECT_EQ(bar["met"].get<bool>(), bar["failing"].empty());
+  EXPECT_FALSE(j["open_loop_bar"]["met"].get<bool>());  // the open-loop socket misses it
   const auto t = report::read_csv(out_ / "delivered.csv");
   const auto designed = t.column("designed_pa"), closed = t.column("closed_loop_pa"), open = t.column("open_loop_pa");
   const auto dragged = t.column("dragged_out");

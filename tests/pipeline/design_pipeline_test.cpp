@@ -413,6 +413,28 @@ TEST(DesignValidation, the_summary_names_the_socket_calculix_checked) {
   EXPECT_EQ(pipeline::fe_socket_description(o), "the printed socket's inner wall (C3D6 wedges)");
 }
 
+// CalculiX's contact penalty: a donning presses with socketsmith's own (the same contact law on both
+// sides) unless told otherwise; a fitted socket, or a loop donned on a rigid wall, with the deck's 1e9.
+TEST(DesignValidation, a_donning_is_checked_with_socketsmiths_own_contact_penalty) {
+  design::CaseFile c;
+  pipeline::DesignValidationOptions o;
+  const double ours = 2.5e8, deck = calculix::DesignCheckOptions{}.contact.penalty_pa_per_m;
+  ASSERT_DOUBLE_EQ(deck, 1e9);
+  o.mode = calculix::DesignCheckMode::Contact;
+  EXPECT_DOUBLE_EQ(pipeline::calculix_penalty_pa_per_m(c, o, ours), deck);
+  o.mode = calculix::DesignCheckMode::Donning;
+  EXPECT_DOUBLE_EQ(pipeline::calculix_penalty_pa_per_m(c, o, ours), ours);
+  o.penalty_pa_per_m = 4e8;
+  EXPECT_DOUBLE_EQ(pipeline::calculix_penalty_pa_per_m(c, o, ours), 4e8);
+  o.penalty_pa_per_m = 0.0;  // `--penalty 0`: socketsmith's, whatever the mode
+  o.mode = calculix::DesignCheckMode::Contact;
+  EXPECT_DOUBLE_EQ(pipeline::calculix_penalty_pa_per_m(c, o, ours), ours);
+  o.penalty_pa_per_m.reset();
+  o.mode = calculix::DesignCheckMode::Donning;
+  c.closed_loop_rigid_wall = true;
+  EXPECT_DOUBLE_EQ(pipeline::calculix_penalty_pa_per_m(c, o, ours), deck);
+}
+
 // The GUI's rectification chart (issue 23) is computed from a solved state before anything is
 // written: pipeline::designed_wall builds the socket as solve_design does and picks its wall as the
 // report does. On the optimised 1.5k demo (every constraint met, no closed loop) it must give the

@@ -14,6 +14,7 @@
 #include "socketsmith/core/log.h"
 #include "socketsmith/core/units.h"
 #include "socketsmith/pipeline/design_pipeline.h"
+#include "socketsmith/report/delivery_bar.h"
 
 namespace socketsmith::pipeline {
 namespace {
@@ -255,7 +256,7 @@ struct LandmarkTargets {
   void measure(const std::vector<double>& delivered, const std::vector<double>& area, ClosedLoopIteration& it) const {
     for (size_t k = 0; k < zones.size(); ++k) {
       const double designed = target_pa[k] / threshold_pa[k];
-      const double dev = std::abs(zones[k].mean(delivered, area) / threshold_pa[k] - designed) / std::max(designed, 0.1);
+      const double dev = report::landmark_deviation(designed, zones[k].mean(delivered, area) / threshold_pa[k]);
       if (dev >= it.landmark_deviation) std::tie(it.landmark_deviation, it.landmark_furthest) = std::tie(dev, zones[k].code);
     }
   }

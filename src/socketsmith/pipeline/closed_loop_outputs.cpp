@@ -10,6 +10,7 @@
 #include "socketsmith/pipeline/closed_loop.h"
 #include "socketsmith/pipeline/design_pipeline.h"
 #include "socketsmith/report/csv.h"
+#include "socketsmith/report/delivery_bar.h"
 
 namespace socketsmith::pipeline {
 namespace {
@@ -71,6 +72,17 @@ nlohmann::json landmarks_json(const DeliverySummary& sum, report::ReportDelivery
                      l.open_loop_pa / l.threshold_pa, l.closed_loop_pa / l.threshold_pa, l.nodes)});
   }
   return landmarks;
+}
+
+/// The open-loop and the kept socket's delivery judged against report::DeliveryBar below the brim.
+std::pair<report::DeliveryVerdict, report::DeliveryVerdict> delivery_verdicts(const DeliverySummary& sum) {
+  std::vector<report::LandmarkRatio> open, kept;
+  for (const auto& l : sum.landmarks) {
+    open.push_back({l.code, l.target_pa / l.threshold_pa, l.open_loop_pa / l.threshold_pa});
+    kept.push_back({l.code, l.target_pa / l.threshold_pa, l.closed_loop_pa / l.threshold_pa});
+  }
+  const auto& below = sum.regions.front();  // summarise_delivery's first region: below the brim
+  return {report::judge_delivery(below.open_loop, open), report::judge_delivery(below.closed_loop, kept)};
 }
 
 /// Every donning and refit of the loop, as JSON and as report details.
@@ -257,6 +269,10 @@ nlohmann::json write_closed_loop_outputs(const DesignSetup& setup, const DesignR
     regions[r.key] = {{"open_loop", stats_json(r.open_loop)}, {"closed_loop", stats_json(r.closed_loop)}};
   }
   const nlohmann::json landmarks = landmarks_json(sum, delivery);
+  const auto [open_bar, kept_bar] = delivery_verdicts(sum);
+  delivery.details.push_back({"delivery bar (below the brim: MAE ≤ 1.5 kPa, 99th percentile ≤ 4 kPa, R ≥ 0.95 where "
+                              "the design varies, landmarks within 10 %)",
+                              fmt::format("closed loop {}; open loop {}", kept_bar.summary(), open_bar.summary())});
   const nlohmann::json iterations = iterations_json(loop, delivery);
   add_delivery_maps(setup, result, loop, out, delivery);
   add_delivery_plots(setup, loop, delivery);
@@ -275,6 +291,8 @@ nlohmann::json write_closed_loop_outputs(const DesignSetup& setup, const DesignR
           {"iterations", iterations},
           {"regions", regions},
           {"landmarks", landmarks},
+          {"bar", report::to_json(kept_bar)},
+          {"open_loop_bar", report::to_json(open_bar)},
           {"max_wall_offset_mm", kept.max_offset_m * 1e3},
           {"dragged_out_nodes", kept.dragged_out},
           {"dragged_out_max_designed_kpa", kept.dragged_out_max_target_pa / 1e3},

@@ -15,6 +15,7 @@
 #include "socketsmith/pipeline/closed_loop.h"
 #include "socketsmith/pipeline/validation_inputs.h"
 #include "socketsmith/report/csv.h"
+#include "socketsmith/report/delivery_bar.h"
 #include "socketsmith/report/design_report.h"
 #include "socketsmith/report/plot_raster.h"
 #include "socketsmith/report/raster.h"
@@ -233,11 +234,8 @@ calculix::DesignCheckOptions check_options(const design::CaseFile& c, const Desi
   co.element = o.element ? *o.element
                          : c.element == tissue::HexFormulation::FBar ? calculix::ElementType::C3D8I
                                                                       : calculix::ElementType::C3D8;
-  // 0: socketsmith's own donning penalty on this stump (20 E / h), the same contact law on both sides.
-  const auto& solver = *v.artifacts.setup->solver;
-  const double ours = contact::contact_penalty_pa_per_m(contact::DonningOptions{}.contact,
-                                                        solver.model().material().youngs_modulus_pa, solver.skin().area_m2);
-  co.contact.penalty_pa_per_m = o.penalty_pa_per_m > 0 ? o.penalty_pa_per_m : ours;
+  const double ours = socketsmith_penalty_pa_per_m(v.artifacts);
+  co.contact.penalty_pa_per_m = calculix_penalty_pa_per_m(c, o, ours);
   if (o.mode != calculix::DesignCheckMode::Load)
     log::info("validate design: CalculiX's contact penalty {:.3g} Pa/m (socketsmith's donning: {:.3g})",
               co.contact.penalty_pa_per_m, ours);
@@ -270,8 +268,8 @@ void check_validation_flags(const DesignValidationOptions& o) {
   require(!o.shell_lip || o.shell_on_wall, "validate design: --shell-lip needs --shell-on-wall (the lip is socketsmith's)");
   require(!o.printed_wall || (!o.shell_on_wall && o.shell_subdivision == 1),
           "validate design: --printed-wall dons the written socket as built: drop --shell-on-wall and --shell-subdivision");
-  require(std::isfinite(o.penalty_pa_per_m) && o.penalty_pa_per_m >= 0,
-          "validate design: penalty {} Pa/m (expected ≥ 0; 0: socketsmith's own)", o.penalty_pa_per_m);
+  require(!o.penalty_pa_per_m || (std::isfinite(*o.penalty_pa_per_m) && *o.penalty_pa_per_m >= 0),
+          "validate design: penalty {} Pa/m (expected ≥ 0; 0: socketsmith's own)", o.penalty_pa_per_m.value_or(0.0));
   require(!o.nonlinear_body || o.against_donning,
           "validate design: --nonlinear-body sets socketsmith's donning body: use it with validate donning");
 }
@@ -387,8 +385,8 @@ void add_delivered_comparison(const DesignValidation& v, nlohmann::json& j) {
     delivered[i] = v.donning->contacts[i].pressure_pa;
     if (r.brim_ring[i] >= 1) socket_nodes.push_back(static_cast<int>(i));
   }
-  j["socketsmith_delivered_vs_design"] =
-      report::to_json(report::compare_fields(delivered, r.socketsmith_value, socket_nodes), scale, suffix);
+  const report::ErrorStats ours = report::compare_fields(delivered, r.socketsmith_value, socket_nodes);
+  j["socketsmith_delivered_vs_design"] = report::to_json(ours, scale, suffix);
   j["calculix_vs_socketsmith_delivered"] =
       report::to_json(report::compare_fields(r.fe_value, delivered, socket_nodes), scale, suffix);
   j["socketsmith_delivered_from"] = v.donning_from_closed_loop ? "the closed loop's kept donning" : "a donning in this run";
@@ -403,17 +401,29 @@ void add_delivered_comparison(const DesignValidation& v, nlohmann::json& j) {
   std::vector<char> on_socket(skin.nodes.size(), 0);
   for (int i : socket_nodes) on_socket[i] = 1;
   nlohmann::json landmarks = nlohmann::json::array();
+  std::vector<report::LandmarkRatio> fe_ratios, our_ratios;
   for (const auto& z : landmark_zones(setup, on_socket)) {
     const double threshold = z.mean(setup.thresholds, skin.area_m2);
     const double designed = z.mean(r.socketsmith_value, skin.area_m2) / threshold;
+    fe_ratios.push_back({z.code, designed, z.mean(r.fe_value, skin.area_m2) / threshold});
+    our_ratios.push_back({z.code, designed, z.mean(delivered, skin.area_m2) / threshold});
     landmarks.push_back({{"code", z.code},
                          {"nodes", z.nodes.size()},
                          {"threshold_kpa", threshold / 1e3},
                          {"designed_ratio", designed},
-                         {"calculix_ratio", z.mean(r.fe_value, skin.area_m2) / threshold},
-                         {"socketsmith_ratio", z.mean(delivered, skin.area_m2) / threshold}});
+                         {"calculix_ratio", fe_ratios.back().delivered},
+                         {"socketsmith_ratio", our_ratios.back().delivered},
+                         {"calculix_deviation", report::landmark_deviation(designed, fe_ratios.back().delivered)},
+                         {"socketsmith_deviation", report::landmark_deviation(designed, our_ratios.back().delivered)}});
   }
   j["landmarks"] = landmarks;
+  // Each side's delivery against report::DeliveryBar (issue 20's bar), below the brim.
+  const report::DeliveryVerdict fe_bar = report::judge_delivery(r.all, fe_ratios);
+  const report::DeliveryVerdict our_bar = report::judge_delivery(ours, our_ratios);
+  j["bar"] = {{"calculix", report::to_json(fe_bar)}, {"socketsmith", report::to_json(our_bar)}};
+  log::info("validate design: the delivery bar (below the brim: MAE ≤ 1.5 kPa, 99th percentile ≤ 4 kPa, R ≥ 0.95 "
+            "where the design varies, landmarks within 10 %) — CalculiX {}; socketsmith {}",
+            fe_bar.summary(), our_bar.summary());
 }
 
 }  // namespace
@@ -432,6 +442,19 @@ std::string fe_socket_description(const calculix::DesignCheckOptions& o) {
 ComparedQuantity compared_quantity(calculix::DesignCheckMode mode) {
   if (mode == calculix::DesignCheckMode::Load) return {1e3, "mm", "_mm", "displacement"};
   return {};
+}
+
+double socketsmith_penalty_pa_per_m(const DesignArtifacts& art) {
+  require(art.setup != nullptr, "socketsmith_penalty_pa_per_m: the design run has no stump");
+  const auto& solver = *art.setup->solver;
+  return contact::contact_penalty_pa_per_m(contact::DonningOptions{}.contact,
+                                           solver.model().material().youngs_modulus_pa, solver.skin().area_m2);
+}
+
+double calculix_penalty_pa_per_m(const design::CaseFile& c, const DesignValidationOptions& o, double ours) {
+  if (o.penalty_pa_per_m) return *o.penalty_pa_per_m > 0 ? *o.penalty_pa_per_m : ours;
+  const bool like_for_like = o.mode == calculix::DesignCheckMode::Donning && !c.closed_loop_rigid_wall;
+  return like_for_like ? ours : calculix::DesignCheckOptions{}.contact.penalty_pa_per_m;
 }
 
 DesignValidation validate_design(const design::CaseFile& c, const DesignValidationOptions& o, const fs::path& out) {

@@ -109,6 +109,16 @@ const std::vector<ResultColumn>& result_columns() {
       {"min_thickness_mm", {"socket", "min_thickness_mm"}},
       {"design_seconds", {"seconds"}},
       {"optimiser_seconds", {"optimiser_seconds"}},
+      // The closed loop's kept socket, donned and stood on, against the design below the brim
+      // (empty when the case ran no loop); delivery_bar_met: report/delivery_bar.h.
+      {"closed_loop_donnings", {"closed_loop", "donnings"}},
+      {"closed_loop_mae_kpa", {"closed_loop", "regions", "below_brim", "closed_loop", "mae_kpa"}},
+      {"closed_loop_p99_kpa", {"closed_loop", "regions", "below_brim", "closed_loop", "p99_kpa"}},
+      {"closed_loop_r", {"closed_loop", "regions", "below_brim", "closed_loop", "r"}},
+      {"closed_loop_landmark_deviation", {"closed_loop", "bar", "worst_landmark_deviation"}},
+      {"closed_loop_dragged_out_nodes", {"closed_loop", "dragged_out_nodes"}},
+      {"delivery_bar_met", {"closed_loop", "bar", "met"}},
+      {"closed_loop_seconds", {"closed_loop", "seconds"}},
   };
   return cols;
 }

@@ -1,0 +1,75 @@
+#include "socketsmith/report/delivery_bar.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "socketsmith/core/errors.h"
+
+namespace socketsmith::report {
+
+double landmark_deviation(double designed_ratio, double delivered_ratio, double floor_ratio) {
+  require(std::isfinite(designed_ratio) && std::isfinite(delivered_ratio) && designed_ratio >= 0 &&
+              delivered_ratio >= 0 && floor_ratio > 0,
+          "landmark_deviation: ratios {} / {} (expected finite and ≥ 0) and floor {} (expected > 0)", designed_ratio,
+          delivered_ratio, floor_ratio);
+  return std::abs(delivered_ratio - designed_ratio) / std::max(designed_ratio, floor_ratio);
+}
+
+std::string DeliveryVerdict::summary() const {
+  if (met()) return "met";
+  std::string s = "not met: ";
+  for (size_t k = 0; k < failing.size(); ++k) s += (k ? "; " : "") + failing[k];
+  return s;
+}
+
+DeliveryVerdict judge_delivery(const ErrorStats& s, const std::vector<LandmarkRatio>& landmarks, const DeliveryBar& bar) {
+  require(s.count > 0, "judge_delivery: no node compared below the brim");
+  DeliveryVerdict v;
+  v.mae_met = s.mae <= bar.mae_pa;
+  if (!v.mae_met) v.failing.push_back(fmt::format("MAE {:.2f} kPa > {:g}", s.mae / 1e3, bar.mae_pa / 1e3));
+  v.p99_met = s.p99 <= bar.p99_pa;
+  if (!v.p99_met) v.failing.push_back(fmt::format("99th percentile {:.2f} kPa > {:g}", s.p99 / 1e3, bar.p99_pa / 1e3));
+  v.r_judged = s.sd_b >= bar.r_needs_design_sd_pa;
+  v.r_met = !v.r_judged || (std::isfinite(s.r) && s.r >= bar.r_min);
+  if (!v.r_met) v.failing.push_back(fmt::format("R {:.3f} < {:g}", s.r, bar.r_min));
+  v.landmarks_met = true;
+  for (const auto& l : landmarks) {
+    const double dev = landmark_deviation(l.designed, l.delivered, bar.landmark_floor_ratio);
+    if (dev >= v.worst_landmark_deviation) {
+      v.worst_landmark_deviation = dev;
+      v.worst_landmark = l.code;
+    }
+    if (dev <= bar.landmark_tolerance) continue;
+    v.landmarks_met = false;
+    if (l.designed >= bar.landmark_floor_ratio)
+      v.failing.push_back(fmt::format("{} {:+.0f} % ({:.3f} → {:.3f} of its threshold)", l.code,
+                                      100 * (l.delivered / l.designed - 1), l.designed, l.delivered));
+    else
+      v.failing.push_back(fmt::format("{} {:+.3f} of its threshold ({:.3f} → {:.3f}; designed under {:g})", l.code,
+                                      l.delivered - l.designed, l.designed, l.delivered, bar.landmark_floor_ratio));
+  }
+  return v;
+}
+
+nlohmann::json to_json(const DeliveryVerdict& v, const DeliveryBar& bar) {
+  return {{"met", v.met()},
+          {"mae_met", v.mae_met},
+          {"p99_met", v.p99_met},
+          {"r_judged", v.r_judged},
+          {"r_met", v.r_met},
+          {"landmarks_met", v.landmarks_met},
+          {"worst_landmark", v.worst_landmark},
+          {"worst_landmark_deviation", v.worst_landmark_deviation},
+          {"failing", v.failing},
+          {"bar",
+           {{"mae_kpa", bar.mae_pa / 1e3},
+            {"p99_kpa", bar.p99_pa / 1e3},
+            {"r_min", bar.r_min},
+            {"r_needs_design_sd_kpa", bar.r_needs_design_sd_pa / 1e3},
+            {"landmark_tolerance", bar.landmark_tolerance},
+            {"landmark_floor_ratio", bar.landmark_floor_ratio}}}};
+}
+
+}  // namespace socketsmith::report
