@@ -105,7 +105,7 @@ double socketsmith_penalty_pa_per_m(const DesignArtifacts& art);
 /// The contact penalty CalculiX is given for case @p c checked as @p o asks
 /// (DesignValidationOptions::penalty_pa_per_m), with socketsmith's own @p ours [Pa/m]. Measured with
 /// socketsmith's on the demo 1.8k / 3k, OpenLimb 3k and the demo 5.9k: MAE to the design 1.01 /
-/// 0.89 / 0.74 / 0.74 kPa against 1.19 / 0.98 / 0.94 / 0.80 with 1e9, ccx 2.3x faster at 5.9k
+/// 0.89 / 0.74 / 0.74 kPa against 1.19 / 0.98 / 0.94 / 0.80 with 1e9; ccx 88 vs 107 Newton iterations at 5.9k
 /// (docs/VALIDATION.md).
 double calculix_penalty_pa_per_m(const design::CaseFile& c, const DesignValidationOptions& o, double ours);
 
