@@ -16,6 +16,8 @@
 #include "socketsmith/calculix/ccx_runner.h"
 #include "socketsmith/calculix/cube_validation.h"
 #include "socketsmith/calculix/design_check.h"
+#include "socketsmith/calculix/socket_shell.h"
+#include "socketsmith/volume/hex_element.h"
 #include "socketsmith/volume/box_mesher.h"
 
 namespace socketsmith::calculix {
@@ -255,6 +257,39 @@ TEST(DesignCheck, the_donning_shell_is_subdivided_and_laid_on_socketsmiths_wall)
   o.shell_on_wall = true;
   d.wall_surface = nullptr;
   EXPECT_THROW(check_design(d, o, dir, "box"), InvalidInputError);
+}
+
+// A quad laid across the brim onto a lip that curves back on itself folds (OpenLimb TT 5.9k: ccx
+// refused the deck, "nonpositive jacobian"): it is left out; the shell below the brim is whole.
+TEST(DesignCheck, a_shell_quad_folded_over_the_lip_is_left_out) {
+  BoxStump box;
+  DesignedStump& d = box.d;
+  std::vector<int> skin_of(box.mesh.num_nodes(), -1);
+  for (size_t i = 0; i < box.skin.nodes.size(); ++i) {
+    skin_of[box.skin.nodes[i]] = static_cast<int>(i);
+    d.above_brim[i] = box.mesh.nodes[box.skin.nodes[i]].z() > 0.035 ? 1 : 0;  // the top ring and face
+  }
+  // The wall: the box itself, but past z = 35 mm it turns back down (the top ring lands at 20 mm).
+  d.wall_surface = [](const Vec3& p) {
+    Vec3 q = p;
+    if (q.z() > 0.0375) q.z() = 0.02;
+    return std::optional<std::pair<Vec3, Vec3>>({q, (p - Vec3(0.01, 0.01, 0.02)).normalized()});  // outward
+  };
+  DesignCheckOptions o;
+  o.mode = DesignCheckMode::Donning;
+  o.shell_on_wall = true;
+  o.shell_lip = true;
+  o.shell_subdivision = 2;
+  const auto below = socket_quads_below_brim(d, skin_of, false), across = socket_quads_below_brim(d, skin_of, true);
+  ASSERT_EQ(across.size(), below.size() + 8);  // the 8 side quads between 30 and 40 mm
+  const RigidShell shell = donned_skin_shell(d, across, Vec3::Zero(), o);
+  // Each of the 8 splits 2 x 2: its lower half stays, its upper half (to the top ring) folds.
+  EXPECT_EQ(shell.hexahedra.size(), 4 * below.size() + 8 * 2);
+  for (const auto& h : shell.hexahedra) {
+    volume::HexNodes x;
+    for (int a = 0; a < 8; ++a) x[a] = shell.nodes[h[a]];
+    EXPECT_GT(volume::min_corner_jacobian(x), 0.0);
+  }
 }
 
 TEST(CcxRunner, a_rejected_deck_is_reported_with_the_log_error_line) {
