@@ -80,6 +80,16 @@ TEST(DeliveryBar, r_is_judged_only_where_the_design_varies) {
   EXPECT_THROW(judge_delivery(ErrorStats{}, {}), InvalidInputError);
 }
 
+TEST(DeliveryBar, its_words_are_its_numbers) {
+  EXPECT_EQ(describe(), "below the brim: MAE ≤ 1.5 kPa, 99th percentile ≤ 4 kPa, R ≥ 0.95 where the design varies, "
+                        "landmarks within 10 %");
+  DeliveryBar b;
+  b.p99_pa = 3500;
+  b.landmark_tolerance = 0.05;
+  EXPECT_EQ(describe(b), "below the brim: MAE ≤ 1.5 kPa, 99th percentile ≤ 3.5 kPa, R ≥ 0.95 where the design varies, "
+                         "landmarks within 5 %");
+}
+
 TEST(DeliveryBar, its_json_carries_the_verdict_and_the_bar) {
   const auto v = judge_delivery(delivered_with(300.0, 3, 9000.0), {{"POP", 0.25, 0.28}});
   const auto j = to_json(v);

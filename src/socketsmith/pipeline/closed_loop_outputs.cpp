@@ -81,8 +81,10 @@ std::pair<report::DeliveryVerdict, report::DeliveryVerdict> delivery_verdicts(co
     open.push_back({l.code, l.target_pa / l.threshold_pa, l.open_loop_pa / l.threshold_pa});
     kept.push_back({l.code, l.target_pa / l.threshold_pa, l.closed_loop_pa / l.threshold_pa});
   }
-  const auto& below = sum.regions.front();  // summarise_delivery's first region: below the brim
-  return {report::judge_delivery(below.open_loop, open), report::judge_delivery(below.closed_loop, kept)};
+  const auto below = std::find_if(sum.regions.begin(), sum.regions.end(),
+                                  [](const RegionDelivery& r) { return r.key == "below_brim"; });
+  require(below != sum.regions.end(), "delivery_verdicts: the summary has no region below the brim");
+  return {report::judge_delivery(below->open_loop, open), report::judge_delivery(below->closed_loop, kept)};
 }
 
 /// Every donning and refit of the loop, as JSON and as report details.
@@ -270,8 +272,7 @@ nlohmann::json write_closed_loop_outputs(const DesignSetup& setup, const DesignR
   }
   const nlohmann::json landmarks = landmarks_json(sum, delivery);
   const auto [open_bar, kept_bar] = delivery_verdicts(sum);
-  delivery.details.push_back({"delivery bar (below the brim: MAE ≤ 1.5 kPa, 99th percentile ≤ 4 kPa, R ≥ 0.95 where "
-                              "the design varies, landmarks within 10 %)",
+  delivery.details.push_back({fmt::format("delivery bar ({})", report::describe()),
                               fmt::format("closed loop {}; open loop {}", kept_bar.summary(), open_bar.summary())});
   const nlohmann::json iterations = iterations_json(loop, delivery);
   add_delivery_maps(setup, result, loop, out, delivery);

@@ -421,8 +421,7 @@ void add_delivered_comparison(const DesignValidation& v, nlohmann::json& j) {
   const report::DeliveryVerdict fe_bar = report::judge_delivery(r.all, fe_ratios);
   const report::DeliveryVerdict our_bar = report::judge_delivery(ours, our_ratios);
   j["bar"] = {{"calculix", report::to_json(fe_bar)}, {"socketsmith", report::to_json(our_bar)}};
-  log::info("validate design: the delivery bar (below the brim: MAE ≤ 1.5 kPa, 99th percentile ≤ 4 kPa, R ≥ 0.95 "
-            "where the design varies, landmarks within 10 %) — CalculiX {}; socketsmith {}",
+  log::info("validate design: the delivery bar ({}) — CalculiX {}; socketsmith {}", report::describe(),
             fe_bar.summary(), our_bar.summary());
 }
 

@@ -17,6 +17,12 @@ double landmark_deviation(double designed_ratio, double delivered_ratio, double 
   return std::abs(delivered_ratio - designed_ratio) / std::max(designed_ratio, floor_ratio);
 }
 
+std::string describe(const DeliveryBar& bar) {
+  return fmt::format("below the brim: MAE ≤ {:g} kPa, 99th percentile ≤ {:g} kPa, R ≥ {:g} where the design varies, "
+                     "landmarks within {:g} %",
+                     bar.mae_pa / 1e3, bar.p99_pa / 1e3, bar.r_min, 100 * bar.landmark_tolerance);
+}
+
 std::string DeliveryVerdict::summary() const {
   if (met()) return "met";
   std::string s = "not met: ";

@@ -56,6 +56,10 @@ struct DeliveryVerdict {
   std::string summary() const;
 };
 
+/// @p bar in words, for report and log lines: "below the brim: MAE ≤ 1.5 kPa, 99th percentile ≤ 4 kPa,
+/// R ≥ 0.95 where the design varies, landmarks within 10 %" for the default bar.
+std::string describe(const DeliveryBar& bar = {});
+
 /// Judges @p below_brim (delivered as a, designed as b, in Pa: compare_fields(delivered, designed))
 /// and @p landmarks against @p bar.
 DeliveryVerdict judge_delivery(const ErrorStats& below_brim, const std::vector<LandmarkRatio>& landmarks,
