@@ -218,8 +218,8 @@ void add_case_flags(CLI::App& cmd, DesignFlags& f) {
                "bilinear quads through the wall at the skin nodes (with --shell-subdivision 2 it agrees better with "
                "socketsmith node by node; docs/VALIDATION.md)");
   cmd.add_flag("--shell-lip", f.shell_lip,
-               "donning, with --shell-on-wall: the shell also across the brim, its points past the rim on socketsmith's "
-               "lip (a rounded rim instead of the skin quads' staircase)");
+               "donning: the shell also across the brim, its points past the rim on socketsmith's lip (a rounded rim "
+               "instead of the shell's sharp edge at the brim; without --shell-on-wall only the lip's own points move)");
   cmd.add_option("--penalty", f.penalty,
                  "CalculiX's contact penalty stiffness [Pa/m]; 0: socketsmith's own donning penalty on this stump, "
                  "20 E / h (default with --mode donning: the same contact law on both sides, docs/VALIDATION.md; "

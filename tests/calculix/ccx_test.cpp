@@ -246,17 +246,59 @@ TEST(DesignCheck, the_donning_shell_is_subdivided_and_laid_on_socketsmiths_wall)
   int on_top = 0;
   for (const auto& p : inner) on_top += std::abs(p.z() - down.z() - 0.04) < 1e-9 && p.x() < 0.02 + 1e-9;
   EXPECT_EQ(on_top, 25);  // the top's 5 × 5 points, not moved beside the box
-  // The refusals: the printed wall with a shell option, a lip without the wall, the wall without one given.
+  // The refusals: the printed wall with a shell option, the wall or the lip without one given.
   o.printed_wall = true;
   EXPECT_THROW(check_design(d, o, dir, "box"), InvalidInputError);
   o.printed_wall = false;
-  o.shell_lip = true;
-  o.shell_on_wall = false;
-  EXPECT_THROW(check_design(d, o, dir, "box"), InvalidInputError);
-  o.shell_lip = false;
-  o.shell_on_wall = true;
   d.wall_surface = nullptr;
   EXPECT_THROW(check_design(d, o, dir, "box"), InvalidInputError);
+  o.shell_on_wall = false;
+  o.shell_lip = true;
+  EXPECT_THROW(check_design(d, o, dir, "box"), InvalidInputError);
+}
+
+// The lip alone: the shell below the brim stays on the quads through the skin nodes (its facets
+// are the skin's), only the points of the quads across the brim that no quad below it shares are
+// laid on socketsmith's wall — a rounded rim without moving the socket's body.
+TEST(DesignCheck, the_lip_alone_moves_only_the_points_past_the_brim) {
+  BoxStump box;
+  DesignedStump& d = box.d;
+  std::vector<int> skin_of(box.mesh.num_nodes(), -1);
+  for (size_t i = 0; i < box.skin.nodes.size(); ++i) {
+    skin_of[box.skin.nodes[i]] = static_cast<int>(i);
+    d.above_brim[i] = box.mesh.nodes[box.skin.nodes[i]].z() > 0.035 ? 1 : 0;  // the top ring and face
+  }
+  const Vec3 out(0.003, 0, 0);  // the wall: the box moved 3 mm along x
+  d.wall_surface = [&](const Vec3& p) {
+    return std::optional<std::pair<Vec3, Vec3>>({p + out, (p - Vec3(0.01, 0.01, 0.02)).normalized()});  // outward
+  };
+  DesignCheckOptions o;
+  o.mode = DesignCheckMode::Donning;
+  o.shell_lip = true;
+  const auto below = socket_quads_below_brim(d, skin_of, false), across = socket_quads_below_brim(d, skin_of, true);
+  ASSERT_EQ(across.size(), below.size() + 8);
+  const RigidShell shell = donned_skin_shell(d, across, Vec3::Zero(), o);
+  EXPECT_EQ(shell.hexahedra.size(), across.size());
+  int moved = 0, kept = 0;
+  for (const auto& h : shell.hexahedra)
+    for (int a = 0; a < 4; ++a) {  // the inner face: the points the skin touches
+      const Vec3& p = shell.nodes[h[a]];
+      const bool past_brim = p.z() > 0.035;
+      const Vec3 skin = past_brim ? p - out : p;
+      const double to_face = std::min({skin.x(), 0.02 - skin.x(), skin.y(), 0.02 - skin.y(), skin.z(), 0.04 - skin.z()});
+      EXPECT_NEAR(to_face, 0.0, 1e-9) << p.transpose();
+      (past_brim ? moved : kept) += 1;
+    }
+  EXPECT_GT(moved, 0);
+  EXPECT_GT(kept, 0);
+  // With the whole shell on the wall, every point moves.
+  o.shell_on_wall = true;
+  const RigidShell on_wall = donned_skin_shell(d, across, Vec3::Zero(), o);
+  for (const auto& h : on_wall.hexahedra)
+    for (int a = 0; a < 4; ++a) {
+      const Vec3 skin = on_wall.nodes[h[a]] - out;
+      EXPECT_NEAR(std::min({skin.x(), 0.02 - skin.x(), skin.y(), 0.02 - skin.y(), skin.z(), 0.04 - skin.z()}), 0.0, 1e-9);
+    }
 }
 
 // A quad laid across the brim onto a lip that curves back on itself folds (OpenLimb TT 5.9k: ccx

@@ -82,10 +82,9 @@ void check_input(const DesignedStump& d, const DesignCheckOptions& o) {
           d.skin_normals.size(), d.skin_areas_m2.size(), d.above_brim.size(), ns);
   require(o.clearance_m > 0, "check_design: clearance {} m (expected > 0)", o.clearance_m);
   require(o.socket_thickness_m > 0, "check_design: socket thickness {} m (expected > 0)", o.socket_thickness_m);
-  require(!o.shell_on_wall || d.wall_surface,
-          "check_design: the shell on socketsmith's wall needs that wall (DesignedStump::wall_surface; a design that "
-          "does not meet its constraints has no socket)");
-  require(!o.shell_lip || o.shell_on_wall, "check_design: the shell's lip is laid on socketsmith's wall (shell_lip needs shell_on_wall)");
+  require(!(o.shell_on_wall || o.shell_lip) || d.wall_surface,
+          "check_design: the shell on socketsmith's wall or lip needs that wall (DesignedStump::wall_surface; a design "
+          "that does not meet its constraints has no socket)");
   require(!o.printed_wall || (!o.shell_on_wall && o.shell_subdivision == 1),
           "check_design: the printed wall is donned as built (no shell to split or lay on the wall)");
   require(o.shell_subdivision >= 1 && o.shell_subdivision <= 4,
@@ -473,7 +472,7 @@ DesignCheckResult check_design(const DesignedStump& d, const DesignCheckOptions&
   RigidShell shell;
   const bool contact = o.mode != DesignCheckMode::Load;
   if (contact) {
-    const bool to_lip = o.mode == DesignCheckMode::Donning && !o.printed_wall && o.shell_on_wall && o.shell_lip;
+    const bool to_lip = o.mode == DesignCheckMode::Donning && !o.printed_wall && o.shell_lip;
     const auto socket_quads = socket_quads_below_brim(d, skin_of, to_lip);
     shell = o.mode == DesignCheckMode::Donning ? donning_socket(d, o, socket_quads, spec)
                                                : contact_socket(d, o, socket_quads, spec);

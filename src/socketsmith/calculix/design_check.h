@@ -128,9 +128,9 @@ struct DesignCheckOptions {
   /// the demo's 3k closed-loop socket (with n = 2) it took CalculiX vs socketsmith from p99 6.75 to
   /// 4.53 kPa and POP from +12 to +10 %, but the distal tip from −9 to −35 % (docs/VALIDATION.md).
   bool shell_on_wall = false;
-  /// Donning, with shell_on_wall: also the skin quads across the brim, their points past the rim on
-  /// socketsmith's lip (a rounded rim instead of the quads' staircase). On the demo's 3k socket it
-  /// took POP to +7 % but left one node 0.34 mm deep at 63 kPa, and ccx ran 40 % longer.
+  /// Donning: also the skin quads across the brim, their points past the rim on socketsmith's lip
+  /// (a rounded rim instead of the shell's sharp edge at the brim). Without shell_on_wall only the
+  /// points no quad below the brim shares move; the shell below the brim keeps the skin's facets.
   bool shell_lip = false;
   CcxOptions ccx;
 };

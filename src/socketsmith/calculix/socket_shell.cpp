@@ -34,12 +34,19 @@ RigidShell donned_skin_shell(const DesignedStump& d, const std::vector<std::arra
     normal[i] = d.skin_normals[i].normalized();
   }
   QuadSurface s = subdivide_quads(inner, normal, socket_quads, subdivision);
+  const size_t per = static_cast<size_t>(subdivision) * subdivision;
+  const auto across_brim = [&](size_t k) {
+    const auto& parent = socket_quads[k / per];
+    return std::any_of(parent.begin(), parent.end(), [&](int v) { return d.above_brim[v] != 0; });
+  };
+  // used: 1 a point of the shell; 2 of a quad below the brim too. Without shell_on_wall only the
+  // lip's own points (of quads across the brim alone) are laid on the wall.
   std::vector<char> used(s.points.size(), 0), off(s.points.size(), 0);
-  for (const auto& q : s.quads)
-    for (int v : q) used[v] = 1;
+  for (size_t k = 0; k < s.quads.size(); ++k)
+    for (int v : s.quads[k]) used[v] = std::max<char>(used[v], across_brim(k) ? 1 : 2);
   for (size_t k = 0; k < s.points.size(); ++k) {
     if (!used[k]) continue;
-    if (o.shell_on_wall) {
+    if (o.shell_on_wall || (o.shell_lip && used[k] == 1)) {
       if (const auto on = d.wall_surface(s.points[k])) std::tie(s.points[k], s.normals[k]) = *on;
       else off[k] = 1;
     }
@@ -47,17 +54,15 @@ RigidShell donned_skin_shell(const DesignedStump& d, const std::vector<std::arra
   }
   std::vector<std::array<int, 4>> quads;
   std::vector<char> lip;  // per kept quad: across the brim
-  const size_t per = static_cast<size_t>(subdivision) * subdivision;
   std::vector<char> kept_off(s.points.size(), 0);  // points below the brim that do not face the wall
   for (size_t k = 0; k < s.quads.size(); ++k) {
-    const auto& parent = socket_quads[k / per];
-    const bool across_brim = std::any_of(parent.begin(), parent.end(), [&](int v) { return d.above_brim[v] != 0; });
+    const bool on_lip = across_brim(k);
     const auto& q = s.quads[k];
-    if (across_brim && std::any_of(q.begin(), q.end(), [&](int v) { return off[v] != 0; })) continue;
-    if (!across_brim)
+    if (on_lip && std::any_of(q.begin(), q.end(), [&](int v) { return off[v] != 0; })) continue;
+    if (!on_lip)
       for (int v : q) kept_off[v] = off[v];
     quads.push_back(q);
-    lip.push_back(across_brim ? 1 : 0);
+    lip.push_back(on_lip ? 1 : 0);
   }
   if (const auto n = std::count(kept_off.begin(), kept_off.end(), 1); n > 0)
     log::warn("validate: {} point(s) of the socket shell below the brim do not face socketsmith's wall; they keep their "

@@ -262,12 +262,15 @@ calculix::DesignCheckOptions check_options(const design::CaseFile& c, const Desi
 void check_validation_flags(const DesignValidationOptions& o) {
   require(!o.against_donning || o.mode == calculix::DesignCheckMode::Donning,
           "validate design: --against-donning needs --mode donning");
-  const char* donning_flag = o.stand ? "--stand" : o.printed_wall ? "--printed-wall" : o.shell_on_wall ? "--shell-on-wall" : nullptr;
+  const char* donning_flag = o.stand            ? "--stand"
+                             : o.printed_wall   ? "--printed-wall"
+                             : o.shell_on_wall  ? "--shell-on-wall"
+                             : o.shell_lip      ? "--shell-lip"
+                                                : nullptr;
   require(!donning_flag || o.mode == calculix::DesignCheckMode::Donning,
           "validate design: {} needs --mode donning (the socket is donned, then stood on)", donning_flag ? donning_flag : "");
-  require(!o.shell_lip || o.shell_on_wall, "validate design: --shell-lip needs --shell-on-wall (the lip is socketsmith's)");
-  require(!o.printed_wall || (!o.shell_on_wall && o.shell_subdivision == 1),
-          "validate design: --printed-wall dons the written socket as built: drop --shell-on-wall and --shell-subdivision");
+  require(!o.printed_wall || (!o.shell_on_wall && !o.shell_lip && o.shell_subdivision == 1),
+          "validate design: --printed-wall dons the written socket as built: drop --shell-on-wall, --shell-lip and --shell-subdivision");
   require(!o.penalty_pa_per_m || (std::isfinite(*o.penalty_pa_per_m) && *o.penalty_pa_per_m >= 0),
           "validate design: penalty {} Pa/m (expected ≥ 0; 0: socketsmith's own)", o.penalty_pa_per_m.value_or(0.0));
   require(!o.nonlinear_body || o.against_donning,

@@ -40,7 +40,7 @@ struct DesignValidationOptions {
   bool printed_wall = false;            ///< Donning: CalculiX dons the printed socket's wall (DesignCheckOptions)
   int shell_subdivision = 1;            ///< Donning: the shell's quads split n × n (DesignCheckOptions), 1–4
   bool shell_on_wall = false;           ///< Donning: the shell laid on socketsmith's smoothed wall (DesignCheckOptions)
-  bool shell_lip = false;               ///< Donning, shell_on_wall: the shell across the brim onto the lip (DesignCheckOptions)
+  bool shell_lip = false;               ///< Donning: the shell across the brim onto the lip (DesignCheckOptions)
   /// CalculiX's element; empty: the tissue's twin (C3D8, or C3D8I for tissue.element fbar).
   std::optional<calculix::ElementType> element;
   /// CalculiX's contact penalty [Pa/m]; 0: socketsmith's donning's on this stump (20 E / h). Empty:
