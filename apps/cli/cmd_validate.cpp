@@ -92,9 +92,10 @@ struct DesignFlags {
   bool neo_hookean = false;
   bool small_strain = false;
   bool printed_wall = false;
-  int shell_subdivision = 1;
+  int shell_subdivision = 0;  // 0: the default (pipeline::calculix_shell)
   bool shell_on_wall = false;
   bool shell_lip = false;
+  bool no_shell_lip = false;
   bool nonlinear_body = false;  // validate donning: socketsmith's donning with the nonlinear tissue model
   bool against_donning = false;
   std::string fe_pressure = "force";
@@ -117,9 +118,9 @@ void run_validate_design(const DesignFlags& f) {
   o.neo_hookean = f.neo_hookean;
   o.small_strain = f.small_strain;
   o.printed_wall = f.printed_wall;
-  o.shell_subdivision = f.shell_subdivision;
+  if (f.shell_subdivision > 0) o.shell_subdivision = f.shell_subdivision;
   o.shell_on_wall = f.shell_on_wall;
-  o.shell_lip = f.shell_lip;
+  if (f.shell_lip || f.no_shell_lip) o.shell_lip = f.shell_lip;
   if (!f.element.empty()) o.element = calculix::parse_element_type(f.element);
   if (f.penalty >= 0) o.penalty_pa_per_m = f.penalty;
   o.stick_slope_pa_per_m = f.stick_slope;
@@ -211,15 +212,18 @@ void add_case_flags(CLI::App& cmd, DesignFlags& f) {
                "C3D8 shell on the skin below the brim; ccx stands the 1.8k demo's socket with it, not yet the 3k demo's or "
                "OpenLimb's limb, docs/VALIDATION.md)");
   cmd.add_option("--shell-subdivision", f.shell_subdivision,
-                 "donning: each skin quad of CalculiX's socket shell split n x n (default 1)")
+                 "donning: each skin quad of CalculiX's socket shell split n x n (default 2 with the lip, else 1)")
       ->check(CLI::Range(1, 4));
   cmd.add_flag("--shell-on-wall", f.shell_on_wall,
                "donning: CalculiX's socket shell laid on the smoothed wall socketsmith's own donning touches, instead of "
                "bilinear quads through the wall at the skin nodes (with --shell-subdivision 2 it agrees better with "
                "socketsmith node by node; docs/VALIDATION.md)");
-  cmd.add_flag("--shell-lip", f.shell_lip,
-               "donning: the shell also across the brim, its points past the rim on socketsmith's lip (a rounded rim "
-               "instead of the shell's sharp edge at the brim; without --shell-on-wall only the lip's own points move)");
+  auto* lip = cmd.add_flag("--shell-lip", f.shell_lip,
+                           "donning: the shell also across the brim, its points past the rim on socketsmith's lip (a "
+                           "rounded rim instead of the shell's sharp edge at the brim; without --shell-on-wall only the "
+                           "lip's own points move; the default when the design wrote a socket, docs/VALIDATION.md)");
+  cmd.add_flag("--no-shell-lip", f.no_shell_lip, "donning: CalculiX's shell ends at the brim in a sharp edge (no lip; the first ring below the brim then takes the largest errors, docs/VALIDATION.md)")
+      ->excludes(lip);
   cmd.add_option("--penalty", f.penalty,
                  "CalculiX's contact penalty stiffness [Pa/m]; 0: socketsmith's own donning penalty on this stump, "
                  "20 E / h (default with --mode donning: the same contact law on both sides, docs/VALIDATION.md; "

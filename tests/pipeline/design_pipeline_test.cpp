@@ -435,6 +435,40 @@ TEST(DesignValidation, a_donning_is_checked_with_socketsmiths_own_contact_penalt
   EXPECT_DOUBLE_EQ(pipeline::calculix_penalty_pa_per_m(c, o, ours), deck);
 }
 
+// CalculiX's socket: a donned socket is the shell split 2 x 2 with the written socket's lip across
+// the brim unless told otherwise; no lip without a written socket, for the printed wall or a fitted
+// socket; an explicit subdivision or --no-shell-lip is kept.
+TEST(DesignValidation, a_donned_socket_is_checked_with_its_lip_by_default) {
+  pipeline::DesignValidationOptions o;
+  calculix::DesignCheckOptions co;
+  o.mode = calculix::DesignCheckMode::Donning;
+  pipeline::calculix_shell(o, true, co);
+  EXPECT_TRUE(co.shell_lip);
+  EXPECT_EQ(co.shell_subdivision, 2);
+  EXPECT_FALSE(co.shell_on_wall);
+  pipeline::calculix_shell(o, false, co);  // no socket written: nothing to take the lip from
+  EXPECT_FALSE(co.shell_lip);
+  EXPECT_EQ(co.shell_subdivision, 1);
+  o.printed_wall = true;
+  pipeline::calculix_shell(o, true, co);
+  EXPECT_TRUE(co.printed_wall);
+  EXPECT_FALSE(co.shell_lip);
+  EXPECT_EQ(co.shell_subdivision, 1);
+  o.printed_wall = false;
+  o.shell_lip = false;  // --no-shell-lip
+  pipeline::calculix_shell(o, true, co);
+  EXPECT_FALSE(co.shell_lip);
+  EXPECT_EQ(co.shell_subdivision, 1);
+  o.shell_subdivision = 3;
+  pipeline::calculix_shell(o, true, co);
+  EXPECT_EQ(co.shell_subdivision, 3);
+  o = {};
+  o.mode = calculix::DesignCheckMode::Contact;
+  pipeline::calculix_shell(o, true, co);
+  EXPECT_FALSE(co.shell_lip);
+  EXPECT_EQ(co.shell_subdivision, 1);
+}
+
 // The GUI's rectification chart (issue 23) is computed from a solved state before anything is
 // written: pipeline::designed_wall builds the socket as solve_design does and picks its wall as the
 // report does. On the optimised 1.5k demo (every constraint met, no closed loop) it must give the

@@ -249,10 +249,8 @@ calculix::DesignCheckOptions check_options(const design::CaseFile& c, const Desi
   co.max_increment = std::max(0.1, o.initial_increment);
   co.fe_pressure = o.fe_pressure;
   co.nonlinear_geometry = !o.small_strain;
-  co.printed_wall = o.printed_wall;
-  co.shell_subdivision = o.shell_subdivision;
-  co.shell_on_wall = o.shell_on_wall;
-  co.shell_lip = o.shell_lip;
+  const auto& r = v.artifacts.result;
+  calculix_shell(o, r.closed_loop.has_value() || r.socket.has_value(), co);
   co.ccx = o.ccx;
   return co;
 }
@@ -265,11 +263,11 @@ void check_validation_flags(const DesignValidationOptions& o) {
   const char* donning_flag = o.stand            ? "--stand"
                              : o.printed_wall   ? "--printed-wall"
                              : o.shell_on_wall  ? "--shell-on-wall"
-                             : o.shell_lip      ? "--shell-lip"
+                             : o.shell_lip.value_or(false) ? "--shell-lip"
                                                 : nullptr;
   require(!donning_flag || o.mode == calculix::DesignCheckMode::Donning,
           "validate design: {} needs --mode donning (the socket is donned, then stood on)", donning_flag ? donning_flag : "");
-  require(!o.printed_wall || (!o.shell_on_wall && !o.shell_lip && o.shell_subdivision == 1),
+  require(!o.printed_wall || (!o.shell_on_wall && !o.shell_lip.value_or(false) && o.shell_subdivision.value_or(1) == 1),
           "validate design: --printed-wall dons the written socket as built: drop --shell-on-wall, --shell-lip and --shell-subdivision");
   require(!o.penalty_pa_per_m || (std::isfinite(*o.penalty_pa_per_m) && *o.penalty_pa_per_m >= 0),
           "validate design: penalty {} Pa/m (expected ≥ 0; 0: socketsmith's own)", o.penalty_pa_per_m.value_or(0.0));
@@ -457,6 +455,14 @@ double calculix_penalty_pa_per_m(const design::CaseFile& c, const DesignValidati
   if (o.penalty_pa_per_m) return *o.penalty_pa_per_m > 0 ? *o.penalty_pa_per_m : ours;
   const bool like_for_like = o.mode == calculix::DesignCheckMode::Donning && !c.closed_loop_rigid_wall;
   return like_for_like ? ours : calculix::DesignCheckOptions{}.contact.penalty_pa_per_m;
+}
+
+void calculix_shell(const DesignValidationOptions& o, bool has_socket, calculix::DesignCheckOptions& co) {
+  const bool shell = o.mode == calculix::DesignCheckMode::Donning && !o.printed_wall;
+  co.printed_wall = o.printed_wall;
+  co.shell_on_wall = o.shell_on_wall;
+  co.shell_lip = o.shell_lip.value_or(shell && has_socket);
+  co.shell_subdivision = o.shell_subdivision.value_or(shell && co.shell_lip ? 2 : 1);
 }
 
 DesignValidation validate_design(const design::CaseFile& c, const DesignValidationOptions& o, const fs::path& out) {

@@ -38,9 +38,11 @@ struct DesignValidationOptions {
   bool neo_hookean = false;             ///< neo-Hookean in CalculiX (automatic for a neo-hookean case)
   bool small_strain = false;            ///< CalculiX without NLGEOM (not with a neo-Hookean tissue)
   bool printed_wall = false;            ///< Donning: CalculiX dons the printed socket's wall (DesignCheckOptions)
-  int shell_subdivision = 1;            ///< Donning: the shell's quads split n × n (DesignCheckOptions), 1–4
+  /// Donning: the shell's quads split n × n (DesignCheckOptions), 1–4; empty: calculix_shell's default.
+  std::optional<int> shell_subdivision;
   bool shell_on_wall = false;           ///< Donning: the shell laid on socketsmith's smoothed wall (DesignCheckOptions)
-  bool shell_lip = false;               ///< Donning: the shell across the brim onto the lip (DesignCheckOptions)
+  /// Donning: the shell across the brim onto the lip (DesignCheckOptions); empty: calculix_shell's default.
+  std::optional<bool> shell_lip;
   /// CalculiX's element; empty: the tissue's twin (C3D8, or C3D8I for tissue.element fbar).
   std::optional<calculix::ElementType> element;
   /// CalculiX's contact penalty [Pa/m]; 0: socketsmith's donning's on this stump (20 E / h). Empty:
@@ -108,6 +110,16 @@ double socketsmith_penalty_pa_per_m(const DesignArtifacts& art);
 /// 0.89 / 0.74 / 0.74 kPa against 1.19 / 0.98 / 0.94 / 0.80 with 1e9; ccx 88 vs 107 Newton iterations at 5.9k
 /// (docs/VALIDATION.md).
 double calculix_penalty_pa_per_m(const design::CaseFile& c, const DesignValidationOptions& o, double ours);
+
+/// CalculiX's socket for a donning check as @p o asks, into @p co (printed_wall, shell_on_wall,
+/// shell_lip, shell_subdivision). By default a donned socket is the shell on the skin quads, split
+/// 2 × 2, with the lip of the socket socketsmith writes (@p has_socket) across the brim — the printed
+/// socket's rounded rim, not the shell's sharp edge. Measured at 3k (2026-12-02, docs/VALIDATION.md):
+/// the demo's 99th percentile below the brim 4.31 → 3.54 kPa, OpenLimb's limb 4.59 → 3.66, every
+/// landmark within the bar on both; the lip alone, unsplit, 4.13 / 4.71 (its kink at the first ring
+/// still cuts in); ccx 20–60 % longer. Without a written socket (a design that does not meet its
+/// constraints), or for the printed wall, no lip and no split.
+void calculix_shell(const DesignValidationOptions& o, bool has_socket, calculix::DesignCheckOptions& co);
 
 /// Designs @p c into @p out/design, checks it in CalculiX and writes the comparison into @p out.
 /// A CalculiX run that stops after some increments is compared on its last converged increment
