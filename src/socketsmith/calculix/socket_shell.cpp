@@ -22,6 +22,49 @@ std::vector<std::array<int, 4>> socket_quads_below_brim(const DesignedStump& d, 
   return socket_quads;
 }
 
+namespace {
+
+/// The shell of @p quads on @p s, extruded along its normals, thinned until no quad below the brim
+/// folds. A quad laid across the brim onto the lip's tight curve can fold (OpenLimb TT 5.9k, 2 x 2:
+/// a twisted quad, two corners of opposite Jacobian; ccx rejected its element): such quads (@p lip)
+/// are left out. Below the brim the shell is thinned until none folds (the thickness does not count,
+/// docs/VALIDATION.md); one that still does is said.
+RigidShell extrude_unfolded(const QuadSurface& s, const std::vector<std::array<int, 4>>& quads,
+                            const std::vector<char>& lip, double thickness_m) {
+  const auto folded = [&](const std::array<int, 4>& q, double t) {
+    volume::HexNodes x;
+    for (int a = 0; a < 4; ++a) {
+      x[a] = s.points[q[a]];
+      x[a + 4] = s.points[q[a]] + t * s.normals[q[a]].normalized();
+    }
+    return volume::min_corner_jacobian(x) <= 0.0;
+  };
+  for (double t = thickness_m;; t *= 0.5) {
+    std::vector<std::array<int, 4>> kept;
+    int below = 0, dropped = 0;
+    for (size_t k = 0; k < quads.size(); ++k) {
+      const bool f = folded(quads[k], t);
+      if (f && lip[k]) {
+        ++dropped;
+        continue;
+      }
+      below += f ? 1 : 0;
+      kept.push_back(quads[k]);
+    }
+    if (below == 0 || t < 1e-4) {
+      if (below > 0)
+        log::warn("validate: {} element(s) of the socket shell below the brim are inverted even {:.2g} mm thin (ccx "
+                  "will refuse them): give --shell-subdivision 1, or drop --shell-on-wall",
+                  below, t * 1e3);
+      if (dropped > 0)
+        log::info("validate: {} quad(s) of the socket shell across the brim fold over the lip and are left out", dropped);
+      return extrude_shell(s.points, s.normals, kept, t);
+    }
+  }
+}
+
+}  // namespace
+
 RigidShell donned_skin_shell(const DesignedStump& d, const std::vector<std::array<int, 4>>& socket_quads,
                              const Vec3& down, const DesignCheckOptions& o) {
   const auto& skin = *d.skin;
@@ -68,40 +111,7 @@ RigidShell donned_skin_shell(const DesignedStump& d, const std::vector<std::arra
     log::warn("validate: {} point(s) of the socket shell below the brim do not face socketsmith's wall; they keep their "
               "place between the skin nodes", n);
   require(!quads.empty(), "check_design: no socket quad faces socketsmith's wall (the socket does not fit its stump)");
-  // A quad laid across the brim onto the lip's tight curve can fold (OpenLimb TT 5.9k, 2 x 2: a
-  // twisted quad, two corners of opposite Jacobian; ccx rejected its element): such quads are left
-  // out, as are those with a point off the wall. Below the brim the shell is thinned until none
-  // folds (the thickness does not count, docs/VALIDATION.md); one that still does is said.
-  const auto folded = [&](const std::array<int, 4>& q, double t) {
-    volume::HexNodes x;
-    for (int a = 0; a < 4; ++a) {
-      x[a] = s.points[q[a]];
-      x[a + 4] = s.points[q[a]] + t * s.normals[q[a]].normalized();
-    }
-    return volume::min_corner_jacobian(x) <= 0.0;
-  };
-  for (double t = o.socket_thickness_m;; t *= 0.5) {
-    std::vector<std::array<int, 4>> kept;
-    int below = 0, dropped = 0;
-    for (size_t k = 0; k < quads.size(); ++k) {
-      const bool f = folded(quads[k], t);
-      if (f && lip[k]) {
-        ++dropped;
-        continue;
-      }
-      below += f ? 1 : 0;
-      kept.push_back(quads[k]);
-    }
-    if (below == 0 || t < 1e-4) {
-      if (below > 0)
-        log::warn("validate: {} element(s) of the socket shell below the brim are inverted even {:.2g} mm thin (ccx "
-                  "will refuse them): drop --shell-on-wall or --shell-subdivision",
-                  below, t * 1e3);
-      if (dropped > 0)
-        log::warn("validate: {} quad(s) of the socket shell across the brim fold over the lip and are left out", dropped);
-      return extrude_shell(s.points, s.normals, kept, t);
-    }
-  }
+  return extrude_unfolded(s, quads, lip, o.socket_thickness_m);
 }
 
 }  // namespace socketsmith::calculix

@@ -25,7 +25,7 @@ std::vector<std::array<int, 4>> socket_quads_below_brim(const DesignedStump& d, 
 /// the rim on the lip (a point past the lip drops its quad).
 /// The thickness is halved until no element is inverted (the lip curves tighter than the socket is
 /// thick; the shell is rigid, its thickness does not count); a quad across the brim that folds over
-/// the lip whatever the thickness is left out (one warning says how many).
+/// the lip whatever the thickness is left out (one log line says how many).
 /// @throws InvalidInputError when no quad faces the wall.
 RigidShell donned_skin_shell(const DesignedStump& d, const std::vector<std::array<int, 4>>& socket_quads,
                              const Vec3& down, const DesignCheckOptions& o);
