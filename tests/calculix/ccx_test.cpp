@@ -103,6 +103,19 @@ struct BoxStump {
     d.above_brim.assign(skin.nodes.size(), 0);
     d.stump_length_m = 0.04;
   }
+  /// Mesh node → skin id, and the brim set at z = 35 mm (the top ring and face above it).
+  std::vector<int> with_brim_at_35mm() {
+    std::vector<int> skin_of(mesh.num_nodes(), -1);
+    for (size_t i = 0; i < skin.nodes.size(); ++i) {
+      skin_of[skin.nodes[i]] = static_cast<int>(i);
+      d.above_brim[i] = mesh.nodes[skin.nodes[i]].z() > 0.035 ? 1 : 0;
+    }
+    return skin_of;
+  }
+  /// How far @p q is from the nearest face of the 20 × 20 × 40 mm box (0 on it).
+  static double to_face(const Vec3& q) {
+    return std::min({q.x(), 0.02 - q.x(), q.y(), 0.02 - q.y(), q.z(), 0.04 - q.z()});
+  }
   BoxStump(const BoxStump&) = delete;  // d points into this object
   BoxStump& operator=(const BoxStump&) = delete;
 };
@@ -222,8 +235,7 @@ TEST(DesignCheck, the_donning_shell_is_subdivided_and_laid_on_socketsmiths_wall)
   ASSERT_EQ(inner.size(), 42u);
   for (const auto& p : inner) {
     const Vec3 q = p - down;
-    const double to_face = std::min({q.x(), 0.02 - q.x(), q.y(), 0.02 - q.y(), q.z(), 0.04 - q.z()});
-    EXPECT_NEAR(to_face, 0.0, 1e-9);  // on the box: the skin itself
+    EXPECT_NEAR(BoxStump::to_face(q), 0.0, 1e-9);  // on the box: the skin itself
   }
   o.shell_on_wall = true;
   o.shell_subdivision = 2;
@@ -232,8 +244,7 @@ TEST(DesignCheck, the_donning_shell_is_subdivided_and_laid_on_socketsmiths_wall)
   ASSERT_EQ(inner.size(), 162u);
   for (const auto& p : inner) {
     const Vec3 q = p - down - beside;
-    const double to_face = std::min({q.x(), 0.02 - q.x(), q.y(), 0.02 - q.y(), q.z(), 0.04 - q.z()});
-    EXPECT_NEAR(to_face, 0.0, 1e-9);
+    EXPECT_NEAR(BoxStump::to_face(q), 0.0, 1e-9);
     for (int a = 0; a < 3; ++a) EXPECT_NEAR(std::remainder(q[a], 0.005), 0.0, 1e-9);  // half a quad apart
   }
   // Points below the brim that do not face the wall (here the box's top) keep their place.
@@ -249,7 +260,18 @@ TEST(DesignCheck, the_donning_shell_is_subdivided_and_laid_on_socketsmiths_wall)
   // The refusals: the printed wall with a shell option, the wall or the lip without one given.
   o.printed_wall = true;
   EXPECT_THROW(check_design(d, o, dir, "box"), InvalidInputError);
+  o.shell_on_wall = false;
+  o.shell_subdivision = 1;
+  o.shell_lip = true;  // the printed wall has its own lip: refused for that, not for its empty wall
+  try {
+    check_design(d, o, dir, "box");
+    ADD_FAILURE() << "the printed wall with a lip was accepted";
+  } catch (const InvalidInputError& e) {
+    EXPECT_NE(std::string(e.what()).find("give a lip"), std::string::npos) << e.what();
+  }
   o.printed_wall = false;
+  o.shell_lip = false;
+  o.shell_on_wall = true;
   d.wall_surface = nullptr;
   EXPECT_THROW(check_design(d, o, dir, "box"), InvalidInputError);
   o.shell_on_wall = false;
@@ -263,11 +285,7 @@ TEST(DesignCheck, the_donning_shell_is_subdivided_and_laid_on_socketsmiths_wall)
 TEST(DesignCheck, the_lip_alone_moves_only_the_points_past_the_brim) {
   BoxStump box;
   DesignedStump& d = box.d;
-  std::vector<int> skin_of(box.mesh.num_nodes(), -1);
-  for (size_t i = 0; i < box.skin.nodes.size(); ++i) {
-    skin_of[box.skin.nodes[i]] = static_cast<int>(i);
-    d.above_brim[i] = box.mesh.nodes[box.skin.nodes[i]].z() > 0.035 ? 1 : 0;  // the top ring and face
-  }
+  const std::vector<int> skin_of = box.with_brim_at_35mm();
   const Vec3 out(0.003, 0, 0);  // the wall: the box moved 3 mm along x
   d.wall_surface = [&](const Vec3& p) {
     return std::optional<std::pair<Vec3, Vec3>>({p + out, (p - Vec3(0.01, 0.01, 0.02)).normalized()});  // outward
@@ -285,8 +303,7 @@ TEST(DesignCheck, the_lip_alone_moves_only_the_points_past_the_brim) {
       const Vec3& p = shell.nodes[h[a]];
       const bool past_brim = p.z() > 0.035;
       const Vec3 skin = past_brim ? p - out : p;
-      const double to_face = std::min({skin.x(), 0.02 - skin.x(), skin.y(), 0.02 - skin.y(), skin.z(), 0.04 - skin.z()});
-      EXPECT_NEAR(to_face, 0.0, 1e-9) << p.transpose();
+      EXPECT_NEAR(BoxStump::to_face(skin), 0.0, 1e-9) << p.transpose();
       (past_brim ? moved : kept) += 1;
     }
   EXPECT_GT(moved, 0);
@@ -297,7 +314,7 @@ TEST(DesignCheck, the_lip_alone_moves_only_the_points_past_the_brim) {
   for (const auto& h : on_wall.hexahedra)
     for (int a = 0; a < 4; ++a) {
       const Vec3 skin = on_wall.nodes[h[a]] - out;
-      EXPECT_NEAR(std::min({skin.x(), 0.02 - skin.x(), skin.y(), 0.02 - skin.y(), skin.z(), 0.04 - skin.z()}), 0.0, 1e-9);
+      EXPECT_NEAR(BoxStump::to_face(skin), 0.0, 1e-9);
     }
 }
 
@@ -306,11 +323,7 @@ TEST(DesignCheck, the_lip_alone_moves_only_the_points_past_the_brim) {
 TEST(DesignCheck, a_shell_quad_folded_over_the_lip_is_left_out) {
   BoxStump box;
   DesignedStump& d = box.d;
-  std::vector<int> skin_of(box.mesh.num_nodes(), -1);
-  for (size_t i = 0; i < box.skin.nodes.size(); ++i) {
-    skin_of[box.skin.nodes[i]] = static_cast<int>(i);
-    d.above_brim[i] = box.mesh.nodes[box.skin.nodes[i]].z() > 0.035 ? 1 : 0;  // the top ring and face
-  }
+  const std::vector<int> skin_of = box.with_brim_at_35mm();
   // The wall: the box itself, but past z = 35 mm it turns back down (the top ring lands at 20 mm).
   d.wall_surface = [](const Vec3& p) {
     Vec3 q = p;

@@ -85,8 +85,8 @@ void check_input(const DesignedStump& d, const DesignCheckOptions& o) {
   require(!(o.shell_on_wall || o.shell_lip) || d.wall_surface,
           "check_design: the shell on socketsmith's wall or lip needs that wall (DesignedStump::wall_surface; a design "
           "that does not meet its constraints has no socket)");
-  require(!o.printed_wall || (!o.shell_on_wall && o.shell_subdivision == 1),
-          "check_design: the printed wall is donned as built (no shell to split or lay on the wall)");
+  require(!o.printed_wall || (!o.shell_on_wall && !o.shell_lip && o.shell_subdivision == 1),
+          "check_design: the printed wall is donned as built (no shell to split, lay on the wall or give a lip)");
   require(o.shell_subdivision >= 1 && o.shell_subdivision <= 4,
           "check_design: shell subdivision {} (expected 1–4: each skin quad of the socket split n × n)", o.shell_subdivision);
   require(std::isfinite(o.stand_force_n) && o.stand_force_n >= 0,
@@ -472,7 +472,7 @@ DesignCheckResult check_design(const DesignedStump& d, const DesignCheckOptions&
   RigidShell shell;
   const bool contact = o.mode != DesignCheckMode::Load;
   if (contact) {
-    const bool to_lip = o.mode == DesignCheckMode::Donning && !o.printed_wall && o.shell_lip;
+    const bool to_lip = o.mode == DesignCheckMode::Donning && o.shell_lip;
     const auto socket_quads = socket_quads_below_brim(d, skin_of, to_lip);
     shell = o.mode == DesignCheckMode::Donning ? donning_socket(d, o, socket_quads, spec)
                                                : contact_socket(d, o, socket_quads, spec);
