@@ -51,14 +51,17 @@ Vec3 parse_point(const std::string& text, const std::string& what) {
   return v;
 }
 
-/// Reads a mesh in metres, then applies --scale. @p unit_m receives the file unit in metres.
-geometry::TriMesh read_scaled(const std::string& path, const MeshFlags& f, double* unit_m = nullptr) {
+/// Reads a mesh in metres, then applies --scale. @p unit_m receives the file unit in metres,
+/// @p side the side the file states (AAOP; else empty).
+geometry::TriMesh read_scaled(const std::string& path, const MeshFlags& f, double* unit_m = nullptr,
+                              std::string* side = nullptr) {
   geometry::MeshReadOptions ro;
   if (!f.units.empty()) ro.unit = units::parse_length_unit(f.units);
   if (f.scale != 1.0) ro.warn_on_implausible_size = false;
   geometry::MeshReadInfo info;
   geometry::TriMesh m = geometry::read_mesh(path, ro, &info);
   if (unit_m) *unit_m = units::to_metres(info.unit);
+  if (side) *side = info.side;
   if (f.scale != 1.0) geometry::scale(m, f.scale);
   return m;
 }
@@ -81,7 +84,8 @@ struct MeshInput {
 
 MeshInput read_mesh_input(const MeshFlags& f) {
   MeshInput in;
-  in.limb = read_scaled(f.limb, f, &in.file_unit_m);
+  std::string file_side;
+  in.limb = read_scaled(f.limb, f, &in.file_unit_m, &file_side);
   volume::LimbInputOptions& lo = in.lo;
   lo.type = geometry::parse_limb_type(f.type);
   if (f.bones != "auto" && f.bones != "estimate" && f.bones != "none") in.extra = read_scaled(f.bones, f);
@@ -91,6 +95,10 @@ MeshInput read_mesh_input(const MeshFlags& f) {
   if (!f.axis.empty()) lo.axis = design::parse_limb_direction(f.axis, design::LimbDirection::Axis, "mesh --axis");
   lo.force_size = f.force_size;
   if (!f.side.empty()) lo.side = geometry::parse_side(f.side);
+  if (f.side.empty() && !file_side.empty()) {
+    lo.side = geometry::parse_side(file_side);
+    log::info("mesh: {} limb (the limb file says so)", file_side);
+  }
   if (f.cut_height_mm > 0) lo.cut_height_m = f.cut_height_mm * units::mm;
   lo.estimate_bones = f.bones != "none";
   return in;

@@ -136,6 +136,7 @@ TEST(Aaop, clinical_example_loads_in_mm_with_its_landmarks) {
   EXPECT_EQ(info.unit, units::LengthUnit::Millimetre);
   EXPECT_FALSE(info.unit_was_guessed);
   EXPECT_TRUE(info.warning.empty()) << info.warning;
+  EXPECT_EQ(info.side, "right");  // the header's side, for the limb's frame
   const AaopShape s = read_aaop(file);
   EXPECT_EQ(s.side, "RIGHT");
   EXPECT_EQ(s.num_spokes(), 72);

@@ -196,13 +196,13 @@ LimbFrame finish_frame(const TriMesh& skin, const Vec3& axis, const Vec3& centre
   const Slice s_mid = slice_surface(skin, frame.on_axis(0.5 * top), axis);
   const Slice s_end = slice_surface(skin, frame.on_axis(0.03 * top), axis);
   if (s_mid.area != 0.0 && std::abs(s_end.area) < 0.75 * std::abs(s_mid.area)) return frame;
-  // Open at both ends (a tube: e.g. an AAOP shape whose first slice is a ring, not a point) is a
-  // different mistake from a box or a cylinder: say which.
+  // Open at both ends with neither end clearly the narrower (a limb's distal opening is closed with
+  // a dome before this: volume::prepare_limb) is a different mistake from a box or a cylinder.
   const int loops = check_mesh(skin).boundary_loops;
   require(loops < 2,
-          "the surface is open at both ends ({} open boundaries): a residual limb must be closed at its "
-          "distal end; close the distal opening (a scan or an AAOP shape whose first slice is a ring) and "
-          "give the file again",
+          "the surface is open at both ends ({} open boundaries) and does not taper to either: a residual "
+          "limb must be closed at its distal end; close the distal opening in the scanner or CAD software "
+          "and give the file again",
           loops);
   fail("the surface does not taper to a rounded distal end (section area 3 % from the end is "
        "{:.0f} % of mid-length): not a residual limb; check the file (a box or cylinder?)",

@@ -45,6 +45,7 @@ struct MeshReadInfo {
   int dropped_triangles = 0;     ///< degenerate (repeated index) triangles dropped
   std::string warning;           ///< non-empty when a unit or size warning was logged
   std::vector<MeshLandmark> landmarks;  ///< landmarks stored in the file (AAOP), else empty
+  std::string side;  ///< "left" or "right" when the file states the limb's side (AAOP), else empty
 };
 
 /// Reads STL/OBJ/PLY/AOP by extension (case-insensitive), sniffing binary vs ASCII STL by content.

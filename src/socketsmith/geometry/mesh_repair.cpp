@@ -363,16 +363,21 @@ int orient_components(std::vector<Tri>& tris) {
   return flipped;
 }
 
-/// Fills every boundary loop of at most @p max_edges edges with an ear-clipped patch in the
-/// loop's best-fit plane, oriented like the triangles around it. Returns the loops filled.
-int fill_small_holes(const std::vector<Vec3>& vertices, std::vector<Tri>& tris, int max_edges) {
+/// The boundary loops of @p tris, each in a closing patch's direction (reversed boundary edges).
+std::vector<std::vector<int>> hole_loops(const std::vector<Tri>& tris, int num_vertices) {
   const std::vector<Tri> across = edge_neighbours(tris);
-  std::vector<std::pair<int, int>> hole_edges;  // reversed boundary edges: the patch's direction
+  std::vector<std::pair<int, int>> hole_edges;
   for (std::size_t t = 0; t < tris.size(); ++t)
     for (int k = 0; k < 3; ++k)
       if (across[t][k] == kBoundary) hole_edges.emplace_back(tris[t][(k + 1) % 3], tris[t][k]);
+  return chain_loops(hole_edges, num_vertices);
+}
+
+/// Fills every boundary loop of at most @p max_edges edges with an ear-clipped patch in the
+/// loop's best-fit plane, oriented like the triangles around it. Returns the loops filled.
+int fill_small_holes(const std::vector<Vec3>& vertices, std::vector<Tri>& tris, int max_edges) {
   int filled = 0;
-  for (const std::vector<int>& loop : chain_loops(hole_edges, static_cast<int>(vertices.size()))) {
+  for (const std::vector<int>& loop : hole_loops(tris, static_cast<int>(vertices.size()))) {
     if (static_cast<int>(loop.size()) > max_edges) continue;
     const Vec3 n = newell_normal(vertices, loop);
     if (!(n.norm() > 0.0)) continue;  // a flat, zero-area loop has no plane to fill in
@@ -504,6 +509,11 @@ std::vector<std::string> RepairReport::changes() const {
   if (filled_holes > 0) out.push_back("filled " + count_of(filled_holes, "small hole", "small holes"));
   if (flipped_inside_out) out.push_back("turned an inside-out surface (negative volume) outward");
   return out;
+}
+
+std::vector<std::vector<int>> open_boundary_loops(const TriMesh& mesh) {
+  require_valid(mesh, "open_boundary_loops");
+  return hole_loops(mesh.triangles, mesh.num_vertices());
 }
 
 RepairReport repair_surface(TriMesh& mesh, const RepairOptions& options) {

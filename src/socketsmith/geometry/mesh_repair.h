@@ -35,6 +35,11 @@ struct RepairOptions {
 /// @throws InvalidInputError for NaN/inf coordinates, indices out of range or negative options.
 RepairReport repair_surface(TriMesh& mesh, const RepairOptions& options = {});
 
+/// The open boundary loops of @p mesh (edges of exactly one triangle), each in the order a patch
+/// closing it traverses it: against the triangles beside it, so a fan (centre, loop[i], loop[i+1])
+/// faces the same way as they do. @throws InvalidInputError for NaN/inf or indices out of range.
+std::vector<std::vector<int>> open_boundary_loops(const TriMesh& mesh);
+
 /// Result of trim_and_cap.
 struct TrimResult {
   /// Kept part + caps (vertices renumbered), closed when the kept part had no other hole.

@@ -15,6 +15,7 @@
 #include "socketsmith/core/errors.h"
 #include "socketsmith/core/log.h"
 #include "socketsmith/core/units.h"
+#include "socketsmith/geometry/distal_dome.h"
 #include "socketsmith/geometry/mesh_checks.h"
 #include "socketsmith/volume/limb_model_detail.h"
 #include "socketsmith/volume/limb_shells.h"
@@ -113,6 +114,12 @@ void read_shells(LimbPreparation& p, const TriMesh& limb, const TriMesh& extra_b
   shells.erase(shells.begin());
   const auto rep = geometry::repair_surface(p.skin.mesh);
   for (const auto& line : rep.changes()) p.model.notes.push_back("skin: " + line);
+  // Open at both ends (an AAOP shape whose first slice is a ring, a scan that missed the tip):
+  // closed at its distal end as O&P CAD programs do, and said, since the tip is now a guess.
+  if (const auto dome = geometry::close_distal_opening(p.skin.mesh)) {
+    log::warn("limb: {}", dome->describe());
+    p.model.notes.push_back("skin: " + dome->describe());
+  }
   // A fin or a sliver triangle stuck to the skin along an edge makes that edge non-manifold and
   // its free edges a second open rim: the axis, the rim and the cut would all be read from it
   // ("not a residual limb", a cut height nobody gave, a stump cut at the fin). Refused by name.
