@@ -347,6 +347,40 @@ TEST(DesignCheck, a_shell_quad_folded_over_the_lip_is_left_out) {
   }
 }
 
+TEST(CcxRunner, ccx_runs_under_a_memory_cap_and_running_out_is_said_as_such) {
+  const auto dir = work_dir("memory_cap");
+  write_text_atomically(dir / "j.inp", "*HEADING\n");
+  const auto fake = [&](const std::string& name, const std::string& body) {
+    write_text_atomically(dir / name, "#!/bin/sh\n" + body);
+    fs::permissions(dir / name, fs::perms::owner_all);
+    CcxOptions o;
+    o.executable = (dir / name).string();
+    o.memory_fraction = 0.5;
+    return run_ccx(dir, "j", o);
+  };
+  // The cap reaches ccx: its address-space limit [kB] is half the machine's memory.
+  const CcxRun capped = fake("limit_ccx", "ulimit -v\necho 'Job finished'\n");
+  EXPECT_TRUE(capped.converged) << capped.message;
+  std::ifstream log(capped.log);
+  double kb = 0;
+  log >> kb;
+  EXPECT_GT(capped.memory_limit_bytes, 0.0);
+  EXPECT_NEAR(kb * 1024, capped.memory_limit_bytes, 1024.0);
+  // ccx's own allocation failure under the cap, and the system's killer.
+  for (const auto& [name, body] :
+       {std::pair{"calloc_ccx", "echo ' STEP 1'\necho ' *ERROR in u_calloc: error allocating memory'\nexit 16\n"},
+        std::pair{"killed_ccx", "echo ' STEP 1'\nkill -9 $$\n"}}) {
+    const CcxRun run = fake(name, body);
+    EXPECT_FALSE(run.converged) << name;
+    EXPECT_TRUE(run.out_of_memory) << name;
+    EXPECT_NE(run.message.find("ccx ran out of memory in step 1"), std::string::npos) << run.message;
+    EXPECT_NE(run.message.find("50 % of this machine's"), std::string::npos) << run.message;
+  }
+  // Any other failure is not called a lack of memory.
+  const CcxRun other = fake("failed_ccx", "echo ' STEP 1'\nexit 3\n");
+  EXPECT_FALSE(other.out_of_memory) << other.message;
+}
+
 TEST(CcxRunner, a_rejected_deck_is_reported_with_the_log_error_line) {
   if (!have_ccx()) GTEST_SKIP() << "ccx not installed (calculix-ccx)";
   const auto dir = work_dir("rejected");

@@ -3,6 +3,7 @@
 #include <fcntl.h>
 #include <poll.h>
 #include <signal.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -76,11 +77,12 @@ struct OutputParser {
   }
 };
 
-/// Starts ccx on @p job in @p job_dir with @p threads threads, in a process group of its own (what
-/// the time limit kills), its stdout and stderr into the pipe's write end @p pipe_fds[1].
+/// Starts ccx on @p job in @p job_dir with @p threads threads and its address space capped at
+/// @p memory_limit_bytes (0: not capped), in a process group of its own (what the time limit kills), its stdout and stderr into the pipe's write end @p pipe_fds[1].
 /// Returns its pid. @throws IoError when it cannot fork.
 pid_t start_ccx(const std::string& exe, const fs::path& job_dir, const std::string& job, int threads,
-                const int pipe_fds[2]) {
+                double memory_limit_bytes, const int pipe_fds[2]) {
+  const rlim_t cap = static_cast<rlim_t>(memory_limit_bytes);
   const pid_t pid = ::fork();
   if (pid < 0) fail<IoError>("run_ccx: cannot start ccx: {}", std::strerror(errno));
   if (pid == 0) {
@@ -90,6 +92,8 @@ pid_t start_ccx(const std::string& exe, const fs::path& job_dir, const std::stri
     ::close(pipe_fds[0]);
     ::close(pipe_fds[1]);
     if (::chdir(job_dir.c_str()) != 0) ::_exit(126);
+    const rlimit as{cap, cap};
+    if (cap > 0) ::setrlimit(RLIMIT_AS, &as);
     const std::string n = std::to_string(threads);
     ::setenv("OMP_NUM_THREADS", n.c_str(), 1);
     ::setenv("CCX_NPROC_EQUATION_SOLVER", n.c_str(), 1);
@@ -149,6 +153,11 @@ void describe_ccx_run(const std::string& exe, const CcxOptions& options, CcxRun&
   } else if (run.cancelled) {
     run.error_line = "cancelled";
     run.message = "ccx cancelled";
+  } else if (run.out_of_memory) {
+    run.message = fmt::format("ccx ran out of memory in step {} after {} increments (capped at {:.1f} GB, {:.0f} % of "
+                              "this machine's) {}: use a coarser mesh (--target-nodes) or close other programs",
+                              run.last_step, run.increments, run.memory_limit_bytes / 1e9,
+                              100.0 * options.memory_fraction, where);
   } else if (run.exit_code == 127) {
     run.message = fmt::format("ccx ('{}') could not be executed {}: reinstall calculix-ccx", exe, where);
   } else {
@@ -174,6 +183,8 @@ CcxRun run_ccx(const fs::path& job_dir, const std::string& job, const CcxOptions
   const std::string exe = find_ccx(options.executable);
   require(options.threads >= 1, "run_ccx: threads {} (expected ≥ 1)", options.threads);
   require(options.time_limit_s > 0, "run_ccx: time limit {} s (expected > 0)", options.time_limit_s);
+  require(options.memory_fraction > 0 && options.memory_fraction <= 1, "run_ccx: memory fraction {} (expected in (0, 1])",
+          options.memory_fraction);
   const fs::path inp = job_dir / (job + ".inp");
   if (!fs::exists(inp)) fail<IoError>("run_ccx: the deck '{}' does not exist", inp.string());
   CcxRun run;
@@ -187,7 +198,9 @@ CcxRun run_ccx(const fs::path& job_dir, const std::string& job, const CcxOptions
   int fds[2];
   if (::pipe(fds) != 0) fail<IoError>("run_ccx: cannot create a pipe: {}", std::strerror(errno));
   const auto t0 = std::chrono::steady_clock::now();
-  const pid_t pid = start_ccx(exe, job_dir, job, options.threads, fds);
+  const double physical = static_cast<double>(::sysconf(_SC_PHYS_PAGES)) * static_cast<double>(::sysconf(_SC_PAGESIZE));
+  run.memory_limit_bytes = physical > 0 ? options.memory_fraction * physical : 0.0;
+  const pid_t pid = start_ccx(exe, job_dir, job, options.threads, run.memory_limit_bytes, fds);
   ::close(fds[1]);
   std::ofstream log(run.log, std::ios::binary);
   OutputParser parser{run, options};
@@ -199,6 +212,9 @@ CcxRun run_ccx(const fs::path& job_dir, const std::string& job, const CcxOptions
   run.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
   run.converged = parser.job_finished && run.error_line.empty() && !killed && run.exit_code == 0;
+  // Its own allocation failure under the cap, or the system's out-of-memory killer (SIGKILL not sent here).
+  run.out_of_memory = !run.converged && (run.error_line.starts_with("*ERROR in u_calloc") ||
+                                         (!killed && run.exit_code == 128 + SIGKILL));
   describe_ccx_run(exe, options, run);
   return run;
 }

@@ -16,6 +16,10 @@ struct CcxOptions {
   int threads = 1;                 ///< OMP_NUM_THREADS / CCX_NPROC_EQUATION_SOLVER, ≥ 1
   double time_limit_s = 3600.0;    ///< wall-time limit [s], > 0; the process group is killed after it
   int num_steps = 1;               ///< steps in the deck (for the progress fraction), ≥ 1
+  /// ccx's address space is capped at this fraction of the machine's physical memory, in (0, 1], so
+  /// a run that runs away (contact can make ccx grow to all of it) fails with its own out-of-memory
+  /// error instead of the system killing a process of its choosing.
+  double memory_fraction = 0.75;
   ProgressCallback progress;       ///< fraction over all steps; returning false kills ccx
 };
 
@@ -30,6 +34,8 @@ struct CcxRun {
   int increments = 0;         ///< increments completed (all steps)
   double last_step_time = 0;  ///< step time of the last converged increment
   std::string error_line;     ///< ccx's first *ERROR line (or the reason it stopped)
+  double memory_limit_bytes = 0;  ///< the cap on ccx's address space (CcxOptions::memory_fraction)
+  bool out_of_memory = false;  ///< ccx could not allocate under the cap, or the system killed it
   std::string message;        ///< one line: what happened and the fix
   std::filesystem::path log;  ///< <job>.log: ccx's stdout and stderr
   std::filesystem::path frd, dat;  ///< <job>.frd, <job>.dat
