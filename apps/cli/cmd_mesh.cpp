@@ -52,16 +52,16 @@ Vec3 parse_point(const std::string& text, const std::string& what) {
 }
 
 /// Reads a mesh in metres, then applies --scale. @p unit_m receives the file unit in metres,
-/// @p side the side the file states (AAOP; else empty).
+/// @p file what the file says beside its surface (an AAOP file's side and landmarks).
 geometry::TriMesh read_scaled(const std::string& path, const MeshFlags& f, double* unit_m = nullptr,
-                              std::string* side = nullptr) {
+                              geometry::MeshReadInfo* file = nullptr) {
   geometry::MeshReadOptions ro;
   if (!f.units.empty()) ro.unit = units::parse_length_unit(f.units);
   if (f.scale != 1.0) ro.warn_on_implausible_size = false;
   geometry::MeshReadInfo info;
   geometry::TriMesh m = geometry::read_mesh(path, ro, &info);
   if (unit_m) *unit_m = units::to_metres(info.unit);
-  if (side) *side = info.side;
+  if (file) *file = info;
   if (f.scale != 1.0) geometry::scale(m, f.scale);
   return m;
 }
@@ -84,8 +84,8 @@ struct MeshInput {
 
 MeshInput read_mesh_input(const MeshFlags& f) {
   MeshInput in;
-  std::string file_side;
-  in.limb = read_scaled(f.limb, f, &in.file_unit_m, &file_side);
+  geometry::MeshReadInfo file;
+  in.limb = read_scaled(f.limb, f, &in.file_unit_m, &file);
   volume::LimbInputOptions& lo = in.lo;
   lo.type = geometry::parse_limb_type(f.type);
   if (f.bones != "auto" && f.bones != "estimate" && f.bones != "none") in.extra = read_scaled(f.bones, f);
@@ -95,10 +95,7 @@ MeshInput read_mesh_input(const MeshFlags& f) {
   if (!f.axis.empty()) lo.axis = design::parse_limb_direction(f.axis, design::LimbDirection::Axis, "mesh --axis");
   lo.force_size = f.force_size;
   if (!f.side.empty()) lo.side = geometry::parse_side(f.side);
-  if (f.side.empty() && !file_side.empty()) {
-    lo.side = geometry::parse_side(file_side);
-    log::info("mesh: {} limb (the limb file says so)", file_side);
-  }
+  for (const auto& note : volume::apply_file_hints(lo, file)) log::info("mesh: {}", note);
   if (f.cut_height_mm > 0) lo.cut_height_m = f.cut_height_mm * units::mm;
   lo.estimate_bones = f.bones != "none";
   return in;

@@ -84,6 +84,28 @@ TEST(LimbModel, AmpscanScanWithoutBonesGetsEstimatedBones) {
   expect_on_skin(m);
 }
 
+TEST(LimbModel, AnAaopFileGivesItsSideUnlessTheUserDoes) {
+  const fs::path file = SOCKETSMITH_SHARED_DATA_DIR "/aaop/example_transtibial.aop";
+  if (!fs::exists(file)) GTEST_SKIP() << "shared data absent: " << file;
+  geometry::MeshReadInfo info;
+  const geometry::TriMesh limb = geometry::read_mesh(file, {}, &info);
+  LimbInputOptions lo;
+  const std::vector<std::string> notes = apply_file_hints(lo, info);
+  ASSERT_EQ(notes.size(), 1u);
+  EXPECT_EQ(notes[0], "right limb (the limb file says so)");
+  ASSERT_TRUE(lo.side);
+  EXPECT_EQ(*lo.side, geometry::Side::Right);
+  const LimbModel m = prepare_limb(limb, {}, lo);  // the distal ring closed with a dome
+  EXPECT_EQ(m.frame.side, geometry::Side::Right);
+  EXPECT_FALSE(m.frame.side_estimated);
+  EXPECT_TRUE(geometry::check_mesh(m.skin).is_valid_closed_surface());
+  // What the user gives wins over the file.
+  LimbInputOptions given;
+  given.side = geometry::Side::Left;
+  EXPECT_TRUE(apply_file_hints(given, info).empty());
+  EXPECT_EQ(*given.side, geometry::Side::Left);
+}
+
 geometry::TriMesh read_tf_metres(const fs::path& file) {
   geometry::MeshReadOptions ro;
   ro.unit = units::LengthUnit::Metre;

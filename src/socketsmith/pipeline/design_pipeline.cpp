@@ -27,10 +27,10 @@ using geometry::Vec3;
 
 
 /// The limb surface (and extra bones) of a case, in metres.
-/// The limb (and a separate bone file's shells); @p file_side receives the side the limb file
-/// states (AAOP), else stays empty.
+/// The limb (and a separate bone file's shells); @p info receives what the limb file says beside
+/// its surface (an AAOP file's side and landmarks).
 std::pair<geometry::TriMesh, geometry::TriMesh> load_limb(const design::CaseFile& c, const fs::path& generated_stl,
-                                                          std::string& label, std::string& file_side) {
+                                                          std::string& label, geometry::MeshReadInfo& info) {
   geometry::TriMesh limb, extra;
   if (c.limb.file.empty()) {
     auto p = volume::default_params(c.limb.type, c.limb.generate_seed);
@@ -46,9 +46,7 @@ std::pair<geometry::TriMesh, geometry::TriMesh> load_limb(const design::CaseFile
   if (!c.limb.units.empty()) ro.unit = units::parse_length_unit(c.limb.units);
   // The size is checked against the limb type's anatomy once scaled (volume::check_limb_size).
   ro.warn_on_implausible_size = false;
-  geometry::MeshReadInfo info;
   limb = geometry::read_mesh(design::resolve(c, c.limb.file), ro, &info);
-  file_side = info.side;
   if (c.limb.bones != "auto" && c.limb.bones != "estimate" && c.limb.bones != "none")
     extra = geometry::read_mesh(design::resolve(c, c.limb.bones), ro);
   if (c.limb.scale != 1.0) {
@@ -173,17 +171,16 @@ std::unique_ptr<DesignSetup> prepare_design(const design::CaseFile& c, const fs:
   auto s = std::make_unique<DesignSetup>();
   s->case_file = c;
   report_progress(progress, 0.0, "design: reading the limb");
-  std::string file_side;
-  const auto [limb, extra] = load_limb(c, generated_limb_stl, s->limb_label, file_side);
+  geometry::MeshReadInfo file;
+  const auto [limb, extra] = load_limb(c, generated_limb_stl, s->limb_label, file);
   s->limb = limb;
-  const bool side_from_file = !c.limb.side && !file_side.empty();
-  const volume::LimbInputOptions lo{.type = c.limb.type, .axis = c.limb.axis, .anterior = c.limb.anterior,
-                                    .side = side_from_file ? geometry::parse_side(file_side) : c.limb.side,
-                                    .cut_height_m = c.limb.cut_height_m,
-                                    .estimate_bones = c.limb.bones != "none", .force_size = c.limb.force_size};
+  volume::LimbInputOptions lo{.type = c.limb.type, .axis = c.limb.axis, .anterior = c.limb.anterior,
+                              .side = c.limb.side, .cut_height_m = c.limb.cut_height_m,
+                              .estimate_bones = c.limb.bones != "none", .force_size = c.limb.force_size};
+  const std::vector<std::string> from_file = volume::apply_file_hints(lo, file);
   s->model = volume::prepare_limb(limb, extra, lo);
   auto& model = s->model;
-  if (side_from_file) model.notes.push_back(fmt::format("{} limb (the limb file says so)", file_side));
+  model.notes.insert(model.notes.begin(), from_file.begin(), from_file.end());
   for (const auto& [code, p] : c.landmarks) {
     volume::Landmark given;
     given.code = code;

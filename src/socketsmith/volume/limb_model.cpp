@@ -396,6 +396,15 @@ void limb_model_detail::decide_front(LimbPreparation& p, const std::vector<Shell
   decide_side(p, named, side_from_skin);
 }
 
+std::vector<std::string> apply_file_hints(LimbInputOptions& lo, const geometry::MeshReadInfo& info) {
+  std::vector<std::string> notes;
+  if (!lo.side && !info.side.empty()) {
+    lo.side = geometry::parse_side(info.side);
+    notes.push_back(fmt::format("{} limb (the limb file says so)", info.side));
+  }
+  return notes;
+}
+
 LimbModel prepare_limb(const TriMesh& limb, const TriMesh& extra_bones, const LimbInputOptions& opt) {
   LimbPreparation p(opt);
   check_limb_input(limb, opt);

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "socketsmith/geometry/limb_frame.h"
+#include "socketsmith/geometry/mesh_io.h"
 #include "socketsmith/geometry/mesh_repair.h"
 #include "socketsmith/geometry/tri_mesh.h"
 #include "socketsmith/volume/bone_template.h"
@@ -40,6 +41,11 @@ struct LimbInputOptions {
   /// (check_limb_size); otherwise such a limb is refused with the likely unit mistake.
   bool force_size = false;
 };
+
+/// Fills in @p lo what the limb file states (@p info: an AAOP file's header) and the user did not
+/// give: the side (LEFT / RIGHT). The file's landmarks are not used (geometry.md: the clinical
+/// example's do not lie on its surface). Returns one note per value taken from the file.
+std::vector<std::string> apply_file_hints(LimbInputOptions& lo, const geometry::MeshReadInfo& info);
 
 /// The anatomical size ranges of a limb type, after units (check_limb_size). Lengths along the
 /// limb axis from the distal end to the skin's highest point; widths are the diameter of the
