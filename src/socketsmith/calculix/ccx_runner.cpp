@@ -78,7 +78,8 @@ struct OutputParser {
 };
 
 /// Starts ccx on @p job in @p job_dir with @p threads threads and its address space capped at
-/// @p memory_limit_bytes (0: not capped), in a process group of its own (what the time limit kills), its stdout and stderr into the pipe's write end @p pipe_fds[1].
+/// @p memory_limit_bytes (0: not capped), in a process group of its own (what the time limit
+/// kills), its stdout and stderr into the pipe's write end @p pipe_fds[1].
 /// Returns its pid. @throws IoError when it cannot fork.
 pid_t start_ccx(const std::string& exe, const fs::path& job_dir, const std::string& job, int threads,
                 double memory_limit_bytes, const int pipe_fds[2]) {

@@ -14,14 +14,6 @@
 namespace socketsmith::geometry {
 namespace {
 
-/// Newell normal of a closed vertex loop: twice its vector area, right-handed with its order.
-Vec3 vector_area2(const std::vector<Vec3>& x, const std::vector<int>& loop) {
-  Vec3 n = Vec3::Zero();
-  const Vec3& o = x[loop.front()];
-  for (std::size_t i = 1; i + 1 < loop.size(); ++i) n += (x[loop[i]] - o).cross(x[loop[i + 1]] - o);
-  return n;
-}
-
 /// One rim vertex's spoke in the rim's frame: radial direction, distance from the axis, height
 /// along the axis (distal positive), and the inward slope of the surface there (axial per radial
 /// step towards the axis; 0 when the surface does not turn inward going distally).
@@ -97,7 +89,7 @@ std::string DistalDome::describe() const {
 std::optional<DistalDome> close_distal_opening(TriMesh& mesh) {
   const std::vector<std::vector<int>> loops = open_boundary_loops(mesh);
   if (loops.size() != 2) return std::nullopt;
-  const Vec3 n0 = vector_area2(mesh.vertices, loops[0]), n1 = vector_area2(mesh.vertices, loops[1]);
+  const Vec3 n0 = newell_normal(mesh.vertices, loops[0]), n1 = newell_normal(mesh.vertices, loops[1]);
   const bool first_smaller = n0.norm() <= n1.norm();
   const std::vector<int>& rim = first_smaller ? loops[0] : loops[1];
   const Vec3 n = first_smaller ? n0 : n1;
@@ -126,13 +118,7 @@ std::optional<DistalDome> close_distal_opening(TriMesh& mesh) {
   const int nv0 = mesh.num_vertices(), nt0 = static_cast<int>(mesh.triangles.size());
   const int n_rim = static_cast<int>(rim.size());
   std::vector<int> prev = rim, ring(rim.size());
-  for (int k = 1; k <= rings; ++k) {
-    if (k == rings) {
-      const int tip = mesh.num_vertices();
-      mesh.vertices.push_back(apex);
-      for (int i = 0; i < n_rim; ++i) mesh.triangles.push_back({prev[i], prev[(i + 1) % n_rim], tip});
-      break;
-    }
+  for (int k = 1; k < rings; ++k) {
     const double t = static_cast<double>(k) / rings;
     for (int i = 0; i < n_rim; ++i) {
       const Spoke& s = spokes[i];
@@ -149,6 +135,9 @@ std::optional<DistalDome> close_distal_opening(TriMesh& mesh) {
     }
     prev = ring;
   }
+  const int tip = mesh.num_vertices();
+  mesh.vertices.push_back(apex);
+  for (int i = 0; i < n_rim; ++i) mesh.triangles.push_back({prev[i], prev[(i + 1) % n_rim], tip});
   dome.added_vertices = mesh.num_vertices() - nv0;
   dome.added_triangles = static_cast<int>(mesh.triangles.size()) - nt0;
   return dome;

@@ -27,8 +27,9 @@ struct DistalDome {
 /// area of the other (a limb tapers to its distal end), closes that smaller loop with a dome and
 /// returns what it added; otherwise leaves @p mesh alone and returns nullopt.
 ///
-/// Each rim vertex starts a quadratic Bézier spoke: tangent at the rim to the surface there (the
-/// direction from its neighbours off the rim to it) and perpendicular to the axis at the apex. The
+/// Each rim vertex starts a quadratic Bézier spoke: tangent at the rim to the surface there (its
+/// slope from the mean distance to the axis and height of its neighbours off the rim) and
+/// perpendicular to the axis at the apex. The
 /// apex lies on the rim's normal through its centroid, at half the median depth at which the rims'
 /// tangents reach the axis (where a paraboloid tangent to them would end), between 0.15 and 1 times
 /// the rim's equivalent radius. Rings of the spokes, about one rim edge apart, are joined by

@@ -118,9 +118,7 @@ TriMesh read_aaop_mesh(std::string_view data, const std::string& name, const Mes
   // The format's unit is the millimetre: nothing to guess.
   inf.format = "aaop";
   const AaopShape shape = parse_aaop(data, name);
-  std::string side = shape.side;
-  std::transform(side.begin(), side.end(), side.begin(), [](unsigned char ch) { return std::tolower(ch); });
-  if (side == "left" || side == "right") inf.side = side;
+  if (const std::string side = lower(shape.side); side == "left" || side == "right") inf.side = side;
   bool distal_closed = false, proximal_closed = false;
   mesh = aaop_surface(shape, &distal_closed, &proximal_closed);
   const double f = options.unit ? units::to_metres(*options.unit) / units::mm : 1.0;

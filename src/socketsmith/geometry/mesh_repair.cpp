@@ -254,18 +254,6 @@ std::vector<Tri> triangulate_loop(const std::vector<Vec3>& vertices, const std::
   return tris;
 }
 
-/// Newell normal of a closed 3D polygon (not normalised): area-weighted, right-handed with the
-/// vertex order, well defined for non-planar loops.
-Vec3 newell_normal(const std::vector<Vec3>& vertices, const std::vector<int>& loop) {
-  Vec3 centroid = Vec3::Zero();
-  for (const int i : loop) centroid += vertices[i];
-  centroid /= static_cast<double>(loop.size());
-  Vec3 n = Vec3::Zero();
-  for (std::size_t k = 0; k < loop.size(); ++k)
-    n += (vertices[loop[k]] - centroid).cross(vertices[loop[(k + 1) % loop.size()]] - centroid);
-  return n;
-}
-
 /// Six times the signed volume enclosed by the listed triangles (relative to their first vertex,
 /// for accuracy far from the origin).
 double six_volume(const std::vector<Vec3>& vertices, const std::vector<Tri>& tris, const std::vector<int>& which) {
@@ -509,6 +497,16 @@ std::vector<std::string> RepairReport::changes() const {
   if (filled_holes > 0) out.push_back("filled " + count_of(filled_holes, "small hole", "small holes"));
   if (flipped_inside_out) out.push_back("turned an inside-out surface (negative volume) outward");
   return out;
+}
+
+Vec3 newell_normal(const std::vector<Vec3>& vertices, const std::vector<int>& loop) {
+  Vec3 centroid = Vec3::Zero();
+  for (const int i : loop) centroid += vertices[i];
+  centroid /= static_cast<double>(loop.size());
+  Vec3 n = Vec3::Zero();
+  for (std::size_t k = 0; k < loop.size(); ++k)
+    n += (vertices[loop[k]] - centroid).cross(vertices[loop[(k + 1) % loop.size()]] - centroid);
+  return n;
 }
 
 std::vector<std::vector<int>> open_boundary_loops(const TriMesh& mesh) {

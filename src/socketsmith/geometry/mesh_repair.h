@@ -40,6 +40,10 @@ RepairReport repair_surface(TriMesh& mesh, const RepairOptions& options = {});
 /// faces the same way as they do. @throws InvalidInputError for NaN/inf or indices out of range.
 std::vector<std::vector<int>> open_boundary_loops(const TriMesh& mesh);
 
+/// Newell normal of the closed vertex loop @p loop (indices into @p vertices): twice its vector
+/// area, right-handed with the loop's order, well defined for non-planar loops (not normalised).
+Vec3 newell_normal(const std::vector<Vec3>& vertices, const std::vector<int>& loop);
+
 /// Result of trim_and_cap.
 struct TrimResult {
   /// Kept part + caps (vertices renumbered), closed when the kept part had no other hole.

@@ -26,9 +26,8 @@ namespace fs = std::filesystem;
 using geometry::Vec3;
 
 
-/// The limb surface (and extra bones) of a case, in metres.
-/// The limb (and a separate bone file's shells); @p info receives what the limb file says beside
-/// its surface (an AAOP file's side and landmarks).
+/// The limb surface (and a separate bone file's shells) of a case, in metres; @p info receives
+/// what the limb file says beside its surface (an AAOP file's side and landmarks).
 std::pair<geometry::TriMesh, geometry::TriMesh> load_limb(const design::CaseFile& c, const fs::path& generated_stl,
                                                           std::string& label, geometry::MeshReadInfo& info) {
   geometry::TriMesh limb, extra;
