@@ -318,6 +318,23 @@ TEST(DesignCheck, the_lip_alone_moves_only_the_points_past_the_brim) {
     }
 }
 
+// A socket whose brim the closed loop raised: its own brim bounds the shell, the design's still
+// says which nodes are compared (brim rings).
+TEST(DesignCheck, a_raised_socket_brim_bounds_the_shell_and_not_the_designs) {
+  BoxStump box;
+  DesignedStump& d = box.d;
+  const std::vector<int> skin_of = box.with_brim_at_35mm();
+  const auto design_quads = socket_quads_below_brim(d, skin_of, false);
+  EXPECT_EQ(&outside_socket(d), &d.above_brim);
+  d.above_socket_brim.assign(d.above_brim.size(), 0);  // the socket's brim above the whole box
+  EXPECT_EQ(&outside_socket(d), &d.above_socket_brim);
+  const auto socket_quads = socket_quads_below_brim(d, skin_of, false);
+  EXPECT_GT(socket_quads.size(), design_quads.size());
+  EXPECT_EQ(socket_quads.size(), box.skin.quads.size());
+  d.above_socket_brim.pop_back();
+  EXPECT_THROW(outside_socket(d), InvalidInputError);
+}
+
 // A quad laid across the brim onto a lip that curves back on itself folds (OpenLimb TT 5.9k: ccx
 // refused the deck, "nonpositive jacobian"): it is left out; the shell below the brim is whole.
 TEST(DesignCheck, a_shell_quad_folded_over_the_lip_is_left_out) {

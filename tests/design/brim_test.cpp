@@ -186,6 +186,37 @@ TEST(BrimLine, key_points_can_be_moved_and_given_explicitly) {
   EXPECT_THROW(brim_from_key_points({{"a", 0.0, 0.1}, {"b", 1.0, 0.1}}), InvalidInputError);
 }
 
+TEST(BrimLine, raised_locally_where_lifted_and_unchanged_elsewhere) {
+  const auto& l = tt_limb();
+  const BrimLine b = make_brim(BrimTemplate::Ptb, LimbType::Transtibial, l.landmarks, l.cut_height_m);
+  const double posterior = std::numbers::pi - 0.1, cap = b.max_height() + 50 * kMm;
+  const BrimLine r = raise_brim(b, {{posterior, 4 * kMm}, {posterior + 0.05, 2 * kMm}, {1.0, -3 * kMm}}, 10 * kDeg, cap);
+  EXPECT_EQ(r.kind(), b.kind());
+  for (int k = -100; k <= 100; ++k) {  // within ±10° of the lift: raised by it (the larger of two)
+    const double th = posterior + k * 0.1 * kDeg;
+    EXPECT_NEAR(r.height(th) - b.height(th), 4 * kMm, 0.1 * kMm) << k;
+  }
+  for (int k = 0; k < 720; ++k) {
+    const double th = -std::numbers::pi + k * 0.5 * kDeg;
+    const double d = std::abs(std::remainder(th - posterior, 2 * std::numbers::pi));
+    const double up = r.height(th) - b.height(th);
+    EXPECT_GE(up, -0.1 * kMm) << th;          // never lower (the negative lift does nothing)
+    EXPECT_LE(up, 4 * kMm + 0.1 * kMm) << th;
+    if (d >= 23 * kDeg) {
+      EXPECT_NEAR(up, 0.0, 0.1 * kMm) << th;  // beyond both easings: the brim as it was
+    }
+  }
+  // Capped: never above max_height_m where it was below, never lowered where it was above.
+  const double low_cap = b.height(posterior) + 1 * kMm;
+  const BrimLine c = raise_brim(b, {{posterior, 4 * kMm}}, 10 * kDeg, low_cap);
+  EXPECT_NEAR(c.height(posterior), low_cap, 0.1 * kMm);
+  EXPECT_NEAR(c.height(0.0), b.height(0.0), 0.1 * kMm);  // the anterior brim, above the cap, stays
+  // Nothing to lift: the same line, key points and all.
+  EXPECT_EQ(raise_brim(b, {{0.0, 0.0}}, 10 * kDeg, cap).key_points().size(), b.key_points().size());
+  EXPECT_THROW(raise_brim(b, {{std::nan(""), 1 * kMm}}, 10 * kDeg, cap), InvalidInputError);
+  EXPECT_THROW(raise_brim(b, {{0.0, 1 * kMm}}, 0.0, cap), InvalidInputError);
+}
+
 TEST(BrimLine, above_brim_compares_h_with_the_curve_in_the_frame) {
   const auto& l = tt_limb();
   const BrimLine b = make_brim(BrimTemplate::Ptb, LimbType::Transtibial, l.landmarks, l.cut_height_m);

@@ -69,6 +69,7 @@ class ClosedLoopRun : public ::testing::Test {
     design::CaseFile c = demo_case(1800);
     c.closed_loop = true;
     c.closed_loop_donnings = 3;
+    c.closed_loop_max_brim_raise_m = 0.010;  // the loop may raise the socket's brim (off by default)
     art_ = new DesignArtifacts;
     summary_ = new nlohmann::json(run_design(c, out_, true, {}, art_));
   }
@@ -135,11 +136,12 @@ TEST_F(ClosedLoopRun, the_corrected_socket_delivers_the_design_better_than_the_o
   EXPECT_NEAR(loop.iterations[0].below_brim.mae, open.mae, 1e-6);
   EXPECT_NEAR(loop.iterations[loop.best].below_brim.mae, closed.mae, 1e-6);
   EXPECT_NEAR(loop.iterations[loop.best].below_brim.p99, closed.p99, 1e-6);
-  // Measured at 1.8k nodes (the default neo-Hookean stump, nonlinear; 3 donnings + 12 refits, donning
-  // 2 kept, 3 nodes dragged above the brim by it; the smoothed wall fitted to the skin, 2026-12-01):
-  // MAE 3.38 → 0.67 kPa, 99th percentile 13.3 → 6.4 kPa, R 0.832 → 0.962. Bars: issue 20's MAE (1.5 kPa) and R (0.95) with a margin below them; its 99th
-  // percentile (4 kPa) is met at 3k and 8k nodes, not here. (When the nodes dragged above the brim
-  // still corrected the wall: MAE 0.95 kPa, 99th percentile 9.5 kPa.)
+  // Measured at 1.8k nodes (the default neo-Hookean stump, nonlinear; 3 donnings + 8 refits, donning
+  // 3 kept, the socket's brim raised up to 9.8 mm where donning dragged skin above it, none left
+  // out, 2026-12-02): MAE 3.38 → 0.50 kPa, 99th percentile 13.3 → 4.29 kPa, R 0.832 → 0.985. Bars:
+  // issue 20's MAE (1.5 kPa) and R (0.95) with a margin below them; its 99th percentile (4 kPa) is
+  // met at 3k and 8k nodes, not here. (With the design's brim, 3 nodes dragged above it: MAE
+  // 0.67, p99 6.4, R 0.962; when those nodes still corrected the wall: MAE 0.95, p99 9.5.)
   EXPECT_LT(closed.mae, 0.5 * open.mae) << "open " << open.mae << " Pa, closed " << closed.mae << " Pa";
   EXPECT_LT(closed.mae, 1.2e3);
   EXPECT_LT(closed.p99, 7e3);
@@ -160,10 +162,11 @@ TEST_F(ClosedLoopRun, the_corrected_socket_delivers_the_design_better_than_the_o
   ASSERT_TRUE(d.completed && d.stood) << d.message;
   for (size_t i = 0; i < skin.nodes.size(); ++i)
     EXPECT_NEAR(d.contacts[i].pressure_pa, loop.closed_loop_pa[i], 1.0) << "skin node " << i;
-  // The nodes flagged as dragged out of the socket are those this donning leaves above the brim
-  // (height above brim(θ) in the socket's frame, from the cylindrical coordinates here), and the
-  // in-socket figures are over the others.
+  // The nodes flagged as dragged out of the socket are those this donning leaves above the socket's
+  // brim (height above brim(θ) in the socket's frame, from the cylindrical coordinates here), and
+  // the in-socket figures are over the others.
   const auto& frame = setup.model.frame;
+  const design::BrimLine& brim = loop.socket_brim;
   const Eigen::Vector3d stood = d.final_offset_m * frame.axis.normalized();
   std::vector<char> in_socket(skin.nodes.size(), 0);
   int dragged = 0;
@@ -172,12 +175,12 @@ TEST_F(ClosedLoopRun, the_corrected_socket_delivers_the_design_better_than_the_o
   for (size_t i = 0; i < skin.nodes.size(); ++i) {
     if (!loop.below_brim[i]) continue;
     const auto cy = frame.to_cylindrical(d.positions.segment<3>(3 * skin.nodes[i]) - stood);
-    const bool above = cy.h > setup.brim.height(cy.theta);
+    const bool above = cy.h > brim.height(cy.theta);
     EXPECT_EQ(loop.dragged_out[i] != 0, above) << "skin node " << i;
     dragged += above ? 1 : 0;
     in_socket[i] = above ? 0 : 1;
     if (!above) continue;
-    highest = std::max(highest, cy.h - setup.brim.height(cy.theta));
+    highest = std::max(highest, cy.h - brim.height(cy.theta));
     // Inside the arc reported (degrees from anterior towards medial, through increasing angles).
     const double deg = std::fmod(cy.theta * 180 / M_PI + 360, 360);
     const double span = std::fmod(kept.dragged_out_to_deg - kept.dragged_out_from_deg + 360, 360);
@@ -185,17 +188,31 @@ TEST_F(ClosedLoopRun, the_corrected_socket_delivers_the_design_better_than_the_o
   }
   EXPECT_EQ(dragged, kept.dragged_out);
   EXPECT_NEAR(kept.dragged_out_height_m, highest, 1e-12);
-  EXPECT_GT(dragged, 0);  // 3 at 1.8k: friction drags the ring below the brim up by about a node spacing
+  // Friction drags the ring below the design's brim up by about a node spacing (4.7 mm at 1.8k):
+  // the socket's brim rose there (ClosedLoopOptions::max_brim_raise_m), never fell, and keeps them in.
+  EXPECT_EQ(dragged, 0);
+  double raised = 0;
+  for (int k = 0; k < 720; ++k) {
+    const double theta = -M_PI + k * M_PI / 360;
+    const double up = brim.height(theta) - setup.brim.height(theta);
+    EXPECT_GT(up, -1e-4) << theta;
+    raised = std::max(raised, up);
+  }
+  EXPECT_NEAR(raised, kept.brim_raise_m, 1e-9);
+  EXPECT_GT(raised, 3e-3);
+  EXPECT_LE(raised, 0.010 + 1e-4);
   const Agreement kept_in = agreement(loop.closed_loop_pa, loop.target_pa, in_socket);
   EXPECT_NEAR(loop.iterations[loop.best].in_socket.p99, kept_in.p99, 1e-6);
   EXPECT_NEAR(loop.iterations[loop.best].in_socket.mae, kept_in.mae, 1e-6);
-  // A node dragged above the brim corrects no wall: its deficit does not pull the rim in. (When it
-  // did, each correction moved the wall vertices above the brim further in: −2.6 mm in the socket
-  // kept here, to the 5 mm clamp on generated limbs; −0.75 mm now.)
+  // A node dragged above the socket's brim corrects no wall: its deficit does not pull the rim in.
+  // (When it did, each correction moved the wall vertices above the brim further in, to the 5 mm
+  // clamp on generated limbs. What is left is the corrections of the nodes just below the raised
+  // brim, moved onto the vertices near where they touch: −2.3 mm here, 2026-12-02.)
   double rim_in = 0;
   for (size_t i = 0; i < skin.nodes.size(); ++i)
-    if (!loop.below_brim[i]) rim_in = std::min(rim_in, loop.wall_offset_m[i]);
-  EXPECT_GT(rim_in, -1.5e-3);
+    if (design::above_brim(brim, art_->result.state.skin_positions[i], frame))
+      rim_in = std::min(rim_in, loop.wall_offset_m[i]);
+  EXPECT_GT(rim_in, -3e-3);
   // Where the loop moved the wall: within its bound, and not nowhere.
   double max_offset = 0;
   for (double v : loop.wall_offset_m) max_offset = std::max(max_offset, std::abs(v));
@@ -211,6 +228,8 @@ TEST_F(ClosedLoopRun, outputs_carry_the_designed_open_and_closed_loop_pressures)
   EXPECT_EQ(j["donnings"].get<long>(), full);
   EXPECT_EQ(j["donnings"].get<long>() + j["refits"].get<long>(), static_cast<long>(loop.iterations.size()));
   EXPECT_FALSE(loop.iterations[loop.best].refit);  // the socket kept was donned from scratch
+  // Converged means every tolerance, the landmarks' too (ClosedLoopOptions::landmark_tolerance).
+  if (loop.converged) EXPECT_LE(loop.iterations[loop.best].landmark_deviation, ClosedLoopOptions{}.landmark_tolerance);
   EXPECT_GE(j["kept_donning"].get<int>(), 1);
   EXPECT_NEAR(j["regions"]["below_brim"]["closed_loop"]["mae_kpa"].get<double>(),
               loop.iterations[loop.best].below_brim.mae / 1e3, 1e-9);
@@ -331,6 +350,37 @@ TEST(ClosedLoop, refuses_bad_options_and_a_design_without_a_socket) {
   o = {};
   o.check_newton_ratio = 0;
   EXPECT_THROW(close_design_loop(*setup, r, o), InvalidInputError);
+  o = {};
+  o.max_brim_raise_m = -1e-3;
+  EXPECT_THROW(close_design_loop(*setup, r, o), InvalidInputError);
+  o = {};
+  o.landmark_tolerance = 0;
+  EXPECT_THROW(close_design_loop(*setup, r, o), InvalidInputError);
+}
+
+// design.closed_loop_max_brim_raise_mm 0, the default (the brim stays where the prosthetist drew
+// it): the socket keeps the design's brim, and the skin donning drags above it stays out (the lip
+// alone presses it), as the report says.
+TEST(ClosedLoop, a_brim_the_case_does_not_let_rise_stays_the_designs_and_the_dragged_out_nodes_are_said) {
+  design::CaseFile c = demo_case(1800);
+  c.closed_loop = true;
+  c.closed_loop_donnings = 2;
+  EXPECT_EQ(c.closed_loop_max_brim_raise_m, 0.0);
+  const fs::path out = fs::path(SOCKETSMITH_BINARY_DIR) / "tests" / ("closed_loop_fixed_brim_" + std::to_string(::getpid()));
+  DesignArtifacts art;
+  run_design(c, out, true, {}, &art);
+  fs::remove_all(out);
+  ASSERT_TRUE(art.result.closed_loop.has_value());
+  const ClosedLoopResult& loop = *art.result.closed_loop;
+  const auto& brim = art.setup->brim;
+  for (int k = 0; k < 720; ++k) {
+    const double theta = -M_PI + k * M_PI / 360;
+    EXPECT_NEAR(loop.socket_brim.height(theta), brim.height(theta), 1e-12) << theta;
+  }
+  for (const auto& it : loop.iterations) EXPECT_EQ(it.brim_raise_m, 0.0);
+  const ClosedLoopIteration& kept = loop.iterations[loop.best];
+  EXPECT_GT(kept.dragged_out, 0);  // 3 at 1.8k (2026-12-01), up to 4.7 mm above the brim
+  EXPECT_THAT(dragged_out_advice(kept), ::testing::HasSubstr("lets the closed loop raise it"));
 }
 
 // A corrected socket's donning may spend only a multiple of the open-loop donning's Newton

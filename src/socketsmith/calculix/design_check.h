@@ -48,7 +48,10 @@ struct DesignedStump {
   std::vector<double> pressure_pa;             ///< designed (applied) pressure per skin node [Pa]
   std::vector<Vec3> skin_normals;              ///< deformed outward normals per skin node
   std::vector<double> skin_areas_m2;           ///< deformed nodal areas per skin node [m²]
-  std::vector<char> above_brim;                ///< per skin node: above the brim (no socket)
+  std::vector<char> above_brim;                ///< per skin node: above the design's brim (not compared)
+  /// Per skin node: above the socket's brim (no socket there), where it differs from the design's
+  /// (the closed loop raised it: pipeline::ClosedLoopOptions::max_brim_raise_m); empty: above_brim.
+  std::vector<char> above_socket_brim;
   /// The socket's inner wall at each skin node [m] when it is not the designed skin (the closed
   /// loop moved it by δ along the designed normals); empty: the designed skin is the wall. The
   /// donning check's rigid socket is built on it.

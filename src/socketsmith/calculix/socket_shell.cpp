@@ -10,12 +10,19 @@
 
 namespace socketsmith::calculix {
 
+const std::vector<char>& outside_socket(const DesignedStump& d) {
+  require(d.above_socket_brim.empty() || d.above_socket_brim.size() == d.above_brim.size(),
+          "check_design: {} socket-brim flags for {} skin nodes", d.above_socket_brim.size(), d.above_brim.size());
+  return d.above_socket_brim.empty() ? d.above_brim : d.above_socket_brim;
+}
+
 std::vector<std::array<int, 4>> socket_quads_below_brim(const DesignedStump& d, const std::vector<int>& skin_of,
                                                         bool across_brim) {
+  const std::vector<char>& no_socket = outside_socket(d);
   std::vector<std::array<int, 4>> socket_quads;  // local skin ids
   for (const auto& q : d.skin->quads) {
     std::array<int, 4> l{skin_of[q[0]], skin_of[q[1]], skin_of[q[2]], skin_of[q[3]]};
-    const int above = (d.above_brim[l[0]] != 0) + (d.above_brim[l[1]] != 0) + (d.above_brim[l[2]] != 0) + (d.above_brim[l[3]] != 0);
+    const int above = (no_socket[l[0]] != 0) + (no_socket[l[1]] != 0) + (no_socket[l[2]] != 0) + (no_socket[l[3]] != 0);
     if (above == 0 || (across_brim && above < 4)) socket_quads.push_back(l);
   }
   require(!socket_quads.empty(), "check_design: no skin quad lies wholly below the brim (no socket to check)");
@@ -78,9 +85,10 @@ RigidShell donned_skin_shell(const DesignedStump& d, const std::vector<std::arra
   }
   QuadSurface s = subdivide_quads(inner, normal, socket_quads, subdivision);
   const size_t per = static_cast<size_t>(subdivision) * subdivision;
+  const std::vector<char>& no_socket = outside_socket(d);
   const auto across_brim = [&](size_t k) {
     const auto& parent = socket_quads[k / per];
-    return std::any_of(parent.begin(), parent.end(), [&](int v) { return d.above_brim[v] != 0; });
+    return std::any_of(parent.begin(), parent.end(), [&](int v) { return no_socket[v] != 0; });
   };
   // used: 1 a point of the shell; 2 of a quad below the brim too. Without shell_on_wall only the
   // lip's own points (of quads across the brim alone) are laid on the wall.

@@ -12,8 +12,12 @@
 
 namespace socketsmith::calculix {
 
+/// Per skin node: no socket there (above the socket's brim: DesignedStump::above_socket_brim, else
+/// above_brim). @throws InvalidInputError when the socket's flags do not match the skin.
+const std::vector<char>& outside_socket(const DesignedStump& d);
+
 /// The skin quads (in local skin ids; @p skin_of maps mesh node → local skin id) that lie wholly
-/// below the brim: the socket's; @p across_brim: also those with a node below it (the shell laid on
+/// below the socket's brim (outside_socket): the socket's; @p across_brim: also those with a node below it (the shell laid on
 /// socketsmith's wall reaches its rim and lip).
 /// @throws InvalidInputError when no quad lies below the brim.
 std::vector<std::array<int, 4>> socket_quads_below_brim(const DesignedStump& d, const std::vector<int>& skin_of,

@@ -121,6 +121,20 @@ BrimTemplate default_brim(geometry::LimbType type);
 /// A brim from explicit key points (case file). @throws as the BrimLine constructor.
 BrimLine brim_from_key_points(std::vector<BrimKeyPoint> key_points, BrimTemplate kind = BrimTemplate::Custom);
 
+/// Where a brim must rise: at angle theta [rad] by at least lift_m [m].
+struct BrimLift {
+  double theta = 0.0;
+  double lift_m = 0.0;
+};
+
+/// @p brim raised locally: by the largest lift whose angle lies within @p plateau_rad, then easing
+/// (cos²) to nothing over another @p plateau_rad, and never above @p max_height_m (where the brim
+/// already lies above it, it stays). The result is sampled every 2.5° (144 key points, labelled
+/// "raised"), keeps the brim's kind, and equals @p brim within 0.1 mm where nothing lifts it (the
+/// Akima spline through samples of a smooth curve). No positive lift: @p brim unchanged.
+/// @throws InvalidInputError for a non-finite lift or a plateau outside (0, π/2].
+BrimLine raise_brim(const BrimLine& brim, const std::vector<BrimLift>& lifts, double plateau_rad, double max_height_m);
+
 /// Limits of validate_brim.
 struct BrimValidationOptions {
   double top_margin_m = 0.0;            ///< key points must lie at least this below the skin's top [m]

@@ -86,6 +86,10 @@ struct CaseFile {
   /// levels (closes_loop; docs/design.md, "Closed loop").
   std::optional<bool> closed_loop;
   int closed_loop_donnings = 4;            ///< donnings at most, the open-loop socket's included, 1–20
+  /// How far the closed loop may raise the socket's brim above the design's where donning drags
+  /// skin designed below it out of the socket [m], 0–0.05; 0 (the default): never — the brim is the
+  /// prosthetist's line (e.g. low posteriorly for knee flexion). pipeline::ClosedLoopOptions::max_brim_raise_m.
+  double closed_loop_max_brim_raise_m = 0.0;
   /// The closed loop's donnings — and the case's other donnings of its socket (`simulate donning
   /// --case`, `validate design`) — against a wall the skin does not penetrate (augmented Lagrangian
   /// contact, ContactOptions::augmented_tol) instead of the penalty's ~60 µm at 15 kPa: the

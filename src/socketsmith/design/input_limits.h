@@ -59,6 +59,9 @@ inline constexpr InputLimit kMaxAmplitude{"design.spots[].max_amplitude_kpa", "k
                                           "the optimiser's bound on the spot's amplitude; 0 = none"};
 inline constexpr InputLimit kClosedLoopDonnings{"design.closed_loop_donnings", "", 1, 20, false, false, true,
                                                 "donnings at most, the open-loop socket's included (default 4)"};
+inline constexpr InputLimit kClosedLoopBrimRaise{"design.closed_loop_max_brim_raise_mm", "mm", 0, 50, false, false, false,
+                                                 "how far the closed loop may raise the socket's brim where donning "
+                                                 "drags skin out of it, in mm (e.g. 10); 0 = never (the default)"};
 inline constexpr InputLimit kTimeLimit{"design.time_limit_s", "s", 0, 86400, true, false, false,
                                        "the optimiser's wall-time bound in seconds (e.g. 60)"};
 inline constexpr InputLimit kCutHeight{"limb.cut_height_mm", "mm", 0, 2000, true, false, false,

@@ -40,6 +40,10 @@ void check_options(const ClosedLoopOptions& o) {
           o.smoothing_passes);
   require(std::isfinite(o.max_offset_m) && o.max_offset_m > 0 && o.max_offset_m <= 0.02,
           "closed loop: largest wall correction {} mm (expected in (0, 20] mm)", o.max_offset_m * 1e3);
+  require(!std::isnan(o.landmark_tolerance) && o.landmark_tolerance > 0,
+          "closed loop: landmark tolerance {} (expected > 0; infinity: landmarks do not count)", o.landmark_tolerance);
+  require(std::isfinite(o.max_brim_raise_m) && o.max_brim_raise_m >= 0 && o.max_brim_raise_m <= 0.05,
+          "closed loop: largest brim raise {} mm (expected in [0, 50] mm)", o.max_brim_raise_m * 1e3);
   require(std::isfinite(o.check_newton_ratio) && o.check_newton_ratio > 0 && o.check_newton_min >= 0,
           "closed loop: a corrected socket's Newton limit {} × the open-loop donning's, at least {} (expected > 0, ≥ 0)",
           o.check_newton_ratio, o.check_newton_min);
@@ -192,6 +196,7 @@ std::vector<double> wall_corrections(design::DesignSolver& solver, const design:
   return corrections_on_wall(wall, donned, corr, in_socket, 0.5 * spacing);
 }
 
+constexpr double kBrimPlateau = 10.0 * std::numbers::pi / 180.0;  // ClosedLoopOptions::max_brim_raise_m
 constexpr double kWorseMargin = 1.05;  // a refit is worse than its round's best above this × its score
 /// A refit is checked by a donning from scratch once its tolerance_score is at most this: a refit and
 /// a donning of the same socket differ by path noise (8k demo: a refit's p99 3.40 kPa, score 0.9,
@@ -204,6 +209,7 @@ struct RoundBest {  ///< a socket of the closed loop and its tolerance_score
   double score = std::numeric_limits<double>::infinity();
   std::vector<double> offset;
   design::SocketResult socket;
+  design::BrimLine brim;
 };
 
 /// The shortest arc holding every angle of @p theta [rad]: (from, to) through increasing angles
@@ -296,6 +302,17 @@ class LoopRun {
             compared_.size());
     for (int i : compared_) spacing_ += std::sqrt(skin_.area_m2[i]) / static_cast<double>(compared_.size());
     landmarks_ = LandmarkTargets(setup, r_.below_brim, r_.target_pa);
+    socket_brim_ = setup.brim;
+    lifts_.assign(n_, {});
+    // The brim may rise to a node spacing below the lowest point of the skin's top edge (the
+    // highest skin point of each 10° sector).
+    std::vector<double> top(36, -std::numeric_limits<double>::infinity());
+    for (const Vec3& v : result.deformed_skin.vertices) {
+      const geometry::Cylindrical cy = setup.model.frame.to_cylindrical(v);
+      const int k = std::clamp(static_cast<int>((cy.theta + std::numbers::pi) / (2 * std::numbers::pi) * 36), 0, 35);
+      top[k] = std::max(top[k], cy.h);
+    }
+    max_brim_h_ = *std::min_element(top.begin(), top.end()) - spacing_;
   }
 
   ClosedLoopResult run() {
@@ -309,10 +326,10 @@ class LoopRun {
       const std::vector<double> delivered = record(d, refitted);
       const ClosedLoopIteration& it = r_.iterations.back();
       const double score = tolerance_score(it, options_);
-      const bool within = score <= 1.0;
+      const bool within = score <= 1.0 && it.landmark_deviation <= options_.landmark_tolerance;
       if (!refitted) {
-        round_ = {score, offset_, socket_};
-        keep_if_best(score, delivered, d);
+        round_ = {score, offset_, socket_, socket_brim_};
+        keep_if_best(score, within, delivered, d);
         if (within) {
           r_.converged = true;
           r_.message = fmt::format("converged after {} donnings and {} refits: below the brim MAE {:.2f} kPa, 99th "
@@ -331,10 +348,10 @@ class LoopRun {
       // donning's 0.67 / 5.17 stopped the loop there; two more refits and a donning reached 0.39 / 3.45).
       const bool worse = refitted && score >= kWorseMargin * round_.score;
       if (worse && refits_ == 1) break;
-      if (refitted && score < round_.score) round_ = {score, offset_, socket_};
+      if (refitted && score < round_.score) round_ = {score, offset_, socket_, socket_brim_};
       if (refitted && (score <= kCheckScore || worse || refits_ >= options_.refits_per_donning)) {
         if (full_donnings_ >= options_.max_donnings) break;
-        if (score > round_.score) std::tie(offset_, socket_) = std::tie(round_.offset, round_.socket);
+        if (score > round_.score) std::tie(offset_, socket_, socket_brim_) = std::tie(round_.offset, round_.socket, round_.brim);
         d = don_from_scratch();
         refitted = false;
         continue;
@@ -423,11 +440,14 @@ class LoopRun {
     std::vector<double> angles;
     for (int i : compared_) {
       const geometry::Cylindrical cy = setup_.model.frame.to_cylindrical(donned_[i]);
-      const double above = cy.h - setup_.brim.height(cy.theta);  // as design::above_brim
+      const double above = cy.h - socket_brim_.height(cy.theta);  // as design::above_brim
       if (above <= 0) {
         in_socket_.push_back(i);
         continue;
       }
+      // ClosedLoopOptions::max_brim_raise_m: the next socket's brim clears this node by a spacing.
+      const double lift = std::min(cy.h - setup_.brim.height(cy.theta) + 0.5 * spacing_, options_.max_brim_raise_m);
+      if (lift > lifts_[i].lift_m) lifts_[i] = {cy.theta, lift};
       dragged_out_[i] = 1;
       ++it.dragged_out;
       it.dragged_out_max_target_pa = std::max(it.dragged_out_max_target_pa, r_.target_pa[i]);
@@ -440,6 +460,7 @@ class LoopRun {
       it.dragged_out_to_deg = shown_deg(to);
     }
     if (in_socket_.size() >= 3) it.in_socket = report::compare_fields(delivered, r_.target_pa, in_socket_);
+    it.brim_raise_m = brim_raise_m_;
     it.stood_offset_m = d.final_offset_m;
     it.axial_friction_n = d.series.empty() ? 0.0 : d.series.back().axial_friction_n;
     it.factorizations = d.series.empty() ? 0 : static_cast<int>(d.series.back().factorizations);
@@ -452,6 +473,8 @@ class LoopRun {
               landmark_note(it),
               it.axial_friction_n, state_.radar.stability_n, it.max_offset_m * 1e3, d.seconds);
     if (it.dragged_out > 0) log::info("closed loop: {} —{}", refitted ? "refit" : "donning", dragged_out_note(it));
+    if (it.brim_raise_m > 0)
+      log::info("closed loop: the socket's brim rose up to {:.1f} mm above the design's", it.brim_raise_m * 1e3);
     // Friction: the design counts on sliding friction μ p at every node (its axial share μ p |n × a|);
     // donned and stood, the socket mobilises a share of what its delivered pressures make available
     // (nodes stuck by the donning's friction history carry less).
@@ -467,16 +490,18 @@ class LoopRun {
     return delivered;
   }
 
-  /// The socket kept is the one closest to the tolerances among those donned from scratch: the
-  /// smallest max(MAE / tol, p99 / tol).
-  void keep_if_best(double score, const std::vector<double>& delivered, const contact::DonningResult& d) {
-    if (score >= best_score_) return;
+  /// The socket kept, among those donned from scratch: one @p within every tolerance (landmarks
+  /// included) before one that is not, then the smallest max(MAE / tol, p99 / tol).
+  void keep_if_best(double score, bool within, const std::vector<double>& delivered, const contact::DonningResult& d) {
+    if (within == best_within_ ? score >= best_score_ : best_within_) return;
     best_score_ = score;
+    best_within_ = within;
     r_.best = static_cast<int>(r_.iterations.size()) - 1;
     r_.closed_loop_pa = delivered;
     r_.wall_offset_m = offset_;
     r_.dragged_out = dragged_out_;
     r_.socket = socket_;
+    r_.socket_brim = socket_brim_;
     r_.donning = d;
   }
 
@@ -493,7 +518,15 @@ class LoopRun {
     geometry::TriMesh inner = result_.deformed_skin;
     for (size_t i = 0; i < n_; ++i) inner.vertices[i] += offset_[i] * state_.skin_normals[i];
     try {
-      socket_ = design::build_socket(inner, setup_.model.frame, setup_.brim, sopt_);
+      if (options_.max_brim_raise_m > 0) {
+        socket_brim_ = design::raise_brim(setup_.brim, lifts_, kBrimPlateau, max_brim_h_);
+        brim_raise_m_ = 0;
+        for (int k = 0; k < 720; ++k) {
+          const double theta = -std::numbers::pi + k * std::numbers::pi / 360;
+          brim_raise_m_ = std::max(brim_raise_m_, socket_brim_.height(theta) - setup_.brim.height(theta));
+        }
+      }
+      socket_ = design::build_socket(inner, setup_.model.frame, socket_brim_, sopt_);
     } catch (const Error& e) {
       r_.message = fmt::format("stopped after {} donnings: the corrected socket could not be built ({})",
                                full_donnings_, e.what());
@@ -508,9 +541,11 @@ class LoopRun {
     if (r_.message.empty()) {
       const ClosedLoopIteration& kept = r_.iterations[r_.best];
       const auto& b = kept.below_brim;  // all of them, the dragged-out ones included
-      r_.message = fmt::format("{} donnings without meeting the tolerances ({:.2f} / {:.2f} kPa); "
+      r_.message = fmt::format("{} donnings without meeting the tolerances (MAE {:.2f}, p99 {:.2f} kPa, landmarks "
+                               "within {:.0f} %); "
                                "kept donning {}: MAE {:.2f} kPa, 99th percentile {:.2f} kPa{}{}",
                                full_donnings_, options_.mae_tolerance_pa / 1e3, options_.p99_tolerance_pa / 1e3,
+                               100 * options_.landmark_tolerance,
                                r_.kept_donning, b.mae / 1e3, b.p99 / 1e3,
                                landmark_note(kept), dragged_out_note(kept));
     }
@@ -528,6 +563,10 @@ class LoopRun {
   contact::DonningOptions don_;
   design::SocketOptions sopt_;
   std::vector<int> compared_;  // skin nodes below the brim
+  design::BrimLine socket_brim_;             // the brim of socket_ (ClosedLoopOptions::max_brim_raise_m)
+  std::vector<design::BrimLift> lifts_;      // per skin node: how far the brim must rise for it, where
+  double max_brim_h_ = 0;                    // the brim rises no higher than this [m]
+  double brim_raise_m_ = 0;                  // socket_brim_ above the design's, at most [m]
   LandmarkTargets landmarks_;  // the landmarks' zones below the brim
   std::vector<Vec3> donned_;       // the last donning's skin, in the socket's frame
   std::vector<int> in_socket_;     // compared nodes it left below the brim
@@ -540,46 +579,12 @@ class LoopRun {
   std::unique_ptr<contact::DonningSimulation> sim_;
   int full_donnings_ = 0, refits_ = 0;
   double best_score_ = std::numeric_limits<double>::infinity();
+  bool best_within_ = false;  // the kept socket meets the tolerances (and the landmarks')
   RoundBest round_;  // the best socket since the last donning from scratch, that donning's included
   ClosedLoopResult r_;
 };
 
 }  // namespace
-
-namespace {
-/// "MAE … kPa, 99th percentile … kPa" over the nodes of @p it still in the socket; "" when fewer
-/// than 3 stayed in (their statistics were not computed).
-std::string in_socket_figures(const ClosedLoopIteration& it) {
-  if (it.in_socket.count == 0) return {};
-  return fmt::format("MAE {:.2f} kPa, 99th percentile {:.2f} kPa", it.in_socket.mae / 1e3, it.in_socket.p99 / 1e3);
-}
-}  // namespace
-
-std::string landmark_note(const ClosedLoopIteration& it) {
-  if (it.landmark_furthest.empty()) return {};
-  return fmt::format(", landmarks within {:.0f} % ({})", 100 * it.landmark_deviation, it.landmark_furthest);
-}
-
-std::string dragged_out_note(const ClosedLoopIteration& it) {
-  if (it.dragged_out == 0) return {};
-  const std::string others = in_socket_figures(it);
-  return fmt::format(" ({} nodes dragged above the brim by donning, up to {:.1f} mm, between {:.0f}° and {:.0f}° from "
-                     "anterior towards medial, designed up to {:.1f} kPa{})",
-                     it.dragged_out, it.dragged_out_height_m * 1e3, it.dragged_out_from_deg, it.dragged_out_to_deg,
-                     it.dragged_out_max_target_pa / 1e3, others.empty() ? "" : "; the others: " + others);
-}
-
-std::string dragged_out_advice(const ClosedLoopIteration& kept) {
-  if (kept.dragged_out == 0) return {};
-  const std::string without = in_socket_figures(kept);
-  return fmt::format("{} skin nodes below the brim (designed up to {:.1f} kPa) end above it once donned and stood on, "
-                     "up to {:.1f} mm, between {:.0f}° and {:.0f}° from anterior towards medial: friction drags the "
-                     "skin proximally, and above the brim only the lip, which the loop does not shape, presses "
-                     "them.{} A brim higher there by that much, or a liner (lower friction), keeps them in.",
-                     kept.dragged_out, kept.dragged_out_max_target_pa / 1e3, kept.dragged_out_height_m * 1e3,
-                     kept.dragged_out_from_deg, kept.dragged_out_to_deg,
-                     without.empty() ? "" : " Without them: " + without + ".");
-}
 
 ClosedLoopResult close_design_loop(DesignSetup& setup, const DesignResult& result, const ClosedLoopOptions& options) {
   check_options(options);

@@ -70,6 +70,14 @@ struct ClosedLoopOptions {
   /// nothing on the third.)
   double mae_tolerance_pa = 500.0;
   double p99_tolerance_pa = 4000.0;  ///< [Pa], > 0
+  /// ... and every landmark's deviation from its design (ClosedLoopIteration::landmark_deviation)
+  /// at most this, > 0 (∞: the landmarks do not stop the loop). Issue 20's bar (report::DeliveryBar).
+  /// A stopping rule, not a term of the loop's score (see landmark_deviation): with the MAE and
+  /// p99 alone, seed 3 of the generated limbs stopped at donning 2 with the anterior distal tibia
+  /// 0.013 of its threshold under its design (bar 0.01); asked for the landmarks too it went on and
+  /// its third donning met them (docs/design.md, "Closed loop"). The socket kept is one that meets
+  /// every tolerance if any does, else the one closest to the MAE and p99 tolerances.
+  double landmark_tolerance = 0.10;
   /// Passes of area-weighted averaging over each skin node's neighbours applied to the excess
   /// pressure before it becomes a correction, in [0, 50]. 0 by default: the corrections are moved
   /// to where each node touches the wall (see close_design_loop), and that alone keeps
@@ -79,6 +87,18 @@ struct ClosedLoopOptions {
   /// Largest wall correction |δ| [m], > 0: a correction that would move the wall further is
   /// clamped (the loop corrects a design, it does not redesign it).
   double max_offset_m = 0.005;
+  /// How far the socket's brim may rise above the design's [m], ≥ 0 (0: never). Where donning and
+  /// standing drag skin nodes designed below the brim above the socket's brim, only its lip still
+  /// presses them (from nothing to most of their designed pressure), and no wall correction reaches
+  /// them; the next socket's brim rises there by how far they ended above it plus a node spacing
+  /// (design::raise_brim: over ±10° around each, easing to nothing over another 10°), at most by
+  /// this and never closer than a node spacing to the skin's top. The design, its compared nodes and
+  /// their targets stay the design's: the band added holds the skin that donning brings up into it.
+  /// 0 by default: on 12 limbs (docs/design.md, "Nodes dragged out of the socket") 10 mm took every
+  /// 99th percentile under 2.8 kPa and R over 0.99 but left the anterior distal tibia 0.013–0.024 of
+  /// its threshold short on five (the bar: 0.01), and the band presses up to 12 kPa where the
+  /// design presses nothing.
+  double max_brim_raise_m = 0.0;
   /// A corrected socket differs from the open-loop one by millimetres, and its donning needs about
   /// as many Newton iterations (8k transtibial: 56 then 54; OpenLimbTF 3k: 233 then 431, 8k: 211
   /// then 172). A donning (or refit) of a corrected socket may spend check_newton_ratio × the
@@ -102,7 +122,7 @@ struct ClosedLoopOptions {
 struct ClosedLoopIteration {
   bool refit = false;              ///< a refit of the worn socket, else a donning from scratch
   report::ErrorStats below_brim;   ///< delivered (a) vs target (b), skin nodes below the brim [Pa]
-  /// Skin nodes below the brim that donning and standing left above it (friction drags the skin
+  /// Skin nodes below the brim that donning and standing left above the socket's brim (friction drags the skin
   /// proximally: 3–9 mm on generated limbs at μ 0.5): only the brim's lip, which the corrections do
   /// not shape, still presses them (from nothing to most of their designed pressure).
   int dragged_out = 0;
@@ -113,9 +133,13 @@ struct ClosedLoopIteration {
   /// a higher brim would keep them in.
   double dragged_out_from_deg = 0.0, dragged_out_to_deg = 0.0;
   report::ErrorStats in_socket;    ///< as below_brim, over the nodes below the brim still in the socket [Pa]
+  /// How far the donned socket's brim lies above the design's, at most over the angles [m] (0: the
+  /// design's brim; ClosedLoopOptions::max_brim_raise_m). The dragged-out nodes are those above it.
+  double brim_raise_m = 0.0;
   /// The landmark furthest from its design: |delivered − designed| pressure / threshold of its zone
-  /// over max(designed, 0.1) (issue 20's bar: ≤ 0.1), and its code ("" without zones). Reported, not
-  /// a tolerance of the loop: at 3k nodes a landmark's zone holds 2–7 nodes, and a donning from
+  /// over max(designed, 0.1) (issue 20's bar: ≤ 0.1), and its code ("" without zones). A stopping
+  /// rule of the loop (ClosedLoopOptions::landmark_tolerance), not a term of its score: at 3k nodes
+  /// a landmark's zone holds 2–7 nodes, and a donning from
   /// scratch moves it by what refits cannot see (generated transfemoral limb, seed 2: refits took the
   /// distal femur from 39 % to 9 %, the next donning put it back at 49 %; transtibial seed 3 with the
   /// deviation in the loop's score, 2026-12-01: refits 3 %, the next donning 12 %, its refit 16 %,
@@ -153,6 +177,7 @@ struct ClosedLoopResult {
   std::vector<std::vector<double>> delivered_by_iteration;  ///< per donning, per skin node [Pa]
   std::vector<std::vector<double>> offset_by_iteration;     ///< per donning, δ per skin node [m]
   design::SocketResult socket;         ///< the kept socket
+  design::BrimLine socket_brim;        ///< its brim: the design's, raised where donning dragged skin above it
   contact::DonningResult donning;      ///< its donning and standing
   double seconds = 0.0;
 };

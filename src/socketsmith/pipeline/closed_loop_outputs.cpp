@@ -98,6 +98,7 @@ nlohmann::json iterations_json(const ClosedLoopResult& loop, report::ReportDeliv
                           {"dragged_out_nodes", it.dragged_out},
                           {"dragged_out_max_designed_kpa", it.dragged_out_max_target_pa / 1e3},
                           {"dragged_out_height_mm", it.dragged_out_height_m * 1e3},
+                          {"brim_raise_mm", it.brim_raise_m * 1e3},
                           {"max_wall_offset_mm", it.max_offset_m * 1e3},
                           {"mean_wall_offset_mm", it.mean_offset_m * 1e3},
                           {"stood_at_mm", it.stood_offset_m * 1e3},
@@ -251,6 +252,48 @@ std::vector<LandmarkZone> landmark_zones(const DesignSetup& setup, const std::ve
   return zones;
 }
 
+namespace {
+/// "MAE … kPa, 99th percentile … kPa" over the nodes of @p it still in the socket; "" when fewer
+/// than 3 stayed in (their statistics were not computed).
+std::string in_socket_figures(const ClosedLoopIteration& it) {
+  if (it.in_socket.count == 0) return {};
+  return fmt::format("MAE {:.2f} kPa, 99th percentile {:.2f} kPa", it.in_socket.mae / 1e3, it.in_socket.p99 / 1e3);
+}
+}  // namespace
+
+std::string landmark_note(const ClosedLoopIteration& it) {
+  if (it.landmark_furthest.empty()) return {};
+  return fmt::format(", landmarks within {:.0f} % ({})", 100 * it.landmark_deviation, it.landmark_furthest);
+}
+
+std::string dragged_out_note(const ClosedLoopIteration& it) {
+  if (it.dragged_out == 0) return {};
+  const std::string others = in_socket_figures(it);
+  return fmt::format(" ({} nodes dragged above the brim by donning, up to {:.1f} mm, between {:.0f}° and {:.0f}° from "
+                     "anterior towards medial, designed up to {:.1f} kPa{})",
+                     it.dragged_out, it.dragged_out_height_m * 1e3, it.dragged_out_from_deg, it.dragged_out_to_deg,
+                     it.dragged_out_max_target_pa / 1e3, others.empty() ? "" : "; the others: " + others);
+}
+
+std::string dragged_out_advice(const ClosedLoopIteration& kept) {
+  if (kept.dragged_out == 0) return {};
+  const std::string without = in_socket_figures(kept);
+  const std::string remedy =
+      kept.brim_raise_m > 0
+          ? fmt::format("The loop raised the socket's brim by up to {:.1f} mm (design.closed_loop_max_brim_raise_mm); "
+                        "a brim higher still, or a liner (lower friction), keeps them in.",
+                        kept.brim_raise_m * 1e3)
+          : std::string("A brim higher there by that much (design.closed_loop_max_brim_raise_mm lets the closed loop "
+                        "raise it), or a liner (lower friction), keeps them in.");
+  return fmt::format("{} skin nodes below the brim (designed up to {:.1f} kPa) end above the socket's once donned and "
+                     "stood on, up to {:.1f} mm, between {:.0f}° and {:.0f}° from anterior towards medial: friction "
+                     "drags the skin proximally, and above the brim only the lip, which the loop does not shape, "
+                     "presses them.{} {}",
+                     kept.dragged_out, kept.dragged_out_max_target_pa / 1e3, kept.dragged_out_height_m * 1e3,
+                     kept.dragged_out_from_deg, kept.dragged_out_to_deg,
+                     without.empty() ? "" : " Without them: " + without + ".", remedy);
+}
+
 nlohmann::json write_closed_loop_outputs(const DesignSetup& setup, const DesignResult& result,
                                          const std::filesystem::path& out, report::ReportDelivery& delivery) {
   require(result.closed_loop.has_value(), "write_closed_loop_outputs: the design ran no closed loop");
@@ -279,6 +322,16 @@ nlohmann::json write_closed_loop_outputs(const DesignSetup& setup, const DesignR
   add_delivery_plots(setup, loop, delivery);
   const ClosedLoopIteration& kept = loop.iterations[loop.best];
   if (kept.dragged_out > 0) delivery.details.push_back({"dragged out of the socket", dragged_out_advice(kept)});
+  nlohmann::json socket_brim = nlohmann::json::array();
+  if (kept.brim_raise_m > 0) {
+    delivery.details.push_back(
+        {"the socket's brim",
+         fmt::format("up to {:.1f} mm above the design's, where donning and standing dragged skin designed below the "
+                     "brim above it (the design, its pressures and the nodes compared stay the design's)",
+                     kept.brim_raise_m * 1e3)});
+    for (const auto& k : loop.socket_brim.key_points())
+      socket_brim.push_back({{"theta_deg", k.theta / units::deg}, {"h_mm", k.h * 1e3}});
+  }
   return {{"converged", loop.converged},
           {"message", loop.message},
           {"donnings", std::count_if(loop.iterations.begin(), loop.iterations.end(), [](const auto& it) { return !it.refit; })},
@@ -299,6 +352,8 @@ nlohmann::json write_closed_loop_outputs(const DesignSetup& setup, const DesignR
           {"dragged_out_max_designed_kpa", kept.dragged_out_max_target_pa / 1e3},
           {"dragged_out_height_mm", kept.dragged_out_height_m * 1e3},
           {"dragged_out_arc_deg", {kept.dragged_out_from_deg, kept.dragged_out_to_deg}},
+          {"brim_raise_mm", kept.brim_raise_m * 1e3},
+          {"socket_brim_key_points", socket_brim},
           {"in_socket", stats_json(kept.in_socket)},
           {"outputs", {"delivered.csv", "delivered_iterations.csv", "delivered_map.png", "delivered_error_map.png"}}};
 }

@@ -244,6 +244,7 @@ design::SocketResult build_design_socket(const geometry::TriMesh& designed_skin,
 ClosedLoopOptions closed_loop_options(const design::CaseFile& c) {
   ClosedLoopOptions lo;
   lo.max_donnings = c.closed_loop_donnings;
+  lo.max_brim_raise_m = c.closed_loop_max_brim_raise_m;
   lo.donning.contact.augmented_tol = case_augmented_tol(c);
   return lo;
 }
