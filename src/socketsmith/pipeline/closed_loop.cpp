@@ -445,7 +445,7 @@ class LoopRun {
         in_socket_.push_back(i);
         continue;
       }
-      // ClosedLoopOptions::max_brim_raise_m: the next socket's brim clears this node by a spacing.
+      // ClosedLoopOptions::max_brim_raise_m: the next socket's brim clears this node by half a spacing.
       const double lift = std::min(cy.h - setup_.brim.height(cy.theta) + 0.5 * spacing_, options_.max_brim_raise_m);
       if (lift > lifts_[i].lift_m) lifts_[i] = {cy.theta, lift};
       dragged_out_[i] = 1;
@@ -460,7 +460,10 @@ class LoopRun {
       it.dragged_out_to_deg = shown_deg(to);
     }
     if (in_socket_.size() >= 3) it.in_socket = report::compare_fields(delivered, r_.target_pa, in_socket_);
-    it.brim_raise_m = brim_raise_m_;
+    for (int k = 0; k < 720; ++k) {  // how far socket_'s brim lies above the design's
+      const double theta = -std::numbers::pi + k * std::numbers::pi / 360;
+      it.brim_raise_m = std::max(it.brim_raise_m, socket_brim_.height(theta) - setup_.brim.height(theta));
+    }
     it.stood_offset_m = d.final_offset_m;
     it.axial_friction_n = d.series.empty() ? 0.0 : d.series.back().axial_friction_n;
     it.factorizations = d.series.empty() ? 0 : static_cast<int>(d.series.back().factorizations);
@@ -518,14 +521,8 @@ class LoopRun {
     geometry::TriMesh inner = result_.deformed_skin;
     for (size_t i = 0; i < n_; ++i) inner.vertices[i] += offset_[i] * state_.skin_normals[i];
     try {
-      if (options_.max_brim_raise_m > 0) {
+      if (options_.max_brim_raise_m > 0)
         socket_brim_ = design::raise_brim(setup_.brim, lifts_, kBrimPlateau, max_brim_h_);
-        brim_raise_m_ = 0;
-        for (int k = 0; k < 720; ++k) {
-          const double theta = -std::numbers::pi + k * std::numbers::pi / 360;
-          brim_raise_m_ = std::max(brim_raise_m_, socket_brim_.height(theta) - setup_.brim.height(theta));
-        }
-      }
       socket_ = design::build_socket(inner, setup_.model.frame, socket_brim_, sopt_);
     } catch (const Error& e) {
       r_.message = fmt::format("stopped after {} donnings: the corrected socket could not be built ({})",
@@ -566,7 +563,6 @@ class LoopRun {
   design::BrimLine socket_brim_;             // the brim of socket_ (ClosedLoopOptions::max_brim_raise_m)
   std::vector<design::BrimLift> lifts_;      // per skin node: how far the brim must rise for it, where
   double max_brim_h_ = 0;                    // the brim rises no higher than this [m]
-  double brim_raise_m_ = 0;                  // socket_brim_ above the design's, at most [m]
   LandmarkTargets landmarks_;  // the landmarks' zones below the brim
   std::vector<Vec3> donned_;       // the last donning's skin, in the socket's frame
   std::vector<int> in_socket_;     // compared nodes it left below the brim

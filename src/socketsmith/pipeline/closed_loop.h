@@ -90,7 +90,7 @@ struct ClosedLoopOptions {
   /// How far the socket's brim may rise above the design's [m], ≥ 0 (0: never). Where donning and
   /// standing drag skin nodes designed below the brim above the socket's brim, only its lip still
   /// presses them (from nothing to most of their designed pressure), and no wall correction reaches
-  /// them; the next socket's brim rises there by how far they ended above it plus a node spacing
+  /// them; the next socket's brim rises there by how far they ended above it plus half a node spacing
   /// (design::raise_brim: over ±10° around each, easing to nothing over another 10°), at most by
   /// this and never closer than a node spacing to the skin's top. The design, its compared nodes and
   /// their targets stay the design's: the band added holds the skin that donning brings up into it.

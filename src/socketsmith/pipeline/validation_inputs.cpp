@@ -70,9 +70,12 @@ calculix::DesignedStump designed_stump(const DesignArtifacts& artifacts, bool pr
     // The closed loop's socket: the designed skin moved by its wall corrections.
     for (size_t i = 0; i < state.skin_positions.size(); ++i)
       d.wall_positions.push_back(state.skin_positions[i] + loop->wall_offset_m[i] * state.skin_normals[i]);
-    // Its brim, where the loop raised it (ClosedLoopOptions::max_brim_raise_m), bounds the shell.
-    if (loop->socket_brim.key_points().size() >= 3)
-      d.above_socket_brim = design::points_above_brim(loop->socket_brim, state.skin_positions, setup.model.frame);
+    // Its brim, where the loop raised it (ClosedLoopOptions::max_brim_raise_m), bounds the shell;
+    // the nodes flagged as the design's are (the skin at rest against the brim).
+    if (loop->iterations[loop->best].brim_raise_m > 0) {
+      const design::BrimLine& brim = loop->socket_brim;
+      d.above_socket_brim = setup.solver->above_brim_of([&brim](double theta) { return brim.height(theta); });
+    }
   }
   // --printed-wall: the socket that is written (the closed loop's kept one, else the open-loop
   // socket), its inner wall, brim and lip as built, is what the donning check dons.
