@@ -272,6 +272,15 @@ TEST_F(ClosedLoopRun, outputs_carry_the_designed_open_and_closed_loop_pressures)
   EXPECT_EQ(bar["mae_met"].get<bool>(), below["mae_kpa"].get<double>() <= 1.5);
   EXPECT_EQ(bar["p99_met"].get<bool>(), below["p99_kpa"].get<double>() <= 4.0);
   EXPECT_EQ(bar["landmarks_met"].get<bool>(), furthest <= 0.1);
+  bool paths_within = true;  // each thesis path below the brim, held to the same bar
+  for (const auto& [key, region] : j["regions"].items()) {
+    if (key == "below_brim") continue;
+    const auto& s = region["closed_loop"];
+    paths_within = paths_within && s["mae_kpa"].get<double>() <= 1.5 && s["p99_kpa"].get<double>() <= 4.0 &&
+                   (s["sd_b_kpa"].get<double>() < 2.0 || s["r"].get<double>() >= 0.95);
+  }
+  EXPECT_EQ(j["regions"].size(), 4u);
+  EXPECT_EQ(bar["paths_met"].get<bool>(), paths_within);
   EXPECT_EQ(bar["met"].get<bool>(), bar["failing"].empty());
   EXPECT_FALSE(j["open_loop_bar"]["met"].get<bool>());  // the open-loop socket misses it
   const auto t = report::read_csv(out_ / "delivered.csv");

@@ -296,6 +296,7 @@ void design_and_don(const design::CaseFile& c, const DesignValidationOptions& o,
   v.design_summary = run_design(c, out / "design", c.optimise && o.optimise, o.progress, &v.artifacts);
   v.socketsmith_wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   v.stump = designed_stump(v.artifacts, o.printed_wall);
+  v.designed_pa = v.stump.pressure_pa;
   if (!o.against_donning && !o.stand) return;
   run_own_donning(c, o, v);
   if (o.stand && v.donning->series.size() >= 2) {
@@ -374,8 +375,8 @@ nlohmann::json validation_summary(const design::CaseFile& c, const DesignValidat
   return j;
 }
 
-/// Delivered three ways on the socket nodes: CalculiX and socketsmith against the design, and
-/// against each other.
+/// Delivered three ways on the socket nodes: CalculiX and socketsmith against the design (the
+/// design's pressures even when CalculiX was compared with socketsmith's donning), and against each other.
 void add_delivered_comparison(const DesignValidation& v, nlohmann::json& j) {
   const auto& r = v.check;
   const auto [scale, unit, suffix, what] = compared_quantity(v.check_options.mode);
@@ -386,8 +387,11 @@ void add_delivered_comparison(const DesignValidation& v, nlohmann::json& j) {
     delivered[i] = v.donning->contacts[i].pressure_pa;
     if (r.brim_ring[i] >= 1) socket_nodes.push_back(static_cast<int>(i));
   }
-  const report::ErrorStats ours = report::compare_fields(delivered, r.socketsmith_value, socket_nodes);
+  const std::vector<double>& designed_pa = v.designed_pa;
+  const report::ErrorStats ours = report::compare_fields(delivered, designed_pa, socket_nodes);
+  const report::ErrorStats theirs = report::compare_fields(r.fe_value, designed_pa, socket_nodes);
   j["socketsmith_delivered_vs_design"] = report::to_json(ours, scale, suffix);
+  j["calculix_delivered_vs_design"] = report::to_json(theirs, scale, suffix);
   j["calculix_vs_socketsmith_delivered"] =
       report::to_json(report::compare_fields(r.fe_value, delivered, socket_nodes), scale, suffix);
   j["socketsmith_delivered_from"] = v.donning_from_closed_loop ? "the closed loop's kept donning" : "a donning in this run";
@@ -405,7 +409,7 @@ void add_delivered_comparison(const DesignValidation& v, nlohmann::json& j) {
   std::vector<report::LandmarkRatio> fe_ratios, our_ratios;
   for (const auto& z : landmark_zones(setup, on_socket)) {
     const double threshold = z.mean(setup.thresholds, skin.area_m2);
-    const double designed = z.mean(r.socketsmith_value, skin.area_m2) / threshold;
+    const double designed = z.mean(designed_pa, skin.area_m2) / threshold;
     fe_ratios.push_back({z.code, designed, z.mean(r.fe_value, skin.area_m2) / threshold});
     our_ratios.push_back({z.code, designed, z.mean(delivered, skin.area_m2) / threshold});
     landmarks.push_back({{"code", z.code},
@@ -418,9 +422,16 @@ void add_delivered_comparison(const DesignValidation& v, nlohmann::json& j) {
                          {"socketsmith_deviation", report::landmark_deviation(designed, our_ratios.back().delivered)}});
   }
   j["landmarks"] = landmarks;
-  // Each side's delivery against report::DeliveryBar (issue 20's bar), below the brim.
-  const report::DeliveryVerdict fe_bar = report::judge_delivery(r.all, fe_ratios);
-  const report::DeliveryVerdict our_bar = report::judge_delivery(ours, our_ratios);
+  // Each side's delivery against report::DeliveryBar (issue 20's bar), below the brim and on each
+  // thesis path below it.
+  std::vector<report::PathDelivery> fe_paths, our_paths;
+  for (const auto& p : r.paths) {
+    const std::string name = p.name == "front" ? "front line" : p.name == "back" ? "back line" : "mid circumference";
+    fe_paths.push_back({name, report::compare_fields(r.fe_value, designed_pa, p.skin_index)});
+    our_paths.push_back({name, report::compare_fields(delivered, designed_pa, p.skin_index)});
+  }
+  const report::DeliveryVerdict fe_bar = report::judge_delivery(theirs, fe_ratios, fe_paths);
+  const report::DeliveryVerdict our_bar = report::judge_delivery(ours, our_ratios, our_paths);
   j["bar"] = {{"calculix", report::to_json(fe_bar)}, {"socketsmith", report::to_json(our_bar)}};
   log::info("validate design: the delivery bar ({}) — CalculiX {}; socketsmith {}", report::describe(),
             fe_bar.summary(), our_bar.summary());
@@ -490,7 +501,7 @@ DesignValidation validate_design(const design::CaseFile& c, const DesignValidati
 
   const nlohmann::json paths_json = write_comparison_files(v, o.against_donning, out);
   nlohmann::json j = validation_summary(c, o, material, v, paths_json, out);
-  if (v.donning && !o.against_donning) add_delivered_comparison(v, j);
+  if (v.donning && o.stand) add_delivered_comparison(v, j);
   write_text_atomically(out / "summary.json", j.dump(2) + "\n");
   v.summary = std::move(j);
   return v;

@@ -79,6 +79,7 @@ struct DesignValidation {
   DesignArtifacts artifacts;            ///< the design run (OUT/design)
   nlohmann::json design_summary;        ///< its design.json
   calculix::DesignedStump stump;        ///< what went to CalculiX (refers to artifacts' setup)
+  std::vector<double> designed_pa;      ///< the design's pressure per skin node [Pa] (stump's may be a donning's)
   calculix::DesignCheckOptions check_options; ///< the check as run
   calculix::DesignCheckResult check;    ///< the comparison, per skin node and summarised
   std::optional<contact::DonningResult> donning;  ///< socketsmith's own (against_donning or stand)

@@ -18,7 +18,7 @@ double landmark_deviation(double designed_ratio, double delivered_ratio, double 
 }
 
 std::string describe(const DeliveryBar& bar) {
-  return fmt::format("below the brim: MAE ≤ {:g} kPa, 99th percentile ≤ {:g} kPa, R ≥ {:g} where the design varies, "
+  return fmt::format("below the brim and on each path: MAE ≤ {:g} kPa, 99th percentile ≤ {:g} kPa, R ≥ {:g} where the design varies, "
                      "landmarks within {:g} %",
                      bar.mae_pa / 1e3, bar.p99_pa / 1e3, bar.r_min, 100 * bar.landmark_tolerance);
 }
@@ -30,16 +30,38 @@ std::string DeliveryVerdict::summary() const {
   return s;
 }
 
-DeliveryVerdict judge_delivery(const ErrorStats& s, const std::vector<LandmarkRatio>& landmarks, const DeliveryBar& bar) {
+namespace {
+
+struct FieldVerdict {  ///< one compared set of nodes against the bar's MAE, p99 and R
+  bool mae_met = false, p99_met = false, r_judged = false, r_met = false;
+  std::vector<std::string> failing;  ///< each phrase prefixed by where ("" or "back line: ")
+};
+
+FieldVerdict judge_field(const ErrorStats& s, const DeliveryBar& bar, const std::string& where) {
+  FieldVerdict f;
+  f.mae_met = s.mae <= bar.mae_pa;
+  if (!f.mae_met) f.failing.push_back(fmt::format("{}MAE {:.2f} kPa > {:g}", where, s.mae / 1e3, bar.mae_pa / 1e3));
+  f.p99_met = s.p99 <= bar.p99_pa;
+  if (!f.p99_met)
+    f.failing.push_back(fmt::format("{}99th percentile {:.2f} kPa > {:g}", where, s.p99 / 1e3, bar.p99_pa / 1e3));
+  f.r_judged = s.sd_b >= bar.r_needs_design_sd_pa;
+  f.r_met = !f.r_judged || (std::isfinite(s.r) && s.r >= bar.r_min);
+  if (!f.r_met) f.failing.push_back(fmt::format("{}R {:.3f} < {:g}", where, s.r, bar.r_min));
+  return f;
+}
+
+}  // namespace
+
+DeliveryVerdict judge_delivery(const ErrorStats& s, const std::vector<LandmarkRatio>& landmarks,
+                               const std::vector<PathDelivery>& paths, const DeliveryBar& bar) {
   require(s.count > 0, "judge_delivery: no node compared below the brim");
   DeliveryVerdict v;
-  v.mae_met = s.mae <= bar.mae_pa;
-  if (!v.mae_met) v.failing.push_back(fmt::format("MAE {:.2f} kPa > {:g}", s.mae / 1e3, bar.mae_pa / 1e3));
-  v.p99_met = s.p99 <= bar.p99_pa;
-  if (!v.p99_met) v.failing.push_back(fmt::format("99th percentile {:.2f} kPa > {:g}", s.p99 / 1e3, bar.p99_pa / 1e3));
-  v.r_judged = s.sd_b >= bar.r_needs_design_sd_pa;
-  v.r_met = !v.r_judged || (std::isfinite(s.r) && s.r >= bar.r_min);
-  if (!v.r_met) v.failing.push_back(fmt::format("R {:.3f} < {:g}", s.r, bar.r_min));
+  FieldVerdict below = judge_field(s, bar, "");
+  v.mae_met = below.mae_met;
+  v.p99_met = below.p99_met;
+  v.r_judged = below.r_judged;
+  v.r_met = below.r_met;
+  v.failing = std::move(below.failing);
   v.landmarks_met = true;
   for (const auto& l : landmarks) {
     const double dev = landmark_deviation(l.designed, l.delivered, bar.landmark_floor_ratio);
@@ -56,6 +78,14 @@ DeliveryVerdict judge_delivery(const ErrorStats& s, const std::vector<LandmarkRa
       v.failing.push_back(fmt::format("{} {:+.3f} of its threshold ({:.3f} → {:.3f}; designed under {:g})", l.code,
                                       l.delivered - l.designed, l.designed, l.delivered, bar.landmark_floor_ratio));
   }
+  for (const auto& p : paths) {
+    if (p.stats.count == 0) continue;
+    const FieldVerdict f = judge_field(p.stats, bar, p.name + ": ");
+    if (f.failing.empty()) continue;
+    v.paths_met = false;
+    v.paths_failing.push_back(p.name);
+    v.failing.insert(v.failing.end(), f.failing.begin(), f.failing.end());
+  }
   return v;
 }
 
@@ -66,6 +96,8 @@ nlohmann::json to_json(const DeliveryVerdict& v, const DeliveryBar& bar) {
           {"r_judged", v.r_judged},
           {"r_met", v.r_met},
           {"landmarks_met", v.landmarks_met},
+          {"paths_met", v.paths_met},
+          {"paths_failing", v.paths_failing},
           {"worst_landmark", v.worst_landmark},
           {"worst_landmark_deviation", v.worst_landmark_deviation},
           {"failing", v.failing},
