@@ -54,6 +54,15 @@ std::string number_cell(const json& v) {
   return {};
 }
 
+/// A result's cell: a number or a flag as number_cell, a list of phrases joined by "; " (quoted).
+std::string result_cell(const json& v) {
+  if (!v.is_array()) return number_cell(v);
+  std::string t;
+  for (const auto& e : v)
+    if (e.is_string()) t += (t.empty() ? "" : "; ") + e.get<std::string>();
+  return csv_cell(t);
+}
+
 /// A parameter's value as a cell: numbers and strings as they are, a limb as its file name or
 /// "generated <type>".
 std::string parameter_cell(const std::string& column, const json& v) {
@@ -118,6 +127,7 @@ const std::vector<ResultColumn>& result_columns() {
       {"closed_loop_landmark_deviation", {"closed_loop", "bar", "worst_landmark_deviation"}},
       {"closed_loop_dragged_out_nodes", {"closed_loop", "dragged_out_nodes"}},
       {"delivery_bar_met", {"closed_loop", "bar", "met"}},
+      {"delivery_bar_missed", {"closed_loop", "bar", "failing"}},  // its items missed, "; "-joined
       {"closed_loop_seconds", {"closed_loop", "seconds"}},
   };
   return cols;
@@ -151,7 +161,7 @@ std::string case_row(const std::string& id, const SweepCaseStatus& s, const json
   row += "," + csv_cell(d.is_object() ? d.value("failing", std::string()) : std::string());
   for (const auto& col : cols) {
     row += ',';
-    row += number_cell(at_path(d, col.path));
+    row += result_cell(at_path(d, col.path));
   }
   row += "," + (s.status == "missing" ? std::string() : fmt::format("{:.3f}", s.seconds));
   return row;
