@@ -12,6 +12,8 @@
 #include "socketsmith/core/atomic_file.h"
 #include "socketsmith/core/errors.h"
 #include "socketsmith/core/json_input.h"
+#include "socketsmith/pipeline/closed_loop.h"
+#include "socketsmith/report/delivery_bar.h"
 
 namespace socketsmith::gui {
 
@@ -131,7 +133,8 @@ json live_state(const App& app) {
                      {"seconds", d->seconds},
                      {"of_shown_design", d->state == session.state_serial()},
                      {"regions", regions},
-                     {"landmarks", landmarks}};
+                     {"landmarks", landmarks},
+                     {"bar", report::to_json(pipeline::delivery_verdicts(d->summary).second)}};
   }
   return j;
 }

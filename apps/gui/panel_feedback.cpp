@@ -11,6 +11,8 @@
 
 #include "app_impl.h"
 #include "plots.h"
+#include "socketsmith/pipeline/closed_loop.h"
+#include "socketsmith/report/delivery_bar.h"
 
 namespace socketsmith::gui {
 
@@ -132,6 +134,14 @@ void App::draw_delivery() {
                      d->donnings, d->refits, d->seconds);
   ImGui::PopStyleColor();
   if (ImGui::IsItemHovered()) ImGui::SetTooltip("%s", d->message.c_str());
+  // Issue 20's delivery bar for the socket exported: below the brim, on each path, at the landmarks.
+  const report::DeliveryVerdict bar = pipeline::delivery_verdicts(d->summary).second;
+  ImGui::PushStyleColor(ImGuiCol_Text, bar.met() ? IM_COL32(90, 220, 110, 255) : IM_COL32(255, 200, 80, 255));
+  std::string said = bar.summary();  // the window's font has no arrow glyph
+  for (size_t k = said.find("→"); k != std::string::npos; k = said.find("→", k)) said.replace(k, std::string("→").size(), "->");
+  ImGui::TextWrapped("Delivery bar: %s", said.c_str());
+  ImGui::PopStyleColor();
+  if (ImGui::IsItemHovered()) ImGui::SetTooltip("%s", report::describe().c_str());
   if (d->state != session_.state_serial()) ImGui::TextDisabled("(of the design before: updating)");
   ImGui::TextWrapped("Against the design, open-loop socket -> corrected socket (the one exported):");
   if (ImGui::BeginTable("delivery", 4, ImGuiTableFlags_Borders | ImGuiTableFlags_SizingStretchProp)) {

@@ -557,6 +557,10 @@ TEST(GuiDelivery, the_closed_loop_runs_after_the_design_settles_and_its_figures_
   EXPECT_LT(below["closed_loop"]["mae_kpa"].get<double>(), 0.5 * below["open_loop"]["mae_kpa"].get<double>());
   EXPECT_GT(below["closed_loop"]["r"].get<double>(), 0.95);
   EXPECT_FALSE(gui["landmarks"].empty());
+  // The window's delivery bar is the export's verdict (paths and landmarks included).
+  EXPECT_EQ(gui["bar"]["met"], lib["bar"]["met"]);
+  EXPECT_EQ(gui["bar"]["failing"], lib["bar"]["failing"]);
+  EXPECT_EQ(gui["bar"]["paths_met"], lib["bar"]["paths_met"]);
 
   // The screenshot: the stump carries the delivered pressures (coloured below the brim; without a
   // check it stays grey: no data).

@@ -28,6 +28,7 @@
 
 #include <filesystem>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -35,6 +36,7 @@
 #include "socketsmith/contact/donning.h"
 #include "socketsmith/core/progress.h"
 #include "socketsmith/design/socket_builder.h"
+#include "socketsmith/report/delivery_bar.h"
 #include "socketsmith/report/design_report.h"
 #include "socketsmith/report/field_comparison.h"
 
@@ -218,6 +220,10 @@ struct DeliverySummary {
 
 /// The closed loop's agreement with the design by region and at the landmarks.
 DeliverySummary summarise_delivery(const DesignSetup& setup, const ClosedLoopResult& loop);
+
+/// The open-loop and the kept socket of @p sum judged against report::DeliveryBar below the brim
+/// and on each thesis path (design.json's `open_loop_bar` and `bar`; the GUI's delivery line).
+std::pair<report::DeliveryVerdict, report::DeliveryVerdict> delivery_verdicts(const DeliverySummary& sum);
 
 /// Writes `delivered.csv` (per skin node: designed position, designed, open-loop and closed-loop
 /// pressures, wall correction), `delivered_iterations.csv` (every donning's pressures and wall

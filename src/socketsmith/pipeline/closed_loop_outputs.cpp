@@ -74,31 +74,6 @@ nlohmann::json landmarks_json(const DeliverySummary& sum, report::ReportDelivery
   return landmarks;
 }
 
-/// The open-loop and the kept socket's delivery judged against report::DeliveryBar below the brim
-/// and on each thesis path.
-std::pair<report::DeliveryVerdict, report::DeliveryVerdict> delivery_verdicts(const DeliverySummary& sum) {
-  std::vector<report::LandmarkRatio> open, kept;
-  for (const auto& l : sum.landmarks) {
-    open.push_back({l.code, l.target_pa / l.threshold_pa, l.open_loop_pa / l.threshold_pa});
-    kept.push_back({l.code, l.target_pa / l.threshold_pa, l.closed_loop_pa / l.threshold_pa});
-  }
-  const RegionDelivery* below = nullptr;
-  std::vector<report::PathDelivery> open_paths, kept_paths;
-  for (const auto& r : sum.regions) {
-    if (r.key == "below_brim") {
-      below = &r;
-      continue;
-    }
-    std::string name = r.key;  // front_line → front line
-    std::replace(name.begin(), name.end(), '_', ' ');
-    open_paths.push_back({name, r.open_loop});
-    kept_paths.push_back({name, r.closed_loop});
-  }
-  require(below != nullptr, "delivery_verdicts: the summary has no region below the brim");
-  return {report::judge_delivery(below->open_loop, open, open_paths),
-          report::judge_delivery(below->closed_loop, kept, kept_paths)};
-}
-
 /// Every donning and refit of the loop, as JSON and as report details.
 nlohmann::json iterations_json(const ClosedLoopResult& loop, report::ReportDelivery& delivery) {
   nlohmann::json iterations = nlohmann::json::array();
@@ -211,6 +186,29 @@ void add_delivery_plots(const DesignSetup& setup, const ClosedLoopResult& loop, 
 }
 
 }  // namespace
+
+std::pair<report::DeliveryVerdict, report::DeliveryVerdict> delivery_verdicts(const DeliverySummary& sum) {
+  std::vector<report::LandmarkRatio> open, kept;
+  for (const auto& l : sum.landmarks) {
+    open.push_back({l.code, l.target_pa / l.threshold_pa, l.open_loop_pa / l.threshold_pa});
+    kept.push_back({l.code, l.target_pa / l.threshold_pa, l.closed_loop_pa / l.threshold_pa});
+  }
+  const RegionDelivery* below = nullptr;
+  std::vector<report::PathDelivery> open_paths, kept_paths;
+  for (const auto& r : sum.regions) {
+    if (r.key == "below_brim") {
+      below = &r;
+      continue;
+    }
+    std::string name = r.key;  // front_line → front line
+    std::replace(name.begin(), name.end(), '_', ' ');
+    open_paths.push_back({name, r.open_loop});
+    kept_paths.push_back({name, r.closed_loop});
+  }
+  require(below != nullptr, "delivery_verdicts: the summary has no region below the brim");
+  return {report::judge_delivery(below->open_loop, open, open_paths),
+          report::judge_delivery(below->closed_loop, kept, kept_paths)};
+}
 
 DeliverySummary summarise_delivery(const DesignSetup& setup, const ClosedLoopResult& loop) {
   const auto& skin = setup.solver->skin();
