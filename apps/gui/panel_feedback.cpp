@@ -98,6 +98,51 @@ void App::draw_rectification() {
   }
 }
 
+namespace {
+
+/// The delivery check's tables: per region (below the brim, each path) and per landmark, the
+/// open-loop socket against the corrected one.
+void delivery_tables(const pipeline::DeliveryCheck& d) {
+  if (ImGui::BeginTable("delivery", 4, ImGuiTableFlags_Borders | ImGuiTableFlags_SizingStretchProp)) {
+    for (const char* h : {"region", "MAE kPa", "p99 kPa", "R"}) ImGui::TableSetupColumn(h);
+    ImGui::TableHeadersRow();
+    for (const pipeline::RegionDelivery& r : d.summary.regions) {
+      ImGui::TableNextRow();
+      ImGui::TableNextColumn();
+      const std::string shown = r.key == "mid_circumference" ? "mid circ." : r.key.substr(0, r.key.find('_')) + " " +
+                                                                             r.key.substr(r.key.find('_') + 1);
+      ImGui::TextUnformatted(r.key.find('_') == std::string::npos ? r.key.c_str() : shown.c_str());
+      if (ImGui::IsItemHovered())
+        ImGui::SetTooltip("%s: mean %.1f kPa delivered by the corrected socket, %.1f kPa designed", r.name.c_str(),
+                          r.closed_loop.mean_a / 1e3, r.closed_loop.mean_b / 1e3);
+      ImGui::TableNextColumn();
+      ImGui::Text("%.2f -> %.2f", r.open_loop.mae / 1e3, r.closed_loop.mae / 1e3);
+      ImGui::TableNextColumn();
+      ImGui::Text("%.1f -> %.1f", r.open_loop.p99 / 1e3, r.closed_loop.p99 / 1e3);
+      ImGui::TableNextColumn();
+      ImGui::Text("%.2f -> %.2f", r.open_loop.r, r.closed_loop.r);
+    }
+    ImGui::EndTable();
+  }
+  if (ImGui::BeginTable("delivery_landmarks", 4, ImGuiTableFlags_Borders | ImGuiTableFlags_SizingStretchProp)) {
+    for (const char* h : {"landmark", "designed p/T", "open loop p/T", "corrected p/T"}) ImGui::TableSetupColumn(h);
+    ImGui::TableHeadersRow();
+    for (const pipeline::LandmarkDelivery& l : d.summary.landmarks) {
+      if (l.threshold_pa <= 0) continue;
+      ImGui::TableNextRow();
+      ImGui::TableNextColumn();
+      ImGui::TextUnformatted(l.code.c_str());
+      for (double p : {l.target_pa, l.open_loop_pa, l.closed_loop_pa}) {
+        ImGui::TableNextColumn();
+        ImGui::Text("%.2f", p / l.threshold_pa);
+      }
+    }
+    ImGui::EndTable();
+  }
+}
+
+}  // namespace
+
 /// What the socket delivers (pipeline::DeliveryCheck): the closed loop of the shown design run on
 /// release — its progress, then below the brim and on each path the open-loop and the corrected
 /// socket against the design, and at each landmark the pressure/threshold ratio.
@@ -144,42 +189,7 @@ void App::draw_delivery() {
   if (ImGui::IsItemHovered()) ImGui::SetTooltip("%s", report::describe().c_str());
   if (d->state != session_.state_serial()) ImGui::TextDisabled("(of the design before: updating)");
   ImGui::TextWrapped("Against the design, open-loop socket -> corrected socket (the one exported):");
-  if (ImGui::BeginTable("delivery", 4, ImGuiTableFlags_Borders | ImGuiTableFlags_SizingStretchProp)) {
-    for (const char* h : {"region", "MAE kPa", "p99 kPa", "R"}) ImGui::TableSetupColumn(h);
-    ImGui::TableHeadersRow();
-    for (const pipeline::RegionDelivery& r : d->summary.regions) {
-      ImGui::TableNextRow();
-      ImGui::TableNextColumn();
-      const std::string shown = r.key == "mid_circumference" ? "mid circ." : r.key.substr(0, r.key.find('_')) + " " +
-                                                                             r.key.substr(r.key.find('_') + 1);
-      ImGui::TextUnformatted(r.key.find('_') == std::string::npos ? r.key.c_str() : shown.c_str());
-      if (ImGui::IsItemHovered())
-        ImGui::SetTooltip("%s: mean %.1f kPa delivered by the corrected socket, %.1f kPa designed", r.name.c_str(),
-                          r.closed_loop.mean_a / 1e3, r.closed_loop.mean_b / 1e3);
-      ImGui::TableNextColumn();
-      ImGui::Text("%.2f -> %.2f", r.open_loop.mae / 1e3, r.closed_loop.mae / 1e3);
-      ImGui::TableNextColumn();
-      ImGui::Text("%.1f -> %.1f", r.open_loop.p99 / 1e3, r.closed_loop.p99 / 1e3);
-      ImGui::TableNextColumn();
-      ImGui::Text("%.2f -> %.2f", r.open_loop.r, r.closed_loop.r);
-    }
-    ImGui::EndTable();
-  }
-  if (ImGui::BeginTable("delivery_landmarks", 4, ImGuiTableFlags_Borders | ImGuiTableFlags_SizingStretchProp)) {
-    for (const char* h : {"landmark", "designed p/T", "open loop p/T", "corrected p/T"}) ImGui::TableSetupColumn(h);
-    ImGui::TableHeadersRow();
-    for (const pipeline::LandmarkDelivery& l : d->summary.landmarks) {
-      if (l.threshold_pa <= 0) continue;
-      ImGui::TableNextRow();
-      ImGui::TableNextColumn();
-      ImGui::TextUnformatted(l.code.c_str());
-      for (double p : {l.target_pa, l.open_loop_pa, l.closed_loop_pa}) {
-        ImGui::TableNextColumn();
-        ImGui::Text("%.2f", p / l.threshold_pa);
-      }
-    }
-    ImGui::EndTable();
-  }
+  delivery_tables(*d);
   if (field_ != Field::Delivered && ImGui::SmallButton("Colour by delivered")) set_field(Field::Delivered);
   if (field_ != Field::Delivered && field_ != Field::DeliveryError) ImGui::SameLine();
   if (field_ != Field::DeliveryError && ImGui::SmallButton("Colour by delivered - designed"))
