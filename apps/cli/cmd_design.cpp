@@ -2,6 +2,7 @@
 // from a case file — limb → stump model → pressure spots (optimised) → socket STL and report.
 #include <filesystem>
 #include <optional>
+#include <string>
 
 #include "cli_common.h"
 #include "socketsmith/core/atomic_file.h"
@@ -11,6 +12,7 @@
 #include "socketsmith/design/case_file.h"
 #include "socketsmith/design/case_parameters.h"
 #include "socketsmith/pipeline/design_pipeline.h"
+#include "socketsmith/report/delivery_bar.h"
 
 namespace socketsmith::cli {
 namespace {
@@ -96,6 +98,10 @@ void print_summary(const nlohmann::json& j) {
               o["mae_kpa"].get<double>(), o["p99_kpa"].get<double>(), o["r"].is_null() ? 0.0 : o["r"].get<double>(),
               c["mae_kpa"].get<double>(), c["p99_kpa"].get<double>(), c["r"].is_null() ? 0.0 : c["r"].get<double>(),
               cl["donnings"].get<int>(), cl["seconds"].get<double>());
+    // "converged" is the loop's own tolerances; the bar of issue 20 judges the paths and landmarks too.
+    std::string verdict = cl["bar"]["met"].get<bool>() ? "met" : "not met:";
+    for (const auto& f : cl["bar"]["failing"]) verdict += (verdict.back() == ':' ? " " : "; ") + f.get<std::string>();
+    log::info("design: the delivery bar ({}) on the socket written: {}", report::describe(), verdict);
   }
   log::info("design: report {}", (std::filesystem::path(j["out"].get<std::string>()) / "report.html").string());
 }
