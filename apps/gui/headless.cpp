@@ -1,4 +1,5 @@
 #include "headless.h"
+#include "plots.h"
 
 #include <algorithm>
 #include <cmath>
@@ -134,7 +135,8 @@ json live_state(const App& app) {
                      {"of_shown_design", d->state == session.state_serial()},
                      {"regions", regions},
                      {"landmarks", landmarks},
-                     {"bar", report::to_json(pipeline::delivery_verdicts(d->summary).second)}};
+                     {"bar", report::to_json(pipeline::delivery_verdicts(d->summary).second)},
+                     {"bar_shown", shown_text(pipeline::delivery_verdicts(d->summary).second.summary())}};
   }
   return j;
 }

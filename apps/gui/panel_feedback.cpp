@@ -182,11 +182,9 @@ void App::draw_delivery() {
   // Issue 20's delivery bar for the socket exported: below the brim, on each path, at the landmarks.
   const report::DeliveryVerdict bar = pipeline::delivery_verdicts(d->summary).second;
   ImGui::PushStyleColor(ImGuiCol_Text, bar.met() ? IM_COL32(90, 220, 110, 255) : IM_COL32(255, 200, 80, 255));
-  std::string said = bar.summary();  // the window's font has no arrow glyph
-  for (size_t k = said.find("→"); k != std::string::npos; k = said.find("→", k)) said.replace(k, std::string("→").size(), "->");
-  ImGui::TextWrapped("Delivery bar: %s", said.c_str());
+  ImGui::TextWrapped("Delivery bar: %s", shown_text(bar.summary()).c_str());
   ImGui::PopStyleColor();
-  if (ImGui::IsItemHovered()) ImGui::SetTooltip("%s", report::describe().c_str());
+  if (ImGui::IsItemHovered()) ImGui::SetTooltip("%s", shown_text(report::describe()).c_str());
   if (d->state != session_.state_serial()) ImGui::TextDisabled("(of the design before: updating)");
   ImGui::TextWrapped("Against the design, open-loop socket -> corrected socket (the one exported):");
   delivery_tables(*d);

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <string_view>
+#include <utility>
 
 #include <fmt/format.h>
 
@@ -139,6 +141,15 @@ void colour_bar(ImDrawList* dl, ImVec2 pos, ImVec2 size, report::Colormap colorm
     dl->AddText(ImVec2(pos.x + size.x + 6, y - 7), IM_COL32(20, 20, 20, 255), t.c_str());
   }
   dl->AddText(ImVec2(pos.x - 4, pos.y - 20), IM_COL32(20, 20, 20, 255), unit.c_str());
+}
+
+std::string shown_text(std::string text) {
+  static const std::pair<std::string_view, std::string_view> kAscii[] = {
+      {"→", "->"}, {"≤", "<="}, {"≥", ">="}, {"−", "-"}};
+  for (const auto& [symbol, ascii] : kAscii)
+    for (size_t k = text.find(symbol); k != std::string::npos; k = text.find(symbol, k + ascii.size()))
+      text.replace(k, symbol.size(), ascii);
+  return text;
 }
 
 }  // namespace socketsmith::gui

@@ -31,4 +31,8 @@ void colour_bar(ImDrawList* draw_list, ImVec2 pos, ImVec2 size, report::Colormap
 /// report::colormap_colour as an ImGui colour.
 ImU32 colormap_u32(report::Colormap colormap, double t, float alpha = 1.0f);
 
+/// @p text of the library (report lines, verdicts) with the symbols outside the window font's
+/// Latin-1 range (→ ≤ ≥ −) in ASCII ("->", "<=", ">=", "-"); ImGui draws them as "?".
+std::string shown_text(std::string text);
+
 }  // namespace socketsmith::gui

@@ -561,6 +561,11 @@ TEST(GuiDelivery, the_closed_loop_runs_after_the_design_settles_and_its_figures_
   EXPECT_EQ(gui["bar"]["met"], lib["bar"]["met"]);
   EXPECT_EQ(gui["bar"]["failing"], lib["bar"]["failing"]);
   EXPECT_EQ(gui["bar"]["paths_met"], lib["bar"]["paths_met"]);
+  EXPECT_EQ(gui["bar"]["summary"], lib["bar"]["summary"]);
+  // ... as the window's font can draw it: no symbol outside Latin-1 ("→" becomes "->").
+  const std::string said = lib["bar"]["summary"].get<std::string>(), shown = gui["bar_shown"].get<std::string>();
+  EXPECT_EQ(shown.find("→"), std::string::npos) << shown;
+  EXPECT_EQ(shown.find("->") != std::string::npos, said.find("→") != std::string::npos) << shown;
 
   // The screenshot: the stump carries the delivered pressures (coloured below the brim; without a
   // check it stays grey: no data).

@@ -137,6 +137,7 @@ TEST(DeliveryBar, its_json_carries_the_verdict_and_the_bar) {
   const auto v = judge_delivery(delivered_with(300.0, 3, 9000.0), {{"POP", 0.25, 0.28}});
   const auto j = to_json(v);
   EXPECT_FALSE(j.at("met").get<bool>());
+  EXPECT_EQ(j.at("summary").get<std::string>(), v.summary());
   EXPECT_TRUE(j.at("mae_met").get<bool>());
   EXPECT_EQ(j.at("worst_landmark").get<std::string>(), "POP");
   EXPECT_EQ(j.at("failing").size(), 2u);

@@ -200,10 +200,8 @@ std::pair<report::DeliveryVerdict, report::DeliveryVerdict> delivery_verdicts(co
       below = &r;
       continue;
     }
-    std::string name = r.key;  // front_line → front line
-    std::replace(name.begin(), name.end(), '_', ' ');
-    open_paths.push_back({name, r.open_loop});
-    kept_paths.push_back({name, r.closed_loop});
+    open_paths.push_back({r.name, r.open_loop});  // the thesis path's label
+    kept_paths.push_back({r.name, r.closed_loop});
   }
   require(below != nullptr, "delivery_verdicts: the summary has no region below the brim");
   return {report::judge_delivery(below->open_loop, open, open_paths),

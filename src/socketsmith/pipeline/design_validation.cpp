@@ -426,9 +426,8 @@ void add_delivered_comparison(const DesignValidation& v, nlohmann::json& j) {
   // thesis path below it.
   std::vector<report::PathDelivery> fe_paths, our_paths;
   for (const auto& p : r.paths) {
-    const std::string name = p.name == "front" ? "front line" : p.name == "back" ? "back line" : "mid circumference";
-    fe_paths.push_back({name, report::compare_fields(r.fe_value, designed_pa, p.skin_index)});
-    our_paths.push_back({name, report::compare_fields(delivered, designed_pa, p.skin_index)});
+    fe_paths.push_back({p.label, report::compare_fields(r.fe_value, designed_pa, p.skin_index)});
+    our_paths.push_back({p.label, report::compare_fields(delivered, designed_pa, p.skin_index)});
   }
   const report::DeliveryVerdict fe_bar = report::judge_delivery(theirs, fe_ratios, fe_paths);
   const report::DeliveryVerdict our_bar = report::judge_delivery(ours, our_ratios, our_paths);

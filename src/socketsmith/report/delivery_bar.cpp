@@ -91,6 +91,7 @@ DeliveryVerdict judge_delivery(const ErrorStats& s, const std::vector<LandmarkRa
 
 nlohmann::json to_json(const DeliveryVerdict& v, const DeliveryBar& bar) {
   return {{"met", v.met()},
+          {"summary", v.summary()},
           {"mae_met", v.mae_met},
           {"p99_met", v.p99_met},
           {"r_judged", v.r_judged},

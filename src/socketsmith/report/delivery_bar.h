@@ -46,7 +46,7 @@ double landmark_deviation(double designed_ratio, double delivered_ratio, double 
 
 /// One thesis path's nodes below the brim, delivered against designed (compare_fields(delivered, designed)).
 struct PathDelivery {
-  std::string name;  ///< "front line", "back line", "mid circumference"
+  std::string name;  ///< its label (report::thesis_paths: "back line", "circumference at mid-stump", ...)
   ErrorStats stats;
 };
 
@@ -76,7 +76,7 @@ std::string describe(const DeliveryBar& bar = {});
 DeliveryVerdict judge_delivery(const ErrorStats& below_brim, const std::vector<LandmarkRatio>& landmarks,
                                const std::vector<PathDelivery>& paths = {}, const DeliveryBar& bar = {});
 
-/// {met, mae_met, p99_met, r_judged, r_met, landmarks_met, paths_met, paths_failing, worst_landmark,
+/// {met, summary, mae_met, p99_met, r_judged, r_met, landmarks_met, paths_met, paths_failing, worst_landmark,
 /// worst_landmark_deviation, failing, bar: {mae_kpa, p99_kpa, r_min, r_needs_design_sd_kpa,
 /// landmark_tolerance, landmark_floor_ratio}}.
 nlohmann::json to_json(const DeliveryVerdict& v, const DeliveryBar& bar = {});
