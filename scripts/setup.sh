@@ -24,6 +24,7 @@ packages=(
   libbenchmark-dev        # benchmarks
   libopencv-dev           # scan: 16-bit depth PNG IO, undistortion, Kinect calibration YAML (cv::FileStorage)
   libimgui-dev libglfw3-dev libgl-dev  # socketsmith-gui: Dear ImGui (with its GLFW/OpenGL3 back-ends), window, OpenGL
+  fonts-dejavu-core  # socketsmith-gui's font: DejaVu Sans draws the report's μ, σ, →, ≤ (ImGui's own: Latin-1)
   xvfb xauth libgl1-mesa-dri  # GUI tests and screenshots headless: virtual X server, Mesa llvmpipe OpenGL
   chromium                # the reports' browser test: headless Chromium renders report.html and prints it to PDF
   pybind11-dev python3-pybind11 python3-dev  # the Python package socketsmith (docs/python.md), built for /usr/bin/python3

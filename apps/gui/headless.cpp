@@ -1,4 +1,5 @@
 #include "headless.h"
+#include "fonts.h"
 #include "plots.h"
 
 #include <algorithm>
@@ -9,6 +10,8 @@
 #include <sstream>
 
 #include <sys/resource.h>
+
+#include <imgui.h>
 
 #include "socketsmith/core/atomic_file.h"
 #include "socketsmith/core/errors.h"
@@ -116,6 +119,9 @@ json live_state(const App& app) {
                           {"seconds", c->seconds},
                           {"landmarks", rows}};
   }
+  j["font"] = {{"file", ImGui::GetIO().FontDefault ? json(window_font_file()) : json()},  // null: built-in
+               {"missing_symbols", missing_symbols()},  // of the library's text (fonts.h)
+               {"symbols_shown", shown_text(kLibrarySymbols)}};
   if (const pipeline::DeliveryCheck* d = session.delivery()) {  // the delivery check as the window shows it
     json regions = json::object(), landmarks = json::array();
     for (const pipeline::RegionDelivery& r : d->summary.regions)

@@ -16,6 +16,7 @@
 #include <imgui.h>
 
 #include "app.h"
+#include "fonts.h"
 #include "common/parse_command_line.h"
 #include "headless.h"
 #include "socketsmith/core/errors.h"
@@ -65,6 +66,11 @@ int run(const Flags& f) {
   ImGui::CreateContext();
   ImGui::GetIO().IniFilename = nullptr;  // the layout is fixed; no imgui.ini beside the user's files
   ImGui::StyleColorsDark();
+  if (const std::string font = gui::window_font_file(); !gui::load_window_font(font))
+    std::fprintf(stderr,
+                 "socketsmith-gui: no font at '%s' (apt-get install fonts-dejavu-core, or set SOCKETSMITH_GUI_FONT to a "
+                 ".ttf); the built-in font draws Greek letters as '?'\n",
+                 font.c_str());
   ImGui_ImplGlfw_InitForOpenGL(window, true);
   ImGui_ImplOpenGL3_Init("#version 330 core");
   int status = 0;

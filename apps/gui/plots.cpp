@@ -1,9 +1,11 @@
 #include "plots.h"
+#include "fonts.h"
 
 #include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <string_view>
+#include <tuple>
 #include <utility>
 
 #include <fmt/format.h>
@@ -144,11 +146,12 @@ void colour_bar(ImDrawList* dl, ImVec2 pos, ImVec2 size, report::Colormap colorm
 }
 
 std::string shown_text(std::string text) {
-  static const std::pair<std::string_view, std::string_view> kAscii[] = {
-      {"→", "->"}, {"≤", "<="}, {"≥", ">="}, {"−", "-"}};
-  for (const auto& [symbol, ascii] : kAscii)
-    for (size_t k = text.find(symbol); k != std::string::npos; k = text.find(symbol, k + ascii.size()))
-      text.replace(k, symbol.size(), ascii);
+  static const std::tuple<char32_t, std::string_view, std::string_view> kAscii[] = {
+      {U'→', "→", "->"}, {U'≤', "≤", "<="}, {U'≥', "≥", ">="}, {U'−', "−", "-"}};
+  for (const auto& [code_point, symbol, ascii] : kAscii)
+    if (!draws(code_point))
+      for (size_t k = text.find(symbol); k != std::string::npos; k = text.find(symbol, k + ascii.size()))
+        text.replace(k, symbol.size(), ascii);
   return text;
 }
 

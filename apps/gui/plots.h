@@ -31,8 +31,9 @@ void colour_bar(ImDrawList* draw_list, ImVec2 pos, ImVec2 size, report::Colormap
 /// report::colormap_colour as an ImGui colour.
 ImU32 colormap_u32(report::Colormap colormap, double t, float alpha = 1.0f);
 
-/// @p text of the library (report lines, verdicts) with the symbols outside the window font's
-/// Latin-1 range (→ ≤ ≥ −) in ASCII ("->", "<=", ">=", "-"); ImGui draws them as "?".
+/// @p text of the library (report lines, verdicts) as the window's font can draw it: unchanged with
+/// DejaVu Sans (fonts.h); with ImGui's built-in font (Latin-1) → ≤ ≥ − in ASCII ("->", "<=", ">=",
+/// "-"), which it would draw as "?".
 std::string shown_text(std::string text);
 
 }  // namespace socketsmith::gui
