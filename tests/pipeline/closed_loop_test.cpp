@@ -281,6 +281,17 @@ TEST_F(ClosedLoopRun, outputs_carry_the_designed_open_and_closed_loop_pressures)
   }
   EXPECT_EQ(j["regions"].size(), 4u);
   EXPECT_EQ(bar["paths_met"].get<bool>(), paths_within);
+  // The loop's own path score of the kept socket is the bar's MAE and p99 over these paths, and it
+  // stops on it: converged means every path within them.
+  double path_score = 0;
+  for (const auto& [key, region] : j["regions"].items())
+    if (key != "below_brim")
+      path_score = std::max({path_score, region["closed_loop"]["mae_kpa"].get<double>() / 1.5,
+                             region["closed_loop"]["p99_kpa"].get<double>() / 4.0});
+  EXPECT_NEAR(kept_json["path_score"].get<double>(), path_score, 1e-9);
+  if (loop.converged) {
+    EXPECT_LE(path_score, 1.0) << loop.message;
+  }
   EXPECT_EQ(bar["met"].get<bool>(), bar["failing"].empty());
   EXPECT_FALSE(j["open_loop_bar"]["met"].get<bool>());  // the open-loop socket misses it
   const auto t = report::read_csv(out_ / "delivered.csv");

@@ -302,6 +302,13 @@ class LoopRun {
             compared_.size());
     for (int i : compared_) spacing_ += std::sqrt(skin_.area_m2[i]) / static_cast<double>(compared_.size());
     landmarks_ = LandmarkTargets(setup, r_.below_brim, r_.target_pa);
+    const auto sframe = report::surface_frame(setup.model.frame);
+    for (const auto& path : design_paths(setup)) {  // as summarise_delivery
+      std::vector<int> subset;
+      for (const auto& s : report::sample_path(skin_.positions, {}, sframe, path.spec))
+        if (r_.below_brim[s.index]) subset.push_back(s.index);
+      if (subset.size() >= 3) paths_.push_back({path.name, std::move(subset)});
+    }
     socket_brim_ = setup.brim;
     lifts_.assign(n_, {});
     // The brim may rise to a node spacing below the lowest point of the skin's top edge (the
@@ -326,7 +333,8 @@ class LoopRun {
       const std::vector<double> delivered = record(d, refitted);
       const ClosedLoopIteration& it = r_.iterations.back();
       const double score = tolerance_score(it, options_);
-      const bool within = score <= 1.0 && it.landmark_deviation <= options_.landmark_tolerance;
+      const bool within = score <= 1.0 && it.landmark_deviation <= options_.landmark_tolerance &&
+                          (!options_.paths_within_bar || it.path_score <= 1.0);
       if (!refitted) {
         round_ = {score, offset_, socket_, socket_brim_};
         keep_if_best(score, within, delivered, d);
@@ -434,6 +442,13 @@ class LoopRun {
     for (size_t i = 0; i < n_; ++i) delivered[i] = d.contacts[i].pressure_pa;
     it.below_brim = report::compare_fields(delivered, r_.target_pa, compared_);
     landmarks_.measure(delivered, skin_.area_m2, it);
+    const report::DeliveryBar bar;
+    for (const auto& [label, subset] : paths_) {
+      const auto e = report::compare_fields(delivered, r_.target_pa, subset);
+      const double score = std::max(e.mae / bar.mae_pa, e.p99 / bar.p99_pa);
+      if (score >= it.path_score)
+        std::tie(it.path_score, it.path_furthest, it.path_mae_pa, it.path_p99_pa) = std::tie(score, label, e.mae, e.p99);
+    }
     donned_ = donned_in_socket(skin_, d, axis_);
     in_socket_.clear();
     dragged_out_.assign(n_, 0);
@@ -473,7 +488,7 @@ class LoopRun {
               "{:.2f} kPa designed{}; friction carries {:.0f} N ({:.0f} N designed); wall moved up to {:.2f} mm; {:.1f} s",
               refitted ? "refit" : "donning", refitted ? refits_ : full_donnings_, it.below_brim.mae / 1e3,
               it.below_brim.p99 / 1e3, it.below_brim.r, it.below_brim.mean_a / 1e3, it.below_brim.mean_b / 1e3,
-              landmark_note(it),
+              landmark_note(it) + path_note(it),
               it.axial_friction_n, state_.radar.stability_n, it.max_offset_m * 1e3, d.seconds);
     if (it.dragged_out > 0) log::info("closed loop: {} —{}", refitted ? "refit" : "donning", dragged_out_note(it));
     if (it.brim_raise_m > 0)
@@ -494,7 +509,7 @@ class LoopRun {
   }
 
   /// The socket kept, among those donned from scratch: one @p within every tolerance (landmarks
-  /// included) before one that is not, then the smallest max(MAE / tol, p99 / tol).
+  /// and paths included) before one that is not, then the smallest max(MAE / tol, p99 / tol).
   void keep_if_best(double score, bool within, const std::vector<double>& delivered, const contact::DonningResult& d) {
     if (within == best_within_ ? score >= best_score_ : best_within_) return;
     best_score_ = score;
@@ -539,12 +554,13 @@ class LoopRun {
       const ClosedLoopIteration& kept = r_.iterations[r_.best];
       const auto& b = kept.below_brim;  // all of them, the dragged-out ones included
       r_.message = fmt::format("{} donnings without meeting the tolerances (MAE {:.2f}, p99 {:.2f} kPa, landmarks "
-                               "within {:.0f} %); "
-                               "kept donning {}: MAE {:.2f} kPa, 99th percentile {:.2f} kPa{}{}",
+                               "within {:.0f} %{}); "
+                               "kept donning {}: MAE {:.2f} kPa, 99th percentile {:.2f} kPa{}{}{}",
                                full_donnings_, options_.mae_tolerance_pa / 1e3, options_.p99_tolerance_pa / 1e3,
                                100 * options_.landmark_tolerance,
+                               options_.paths_within_bar ? ", each thesis path within the delivery bar" : "",
                                r_.kept_donning, b.mae / 1e3, b.p99 / 1e3,
-                               landmark_note(kept), dragged_out_note(kept));
+                               landmark_note(kept), path_note(kept), dragged_out_note(kept));
     }
     return std::move(r_);
   }
@@ -564,6 +580,7 @@ class LoopRun {
   std::vector<design::BrimLift> lifts_;      // per skin node: how far the brim must rise for it, where
   double max_brim_h_ = 0;                    // the brim rises no higher than this [m]
   LandmarkTargets landmarks_;  // the landmarks' zones below the brim
+  std::vector<std::pair<std::string, std::vector<int>>> paths_;  // each thesis path's label and nodes below the brim
   std::vector<Vec3> donned_;       // the last donning's skin, in the socket's frame
   std::vector<int> in_socket_;     // compared nodes it left below the brim
   std::vector<char> dragged_out_;  // per skin node: compared, and dragged above the brim

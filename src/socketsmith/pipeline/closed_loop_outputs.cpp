@@ -93,6 +93,8 @@ nlohmann::json iterations_json(const ClosedLoopResult& loop, report::ReportDeliv
                           {"friction_utilisation", it.friction_utilisation},
                           {"landmark_deviation", it.landmark_deviation},
                           {"landmark_furthest", it.landmark_furthest},
+                          {"path_score", it.path_score},
+                          {"path_furthest", it.path_furthest},
                           {"factorizations", it.factorizations},
                           {"donning_seconds", it.donning_seconds},
                           {"socket_seconds", it.socket_seconds}});
@@ -101,7 +103,7 @@ nlohmann::json iterations_json(const ClosedLoopResult& loop, report::ReportDeliv
                                             "{:.2f} mm; stood {:+.2f} mm from the designed pose; friction mobilised "
                                             "{:.0f} %; {:.1f} s{}",
                                             it.below_brim.mae / 1e3, it.below_brim.p99 / 1e3, it.below_brim.r,
-                                            landmark_note(it),
+                                            landmark_note(it) + path_note(it),
                                             it.max_offset_m * 1e3, it.stood_offset_m * 1e3,
                                             100 * it.friction_utilisation, it.donning_seconds,
                                             static_cast<int>(k) == loop.best ? " (kept)" : "")});
@@ -272,6 +274,12 @@ std::string in_socket_figures(const ClosedLoopIteration& it) {
 std::string landmark_note(const ClosedLoopIteration& it) {
   if (it.landmark_furthest.empty()) return {};
   return fmt::format(", landmarks within {:.0f} % ({})", 100 * it.landmark_deviation, it.landmark_furthest);
+}
+
+std::string path_note(const ClosedLoopIteration& it) {
+  if (it.path_furthest.empty() || it.path_score <= 1.0) return {};
+  return fmt::format(", {}: MAE {:.2f} kPa, 99th percentile {:.2f} kPa", it.path_furthest, it.path_mae_pa / 1e3,
+                     it.path_p99_pa / 1e3);
 }
 
 std::string dragged_out_note(const ClosedLoopIteration& it) {
