@@ -176,6 +176,22 @@ TEST(CaseFile, an_empty_document_is_the_default_case) {
   EXPECT_EQ(case_to_json(c)["design"]["spots"], "default");
 }
 
+// The brim's flare: 5 mm on a transtibial limb, none on a transfemoral one (its ischial seat is its
+// brim); a given value is kept, in mm in the file, and a default is not written.
+TEST(CaseFile, the_brim_flare_defaults_by_level_and_a_given_value_is_kept) {
+  const CaseFile tt = parse_case(json::object());
+  EXPECT_DOUBLE_EQ(brim_flare_m(tt), 0.005);
+  EXPECT_FALSE(case_to_json(tt)["design"].contains("brim_flare_mm"));
+  const CaseFile tf = parse_case(json::parse(R"({"limb": {"type": "transfemoral"}})"));
+  EXPECT_DOUBLE_EQ(brim_flare_m(tf), 0.0);
+  const CaseFile given = parse_case(json::parse(R"({"design": {"brim_flare_mm": 0}})"));
+  EXPECT_DOUBLE_EQ(brim_flare_m(given), 0.0);
+  const CaseFile ten = parse_case(json::parse(R"({"limb": {"type": "transfemoral"}, "design": {"brim_flare_mm": 10}})"));
+  EXPECT_DOUBLE_EQ(brim_flare_m(ten), 0.010);
+  EXPECT_DOUBLE_EQ(case_to_json(ten)["design"]["brim_flare_mm"].get<double>(), 10.0);
+  EXPECT_THROW(parse_case(json::parse(R"({"design": {"brim_flare_mm": -1}})")), Error);
+}
+
 TEST(CaseFile, the_loop_is_closed_by_default_on_both_levels_and_a_given_value_is_kept) {
   const CaseFile tt = parse_case(json::object());
   EXPECT_FALSE(tt.closed_loop.has_value());

@@ -520,6 +520,36 @@ TEST(DesignSolverStump, nodes_above_the_brim_carry_no_pressure) {
   EXPECT_EQ(std::count(all.begin(), all.end(), 0.0), 0);
 }
 
+// A flared brim: the spots' field eases in over the flare below the brim (smoothstep of the depth),
+// in the requested pressure and in the optimiser's amplitude fit alike (both read brim_weight).
+TEST(DesignSolverStump, a_flared_brim_eases_the_pressure_in_below_it) {
+  const Stump& s = stump();
+  auto solver = make_solver(DesignSolveMode::Linear);
+  const double L = s.model.length_m, flare = 10 * kMm;
+  const auto brim = [&](double theta) { return 0.6 * L + 0.1 * L * std::cos(theta); };
+  EXPECT_THROW(solver->set_brim_flare(-1e-3), Error);
+  solver->set_brim_flare(flare);
+  solver->set_brim(brim);
+  const auto p = solver->requested_pressure({uniform_grad(2 * kKPa, L)});
+  const auto& cyl = solver->skin_cylindrical();
+  int eased = 0, full = 0;
+  for (size_t i = 0; i < cyl.size(); ++i) {
+    const double depth = brim(cyl[i].theta) - cyl[i].h, t = std::clamp(depth / flare, 0.0, 1.0);
+    const double w = depth < 0 ? 0.0 : t * t * (3 - 2 * t);
+    EXPECT_NEAR(solver->brim_weight()[i], w, 1e-12) << i;
+    EXPECT_NEAR(p[i], w * 2 * kKPa, 1e-9) << i;
+    eased += depth > 0 && depth < flare;
+    full += depth >= flare;
+  }
+  EXPECT_GT(eased, 10);
+  EXPECT_GT(full, 50);
+  // No flare: the field up to the brim, as before.
+  solver->set_brim_flare(0);
+  solver->set_brim(brim);
+  const auto q = solver->requested_pressure({uniform_grad(2 * kKPa, L)});
+  for (size_t i = 0; i < cyl.size(); ++i) EXPECT_EQ(q[i], solver->above_brim()[i] ? 0.0 : 2 * kKPa) << i;
+}
+
 /// Free (not fixed) mesh nodes.
 std::vector<char> free_nodes(const volume::HexMesh& mesh) {
   std::vector<char> f(mesh.num_nodes());

@@ -495,8 +495,12 @@ TEST(GuiRectification, the_table_is_the_reports_and_the_stump_shows_it_on_a_dive
   // the view's top (the menu bar, ~19 px).
   int bar_top = -1;
   const int bar_x = w - 440 - 70 + 9;
-  for (int y = 40; y < 120 && bar_top < 0; ++y)
-    if (at(bar_x, y)[0] < 80 && at(bar_x, y)[1] < 80 && at(bar_x, y)[2] < 80) bar_top = y;  // its dark frame
+  const auto saturated = [&](int x, int y) {
+    const unsigned char* p = at(x, y);
+    return std::max({p[0], p[1], p[2]}) - std::min({p[0], p[1], p[2]}) > 40;
+  };
+  for (int y = 40; y < 120 && bar_top < 0; ++y)  // its dark frame, colours under it (not the unit's text above)
+    if (at(bar_x, y)[0] < 80 && at(bar_x, y)[1] < 80 && at(bar_x, y)[2] < 80 && saturated(bar_x, y + 4)) bar_top = y;
   ASSERT_GT(bar_top, 0) << "no colour bar frame found";
   const unsigned char* top = at(bar_x, bar_top + 4);
   const unsigned char* mid = at(bar_x, bar_top + 120);

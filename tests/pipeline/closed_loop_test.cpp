@@ -221,12 +221,13 @@ TEST_F(ClosedLoopRun, the_corrected_socket_delivers_the_design_better_than_the_o
   // A node dragged above the socket's brim corrects no wall: its deficit does not pull the rim in.
   // (When it did, each correction moved the wall vertices above the brim further in, to the 5 mm
   // clamp on generated limbs. What is left is the corrections of the nodes just below the raised
-  // brim, moved onto the vertices near where they touch: −2.3 mm here, 2026-12-02.)
+  // brim, moved onto the vertices near where they touch: −2.3 mm here, 2026-12-02; −3.8 mm with the
+  // transtibial default's 5 mm brim flare, whose eased pressure under the brim the rim presses.)
   double rim_in = 0;
   for (size_t i = 0; i < skin.nodes.size(); ++i)
     if (design::above_brim(brim, art_->result.state.skin_positions[i], frame))
       rim_in = std::min(rim_in, loop.wall_offset_m[i]);
-  EXPECT_GT(rim_in, -3e-3);
+  EXPECT_GT(rim_in, -4.5e-3);
   // Where the loop moved the wall: within its bound, and not nowhere.
   double max_offset = 0;
   for (double v : loop.wall_offset_m) max_offset = std::max(max_offset, std::abs(v));

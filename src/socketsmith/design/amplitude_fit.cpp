@@ -37,6 +37,7 @@ void add_node_rows(AmplitudeProblem& P, const std::vector<Spot>& spots, RegionSu
                    std::vector<double>& fixed) {
   const auto& cyl = P.solver->skin_cylindrical();
   const auto& above = P.solver->above_brim();
+  const auto& weight = P.solver->brim_weight();  // the flare: the field eases in below the brim
   const auto& thr = P.solver->thresholds();
   const auto& fr = P.solver->frame();
   const double mu = P.solver->patient().friction;
@@ -56,11 +57,12 @@ void add_node_rows(AmplitudeProblem& P, const std::vector<Spot>& spots, RegionSu
     double pf = 0;
     bool any = false;
     for (size_t j = 0; j < nf; ++j) {
-      row[j] = spot_shape(spots[free[j]], cyl[i].theta, cyl[i].h);
+      row[j] = weight[i] * spot_shape(spots[free[j]], cyl[i].theta, cyl[i].h);
       any = any || row[j] > 0;
     }
     for (size_t k = 0; k < spots.size(); ++k)
-      if (spots[k].enabled && !spots[k].optimise_amplitude) pf += spot_pressure(spots[k], cyl[i].theta, cyl[i].h);
+      if (spots[k].enabled && !spots[k].optimise_amplitude)
+        pf += weight[i] * spot_pressure(spots[k], cyl[i].theta, cyl[i].h);
     // A ratio's means count every node of its regions, loaded or not.
     for (Eigen::Index r = 0; r < nra; ++r) {
       const auto& ra = ratios[static_cast<std::size_t>(r)];

@@ -372,4 +372,8 @@ bool closes_loop(const CaseFile& c) {
   return c.closed_loop.value_or(true);
 }
 
+double brim_flare_m(const CaseFile& c) {
+  return c.brim_flare_m.value_or(c.limb.type == geometry::LimbType::Transtibial ? 0.005 : 0.0);
+}
+
 }  // namespace socketsmith::design

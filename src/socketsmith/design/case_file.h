@@ -90,6 +90,10 @@ struct CaseFile {
   /// skin designed below it out of the socket [m], 0–0.05; 0 (the default): never — the brim is the
   /// prosthetist's line (e.g. low posteriorly for knee flexion). pipeline::ClosedLoopOptions::max_brim_raise_m.
   double closed_loop_max_brim_raise_m = 0.0;
+  /// A flared brim [m], 0–0.05: the designed pressure eases to nothing over this distance below the
+  /// brim (DesignSolver::set_brim_flare); 0: the spots' pressure up to the brim. Not given: the
+  /// limb type's (brim_flare_m()).
+  std::optional<double> brim_flare_m;
   /// The closed loop's donnings — and the case's other donnings of its socket (`simulate donning
   /// --case`, `validate design`) — against a wall the skin does not penetrate (augmented Lagrangian
   /// contact, ContactOptions::augmented_tol) instead of the penalty's ~60 µm at 15 kPa: the
@@ -149,5 +153,11 @@ std::filesystem::path resolve(const CaseFile& c, const std::string& file);
 /// gives it, else true for a transtibial limb (docs/design.md, "Closed loop": the socket written
 /// then delivers its design) and false for a transfemoral one (its donning is not validated).
 bool closes_loop(const CaseFile& c);
+
+/// The brim's flare [m]: `design.brim_flare_mm` when the case gives it, else 5 mm for a
+/// transtibial limb — a trim line presses nothing at its edge, and the skin that donning drags
+/// up to 3–5 mm over the brim then takes the pressure it was designed for (docs/design.md, "Nodes
+/// dragged out of the socket") — and 0 for a transfemoral one, whose ischial seat is its brim.
+double brim_flare_m(const CaseFile& c);
 
 }  // namespace socketsmith::design

@@ -1,5 +1,6 @@
 #include "socketsmith/design/design_solver.h"
 
+#include <algorithm>
 #include <chrono>
 #include <limits>
 #include <cmath>
@@ -104,6 +105,8 @@ struct DesignSolver::Impl {
   DesignSolverOptions options;
   std::vector<geometry::Cylindrical> cyl;
   std::vector<char> above;
+  double flare_m = 0;          // DesignSolver::set_brim_flare
+  std::vector<double> weight;  // per skin node: the share of the spots' field applied (brim_weight)
   tissue::DofMap dofs;
   std::unique_ptr<tissue::StaticSolver> solver;
   tissue::VectorXd x;  // warm start
@@ -309,6 +312,7 @@ struct DesignSolver::Impl {
     cyl.reserve(skin.nodes.size());
     for (const auto& p : skin.positions) cyl.push_back(frame.to_cylindrical(p));
     above.assign(skin.nodes.size(), 0);
+    weight.assign(skin.nodes.size(), 1.0);
   }
 };
 
@@ -356,14 +360,31 @@ std::vector<char> DesignSolver::above_brim_of(const std::function<double(double)
 }
 
 void DesignSolver::set_brim(const std::function<double(double)>& brim_height_m) {
-  impl_->above = above_brim_of(brim_height_m);
+  auto& s = *impl_;
+  s.above = above_brim_of(brim_height_m);
+  s.weight.assign(s.cyl.size(), 1.0);
+  for (size_t i = 0; i < s.cyl.size(); ++i) {
+    if (s.above[i]) {
+      s.weight[i] = 0.0;
+    } else if (s.flare_m > 0 && brim_height_m) {  // smoothstep over the band below the brim
+      const double t = std::clamp((brim_height_m(s.cyl[i].theta) - s.cyl[i].h) / s.flare_m, 0.0, 1.0);
+      s.weight[i] = t * t * (3 - 2 * t);
+    }
+  }
 }
+
+void DesignSolver::set_brim_flare(double flare_m) {
+  require(std::isfinite(flare_m) && flare_m >= 0, "design: the brim flare must be a length ≥ 0 (got {} m)", flare_m);
+  impl_->flare_m = flare_m;
+}
+
+const std::vector<double>& DesignSolver::brim_weight() const { return impl_->weight; }
 
 std::vector<double> DesignSolver::requested_pressure(const std::vector<Spot>& spots) const {
   const auto& s = *impl_;
   std::vector<double> p(s.cyl.size(), 0.0);
   for (size_t i = 0; i < p.size(); ++i)
-    if (!s.above[i]) p[i] = std::max(0.0, field_pressure(spots, s.cyl[i].theta, s.cyl[i].h));
+    if (!s.above[i]) p[i] = s.weight[i] * std::max(0.0, field_pressure(spots, s.cyl[i].theta, s.cyl[i].h));
   return p;
 }
 

@@ -188,8 +188,16 @@ class DesignSolver {
   const DesignSolverOptions& options() const;
   double stump_length_m() const;
 
-  /// Marks skin nodes above the brim (above_brim_of): no pressure there.
+  /// Marks skin nodes above the brim (above_brim_of): no pressure there; below it, within the
+  /// flare (set_brim_flare, before), the spots' field eases in (brim_weight).
   void set_brim(const std::function<double(double theta)>& brim_height_m);
+  /// A flared brim [m], ≥ 0: the spots' field is applied in full from this far below the brim and
+  /// eases to nothing at the brim (smoothstep), as a flared trim line presses nothing at its edge.
+  /// 0 (the default): the field up to the brim. Takes effect at the next set_brim.
+  void set_brim_flare(double flare_m);
+  /// Per skin node: the share of the spots' field applied — 0 above the brim, 1 from the flare's
+  /// depth below it (everywhere below it without a flare).
+  const std::vector<double>& brim_weight() const;
   /// Which skin nodes lie above @p brim_height_m (h > brim(θ), rest coordinates), without setting
   /// it: the test set_brim applies, for a caller on another thread than the solves (the GUI).
   std::vector<char> above_brim_of(const std::function<double(double theta)>& brim_height_m) const;

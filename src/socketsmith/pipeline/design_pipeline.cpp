@@ -229,6 +229,7 @@ std::unique_ptr<DesignSetup> prepare_design(const design::CaseFile& c, const fs:
   s->solver = std::make_unique<design::DesignSolver>(s->mesh.mesh, s->material, s->model_options, model.frame,
                                                      s->thresholds, c.patient, model.length_m, so);
   const auto& brim = s->brim;
+  s->solver->set_brim_flare(design::brim_flare_m(c));
   s->solver->set_brim([&brim](double theta) { return brim.height(theta); });
   report_progress(progress, 1.0, "design: stump model ready");
   return s;
