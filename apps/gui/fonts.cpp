@@ -1,29 +1,13 @@
 #include "fonts.h"
 
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 
 #include <imgui.h>
+#include <imgui_internal.h>  // ImTextCharFromUtf8
 
 namespace socketsmith::gui {
-
-namespace {
-
-/// The code points of UTF-8 @p text (the library writes only well-formed UTF-8).
-std::u32string code_points(const std::string& text) {
-  std::u32string out;
-  for (size_t k = 0; k < text.size();) {
-    const auto c = static_cast<unsigned char>(text[k]);
-    const int len = c < 0x80 ? 1 : c < 0xE0 ? 2 : c < 0xF0 ? 3 : 4;
-    char32_t cp = len == 1 ? c : len == 2 ? (c & 0x1F) : len == 3 ? (c & 0x0F) : (c & 0x07);
-    for (int b = 1; b < len && k + b < text.size(); ++b) cp = (cp << 6) | (static_cast<unsigned char>(text[k + b]) & 0x3F);
-    out.push_back(cp);
-    k += len;
-  }
-  return out;
-}
-
-}  // namespace
 
 std::string window_font_file() {
   if (const char* env = std::getenv("SOCKETSMITH_GUI_FONT"); env && *env) return env;
@@ -57,11 +41,10 @@ bool draws(char32_t code_point) {
 
 std::string missing_symbols() {
   std::string out;
-  const std::string all = kLibrarySymbols;
-  size_t k = 0;
-  for (char32_t cp : code_points(all)) {
-    const size_t len = cp < 0x80 ? 1 : cp < 0x800 ? 2 : cp < 0x10000 ? 3 : 4;
-    if (!draws(cp)) out += all.substr(k, len);
+  for (const char *k = kLibrarySymbols, *end = k + std::strlen(k); k < end;) {
+    unsigned int cp = 0;
+    const int len = ImTextCharFromUtf8(&cp, k, end);
+    if (!draws(cp)) out.append(k, static_cast<size_t>(len));
     k += len;
   }
   return out;

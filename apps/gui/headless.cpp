@@ -123,6 +123,7 @@ json live_state(const App& app) {
                {"missing_symbols", missing_symbols()},  // of the library's text (fonts.h)
                {"symbols_shown", shown_text(kLibrarySymbols)}};
   if (const pipeline::DeliveryCheck* d = session.delivery()) {  // the delivery check as the window shows it
+    const report::DeliveryVerdict bar = pipeline::delivery_verdicts(d->summary).second;
     json regions = json::object(), landmarks = json::array();
     for (const pipeline::RegionDelivery& r : d->summary.regions)
       regions[r.key] = {{"open_loop", report::to_json(r.open_loop, 1e-3, "_kpa")},
@@ -141,8 +142,8 @@ json live_state(const App& app) {
                      {"of_shown_design", d->state == session.state_serial()},
                      {"regions", regions},
                      {"landmarks", landmarks},
-                     {"bar", report::to_json(pipeline::delivery_verdicts(d->summary).second)},
-                     {"bar_shown", shown_text(pipeline::delivery_verdicts(d->summary).second.summary())}};
+                     {"bar", report::to_json(bar)},
+                     {"bar_shown", shown_text(bar.summary())}};
   }
   return j;
 }

@@ -259,13 +259,7 @@ class LoopRun {
             compared_.size());
     for (int i : compared_) spacing_ += std::sqrt(skin_.area_m2[i]) / static_cast<double>(compared_.size());
     landmarks_ = LandmarkTargets(setup, r_.below_brim, r_.target_pa);
-    const auto sframe = report::surface_frame(setup.model.frame);
-    for (const auto& path : design_paths(setup)) {  // as summarise_delivery
-      std::vector<int> subset;
-      for (const auto& s : report::sample_path(skin_.positions, {}, sframe, path.spec))
-        if (r_.below_brim[s.index]) subset.push_back(s.index);
-      if (subset.size() >= 3) paths_.push_back({path.name, std::move(subset)});
-    }
+    paths_ = path_nodes_below_brim(setup, r_.below_brim);
     socket_brim_ = setup.brim;
     lifts_.assign(n_, {});
     // The brim may rise to a node spacing below the lowest point of the skin's top edge (the
@@ -412,11 +406,11 @@ class LoopRun {
     it.below_brim = report::compare_fields(delivered, r_.target_pa, compared_);
     landmarks_.measure(delivered, skin_.area_m2, it);
     const report::DeliveryBar bar;
-    for (const auto& [label, subset] : paths_) {
-      const auto e = report::compare_fields(delivered, r_.target_pa, subset);
+    for (const auto& p : paths_) {
+      const auto e = report::compare_fields(delivered, r_.target_pa, p.nodes);
       const double score = std::max(e.mae / bar.mae_pa, e.p99 / bar.p99_pa);
       if (score >= it.path_score)
-        std::tie(it.path_score, it.path_furthest, it.path_mae_pa, it.path_p99_pa) = std::tie(score, label, e.mae, e.p99);
+        std::tie(it.path_score, it.path_furthest, it.path_mae_pa, it.path_p99_pa) = std::tie(score, p.name, e.mae, e.p99);
     }
     donned_ = donned_in_socket(skin_, d, axis_);
     in_socket_.clear();
@@ -556,7 +550,7 @@ class LoopRun {
   std::vector<design::BrimLift> lifts_;      // per skin node: how far the brim must rise for it, where
   double max_brim_h_ = 0;                    // the brim rises no higher than this [m]
   LandmarkTargets landmarks_;  // the landmarks' zones below the brim
-  std::vector<std::pair<std::string, std::vector<int>>> paths_;  // each thesis path's label and nodes below the brim
+  std::vector<PathNodes> paths_;  // each thesis path's nodes below the brim
   std::vector<Vec3> donned_;       // the last donning's skin, in the socket's frame
   std::vector<int> in_socket_;     // compared nodes it left below the brim
   std::vector<char> dragged_out_;  // per skin node: compared, and dragged above the brim

@@ -248,6 +248,15 @@ nlohmann::json write_closed_loop_outputs(const DesignSetup& setup, const DesignR
 /// ("" when no landmark lies below the brim).
 std::string landmark_note(const ClosedLoopIteration& it);
 
+/// A thesis path's skin nodes below the brim (design_paths, sampled on the rest skin).
+struct PathNodes {
+  std::string key, name;
+  std::vector<int> nodes;
+};
+/// The thesis paths with at least 3 skin nodes flagged in @p below_brim: what the closed loop's
+/// stopping rule and its delivery summary compare.
+std::vector<PathNodes> path_nodes_below_brim(const DesignSetup& setup, const std::vector<char>& below_brim);
+
 /// ", <path label>: MAE …, 99th percentile … kPa": @p it's thesis path furthest from the delivery
 /// bar when one misses it ("" otherwise).
 std::string path_note(const ClosedLoopIteration& it);

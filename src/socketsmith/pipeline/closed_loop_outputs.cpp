@@ -210,6 +210,19 @@ std::pair<report::DeliveryVerdict, report::DeliveryVerdict> delivery_verdicts(co
           report::judge_delivery(below->closed_loop, kept, kept_paths)};
 }
 
+std::vector<PathNodes> path_nodes_below_brim(const DesignSetup& setup, const std::vector<char>& below_brim) {
+  const auto& skin = setup.solver->skin();
+  const auto sframe = report::surface_frame(setup.model.frame);
+  std::vector<PathNodes> out;
+  for (const auto& path : design_paths(setup)) {
+    std::vector<int> nodes;
+    for (const auto& s : report::sample_path(skin.positions, {}, sframe, path.spec))
+      if (below_brim[s.index]) nodes.push_back(s.index);
+    if (nodes.size() >= 3) out.push_back({path.key, path.name, std::move(nodes)});
+  }
+  return out;
+}
+
 DeliverySummary summarise_delivery(const DesignSetup& setup, const ClosedLoopResult& loop) {
   const auto& skin = setup.solver->skin();
   const size_t n = skin.nodes.size();
@@ -224,13 +237,7 @@ DeliverySummary summarise_delivery(const DesignSetup& setup, const ClosedLoopRes
                          report::compare_fields(loop.closed_loop_pa, loop.target_pa, subset)});
   };
   region("below_brim", "below the brim", below);
-  const auto sframe = report::surface_frame(setup.model.frame);
-  for (const auto& path : design_paths(setup)) {
-    std::vector<int> subset;
-    for (const auto& s : report::sample_path(skin.positions, {}, sframe, path.spec))
-      if (loop.below_brim[s.index]) subset.push_back(s.index);
-    if (subset.size() >= 3) region(path.key, path.name, subset);
-  }
+  for (const auto& p : path_nodes_below_brim(setup, loop.below_brim)) region(p.key, p.name, p.nodes);
   for (const auto& z : landmark_zones(setup, loop.below_brim))
     d.landmarks.push_back({z.code, static_cast<int>(z.nodes.size()), z.mean(setup.thresholds, skin.area_m2),
                            z.mean(loop.target_pa, skin.area_m2), z.mean(loop.open_loop_pa, skin.area_m2),
