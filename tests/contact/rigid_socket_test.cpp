@@ -2,6 +2,7 @@
 // against it (also for nodes pushed beyond the outer wall), bad sockets rejected.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <iostream>
 #include <numbers>
@@ -43,17 +44,19 @@ geometry::TriMesh pipe(double ri, double ro, double H, int seg = 96) {
   return m;
 }
 
-/// The same pipe with its walls cut into @p rings rows of quads (a socket's wall is meshed finely
-/// both ways; the plain pipe's walls are single 0.2 m slivers).
-geometry::TriMesh ringed_pipe(double ri, double ro, double H, int seg, int rings) {
+/// A pipe whose walls are cut into @p rings rows of quads (a socket's wall is meshed finely both
+/// ways): @p ring(r, a) gives ring r's inner and outer radii and height at the angle a.
+template <class Ring>
+geometry::TriMesh profiled_pipe(int seg, int rings, Ring ring) {
   geometry::TriMesh m;
   const auto in = [&](int r, int k) { return 2 * ((r * seg) + (k % seg)); };
   for (int r = 0; r <= rings; ++r)
     for (int k = 0; k < seg; ++k) {
       const double a = 2 * std::numbers::pi * k / seg;
-      const Vec3 d(std::cos(a), std::sin(a), 0), z(0, 0, H * r / rings);
-      m.vertices.push_back(ri * d + z);  // in(r, k)
-      m.vertices.push_back(ro * d + z);  // in(r, k) + 1: outer
+      const std::array<double, 3> p = ring(r, a);
+      const Vec3 d(std::cos(a), std::sin(a), 0), z(0, 0, p[2]);
+      m.vertices.push_back(p[0] * d + z);  // in(r, k)
+      m.vertices.push_back(p[1] * d + z);  // in(r, k) + 1: outer
     }
   for (int k = 0; k < seg; ++k) {
     for (int r = 0; r < rings; ++r) {
@@ -71,6 +74,11 @@ geometry::TriMesh ringed_pipe(double ri, double ro, double H, int seg, int rings
     m.triangles.push_back({a0, b0 + 1, a0 + 1});
   }
   return m;
+}
+
+/// The thick-walled pipe of radii ri, ro and height H with its walls cut into @p rings rows.
+geometry::TriMesh ringed_pipe(double ri, double ro, double H, int seg, int rings) {
+  return profiled_pipe(seg, rings, [&](int r, double) { return std::array<double, 3>{ri, ro, H * r / rings}; });
 }
 
 geometry::LimbFrame z_frame() {
@@ -356,6 +364,38 @@ TEST(RigidSocket, smoothed_wall_hands_over_to_the_lip_past_the_rim) {
   // lip is 8 mm away, no contact (the facets' closest point, on the rim, counted it 13 mm deep).
   const Gap wide = s.gap((ri + 0.012) * dir + Vec3(0, 0, H + 0.005));
   EXPECT_FALSE(wide.valid && wide.gap_m < 0) << wide.gap_m;
+}
+
+// "Past the rim" is a half-space through the lip's centre line; where the wall's last ring folds
+// out and down (a steep trim line, a curled brim) the direction past the rim tilted down, and a
+// node pressed 1 mm into the wall 9-20 mm below the rim counted as behind the lip, its gap +3.6 to
+// +14.5 mm, no force (the clinical AAOP example: a node left 1-4 mm deep in the wall at no
+// pressure). The lip's frame is now levelled: the wall pushes such a node.
+TEST(RigidSocket, a_node_in_the_wall_well_below_a_folded_rim_is_pushed_by_the_wall) {
+  // The rim slopes from 230 mm (front, +x) to 170 mm (back); its last ring folds 2 mm out and
+  // 0.5 mm down.
+  const double ri = 0.05, ro = 0.055;
+  const auto rim = [](double a) { return 0.2 + 0.03 * std::cos(a); };
+  RigidSocket s(profiled_pipe(48, 41, [&](int r, double a) {
+                  return r <= 40 ? std::array<double, 3>{ri, ro, rim(a) * r / 40}
+                                 : std::array<double, 3>{ri + 0.002, ro + 0.002, rim(a) - 0.0005};
+                }),
+                z_frame());
+  s.set_smooth_wall(true);
+  const Vec3 dir(-1, 0, 0);  // the back, where the rim is lowest
+  // From 6 mm below the rim (above it the smoothed wall rounds off the fold's corner) to 20 mm.
+  for (double below = 0.006; below <= 0.02; below += 0.0005) {
+    const Vec3 p = (ri + 1e-3) * dir + Vec3(0, 0, rim(std::numbers::pi) - below);
+    const Gap g = s.gap(p);
+    EXPECT_TRUE(g.valid) << below;
+    EXPECT_NEAR(g.gap_m, -1e-3, 1e-4) << below;
+    EXPECT_GT(g.normal.dot(-dir), 0.99) << below;  // towards the axis
+    for (int a = 0; a < 3; ++a) {  // the gradient is the gap's, the lip's fade included
+      const double h = 1e-7;
+      const double fd = (s.gap(p + h * Vec3::Unit(a)).gap_m - s.gap(p - h * Vec3::Unit(a)).gap_m) / (2 * h);
+      EXPECT_NEAR(fd, g.gradient_norm * g.normal[a], 1e-4) << below << " " << a;
+    }
+  }
 }
 
 TEST(RigidSocket, rejects_open_and_misplaced_sockets) {

@@ -19,6 +19,25 @@ namespace {
 constexpr double kLipRadiusMin = 0.001, kLipRadiusMax = 0.005;
 constexpr double kLipReach = 0.02;
 constexpr double kLipBlendAngle = 0.26;  // [rad] ~15°: 0.65 mm past the rim on a 2.5 mm lip
+
+/// Past the rim is out of the socket, never down into it: where the wall's last ring folds out and
+/// down (a steep trim line, a curled brim) the direction past the rim @p b tilts below the level,
+/// and "past" — the half-space through the lip's centre line along it — took in points well below
+/// the rim: a node pressed 1 mm into the wall 13 mm below it counted as behind the lip, its gap
+/// +12 mm, no force (the clinical AAOP example: a node left 1-4 mm deep in the wall at no pressure
+/// while the closed loop pushed the wall in). The frame (@p n, @p b) is turned about the rim's
+/// tangent until @p b is level with the @p axis. @p b is first made a unit vector across @p n.
+void level_lip_frame(Vec3& n, Vec3& b, const Vec3& axis) {
+  b = (b - b.dot(n) * n).normalized();
+  const Vec3 t = n.cross(b);
+  const Vec3 up = axis - axis.dot(t) * t;  // the axis in the plane of n and b
+  if (up.norm() < 0.1 || b.dot(up) >= 0) return;
+  const Vec3 u = up.normalized();
+  const Vec3 level = b - b.dot(u) * u;
+  if (level.norm() < 0.1) return;  // b straight down: no level direction to take
+  b = level.normalized();
+  n = (n - n.dot(b) * b).normalized();
+}
 }  // namespace
 
 void RigidSocket::build_lip(const std::vector<int>& wall_of, const std::vector<int>& cavity) {
@@ -75,7 +94,7 @@ void RigidSocket::build_lip(const std::vector<int>& wall_of, const std::vector<i
   }
   lip_radius_ = std::clamp(0.5 * t, kLipRadiusMin, kLipRadiusMax);
   for (size_t k = 0; k < lip_o_.size(); ++k) {
-    lip_b_[k] = (lip_b_[k] - lip_b_[k].dot(lip_n_[k]) * lip_n_[k]).normalized();
+    level_lip_frame(lip_n_[k], lip_b_[k], frame_.axis.normalized());
     lip_o_[k] -= lip_radius_ * lip_n_[k];
   }
   // The rim's chains: each segment's neighbours (where a vertex has one incoming and one outgoing
