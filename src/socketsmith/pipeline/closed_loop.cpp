@@ -8,12 +8,12 @@
 #include <string>
 #include <tuple>
 #include <utility>
-#include <unordered_map>
 
 #include "socketsmith/core/errors.h"
 #include "socketsmith/core/log.h"
 #include "socketsmith/core/units.h"
 #include "socketsmith/pipeline/anderson_mixing.h"
+#include "socketsmith/pipeline/closed_loop_correction.h"
 #include "socketsmith/pipeline/design_pipeline.h"
 #include "socketsmith/report/delivery_bar.h"
 
@@ -50,109 +50,6 @@ void check_options(const ClosedLoopOptions& o) {
           o.check_newton_ratio, o.check_newton_min);
 }
 
-/// Area-weighted averages of @p v over each node and its neighbours on the skin's quads, @p passes
-/// times, among the nodes where @p use is 1 (the others keep their value and are not averaged in).
-std::vector<double> smooth_on_skin(const volume::SkinSurface& skin, const std::vector<char>& use, std::vector<double> v,
-                                   int passes) {
-  if (passes == 0) return v;
-  const size_t n = skin.nodes.size();
-  std::unordered_map<int, int> local;
-  for (size_t i = 0; i < n; ++i) local[skin.nodes[i]] = static_cast<int>(i);
-  std::vector<std::vector<int>> nb(n);
-  for (const auto& q : skin.quads)
-    for (int a = 0; a < 4; ++a) {
-      const int i = local.at(q[a]), j = local.at(q[(a + 1) % 4]);
-      nb[i].push_back(j);
-      nb[j].push_back(i);
-    }
-  for (auto& l : nb) {
-    std::sort(l.begin(), l.end());
-    l.erase(std::unique(l.begin(), l.end()), l.end());
-  }
-  std::vector<double> next(n);
-  for (int p = 0; p < passes; ++p) {
-    for (size_t i = 0; i < n; ++i) {
-      if (!use[i]) {
-        next[i] = v[i];
-        continue;
-      }
-      double s = skin.area_m2[i] * v[i], w = skin.area_m2[i];
-      for (int j : nb[i])
-        if (use[j]) {
-          s += skin.area_m2[j] * v[j];
-          w += skin.area_m2[j];
-        }
-      next[i] = s / w;
-    }
-    v.swap(next);
-  }
-  return v;
-}
-
-/// Corrections @p c computed at the skin nodes, moved onto the wall's vertices. Donning drags the
-/// skin along the wall (on the demo 5–7 mm proximally, a node spacing), so a node presses the wall
-/// where it ended up, not at its own designed vertex: correcting the node's vertex moved the wall
-/// under a neighbour instead. Each wall vertex @p wall takes the Gaussian-weighted mean
-/// (σ = @p sigma_m, up to 3σ) of the corrections of the nodes @p used whose donned position
-/// @p donned (in the socket's frame) is near it; a vertex no node reaches keeps its own node's.
-std::vector<double> corrections_on_wall(const std::vector<Vec3>& wall, const std::vector<Vec3>& donned,
-                                        const std::vector<double>& c, const std::vector<int>& used, double sigma_m) {
-  const double r2 = 9 * sigma_m * sigma_m, inv = 1.0 / (2 * sigma_m * sigma_m);
-  std::vector<double> out(wall.size());
-  for (size_t j = 0; j < wall.size(); ++j) {
-    double sw = 0, sc = 0;
-    for (int i : used) {
-      const double d2 = (donned[i] - wall[j]).squaredNorm();
-      if (d2 > r2) continue;
-      const double w = std::exp(-d2 * inv);
-      sw += w;
-      sc += w * c[i];
-    }
-    out[j] = sw > 1e-3 ? sc / sw : c[j];
-  }
-  return out;
-}
-
-/// Each skin node's position donned and stood, in the socket's frame (the socket's standing offset
-/// along @p axis taken off).
-std::vector<Vec3> donned_in_socket(const volume::SkinSurface& skin, const contact::DonningResult& d, const Vec3& axis) {
-  std::vector<Vec3> out(skin.nodes.size());
-  const Vec3 stood = d.final_offset_m * axis;
-  for (size_t i = 0; i < out.size(); ++i) out[i] = d.positions.segment<3>(3 * skin.nodes[i]) - stood;
-  return out;
-}
-
-/// The wall's correction at each skin node's vertex: the skin's normal displacement under the excess
-/// of @p delivered over @p target (smoothed), ω-relaxed, moved to where each node touches the wall.
-/// Only the nodes @p in_socket (compared, and donned below the brim) correct the wall: a node that
-/// donning dragged above the brim touches at most the brim's lip, which no correction shapes, and
-/// its deficit, moved onto the vertices above the brim, only pulled the rim in from one correction
-/// to the next (seed 7, 3k: to the 5 mm clamp, raising the 99th percentile of the ring below from
-/// 5.8 to 10 kPa).
-std::vector<double> wall_corrections(design::DesignSolver& solver, const design::DesignState& state,
-                                     const std::vector<int>& in_socket,
-                                     const std::vector<double>& delivered, const std::vector<double>& target,
-                                     const std::vector<Vec3>& donned, const std::vector<double>& offset,
-                                     double spacing, const ClosedLoopOptions& options) {
-  const auto& skin = solver.skin();
-  const size_t n = skin.nodes.size();
-  std::vector<double> excess(n, 0.0);
-  std::vector<char> use(n, 0);
-  for (int i : in_socket) {
-    excess[i] = delivered[i] - target[i];
-    use[i] = 1;
-  }
-  excess = smooth_on_skin(skin, use, std::move(excess), options.smoothing_passes);
-  const std::vector<double> un = solver.normal_displacement(excess, state);
-  std::vector<double> corr(n);
-  std::vector<Vec3> wall(n);
-  for (size_t i = 0; i < n; ++i) {
-    corr[i] = -options.relaxation * un[i];
-    wall[i] = state.skin_positions[i] + offset[i] * state.skin_normals[i];
-  }
-  return corrections_on_wall(wall, donned, corr, in_socket, 0.5 * spacing);
-}
-
 constexpr double kBrimPlateau = 10.0 * std::numbers::pi / 180.0;  // ClosedLoopOptions::max_brim_raise_m
 constexpr double kWorseMargin = 1.05;  // a refit is worse than its round's best above this × its score
 /// A refit is checked by a donning from scratch once its tolerance_score is at most this: a refit and
@@ -167,6 +64,7 @@ struct RoundBest {  ///< a socket of the closed loop and its tolerance_score
   std::vector<double> offset;
   design::SocketResult socket;
   design::BrimLine brim;
+  bool donned = false;  ///< the round's donning from scratch itself (donning it again gives it again)
 };
 
 /// The shortest arc holding every angle of @p theta [rad]: (from, to) through increasing angles
@@ -215,13 +113,16 @@ struct LandmarkTargets {
       target_pa.push_back(z.mean(target, area));
     }
   }
-  /// Sets @p it's landmark deviation from @p delivered.
-  void measure(const std::vector<double>& delivered, const std::vector<double>& area, ClosedLoopIteration& it) const {
+  /// Sets @p it's landmark deviation from @p delivered; returns each landmark's ratios.
+  std::vector<report::LandmarkRatio> measure(const std::vector<double>& delivered, const std::vector<double>& area,
+                                             ClosedLoopIteration& it) const {
+    std::vector<report::LandmarkRatio> ratios;
     for (size_t k = 0; k < zones.size(); ++k) {
-      const double designed = target_pa[k] / threshold_pa[k];
-      const double dev = report::landmark_deviation(designed, zones[k].mean(delivered, area) / threshold_pa[k]);
+      ratios.push_back({zones[k].code, target_pa[k] / threshold_pa[k], zones[k].mean(delivered, area) / threshold_pa[k]});
+      const double dev = report::landmark_deviation(ratios.back().designed, ratios.back().delivered);
       if (dev >= it.landmark_deviation) std::tie(it.landmark_deviation, it.landmark_furthest) = std::tie(dev, zones[k].code);
     }
+    return ratios;
   }
 };
 
@@ -286,18 +187,7 @@ class LoopRun {
       const double score = tolerance_score(it, options_);
       const bool within = score <= 1.0 && it.landmark_deviation <= options_.landmark_tolerance &&
                           (!options_.paths_within_bar || it.path_score <= 1.0);
-      if (!refitted) {
-        round_ = {score, offset_, socket_, socket_brim_};
-        keep_if_best(score, within, delivered, d);
-        if (within) {
-          r_.converged = true;
-          r_.message = fmt::format("converged after {} donnings and {} refits: below the brim MAE {:.2f} kPa, 99th "
-                                   "percentile {:.2f} kPa{}{}",
-                                   full_donnings_, r_.iterations.size() - full_donnings_, it.below_brim.mae / 1e3,
-                                   it.below_brim.p99 / 1e3, landmark_note(it), dragged_out_note(it));
-          break;
-        }
-      }
+      if (!refitted && start_round(score, within, delivered, d)) break;
       // A refit within the tolerances by a margin (kCheckScore), or the last of a round, is checked
       // by a donning from scratch; so is the round's best when a refit does worse (1.8k: refits
       // drift from the fourth on); when the round's first refit does worse than its donning,
@@ -318,11 +208,25 @@ class LoopRun {
         d = sim_->refit(socket_.solid);
         continue;
       }
-      if (worse && refits_ == 1) break;
-      if (refitted && score < round_.score) round_ = {score, offset_, socket_, socket_brim_};
+      // When the round's donning missed the delivery bar only by a landmark or a path, what it
+      // missed is what refits see least: donned from scratch, the socket of a refit presses a
+      // landmark's zone otherwise (generated limbs, seeds 3 and 4: the anterior distal tibia
+      // 1.3–1.5 kPa under the refit of the same socket, 0.014–0.021 of its threshold under its
+      // design, where 0.1 mm of wall moves it 2–4 kPa). So a refit that does worse by the score is
+      // donned from scratch all the same, while donnings are left.
+      const bool don_to_see = round_missed_only_landmark_or_path_;
+      if (worse && refits_ == 1 && !don_to_see) break;
+      if (refitted && score < round_.score) round_ = {score, offset_, socket_, socket_brim_, false};
       if (refitted && (score <= kCheckScore || worse || refits_ >= options_.refits_per_donning)) {
         if (full_donnings_ >= options_.max_donnings) break;
-        if (score > round_.score) std::tie(offset_, socket_, socket_brim_) = std::tie(round_.offset, round_.socket, round_.brim);
+        if (score > round_.score) {
+          // The round's best: a refit's socket is donned instead of this one; the round's donning
+          // itself would give what it gave (seed 3 donned the same socket twice before).
+          if (!round_.donned)
+            std::tie(offset_, socket_, socket_brim_) = std::tie(round_.offset, round_.socket, round_.brim);
+          else if (!don_to_see)
+            break;
+        }
         d = don_from_scratch();
         refitted = false;
         continue;
@@ -342,6 +246,22 @@ class LoopRun {
   }
 
  private:
+  /// A donning from scratch of score @p score (tolerance_score), @p within every tolerance or not,
+  /// starts a round: kept if it is the best so far. True when it converged (the loop stops).
+  bool start_round(double score, bool within, const std::vector<double>& delivered, const contact::DonningResult& d) {
+    const ClosedLoopIteration& it = r_.iterations.back();
+    round_ = {score, offset_, socket_, socket_brim_, true};
+    round_missed_only_landmark_or_path_ = it.bar_below_brim_met && !it.bar_met;
+    keep_if_best(score, within, it.bar_met, delivered, d);
+    if (!within) return false;
+    r_.converged = true;
+    r_.message = fmt::format("converged after {} donnings and {} refits: below the brim MAE {:.2f} kPa, 99th "
+                             "percentile {:.2f} kPa{}{}",
+                             full_donnings_, r_.iterations.size() - full_donnings_, it.below_brim.mae / 1e3,
+                             it.below_brim.p99 / 1e3, landmark_note(it), dragged_out_note(it));
+    return true;
+  }
+
   /// A full donning of the socket as it is now (the path from below, then standing).
   contact::DonningResult don_from_scratch() {
     const double lo = static_cast<double>(full_donnings_) / options_.max_donnings;
@@ -392,6 +312,25 @@ class LoopRun {
     return true;
   }
 
+  /// @p delivered against the design below the brim, at the landmarks and on the paths, and
+  /// against the delivery bar: @p it's figures.
+  void judge(const std::vector<double>& delivered, ClosedLoopIteration& it) const {
+    it.below_brim = report::compare_fields(delivered, r_.target_pa, compared_);
+    const std::vector<report::LandmarkRatio> ratios = landmarks_.measure(delivered, skin_.area_m2, it);
+    const report::DeliveryBar bar;
+    std::vector<report::PathDelivery> path_stats;
+    for (const auto& p : paths_) {
+      const auto e = report::compare_fields(delivered, r_.target_pa, p.nodes);
+      path_stats.push_back({p.name, e});
+      const double score = std::max(e.mae / bar.mae_pa, e.p99 / bar.p99_pa);
+      if (score >= it.path_score)
+        std::tie(it.path_score, it.path_furthest, it.path_mae_pa, it.path_p99_pa) = std::tie(score, p.name, e.mae, e.p99);
+    }
+    const report::DeliveryVerdict verdict = report::judge_delivery(it.below_brim, ratios, path_stats, bar);
+    it.bar_met = verdict.met();
+    it.bar_below_brim_met = verdict.mae_met && verdict.p99_met && verdict.r_met;
+  }
+
   /// The delivered pressures of donning or refit @p d, measured against the design and logged as
   /// the next iteration of the result.
   std::vector<double> record(const contact::DonningResult& d, bool refitted) {
@@ -403,15 +342,7 @@ class LoopRun {
     }
     std::vector<double> delivered(n_);
     for (size_t i = 0; i < n_; ++i) delivered[i] = d.contacts[i].pressure_pa;
-    it.below_brim = report::compare_fields(delivered, r_.target_pa, compared_);
-    landmarks_.measure(delivered, skin_.area_m2, it);
-    const report::DeliveryBar bar;
-    for (const auto& p : paths_) {
-      const auto e = report::compare_fields(delivered, r_.target_pa, p.nodes);
-      const double score = std::max(e.mae / bar.mae_pa, e.p99 / bar.p99_pa);
-      if (score >= it.path_score)
-        std::tie(it.path_score, it.path_furthest, it.path_mae_pa, it.path_p99_pa) = std::tie(score, p.name, e.mae, e.p99);
-    }
+    judge(delivered, it);
     donned_ = donned_in_socket(skin_, d, axis_);
     in_socket_.clear();
     dragged_out_.assign(n_, 0);
@@ -472,11 +403,14 @@ class LoopRun {
   }
 
   /// The socket kept, among those donned from scratch: one @p within every tolerance (landmarks
-  /// and paths included) before one that is not, then the smallest max(MAE / tol, p99 / tol).
-  void keep_if_best(double score, bool within, const std::vector<double>& delivered, const contact::DonningResult& d) {
-    if (within == best_within_ ? score >= best_score_ : best_within_) return;
+  /// and paths included) before one that meets the delivery bar (ClosedLoopIteration::bar_met),
+  /// before one that meets neither, then the smallest max(MAE / tol, p99 / tol).
+  void keep_if_best(double score, bool within, bool bar_met, const std::vector<double>& delivered,
+                    const contact::DonningResult& d) {
+    const int rank = within ? 2 : bar_met ? 1 : 0;
+    if (rank == best_rank_ ? score >= best_score_ : rank < best_rank_) return;
     best_score_ = score;
-    best_within_ = within;
+    best_rank_ = rank;
     r_.best = static_cast<int>(r_.iterations.size()) - 1;
     r_.closed_loop_pa = delivered;
     r_.wall_offset_m = offset_;
@@ -562,9 +496,10 @@ class LoopRun {
   std::unique_ptr<contact::DonningSimulation> sim_;
   int full_donnings_ = 0, refits_ = 0;
   double best_score_ = std::numeric_limits<double>::infinity();
-  bool best_within_ = false;  // the kept socket meets the tolerances (and the landmarks')
+  int best_rank_ = -1;  // the kept socket's: 2 within the tolerances (landmarks', paths'), 1 the delivery bar, 0
   bool halved_ = false;       // the first correction was halved once (run)
   RoundBest round_;  // the best socket since the last donning from scratch, that donning's included
+  bool round_missed_only_landmark_or_path_ = false;  // that donning's delivery bar
   ClosedLoopResult r_;
 };
 

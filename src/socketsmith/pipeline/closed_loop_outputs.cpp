@@ -95,6 +95,7 @@ nlohmann::json iterations_json(const ClosedLoopResult& loop, report::ReportDeliv
                           {"landmark_furthest", it.landmark_furthest},
                           {"path_score", it.path_score},
                           {"path_furthest", it.path_furthest},
+                          {"delivery_bar_met", it.bar_met},
                           {"factorizations", it.factorizations},
                           {"donning_seconds", it.donning_seconds},
                           {"socket_seconds", it.socket_seconds}});

@@ -1,0 +1,108 @@
+#include "socketsmith/pipeline/closed_loop_correction.h"
+
+#include <cmath>
+#include <unordered_map>
+#include <utility>
+
+namespace socketsmith::pipeline {
+namespace {
+
+using Vec3 = Eigen::Vector3d;
+
+/// Area-weighted averages of @p v over each node and its neighbours on the skin's quads, @p passes
+/// times, among the nodes where @p use is 1 (the others keep their value and are not averaged in).
+std::vector<double> smooth_on_skin(const volume::SkinSurface& skin, const std::vector<char>& use, std::vector<double> v,
+                                   int passes) {
+  if (passes == 0) return v;
+  const size_t n = skin.nodes.size();
+  std::unordered_map<int, int> local;
+  for (size_t i = 0; i < n; ++i) local[skin.nodes[i]] = static_cast<int>(i);
+  std::vector<std::vector<int>> nb(n);
+  for (const auto& q : skin.quads)
+    for (int a = 0; a < 4; ++a) {
+      const int i = local.at(q[a]), j = local.at(q[(a + 1) % 4]);
+      nb[i].push_back(j);
+      nb[j].push_back(i);
+    }
+  for (auto& l : nb) {
+    std::sort(l.begin(), l.end());
+    l.erase(std::unique(l.begin(), l.end()), l.end());
+  }
+  std::vector<double> next(n);
+  for (int p = 0; p < passes; ++p) {
+    for (size_t i = 0; i < n; ++i) {
+      if (!use[i]) {
+        next[i] = v[i];
+        continue;
+      }
+      double s = skin.area_m2[i] * v[i], w = skin.area_m2[i];
+      for (int j : nb[i])
+        if (use[j]) {
+          s += skin.area_m2[j] * v[j];
+          w += skin.area_m2[j];
+        }
+      next[i] = s / w;
+    }
+    v.swap(next);
+  }
+  return v;
+}
+
+/// Corrections @p c computed at the skin nodes, moved onto the wall's vertices. Donning drags the
+/// skin along the wall (on the demo 5–7 mm proximally, a node spacing), so a node presses the wall
+/// where it ended up, not at its own designed vertex: correcting the node's vertex moved the wall
+/// under a neighbour instead. Each wall vertex @p wall takes the Gaussian-weighted mean
+/// (σ = @p sigma_m, up to 3σ) of the corrections of the nodes @p used whose donned position
+/// @p donned (in the socket's frame) is near it; a vertex no node reaches keeps its own node's.
+std::vector<double> corrections_on_wall(const std::vector<Vec3>& wall, const std::vector<Vec3>& donned,
+                                        const std::vector<double>& c, const std::vector<int>& used, double sigma_m) {
+  const double r2 = 9 * sigma_m * sigma_m, inv = 1.0 / (2 * sigma_m * sigma_m);
+  std::vector<double> out(wall.size());
+  for (size_t j = 0; j < wall.size(); ++j) {
+    double sw = 0, sc = 0;
+    for (int i : used) {
+      const double d2 = (donned[i] - wall[j]).squaredNorm();
+      if (d2 > r2) continue;
+      const double w = std::exp(-d2 * inv);
+      sw += w;
+      sc += w * c[i];
+    }
+    out[j] = sw > 1e-3 ? sc / sw : c[j];
+  }
+  return out;
+}
+
+}  // namespace
+
+std::vector<Vec3> donned_in_socket(const volume::SkinSurface& skin, const contact::DonningResult& d, const Vec3& axis) {
+  std::vector<Vec3> out(skin.nodes.size());
+  const Vec3 stood = d.final_offset_m * axis;
+  for (size_t i = 0; i < out.size(); ++i) out[i] = d.positions.segment<3>(3 * skin.nodes[i]) - stood;
+  return out;
+}
+
+std::vector<double> wall_corrections(design::DesignSolver& solver, const design::DesignState& state,
+                                     const std::vector<int>& in_socket,
+                                     const std::vector<double>& delivered, const std::vector<double>& target,
+                                     const std::vector<Vec3>& donned, const std::vector<double>& offset,
+                                     double spacing, const ClosedLoopOptions& options) {
+  const auto& skin = solver.skin();
+  const size_t n = skin.nodes.size();
+  std::vector<double> excess(n, 0.0);
+  std::vector<char> use(n, 0);
+  for (int i : in_socket) {
+    excess[i] = delivered[i] - target[i];
+    use[i] = 1;
+  }
+  excess = smooth_on_skin(skin, use, std::move(excess), options.smoothing_passes);
+  const std::vector<double> un = solver.normal_displacement(excess, state);
+  std::vector<double> corr(n);
+  std::vector<Vec3> wall(n);
+  for (size_t i = 0; i < n; ++i) {
+    corr[i] = -options.relaxation * un[i];
+    wall[i] = state.skin_positions[i] + offset[i] * state.skin_normals[i];
+  }
+  return corrections_on_wall(wall, donned, corr, in_socket, 0.5 * spacing);
+}
+
+}  // namespace socketsmith::pipeline
