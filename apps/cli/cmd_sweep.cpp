@@ -125,8 +125,13 @@ void register_sweep(CLI::App& app) {
     const auto r = pipeline::collect_sweep(f->dir);
     log::info("sweep collect: {} rows ({} ok, {} constraints not met, {} failed, {} not run) -> {}, {}", r.rows, r.ok,
               r.unmet, r.failed, r.missing, r.csv.string(), r.png.string());
+    if (r.delivery_judged > 0)
+      log::info("sweep collect: the delivery bar (below the brim, each path, each landmark) met by {} of the {} closed "
+                "loops (results.csv: delivery_bar_met, delivery_bar_missed)",
+                r.delivery_met, r.delivery_judged);
     if (f->json)
       print_json({{"rows", r.rows}, {"ok", r.ok}, {"unmet", r.unmet}, {"failed", r.failed}, {"missing", r.missing},
+                  {"delivery_judged", r.delivery_judged}, {"delivery_met", r.delivery_met},
                   {"csv", r.csv.string()}, {"png", r.png.string()}, {"svg", r.svg.string()}});
   });
 

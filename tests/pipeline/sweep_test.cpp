@@ -195,6 +195,8 @@ TEST(Sweep, a_case_process_that_crashes_or_exits_without_a_marker_is_a_failed_ca
   EXPECT_EQ(c.rows, 3);
   EXPECT_EQ(c.failed, 2);
   EXPECT_EQ(c.ok, 1);
+  EXPECT_EQ(c.delivery_judged, 1);  // the ok case's closed loop, judged and missed
+  EXPECT_EQ(c.delivery_met, 0);
   std::ifstream csv(c.csv);
   std::stringstream text;
   text << csv.rdbuf();

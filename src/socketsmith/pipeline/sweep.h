@@ -119,6 +119,9 @@ std::filesystem::path write_slurm_script(const std::filesystem::path& dir, const
 struct SweepCollectResult {
   int rows = 0;
   int ok = 0, unmet = 0, failed = 0, missing = 0;
+  /// Cases whose design.json judges a closed loop's kept socket against the delivery bar
+  /// (report/delivery_bar.h), and of those, the ones that meet it.
+  int delivery_judged = 0, delivery_met = 0;
   std::filesystem::path csv;   ///< DIR/results.csv
   std::filesystem::path png;   ///< DIR/summary.png
   std::filesystem::path svg;   ///< DIR/summary.svg

@@ -287,6 +287,10 @@ SweepCollectResult collect_sweep(const fs::path& dir) {
     const json d = case_design(dir, id, s);
     text += case_row(id, s, c, d, params, cols) + "\n";
     ++r.rows;
+    if (const json& met = at_path(d, {"closed_loop", "bar", "met"}); met.is_boolean()) {
+      ++r.delivery_judged;
+      r.delivery_met += met.get<bool>() ? 1 : 0;
+    }
     pts.add(k, s, d, r);
   }
   r.csv = dir / "results.csv";
