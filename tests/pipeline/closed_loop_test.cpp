@@ -10,6 +10,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <string>
 #include <tuple>
 
@@ -337,6 +338,22 @@ TEST(ClosedLoop, the_dragged_out_lines_give_in_socket_figures_only_when_nodes_st
   it.in_socket.p99 = 2160;
   EXPECT_THAT(dragged_out_note(it), ::testing::HasSubstr("the others: MAE 0.36 kPa, 99th percentile 2.16 kPa"));
   EXPECT_THAT(dragged_out_advice(it), ::testing::HasSubstr("Without them: MAE 0.36 kPa, 99th percentile 2.16 kPa."));
+}
+
+TEST(ClosedLoop, the_socket_kept_meets_the_tolerances_then_the_delivery_bar_then_is_the_closest) {
+  // The first donned socket is kept whatever it is.
+  EXPECT_TRUE(replaces_kept(false, false, 9.0, -1, std::numeric_limits<double>::infinity()));
+  // Generated limb, seed 4 before 2026-12-03: donning 2 at MAE 0.48 kPa (score 0.96) with AD off the
+  // bar; a donning at MAE 0.59 (score 1.18) that meets the bar is kept before it...
+  EXPECT_TRUE(replaces_kept(false, true, 1.18, kept_rank(false, false), 0.96));
+  // ... and not the other way round, however close to the tolerances.
+  EXPECT_FALSE(replaces_kept(false, false, 0.50, kept_rank(false, true), 1.18));
+  // Within every tolerance beats the bar alone; within a tier the smaller score wins, a tie keeps.
+  EXPECT_TRUE(replaces_kept(true, true, 0.95, kept_rank(false, true), 0.60));
+  EXPECT_FALSE(replaces_kept(false, true, 0.40, kept_rank(true, true), 0.95));
+  EXPECT_TRUE(replaces_kept(false, true, 0.70, kept_rank(false, true), 0.80));
+  EXPECT_FALSE(replaces_kept(false, true, 0.80, kept_rank(false, true), 0.80));
+  EXPECT_EQ(kept_rank(true, false), 2);
 }
 
 TEST(ClosedLoop, a_default_loop_that_fails_keeps_the_open_loop_socket_and_a_loop_asked_for_fails_the_design) {

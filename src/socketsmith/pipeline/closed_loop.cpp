@@ -407,10 +407,9 @@ class LoopRun {
   /// before one that meets neither, then the smallest max(MAE / tol, p99 / tol).
   void keep_if_best(double score, bool within, bool bar_met, const std::vector<double>& delivered,
                     const contact::DonningResult& d) {
-    const int rank = within ? 2 : bar_met ? 1 : 0;
-    if (rank == best_rank_ ? score >= best_score_ : rank < best_rank_) return;
+    if (!replaces_kept(within, bar_met, score, best_rank_, best_score_)) return;
     best_score_ = score;
-    best_rank_ = rank;
+    best_rank_ = kept_rank(within, bar_met);
     r_.best = static_cast<int>(r_.iterations.size()) - 1;
     r_.closed_loop_pa = delivered;
     r_.wall_offset_m = offset_;
@@ -504,6 +503,13 @@ class LoopRun {
 };
 
 }  // namespace
+
+int kept_rank(bool within, bool bar_met) { return within ? 2 : bar_met ? 1 : 0; }
+
+bool replaces_kept(bool within, bool bar_met, double score, int kept_rank_now, double kept_score) {
+  const int rank = kept_rank(within, bar_met);
+  return rank == kept_rank_now ? score < kept_score : rank > kept_rank_now;
+}
 
 ClosedLoopResult close_design_loop(DesignSetup& setup, const DesignResult& result, const ClosedLoopOptions& options) {
   check_options(options);

@@ -252,6 +252,15 @@ std::pair<report::DeliveryVerdict, report::DeliveryVerdict> delivery_verdicts(co
 nlohmann::json write_closed_loop_outputs(const DesignSetup& setup, const DesignResult& result,
                                          const std::filesystem::path& out, report::ReportDelivery& delivery);
 
+/// Whether a socket donned from scratch replaces the one the loop keeps: one within every tolerance
+/// (@p within: MAE, p99, landmarks, paths) before one that meets only the delivery bar (@p bar_met:
+/// its MAE is 1.5 kPa, the loop's 0.5), before one that meets neither; within a tier, the smaller
+/// @p score (max(MAE / tol, p99 / tol)). @p kept_rank: the kept socket's tier (2, 1, 0; −1 when none
+/// is kept yet), @p kept_score its score.
+bool replaces_kept(bool within, bool bar_met, double score, int kept_rank, double kept_score);
+/// The tier replaces_kept ranks a socket by: 2 within the tolerances, 1 the delivery bar, 0 neither.
+int kept_rank(bool within, bool bar_met);
+
 /// ", landmarks within N % (CODE)": @p it's landmark furthest from its design, for the loop's lines
 /// ("" when no landmark lies below the brim).
 std::string landmark_note(const ClosedLoopIteration& it);

@@ -1,5 +1,6 @@
 #include "socketsmith/pipeline/closed_loop_correction.h"
 
+#include <algorithm>
 #include <cmath>
 #include <unordered_map>
 #include <utility>
