@@ -46,6 +46,23 @@ struct ContactCube {
 // The penalty a solver uses is the one contact_penalty_pa_per_m gives (CalculiX's check takes it
 // from there with --penalty 0): factor · E / h, h the mean √area (here the cube's top, 7 × 7 nodes
 // of 1/4, 1/2 or 1 element face: mean √area = h (25 + 20/√2 + 4/2) / 49), or the value set.
+// A stall accepted only when its residual is one contact node's (caught on the rim or a kink):
+// the AmpScan limb's 8k donning stalled with 1.0 N on a node holding 1.5 N and 0.03 N elsewhere.
+TEST(CaughtNode, is_the_one_contact_node_that_holds_the_residual_and_nothing_else) {
+  const std::vector<double> res = {0.01, 1.0, 0.02, 0.01}, fn = {0.5, 1.5, 0.0, 2.0};
+  EXPECT_EQ(caught_node(res, fn, 0.27), 1);
+  // the rest over the tolerance: not one node's
+  EXPECT_EQ(caught_node({0.01, 1.0, 0.4, 0.01}, fn, 0.27), -1);
+  // two nodes sharing it (the AmpScan donning's first stalls: 7.2 and 4.7 N): not caught, refined
+  EXPECT_EQ(caught_node({0.01, 7.2, 4.7, 0.01}, {0.5, 7.2, 4.9, 2.0}, 0.27), -1);
+  // a node not in contact: a body that does not balance, never accepted
+  EXPECT_EQ(caught_node(res, {0.5, 0.0, 0.0, 2.0}, 0.27), -1);
+  // more unbalanced than its whole contact force: a missing load, not a turning contact force
+  EXPECT_EQ(caught_node({0.01, 3.0, 0.02, 0.01}, fn, 0.27), -1);
+  EXPECT_EQ(caught_node({}, {}, 0.27), -1);
+  EXPECT_THROW(caught_node(res, {1.0}, 0.27), Error);
+}
+
 TEST(ContactCube, the_penalty_is_factor_times_e_over_the_mean_node_spacing) {
   const ContactCube c;
   const tissue::TissueMaterial mat{50e3, 1060};
