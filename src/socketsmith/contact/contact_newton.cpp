@@ -16,22 +16,6 @@
 
 namespace socketsmith::contact {
 
-int caught_node(const std::vector<double>& node_residual_n, const std::vector<double>& node_normal_force_n,
-                double rest_tol_n) {
-  require(node_residual_n.size() == node_normal_force_n.size(), "contact: {} node residuals for {} normal forces",
-          node_residual_n.size(), node_normal_force_n.size());
-  int worst = -1;
-  double total2 = 0;
-  for (size_t i = 0; i < node_residual_n.size(); ++i) {
-    total2 += node_residual_n[i] * node_residual_n[i];
-    if (worst < 0 || node_residual_n[i] > node_residual_n[static_cast<size_t>(worst)]) worst = static_cast<int>(i);
-  }
-  if (worst < 0) return -1;
-  const double own = node_residual_n[static_cast<size_t>(worst)], force = node_normal_force_n[static_cast<size_t>(worst)];
-  const double rest = std::sqrt(std::max(total2 - own * own, 0.0));
-  return force > 0 && rest <= rest_tol_n && own <= force + rest_tol_n ? worst : -1;
-}
-
 bool ContactSolver::Impl::try_step(const VectorXd& xs, const Vec3& t, const VectorXd& delta, double ds, double a,
                                    Trial& tr) {
   tr.x = xs;
@@ -222,7 +206,7 @@ class ContactSolver::Impl::Newton final : public tissue::NewtonProblem {
     s_.chord_next = accepted && step_ == 1.0 && rn_ <= s_.opt.chord_ratio * rn_before;
     return accepted ? Result::Done : Result::Failed;  // the loop's message says which
   }
-  bool accept_short(tissue::NewtonStop) override { return kink_accepted() || caught_accepted(); }
+  bool accept_short(tissue::NewtonStop) override { return kink_accepted() || s_.caught(r_, rs_, st_, reason_); }
   Next after_step() override {
     // A node on a kink of the wall (an edge or vertex where the closest face switches) has no
     // point of zero residual: Newton then crawls with tiny steps while Π stops decreasing. Its
@@ -233,12 +217,11 @@ class ContactSolver::Impl::Newton final : public tissue::NewtonProblem {
     const size_t nh = pi_history_.size();
     const bool flat = nh > 5 && conservative_ && pi_history_[nh - 6] - pi_ <= 1e-6 * std::max(std::abs(pi_), 1e-30);
     if ((moved <= s_.opt.kink_step_tol_m || flat) && rn_ > tolerance() && kink_accepted()) return Next::Accept;
-    // Stalled: the line search has cut the step to a sliver kStallSteps times in a row with the
-    // residual above the kink's. Newton then only crawls until the search fails (AmpScan's limb:
-    // steps 0.008 → 2e-9 over 12 more iterations, each with up to 30 trial evaluations); the caller
-    // refines the path instead.
+    // Stalled: the line search has cut the step to a sliver kStallSteps times in a row. Accepted
+    // when one node holds the residual (Impl::caught); else Newton only crawls until the search
+    // fails (AmpScan's limb: steps 0.008 → 2e-9 over 12 more iterations): the caller refines the path.
     tiny_steps_ = step_ < kTinyStep ? tiny_steps_ + 1 : 0;
-    if (tiny_steps_ >= kStallSteps && caught_accepted()) return Next::Accept;
+    if (tiny_steps_ >= kStallSteps && s_.caught(r_, rs_, st_, reason_)) return Next::Accept;
     if (tiny_steps_ >= kStallSteps && rn_ > s_.kink_tolerance(st_)) {
       reason_ = fmt::format("stalled: the line search cut the step below {:.3g} of Newton's {} times in a row (residual "
                             "{:.3g} N)", kTinyStep, kStallSteps, rn_);
@@ -263,33 +246,6 @@ class ContactSolver::Impl::Newton final : public tissue::NewtonProblem {
   bool kink_accepted() {
     if (rn_ > s_.kink_tolerance(st_)) return false;
     reason_ = fmt::format("a node on a kink of the wall (within {:.3g} N)", s_.kink_tolerance(st_));
-    return true;
-  }
-  /// The residual sits on one node in contact, caught on the rim or a kink (caught_node): the
-  /// rest within the kink's tolerance. The AmpScan limb at 8k: a skin node wrapped over the
-  /// anterior lip 49 mm before the pose, 1.0 N of its 1.5 N contact force unbalanced, 0.03 N on
-  /// all the others, stalled every path refinement and the corrected socket's donning.
-  bool caught_accepted() {
-    const auto& ri = s_.dofs.reduced_index();
-    const size_t n = ri.size() / 3;
-    std::vector<double> res(n, 0.0), fn(n, 0.0);
-    for (size_t i = 0; i < n; ++i) {
-      double q = 0;
-      for (int a = 0; a < 3; ++a)
-        if (const auto k = ri[3 * i + a]; k >= 0) q += r_[k] * r_[k];
-      res[i] = std::sqrt(q);
-    }
-    for (size_t c = 0; c < s_.nodes.size(); ++c)
-      if (st_[c].active) fn[static_cast<size_t>(s_.nodes[c])] = st_[c].normal_force_n;
-    const double kink = s_.kink_tolerance(st_);
-    if (rs_ >= kink) return false;  // the obstacle's own equilibrium is part of the rest
-    const double tol = std::sqrt(kink * kink - rs_ * rs_);
-    const int node = caught_node(res, fn, tol);
-    if (node < 0) return false;
-    reason_ = fmt::format("node {} caught on the socket's rim or a kink of its wall ({:.3g} N of its {:.3g} N contact "
-                          "force unbalanced, the rest within {:.3g} N)",
-                          node, res[static_cast<size_t>(node)], fn[static_cast<size_t>(node)], tol);
-    log::debug("contact: {}", reason_);
     return true;
   }
   void residual() {

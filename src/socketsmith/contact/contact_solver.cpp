@@ -11,6 +11,46 @@
 
 namespace socketsmith::contact {
 
+int caught_node(const std::vector<double>& node_residual_n, const std::vector<double>& node_normal_force_n,
+                double rest_tol_n) {
+  require(node_residual_n.size() == node_normal_force_n.size(), "contact: {} node residuals for {} normal forces",
+          node_residual_n.size(), node_normal_force_n.size());
+  int worst = -1;
+  double total2 = 0;
+  for (size_t i = 0; i < node_residual_n.size(); ++i) {
+    total2 += node_residual_n[i] * node_residual_n[i];
+    if (worst < 0 || node_residual_n[i] > node_residual_n[static_cast<size_t>(worst)]) worst = static_cast<int>(i);
+  }
+  if (worst < 0) return -1;
+  const double own = node_residual_n[static_cast<size_t>(worst)], force = node_normal_force_n[static_cast<size_t>(worst)];
+  const double rest = std::sqrt(std::max(total2 - own * own, 0.0));
+  return force > 0 && rest <= rest_tol_n && own <= force + rest_tol_n ? worst : -1;
+}
+
+bool ContactSolver::Impl::caught(const VectorXd& r, double rs, const std::vector<NodeContact>& st,
+                                 std::string& why) const {
+  const double kink = kink_tolerance(st);
+  if (rs >= kink) return false;  // the obstacle's own equilibrium is part of the rest
+  const auto& ri = dofs.reduced_index();
+  const size_t n = ri.size() / 3;
+  std::vector<double> res(n, 0.0), fn(n, 0.0);
+  for (size_t i = 0; i < n; ++i) {
+    double q = 0;
+    for (int a = 0; a < 3; ++a)
+      if (const auto k = ri[3 * i + a]; k >= 0) q += r[k] * r[k];
+    res[i] = std::sqrt(q);
+  }
+  for (size_t c = 0; c < nodes.size(); ++c)
+    if (st[c].active) fn[static_cast<size_t>(nodes[c])] = st[c].normal_force_n;
+  const double tol = std::sqrt(kink * kink - rs * rs);
+  const int node = caught_node(res, fn, tol);
+  if (node < 0) return false;
+  why = fmt::format("node {} caught on the socket's rim or a kink of its wall ({:.3g} N of its {:.3g} N contact force "
+                    "unbalanced, the rest within {:.3g} N)",
+                    node, res[static_cast<size_t>(node)], fn[static_cast<size_t>(node)], tol);
+  return true;
+}
+
 double ContactSolver::Impl::free_residual(const std::vector<NodeContact>& st) const {
   if (!free_axis()) return 0.0;
   double on_nodes = 0;

@@ -130,6 +130,12 @@ struct ContactSolver::Impl {
   double kink_tolerance(const std::vector<NodeContact>& st) const {
     return opt.kink_rel_tol / opt.rel_tol * tolerance(st);
   }
+  /// The residual @p r (and the obstacle's @p rs) sits on one node in contact, caught on the rim or
+  /// a kink (caught_node), the rest within the kink's tolerance; @p why then says which node. The
+  /// AmpScan limb at 8k: a skin node wrapped over the anterior lip 49 mm before the pose, 1.0 N of
+  /// its 1.5 N contact force unbalanced, 0.03 N on all the others, stalled every path refinement
+  /// and the corrected socket's donning.
+  bool caught(const VectorXd& r, double rs, const std::vector<NodeContact>& st, std::string& why) const;
 
   /// Nodes of @p st sticking (in contact, friction below its limit and not zero) that were sliding
   /// or free at the last committed step.
