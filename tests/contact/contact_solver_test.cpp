@@ -43,9 +43,6 @@ struct ContactCube {
   }
 };
 
-// The penalty a solver uses is the one contact_penalty_pa_per_m gives (CalculiX's check takes it
-// from there with --penalty 0): factor · E / h, h the mean √area (here the cube's top, 7 × 7 nodes
-// of 1/4, 1/2 or 1 element face: mean √area = h (25 + 20/√2 + 4/2) / 49), or the value set.
 // A stall accepted only when its residual is one contact node's (caught on the rim or a kink):
 // the AmpScan limb's 8k donning stalled with 1.0 N on a node holding 1.5 N and 0.03 N elsewhere.
 TEST(CaughtNode, is_the_one_contact_node_that_holds_the_residual_and_nothing_else) {
@@ -63,6 +60,9 @@ TEST(CaughtNode, is_the_one_contact_node_that_holds_the_residual_and_nothing_els
   EXPECT_THROW(caught_node(res, {1.0}, 0.27), Error);
 }
 
+// The penalty a solver uses is the one contact_penalty_pa_per_m gives (CalculiX's check takes it
+// from there with --penalty 0): factor · E / h, h the mean √area (here the cube's top, 7 × 7 nodes
+// of 1/4, 1/2 or 1 element face: mean √area = h (25 + 20/√2 + 4/2) / 49), or the value set.
 TEST(ContactCube, the_penalty_is_factor_times_e_over_the_mean_node_spacing) {
   const ContactCube c;
   const tissue::TissueMaterial mat{50e3, 1060};
