@@ -1,9 +1,11 @@
 // The one sparse Cholesky holder (sparse_cholesky.h): its solutions against a dense LLᵀ of the
 // same matrix, a matrix that is not positive definite refused and the factor left invalid, the
-// diagonal shift, and a new pattern (another size) ordered again instead of reusing the old one.
+// diagonal shift, CHOLMOD's messages kept off stdout, and a new pattern (another size) ordered again instead of reusing the old one.
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
+#include <cstdio>
+#include <string>
 #include <thread>
 
 #include <dlfcn.h>
@@ -71,6 +73,18 @@ TEST(SparseCholesky, refuses_a_matrix_that_is_not_positive_definite_and_is_then_
   expect_solves_like_dense(chol, free_ends, 1e-3);
   chol.invalidate();
   EXPECT_FALSE(chol.valid());
+}
+
+TEST(SparseCholesky, says_nothing_on_stdout_when_it_refuses_a_matrix) {
+  // CHOLMOD printed "CHOLMOD warning: matrix not positive definite" with printf, into the JSON
+  // that `validate design --json` writes on stdout.
+  SparseCholesky<> chol;
+  testing::internal::CaptureStdout();
+  const bool ok = chol.factorize(laplacian(20, -1.0));
+  std::fflush(stdout);
+  const std::string out = testing::internal::GetCapturedStdout();
+  EXPECT_FALSE(ok);
+  EXPECT_EQ(out, "");
 }
 
 TEST(SparseCholesky, orders_a_matrix_of_another_pattern_again) {

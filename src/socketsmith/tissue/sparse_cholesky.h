@@ -19,6 +19,7 @@
 #include <omp.h>
 #endif
 
+#include "socketsmith/core/log.h"
 #include "socketsmith/tissue/static_solver.h"
 
 namespace socketsmith::tissue {
@@ -57,8 +58,16 @@ class SparseCholesky {
   /// 0.95/0.2/0.1 of explicit zeros): larger dense blocks for dgemm. On the 7.7k-node stump's
   /// tangent (17k dofs) a factorisation takes ≈ 12 % less time on average, faster in 10 of 12
   /// back-to-back pairs (`BM_StumpTangent`); three or four times as far gained nothing more.
+  ///
+  /// CHOLMOD's own messages ("CHOLMOD warning: matrix not positive definite", which every solver
+  /// handles by a fallback) went to stdout through printf, in the middle of `--json` output; they
+  /// go to the debug log instead.
   SparseCholesky() {
     auto& c = llt_.cholmod();
+    c.print = 0;
+    c.error_handler = [](int status, const char* file, int line, const char* message) {
+      log::debug("CHOLMOD {} {}: {} ({}:{})", status < 0 ? "error" : "warning", status, message, file, line);
+    };
     for (int i = 0; i < 3; ++i) {
       c.nrelax[i] *= 2;
       c.zrelax[i] = std::min(0.95, 2.0 * c.zrelax[i]);
