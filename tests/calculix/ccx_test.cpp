@@ -137,7 +137,8 @@ fs::path ccx_stopping_in_step_one(const fs::path& dir) {
                            "echo ' convergence'\necho ' increment 2 attempt 1'\nexit 255\n");
 }
 
-// A donning that ccx gives up on its way is run once more with increments half as long, once.
+// A donning that ccx gives up on its way is run once more with increments half as long, once;
+// the stopped run's log is kept.
 TEST(DesignCheck, a_first_step_stopped_on_its_way_runs_again_with_shorter_increments) {
   const auto dir = work_dir("step1_retry");
   BoxStump box;
@@ -155,6 +156,9 @@ TEST(DesignCheck, a_first_step_stopped_on_its_way_runs_again_with_shorter_increm
   EXPECT_EQ(first, "0.05, 1., 1e-05, 0.1");
   EXPECT_EQ(second, "0.025, 1., 1e-05, 0.025");
   EXPECT_FALSE(std::getline(in, third)) << "a third run: " << third;
+  // the stopped run's log kept beside the retry's, not overwritten by it
+  EXPECT_TRUE(fs::exists(dir / "box.stopped.log"));
+  EXPECT_TRUE(fs::exists(dir / "box.log"));
 }
 
 /// A stand-in ccx that finishes both steps of every deck it is given with the reference node's

@@ -5,6 +5,7 @@
 #include <deque>
 #include <limits>
 #include <numbers>
+#include <system_error>
 #include <tuple>
 
 #include "socketsmith/core/atomic_file.h"
@@ -371,8 +372,18 @@ CcxOptions run_deck(DeckSpec& spec, double stand_force_n, const std::filesystem:
     auto& st = spec.steps;
     st.initial_increment = std::max(0.5 * st.initial_increment, st.min_increment);
     st.max_increment = st.initial_increment;
-    log::info("validate: CalculiX stopped at {:.0f} % of step 1 ({}); again with increments of {:.1f} %",
-              100 * res.ccx.last_step_time, res.ccx.message, 100 * st.initial_increment);
+    // The stopped run's log is kept beside the retry's (the message names it; the retry would
+    // overwrite it).
+    std::filesystem::path kept = res.ccx.log;
+    std::error_code ec;
+    if (!kept.empty() && std::filesystem::exists(kept)) {
+      kept.replace_extension(".stopped.log");
+      std::filesystem::rename(res.ccx.log, kept, ec);
+    }
+    log::info("validate: CalculiX stopped at {:.0f} % of step 1 ({}; its log kept as {}); again with increments of "
+              "{:.1f} %",
+              100 * res.ccx.last_step_time, res.ccx.message, ec || kept.empty() ? res.ccx.log.string() : kept.string(),
+              100 * st.initial_increment);
     run();
   }
   res.stand_travel_m = spec.steps.stand_travel_m;

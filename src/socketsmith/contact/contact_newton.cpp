@@ -218,13 +218,13 @@ class ContactSolver::Impl::Newton final : public tissue::NewtonProblem {
     const bool flat = nh > 5 && conservative_ && pi_history_[nh - 6] - pi_ <= 1e-6 * std::max(std::abs(pi_), 1e-30);
     if ((moved <= s_.opt.kink_step_tol_m || flat) && rn_ > tolerance() && kink_accepted()) return Next::Accept;
     // Stalled: the line search has cut the step to a sliver kStallSteps times in a row. Accepted
-    // when one node holds the residual (Impl::caught); else Newton only crawls until the search
-    // fails (AmpScan's limb: steps 0.008 → 2e-9 over 12 more iterations): the caller refines the path.
+    // when a few nodes hold the residual (Impl::caught); else Newton only crawls until the search
+    // fails (AmpScan: steps 0.008 → 2e-9 over 12 more iterations) and the caller refines the path.
     tiny_steps_ = step_ < kTinyStep ? tiny_steps_ + 1 : 0;
     if (tiny_steps_ >= kStallSteps && s_.caught(r_, rs_, st_, reason_)) return Next::Accept;
     if (tiny_steps_ >= kStallSteps && rn_ > s_.kink_tolerance(st_)) {
       reason_ = fmt::format("stalled: the line search cut the step below {:.3g} of Newton's {} times in a row (residual "
-                            "{:.3g} N)", kTinyStep, kStallSteps, rn_);
+                            "{:.3g} N; {})", kTinyStep, kStallSteps, rn_, s_.residual_holders(r_, st_));
       return Next::Stop;
     }
     if (s_.refresh_lag_in_newton(st_, rn_, relags_)) {

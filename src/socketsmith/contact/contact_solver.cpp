@@ -11,20 +11,27 @@
 
 namespace socketsmith::contact {
 
-int caught_node(const std::vector<double>& node_residual_n, const std::vector<double>& node_normal_force_n,
-                double rest_tol_n) {
+std::vector<int> caught_nodes(const std::vector<double>& node_residual_n, const std::vector<double>& node_normal_force_n,
+                              double rest_tol_n, int max_nodes) {
   require(node_residual_n.size() == node_normal_force_n.size(), "contact: {} node residuals for {} normal forces",
           node_residual_n.size(), node_normal_force_n.size());
-  int worst = -1;
-  double total2 = 0;
-  for (size_t i = 0; i < node_residual_n.size(); ++i) {
-    total2 += node_residual_n[i] * node_residual_n[i];
-    if (worst < 0 || node_residual_n[i] > node_residual_n[static_cast<size_t>(worst)]) worst = static_cast<int>(i);
+  // The nodes by residual, largest first; the fewest of them (at most max_nodes) outside which the
+  // residual is within rest_tol_n, each holding at most its own normal force.
+  std::vector<int> order(node_residual_n.size());
+  for (size_t i = 0; i < order.size(); ++i) order[i] = static_cast<int>(i);
+  const size_t m_max = std::min(order.size(), static_cast<size_t>(std::max(max_nodes, 0)));
+  std::partial_sort(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(m_max), order.end(),
+                    [&](int a, int b) { return node_residual_n[a] > node_residual_n[b]; });
+  double rest2 = 0;
+  for (const double q : node_residual_n) rest2 += q * q;
+  for (size_t m = 0; m < m_max; ++m) {
+    const auto i = static_cast<size_t>(order[m]);
+    const double own = node_residual_n[i], force = node_normal_force_n[i];
+    if (!(force > 0) || own > force + rest_tol_n) return {};
+    rest2 -= own * own;
+    if (std::sqrt(std::max(rest2, 0.0)) <= rest_tol_n) return {order.begin(), order.begin() + static_cast<std::ptrdiff_t>(m + 1)};
   }
-  if (worst < 0) return -1;
-  const double own = node_residual_n[static_cast<size_t>(worst)], force = node_normal_force_n[static_cast<size_t>(worst)];
-  const double rest = std::sqrt(std::max(total2 - own * own, 0.0));
-  return force > 0 && rest <= rest_tol_n && own <= force + rest_tol_n ? worst : -1;
+  return {};
 }
 
 bool ContactSolver::Impl::caught(const VectorXd& r, double rs, const std::vector<NodeContact>& st,
@@ -37,18 +44,46 @@ bool ContactSolver::Impl::caught(const VectorXd& r, double rs, const std::vector
   for (size_t i = 0; i < n; ++i) {
     double q = 0;
     for (int a = 0; a < 3; ++a)
-      if (const auto k = ri[3 * i + a]; k >= 0) q += r[k] * r[k];
+      if (const auto d = ri[3 * i + a]; d >= 0) q += r[d] * r[d];
     res[i] = std::sqrt(q);
   }
   for (size_t c = 0; c < nodes.size(); ++c)
-    if (st[c].active) fn[static_cast<size_t>(nodes[c])] = st[c].normal_force_n;
+    if (st[c].active)  // its contact forces, friction included (the lag's may exceed μ f_n)
+      fn[static_cast<size_t>(nodes[c])] = st[c].normal_force_n + st[c].tangential_n.norm();
   const double tol = std::sqrt(kink * kink - rs * rs);
-  const int node = caught_node(res, fn, tol);
-  if (node < 0) return false;
-  why = fmt::format("node {} caught on the socket's rim or a kink of its wall ({:.3g} N of its {:.3g} N contact force "
-                    "unbalanced, the rest within {:.3g} N)",
-                    node, res[static_cast<size_t>(node)], fn[static_cast<size_t>(node)], tol);
+  const std::vector<int> held = caught_nodes(res, fn, tol, kMaxCaughtNodes);
+  if (held.empty()) return false;
+  std::string which;
+  for (const int node : held)
+    which += fmt::format("{}node {} ({:.3g} N of its {:.3g} N contact force unbalanced)", which.empty() ? "" : ", ", node,
+                         res[static_cast<size_t>(node)], fn[static_cast<size_t>(node)]);
+  why = fmt::format("{} caught on the socket's rim or a kink of its wall: {}, the rest within {:.3g} N",
+                    held.size() == 1 ? "a node" : fmt::format("{} nodes", held.size()), which, tol);
   return true;
+}
+
+std::string ContactSolver::Impl::residual_holders(const VectorXd& r, const std::vector<NodeContact>& st) const {
+  const auto& ri = dofs.reduced_index();
+  std::vector<std::pair<double, size_t>> by;
+  for (size_t c = 0; c < nodes.size(); ++c) {
+    double q = 0;
+    for (int a = 0; a < 3; ++a)
+      if (const auto d = ri[3 * static_cast<size_t>(nodes[c]) + a]; d >= 0) q += r[d] * r[d];
+    by.emplace_back(std::sqrt(q), c);
+  }
+  const size_t top = std::min<size_t>(3, by.size());
+  std::partial_sort(by.begin(), by.begin() + static_cast<std::ptrdiff_t>(top), by.end(), std::greater<>());
+  std::string out;
+  for (size_t j = 0; j < top; ++j) {
+    const size_t c = by[j].second;
+    const std::string touch = st[c].active ? fmt::format("{:.0f} µm into the wall, f_n {:.3g} N", -st[c].gap_m * 1e6,
+                                                         st[c].normal_force_n)
+                                           : std::string("not in contact");
+    out += fmt::format("{}node {} unbalanced by {:.3g} N ({}, friction {:.3g} N{}, lagged f_n {:.3g} N)", j ? "; " : "",
+                       nodes[c], by[j].first, touch, st[c].tangential_n.norm(), st[c].sliding ? " sliding" : "",
+                       lag_fn[c]);
+  }
+  return out;
 }
 
 double ContactSolver::Impl::free_residual(const std::vector<NodeContact>& st) const {

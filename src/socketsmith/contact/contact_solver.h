@@ -135,16 +135,19 @@ struct ContactStep {
   std::string message;
 };
 
-/// A stalled Newton solve whose residual sits on one node in contact: the node caught on the
+/// A stalled Newton solve whose residual sits on a few nodes in contact: nodes caught on the
 /// socket's rim (skin wrapped over the brim's lip during donning, where the lip's normal turns
 /// through a right angle within its radius) or on a kink of the wall, everything else in
-/// equilibrium. Returns that node's index when the residual of every other node together is
-/// within @p rest_tol_n and the node's own is at most its normal force plus @p rest_tol_n (the
-/// imbalance is its contact force turning, not a missing load); −1 otherwise.
+/// equilibrium. Returns those nodes, the largest residual first, when they are at most
+/// @p max_nodes, the residual of every other node together is within @p rest_tol_n and each one's
+/// own is at most its normal force plus @p rest_tol_n (the imbalance is its contact force turning,
+/// not a missing load); empty otherwise.
 /// @param node_residual_n |r| per mesh node [N]
-/// @param node_normal_force_n the contact normal force per mesh node [N] (0: not in contact)
-int caught_node(const std::vector<double>& node_residual_n, const std::vector<double>& node_normal_force_n,
-                double rest_tol_n);
+/// @param node_normal_force_n the contact force per mesh node [N], friction included (0: not in
+///        contact; ContactSolver passes f_n + |f_t|: the friction of the lagged normal force may
+///        exceed μ times the current one, and the node's imbalance is then bounded by it)
+std::vector<int> caught_nodes(const std::vector<double>& node_residual_n, const std::vector<double>& node_normal_force_n,
+                              double rest_tol_n, int max_nodes);
 
 class ContactSolver {
  public:
