@@ -1,6 +1,7 @@
 // The one sparse Cholesky holder (sparse_cholesky.h): its solutions against a dense LLᵀ of the
 // same matrix, a matrix that is not positive definite refused and the factor left invalid, the
-// diagonal shift, CHOLMOD's messages kept off stdout, and a new pattern (another size) ordered again instead of reusing the old one.
+// diagonal shift, CHOLMOD's messages kept off stdout, and a new pattern (another size) ordered
+// again instead of reusing the old one.
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>

@@ -38,15 +38,8 @@ bool ContactSolver::Impl::caught(const VectorXd& r, double rs, const std::vector
                                  std::string& why) const {
   const double kink = kink_tolerance(st);
   if (rs >= kink) return false;  // the obstacle's own equilibrium is part of the rest
-  const auto& ri = dofs.reduced_index();
-  const size_t n = ri.size() / 3;
-  std::vector<double> res(n, 0.0), fn(n, 0.0);
-  for (size_t i = 0; i < n; ++i) {
-    double q = 0;
-    for (int a = 0; a < 3; ++a)
-      if (const auto d = ri[3 * i + a]; d >= 0) q += r[d] * r[d];
-    res[i] = std::sqrt(q);
-  }
+  const std::vector<double> res = node_residuals(r);
+  std::vector<double> fn(res.size(), 0.0);
   for (size_t c = 0; c < nodes.size(); ++c)
     if (st[c].active)  // its contact forces, friction included (the lag's may exceed μ f_n)
       fn[static_cast<size_t>(nodes[c])] = st[c].normal_force_n + st[c].tangential_n.norm();
@@ -62,15 +55,22 @@ bool ContactSolver::Impl::caught(const VectorXd& r, double rs, const std::vector
   return true;
 }
 
-std::string ContactSolver::Impl::residual_holders(const VectorXd& r, const std::vector<NodeContact>& st) const {
+std::vector<double> ContactSolver::Impl::node_residuals(const VectorXd& r) const {
   const auto& ri = dofs.reduced_index();
-  std::vector<std::pair<double, size_t>> by;
-  for (size_t c = 0; c < nodes.size(); ++c) {
+  std::vector<double> res(ri.size() / 3, 0.0);
+  for (size_t i = 0; i < res.size(); ++i) {
     double q = 0;
     for (int a = 0; a < 3; ++a)
-      if (const auto d = ri[3 * static_cast<size_t>(nodes[c]) + a]; d >= 0) q += r[d] * r[d];
-    by.emplace_back(std::sqrt(q), c);
+      if (const auto d = ri[3 * i + a]; d >= 0) q += r[d] * r[d];
+    res[i] = std::sqrt(q);
   }
+  return res;
+}
+
+std::string ContactSolver::Impl::residual_holders(const VectorXd& r, const std::vector<NodeContact>& st) const {
+  const std::vector<double> res = node_residuals(r);
+  std::vector<std::pair<double, size_t>> by;
+  for (size_t c = 0; c < nodes.size(); ++c) by.emplace_back(res[static_cast<size_t>(nodes[c])], c);
   const size_t top = std::min<size_t>(3, by.size());
   std::partial_sort(by.begin(), by.begin() + static_cast<std::ptrdiff_t>(top), by.end(), std::greater<>());
   std::string out;

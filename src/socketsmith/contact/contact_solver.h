@@ -140,7 +140,7 @@ struct ContactStep {
 /// through a right angle within its radius) or on a kink of the wall, everything else in
 /// equilibrium. Returns those nodes, the largest residual first, when they are at most
 /// @p max_nodes, the residual of every other node together is within @p rest_tol_n and each one's
-/// own is at most its normal force plus @p rest_tol_n (the imbalance is its contact force turning,
+/// own is at most its contact force plus @p rest_tol_n (the imbalance is its contact force turning,
 /// not a missing load); empty otherwise.
 /// @param node_residual_n |r| per mesh node [N]
 /// @param node_normal_force_n the contact force per mesh node [N], friction included (0: not in

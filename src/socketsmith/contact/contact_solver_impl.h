@@ -142,6 +142,8 @@ struct ContactSolver::Impl {
   /// such nodes stalled the open-loop socket's donning nine times.
   bool caught(const VectorXd& r, double rs, const std::vector<NodeContact>& st, std::string& why) const;
 
+  /// |r| per mesh node of the reduced residual @p r (0 at a node whose DOFs are all fixed).
+  std::vector<double> node_residuals(const VectorXd& r) const;
   /// The three candidate nodes holding most of the residual @p r, with their contact state in @p st:
   /// what a stalled Newton is stuck on (its message names them).
   std::string residual_holders(const VectorXd& r, const std::vector<NodeContact>& st) const;
