@@ -205,6 +205,30 @@ TEST(Raster, marker_label_is_drawn_beside_the_disc) {
   EXPECT_GT(changed_left, 20);
 }
 
+TEST(Raster, labels_of_markers_close_together_do_not_cover_each_other) {
+  // Four landmarks within two pixels of each other (a transfemoral socket's IS, IR, AL and ST
+  // under the medial brim): each label gets its own rows beside the cluster.
+  const std::vector<Marker> cluster{Marker{Vec3::Zero(), "AB", kRed}, Marker{Vec3(0.01, 0, 0), "CD", kRed},
+                                    Marker{Vec3(0, 0.01, 0), "EF", kRed}, Marker{Vec3(0.01, 0.01, 0), "GH", kRed}};
+  const Image img = draw({}, cluster);
+  // Rows right of the discs (x 60..99) holding label ink, grouped into bands of consecutive rows.
+  std::vector<int> bands;
+  bool in_band = false;
+  for (int y = 0; y < 100; ++y) {
+    bool ink = false;
+    for (int x = 60; x < 100; ++x) ink = ink || img.at(x, y).r < 100;
+    if (ink && !in_band) bands.push_back(y);
+    in_band = ink;
+  }
+  EXPECT_EQ(bands.size(), 4u);
+  // One marker alone keeps its label at its own height.
+  const Image one = draw({}, {cluster[0]});
+  int rows = 0;
+  for (int y = 40; y < 60; ++y)
+    for (int x = 60; x < 100; ++x) rows += one.at(x, y).r < 100 ? 1 : 0;
+  EXPECT_GT(rows, 10);
+}
+
 TEST(Raster, back_faces_are_darker_and_translucent_layers_blend_over_opaque_ones) {
   const TriMesh t = triangle(0);
   const Rgb grey{200, 200, 200};

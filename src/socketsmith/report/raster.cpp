@@ -440,22 +440,17 @@ bool is_marker_visible(const Marker& marker, const Vector3d& q, const Projection
   return q.z() - marker.radius_px / proj.px_per_m <= double(nearest);
 }
 
-/// The visible markers as discs with their labels (right of the disc, else left), in @p viewport.
+/// The visible markers as discs, then their labels (draw_marker_labels), in @p viewport.
 void draw_markers(Image& img, const std::vector<Marker>& markers, const Projection& proj,
                   const Target& target, const Rect& viewport, int ss) {
+  std::vector<MarkerSpot> shown;
   for (const auto& marker : markers) {
     const Vector3d q = proj.project(marker.position);
     if (!is_marker_visible(marker, q, proj, target, viewport, ss)) continue;
     draw_marker_disc(img, q.x(), q.y(), marker.radius_px, marker.colour, viewport);
-    if (!marker.label.empty()) {
-      constexpr int kScale = 2;
-      const int gap = int(std::lround(marker.radius_px)) + 4,
-                width = text_width(marker.label, kScale);
-      const int cx = int(std::lround(q.x()));
-      const int x = cx + gap + width <= viewport.x1 ? cx + gap : cx - gap - width;
-      draw_label(img, x, int(std::lround(q.y())) - 4 * kScale, marker.label, kScale, viewport);
-    }
+    shown.push_back({&marker, q.x(), q.y()});
   }
+  draw_marker_labels(img, shown, viewport);
 }
 
 }  // namespace

@@ -126,7 +126,8 @@ struct RenderOptions {
 /// Rasterizes @p layers and @p markers into the viewport (@p x0, @p y0, @p w, @p h) of @p img,
 /// framing @p frame_box with fit() (or at options.scale_px_per_m). Pixels the meshes do not
 /// cover keep their colour. Marker labels go right of the disc, or left when they would leave
-/// the viewport; they are clipped to it.
+/// the viewport, a row up or down (with a leader) where they would cover another marker's disc
+/// or label; they are clipped to it.
 /// Opaque layers (opacity 1) are z-buffered; translucent layers are then blended back to front
 /// (by triangle centroid) without writing depth; markers are drawn last, on top.
 /// Shading: colour × (0.3 + 0.7 max(0, n·l)) with a headlight l = −view_dir and smooth vertex

@@ -10,6 +10,7 @@
 #include <stb/stb_easy_font.h>
 
 #include "socketsmith/core/errors.h"
+#include "socketsmith/report/draw_2d.h"
 #include "socketsmith/report/nice_number.h"
 #include "socketsmith/report/raster.h"
 #include "socketsmith/report/raster_detail.h"
@@ -46,6 +47,28 @@ void draw_text_clipped(Image& img, int x, int y, const std::string& text, Rgb co
   }
 }
 
+bool overlaps(const Rect& a, const Rect& b) { return a.x0 < b.x1 && b.x0 < a.x1 && a.y0 < b.y1 && b.y0 < a.y1; }
+
+/// Where a marker's label goes: right of its disc at its height, else left (when the right
+/// leaves @p viewport); where that covers a disc or a label already placed (@p placed) — landmarks a few
+/// millimetres apart, such as a transfemoral socket's ischial tuberosity, ramus, adductor longus
+/// and Scarpa's triangle under the medial brim — the first free row above or below, on the same
+/// side; the first choice when no row within six is free.
+Rect label_place(double qx, double qy, double radius_px, int width, int height, const Rect& viewport,
+                 const std::vector<Rect>& placed) {
+  const int gap = int(std::lround(radius_px)) + 4, cx = int(std::lround(qx));
+  const int x = cx + gap + width <= viewport.x1 ? cx + gap : cx - gap - width;
+  const int y = int(std::lround(qy)) - height / 2, row = height + 2;
+  const Rect first{x, y, x + width, y + height};
+  for (int k = 0; k <= 12; ++k) {
+    const int dy = (k % 2 == 1 ? 1 : -1) * ((k + 1) / 2) * row;  // 0, +1, −1, +2, −2, … rows
+    const Rect r{x, y + dy, x + width, y + dy + height};
+    if (r.y0 < viewport.y0 || r.y1 > viewport.y1) continue;
+    if (std::none_of(placed.begin(), placed.end(), [&](const Rect& p) { return overlaps(p, r); })) return r;
+  }
+  return first;
+}
+
 }  // namespace
 
 void raster_detail::draw_label(Image& img, int x, int y, const std::string& text, int scale, const Rect& clip) {
@@ -53,6 +76,28 @@ void raster_detail::draw_label(Image& img, int x, int y, const std::string& text
     for (int dx = -1; dx <= 1; ++dx)
       if (dx != 0 || dy != 0) draw_text_clipped(img, x + dx, y + dy, text, kWhite, scale, clip);
   draw_text_clipped(img, x, y, text, kInk, scale, clip);
+}
+
+void raster_detail::draw_marker_labels(Image& img, const std::vector<MarkerSpot>& spots, const Rect& viewport) {
+  constexpr int kScale = 2;
+  std::vector<Rect> placed;  // the discs, then each label drawn
+  for (const auto& s : spots) {
+    const int r = int(std::ceil(s.marker->radius_px));
+    const int x = int(std::lround(s.x)), y = int(std::lround(s.y));
+    placed.push_back({x - r, y - r, x + r + 1, y + r + 1});
+  }
+  for (const auto& s : spots) {
+    if (s.marker->label.empty()) continue;
+    const int width = text_width(s.marker->label, kScale), height = 8 * kScale;
+    const Rect r = label_place(s.x, s.y, s.marker->radius_px, width, height, viewport, placed);
+    placed.push_back(r);
+    const double mid = 0.5 * (r.y0 + r.y1);
+    if (std::abs(mid - s.y) > 0.5 * height) {  // moved off its disc's height: a leader to it
+      const double side = r.x0 > s.x ? r.x0 - 1.0 : r.x1 + 1.0;
+      draw2d::stroke_segment(img, {s.x, s.y}, {side, mid}, 1.0, kInk);
+    }
+    draw_label(img, r.x0, r.y0, s.marker->label, kScale, viewport);
+  }
 }
 
 std::vector<std::pair<double, std::string>> raster_detail::nice_ticks(double vmin, double vmax) {
