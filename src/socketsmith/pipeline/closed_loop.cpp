@@ -160,6 +160,12 @@ class LoopRun {
             compared_.size());
     for (int i : compared_) spacing_ += std::sqrt(skin_.area_m2[i]) / static_cast<double>(compared_.size());
     landmarks_ = LandmarkTargets(setup, r_.below_brim, r_.target_pa);
+    std::vector<std::vector<int>> zone_nodes;
+    for (const auto& z : landmarks_.zones) zone_nodes.push_back(z.nodes);
+    zone_steps_ = ZoneSteps(zone_nodes, skin_.area_m2, state_.skin_normals, axis_);
+    for (size_t k = 0; k < landmarks_.zones.size(); ++k)
+      if (zone_steps_.end(k))
+        log::debug("closed loop: {} faces along the axis: no secant steps", landmarks_.zones[k].code);
     paths_ = path_nodes_below_brim(setup, r_.below_brim);
     socket_brim_ = setup.brim;
     lifts_.assign(n_, {});
@@ -419,12 +425,20 @@ class LoopRun {
     r_.donning = d;
   }
 
-  /// The next wall: the correction of the last donning's @p delivered pressures (Anderson-mixed
-  /// over the round's refits), the designed skin moved by δ along its normals, the socket built on
-  /// it. False when the socket could not be built (the loop stops with the reason).
+  /// The next wall: the correction of the last donning's @p delivered pressures (each landmark's
+  /// zone stepped by its own secant, ZoneSteps; Anderson-mixed over the round's refits), the
+  /// designed skin moved by δ along its normals, the socket built on it. False when the socket
+  /// could not be built (the loop stops with the reason).
   bool correct_wall(const std::vector<double>& delivered, bool refitted) {
-    const std::vector<double> on_wall = wall_corrections(solver_, state_, in_socket_, delivered,
-                                                         r_.target_pa, donned_, offset_, spacing_, options_);
+    std::vector<double> on_wall = wall_corrections(solver_, state_, in_socket_, delivered, r_.target_pa, donned_,
+                                                   offset_, spacing_, options_);
+    std::vector<double> excess(n_);
+    for (size_t i = 0; i < n_; ++i) excess[i] = delivered[i] - r_.target_pa[i];
+    zone_steps_.apply(excess, offset_, refitted, on_wall);
+    for (size_t k = 0; k < landmarks_.zones.size(); ++k)
+      if (zone_steps_.slope(k) < 0)
+        log::debug("closed loop: {}'s wall stepped by its own slope, {:.3g} kPa/mm", landmarks_.zones[k].code,
+                   -zone_steps_.slope(k) / 1e6);
     if (!refitted) history_.clear();  // a donning from scratch: the refits' map starts again
     offset_ = history_.next(offset_, on_wall);
     for (auto& v : offset_) v = std::clamp(v, -options_.max_offset_m, options_.max_offset_m);
@@ -483,6 +497,7 @@ class LoopRun {
   std::vector<design::BrimLift> lifts_;      // per skin node: how far the brim must rise for it, where
   double max_brim_h_ = 0;                    // the brim rises no higher than this [m]
   LandmarkTargets landmarks_;  // the landmarks' zones below the brim
+  ZoneSteps zone_steps_;       // their walls' secant steps
   std::vector<PathNodes> paths_;  // each thesis path's nodes below the brim
   std::vector<Vec3> donned_;       // the last donning's skin, in the socket's frame
   std::vector<int> in_socket_;     // compared nodes it left below the brim

@@ -106,4 +106,47 @@ std::vector<double> wall_corrections(design::DesignSolver& solver, const design:
   return corrections_on_wall(wall, donned, corr, in_socket, 0.5 * spacing);
 }
 
+ZoneSteps::ZoneSteps(const std::vector<std::vector<int>>& zones, const std::vector<double>& area_m2,
+                     const std::vector<Vec3>& normals, const Vec3& axis) {
+  for (const auto& nodes : zones) {
+    Zone z;
+    z.nodes = nodes;
+    double a = 0;
+    for (int i : nodes) a += area_m2[i];
+    Vec3 n = Vec3::Zero();
+    for (int i : nodes) {
+      z.weight.push_back(area_m2[i] / a);
+      n += z.weight.back() * normals[i];
+    }
+    z.end = std::abs(n.dot(axis)) > std::sqrt(0.5) * n.norm();
+    zones_.push_back(std::move(z));
+  }
+}
+
+void ZoneSteps::apply(const std::vector<double>& excess, const std::vector<double>& offset, bool response,
+                      std::vector<double>& correction) {
+  for (auto& z : zones_) {
+    if (z.end) continue;
+    double e = 0, d = 0, c = 0;
+    for (size_t k = 0; k < z.nodes.size(); ++k) {
+      e += z.weight[k] * excess[z.nodes[k]];
+      d += z.weight[k] * offset[z.nodes[k]];
+      c += z.weight[k] * correction[z.nodes[k]];
+    }
+    const double moved = d - z.offset;
+    if (response && std::isfinite(z.excess) && std::abs(moved) > kZoneMoved) {
+      const double seen = (e - z.excess) / moved;
+      if (seen <= -kMinZoneSlope) {
+        z.slope = std::min(seen, z.last_seen);
+        z.last_seen = seen;
+      }
+    }
+    z.excess = e;
+    z.offset = d;
+    if (z.slope == 0) continue;
+    const double shift = std::clamp(-e / z.slope, -kMaxZoneStep, kMaxZoneStep) - c;
+    for (int i : z.nodes) correction[i] += shift;
+  }
+}
+
 }  // namespace socketsmith::pipeline
