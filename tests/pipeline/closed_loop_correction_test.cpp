@@ -5,7 +5,6 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <numeric>
 #include <vector>
 
 #include "socketsmith/pipeline/closed_loop_correction.h"
@@ -29,7 +28,7 @@ struct Wall {
     for (size_t i = 0; i < c.size(); ++i) offset[i] += c[i];
   }
 };
-const std::vector<std::vector<int>> kZones{{1, 2}};
+const std::vector<LandmarkZone> kZones{{"GT", {1, 2}, 4.0}};
 const std::vector<double> kArea{1.0, 1.0, 3.0, 1.0};
 const Eigen::Vector3d kAxis(0, 0, 1);
 // On the stump's side: normals across the axis (one 50° from it, still a side).

@@ -160,9 +160,7 @@ class LoopRun {
             compared_.size());
     for (int i : compared_) spacing_ += std::sqrt(skin_.area_m2[i]) / static_cast<double>(compared_.size());
     landmarks_ = LandmarkTargets(setup, r_.below_brim, r_.target_pa);
-    std::vector<std::vector<int>> zone_nodes;
-    for (const auto& z : landmarks_.zones) zone_nodes.push_back(z.nodes);
-    zone_steps_ = ZoneSteps(zone_nodes, skin_.area_m2, state_.skin_normals, axis_);
+    zone_steps_ = ZoneSteps(landmarks_.zones, skin_.area_m2, state_.skin_normals, axis_);
     for (size_t k = 0; k < landmarks_.zones.size(); ++k)
       if (zone_steps_.end(k))
         log::debug("closed loop: {} faces along the axis: no secant steps", landmarks_.zones[k].code);

@@ -106,20 +106,13 @@ std::vector<double> wall_corrections(design::DesignSolver& solver, const design:
   return corrections_on_wall(wall, donned, corr, in_socket, 0.5 * spacing);
 }
 
-ZoneSteps::ZoneSteps(const std::vector<std::vector<int>>& zones, const std::vector<double>& area_m2,
-                     const std::vector<Vec3>& normals, const Vec3& axis) {
-  for (const auto& nodes : zones) {
-    Zone z;
-    z.nodes = nodes;
-    double a = 0;
-    for (int i : nodes) a += area_m2[i];
+ZoneSteps::ZoneSteps(const std::vector<LandmarkZone>& zones, std::vector<double> area_m2,
+                     const std::vector<Vec3>& normals, const Vec3& axis)
+    : area_m2_(std::move(area_m2)) {
+  for (const auto& lz : zones) {
     Vec3 n = Vec3::Zero();
-    for (int i : nodes) {
-      z.weight.push_back(area_m2[i] / a);
-      n += z.weight.back() * normals[i];
-    }
-    z.end = std::abs(n.dot(axis)) > std::sqrt(0.5) * n.norm();
-    zones_.push_back(std::move(z));
+    for (int i : lz.nodes) n += area_m2_[i] * normals[i];
+    zones_.push_back({lz, std::abs(n.dot(axis)) > std::sqrt(0.5) * n.norm()});
   }
 }
 
@@ -127,12 +120,8 @@ void ZoneSteps::apply(const std::vector<double>& excess, const std::vector<doubl
                       std::vector<double>& correction) {
   for (auto& z : zones_) {
     if (z.end) continue;
-    double e = 0, d = 0, c = 0;
-    for (size_t k = 0; k < z.nodes.size(); ++k) {
-      e += z.weight[k] * excess[z.nodes[k]];
-      d += z.weight[k] * offset[z.nodes[k]];
-      c += z.weight[k] * correction[z.nodes[k]];
-    }
+    const double e = z.zone.mean(excess, area_m2_), d = z.zone.mean(offset, area_m2_),
+                 c = z.zone.mean(correction, area_m2_);
     const double moved = d - z.offset;
     if (response && std::isfinite(z.excess) && std::abs(moved) > kZoneMoved) {
       const double seen = (e - z.excess) / moved;
@@ -145,7 +134,7 @@ void ZoneSteps::apply(const std::vector<double>& excess, const std::vector<doubl
     z.offset = d;
     if (z.slope == 0) continue;
     const double shift = std::clamp(-e / z.slope, -kMaxZoneStep, kMaxZoneStep) - c;
-    for (int i : z.nodes) correction[i] += shift;
+    for (int i : z.zone.nodes) correction[i] += shift;
   }
 }
 

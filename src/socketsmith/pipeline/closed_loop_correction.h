@@ -50,17 +50,18 @@ std::vector<double> wall_corrections(design::DesignSolver& solver, const design:
 /// kMaxZoneStep), its nodes keeping their correction's shape. (Dropping the slope when a secant step
 /// did not shrink the zone's excess met the delivery bar on 3 of the 11 transfemoral limbs of
 /// docs/sweeps/closed_loop_tf_limbs.json, against 7 without it.)
-/// A zone facing along the axis (its mean normal within 45° of it: the distal femur, the distal
-/// tip) is left to the loop's correction: what it carries is set by where the socket stands under
+/// A zone facing along the axis (its mean normal within 45° of it: the transfemoral distal femur;
+/// the transtibial distal tibia's zone on the demo faces more across than along) is left to the
+/// loop's correction: what it carries is set by where the socket stands under
 /// the load, by the whole wall (generated transfemoral limb, seed 2: the distal femur stepped by its
 /// own slope stayed 0.14 of its threshold over its design, where the loop's correction brought it
 /// within 0.011).
 class ZoneSteps {
  public:
   ZoneSteps() = default;
-  /// @p zones: each zone's skin nodes; @p area_m2, @p normals: the skin nodes' areas (the zones'
-  /// means weigh by them) and outward normals; @p axis: the limb's axis (unit).
-  ZoneSteps(const std::vector<std::vector<int>>& zones, const std::vector<double>& area_m2,
+  /// @p zones: the landmarks' zones; @p area_m2, @p normals: the skin nodes' areas (the zones'
+  /// means weigh by them, LandmarkZone::mean) and outward normals; @p axis: the limb's axis (unit).
+  ZoneSteps(const std::vector<LandmarkZone>& zones, std::vector<double> area_m2,
             const std::vector<Eigen::Vector3d>& normals, const Eigen::Vector3d& axis);
   /// Sets @p correction's mean (per skin node's wall vertex [m]) at each zone with a measured slope to
   /// its secant step. When @p response, @p excess (delivered − target per skin node [Pa]) is what the
@@ -75,13 +76,13 @@ class ZoneSteps {
 
  private:
   struct Zone {
-    std::vector<int> nodes;
-    std::vector<double> weight;  // area / the zone's area
-    bool end = false;            // facing along the axis
+    LandmarkZone zone;
+    bool end = false;  // facing along the axis
     double excess = std::numeric_limits<double>::quiet_NaN(), offset = 0;  // at the last call
     double slope = 0, last_seen = 0;  // [Pa/m]: the one used, the last measured
   };
   std::vector<Zone> zones_;
+  std::vector<double> area_m2_;  // per skin node
 };
 
 inline constexpr double kZoneMoved = 2e-5;     ///< [m] ZoneSteps: a smaller move measures noise, not a slope
