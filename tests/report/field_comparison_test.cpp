@@ -64,5 +64,31 @@ TEST(Comparison, subset_and_non_finite_values) {
   EXPECT_TRUE(j["r"].is_null() || j["r"].is_number());
 }
 
+TEST(Comparison, band_means_weigh_by_area_and_pool_the_deeper_bands) {
+  // Points in bands 0 (above the brim: left out), 1, 2, 5 and 7 with deepest 3: 5 and 7 pool into 3.
+  const std::vector<int> band{0, 1, 1, 2, 5, 7, 2};
+  const std::vector<double> w{9, 1, 3, 2, 1, 3, 0};  // the last point weighs nothing: left out
+  const std::vector<double> f{100, 10, 20, 5, 1, 5, 1e9};
+  const std::vector<double> g{0, 1, 1, 2, NAN, 3, 0};  // a non-finite value drops its point from every field
+  const auto m = band_means(band, w, {f, g}, 3);
+  ASSERT_EQ(m.size(), 3u);
+  EXPECT_EQ(m[0].band, 1);
+  EXPECT_EQ(m[0].count, 2);
+  EXPECT_DOUBLE_EQ(m[0].area, 4.0);
+  EXPECT_DOUBLE_EQ(m[0].mean[0], (1 * 10 + 3 * 20) / 4.0);
+  EXPECT_DOUBLE_EQ(m[0].mean[1], 1.0);
+  EXPECT_EQ(m[1].count, 1);
+  EXPECT_DOUBLE_EQ(m[1].mean[0], 5.0);
+  EXPECT_EQ(m[2].band, 3);
+  EXPECT_EQ(m[2].count, 1);  // band 5's point has a NaN in g
+  EXPECT_DOUBLE_EQ(m[2].mean[0], 5.0);
+  EXPECT_DOUBLE_EQ(m[2].mean[1], 3.0);
+  // An empty band is not listed; sizes must agree.
+  EXPECT_EQ(band_means({3, 3}, {1, 1}, {{1, 2}}, 5).size(), 1u);
+  EXPECT_THROW(band_means(band, w, {{1.0}}, 3), InvalidInputError);
+  EXPECT_THROW(band_means(band, {1.0}, {f}, 3), InvalidInputError);
+  EXPECT_THROW(band_means(band, w, {f}, 0), InvalidInputError);
+}
+
 }  // namespace
 }  // namespace socketsmith::report

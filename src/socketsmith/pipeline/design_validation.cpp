@@ -28,6 +28,16 @@ namespace {
 namespace fs = std::filesystem;
 using Vec3 = Eigen::Vector3d;
 
+constexpr int kRingsListed = 12;  // ring_means: the deeper rings pooled in the last one
+
+/// socketsmith's own donned-and-stood pressure per skin node [Pa]; empty without a standing step.
+std::vector<double> stood_pressures_pa(const DesignValidation& v) {
+  std::vector<double> p;
+  if (!v.donning || v.stand_force_n <= 0) return p;
+  for (const auto& c : v.donning->contacts) p.push_back(c.pressure_pa);
+  return p;
+}
+
 /// socketsmith's own donning of the design (the closed loop's kept donning when the design ran
 /// one with the same μ and body, else a donning here): what CalculiX's donning is compared with
 /// (against_donning), or shown beside the design (stand: the delivered pressures three ways).
@@ -57,11 +67,14 @@ void run_own_donning(const design::CaseFile& c, const DesignValidationOptions& o
 }
 
 /// comparison.csv: per skin node, its position, rings from the brim, both values, the error, the
-/// penetration, the one-ring means and CalculiX's three pressure measures.
+/// penetration, the one-ring means, CalculiX's three pressure measures and the node's skin area;
+/// with a standing step, socketsmith's own donned-and-stood pressure too (the design is compared
+/// with both).
 void write_comparison_csv(const DesignValidation& v, const fs::path& out) {
   const auto& r = v.check;
   const auto& skin = *v.stump.skin;
   const auto [scale, unit, suffix, what] = compared_quantity(r.mode);
+  const std::vector<double> delivered = stood_pressures_pa(v);
   std::vector<std::vector<double>> rows;
   for (size_t i = 0; i < skin.nodes.size(); ++i) {
     const auto& p = skin.positions[i];
@@ -72,14 +85,46 @@ void write_comparison_csv(const DesignValidation& v, const fs::path& out) {
                     r.fe_value_smoothed[i] * scale,
                     r.fe_cpress_pa.empty() ? 0.0 : r.fe_cpress_pa[i] * scale,
                     r.fe_stress_pressure_pa.empty() ? 0.0 : r.fe_stress_pressure_pa[i] * scale,
-                    r.fe_force_pressure_pa.empty() ? 0.0 : r.fe_force_pressure_pa[i] * scale});
+                    r.fe_force_pressure_pa.empty() ? 0.0 : r.fe_force_pressure_pa[i] * scale, skin.area_m2[i]});
+    if (!delivered.empty()) rows.back().push_back(delivered[i] * scale);
   }
-  report::write_csv(out / "comparison.csv",
-                    {"skin_index", "ccx_node", "x_m", "y_m", "z_m", "rings_from_brim", "socketsmith_" + unit,
-                     "calculix_" + unit, "error_" + unit, "penetration_mm",
-                     "socketsmith_one_ring_" + unit, "calculix_one_ring_" + unit, "calculix_cpress_" + unit,
-                     "calculix_stress_" + unit, "calculix_force_" + unit},
-                    rows);
+  std::vector<std::string> header{"skin_index", "ccx_node", "x_m", "y_m", "z_m", "rings_from_brim", "socketsmith_" + unit,
+                                  "calculix_" + unit, "error_" + unit, "penetration_mm",
+                                  "socketsmith_one_ring_" + unit, "calculix_one_ring_" + unit, "calculix_cpress_" + unit,
+                                  "calculix_stress_" + unit, "calculix_force_" + unit, "area_m2"};
+  if (!delivered.empty()) header.push_back("socketsmith_stood_" + unit);
+  report::write_csv(out / "comparison.csv", header, rows);
+}
+
+/// Area-weighted means of the designed pressure, CalculiX's and socketsmith's donned-and-stood ones
+/// (in that order) on each ring of skin quads below the brim (ring kRingsListed holds every deeper
+/// ring): where along the stump the two codes part at the same mean level (docs/VALIDATION.md, "What
+/// is left at the landmarks"). Empty without a standing step.
+std::vector<report::BandMeans> ring_means(const DesignValidation& v) {
+  const std::vector<double> delivered = stood_pressures_pa(v);
+  if (delivered.empty()) return {};
+  return report::band_means(v.check.brim_ring, v.stump.skin->area_m2, {v.designed_pa, v.check.fe_value, delivered},
+                            kRingsListed);
+}
+
+/// ring_means as a plot: each code's delivered minus designed pressure, ring by ring (SVG, PNG).
+void write_ring_plot(const std::vector<report::BandMeans>& rings, const fs::path& out) {
+  report::Plot p;
+  p.title = "Delivered minus designed, ring by ring below the brim";
+  p.x_label = fmt::format("rings of skin quads below the brim (ring {}: every deeper one)", kRingsListed);
+  p.y_label = "mean delivered - designed [kPa]";
+  std::vector<double> x, fe, ours, zero;
+  for (const auto& m : rings) {
+    x.push_back(m.band);
+    fe.push_back((m.mean[1] - m.mean[0]) / 1e3);
+    ours.push_back((m.mean[2] - m.mean[0]) / 1e3);
+    zero.push_back(0.0);
+  }
+  p.series = {{"CalculiX", x, fe, "#D55E00", false, true, 2},
+              {"socketsmith", x, ours, "#0072B2", false, true, 2},
+              {"", x, zero, "#999999", true, false, 1}};
+  report::write_svg(out / "rings.svg", p);
+  report::write_plot_png(out / "rings.png", p);
 }
 
 /// Each thesis path's profile (SVG, PNG), appended to @p panels; returns the paths' statistics.
@@ -208,6 +253,8 @@ nlohmann::json write_comparison_files(const DesignValidation& v, bool against_do
   report::write_plot_grid_png(out / "comparison.png", panels, 2);
   write_stump_vtu(v, out);
   write_comparison_map(v, against_donning, out);
+  const std::vector<report::BandMeans> rings = ring_means(v);
+  if (!rings.empty()) write_ring_plot(rings, out);
   return paths_json;
 }
 
@@ -422,6 +469,18 @@ void add_delivered_comparison(const DesignValidation& v, nlohmann::json& j) {
                          {"socketsmith_deviation", report::landmark_deviation(designed, our_ratios.back().delivered)}});
   }
   j["landmarks"] = landmarks;
+  // Ring by ring below the brim (ring_means): where along the stump each code parts from the design.
+  nlohmann::json rings = nlohmann::json::object();
+  for (const auto& m : ring_means(v))
+    rings[std::to_string(m.band)] = {{"nodes", m.count},
+                                     {"designed_kpa", m.mean[0] / 1e3},
+                                     {"calculix_kpa", m.mean[1] / 1e3},
+                                     {"socketsmith_kpa", m.mean[2] / 1e3},
+                                     {"calculix_minus_design_kpa", (m.mean[1] - m.mean[0]) / 1e3},
+                                     {"socketsmith_minus_design_kpa", (m.mean[2] - m.mean[0]) / 1e3}};
+  j["rings_below_brim"] = rings;
+  j["outputs"].push_back("rings.svg");
+  j["outputs"].push_back("rings.png");
   // Each side's delivery against report::DeliveryBar (issue 20's bar), below the brim and on each
   // thesis path below it.
   std::vector<report::PathDelivery> fe_paths, our_paths;

@@ -92,16 +92,22 @@ DonnedSkin donned_skin(const design::DesignSolver& solver, const contact::Donnin
   return d;
 }
 
-/// contact.csv: the columns of surface_nodes.csv, pressure = contact pressure (+ the designed one).
+/// contact.csv: the columns of surface_nodes.csv, pressure = contact pressure (+ the designed one),
+/// then the socket wall's normal where the node touches it and the friction's shear traction on the
+/// skin [Pa] (friction force over the same nodal area as the pressure; zeros off contact).
 void write_contact_csv(const fs::path& out, const DonnedSkin& d, const std::vector<double>& thresholds,
                        const contact::DonningResult& r) {
   report::CsvTable t;
   t.header = {"x_m",     "y_m",         "z_m",          "nx",          "ny",      "nz",      "area_m2",
-              "pressure_pa", "threshold_pa", "above_brim", "designed_pressure_pa", "sliding", "gap_m"};
-  for (size_t i = 0; i < d.pos.size(); ++i)
+              "pressure_pa", "threshold_pa", "above_brim", "designed_pressure_pa", "sliding", "gap_m",
+              "wall_nx", "wall_ny", "wall_nz", "shear_x_pa", "shear_y_pa", "shear_z_pa"};
+  for (size_t i = 0; i < d.pos.size(); ++i) {
+    const contact::NodeContact& c = r.contacts[i];
+    const Vec3 shear = c.normal_force_n > 0 ? Vec3(c.tangential_n * (c.pressure_pa / c.normal_force_n)) : Vec3::Zero();
     t.rows.push_back({d.pos[i].x(), d.pos[i].y(), d.pos[i].z(), d.nrm[i].x(), d.nrm[i].y(), d.nrm[i].z(), d.area[i],
-                      d.pc[i], thresholds[i], d.below[i] ? 0.0 : 1.0, d.pd[i], r.contacts[i].sliding ? 1.0 : 0.0,
-                      r.contacts[i].gap_m});
+                      d.pc[i], thresholds[i], d.below[i] ? 0.0 : 1.0, d.pd[i], c.sliding ? 1.0 : 0.0, c.gap_m,
+                      c.normal.x(), c.normal.y(), c.normal.z(), shear.x(), shear.y(), shear.z()});
+  }
   report::write_csv(out / "contact.csv", t.header, t.rows, 12);
 }
 

@@ -86,4 +86,33 @@ nlohmann::json to_json(const ErrorStats& s, double scale, const std::string& suf
           {"sd_b" + suffix, num(s.sd_b * scale)}};
 }
 
+
+std::vector<BandMeans> band_means(const std::vector<int>& band, const std::vector<double>& weight,
+                                  const std::vector<std::vector<double>>& fields, int deepest) {
+  require(deepest >= 1, "band_means: deepest band {} (expected ≥ 1)", deepest);
+  require(weight.size() == band.size(), "band_means: {} weights for {} points", weight.size(), band.size());
+  for (const auto& f : fields)
+    require(f.size() == band.size(), "band_means: a field has {} values for {} points", f.size(), band.size());
+  std::vector<BandMeans> sums(deepest);
+  for (auto& b : sums) b.mean.assign(fields.size(), 0.0);
+  for (size_t i = 0; i < band.size(); ++i) {
+    if (band[i] < 1 || !(weight[i] > 0)) continue;
+    const bool finite = std::all_of(fields.begin(), fields.end(), [&](const auto& f) { return std::isfinite(f[i]); });
+    if (!finite) continue;
+    BandMeans& b = sums[std::min(band[i], deepest) - 1];
+    ++b.count;
+    b.area += weight[i];
+    for (size_t k = 0; k < fields.size(); ++k) b.mean[k] += weight[i] * fields[k][i];
+  }
+  std::vector<BandMeans> listed;
+  for (int k = 0; k < deepest; ++k) {
+    BandMeans b = sums[k];
+    if (b.count == 0) continue;
+    b.band = k + 1;
+    for (double& m : b.mean) m /= b.area;
+    listed.push_back(std::move(b));
+  }
+  return listed;
+}
+
 }  // namespace socketsmith::report

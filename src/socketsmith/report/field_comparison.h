@@ -36,4 +36,19 @@ ErrorStats compare_fields(const std::vector<double>& a, const std::vector<double
 /// the names of scaled values ("_kpa": mae_kpa, sd_kpa, max_err_kpa...). NaN becomes null.
 nlohmann::json to_json(const ErrorStats& s, double scale = 1.0, const std::string& suffix = "");
 
+/// Area-weighted means of some fields over one band of points (a ring of skin quads below the brim).
+struct BandMeans {
+  int band = 0;              ///< the band's number (1: the ring at the brim)
+  int count = 0;             ///< points in it
+  double area = 0;           ///< their summed weight
+  std::vector<double> mean;  ///< one per field, Σ w v / Σ w
+};
+
+/// Each field of @p fields averaged over the points of each band 1..@p deepest with weights @p weight
+/// (bands beyond @p deepest pooled into it; points in band < 1 left out, as are points where a field
+/// is not finite or the weight is not positive). Bands without a point are not listed.
+/// @throws InvalidInputError when the sizes differ or @p deepest < 1.
+std::vector<BandMeans> band_means(const std::vector<int>& band, const std::vector<double>& weight,
+                                  const std::vector<std::vector<double>>& fields, int deepest);
+
 }  // namespace socketsmith::report
