@@ -8,6 +8,7 @@
 
 #include "socketsmith/core/errors.h"
 #include "socketsmith/core/log.h"
+#include "socketsmith/tissue/pressure_load.h"
 
 namespace socketsmith::contact {
 namespace {
@@ -102,6 +103,20 @@ struct DonningSimulation::Impl {
     solver = std::make_unique<ContactSolver>(model, dofs, nodes, areas, socket, co);
   }
 
+  /// The solver's contact state for a result: each node's pressure its normal force over its
+  /// deformed nodal area when the skin surface is known (DonningOptions::skin), else as solved
+  /// (over its rest area).
+  std::vector<NodeContact> contacts() const {
+    std::vector<NodeContact> c = solver->contacts();
+    if (o.skin == nullptr) return c;
+    std::vector<double> area;
+    std::vector<Vec3> normal;
+    tissue::skin_areas_and_normals(*o.skin, solver->positions(), area, normal);
+    for (size_t i = 0; i < c.size(); ++i)
+      if (c[i].active && area[i] > 0) c[i].pressure_pa = c[i].normal_force_n / area[i];
+    return c;
+  }
+
   /// The socket's translation at @p offset along the axis on the (guided) path.
   Vec3 at(double offset) const {
     if (shift_from_m >= 0) return offset * axis;
@@ -163,6 +178,9 @@ struct DonningSimulation::Impl {
     require(std::isfinite(o.min_step_m) && o.min_step_m > 0, "donning: the shortest step {} mm must be positive",
             o.min_step_m * 1e3);
     o.min_step_m = std::min(o.min_step_m, o.step_m);
+    require(o.skin == nullptr || o.skin->nodes == skin_nodes,
+            "donning: the skin surface given for the pressures has {} nodes, not the {} skin nodes donned",
+            o.skin ? o.skin->nodes.size() : 0, skin_nodes.size());
     require(o.max_newton_iterations >= 0, "donning: a limit of {} Newton iterations (expected ≥ 0; 0: no limit)",
             o.max_newton_iterations);
     require(std::isfinite(o.stand_force_n) && o.stand_force_n >= 0, "donning: standing force {} N must be ≥ 0",
@@ -220,12 +238,12 @@ struct DonningSimulation::Impl {
       const double k = (o.stand_force_n - pose_force) / (stood_at - start_at);
       if (k > 0) stand_stiffness = k;
     }
-    r.series.push_back(sample(st, solver->contacts(), axis, stood_at));
+    r.series.push_back(sample(st, contacts(), axis, stood_at));
     r.newton_iterations += st.newton_iterations;
     r.force_on_socket_n = st.force_on_obstacle_n;
     r.final_offset_m = stood_at;
     r.stood = stood = true;
-    r.contacts = solver->contacts();
+    r.contacts = contacts();
     r.positions = solver->positions();
   }
 
@@ -347,7 +365,7 @@ DonningResult DonningSimulation::run() {
     offset = target;
     ++r.steps;
     if (adaptive && new_sticks == 0) step = std::min(2.0 * step, o.step_m);
-    r.series.push_back(sample(st, solver.contacts(), axis, offset));
+    r.series.push_back(sample(st, s.contacts(), axis, offset));
     r.newton_iterations += st.newton_iterations;
     r.force_on_socket_n = st.force_on_obstacle_n;
     r.final_offset_m = offset;
@@ -357,7 +375,7 @@ DonningResult DonningSimulation::run() {
       break;
     }
   }
-  r.contacts = solver.contacts();
+  r.contacts = s.contacts();
   r.positions = solver.positions();
   s.completed = r.completed;
   if (r.completed && o.stand_force_n > 0) s.stand(r);
@@ -407,11 +425,11 @@ DonningResult DonningSimulation::refit(const geometry::TriMesh& socket_solid) {
     r.message = fmt::format("the refitted socket found no equilibrium where the worn one stood: {}", st.message);
     s.completed = false;
   } else {
-    r.series.push_back(sample(st, s.solver->contacts(), s.axis, t.dot(s.axis)));
+    r.series.push_back(sample(st, s.contacts(), s.axis, t.dot(s.axis)));
     r.newton_iterations = st.newton_iterations;
     r.force_on_socket_n = st.force_on_obstacle_n;
     r.final_offset_m = t.dot(s.axis);
-    r.contacts = s.solver->contacts();
+    r.contacts = s.contacts();
     r.positions = s.solver->positions();
     if (s.stood && s.o.stand_force_n > 0) {
       s.stood = false;

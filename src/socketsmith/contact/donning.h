@@ -16,6 +16,7 @@
 #include "socketsmith/geometry/limb_frame.h"
 #include "socketsmith/geometry/tri_mesh.h"
 #include "socketsmith/volume/hex_mesh.h"
+#include "socketsmith/volume/hex_mesher.h"
 
 namespace socketsmith::contact {
 
@@ -96,6 +97,13 @@ struct DonningOptions {
     c.friction_lag_tol = 0.03;
     return c;
   }();
+  /// The skin (the skin_nodes' surface, same order) whose deformed nodal areas turn each node's
+  /// normal force into its contact pressure in the results: force per deformed area, the Cauchy
+  /// pressure the design prescribes as a follower load (tissue::FollowerPressure) and CalculiX's
+  /// nodal-force pressure measures. Without it (nullptr) the pressure is per rest area, which reads
+  /// 5 % low where the donned skin is compressed under the brim and 2 % high where it is stretched
+  /// at the distal end (docs/contact.md, "Pressure per deformed area"). Must outlive the donning.
+  const volume::SkinSurface* skin = nullptr;
   ProgressCallback progress;
 };
 
