@@ -159,7 +159,6 @@ TEST_F(ClosedLoopRun, the_corrected_socket_delivers_the_design_better_than_the_o
   o.stand_force_n = 0.5 * setup.case_file.patient.body_mass_kg * units::kGravity;
   o.contact.linear_body = loop.linear_body;  // the body the loop donned (the design's)
   const auto& skin = setup.solver->skin();
-  o.skin = &skin;  // pressures per deformed area, as the loop's
   const auto d = contact::simulate_donning(setup.solver->model(), skin.nodes, skin.area_m2, art_->result.socket->solid,
                                            setup.model.frame, o);
   ASSERT_TRUE(d.completed && d.stood) << d.message;

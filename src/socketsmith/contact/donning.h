@@ -102,7 +102,9 @@ struct DonningOptions {
   /// pressure the design prescribes as a follower load (tissue::FollowerPressure) and CalculiX's
   /// nodal-force pressure measures. Without it (nullptr) the pressure is per rest area, which reads
   /// 5 % low where the donned skin is compressed under the brim and 2 % high where it is stretched
-  /// at the distal end (docs/contact.md, "Pressure per deformed area"). Must outlive the donning.
+  /// at the distal end (docs/contact.md, "Pressure per deformed area"; the pipeline's donnings and
+  /// the closed loop do not set it yet: with it the loop's own bar regressed, measured there).
+  /// Must outlive the donning.
   const volume::SkinSurface* skin = nullptr;
   ProgressCallback progress;
 };

@@ -143,7 +143,6 @@ class LoopRun {
     }
     if (options.body_follows_design)
       don_.contact.linear_body = state_.linearised || c.solve_mode == design::DesignSolveMode::Linear;
-    don_.skin = &skin_;  // pressures per deformed area, as the design's
     sopt_ = c.socket;
     sopt_.undeformed_skin = &result.rest_skin;
     r_.linear_body = don_.contact.linear_body;
