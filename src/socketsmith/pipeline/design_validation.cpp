@@ -98,8 +98,8 @@ void write_comparison_csv(const DesignValidation& v, const fs::path& out) {
 
 /// Area-weighted means of the designed pressure, CalculiX's and socketsmith's donned-and-stood ones
 /// (in that order) on each ring of skin quads below the brim (ring kRingsListed holds every deeper
-/// ring): where along the stump the two codes part at the same mean level (docs/VALIDATION.md, "What
-/// is left at the landmarks"). Empty without a standing step.
+/// ring): where along the stump the two codes part at the same mean level (docs/VALIDATION.md, "Where
+/// the codes part below the brim"). Empty without a standing step.
 std::vector<report::BandMeans> ring_means(const DesignValidation& v) {
   const std::vector<double> delivered = stood_pressures_pa(v);
   if (delivered.empty()) return {};
@@ -253,8 +253,7 @@ nlohmann::json write_comparison_files(const DesignValidation& v, bool against_do
   report::write_plot_grid_png(out / "comparison.png", panels, 2);
   write_stump_vtu(v, out);
   write_comparison_map(v, against_donning, out);
-  const std::vector<report::BandMeans> rings = ring_means(v);
-  if (!rings.empty()) write_ring_plot(rings, out);
+  if (!v.rings.empty()) write_ring_plot(v.rings, out);
   return paths_json;
 }
 
@@ -471,7 +470,7 @@ void add_delivered_comparison(const DesignValidation& v, nlohmann::json& j) {
   j["landmarks"] = landmarks;
   // Ring by ring below the brim (ring_means): where along the stump each code parts from the design.
   nlohmann::json rings = nlohmann::json::object();
-  for (const auto& m : ring_means(v))
+  for (const auto& m : v.rings)
     rings[std::to_string(m.band)] = {{"nodes", m.count},
                                      {"designed_kpa", m.mean[0] / 1e3},
                                      {"calculix_kpa", m.mean[1] / 1e3},
@@ -479,8 +478,10 @@ void add_delivered_comparison(const DesignValidation& v, nlohmann::json& j) {
                                      {"calculix_minus_design_kpa", (m.mean[1] - m.mean[0]) / 1e3},
                                      {"socketsmith_minus_design_kpa", (m.mean[2] - m.mean[0]) / 1e3}};
   j["rings_below_brim"] = rings;
-  j["outputs"].push_back("rings.svg");
-  j["outputs"].push_back("rings.png");
+  if (!v.rings.empty()) {
+    j["outputs"].push_back("rings.svg");
+    j["outputs"].push_back("rings.png");
+  }
   // Each side's delivery against report::DeliveryBar (issue 20's bar), below the brim and on each
   // thesis path below it.
   std::vector<report::PathDelivery> fe_paths, our_paths;
@@ -556,6 +557,7 @@ DesignValidation validate_design(const design::CaseFile& c, const DesignValidati
             material.is_neo_hookean ? "neo-Hookean" : "linear elastic", material.poisson_ratio,
             co.nonlinear_geometry ? "NLGEOM" : "small strain");
   v.check = calculix::check_design(v.stump, co, out, "design_fe");
+  v.rings = ring_means(v);
 
   const nlohmann::json paths_json = write_comparison_files(v, o.against_donning, out);
   nlohmann::json j = validation_summary(c, o, material, v, paths_json, out);

@@ -18,6 +18,7 @@
 #include "socketsmith/design/case_file.h"
 #include "socketsmith/calculix/design_check.h"
 #include "socketsmith/pipeline/design_pipeline.h"
+#include "socketsmith/report/field_comparison.h"
 
 namespace socketsmith::pipeline {
 
@@ -87,6 +88,9 @@ struct DesignValidation {
   double stand_force_n = 0.0;           ///< CalculiX's step 2 force [N] (0 without stand)
   double socketsmith_stand_offset_m = 0.0;  ///< socketsmith's stood pose past the designed pose [m]
   double socketsmith_wall_s = 0.0;      ///< the whole design run [s]
+  /// Designed, CalculiX and socketsmith (stood) pressures per ring below the brim (empty without a
+  /// standing step): summary.json rings_below_brim, rings.svg.
+  std::vector<report::BandMeans> rings;
   nlohmann::json summary;               ///< summary.json
 };
 

@@ -86,7 +86,6 @@ nlohmann::json to_json(const ErrorStats& s, double scale, const std::string& suf
           {"sd_b" + suffix, num(s.sd_b * scale)}};
 }
 
-
 std::vector<BandMeans> band_means(const std::vector<int>& band, const std::vector<double>& weight,
                                   const std::vector<std::vector<double>>& fields, int deepest) {
   require(deepest >= 1, "band_means: deepest band {} (expected ≥ 1)", deepest);
