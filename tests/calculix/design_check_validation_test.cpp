@@ -307,6 +307,8 @@ TEST(DesignCheckValidation, the_closed_loop_socket_donned_and_stood_on_in_calcul
   // (socketsmith 1.08). With the shell split 2 x 2 and across the brim onto the lip (`validate
   // design`'s default since 2026-12-02): MAE 0.92, p99 4.63, R 0.972, means 12.06 / 11.87; CalculiX vs
   // socketsmith MAE 1.04, R 0.930; stood 1.36 mm; every landmark within 9 % (POP 0.275 → 0.299).
+  // With socketsmith's pressures per deformed area (2026-12-04 night): MAE 0.87, p99 4.74, R 0.973,
+  // means 12.05 / 11.87; CalculiX vs socketsmith MAE 0.93, R 0.929; POP 0.279 → 0.307 (+10 %).
   // Bars: issue 20's MAE (1.5 kPa) and, with a margin under the measured value, its R.
   design::CaseFile c = pipeline::demo_case(1800);
   c.model = "neo-hookean";

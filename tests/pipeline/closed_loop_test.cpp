@@ -138,15 +138,16 @@ TEST_F(ClosedLoopRun, the_corrected_socket_delivers_the_design_better_than_the_o
   EXPECT_NEAR(loop.iterations[0].below_brim.mae, open.mae, 1e-6);
   EXPECT_NEAR(loop.iterations[loop.best].below_brim.mae, closed.mae, 1e-6);
   EXPECT_NEAR(loop.iterations[loop.best].below_brim.p99, closed.p99, 1e-6);
-  // Measured at 1.8k nodes (the default neo-Hookean stump, nonlinear; 3 donnings + 8 refits, donning
-  // 3 kept, the socket's brim raised up to 9.8 mm where donning dragged skin above it, none left
-  // out, 2026-12-02): MAE 3.38 → 0.50 kPa, 99th percentile 13.3 → 4.29 kPa, R 0.832 → 0.985. Bars:
-  // issue 20's MAE (1.5 kPa) and R (0.95) with a margin below them; its 99th percentile (4 kPa) is
-  // met at 3k and 8k nodes, not here. (With the design's brim, 3 nodes dragged above it: MAE
-  // 0.67, p99 6.4, R 0.962; when those nodes still corrected the wall: MAE 0.95, p99 9.5.)
+  // Measured at 1.8k nodes (the default neo-Hookean stump, nonlinear; pressures per deformed area;
+  // converged after 3 donnings + 12 refits, the socket's brim raised up to 9.9 mm where donning
+  // dragged skin above it, none left out, 2026-12-05): MAE 3.47 → 0.33 kPa, 99th percentile 13.98 →
+  // 3.41 kPa, R 0.827 → 0.994. Bars: issue 20's MAE (1.5 kPa) and R (0.95) with a margin below them,
+  // and a 99th percentile with a margin over its 4 kPa (4.29 per rest area, 2026-12-02). (With the
+  // design's brim, 3 nodes dragged above it: MAE 0.67, p99 6.4, R 0.962; when those nodes still
+  // corrected the wall: MAE 0.95, p99 9.5.)
   EXPECT_LT(closed.mae, 0.5 * open.mae) << "open " << open.mae << " Pa, closed " << closed.mae << " Pa";
   EXPECT_LT(closed.mae, 1.2e3);
-  EXPECT_LT(closed.p99, 7e3);
+  EXPECT_LT(closed.p99, 5e3);
   EXPECT_GT(closed.r, open.r);
   EXPECT_GT(closed.r, 0.94);
   EXPECT_NEAR(closed.mean_a, closed.mean_b, 0.05 * closed.mean_b);  // the level: no gap left
@@ -159,6 +160,7 @@ TEST_F(ClosedLoopRun, the_corrected_socket_delivers_the_design_better_than_the_o
   o.stand_force_n = 0.5 * setup.case_file.patient.body_mass_kg * units::kGravity;
   o.contact.linear_body = loop.linear_body;  // the body the loop donned (the design's)
   const auto& skin = setup.solver->skin();
+  o.skin = &skin;  // pressures per deformed area, as the loop's
   const auto d = contact::simulate_donning(setup.solver->model(), skin.nodes, skin.area_m2, art_->result.socket->solid,
                                            setup.model.frame, o);
   ASSERT_TRUE(d.completed && d.stood) << d.message;
@@ -221,14 +223,15 @@ TEST_F(ClosedLoopRun, the_corrected_socket_delivers_the_design_better_than_the_o
   EXPECT_NEAR(loop.iterations[loop.best].in_socket.mae, kept_in.mae, 1e-6);
   // A node dragged above the socket's brim corrects no wall: its deficit does not pull the rim in.
   // (When it did, each correction moved the wall vertices above the brim further in, to the 5 mm
-  // clamp on generated limbs. What is left is the corrections of the nodes just below the raised
-  // brim, moved onto the vertices near where they touch: −2.3 mm here, 2026-12-02; −3.8 mm with the
-  // transtibial default's 5 mm brim flare, whose eased pressure under the brim the rim presses.)
+  // clamp on generated limbs. What was left, −2.3 mm here on 2026-12-02 and the clamp again per
+  // deformed area, was the corrections of the nodes just below the raised brim carried whole onto
+  // vertices only they reached, millimetres above them; faded by their weight (corrections_on_wall in
+  // closed_loop_correction.cpp), −0.27 mm, 2026-12-05.)
   double rim_in = 0;
   for (size_t i = 0; i < skin.nodes.size(); ++i)
     if (design::above_brim(brim, art_->result.state.skin_positions[i], frame))
       rim_in = std::min(rim_in, loop.wall_offset_m[i]);
-  EXPECT_GT(rim_in, -4.5e-3);
+  EXPECT_GT(rim_in, -1.5e-3);
   // Where the loop moved the wall: within its bound, and not nowhere.
   double max_offset = 0;
   for (double v : loop.wall_offset_m) max_offset = std::max(max_offset, std::abs(v));

@@ -143,6 +143,7 @@ class LoopRun {
     }
     if (options.body_follows_design)
       don_.contact.linear_body = state_.linearised || c.solve_mode == design::DesignSolveMode::Linear;
+    don_.skin = &skin_;  // pressures per deformed area, as the design's
     sopt_ = c.socket;
     sopt_.undeformed_skin = &result.rest_skin;
     r_.linear_body = don_.contact.linear_body;
@@ -160,10 +161,13 @@ class LoopRun {
             compared_.size());
     for (int i : compared_) spacing_ += std::sqrt(skin_.area_m2[i]) / static_cast<double>(compared_.size());
     landmarks_ = LandmarkTargets(setup, r_.below_brim, r_.target_pa);
-    zone_steps_ = ZoneSteps(landmarks_.zones, skin_.area_m2, state_.skin_normals, axis_);
+    std::vector<char> relieved;
+    for (size_t k = 0; k < landmarks_.zones.size(); ++k)
+      relieved.push_back(landmarks_.target_pa[k] < kReliefRatio * landmarks_.threshold_pa[k]);
+    zone_steps_ = ZoneSteps(landmarks_.zones, relieved, skin_.area_m2, state_.skin_normals, axis_);
     for (size_t k = 0; k < landmarks_.zones.size(); ++k)
       if (zone_steps_.end(k))
-        log::debug("closed loop: {} faces along the axis: no secant steps", landmarks_.zones[k].code);
+        log::debug("closed loop: {} faces along the axis and carries load: no secant steps", landmarks_.zones[k].code);
     paths_ = path_nodes_below_brim(setup, r_.below_brim);
     socket_brim_ = setup.brim;
     lifts_.assign(n_, {});

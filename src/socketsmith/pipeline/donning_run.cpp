@@ -338,6 +338,7 @@ DonningRun run_donning(const DonningRequest& q, const fs::path& out) {
   run.has_design = in.designed.has_value();
   const double mu = q.friction >= 0 ? q.friction : in.c.patient.friction;
   run.options = donning_options(q, in, mu, stage(q.progress, 0.3, 0.95));
+  run.options.skin = &skin;  // pressures per deformed area, as the design's
   log_donning_start(q, in, run.options);
   run.donning = contact::simulate_donning(solver.model(), skin.nodes, skin.area_m2, in.socket_solid,
                                           setup.model.frame, run.options);

@@ -189,6 +189,7 @@ contact::DonningOptions study_donning(const DesignSetup& setup, const DesignResu
   }
   // The donned body as the closed loop's: linearised at rest for a linear design.
   don.contact.linear_body = result.state.linearised || c.solve_mode == design::DesignSolveMode::Linear;
+  don.skin = &setup.solver->skin();  // pressures per deformed area, as the design's
   return don;
 }
 

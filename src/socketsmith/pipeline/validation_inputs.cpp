@@ -112,8 +112,10 @@ contact::DonningResult don_designed_socket(const DesignArtifacts& artifacts,
           "validate design: the design does not meet its constraints, so it has no socket to don");
   const auto& setup = *artifacts.setup;
   const auto& solver = *setup.solver;
+  contact::DonningOptions o = options;
+  o.skin = &solver.skin();  // pressures per deformed area, as the design's
   auto r = contact::simulate_donning(solver.model(), solver.skin().nodes, solver.skin().area_m2,
-                                     artifacts.result.socket->solid, setup.model.frame, options);
+                                     artifacts.result.socket->solid, setup.model.frame, o);
   require<SolverError>(r.completed, "validate design: {}", r.message);
   require<SolverError>(options.stand_force_n <= 0 || r.stood,
                        "validate donning: socketsmith's standing load was not reached: {}", r.message);
