@@ -1,7 +1,8 @@
 // The closed loop's landmark-zone steps (pipeline::ZoneSteps) on a synthetic wall whose zone answers
 // linearly: the slope measured from one correction to the next, the secant step that removes the
 // zone's excess, and what is not believed (a wall that hardly moved, a slope of the wrong sign, a
-// loaded zone at the stump's end).
+// loaded zone at the stump's end). The wall's node-scale roughness (node_scale_part, wall_roughness,
+// cap_node_scale_part) on a grid of nodes.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -128,6 +129,82 @@ TEST(ZoneSteps, a_loaded_zone_facing_along_the_axis_is_left_to_the_loops_correct
   EXPECT_NEAR(zone_mean(c), 1e-4, 1e-15);
   EXPECT_NEAR(c[1] - c[2], 1e-4, 1e-15);  // the correction's shape kept
   EXPECT_THROW(ZoneSteps(kZones, {}, kArea, end, kAxis), InvalidInputError);
+}
+
+/// A k × k grid of nodes 4-connected, equal areas; node (x, y) is x + k y.
+struct Grid {
+  int k;
+  std::vector<std::vector<int>> neighbours;
+  std::vector<double> area;
+  explicit Grid(int k_) : k(k_), neighbours(k_ * k_), area(k_ * k_, 1e-5) {
+    for (int y = 0; y < k; ++y)
+      for (int x = 0; x < k; ++x) {
+        auto& nb = neighbours[x + k * y];
+        if (x > 0) nb.push_back(x - 1 + k * y);
+        if (x + 1 < k) nb.push_back(x + 1 + k * y);
+        if (y > 0) nb.push_back(x + k * (y - 1));
+        if (y + 1 < k) nb.push_back(x + k * (y + 1));
+      }
+  }
+  bool interior(int i) const { return i % k > 0 && i % k < k - 1 && i / k > 0 && i / k < k - 1; }
+};
+
+TEST(WallRoughness, a_smooth_wall_has_none_a_wall_alternating_node_by_node_is_all_node_scale) {
+  const Grid g(8);
+  const int n = g.k * g.k;
+  std::vector<char> use(n, 1);
+  std::vector<double> linear(n), checker(n);
+  for (int i = 0; i < n; ++i) {
+    linear[i] = 1e-3 * (0.3 * (i % g.k) - 0.2 * (i / g.k));
+    checker[i] = ((i % g.k + i / g.k) % 2 == 0 ? 1 : -1) * 1e-4;
+  }
+  const auto smooth = node_scale_part(g.neighbours, g.area, use, linear);
+  const auto rough = node_scale_part(g.neighbours, g.area, use, checker);
+  for (int i = 0; i < n; ++i) {
+    if (!g.interior(i)) continue;
+    EXPECT_NEAR(smooth[i], 0.0, 1e-15) << i;
+    EXPECT_NEAR(rough[i], 2 * checker[i], 1e-15) << i;  // its neighbours all have the other sign
+  }
+  // Only the used nodes count: a node not used has none, a node with one used neighbour neither.
+  use[0] = 0;
+  use[2] = 0;
+  use[g.k + 1] = 0;  // node 1's neighbours: 0, 2, k + 1 (none used)
+  const auto part = node_scale_part(g.neighbours, g.area, use, checker);
+  EXPECT_TRUE(std::isnan(part[0]));
+  EXPECT_TRUE(std::isnan(part[1]));
+  EXPECT_TRUE(std::isfinite(part[g.k + 2]));
+  // The roughness of the checkerboard over the interior: every node 0.2 mm from its neighbours' mean.
+  std::vector<char> inner(n, 0);
+  for (int i = 0; i < n; ++i) inner[i] = g.interior(i);
+  const WallRoughness w = wall_roughness(g.neighbours, g.area, inner, checker);
+  EXPECT_EQ(w.nodes, 36);  // the 6 × 6 interior nodes, each with 2–4 interior neighbours
+  EXPECT_NEAR(w.rms_m, 2e-4, 1e-15);
+  EXPECT_NEAR(w.p99_m, 2e-4, 1e-15);
+  // A wall moved as a whole has none; a tilted one only where a node's ring is cut by the region's edge.
+  EXPECT_NEAR(wall_roughness(g.neighbours, g.area, inner, std::vector<double>(n, 3e-4)).p99_m, 0.0, 1e-15);
+  EXPECT_LT(wall_roughness(g.neighbours, g.area, use, linear).rms_m, 0.5 * 0.3e-3);
+  EXPECT_THROW(node_scale_part(g.neighbours, g.area, std::vector<char>(3, 1), linear), InvalidInputError);
+}
+
+TEST(WallRoughness, the_cap_moves_only_the_nodes_further_from_their_neighbours_than_it) {
+  const Grid g(5);
+  const int n = g.k * g.k;
+  std::vector<char> use(n, 1);
+  std::vector<double> v(n, 1e-3);
+  const int peak = 2 + 2 * g.k;  // the centre, 0.5 mm out of a flat wall
+  v[peak] += 5e-4;
+  std::vector<double> capped = v;
+  // Its neighbours see it as a quarter (or a third) of their mean: 0.125 mm below it, under the cap.
+  EXPECT_EQ(cap_node_scale_part(g.neighbours, g.area, use, 2e-4, capped), 1);
+  EXPECT_NEAR(capped[peak], 1.2e-3, 1e-15);
+  for (int i = 0; i < n; ++i)
+    if (i != peak) {
+      EXPECT_DOUBLE_EQ(capped[i], v[i]);
+    }
+  std::vector<double> loose = v;
+  EXPECT_EQ(cap_node_scale_part(g.neighbours, g.area, use, 6e-4, loose), 0);
+  EXPECT_EQ(loose, v);
+  EXPECT_THROW(cap_node_scale_part(g.neighbours, g.area, use, 0.0, loose), InvalidInputError);
 }
 
 }  // namespace

@@ -20,6 +20,7 @@
 #include "socketsmith/core/errors.h"
 #include "socketsmith/core/units.h"
 #include "socketsmith/pipeline/closed_loop.h"
+#include "socketsmith/pipeline/closed_loop_correction.h"
 #include "socketsmith/pipeline/design_pipeline.h"
 #include "socketsmith/pipeline/validation_inputs.h"
 #include "socketsmith/report/csv.h"
@@ -237,6 +238,17 @@ TEST_F(ClosedLoopRun, the_corrected_socket_delivers_the_design_better_than_the_o
   for (double v : loop.wall_offset_m) max_offset = std::max(max_offset, std::abs(v));
   EXPECT_GT(max_offset, 1e-4);
   EXPECT_LE(max_offset, ClosedLoopOptions{}.max_offset_m + 1e-12);
+  // Its node-scale roughness, reported per donning: none on the open-loop socket; the kept socket's
+  // is its wall's, and a share of how far the wall moved.
+  EXPECT_EQ(loop.iterations[0].wall_roughness_rms_m, 0.0);
+  const WallRoughness rough = wall_roughness(skin.neighbours(), skin.area_m2, loop.below_brim, loop.wall_offset_m);
+  const ClosedLoopIteration& kept_it = loop.iterations[loop.best];
+  EXPECT_NEAR(kept_it.wall_roughness_rms_m, rough.rms_m, 1e-12);
+  EXPECT_NEAR(kept_it.wall_roughness_p99_m, rough.p99_m, 1e-12);
+  if (loop.best > 0) {
+    EXPECT_GT(rough.rms_m, 1e-6);
+  }
+  EXPECT_LT(rough.p99_m, max_offset);
 }
 
 TEST_F(ClosedLoopRun, outputs_carry_the_designed_open_and_closed_loop_pressures) {
@@ -247,6 +259,9 @@ TEST_F(ClosedLoopRun, outputs_carry_the_designed_open_and_closed_loop_pressures)
   EXPECT_EQ(j["donnings"].get<long>(), full);
   EXPECT_EQ(j["donnings"].get<long>() + j["refits"].get<long>(), static_cast<long>(loop.iterations.size()));
   EXPECT_FALSE(loop.iterations[loop.best].refit);  // the socket kept was donned from scratch
+  EXPECT_NEAR(j["wall_roughness_rms_mm"].get<double>(), loop.iterations[loop.best].wall_roughness_rms_m * 1e3, 1e-9);
+  EXPECT_NEAR(j["iterations"].back()["wall_roughness_p99_mm"].get<double>(),
+              loop.iterations.back().wall_roughness_p99_m * 1e3, 1e-9);
   // Converged means every tolerance, the landmarks' too (ClosedLoopOptions::landmark_tolerance).
   if (loop.converged) {
     EXPECT_LE(loop.iterations[loop.best].landmark_deviation, ClosedLoopOptions{}.landmark_tolerance);
@@ -343,6 +358,23 @@ TEST(ClosedLoop, the_dragged_out_lines_give_in_socket_figures_only_when_nodes_st
   EXPECT_THAT(dragged_out_advice(it), ::testing::HasSubstr("Without them: MAE 0.36 kPa, 99th percentile 2.16 kPa."));
 }
 
+TEST(ClosedLoop, a_rough_wall_is_reported_with_the_advice_to_check_it_in_calculix_or_cap_it) {
+  ClosedLoopIteration it;
+  it.wall_roughness_rms_m = 0.066e-3;  // the demo at 8k
+  it.wall_roughness_p99_m = 0.23e-3;
+  EXPECT_EQ(roughness_advice(it, 0.0), "0.066 mm RMS, 99th percentile 0.23 mm (each node's correction minus its "
+                                       "neighbours' mean, below the brim)");
+  it.wall_roughness_rms_m = 0.167e-3;  // the AAOP example at 3k
+  it.wall_roughness_p99_m = 0.60e-3;
+  const std::string rough = roughness_advice(it, 0.0);
+  EXPECT_THAT(rough, ::testing::HasSubstr("0.167 mm RMS"));
+  EXPECT_THAT(rough, ::testing::HasSubstr("validate design"));
+  EXPECT_THAT(rough, ::testing::HasSubstr("design.closed_loop_max_roughness_mm"));
+  const std::string capped = roughness_advice(it, 0.15e-3);
+  EXPECT_THAT(capped, ::testing::HasSubstr("capped at 0.15 mm"));
+  EXPECT_THAT(capped, ::testing::Not(::testing::HasSubstr("design.closed_loop_max_roughness_mm")));
+}
+
 TEST(ClosedLoop, the_socket_kept_meets_the_tolerances_then_the_delivery_bar_then_is_the_closest) {
   // The first donned socket is kept whatever it is.
   EXPECT_TRUE(replaces_kept(false, false, 9.0, -1, std::numeric_limits<double>::infinity()));
@@ -385,6 +417,15 @@ TEST(ClosedLoop, the_rigid_wall_key_reaches_every_donning_of_the_case_and_surviv
   EXPECT_EQ(case_augmented_tol(rigid), contact::kRigidWallAugmentedTol);
   EXPECT_EQ(closed_loop_options(rigid).donning.contact.augmented_tol, contact::kRigidWallAugmentedTol);
   EXPECT_TRUE(design::parse_case(design::case_to_json(rigid)).closed_loop_rigid_wall);
+  // design.closed_loop_max_roughness_mm: in mm in the file, reaches the loop in metres; 0 (no cap)
+  // by default; out of range is refused.
+  EXPECT_EQ(closed_loop_options(plain).max_roughness_m, 0.0);
+  const design::CaseFile capped =
+      design::parse_case(nlohmann::json::parse(R"({"design": {"closed_loop_max_roughness_mm": 0.15}})"));
+  EXPECT_NEAR(closed_loop_options(capped).max_roughness_m, 0.15e-3, 1e-15);
+  EXPECT_NEAR(design::parse_case(design::case_to_json(capped)).closed_loop_max_roughness_m, 0.15e-3, 1e-15);
+  EXPECT_THROW(design::parse_case(nlohmann::json::parse(R"({"design": {"closed_loop_max_roughness_mm": -1}})")),
+               InvalidInputError);
 }
 
 TEST(ClosedLoop, refuses_bad_options_and_a_design_without_a_socket) {
@@ -412,6 +453,9 @@ TEST(ClosedLoop, refuses_bad_options_and_a_design_without_a_socket) {
   EXPECT_THROW(close_design_loop(*setup, r, o), InvalidInputError);
   o = {};
   o.landmark_tolerance = 0;
+  EXPECT_THROW(close_design_loop(*setup, r, o), InvalidInputError);
+  o = {};
+  o.max_roughness_m = -1e-4;
   EXPECT_THROW(close_design_loop(*setup, r, o), InvalidInputError);
 }
 

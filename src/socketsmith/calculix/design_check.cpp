@@ -21,20 +21,6 @@
 namespace socketsmith::calculix {
 namespace {
 
-/// Neighbours of each skin node along the quads' edges.
-std::vector<std::vector<int>> skin_neighbours(const volume::SkinSurface& skin, const std::vector<int>& skin_of) {
-  std::vector<std::vector<int>> adj(skin.nodes.size());
-  for (const auto& q : skin.quads)
-    for (int k = 0; k < 4; ++k) {
-      const int a = skin_of[q[k]], b = skin_of[q[(k + 1) % 4]];
-      if (std::find(adj[a].begin(), adj[a].end(), b) == adj[a].end()) {
-        adj[a].push_back(b);
-        adj[b].push_back(a);
-      }
-    }
-  return adj;
-}
-
 /// Area-weighted mean of @p v over each node and its neighbours.
 std::vector<double> smooth_one_ring(const std::vector<double>& v, const std::vector<std::vector<int>>& adj,
                                     const std::vector<double>& area) {
@@ -473,7 +459,7 @@ DesignCheckResult check_design(const DesignedStump& d, const DesignCheckOptions&
   res.mode = o.mode;
   res.nodes = mesh.num_nodes();
   res.elements = mesh.num_hexahedra();
-  const auto adj = skin_neighbours(skin, skin_of);
+  const auto adj = skin.neighbours();
   res.brim_ring = brim_rings(adj, d.above_brim);
   Vec3 f_design = Vec3::Zero();
   for (int i = 0; i < ns; ++i) f_design += d.pressure_pa[i] * d.skin_areas_m2[i] * d.skin_normals[i];

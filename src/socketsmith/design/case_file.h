@@ -90,6 +90,9 @@ struct CaseFile {
   /// skin designed below it out of the socket [m], 0–0.05; 0 (the default): never — the brim is the
   /// prosthetist's line (e.g. low posteriorly for knee flexion). pipeline::ClosedLoopOptions::max_brim_raise_m.
   double closed_loop_max_brim_raise_m = 0.0;
+  /// The closed loop's largest node-scale wall correction [m], 0–0.005; 0 (the default): no cap.
+  /// pipeline::ClosedLoopOptions::max_roughness_m.
+  double closed_loop_max_roughness_m = 0.0;
   /// A flared brim [m], 0–0.05: the designed pressure eases to nothing over this distance below the
   /// brim (DesignSolver::set_brim_flare); 0: the spots' pressure up to the brim. Not given: the
   /// limb type's (brim_flare_m()).

@@ -62,6 +62,9 @@ inline constexpr InputLimit kClosedLoopDonnings{"design.closed_loop_donnings", "
 inline constexpr InputLimit kClosedLoopBrimRaise{"design.closed_loop_max_brim_raise_mm", "mm", 0, 50, false, false, false,
                                                  "how far the closed loop may raise the socket's brim where donning "
                                                  "drags skin out of it, in mm (e.g. 10); 0 = never (the default)"};
+inline constexpr InputLimit kClosedLoopRoughness{"design.closed_loop_max_roughness_mm", "mm", 0, 5, false, false, false,
+                                                 "the closed loop's largest node-scale wall correction (a node's "
+                                                 "minus its neighbours' mean), in mm (e.g. 0.2); 0 = no cap (the default)"};
 inline constexpr InputLimit kBrimFlare{"design.brim_flare_mm", "mm", 0, 50, false, false, false,
                                        "the designed pressure eases to nothing over this distance below the brim "
                                        "(a flared trim line), in mm; 0 = the spots' pressure up to the brim (default: 5 transtibial, 0 transfemoral)"};

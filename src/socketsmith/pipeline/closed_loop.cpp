@@ -39,6 +39,9 @@ void check_options(const ClosedLoopOptions& o) {
           o.anderson_depth);
   require(o.smoothing_passes >= 0 && o.smoothing_passes <= 50, "closed loop: {} smoothing passes (expected 0-50)",
           o.smoothing_passes);
+  require(std::isfinite(o.max_roughness_m) && o.max_roughness_m >= 0 && o.max_roughness_m <= 0.005,
+          "closed loop: largest node-scale wall correction {} mm (expected in [0, 5] mm; 0: no cap)",
+          o.max_roughness_m * 1e3);
   require(std::isfinite(o.max_offset_m) && o.max_offset_m > 0 && o.max_offset_m <= 0.02,
           "closed loop: largest wall correction {} mm (expected in (0, 20] mm)", o.max_offset_m * 1e3);
   require(!std::isnan(o.landmark_tolerance) && o.landmark_tolerance > 0,
@@ -169,6 +172,7 @@ class LoopRun {
       if (zone_steps_.end(k))
         log::debug("closed loop: {} faces along the axis and carries load: no secant steps", landmarks_.zones[k].code);
     paths_ = path_nodes_below_brim(setup, r_.below_brim);
+    neighbours_ = skin_.neighbours();
     socket_brim_ = setup.brim;
     lifts_.assign(n_, {});
     // The brim may rise to a node spacing below the lowest point of the skin's top edge (the
@@ -348,6 +352,8 @@ class LoopRun {
       it.max_offset_m = std::max(it.max_offset_m, std::abs(offset_[i]));
       if (r_.below_brim[i]) it.mean_offset_m += offset_[i] / static_cast<double>(compared_.size());
     }
+    const WallRoughness rough = wall_roughness(neighbours_, skin_.area_m2, r_.below_brim, offset_);
+    std::tie(it.wall_roughness_rms_m, it.wall_roughness_p99_m) = std::tie(rough.rms_m, rough.p99_m);
     std::vector<double> delivered(n_);
     for (size_t i = 0; i < n_; ++i) delivered[i] = d.contacts[i].pressure_pa;
     judge(delivered, it);
@@ -444,6 +450,8 @@ class LoopRun {
     if (!refitted) history_.clear();  // a donning from scratch: the refits' map starts again
     offset_ = history_.next(offset_, on_wall);
     for (auto& v : offset_) v = std::clamp(v, -options_.max_offset_m, options_.max_offset_m);
+    if (options_.max_roughness_m > 0)
+      cap_node_scale_part(neighbours_, skin_.area_m2, r_.below_brim, options_.max_roughness_m, offset_);
     return rebuild_socket();
   }
 
@@ -501,6 +509,7 @@ class LoopRun {
   LandmarkTargets landmarks_;  // the landmarks' zones below the brim
   ZoneSteps zone_steps_;       // their walls' secant steps
   std::vector<PathNodes> paths_;  // each thesis path's nodes below the brim
+  std::vector<std::vector<int>> neighbours_;  // each skin node's, on the skin's quads
   std::vector<Vec3> donned_;       // the last donning's skin, in the socket's frame
   std::vector<int> in_socket_;     // compared nodes it left below the brim
   std::vector<char> dragged_out_;  // per skin node: compared, and dragged above the brim

@@ -93,6 +93,13 @@ struct ClosedLoopOptions {
   /// Largest wall correction |δ| [m], > 0: a correction that would move the wall further is
   /// clamped (the loop corrects a design, it does not redesign it).
   double max_offset_m = 0.005;
+  /// Largest node-scale part of the wall correction [m] (δ minus the mean of its neighbours',
+  /// pipeline::node_scale_part), ≥ 0: after each correction a node further from its neighbours'
+  /// mean is moved to this distance from it. 0 (no cap) by default: on the AAOP example at 3k, whose
+  /// wall grows rough, 0.2 mm brought CalculiX from MAE 1.92 / p99 13.16 kPa to 1.28 / 5.40 and
+  /// socketsmith's own from 0.80 / 4.00 to 0.91 / 6.02; on the 8k demo, whose wall is not rough, it
+  /// gained nothing in CalculiX (p99 2.79 → 3.00; docs/design.md, "Limits").
+  double max_roughness_m = 0.0;
   /// How far the socket's brim may rise above the design's [m], ≥ 0 (0: never). Where donning and
   /// standing drag skin nodes designed below the brim above the socket's brim, only its lip still
   /// presses them (from nothing to most of their designed pressure), and no wall correction reaches
@@ -168,6 +175,10 @@ struct ClosedLoopIteration {
   /// The delivery bar's MAE, p99 and R below the brim met (bar_met false: a landmark or a path missed it).
   bool bar_below_brim_met = false;
   double max_offset_m = 0.0;       ///< max |δ| of the socket donned [m]
+  /// The wall's node-scale roughness below the brim: RMS and 99th percentile of δ minus the mean of
+  /// its neighbours' (pipeline::wall_roughness) [m]. Refits that fit the wall to socketsmith's own
+  /// sliding make it grow; CalculiX then parts from socketsmith (docs/design.md, "Limits").
+  double wall_roughness_rms_m = 0.0, wall_roughness_p99_m = 0.0;
   double mean_offset_m = 0.0;      ///< mean δ below the brim [m] (> 0: the wall moved outwards)
   double stood_offset_m = 0.0;     ///< where the socket stood, relative to its designed pose along the axis [m]
   double axial_friction_n = 0.0;   ///< the share of the standing load friction carried [N] (the design assumed μ Σ p A cos θ)
@@ -281,6 +292,17 @@ std::string path_note(const ClosedLoopIteration& it);
 /// What the below-brim figures of @p it owe to the nodes donning dragged above the brim, for the
 /// loop's log line ("" when none were; no in-socket figures when fewer than 3 nodes stayed in).
 std::string dragged_out_note(const ClosedLoopIteration& it);
+/// A wall correction rougher than this RMS [m] at the node scale (ClosedLoopIteration::
+/// wall_roughness_rms_m) is reported with advice to check the socket in CalculiX: the demo and
+/// OpenLimb's limb and skin at 8k, which CalculiX confirms, have 0.064–0.068 mm; the clinical AAOP
+/// example at 3k, where CalculiX parts from socketsmith after the loop (MAE 1.92 against 0.80 kPa),
+/// 0.167 mm (docs/design.md, "Limits").
+inline constexpr double kRoughWallRms = 1e-4;
+
+/// The report's line on the kept socket's node-scale roughness (@p cap_m: the case's cap, 0 none),
+/// with the advice when it exceeds kRoughWallRms.
+std::string roughness_advice(const ClosedLoopIteration& kept, double cap_m);
+
 /// The report's sentence on those nodes of the kept socket @p kept, with the prosthetist's options
 /// ("" when none were; no in-socket figures when fewer than 3 nodes stayed in).
 std::string dragged_out_advice(const ClosedLoopIteration& kept);

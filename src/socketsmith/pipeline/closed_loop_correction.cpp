@@ -2,7 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
-#include <unordered_map>
+#include <limits>
 #include <utility>
 
 #include "socketsmith/core/errors.h"
@@ -17,20 +17,8 @@ using Vec3 = Eigen::Vector3d;
 std::vector<double> smooth_on_skin(const volume::SkinSurface& skin, const std::vector<char>& use, std::vector<double> v,
                                    int passes) {
   if (passes == 0) return v;
+  const std::vector<std::vector<int>> nb = skin.neighbours();
   const size_t n = skin.nodes.size();
-  std::unordered_map<int, int> local;
-  for (size_t i = 0; i < n; ++i) local[skin.nodes[i]] = static_cast<int>(i);
-  std::vector<std::vector<int>> nb(n);
-  for (const auto& q : skin.quads)
-    for (int a = 0; a < 4; ++a) {
-      const int i = local.at(q[a]), j = local.at(q[(a + 1) % 4]);
-      nb[i].push_back(j);
-      nb[j].push_back(i);
-    }
-  for (auto& l : nb) {
-    std::sort(l.begin(), l.end());
-    l.erase(std::unique(l.begin(), l.end()), l.end());
-  }
   std::vector<double> next(n);
   for (int p = 0; p < passes; ++p) {
     for (size_t i = 0; i < n; ++i) {
@@ -83,6 +71,59 @@ std::vector<double> corrections_on_wall(const std::vector<Vec3>& wall, const std
 }
 
 }  // namespace
+
+std::vector<double> node_scale_part(const std::vector<std::vector<int>>& neighbours, const std::vector<double>& area_m2,
+                                    const std::vector<char>& use, const std::vector<double>& v) {
+  require(neighbours.size() == v.size() && area_m2.size() == v.size() && use.size() == v.size(),
+          "node_scale_part: {} neighbour lists, {} areas, {} flags for {} values", neighbours.size(), area_m2.size(),
+          use.size(), v.size());
+  std::vector<double> out(v.size(), std::numeric_limits<double>::quiet_NaN());
+  for (size_t i = 0; i < v.size(); ++i) {
+    if (!use[i]) continue;
+    double s = 0, w = 0;
+    int k = 0;
+    for (int j : neighbours[i])
+      if (use[j]) {
+        s += area_m2[j] * v[j];
+        w += area_m2[j];
+        ++k;
+      }
+    if (k >= 2 && w > 0) out[i] = v[i] - s / w;
+  }
+  return out;
+}
+
+int cap_node_scale_part(const std::vector<std::vector<int>>& neighbours, const std::vector<double>& area_m2,
+                        const std::vector<char>& use, double cap, std::vector<double>& v) {
+  require(cap > 0, "cap_node_scale_part: cap {} (expected > 0)", cap);
+  const std::vector<double> part = node_scale_part(neighbours, area_m2, use, v);
+  int moved = 0;
+  for (size_t i = 0; i < v.size(); ++i)
+    if (std::isfinite(part[i]) && std::abs(part[i]) > cap) {
+      v[i] -= std::copysign(std::abs(part[i]) - cap, part[i]);
+      ++moved;
+    }
+  return moved;
+}
+
+WallRoughness wall_roughness(const std::vector<std::vector<int>>& neighbours, const std::vector<double>& area_m2,
+                             const std::vector<char>& use, const std::vector<double>& offset) {
+  const std::vector<double> part = node_scale_part(neighbours, area_m2, use, offset);
+  std::vector<double> a;
+  for (double r : part)
+    if (std::isfinite(r)) a.push_back(std::abs(r));
+  WallRoughness w;
+  w.nodes = static_cast<int>(a.size());
+  if (a.empty()) return w;
+  double ss = 0;
+  for (double x : a) ss += x * x;
+  w.rms_m = std::sqrt(ss / static_cast<double>(a.size()));
+  // the 99th percentile, nearest rank (as report::compare_fields)
+  const size_t k = static_cast<size_t>(std::ceil(0.99 * static_cast<double>(a.size()))) - 1;
+  std::nth_element(a.begin(), a.begin() + static_cast<long>(k), a.end());
+  w.p99_m = a[k];
+  return w;
+}
 
 std::vector<Vec3> donned_in_socket(const volume::SkinSurface& skin, const contact::DonningResult& d, const Vec3& axis) {
   std::vector<Vec3> out(skin.nodes.size());

@@ -6,6 +6,7 @@
 #include <numbers>
 
 #include "socketsmith/core/errors.h"
+#include "socketsmith/core/log.h"
 #include "socketsmith/core/units.h"
 #include "socketsmith/pipeline/closed_loop.h"
 #include "socketsmith/pipeline/design_pipeline.h"
@@ -88,6 +89,8 @@ nlohmann::json iterations_json(const ClosedLoopResult& loop, report::ReportDeliv
                           {"brim_raise_mm", it.brim_raise_m * 1e3},
                           {"max_wall_offset_mm", it.max_offset_m * 1e3},
                           {"mean_wall_offset_mm", it.mean_offset_m * 1e3},
+                          {"wall_roughness_rms_mm", it.wall_roughness_rms_m * 1e3},
+                          {"wall_roughness_p99_mm", it.wall_roughness_p99_m * 1e3},
                           {"stood_at_mm", it.stood_offset_m * 1e3},
                           {"axial_friction_n", it.axial_friction_n},
                           {"friction_utilisation", it.friction_utilisation},
@@ -101,11 +104,11 @@ nlohmann::json iterations_json(const ClosedLoopResult& loop, report::ReportDeliv
                           {"socket_seconds", it.socket_seconds}});
     delivery.details.push_back({fmt::format("{} {}", it.refit ? "refit" : "donning", k + 1),
                                 fmt::format("MAE {:.2f} kPa, 99th percentile {:.2f} kPa, R {:.3f}{}; wall moved up to "
-                                            "{:.2f} mm; stood {:+.2f} mm from the designed pose; friction mobilised "
-                                            "{:.0f} %; {:.1f} s{}",
+                                            "{:.2f} mm, node-scale roughness {:.3f} mm RMS; stood {:+.2f} mm from the "
+                                            "designed pose; friction mobilised {:.0f} %; {:.1f} s{}",
                                             it.below_brim.mae / 1e3, it.below_brim.p99 / 1e3, it.below_brim.r,
                                             landmark_note(it) + path_note(it),
-                                            it.max_offset_m * 1e3, it.stood_offset_m * 1e3,
+                                            it.max_offset_m * 1e3, it.wall_roughness_rms_m * 1e3, it.stood_offset_m * 1e3,
                                             100 * it.friction_utilisation, it.donning_seconds,
                                             static_cast<int>(k) == loop.best ? " (kept)" : "")});
   }
@@ -299,6 +302,21 @@ std::string dragged_out_note(const ClosedLoopIteration& it) {
                      it.dragged_out_max_target_pa / 1e3, others.empty() ? "" : "; the others: " + others);
 }
 
+std::string roughness_advice(const ClosedLoopIteration& kept, double cap_m) {
+  const std::string level =
+      fmt::format("{:.3f} mm RMS, 99th percentile {:.2f} mm (each node's correction minus its neighbours' mean, below "
+                  "the brim{})",
+                  kept.wall_roughness_rms_m * 1e3, kept.wall_roughness_p99_m * 1e3,
+                  cap_m > 0 ? fmt::format("; capped at {:.2f} mm", cap_m * 1e3) : std::string());
+  if (kept.wall_roughness_rms_m <= kRoughWallRms) return level;
+  return level + fmt::format(
+                     ". Over {:.1f} mm the loop has fitted the wall to socketsmith's own sliding node by node, and "
+                     "another solver may read those ripples as pressure: check the socket in CalculiX (socketsmith "
+                     "validate design CASE --mode donning --stand){}.",
+                     kRoughWallRms * 1e3,
+                     cap_m > 0 ? std::string() : ", or cap them (design.closed_loop_max_roughness_mm, e.g. 0.2)");
+}
+
 std::string dragged_out_advice(const ClosedLoopIteration& kept) {
   if (kept.dragged_out == 0) return {};
   const std::string without = in_socket_figures(kept);
@@ -346,6 +364,9 @@ nlohmann::json write_closed_loop_outputs(const DesignSetup& setup, const DesignR
   add_delivery_plots(setup, loop, delivery);
   const ClosedLoopIteration& kept = loop.iterations[loop.best];
   if (kept.dragged_out > 0) delivery.details.push_back({"dragged out of the socket", dragged_out_advice(kept)});
+  const std::string rough = roughness_advice(kept, setup.case_file.closed_loop_max_roughness_m);
+  delivery.details.push_back({"the wall's node-scale roughness", rough});
+  if (kept.wall_roughness_rms_m > kRoughWallRms) log::warn("closed loop: the wall's node-scale roughness: {}", rough);
   nlohmann::json socket_brim = nlohmann::json::array();
   if (kept.brim_raise_m > 0) {
     delivery.details.push_back(
@@ -372,6 +393,8 @@ nlohmann::json write_closed_loop_outputs(const DesignSetup& setup, const DesignR
           {"bar", report::to_json(kept_bar)},
           {"open_loop_bar", report::to_json(open_bar)},
           {"max_wall_offset_mm", kept.max_offset_m * 1e3},
+          {"wall_roughness_rms_mm", kept.wall_roughness_rms_m * 1e3},
+          {"wall_roughness_p99_mm", kept.wall_roughness_p99_m * 1e3},
           {"dragged_out_nodes", kept.dragged_out},
           {"dragged_out_max_designed_kpa", kept.dragged_out_max_target_pa / 1e3},
           {"dragged_out_height_mm", kept.dragged_out_height_m * 1e3},

@@ -192,6 +192,16 @@ geometry::TriMesh SkinSurface::triangles() const {
   return m;
 }
 
+std::vector<std::vector<int>> SkinSurface::neighbours() const {
+  std::map<int, int> local;
+  for (size_t i = 0; i < nodes.size(); ++i) local[nodes[i]] = static_cast<int>(i);
+  auto nb = hex_mesher_detail::quad_edge_neighbours(quads, [&local](const std::array<int, 4>& q) {
+    return std::array<int, 4>{local.at(q[0]), local.at(q[1]), local.at(q[2]), local.at(q[3])};
+  });
+  nb.resize(nodes.size());
+  return nb;
+}
+
 SkinSurface extract_skin_surface(const HexMesh& mesh) {
   SkinSurface s;
   std::vector<int> local(mesh.nodes.size(), -1);

@@ -80,6 +80,8 @@ struct SkinSurface {
   std::vector<Vec3> normal;            ///< outward unit normal (area-weighted over the quads)
   std::vector<std::array<int, 4>> quads;  ///< outward quads, mesh node ids
   geometry::TriMesh triangles() const;     ///< quads split in two; vertices = local surface ids
+  /// Each surface node's neighbours along the quads' edges, as local surface ids, sorted.
+  std::vector<std::vector<int>> neighbours() const;
   std::vector<Vec3> positions;         ///< copy of the node positions (for triangles())
 };
 SkinSurface extract_skin_surface(const HexMesh& mesh);

@@ -8,6 +8,7 @@
 /// Why apart: `mesh_limb` (`hex_mesher.cpp`) builds the topology on several grid sizes to meet the
 /// node target before any node moves, and each of the two is a responsibility of its own.
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <vector>
@@ -17,6 +18,27 @@
 #include "socketsmith/volume/hex_mesher.h"
 
 namespace socketsmith::volume::hex_mesher_detail {
+
+/// Each node's neighbours along the edges of @p quads, sorted; @p corners(q) gives quad q's four
+/// node indices (≥ 0) in order round it. The list is as long as the largest index + 1.
+template <class Quads, class Corners>
+std::vector<std::vector<int>> quad_edge_neighbours(const Quads& quads, Corners corners) {
+  std::vector<std::vector<int>> nb;
+  for (const auto& q : quads) {
+    const std::array<int, 4> c = corners(q);
+    for (int m = 0; m < 4; ++m) {
+      const int a = c[m], b = c[(m + 1) % 4];
+      if (static_cast<int>(nb.size()) <= std::max(a, b)) nb.resize(std::max(a, b) + 1);
+      nb[a].push_back(b);
+      nb[b].push_back(a);
+    }
+  }
+  for (auto& v : nb) {
+    std::sort(v.begin(), v.end());
+    v.erase(std::unique(v.begin(), v.end()), v.end());
+  }
+  return nb;
+}
 
 using geometry::SurfaceQuery;
 using geometry::TriMesh;

@@ -327,19 +327,7 @@ namespace {
 /// Edges of the pillow quads (the core boundary surface), as a neighbour list.
 template <class Quads>
 std::vector<std::vector<int>> pillow_edges(const Quads& quads) {
-  std::vector<std::vector<int>> nb;
-  for (const auto& q : quads)
-    for (int m = 0; m < 4; ++m) {
-      const int a = q.nodes[m], c = q.nodes[(m + 1) % 4];
-      if (static_cast<int>(nb.size()) <= std::max(a, c)) nb.resize(std::max(a, c) + 1);
-      nb[a].push_back(c);
-      nb[c].push_back(a);
-    }
-  for (auto& v : nb) {
-    std::sort(v.begin(), v.end());
-    v.erase(std::unique(v.begin(), v.end()), v.end());
-  }
-  return nb;
+  return quad_edge_neighbours(quads, [](const auto& q) { return std::array<int, 4>(q.nodes); });
 }
 
 /// Rounds the staircase of the core before the pillow is extruded: Laplacian smoothing of the
