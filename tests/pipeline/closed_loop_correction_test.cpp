@@ -180,6 +180,9 @@ TEST(WallRoughness, a_smooth_wall_has_none_a_wall_alternating_node_by_node_is_al
   EXPECT_EQ(w.nodes, 36);  // the 6 × 6 interior nodes, each with 2–4 interior neighbours
   EXPECT_NEAR(w.rms_m, 2e-4, 1e-15);
   EXPECT_NEAR(w.p99_m, 2e-4, 1e-15);
+  // Its spread: the offsets' standard deviation over the used nodes (±0.1 mm, half each): all of it node-scale.
+  EXPECT_NEAR(w.spread_m, 1e-4, 1e-15);
+  EXPECT_NEAR(w.share(), 2.0, 1e-12);
   // A wall moved as a whole has none; a tilted one only where a node's ring is cut by the region's edge.
   EXPECT_NEAR(wall_roughness(g.neighbours, g.area, inner, std::vector<double>(n, 3e-4)).p99_m, 0.0, 1e-15);
   EXPECT_LT(wall_roughness(g.neighbours, g.area, use, linear).rms_m, 0.5 * 0.3e-3);

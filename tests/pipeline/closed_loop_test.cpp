@@ -245,6 +245,7 @@ TEST_F(ClosedLoopRun, the_corrected_socket_delivers_the_design_better_than_the_o
   const ClosedLoopIteration& kept_it = loop.iterations[loop.best];
   EXPECT_NEAR(kept_it.wall_roughness_rms_m, rough.rms_m, 1e-12);
   EXPECT_NEAR(kept_it.wall_roughness_p99_m, rough.p99_m, 1e-12);
+  EXPECT_NEAR(kept_it.wall_roughness_share, rough.share(), 1e-12);
   if (loop.best > 0) {
     EXPECT_GT(rough.rms_m, 1e-6);
   }
@@ -362,12 +363,18 @@ TEST(ClosedLoop, a_rough_wall_is_reported_with_the_advice_to_check_it_in_calculi
   ClosedLoopIteration it;
   it.wall_roughness_rms_m = 0.066e-3;  // the demo at 8k
   it.wall_roughness_p99_m = 0.23e-3;
-  EXPECT_EQ(roughness_advice(it, 0.0), "0.066 mm RMS, 99th percentile 0.23 mm (each node's correction minus its "
-                                       "neighbours' mean, below the brim)");
+  it.wall_roughness_share = 0.14;
+  EXPECT_EQ(roughness_advice(it, 0.0), "0.066 mm RMS, 0.14 of the correction's spread, 99th percentile 0.23 mm (each "
+                                       "node's correction minus its neighbours' mean, below the brim)");
+  // A coarser mesh's rougher RMS alone is no alarm (the 12 sweep limbs at 3k: 0.091–0.122 mm, shares 0.18–0.27).
+  it.wall_roughness_rms_m = 0.122e-3;
+  it.wall_roughness_share = 0.27;
+  EXPECT_THAT(roughness_advice(it, 0.0), ::testing::Not(::testing::HasSubstr("validate design")));
   it.wall_roughness_rms_m = 0.167e-3;  // the AAOP example at 3k
   it.wall_roughness_p99_m = 0.60e-3;
+  it.wall_roughness_share = 0.50;
   const std::string rough = roughness_advice(it, 0.0);
-  EXPECT_THAT(rough, ::testing::HasSubstr("0.167 mm RMS"));
+  EXPECT_THAT(rough, ::testing::HasSubstr("0.167 mm RMS, 0.50 of the correction's spread"));
   EXPECT_THAT(rough, ::testing::HasSubstr("validate design"));
   EXPECT_THAT(rough, ::testing::HasSubstr("design.closed_loop_max_roughness_mm"));
   const std::string capped = roughness_advice(it, 0.15e-3);

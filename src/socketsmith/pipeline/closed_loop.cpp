@@ -353,7 +353,9 @@ class LoopRun {
       if (r_.below_brim[i]) it.mean_offset_m += offset_[i] / static_cast<double>(compared_.size());
     }
     const WallRoughness rough = wall_roughness(neighbours_, skin_.area_m2, r_.below_brim, offset_);
-    std::tie(it.wall_roughness_rms_m, it.wall_roughness_p99_m) = std::tie(rough.rms_m, rough.p99_m);
+    it.wall_roughness_rms_m = rough.rms_m;
+    it.wall_roughness_p99_m = rough.p99_m;
+    it.wall_roughness_share = rough.share();
     std::vector<double> delivered(n_);
     for (size_t i = 0; i < n_; ++i) delivered[i] = d.contacts[i].pressure_pa;
     judge(delivered, it);

@@ -114,6 +114,14 @@ WallRoughness wall_roughness(const std::vector<std::vector<int>>& neighbours, co
     if (std::isfinite(r)) a.push_back(std::abs(r));
   WallRoughness w;
   w.nodes = static_cast<int>(a.size());
+  double n = 0, s = 0, ss_v = 0;
+  for (size_t i = 0; i < offset.size(); ++i)
+    if (use[i]) {
+      n += 1;
+      s += offset[i];
+      ss_v += offset[i] * offset[i];
+    }
+  if (n > 1) w.spread_m = std::sqrt(std::max(0.0, ss_v / n - (s / n) * (s / n)));
   if (a.empty()) return w;
   double ss = 0;
   for (double x : a) ss += x * x;

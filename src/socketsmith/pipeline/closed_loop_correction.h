@@ -43,7 +43,10 @@ std::vector<double> node_scale_part(const std::vector<std::vector<int>>& neighbo
                                     const std::vector<char>& use, const std::vector<double>& v);
 
 /// How rough the wall's correction is at the scale of a node: the RMS and 99th percentile (nearest
-/// rank) of |node_scale_part(offset)| over the nodes where it is defined [m], and how many.
+/// rank) of |node_scale_part(offset)| over the nodes where it is defined [m], and how many; and the
+/// standard deviation of @p offset over the nodes @p use marks [m], against which the RMS is read
+/// (share(): the node-scale part's share of the correction's spread, which a coarser mesh does not
+/// raise as it raises the RMS).
 /// The loop's refits fit the wall to socketsmith's own sliding, node by node: on the AAOP example
 /// (3k) the roughness grew refit by refit from 0.10 to 0.17 mm RMS while the refits' MAE fell, and
 /// CalculiX then parted from socketsmith (MAE 1.52 kPa, p99 12.6); on the three 8k limbs whose
@@ -57,6 +60,8 @@ int cap_node_scale_part(const std::vector<std::vector<int>>& neighbours, const s
 struct WallRoughness {
   double rms_m = 0, p99_m = 0;
   int nodes = 0;
+  double spread_m = 0;  ///< standard deviation of the offset over the used nodes [m]
+  double share() const { return spread_m > 0 ? rms_m / spread_m : 0.0; }
 };
 WallRoughness wall_roughness(const std::vector<std::vector<int>>& neighbours, const std::vector<double>& area_m2,
                              const std::vector<char>& use, const std::vector<double>& offset);

@@ -91,6 +91,7 @@ nlohmann::json iterations_json(const ClosedLoopResult& loop, report::ReportDeliv
                           {"mean_wall_offset_mm", it.mean_offset_m * 1e3},
                           {"wall_roughness_rms_mm", it.wall_roughness_rms_m * 1e3},
                           {"wall_roughness_p99_mm", it.wall_roughness_p99_m * 1e3},
+                          {"wall_roughness_share", it.wall_roughness_share},
                           {"stood_at_mm", it.stood_offset_m * 1e3},
                           {"axial_friction_n", it.axial_friction_n},
                           {"friction_utilisation", it.friction_utilisation},
@@ -304,16 +305,16 @@ std::string dragged_out_note(const ClosedLoopIteration& it) {
 
 std::string roughness_advice(const ClosedLoopIteration& kept, double cap_m) {
   const std::string level =
-      fmt::format("{:.3f} mm RMS, 99th percentile {:.2f} mm (each node's correction minus its neighbours' mean, below "
-                  "the brim{})",
-                  kept.wall_roughness_rms_m * 1e3, kept.wall_roughness_p99_m * 1e3,
+      fmt::format("{:.3f} mm RMS, {:.2f} of the correction's spread, 99th percentile {:.2f} mm (each node's "
+                  "correction minus its neighbours' mean, below the brim{})",
+                  kept.wall_roughness_rms_m * 1e3, kept.wall_roughness_share, kept.wall_roughness_p99_m * 1e3,
                   cap_m > 0 ? fmt::format("; capped at {:.2f} mm", cap_m * 1e3) : std::string());
-  if (kept.wall_roughness_rms_m <= kRoughWallRms) return level;
+  if (kept.wall_roughness_share <= kRoughWallShare) return level;
   return level + fmt::format(
-                     ". Over {:.1f} mm the loop has fitted the wall to socketsmith's own sliding node by node, and "
-                     "another solver may read those ripples as pressure: check the socket in CalculiX (socketsmith "
-                     "validate design CASE --mode donning --stand){}.",
-                     kRoughWallRms * 1e3,
+                     ". Over {:.2f} of the spread the loop has fitted the wall to socketsmith's own sliding node by "
+                     "node, and another solver may read those ripples as pressure: check the socket in CalculiX "
+                     "(socketsmith validate design CASE --mode donning --stand){}.",
+                     kRoughWallShare,
                      cap_m > 0 ? std::string() : ", or cap them (design.closed_loop_max_roughness_mm, e.g. 0.2)");
 }
 
@@ -366,7 +367,7 @@ nlohmann::json write_closed_loop_outputs(const DesignSetup& setup, const DesignR
   if (kept.dragged_out > 0) delivery.details.push_back({"dragged out of the socket", dragged_out_advice(kept)});
   const std::string rough = roughness_advice(kept, setup.case_file.closed_loop_max_roughness_m);
   delivery.details.push_back({"the wall's node-scale roughness", rough});
-  if (kept.wall_roughness_rms_m > kRoughWallRms) log::warn("closed loop: the wall's node-scale roughness: {}", rough);
+  if (kept.wall_roughness_share > kRoughWallShare) log::warn("closed loop: the wall's node-scale roughness: {}", rough);
   nlohmann::json socket_brim = nlohmann::json::array();
   if (kept.brim_raise_m > 0) {
     delivery.details.push_back(
@@ -395,6 +396,7 @@ nlohmann::json write_closed_loop_outputs(const DesignSetup& setup, const DesignR
           {"max_wall_offset_mm", kept.max_offset_m * 1e3},
           {"wall_roughness_rms_mm", kept.wall_roughness_rms_m * 1e3},
           {"wall_roughness_p99_mm", kept.wall_roughness_p99_m * 1e3},
+          {"wall_roughness_share", kept.wall_roughness_share},
           {"dragged_out_nodes", kept.dragged_out},
           {"dragged_out_max_designed_kpa", kept.dragged_out_max_target_pa / 1e3},
           {"dragged_out_height_mm", kept.dragged_out_height_m * 1e3},
