@@ -6,6 +6,7 @@
 #include <utility>
 
 #include "socketsmith/core/errors.h"
+#include "socketsmith/report/field_comparison.h"
 
 namespace socketsmith::pipeline {
 namespace {
@@ -108,28 +109,19 @@ int cap_node_scale_part(const std::vector<std::vector<int>>& neighbours, const s
 
 WallRoughness wall_roughness(const std::vector<std::vector<int>>& neighbours, const std::vector<double>& area_m2,
                              const std::vector<char>& use, const std::vector<double>& offset) {
-  const std::vector<double> part = node_scale_part(neighbours, area_m2, use, offset);
-  std::vector<double> a;
-  for (double r : part)
-    if (std::isfinite(r)) a.push_back(std::abs(r));
+  const std::vector<double> zero(offset.size(), 0.0);
+  // The node-scale part against nothing: its RMS and nearest-rank 99th percentile over the nodes
+  // where it is defined (compare_fields skips the NaNs).
+  const report::ErrorStats part = report::compare_fields(node_scale_part(neighbours, area_m2, use, offset), zero);
+  std::vector<int> used;
+  for (size_t i = 0; i < use.size(); ++i)
+    if (use[i]) used.push_back(static_cast<int>(i));
   WallRoughness w;
-  w.nodes = static_cast<int>(a.size());
-  double n = 0, s = 0, ss_v = 0;
-  for (size_t i = 0; i < offset.size(); ++i)
-    if (use[i]) {
-      n += 1;
-      s += offset[i];
-      ss_v += offset[i] * offset[i];
-    }
-  if (n > 1) w.spread_m = std::sqrt(std::max(0.0, ss_v / n - (s / n) * (s / n)));
-  if (a.empty()) return w;
-  double ss = 0;
-  for (double x : a) ss += x * x;
-  w.rms_m = std::sqrt(ss / static_cast<double>(a.size()));
-  // the 99th percentile, nearest rank (as report::compare_fields)
-  const size_t k = static_cast<size_t>(std::ceil(0.99 * static_cast<double>(a.size()))) - 1;
-  std::nth_element(a.begin(), a.begin() + static_cast<long>(k), a.end());
-  w.p99_m = a[k];
+  if (used.size() >= 2) w.spread_m = report::compare_fields(offset, zero, used).sd_a;
+  if (part.count == 0) return w;
+  w.nodes = part.count;
+  w.rms_m = part.rmse;
+  w.p99_m = part.p99;
   return w;
 }
 

@@ -36,11 +36,18 @@ std::vector<double> wall_corrections(design::DesignSolver& solver, const design:
                                      const ClosedLoopOptions& options);
 
 /// The node-scale part of a field @p v on the skin: at each node where @p use is 1, v minus the
-/// area-weighted (@p area_m2) mean of its @p neighbours (volume::SkinSurface::neighbours) where @p use is 1; NaN at the others and at
-/// a node with fewer than 2 such neighbours. A field linear over the skin's one-rings has none
-/// (up to the rings' asymmetry); a field alternating node by node is all node-scale.
+/// area-weighted (@p area_m2) mean of its @p neighbours (volume::SkinSurface::neighbours) where @p use
+/// is 1; NaN at the others and at a node with fewer than 2 such neighbours. A field linear over the
+/// skin's one-rings has none (up to the rings' asymmetry); a field alternating node by node is all
+/// node-scale.
 std::vector<double> node_scale_part(const std::vector<std::vector<int>>& neighbours, const std::vector<double>& area_m2,
                                     const std::vector<char>& use, const std::vector<double>& v);
+
+/// Moves each node of @p v whose node_scale_part exceeds @p cap (> 0) in magnitude to @p cap from
+/// its neighbours' mean (the means taken before any node moves; ClosedLoopOptions::max_roughness_m).
+/// Returns how many nodes moved.
+int cap_node_scale_part(const std::vector<std::vector<int>>& neighbours, const std::vector<double>& area_m2,
+                        const std::vector<char>& use, double cap, std::vector<double>& v);
 
 /// How rough the wall's correction is at the scale of a node: the RMS and 99th percentile (nearest
 /// rank) of |node_scale_part(offset)| over the nodes where it is defined [m], and how many; and the
@@ -51,12 +58,6 @@ std::vector<double> node_scale_part(const std::vector<std::vector<int>>& neighbo
 /// (3k) the roughness grew refit by refit from 0.10 to 0.17 mm RMS while the refits' MAE fell, and
 /// CalculiX then parted from socketsmith (MAE 1.52 kPa, p99 12.6); on the three 8k limbs whose
 /// closed loop CalculiX confirms it is 0.064–0.068 mm (docs/design.md, "Limits").
-/// Moves each node of @p v whose node_scale_part exceeds @p cap (> 0) in magnitude to @p cap from
-/// its neighbours' mean (the means taken before any node moves; ClosedLoopOptions::max_roughness_m).
-/// Returns how many nodes moved.
-int cap_node_scale_part(const std::vector<std::vector<int>>& neighbours, const std::vector<double>& area_m2,
-                        const std::vector<char>& use, double cap, std::vector<double>& v);
-
 struct WallRoughness {
   double rms_m = 0, p99_m = 0;
   int nodes = 0;
