@@ -126,6 +126,10 @@ const std::vector<ResultColumn>& result_columns() {
       {"closed_loop_r", {"closed_loop", "regions", "below_brim", "closed_loop", "r"}},
       {"closed_loop_landmark_deviation", {"closed_loop", "bar", "worst_landmark_deviation"}},
       {"closed_loop_dragged_out_nodes", {"closed_loop", "dragged_out_nodes"}},
+      // The kept wall's node-scale roughness (pipeline::wall_roughness): its RMS and its share of
+      // the correction's spread (over pipeline::kRoughWallShare the report advises a CalculiX check).
+      {"closed_loop_roughness_rms_mm", {"closed_loop", "wall_roughness_rms_mm"}},
+      {"closed_loop_roughness_share", {"closed_loop", "wall_roughness_share"}},
       {"delivery_bar_met", {"closed_loop", "bar", "met"}},
       {"delivery_bar_missed", {"closed_loop", "bar", "failing"}},  // its items missed, "; "-joined
       {"closed_loop_seconds", {"closed_loop", "seconds"}},
