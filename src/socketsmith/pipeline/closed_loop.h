@@ -96,9 +96,10 @@ struct ClosedLoopOptions {
   /// Largest node-scale part of the wall correction [m] (δ minus the mean of its neighbours',
   /// pipeline::node_scale_part), ≥ 0: after each correction a node further from its neighbours'
   /// mean is moved to this distance from it. 0 (no cap) by default: on the AAOP example at 3k, whose
-  /// wall grows rough, 0.2 mm brought CalculiX from MAE 1.92 / p99 13.16 kPa to 1.28 / 5.40 and
-  /// socketsmith's own from 0.80 / 4.00 to 0.91 / 6.02; on the 8k demo, whose wall is not rough, it
-  /// gained nothing in CalculiX (p99 2.79 → 3.00; docs/design.md, "Limits").
+  /// wall grows rough, 0.2 mm gives CalculiX MAE 1.28 / p99 5.40 kPa and the uncapped socket 1.35 /
+  /// 5.65 with CalculiX's increments halved (1.92 / 13.16 with 5 %: its increment path), while
+  /// socketsmith's own goes from 0.80 / 4.00 to 0.91 / 6.02; on the 8k demo it gained nothing in
+  /// CalculiX (p99 2.79 → 3.00; docs/design.md, "Limits").
   double max_roughness_m = 0.0;
   /// How far the socket's brim may rise above the design's [m], ≥ 0 (0: never). Where donning and
   /// standing drag skin nodes designed below the brim above the socket's brim, only its lip still
@@ -299,8 +300,8 @@ std::string dragged_out_note(const ClosedLoopIteration& it);
 /// (ClosedLoopIteration::wall_roughness_share) is reported with advice to check the socket in
 /// CalculiX: the demo and OpenLimb's limb and skin at 8k, which CalculiX confirms, have 0.12–0.14;
 /// the 12 limbs of docs/sweeps/closed_loop_limbs.json at 3k, which meet the delivery bar, 0.18–0.27;
-/// the clinical AAOP example at 3k,
-/// where CalculiX parts from socketsmith after the loop (MAE 1.92 against 0.80 kPa), 0.50. (The RMS
+/// the clinical AAOP example at 3k, where the two codes part by MAE 1.1, p99 6 kPa after the loop,
+/// 0.50. (The RMS
 /// itself grows as the mesh coarsens: 0.064–0.068 mm at 8k, 0.091–0.122 mm on the 3k limbs, 0.167 mm on
 /// the AAOP example; docs/design.md, "Limits".)
 inline constexpr double kRoughWallShare = 0.35;
