@@ -313,9 +313,9 @@ std::string roughness_advice(const ClosedLoopIteration& kept, double cap_m) {
   return level + fmt::format(
                      ". Over {:.2f} of the spread the loop has fitted the wall to socketsmith's own sliding node by "
                      "node, and another solver may read those ripples as pressure: check the socket in CalculiX "
-                     "(socketsmith validate design CASE --mode donning --stand){}.",
-                     kRoughWallShare,
-                     cap_m > 0 ? std::string() : ", or cap them (design.closed_loop_max_roughness_mm, e.g. 0.2)");
+                     "(socketsmith validate design CASE --mode donning --stand; where CalculiX's pressures alternate "
+                     "node by node over a bony crest, again with --initial-increment 0.025).",
+                     kRoughWallShare);
 }
 
 std::string dragged_out_advice(const ClosedLoopIteration& kept) {
