@@ -301,9 +301,8 @@ std::string dragged_out_note(const ClosedLoopIteration& it);
 /// CalculiX: the demo and OpenLimb's limb and skin at 8k, which CalculiX confirms, have 0.12–0.14;
 /// the 12 limbs of docs/sweeps/closed_loop_limbs.json at 3k, which meet the delivery bar, 0.18–0.27;
 /// the clinical AAOP example at 3k, where the two codes part by MAE 1.1, p99 6 kPa after the loop,
-/// 0.50. (The RMS
-/// itself grows as the mesh coarsens: 0.064–0.068 mm at 8k, 0.091–0.122 mm on the 3k limbs, 0.167 mm on
-/// the AAOP example; docs/design.md, "Limits".)
+/// 0.50. (The RMS itself grows as the mesh coarsens: 0.064–0.068 mm at 8k, 0.091–0.122 mm on the 3k
+/// limbs, 0.167 mm on the AAOP example; docs/design.md, "Limits".)
 inline constexpr double kRoughWallShare = 0.35;
 
 /// The report's line on the kept socket's node-scale roughness (@p cap_m: the case's cap, 0 none),

@@ -55,9 +55,10 @@ int cap_node_scale_part(const std::vector<std::vector<int>>& neighbours, const s
 /// (share(): the node-scale part's share of the correction's spread, which a coarser mesh does not
 /// raise as it raises the RMS).
 /// The loop's refits fit the wall to socketsmith's own sliding, node by node: on the AAOP example
-/// (3k) the roughness grew refit by refit from 0.10 to 0.17 mm RMS while the refits' MAE fell, and
-/// CalculiX then parted from socketsmith (MAE 1.52 kPa, p99 12.6); on the three 8k limbs whose
-/// closed loop CalculiX confirms it is 0.064–0.068 mm (docs/design.md, "Limits").
+/// (3k) the roughness grew refit by refit from 0.10 to 0.17 mm RMS while the refits' MAE fell (CalculiX
+/// and socketsmith part there by MAE 1.1, p99 6 kPa, as on the open-loop socket, once CalculiX's
+/// increments are short enough); on the three 8k limbs whose closed loop CalculiX confirms it is
+/// 0.064–0.068 mm (docs/design.md, "Limits").
 struct WallRoughness {
   double rms_m = 0, p99_m = 0;
   int nodes = 0;
