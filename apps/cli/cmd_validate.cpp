@@ -89,6 +89,7 @@ struct DesignFlags {
   double clearance_mm = 1.0;
   double travel_mm = 60.0;  // 30 mm started the demo's socket on the skin (README, validation_fe.md: 60)
   double initial_increment = 0.05;
+  int alternation_rerun = 5;
   bool neo_hookean = false;
   bool small_strain = false;
   bool printed_wall = false;
@@ -103,11 +104,8 @@ struct DesignFlags {
   CcxFlags ccx;
 };
 
-void run_validate_design(const DesignFlags& f) {
-  const fs::path out(f.out);
-  design::CaseFile c = f.demo ? pipeline::demo_case(f.target_nodes > 0 ? f.target_nodes : 3000)
-                              : design::read_case(f.case_file);
-  if (f.target_nodes > 0) c.target_nodes = f.target_nodes;
+/// The validation's options from the command line's flags.
+pipeline::DesignValidationOptions validation_options(const DesignFlags& f) {
   pipeline::DesignValidationOptions o;
   o.mode = calculix::parse_design_check_mode(f.mode);
   o.against_donning = f.against_donning;
@@ -128,11 +126,21 @@ void run_validate_design(const DesignFlags& f) {
   o.clearance_m = f.clearance_mm * 1e-3;
   o.travel_m = f.travel_mm * 1e-3;
   o.initial_increment = f.initial_increment;
+  o.alternation_rerun_nodes = f.alternation_rerun;
   o.fe_pressure = calculix::parse_fe_pressure(f.fe_pressure);
   o.ccx = ccx_options(f.ccx);
   o.progress = console_progress(1.0);
   o.case_label = f.demo ? std::string("demo") : f.case_file;
   o.write_case = f.demo;
+  return o;
+}
+
+void run_validate_design(const DesignFlags& f) {
+  const fs::path out(f.out);
+  design::CaseFile c = f.demo ? pipeline::demo_case(f.target_nodes > 0 ? f.target_nodes : 3000)
+                              : design::read_case(f.case_file);
+  if (f.target_nodes > 0) c.target_nodes = f.target_nodes;
+  const pipeline::DesignValidationOptions o = validation_options(f);
   const auto v = pipeline::validate_design(c, o, out);
   const auto& r = v.check;
   const auto& j = v.summary;
@@ -238,6 +246,10 @@ void add_case_flags(CLI::App& cmd, DesignFlags& f) {
       ->check(positive());
   cmd.add_option("--initial-increment", f.initial_increment, "first ccx increment (fraction of the step, default 0.05)")
       ->check(CLI::Range(1e-4, 1.0));
+  cmd.add_option("--alternation-rerun", f.alternation_rerun,
+                 "rerun ccx once with increments half as long when its contact pressure alternates node by node at "
+                 "this many skin nodes or more (default 5; 0: never)")
+      ->check(non_negative());
   cmd.add_option("--fe-pressure", f.fe_pressure,
                  "CalculiX's contact pressure: force (the stump's nodal force from its integration-point stresses over "
                  "the nodal area, as a designed pressure; default) | stress (-n.sigma.n of the extrapolated nodal "

@@ -327,6 +327,23 @@ void compare_paths(const DesignedStump& d, DesignCheckResult& res) {
   }
 }
 
+/// Halves the steps' increments (not below the smallest), the first as the largest.
+void halve_increments(FeSteps& st) {
+  st.initial_increment = std::max(0.5 * st.initial_increment, st.min_increment);
+  st.max_increment = st.initial_increment;
+}
+
+/// Renames ccx's log @p log to <stem>.<what>.log, so that the next run does not overwrite it; the
+/// name it now has (the old one when it could not be renamed).
+std::filesystem::path keep_log(const std::filesystem::path& log, const std::string& what) {
+  if (log.empty() || !std::filesystem::exists(log)) return log;
+  std::filesystem::path kept = log;
+  kept.replace_extension("." + what + ".log");
+  std::error_code ec;
+  std::filesystem::rename(log, kept, ec);
+  return ec ? log : kept;
+}
+
 /// ccx stopped inside step 1 after solving some increments (not a rejected deck, a time limit or a
 /// cancel): a contact caught deep in one increment, which shorter increments avoid.
 bool stopped_in_first_step(const CcxRun& run) {
@@ -355,21 +372,13 @@ CcxOptions run_deck(DeckSpec& spec, double stand_force_n, const std::filesystem:
   };
   run();
   if (stopped_in_first_step(res.ccx)) {
-    auto& st = spec.steps;
-    st.initial_increment = std::max(0.5 * st.initial_increment, st.min_increment);
-    st.max_increment = st.initial_increment;
+    halve_increments(spec.steps);
     // The stopped run's log is kept beside the retry's (the message names it; the retry would
     // overwrite it).
-    std::filesystem::path kept = res.ccx.log;
-    std::error_code ec;
-    if (!kept.empty() && std::filesystem::exists(kept)) {
-      kept.replace_extension(".stopped.log");
-      std::filesystem::rename(res.ccx.log, kept, ec);
-    }
+    const auto kept = keep_log(res.ccx.log, "stopped");
     log::info("validate: CalculiX stopped at {:.0f} % of step 1 ({}; its log kept as {}); again with increments of "
               "{:.1f} %",
-              100 * res.ccx.last_step_time, res.ccx.message, ec || kept.empty() ? res.ccx.log.string() : kept.string(),
-              100 * st.initial_increment);
+              100 * res.ccx.last_step_time, res.ccx.message, kept.string(), 100 * spec.steps.initial_increment);
     run();
   }
   res.stand_travel_m = spec.steps.stand_travel_m;
@@ -426,7 +435,88 @@ void interpolate_increments(DesignCheckResult& a, const DesignCheckResult& b, do
   a.max_penetration_m = a.fe_penetration_m.empty() ? 0.0 : *std::max_element(a.fe_penetration_m.begin(), a.fe_penetration_m.end());
 }
 
+/// Runs the deck (run_deck) and compares CalculiX's increment with the design into @p res: at
+/// CalculiX's standing load when it stood, else at its last converged increment; then where its
+/// compared pressure alternates node by node.
+void run_and_compare(const DesignedStump& d, const DesignCheckOptions& o, DeckSpec& spec,
+                     const std::vector<std::vector<int>>& adj, const std::filesystem::path& dir, const std::string& job,
+                     DesignCheckResult& res) {
+  const auto& skin = *d.skin;
+  const bool contact = o.mode != DesignCheckMode::Load;
+  std::vector<DatBlock> dat;
+  StandingPose pose;
+  const CcxOptions co = run_deck(spec, o.stand_force_n, dir, job, o.ccx, res, dat, pose);
+
+  FrdResults frd;
+  if (std::filesystem::exists(res.ccx.frd)) frd = read_frd(res.ccx.frd);
+  if (pose.reached) {
+    // CalculiX standing: between the two increments whose reactions bracket the load.
+    read_increment(d, o, spec, frd, dat, compared_increment(frd, dat, contact, res.ccx.message, pose.time_a), res);
+    DesignCheckResult b;
+    read_increment(d, o, spec, frd, dat, compared_increment(frd, dat, contact, res.ccx.message, pose.time_b), b);
+    interpolate_increments(res, b, pose.weight);
+    res.stood = true;
+    res.stand_offset_m = pose.displacement_m;
+    res.stand_reached_force_n = o.stand_force_n;
+    if (!res.converged)
+      res.message = fmt::format("stood at {:.0f} N {:+.2f} mm past the designed pose; ccx stopped beyond it (time {:.3f} of 2): {}",
+                                o.stand_force_n, pose.displacement_m * 1e3, pose.last_time, res.ccx.message);
+    res.converged = true;
+  } else {
+    const ComparedIncrement inc = compared_increment(frd, dat, contact, res.ccx.message);
+    if (!res.converged)
+      res.message = fmt::format("PARTIAL results (step {}, time {:.3f} of {}): {}", inc.disp->step, inc.disp->time,
+                                co.num_steps, res.ccx.message);
+    else if (co.num_steps == 2) {
+      res.converged = false;
+      res.message = fmt::format("PARTIAL results: CalculiX's socket carries {:.0f} N at its furthest pose ({:+.2f} mm "
+                                "past the designed pose), not the standing {:.0f} N (donned: {:.0f} N)",
+                                pose.last_force_n, pose.last_displacement_m * 1e3, o.stand_force_n, pose.donned_force_n);
+    }
+    read_increment(d, o, spec, frd, dat, inc, res);
+  }
+  if (co.num_steps == 2) {
+    res.donned_force_n = pose.donned_force_n;
+    if (!pose.reached) {
+      res.stand_offset_m = pose.last_displacement_m;
+      res.stand_reached_force_n = pose.last_force_n;
+    }
+  }
+  compare_regions(skin, adj, contact, res);
+  compare_paths(d, res);
+  if (!contact) return;
+  res.fe_alternating = alternating_skin_nodes(res.fe_value, res.socketsmith_value, adj, res.brim_ring,
+                                              o.alternation_margin_pa);
+  res.fe_alternating_nodes =
+      static_cast<int>(std::count(res.fe_alternating.begin(), res.fe_alternating.end(), char{1}));
+}
+
 }  // namespace
+
+std::vector<char> alternating_skin_nodes(const std::vector<double>& fe, const std::vector<double>& design,
+                                         const std::vector<std::vector<int>>& adj, const std::vector<int>& brim_ring,
+                                         double margin_pa) {
+  const size_t n = fe.size();
+  require(design.size() == n && adj.size() == n && brim_ring.size() == n,
+          "alternating_skin_nodes: fields of sizes {}, {}, {}, {} (expected one value per skin node)", n,
+          design.size(), adj.size(), brim_ring.size());
+  std::vector<char> out(n, 0);
+  // A node's neighbours from the 2nd ring on: the socket's edge at the brim presses on the 1st.
+  const auto off_neighbours = [&](const std::vector<double>& p, size_t i) {
+    double mean = 0;
+    int count = 0;
+    for (int j : adj[i])
+      if (brim_ring[j] >= 2) {
+        mean += p[j];
+        ++count;
+      }
+    return count > 0 ? p[i] - mean / count : 0.0;
+  };
+  for (size_t i = 0; i < n; ++i)
+    if (brim_ring[i] >= 2)
+      out[i] = std::abs(off_neighbours(fe, i)) - std::abs(off_neighbours(design, i)) > margin_pa ? 1 : 0;
+  return out;
+}
 
 constexpr EnumName<DesignCheckMode> kCheckModes[] = {
     {DesignCheckMode::Contact, "contact"}, {DesignCheckMode::Load, "load"}, {DesignCheckMode::Donning, "donning"}};
@@ -481,47 +571,26 @@ DesignCheckResult check_design(const DesignedStump& d, const DesignCheckOptions&
   }
   ensure_directory(dir);
   res.deck = dir / (job + ".inp");
-  std::vector<DatBlock> dat;
-  StandingPose pose;
-  const CcxOptions co = run_deck(spec, o.stand_force_n, dir, job, o.ccx, res, dat, pose);
-
-  FrdResults frd;
-  if (std::filesystem::exists(res.ccx.frd)) frd = read_frd(res.ccx.frd);
-  if (pose.reached) {
-    // CalculiX standing: between the two increments whose reactions bracket the load.
-    read_increment(d, o, spec, frd, dat, compared_increment(frd, dat, contact, res.ccx.message, pose.time_a), res);
-    DesignCheckResult b;
-    read_increment(d, o, spec, frd, dat, compared_increment(frd, dat, contact, res.ccx.message, pose.time_b), b);
-    interpolate_increments(res, b, pose.weight);
-    res.stood = true;
-    res.stand_offset_m = pose.displacement_m;
-    res.stand_reached_force_n = o.stand_force_n;
-    if (!res.converged)
-      res.message = fmt::format("stood at {:.0f} N {:+.2f} mm past the designed pose; ccx stopped beyond it (time {:.3f} of 2): {}",
-                                o.stand_force_n, pose.displacement_m * 1e3, pose.last_time, res.ccx.message);
-    res.converged = true;
-  } else {
-    const ComparedIncrement inc = compared_increment(frd, dat, contact, res.ccx.message);
-    if (!res.converged)
-      res.message = fmt::format("PARTIAL results (step {}, time {:.3f} of {}): {}", inc.disp->step, inc.disp->time,
-                                co.num_steps, res.ccx.message);
-    else if (co.num_steps == 2) {
-      res.converged = false;
-      res.message = fmt::format("PARTIAL results: CalculiX's socket carries {:.0f} N at its furthest pose ({:+.2f} mm "
-                                "past the designed pose), not the standing {:.0f} N (donned: {:.0f} N)",
-                                pose.last_force_n, pose.last_displacement_m * 1e3, o.stand_force_n, pose.donned_force_n);
-    }
-    read_increment(d, o, spec, frd, dat, inc, res);
+  const DesignCheckResult header = res;
+  run_and_compare(d, o, spec, adj, dir, job, res);
+  if (contact && o.alternation_rerun_nodes > 0 && res.fe_alternating_nodes >= o.alternation_rerun_nodes &&
+      spec.steps.initial_increment > spec.steps.min_increment) {
+    const int first = res.fe_alternating_nodes, runs = res.ccx_runs;
+    const double was = spec.steps.initial_increment;
+    halve_increments(spec.steps);
+    const auto kept = keep_log(res.ccx.log, "alternating");
+    log::info("validate: CalculiX's pressure alternates node by node at {} skin nodes below the brim with increments "
+              "of {:.1f} % (its log kept as {}); again with {:.2f} %",
+              first, 100 * was, kept.string(), 100 * spec.steps.initial_increment);
+    res = header;
+    run_and_compare(d, o, spec, adj, dir, job, res);
+    res.ccx_runs += runs;
+    res.fe_alternating_nodes_first_try = first;
   }
-  if (co.num_steps == 2) {
-    res.donned_force_n = pose.donned_force_n;
-    if (!pose.reached) {
-      res.stand_offset_m = pose.last_displacement_m;
-      res.stand_reached_force_n = pose.last_force_n;
-    }
-  }
-  compare_regions(skin, adj, contact, res);
-  compare_paths(d, res);
+  if (contact && o.alternation_rerun_nodes > 0 && res.fe_alternating_nodes >= o.alternation_rerun_nodes)
+    log::warn("validate: CalculiX's pressure alternates node by node at {} skin nodes below the brim (increments of "
+              "{:.2f} %): read its peaks there with caution, or rerun with a smaller --initial-increment",
+              res.fe_alternating_nodes, 100 * spec.steps.initial_increment);
   return res;
 }
 

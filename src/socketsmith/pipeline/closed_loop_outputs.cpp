@@ -313,8 +313,8 @@ std::string roughness_advice(const ClosedLoopIteration& kept, double cap_m) {
   return level + fmt::format(
                      ". Over {:.2f} of the spread the loop has fitted the wall to socketsmith's own sliding node by "
                      "node, and another solver may read those ripples as pressure: check the socket in CalculiX "
-                     "(socketsmith validate design CASE --mode donning --stand; where CalculiX's pressures alternate "
-                     "node by node over a bony crest, again with --initial-increment 0.025).",
+                     "(socketsmith validate design CASE --mode donning --stand, which runs CalculiX again with shorter "
+                     "increments where its pressures alternate node by node, as over a bony crest).",
                      kRoughWallShare);
 }
 

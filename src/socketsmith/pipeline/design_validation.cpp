@@ -85,13 +85,15 @@ void write_comparison_csv(const DesignValidation& v, const fs::path& out) {
                     r.fe_value_smoothed[i] * scale,
                     r.fe_cpress_pa.empty() ? 0.0 : r.fe_cpress_pa[i] * scale,
                     r.fe_stress_pressure_pa.empty() ? 0.0 : r.fe_stress_pressure_pa[i] * scale,
-                    r.fe_force_pressure_pa.empty() ? 0.0 : r.fe_force_pressure_pa[i] * scale, skin.area_m2[i]});
+                    r.fe_force_pressure_pa.empty() ? 0.0 : r.fe_force_pressure_pa[i] * scale, skin.area_m2[i],
+                    r.fe_alternating.empty() ? 0.0 : static_cast<double>(r.fe_alternating[i])});
     if (!delivered.empty()) rows.back().push_back(delivered[i] * scale);
   }
   std::vector<std::string> header{"skin_index", "ccx_node", "x_m", "y_m", "z_m", "rings_from_brim", "socketsmith_" + unit,
                                   "calculix_" + unit, "error_" + unit, "penetration_mm",
                                   "socketsmith_one_ring_" + unit, "calculix_one_ring_" + unit, "calculix_cpress_" + unit,
-                                  "calculix_stress_" + unit, "calculix_force_" + unit, "area_m2"};
+                                  "calculix_stress_" + unit, "calculix_force_" + unit, "area_m2",
+                                  "calculix_alternates"};
   if (!delivered.empty()) header.push_back("socketsmith_stood_" + unit);
   report::write_csv(out / "comparison.csv", header, rows);
 }
@@ -289,6 +291,7 @@ calculix::DesignCheckOptions check_options(const design::CaseFile& c, const Desi
   co.contact.friction = o.friction >= 0 ? o.friction : c.patient.friction;
   co.clearance_m = o.clearance_m;
   co.initial_increment = o.initial_increment;
+  co.alternation_rerun_nodes = o.alternation_rerun_nodes;
   co.donning_travel_m = o.travel_m;
   co.stand_force_n = v.stand_force_n;
   if (v.stand_force_n > 0) co.stand_travel_m = calculix_stand_travel_m(*v.donning);
@@ -389,6 +392,8 @@ nlohmann::json validation_summary(const design::CaseFile& c, const DesignValidat
                    {"fe_stand_force_reached_n", r.stand_reached_force_n},
                    {"socketsmith_stand_offset_mm", v.socketsmith_stand_offset_m * 1e3},
                    {"ccx_runs", r.ccx_runs},
+                   {"calculix_alternating_nodes", r.fe_alternating_nodes},
+                   {"calculix_alternating_nodes_first_try", r.fe_alternating_nodes_first_try},
                    {"designed_force_n", r.designed_force_n},
                    {"fe_force_n", r.fe_force_n},
                    {"fe_axial_force_n", r.fe_axial_force_n},

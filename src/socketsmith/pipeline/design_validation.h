@@ -55,6 +55,7 @@ struct DesignValidationOptions {
   double clearance_m = 1e-3;            ///< Contact: the fit starts this far outside the skin [m], > 0
   double travel_m = 0.06;               ///< Donning: start this far distally [m], > 0
   double initial_increment = 0.05;      ///< first ccx increment, a fraction of the step, (0, 1]
+  int alternation_rerun_nodes = 5;      ///< calculix::DesignCheckOptions::alternation_rerun_nodes
   calculix::FePressure fe_pressure = calculix::FePressure::NodalForce;
   calculix::CcxOptions ccx;             ///< executable, threads, time limit, ccx's progress
   ProgressCallback progress;            ///< the design and socketsmith's donning
