@@ -414,11 +414,6 @@ TEST(DesignCheckValidation, the_closed_loop_socket_donned_and_stood_on_in_calcul
   EXPECT_LE(v.worst_landmark_deviation, 0.2) << v.summary();  // measured 0.07 (PT; MF 0.12 with 1e9)
 }
 
-// StandValidation (below) reduced for the default test run, which runs DesignCheckValidation.*: the
-// same two steps on the sample at 600 nodes (49 s of CPU, ccx included). Measured (standing under
-// displacement control, 2026-11-30): 604 nodes, R 0.896, MAE 1.51 kPa, means 12.60 (CalculiX) / 11.75
-// kPa, contact force 343.5 N at the interpolated standing pose, penetration 0.20 mm; the bars are these
-// with a margin, the force against M g / 2 of the sample's 70 kg.
 TEST(DesignCheckValidation, a_run_whose_pressure_alternates_node_by_node_is_run_again_with_shorter_increments) {
   // The rerun with real ccx, on the cheapest donning (600 nodes, frictionless, small strain): a margin
   // every node exceeds asks for it; the first try with increments of 50 %, the rerun (compared) with 25 %.
@@ -436,6 +431,11 @@ TEST(DesignCheckValidation, a_run_whose_pressure_alternates_node_by_node_is_run_
   EXPECT_GT(r.all.r, 0.5);  // compared on the rerun: a real result
 }
 
+// StandValidation (below) reduced for the default test run, which runs DesignCheckValidation.*: the
+// same two steps on the sample at 600 nodes (49 s of CPU, ccx included). Measured (standing under
+// displacement control, 2026-11-30): 604 nodes, R 0.896, MAE 1.51 kPa, means 12.60 (CalculiX) / 11.75
+// kPa, contact force 343.5 N at the interpolated standing pose, penetration 0.20 mm; the bars are these
+// with a margin, the force against M g / 2 of the sample's 70 kg.
 TEST(DesignCheckValidation, reduced_the_fe_models_donning_and_standing_agree_with_a_small_strain_calculix) {
   const auto r = donning_against_calculix("stand_fe_600", 600, "fe", 0.5, true, 0.45, true, true);
   ASSERT_TRUE(r.converged) << r.message;

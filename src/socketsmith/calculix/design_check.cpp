@@ -572,9 +572,11 @@ DesignCheckResult check_design(const DesignedStump& d, const DesignCheckOptions&
   ensure_directory(dir);
   res.deck = dir / (job + ".inp");
   const DesignCheckResult header = res;
+  const auto alternates = [&] {
+    return contact && o.alternation_rerun_nodes > 0 && res.fe_alternating_nodes >= o.alternation_rerun_nodes;
+  };
   run_and_compare(d, o, spec, adj, dir, job, res);
-  if (contact && o.alternation_rerun_nodes > 0 && res.fe_alternating_nodes >= o.alternation_rerun_nodes &&
-      spec.steps.initial_increment > spec.steps.min_increment) {
+  if (alternates() && spec.steps.initial_increment > spec.steps.min_increment) {
     const int first = res.fe_alternating_nodes, runs = res.ccx_runs;
     const double was = spec.steps.initial_increment;
     halve_increments(spec.steps);
@@ -587,7 +589,7 @@ DesignCheckResult check_design(const DesignedStump& d, const DesignCheckOptions&
     res.ccx_runs += runs;
     res.fe_alternating_nodes_first_try = first;
   }
-  if (contact && o.alternation_rerun_nodes > 0 && res.fe_alternating_nodes >= o.alternation_rerun_nodes)
+  if (alternates())
     log::warn("validate: CalculiX's pressure alternates node by node at {} skin nodes below the brim (increments of "
               "{:.2f} %): read its peaks there with caution, or rerun with a smaller --initial-increment",
               res.fe_alternating_nodes, 100 * spec.steps.initial_increment);

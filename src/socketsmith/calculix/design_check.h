@@ -209,9 +209,10 @@ struct DesignCheckResult {
 };
 
 /// Skin nodes, two rings or more below the brim, where @p fe stands out of the mean of its edge
-/// neighbours in @p adj (those two rings or more below the brim) by more than @p margin_pa beyond what @p design does there: the node-by-node
-/// alternation of a contact solution caught between two states (contact lost on some nodes of a
-/// loaded patch, a spike on the next), which no smooth pressure field has. 1 for such a node, else 0.
+/// neighbours in @p adj (those two rings or more below the brim) by more than @p margin_pa beyond
+/// what @p design does there: the node-by-node alternation of a contact solution caught between
+/// two states (contact lost on some nodes of a loaded patch, a spike on the next), which no smooth
+/// pressure field has. 1 for such a node, else 0.
 std::vector<char> alternating_skin_nodes(const std::vector<double>& fe, const std::vector<double>& design,
                                          const std::vector<std::vector<int>>& adj, const std::vector<int>& brim_ring,
                                          double margin_pa);
