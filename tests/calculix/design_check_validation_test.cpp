@@ -112,6 +112,7 @@ TEST(DesignCheckValidation, calculix_contact_pressure_in_the_designed_socket) {
   // neighbours (measured 2026-12-06, with 5 % or 2.5 % increments alike): not CalculiX's path, no rerun.
   EXPECT_LT(r.fe_alternating_nodes, o.alternation_rerun_nodes);
   EXPECT_EQ(r.ccx_runs, 1);
+  EXPECT_EQ(r.ccx_total_wall_s, r.ccx.wall_s);
 }
 
 /// The embedded sample designed with the fe tissue model (socketsmith's St Venant–Kirchhoff
@@ -424,6 +425,7 @@ TEST(DesignCheckValidation, a_run_whose_pressure_alternates_node_by_node_is_run_
                                           });
   ASSERT_TRUE(r.converged) << r.message;
   EXPECT_EQ(r.ccx_runs, 2);
+  EXPECT_GT(r.ccx_total_wall_s, r.ccx.wall_s);  // both runs' time, not the last's alone
   EXPECT_GT(r.fe_alternating_nodes_first_try, 50);
   EXPECT_EQ(r.fe_alternating_nodes, r.fe_alternating_nodes_first_try);
   EXPECT_TRUE(fs::exists(r.deck.parent_path() / "design.alternating.log"));

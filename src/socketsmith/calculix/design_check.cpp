@@ -367,6 +367,7 @@ CcxOptions run_deck(DeckSpec& spec, double stand_force_n, const std::filesystem:
     write_text_atomically(res.deck, write_deck(spec));
     res.ccx = run_ccx(dir, job, co);
     ++res.ccx_runs;
+    res.ccx_total_wall_s += res.ccx.wall_s;
     dat = std::filesystem::exists(res.ccx.dat) ? read_dat(res.ccx.dat) : std::vector<DatBlock>{};
     pose = co.num_steps == 2 ? standing_pose(dat, stand_force_n, spec.steps.load_direction) : StandingPose{};
   };
@@ -578,7 +579,7 @@ DesignCheckResult check_design(const DesignedStump& d, const DesignCheckOptions&
   run_and_compare(d, o, spec, adj, dir, job, res);
   if (alternates() && spec.steps.initial_increment > spec.steps.min_increment) {
     const int first = res.fe_alternating_nodes, runs = res.ccx_runs;
-    const double was = spec.steps.initial_increment;
+    const double spent_s = res.ccx_total_wall_s, was = spec.steps.initial_increment;
     halve_increments(spec.steps);
     const auto kept = keep_log(res.ccx.log, "alternating");
     log::info("validate: CalculiX's pressure alternates node by node at {} skin nodes below the brim with increments "
@@ -586,8 +587,8 @@ DesignCheckResult check_design(const DesignedStump& d, const DesignCheckOptions&
               first, 100 * was, kept.string(), 100 * spec.steps.initial_increment);
     res = header;
     run_and_compare(d, o, spec, adj, dir, job, res);
-    res.ccx_runs += runs;
-    res.fe_alternating_nodes_first_try = first;
+    std::tie(res.ccx_runs, res.ccx_total_wall_s, res.fe_alternating_nodes_first_try) =
+        std::tuple(res.ccx_runs + runs, res.ccx_total_wall_s + spent_s, first);
   }
   if (alternates())
     log::warn("validate: CalculiX's pressure alternates node by node at {} skin nodes below the brim (increments of "

@@ -201,6 +201,8 @@ struct DesignCheckResult {
   /// ccx runs: one more when step 1 stopped on its way (again with increments half as long), up to
   /// two more when step 2 ended short of the load (again with a travel from CalculiX's reactions).
   int ccx_runs = 0;
+  /// Wall-clock seconds of every ccx run together (ccx.wall_s: the last run's alone).
+  double ccx_total_wall_s = 0;
   /// Skin nodes where the compared pressure alternates node by node (alternating_skin_nodes) in the
   /// run compared, and in the first try when that asked for a rerun with shorter increments (−1: no
   /// such rerun).

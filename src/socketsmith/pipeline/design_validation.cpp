@@ -413,6 +413,7 @@ nlohmann::json validation_summary(const design::CaseFile& c, const DesignValidat
                    {"away_from_brim_smoothed", report::to_json(r.away_from_brim_smoothed, scale, suffix)},
                    {"paths", paths_json},
                    {"ccx_wall_s", r.ccx.wall_s},
+                   {"ccx_total_wall_s", r.ccx_total_wall_s},
                    {"ccx_increments", r.ccx.increments},
                    {"socketsmith_wall_s", v.socketsmith_wall_s},
                    {"socketsmith_solve_s", v.artifacts.result.state.seconds},
