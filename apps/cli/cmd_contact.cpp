@@ -24,7 +24,7 @@ struct DonningFlags {
   std::string case_file, limb, socket, units, out;
   double offset_mm = 0;  // 0: automatic
   int steps = 0;         // 0: one per step_mm
-  double step_mm = contact::DonningOptions{}.step_m * 1e3;
+  double step_mm = 0;    // 0: the case's design.closed_loop_step_mm (by default DonningOptions::step_m)
   double stick_stiffness = contact::DonningOptions{}.contact.stick_stiffness_ratio;
   int target_nodes = 0;
   double friction = -1;
@@ -151,7 +151,8 @@ void register_contact(CLI::App& app) {
   don->add_option("--steps", f->steps, "this many equal displacement steps (default: adaptive, see --step-mm)")
       ->check(CLI::Range(1, 100000));
   don->add_option("--step-mm", f->step_mm,
-                  fmt::format("longest adaptive step [mm] (default {:g}; down to {:g} mm where a node starts sticking)",
+                  fmt::format("longest adaptive step [mm] (default: the case's design.closed_loop_step_mm, {:g} without; down to {:g} mm "
+                              "where a node starts sticking)",
                               contact::DonningOptions{}.step_m * 1e3, contact::DonningOptions{}.min_step_m * 1e3))
       ->check(positive());
   don->add_option("--target-nodes", f->target_nodes, "stump size (default: the case's, 8000)")

@@ -316,7 +316,7 @@ py::array radar_array(const design::RadarValues& r) {
 }
 
 std::shared_ptr<Donning> don(const std::shared_ptr<Design>& d, std::optional<double> friction, bool stand,
-                             double step_mm, int steps, const py::object& progress) {
+                             std::optional<double> step_mm, int steps, const py::object& progress) {
   const auto& setup = *d->stump->setup;
   if (!d->result.socket)
     throw InvalidInputError(
@@ -325,7 +325,7 @@ std::shared_ptr<Donning> don(const std::shared_ptr<Design>& d, std::optional<dou
   contact::DonningOptions o;
   o.friction = friction.value_or(c.patient.friction);
   o.stand_force_n = stand ? 0.5 * c.patient.body_mass_kg * units::kGravity : 0.0;
-  o.step_m = step_mm * 1e-3;
+  o.step_m = step_mm ? *step_mm * 1e-3 : c.closed_loop_step_m;
   o.steps = steps;
   auto out = std::make_shared<Donning>();
   out->stump = d->stump;
@@ -564,7 +564,7 @@ PYBIND11_MODULE(_core, m) {
         py::gil_scoped_release release;
         d.summary = pipeline::write_design_outputs(*d.stump->setup, d.result, out, 0.0);
       }, py::arg("out"), "Writes the files of `socketsmith design` (report, maps, socket.stl, design.json) into out.")
-      .def("don", &don, py::arg("friction") = py::none(), py::arg("stand") = true, py::arg("step_mm") = 6.0,
+      .def("don", &don, py::arg("friction") = py::none(), py::arg("stand") = true, py::arg("step_mm") = py::none(),
            py::arg("steps") = 0, py::arg("progress") = py::none(),
            "Slides the designed socket onto the stump with Coulomb friction, then the standing load "
            "(`socketsmith simulate donning --case`).")

@@ -412,7 +412,7 @@ TEST(ClosedLoop, a_default_loop_that_fails_keeps_the_open_loop_socket_and_a_loop
   EXPECT_THROW(solve_design(*setup, true), InvalidInputError);
 }
 
-TEST(ClosedLoop, the_rigid_wall_key_reaches_every_donning_of_the_case_and_survives_a_round_trip) {
+TEST(ClosedLoop, the_rigid_wall_and_step_keys_reach_the_loops_donnings_and_survive_a_round_trip) {
   // design.closed_loop_rigid_wall: the loop's donnings (closed_loop_options) and the others of the
   // case's socket (case_augmented_tol) get the augmented Lagrangian; without it, the penalty alone.
   const design::CaseFile plain = design::parse_case(nlohmann::json::object());
@@ -432,6 +432,16 @@ TEST(ClosedLoop, the_rigid_wall_key_reaches_every_donning_of_the_case_and_surviv
   EXPECT_NEAR(closed_loop_options(capped).max_roughness_m, 0.15e-3, 1e-15);
   EXPECT_NEAR(design::parse_case(design::case_to_json(capped)).closed_loop_max_roughness_m, 0.15e-3, 1e-15);
   EXPECT_THROW(design::parse_case(nlohmann::json::parse(R"({"design": {"closed_loop_max_roughness_mm": -1}})")),
+               InvalidInputError);
+  // design.closed_loop_step_mm: by default the donning's own step; in mm in the file, in metres in
+  // the loop's donning; a step under the donning's shortest (2 mm) is refused.
+  EXPECT_EQ(plain.closed_loop_step_m, contact::DonningOptions{}.step_m);
+  EXPECT_EQ(closed_loop_options(plain).donning.step_m, contact::DonningOptions{}.step_m);
+  const design::CaseFile longer = design::parse_case(nlohmann::json::parse(R"({"design": {"closed_loop_step_mm": 9}})"));
+  EXPECT_NEAR(closed_loop_options(longer).donning.step_m, 9e-3, 1e-15);
+  EXPECT_NEAR(design::parse_case(design::case_to_json(longer)).closed_loop_step_m, 9e-3, 1e-15);
+  EXPECT_FALSE(design::case_to_json(plain)["design"].contains("closed_loop_step_mm"));
+  EXPECT_THROW(design::parse_case(nlohmann::json::parse(R"({"design": {"closed_loop_step_mm": 1}})")),
                InvalidInputError);
 }
 

@@ -93,6 +93,9 @@ struct CaseFile {
   /// The closed loop's largest node-scale wall correction [m], 0–0.005; 0 (the default): no cap.
   /// pipeline::ClosedLoopOptions::max_roughness_m.
   double closed_loop_max_roughness_m = 0.0;
+  /// The longest step of the closed loop's donning path [m], 0.002–0.02; the default is
+  /// contact::DonningOptions::step_m's (a test keeps the two equal). docs/design.md, "Closed loop".
+  double closed_loop_step_m = 0.006;
   /// A flared brim [m], 0–0.05: the designed pressure eases to nothing over this distance below the
   /// brim (DesignSolver::set_brim_flare); 0: the spots' pressure up to the brim. Not given: the
   /// limb type's (brim_flare_m()).

@@ -240,6 +240,7 @@ const std::vector<CaseParameter>& case_parameters() {
       number<&C::closed_loop_donnings>(kClosedLoopDonnings),
       number<&C::closed_loop_max_brim_raise_m>(kClosedLoopBrimRaise, W::UnlessDefault),
       number<&C::closed_loop_max_roughness_m>(kClosedLoopRoughness, W::UnlessDefault),
+      number<&C::closed_loop_step_m>(kClosedLoopStep, W::UnlessDefault),
       number<&C::brim_flare_m>(kBrimFlare, W::UnlessDefault),
       flag<&C::closed_loop_rigid_wall>("design.closed_loop_rigid_wall",
                                        "closed loop: no penetration of the socket wall (augmented Lagrangian "

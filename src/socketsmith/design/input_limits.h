@@ -65,6 +65,9 @@ inline constexpr InputLimit kClosedLoopBrimRaise{"design.closed_loop_max_brim_ra
 inline constexpr InputLimit kClosedLoopRoughness{"design.closed_loop_max_roughness_mm", "mm", 0, 5, false, false, false,
                                                  "the closed loop's largest node-scale wall correction (a node's "
                                                  "minus its neighbours' mean), in mm (e.g. 0.2); 0 = no cap (the default)"};
+inline constexpr InputLimit kClosedLoopStep{"design.closed_loop_step_mm", "mm", 2, 20, false, false, false,
+                                            "the longest step of the closed loop's donning path, in mm (default 6; "
+                                            "9 cuts the loop's Newton iterations by up to a quarter)"};
 inline constexpr InputLimit kBrimFlare{"design.brim_flare_mm", "mm", 0, 50, false, false, false,
                                        "the designed pressure eases to nothing over this distance below the brim "
                                        "(a flared trim line), in mm; 0 = the spots' pressure up to the brim (default: 5 transtibial, 0 transfemoral)"};

@@ -247,6 +247,7 @@ ClosedLoopOptions closed_loop_options(const design::CaseFile& c) {
   lo.max_donnings = c.closed_loop_donnings;
   lo.max_brim_raise_m = c.closed_loop_max_brim_raise_m;
   lo.max_roughness_m = c.closed_loop_max_roughness_m;
+  lo.donning.step_m = c.closed_loop_step_m;
   lo.donning.contact.augmented_tol = case_augmented_tol(c);
   return lo;
 }

@@ -59,6 +59,7 @@ void run_own_donning(const design::CaseFile& c, const DesignValidationOptions& o
   dopt.progress = o.progress;
   dopt.contact.linear_body = !o.nonlinear_body;
   dopt.contact.augmented_tol = case_augmented_tol(c);
+  dopt.step_m = c.closed_loop_step_m;
   log::info("validate design: socketsmith's donning ({:.0f} mm, μ = {:.2f}, {} body)", o.travel_m * 1e3, dopt.friction,
             o.nonlinear_body ? "nonlinear" : "linearised");
   v.donning = don_designed_socket(v.artifacts, dopt);

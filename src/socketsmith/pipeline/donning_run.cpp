@@ -283,7 +283,7 @@ contact::DonningOptions donning_options(const DonningRequest& q, const DonningIn
   contact::DonningOptions o;
   o.start_offset_m = q.start_offset_m;
   o.steps = q.steps;
-  o.step_m = q.max_step_m;
+  o.step_m = q.max_step_m > 0 ? q.max_step_m : c.closed_loop_step_m;
   o.friction = mu;
   o.stand_force_n = q.stand ? 0.5 * c.patient.body_mass_kg * units::kGravity : 0.0;
   o.progress = progress;
@@ -309,7 +309,7 @@ void log_donning_start(const DonningRequest& q, const DonningInput& in, const co
             q.start_offset_m > 0 ? fmt::format("{:.0f} mm below", q.start_offset_m * 1e3)
                                  : std::string("below the stump"),
             q.steps > 0 ? fmt::format("{} steps", q.steps)
-                        : fmt::format("adaptive steps of {:.1f} mm at most", q.max_step_m * 1e3),
+                        : fmt::format("adaptive steps of {:.1f} mm at most", o.step_m * 1e3),
             o.friction,
             o.stand_force_n > 0 ? fmt::format(", then standing ({:.0f} N)", o.stand_force_n) : "");
 }

@@ -41,7 +41,7 @@ struct DonningRequest {
   int target_nodes = 0;             ///< stump size; 0: the case's
   double start_offset_m = 0.0;      ///< start this far below the designed pose [m], ≥ 0; 0: automatic
   int steps = 0;                    ///< equal displacement steps; 0: adaptive
-  double max_step_m = contact::DonningOptions{}.step_m;  ///< longest adaptive step [m]
+  double max_step_m = 0.0;          ///< longest adaptive step [m]; 0: the case's (design.closed_loop_step_mm)
   double stick_stiffness_ratio = contact::DonningOptions{}.contact.stick_stiffness_ratio;
   double friction = -1.0;           ///< Coulomb μ; < 0: the case's
   double penalty_factor = 20.0;     ///< contact penalty k = factor · E / h
