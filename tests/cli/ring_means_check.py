@@ -2,7 +2,7 @@
 """ring_means_check.py OUT: checks `validate design --stand`'s ring-by-ring table (summary.json
 `rings_below_brim`) against its own per-node file (comparison.csv): every ring's node count and its
 area-weighted designed, CalculiX and socketsmith (donned and stood) means recomputed from the CSV's
-`area_m2`, `rings_from_brim`, `socketsmith_kPa`, `calculix_kPa` and `socketsmith_stood_kPa` (the
+`area_m2`, `rings_from_brim`, `designed_kPa`, `calculix_kPa` and `socketsmith_stood_kPa` (the
 deeper rings pooled in the last listed one), each ring's mean between its nodes' smallest and
 largest value, and rings.svg / rings.png written. Python's standard library only.
 """
@@ -31,7 +31,7 @@ def main(argv):
                 continue
             ring = min(ring, deepest)
             a = float(row["area_m2"])
-            values = [float(row["socketsmith_kPa"]), float(row["calculix_kPa"]), float(row["socketsmith_stood_kPa"])]
+            values = [float(row["designed_kPa"]), float(row["calculix_kPa"]), float(row["socketsmith_stood_kPa"])]
             s = sums.setdefault(ring, {"nodes": 0, "area": 0.0, "sum": [0.0] * 3, "lo": [1e300] * 3, "hi": [-1e300] * 3})
             s["nodes"] += 1
             s["area"] += a

@@ -69,8 +69,9 @@ void run_own_donning(const design::CaseFile& c, const DesignValidationOptions& o
 
 /// comparison.csv: per skin node, its position, rings from the brim, both values, the error, the
 /// penetration, the one-ring means, CalculiX's three pressure measures and the node's skin area;
-/// with a standing step, socketsmith's own donned-and-stood pressure too (the design is compared
-/// with both).
+/// with a standing step, socketsmith's own donned-and-stood pressure and the designed one too (both
+/// codes are judged against the design; `validate donning` compares CalculiX with socketsmith's
+/// donning, so its socketsmith column is not the design).
 void write_comparison_csv(const DesignValidation& v, const fs::path& out) {
   const auto& r = v.check;
   const auto& skin = *v.stump.skin;
@@ -88,14 +89,14 @@ void write_comparison_csv(const DesignValidation& v, const fs::path& out) {
                     r.fe_stress_pressure_pa.empty() ? 0.0 : r.fe_stress_pressure_pa[i] * scale,
                     r.fe_force_pressure_pa.empty() ? 0.0 : r.fe_force_pressure_pa[i] * scale, skin.area_m2[i],
                     r.fe_alternating.empty() ? 0.0 : static_cast<double>(r.fe_alternating[i])});
-    if (!delivered.empty()) rows.back().push_back(delivered[i] * scale);
+    if (!delivered.empty()) rows.back().insert(rows.back().end(), {delivered[i] * scale, v.designed_pa[i] * scale});
   }
   std::vector<std::string> header{"skin_index", "ccx_node", "x_m", "y_m", "z_m", "rings_from_brim", "socketsmith_" + unit,
                                   "calculix_" + unit, "error_" + unit, "penetration_mm",
                                   "socketsmith_one_ring_" + unit, "calculix_one_ring_" + unit, "calculix_cpress_" + unit,
                                   "calculix_stress_" + unit, "calculix_force_" + unit, "area_m2",
                                   "calculix_alternates"};
-  if (!delivered.empty()) header.push_back("socketsmith_stood_" + unit);
+  if (!delivered.empty()) header.insert(header.end(), {"socketsmith_stood_" + unit, "designed_" + unit});
   report::write_csv(out / "comparison.csv", header, rows);
 }
 
