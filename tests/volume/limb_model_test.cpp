@@ -273,6 +273,12 @@ TEST(LimbModel, TransfemoralSizeOutsideItsRangeNamesTheUnitMistake) {
   // The normalised shape unscaled: about 2 x too small, "limb.scale" named.
   const std::string small = message(raw, o);
   EXPECT_NE(small.find("limb.scale"), std::string::npos) << small;
+  // A transtibial-sized shape in cm read as mm: 10 x too small, the cm fix named.
+  geometry::TriMesh in_cm = raw;
+  geometry::scale(in_cm, 0.45 * 0.35 / 0.62 / 10.0);
+  LimbInputOptions tt_cm;
+  const std::string cm = message(in_cm, tt_cm);
+  EXPECT_NE(cm.find("in cm read as mm? give units mm and limb.scale 10"), std::string::npos) << cm;
   // The same, transtibial-sized by a 620 mm length read as a transtibial limb.
   geometry::TriMesh long_tt = raw;
   geometry::scale(long_tt, 0.45 * 620.0 / 300.0);

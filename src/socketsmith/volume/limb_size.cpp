@@ -31,9 +31,15 @@ std::string unit_mistake_hint(double factor) {
   if (factor < 1.0 / 300 && factor > 1.0 / 3000)
     return "about 1000 x too large: the file is probably in mm read as m; give units mm";
   if (factor < 1.0 / 30 && factor >= 1.0 / 300)
-    return "about 100 x too large: in cm read as mm? give units mm and limb.scale 10 (--scale 10), or units m and "
+    return "about 100 x too large: in cm read as m? give units mm and limb.scale 10 (--scale 10), or units m and "
            "limb.scale 0.01";
-  if (factor > 0.05 && factor < 20)
+  // A scan exported in cm and read as mm (the guess from its size says mm): 10 x too small, give
+  // or take the limb's proportions (OpenLimb's skin in cm: 7.8).
+  if (factor >= 5 && factor < 20)
+    return fmt::format("about {:.2g} x too small: in cm read as mm? give units mm and limb.scale 10 (--scale 10); a "
+                       "normalised shape? give its limb.scale, e.g. the intact femur length in m (0.45 with units m)",
+                       factor);
+  if (factor > 0.05 && factor < 5)
     return fmt::format("about {:.2g} x off: a normalised shape? give limb.scale (--scale), e.g. the intact femur length "
                        "in m for an OpenLimbTF shape (0.45)",
                        factor);
