@@ -31,8 +31,10 @@ struct DesignValidationOptions {
   /// Donning mode: then push the socket with half the body weight in CalculiX (thesis step 2),
   /// and compare socketsmith's own donned-and-stood pressures too.
   bool stand = false;
-  /// socketsmith's donning with the nonlinear tissue model instead of its linearisation at rest
-  /// (against_donning only).
+  /// against_donning: socketsmith's donning with the nonlinear tissue model instead of its
+  /// linearisation at rest. Otherwise socketsmith's own donning has the design's body (the closed
+  /// loop's rule: nonlinear unless the design was solved linearly or fell back to the linearised
+  /// stump).
   bool nonlinear_body = false;
   bool optimise = true;                 ///< false: the case's spots as given; true: as the case says
   double poisson_ratio = -1.0;          ///< CalculiX's ν, [0, 0.5); < 0: fe_material's (the case's model, else 0.45)
@@ -86,6 +88,9 @@ struct DesignValidation {
   calculix::DesignCheckResult check;    ///< the comparison, per skin node and summarised
   std::optional<contact::DonningResult> donning;  ///< socketsmith's own (against_donning or stand)
   bool donning_from_closed_loop = false;  ///< the closed loop's kept donning, not one run here
+  /// socketsmith's donning body: linearised at rest, else the nonlinear tissue model (the design's
+  /// own, as the closed loop dons it; validate donning: --nonlinear-body).
+  bool own_body_linear = true;
   double stand_force_n = 0.0;           ///< CalculiX's step 2 force [N] (0 without stand)
   double socketsmith_stand_offset_m = 0.0;  ///< socketsmith's stood pose past the designed pose [m]
   double socketsmith_wall_s = 0.0;      ///< the whole design run [s]
