@@ -273,7 +273,8 @@ TEST(LimbModel, TransfemoralSizeOutsideItsRangeNamesTheUnitMistake) {
   // The normalised shape unscaled: about 2 x too small, "limb.scale" named.
   const std::string small = message(raw, o);
   EXPECT_NE(small.find("limb.scale"), std::string::npos) << small;
-  // A transtibial-sized shape in cm read as mm: 10 x too small, the cm fix named.
+  // A transtibial-sized shape in cm read as mm: 10 x too small, the cm fix named. (raw × 0.45 is
+  // 300 mm long, below; × 0.35 / 0.62 a 169 mm stump; ÷ 10 its numbers in cm.)
   geometry::TriMesh in_cm = raw;
   geometry::scale(in_cm, 0.45 * 0.35 / 0.62 / 10.0);
   LimbInputOptions tt_cm;

@@ -145,7 +145,7 @@ class LoopRun {
       don_.stand_force_n = 0.5 * c.patient.body_mass_kg * units::kGravity;
     }
     if (options.body_follows_design)
-      don_.contact.linear_body = state_.linearised || c.solve_mode == design::DesignSolveMode::Linear;
+      don_.contact.linear_body = design_body_linearised(state_, c);
     don_.skin = &skin_;  // pressures per deformed area, as the design's
     sopt_ = c.socket;
     sopt_.undeformed_skin = &result.rest_skin;

@@ -438,7 +438,7 @@ nlohmann::json design_summary(const DesignSetup& setup, const DesignResult& resu
       {"optimiser_seconds", opt.seconds},
       {"optimiser_time_limited", opt.is_time_limited},
       {"model_caps", opt.model_caps},
-      {"linearised", state.linearised || c.solve_mode == design::DesignSolveMode::Linear},
+      {"linearised", design_body_linearised(state, c)},
       {"solve_mode", design::to_string(c.solve_mode)},
       {"final_solve",
        {{"newton_iterations", state.newton_iterations},

@@ -256,6 +256,10 @@ double case_augmented_tol(const design::CaseFile& c) {
   return c.closed_loop_rigid_wall ? contact::kRigidWallAugmentedTol : 0.0;
 }
 
+bool design_body_linearised(const design::DesignState& state, const design::CaseFile& c) {
+  return state.linearised || c.solve_mode == design::DesignSolveMode::Linear;
+}
+
 DesignResult solve_design(DesignSetup& setup, bool optimise, const ProgressCallback& progress) {
   const design::CaseFile& c = setup.case_file;
   auto& solver = *setup.solver;

@@ -122,6 +122,11 @@ ClosedLoopOptions closed_loop_options(const design::CaseFile& c);
 /// closed loop's, `simulate donning --case`, `validate design`'s own): contact::kRigidWallAugmentedTol
 /// with design.closed_loop_rigid_wall, else 0 (the penalty alone).
 double case_augmented_tol(const design::CaseFile& c);
+/// Whether the stump the design solved is the one linearised at rest: a linear design solve, or a
+/// nonlinear one that fell back to it (DesignState::linearised). Every donning of the case's socket
+/// dons that body (the closed loop's, the sock-ply study's, `simulate donning --case`'s and
+/// `validate design`'s own); design.json's `linearised` says it.
+bool design_body_linearised(const design::DesignState& state, const design::CaseFile& c);
 
 /// Stage 2. Optimises (or solves the setup's spots) and builds the socket when every constraint
 /// holds, then closes the loop when the case asks for it. Never builds a socket that violates the

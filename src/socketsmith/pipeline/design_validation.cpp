@@ -62,9 +62,7 @@ void run_own_donning(const design::CaseFile& c, const DesignValidationOptions& o
   // the stump the design solved, as the closed loop and `simulate donning --case` do: a
   // neo-Hookean design's socket on the linearised stump is not the problem CalculiX's NLGEOM
   // neo-Hookean twin solves, and its standing travel sizes CalculiX's push.
-  const bool design_linear =
-      v.artifacts.result.state.linearised || c.solve_mode == design::DesignSolveMode::Linear;
-  v.own_body_linear = o.against_donning ? !o.nonlinear_body : design_linear;
+  v.own_body_linear = o.against_donning ? !o.nonlinear_body : design_body_linearised(v.artifacts.result.state, c);
   dopt.contact.linear_body = v.own_body_linear;
   dopt.contact.augmented_tol = case_augmented_tol(c);
   dopt.step_m = c.closed_loop_step_m;

@@ -294,8 +294,8 @@ contact::DonningOptions donning_options(const DonningRequest& q, const DonningIn
   o.contact.augmented_tol = q.rigid_wall ? contact::kRigidWallAugmentedTol : case_augmented_tol(c);
   // The donned stump: the design's (its tissue model as it was solved: the closed loop's rule), or
   // as asked. MSS-CS has no energy, so its "nonlinear" body is the lattice's own Newton.
-  const bool design_linear =
-      (in.designed && in.designed->state.linearised) || c.solve_mode == design::DesignSolveMode::Linear;
+  const bool design_linear = in.designed ? design_body_linearised(in.designed->state, c)
+                                         : c.solve_mode == design::DesignSolveMode::Linear;
   o.contact.linear_body = q.body == DonnedBody::Linearised || (q.body == DonnedBody::Design && design_linear);
   return o;
 }

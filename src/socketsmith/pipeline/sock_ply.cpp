@@ -188,7 +188,7 @@ contact::DonningOptions study_donning(const DesignSetup& setup, const DesignResu
     don.stand_force_n = 0.5 * c.patient.body_mass_kg * units::kGravity;
   }
   // The donned body as the closed loop's: linearised at rest for a linear design.
-  don.contact.linear_body = result.state.linearised || c.solve_mode == design::DesignSolveMode::Linear;
+  don.contact.linear_body = design_body_linearised(result.state, c);
   don.skin = &setup.solver->skin();  // pressures per deformed area, as the design's
   return don;
 }
