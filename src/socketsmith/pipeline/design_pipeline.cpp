@@ -303,7 +303,10 @@ DesignResult solve_design(DesignSetup& setup, bool optimise, const ProgressCallb
       lo.progress = [&](double f, std::string_view stage) { return report_progress(progress, 0.93 + 0.07 * f, stage); };
       try {
         r.closed_loop = close_design_loop(setup, r, lo);
-        log::info("design: closed loop: {}", r.closed_loop->message);
+        if (r.closed_loop->converged || lo.max_donnings == 1)  // 1: the open-loop socket measured only
+          log::info("design: closed loop: {}", r.closed_loop->message);
+        else  // the socket written is the loop's best, short of its tolerances: said where it is seen
+          log::warn("design: closed loop: {}; the socket written is the best one it donned", r.closed_loop->message);
         r.socket = r.closed_loop->socket;
       } catch (const Error& e) {
         if (c.closed_loop.has_value()) throw;  // asked for by name: the design fails with the reason
