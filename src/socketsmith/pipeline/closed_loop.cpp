@@ -420,9 +420,11 @@ class LoopRun {
 
   /// The socket kept, among those donned from scratch: one @p within every tolerance (landmarks
   /// and paths included) before one that meets the delivery bar (ClosedLoopIteration::bar_met),
-  /// before one that meets neither, then the smallest max(MAE / tol, p99 / tol).
+  /// before one that meets neither, then the smallest max(MAE / tol, p99 / tol) — of those that
+  /// meet neither, the one closest to the bar (bar_score).
   void keep_if_best(double score, bool within, bool bar_met, const std::vector<double>& delivered,
                     const contact::DonningResult& d) {
+    if (kept_rank(within, bar_met) == 0) score = bar_score(r_.iterations.back());
     if (!replaces_kept(within, bar_met, score, best_rank_, best_score_)) return;
     best_score_ = score;
     best_rank_ = kept_rank(within, bar_met);
@@ -533,6 +535,12 @@ class LoopRun {
 }  // namespace
 
 int kept_rank(bool within, bool bar_met) { return within ? 2 : bar_met ? 1 : 0; }
+
+double bar_score(const ClosedLoopIteration& it) {
+  const report::DeliveryBar bar;
+  return std::max({it.below_brim.mae / bar.mae_pa, it.below_brim.p99 / bar.p99_pa,
+                   it.landmark_deviation / bar.landmark_tolerance, it.path_score});
+}
 
 bool replaces_kept(bool within, bool bar_met, double score, int kept_rank_now, double kept_score) {
   const int rank = kept_rank(within, bar_met);

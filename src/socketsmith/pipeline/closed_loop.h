@@ -157,7 +157,8 @@ struct ClosedLoopIteration {
   /// scratch moves it by what refits cannot see (generated transfemoral limb, seed 2: refits took the
   /// distal femur from 39 % to 9 %, the next donning put it back at 49 %; transtibial seed 3 with the
   /// deviation in the loop's score, 2026-12-01: refits 3 %, the next donning 12 %, its refit 16 %,
-  /// and the loop stopped with the socket it keeps without it). report::judge_delivery judges it.
+  /// and the loop stopped with the socket it keeps without it). report::judge_delivery judges it;
+  /// of the sockets that miss the delivery bar, it counts in which one is kept (bar_score).
   double landmark_deviation = 0.0;
   std::string landmark_furthest;
   /// The thesis path below the brim furthest from the delivery bar's MAE and p99
@@ -270,9 +271,16 @@ nlohmann::json write_closed_loop_outputs(const DesignSetup& setup, const DesignR
 /// Whether a socket donned from scratch replaces the one the loop keeps: one within every tolerance
 /// (@p within: MAE, p99, landmarks, paths) before one that meets only the delivery bar (@p bar_met:
 /// its MAE is 1.5 kPa, the loop's 0.5), before one that meets neither; within a tier, the smaller
-/// @p score (max(MAE / tol, p99 / tol)). @p kept_rank: the kept socket's tier (2, 1, 0; −1 when none
-/// is kept yet), @p kept_score its score.
+/// @p score — max(MAE / tol, p99 / tol) in the first two tiers, bar_score in the third.
+/// @p kept_rank: the kept socket's tier (2, 1, 0; −1 when none is kept yet), @p kept_score its score.
 bool replaces_kept(bool within, bool bar_met, double score, int kept_rank, double kept_score);
+/// How far a donned socket is from the delivery bar (report::DeliveryBar): the largest of its MAE
+/// and p99 below the brim over the bar's, its landmark deviation over the bar's and its path score
+/// (≤ 1 on each where the bar is met; R aside). Of two sockets that miss the bar, the loop keeps the
+/// one that misses it least: by the MAE and p99 alone it kept the transfemoral seed 4 at 8k's third
+/// donning (MAE 0.23 kPa, the greater trochanter 116 % over its design) before its second (0.28 kPa,
+/// 39 %), 2026-12-06.
+double bar_score(const ClosedLoopIteration& it);
 /// The tier replaces_kept ranks a socket by: 2 within the tolerances, 1 the delivery bar, 0 neither.
 int kept_rank(bool within, bool bar_met);
 
