@@ -121,6 +121,9 @@ const std::vector<ResultColumn>& result_columns() {
       // The closed loop's kept socket, donned and stood on, against the design below the brim
       // (empty when the case ran no loop); delivery_bar_met: report/delivery_bar.h.
       {"closed_loop_donnings", {"closed_loop", "donnings"}},
+      // 1 when the loop met its tolerances, 0 when it stopped short (its donnings spent, a corrected
+      // socket not buildable): the kept socket is then its best, which `design` warns of.
+      {"closed_loop_converged", {"closed_loop", "converged"}},
       {"closed_loop_mae_kpa", {"closed_loop", "regions", "below_brim", "closed_loop", "mae_kpa"}},
       {"closed_loop_p99_kpa", {"closed_loop", "regions", "below_brim", "closed_loop", "p99_kpa"}},
       {"closed_loop_r", {"closed_loop", "regions", "below_brim", "closed_loop", "r"}},
