@@ -84,7 +84,8 @@ int run_donning(const DonningFlags& f) {
   const fs::path out(f.out);
   const pipeline::DonningRun run = pipeline::run_donning(donning_request(f), out);
   const contact::DonningResult& r = run.donning;
-  if (run.options.stand_force_n > 0 && !r.stood) log::warn("donning: {}", r.message);
+  if (run.options.stand_force_n > 0 && !r.stood)
+    log::warn("donning: {}; the results are those of the donned socket at its designed pose", r.message);
   if (f.json) {
     print_json(run.summary);
     return 0;

@@ -288,9 +288,8 @@ struct DonningSimulation::Impl {
                  std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
       record_stand(r, st, ns > 0 ? pose_force : -1.0, start_at);
     } catch (const SolverError& e) {
-      r.message = fmt::format("standing with {:.0f} N not reached ({}); the results are those of the donned socket at "
-                              "its designed pose",
-                              o.stand_force_n, e.what());
+      // What the caller keeps of the run (a donned socket's results, or nothing) is the caller's to say.
+      r.message = fmt::format("standing with {:.0f} N not reached ({})", o.stand_force_n, e.what());
     }
     report_progress(o.progress, 1.0, "donning: standing");
   }
