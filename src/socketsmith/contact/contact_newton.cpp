@@ -1,12 +1,10 @@
-// Newton on the contact equilibrium (ContactSolver::Impl, contact_solver_impl.h): its step and line
-// search, a solve at one obstacle position with its friction passes, the path between positions,
+// Newton on the contact equilibrium (ContactSolver::Impl, contact_solver_impl.h): its line search
+// (its direction: contact_direction.cpp), a solve at one obstacle position with its friction passes, the path between positions,
 // and the pushes with a force.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <limits>
-
-#include <Eigen/SparseLU>
 
 #include "socketsmith/contact/contact_solver_impl.h"
 #include "socketsmith/core/errors.h"
@@ -101,73 +99,6 @@ bool ContactSolver::Impl::line_search(VectorXd& xs, Vec3& t, const VectorXd& del
   return false;
 }
 
-bool ContactSolver::Impl::solve_nonlinear(const VectorXd& xs, const std::vector<Eigen::Matrix3d>& B, SparseMatrix& K,
-                                          const Eigen::MatrixXd& r, Eigen::MatrixXd& delta) {
-  const SerialParallelRegions serial;
-  const auto cholesky = [&](const SparseMatrix& A) {
-    if (!llt.factorize(A)) return false;
-    ++factorizations;
-    delta = llt.solve(r);
-    return delta.allFinite();
-  };
-  if (model.has_energy() && cholesky(K)) return true;
-  if (model.has_energy()) {
-    log::debug("contact: the exact tangent is not positive definite: the per-element projected one");
-    SparseMatrix Kp;
-    tangent(xs, B, Kp, true);
-    if (cholesky(Kp)) return true;
-  }
-  llt.invalidate();  // no chord step on an older factor
-  Eigen::SparseLU<SparseMatrix> lu;
-  lu.compute(K);
-  if (lu.info() != Eigen::Success) return false;
-  ++factorizations;
-  delta = lu.solve(r);
-  return delta.allFinite();
-}
-
-bool ContactSolver::Impl::newton_direction(const VectorXd& xs, const std::vector<Eigen::Matrix3d>& B, SparseMatrix& K,
-                                           const VectorXd& r, double rs, VectorXd& delta, double& ds) {
-  Eigen::MatrixXd rhs = r, sol;  // a free obstacle's column c beside r
-  double h = 0;
-  ds = 0;
-  if (free_axis()) {
-    rhs.conservativeResize(Eigen::NoChange, 2);
-    rhs.col(1) = free_border(B, h);
-  }
-  if (opt.linear_body) {
-    // The last factorisation (of a nearby contact state) preconditions CG on the new tangent;
-    // a fresh factorisation only when CG does not converge quickly.
-    if (!free_axis() && llt.valid() && opt.max_reuse_cg > 0 && pcg(K, r, delta)) return true;
-    if (!llt.factorize(K)) return false;
-    ++factorizations;
-    sol = llt.solve(rhs);
-  } else if (chord_now) {
-    const SerialParallelRegions serial;
-    sol = llt.solve(rhs);
-    if (!sol.allFinite()) return false;
-  } else if (!solve_nonlinear(xs, B, K, rhs, sol)) {
-    return false;
-  }
-  delta = sol.col(0);
-  return !free_axis() || eliminate_free(rhs, sol, h, rs, delta, ds);
-}
-
-bool ContactSolver::Impl::step_direction(const VectorXd& xs, const std::vector<Eigen::Matrix3d>& B, SparseMatrix& K,
-                                         const VectorXd& r, double rs, bool in_tail, VectorXd& delta, double& ds) {
-  // The tangent only when a Newton step is taken: a solve converged at its start (a step where no
-  // node touches, the last friction pass) or stopped at max_newton costs no tangent. In the tail, a
-  // chord step on the last factorisation (ContactOptions::chord_ratio); a fresh tangent when it
-  // gives no direction.
-  chord_now = chord_next && in_tail && !opt.linear_body && llt.valid();
-  if (!chord_now) tangent(xs, B, K);
-  if (newton_direction(xs, B, K, r, rs, delta, ds)) return true;
-  if (!chord_now) return false;
-  chord_now = false;
-  tangent(xs, B, K);
-  return newton_direction(xs, B, K, r, rs, delta, ds);
-}
-
 /// The contact solve's half of Newton (tissue/newton_loop.h), friction lag fixed: the iterate, its
 /// residual and potential Π, direction, line search on Π, and what the loop cannot know (a kink of
 /// the wall, the lag refreshed in the tail, a new stick, the Newton budget of a donning).
@@ -196,6 +127,8 @@ class ContactSolver::Impl::Newton final : public tissue::NewtonProblem {
                                : "the tangent is singular";
       return Result::Failed;
     }
+    s_.low_rank_step = false;
+    if (!s_.chord_now) s_.predict_contacts(xs_, st_, B_, K_, r_, rs_, delta_, ds_);
     ++iterations_;
     ++s_.newton_spent;
     return Result::Done;
@@ -203,7 +136,7 @@ class ContactSolver::Impl::Newton final : public tissue::NewtonProblem {
   Result line_search() override {
     const double rn_before = rn_;
     const bool accepted = s_.line_search(xs_, t_, delta_, ds_, r_, rs_, rn_, pi_, st_, th_, B_, conservative_, step_);
-    s_.chord_next = accepted && step_ == 1.0 && rn_ <= s_.opt.chord_ratio * rn_before;
+    s_.chord_next = accepted && step_ == 1.0 && rn_ <= s_.opt.chord_ratio * rn_before && !s_.low_rank_step;
     return accepted ? Result::Done : Result::Failed;  // the loop's message says which
   }
   bool accept_short(tissue::NewtonStop) override { return kink_accepted() || s_.caught(r_, rs_, st_, reason_); }
@@ -284,6 +217,7 @@ bool ContactSolver::Impl::newton(VectorXd& xs, Vec3& t, std::vector<NodeContact>
   at_kink = out.stop == tissue::NewtonStop::Accepted;
   newton_message = out.message;
   if (!out.ok()) log::debug("contact: Newton: {}", out.message);
+  if (!out.ok() && !stopped_on_stick) predict_paused = kPredictPause;  // the retries go without predictions
   return out.ok();
 }
 
@@ -410,6 +344,7 @@ ContactStep ContactSolver::Impl::solve(const Vec3& t_start, bool commit) {
 }
 
 void ContactSolver::Impl::commit_last() {
+  if (predict_paused > 0) --predict_paused;
   if ((last_t - t_conv).squaredNorm() > 0) {
     x_prev = x_conv;
     t_prev = t_conv;

@@ -362,6 +362,9 @@ ContactSolver::ContactSolver(const tissue::MassSpringModel& model, const tissue:
           "contact: augmented Lagrangian tolerance {} must be ≥ 0 (0: the penalty alone)", options.augmented_tol);
   require(std::isfinite(options.chord_ratio) && options.chord_ratio >= 0 && options.chord_ratio < 1,
           "contact: chord ratio {} must be in [0, 1) (0: a fresh tangent every Newton step)", options.chord_ratio);
+  require(std::isfinite(options.predict_contact_m) && options.predict_contact_m >= 0 && options.predict_low_rank_max >= 0,
+          "contact: predicted contacts' depth {} m and low-rank columns {} must be ≥ 0 (0: no prediction)",
+          options.predict_contact_m, options.predict_low_rank_max);
   require(std::isfinite(options.residual_floor_ratio) && options.residual_floor_ratio >= 1,
           "contact: residual floor ratio {} must be ≥ 1 (the floor in E h²)", options.residual_floor_ratio);
   impl_ = std::make_unique<Impl>(model, dofs, std::move(nodes), std::move(areas), obstacle, options);

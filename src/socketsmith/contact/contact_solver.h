@@ -99,6 +99,15 @@ struct ContactOptions {
   /// demo, the thesis's donning: 120 Newton iterations, then the bracket anyway — 30.6 s instead of
   /// 9.9 s), so that body keeps the bracket.
   bool free_push = true;
+  /// Nonlinear body: when Newton's step would take free nodes through the wall by more than this
+  /// [m], their penalties (linearised where they are) join its system and the step is solved again
+  /// (at most twice): the line search no longer cuts the step to a sliver each time the wall reaches
+  /// new nodes. The added penalties are a low-rank change of the factorised tangent, solved through
+  /// that factorisation (Woodbury: one solve with a column per added node's penalty, one on the
+  /// smoothed wall, up to three on a facet's edge) up to predict_low_rank_max columns, by a new
+  /// factorisation beyond. 0: off.
+  double predict_contact_m = 2e-5;
+  int predict_low_rank_max = 96;
 };
 
 /// Contact state of one candidate node.

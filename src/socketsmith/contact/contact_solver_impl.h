@@ -4,6 +4,7 @@
 /// friction terms, their tangent and the CG reuse in contact_solver.cpp; Newton, its line search,
 /// the steps along a path and the pushes in contact_newton.cpp.
 
+#include <array>
 #include <limits>
 #include <string>
 #include <vector>
@@ -25,6 +26,13 @@ constexpr int kStallSteps = 3;            // slivers in a row: Newton has stalle
 /// donning stalled nine times on two to four nodes wrapped over the anterior lip; accepting them
 /// took it from 959 to 592 Newton iterations with the delivered pressures within 0.07 kPa.
 constexpr int kMaxCaughtNodes = 6;
+/// After a Newton solve that fails (a stall, its iterations spent), the next this many committed
+/// steps go without predicted contacts (predict_contacts): the path's retries, where a node caught
+/// at the brim decides, take the steps they took before the prediction (the generated
+/// transfemoral limb of seed 10, 3k, whose open-loop donning stalls at its brim again and again:
+/// 2,498 Newton iterations without predictions, 4,962 with them in the retries too, 3,303 with
+/// this pause).
+constexpr int kPredictPause = 4;
 
 using tissue::SerialParallelRegions;
 
@@ -227,6 +235,27 @@ struct ContactSolver::Impl {
   /// tangent @p K and the residuals @p r, @p rs.
   bool newton_direction(const VectorXd& xs, const std::vector<Eigen::Matrix3d>& B, SparseMatrix& K, const VectorXd& r,
                         double rs, VectorXd& delta, double& ds);
+
+  /// Free nodes (not in @p st's contact, not yet @p added) that the step @p d takes more than
+  /// predict_contact_m through the wall, where the gap linearised at the node foresees it; their
+  /// gap where they are in @p here.
+  std::vector<char> nodes_through_wall(const VectorXd& xs, const std::vector<NodeContact>& st, const VectorXd& d,
+                                       const std::vector<char>& added, std::vector<Gap>& here) const;
+  /// One added penalty's column u of K' = K + U Uᵀ: its (up to three) reduced rows and values.
+  struct PenaltyColumn {
+    std::array<int, 3> row{-1, -1, -1};
+    Vec3 value = Vec3::Zero();
+  };
+  /// @p d = (K + U Uᵀ)⁻¹ @p r2 through llt's factorisation of K (Woodbury); false when not finite.
+  bool solve_low_rank(const std::vector<PenaltyColumn>& U, const VectorXd& r2, VectorXd& d);
+  /// The step @p delta solved again with the penalty of each free node it takes through the wall
+  /// (ContactOptions::predict_contact_m) added, linearised where the node is; false when none is, or
+  /// the step found is no descent direction of Π. Nonlinear body, the obstacle's position given.
+  bool predict_contacts(const VectorXd& xs, const std::vector<NodeContact>& st, const std::vector<Eigen::Matrix3d>& B,
+                        SparseMatrix& K, const VectorXd& r, double rs, VectorXd& delta, double& ds);
+  int predict_paused = 0;       // committed steps left without predicted contacts (after a failed solve)
+  bool low_rank_step = false;   // this Newton step was solved through Woodbury (predict_contacts)
+  bool llt_of_tangent = false;  // llt holds the factorisation of the exact tangent (solve_nonlinear)
 
   /// Newton on the equilibrium at translation t with the friction lag fixed (tissue::run_newton
   /// with its half, Newton, in contact_newton.cpp); updates xs (and t when the obstacle is free

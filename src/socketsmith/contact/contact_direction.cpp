@@ -1,0 +1,211 @@
+// Newton's direction in a contact solve (ContactSolver::Impl, contact_solver_impl.h): the tangent's
+// factorisation (projected, or LU, when it is not positive definite), chord steps on the last
+// factorisation, a free obstacle's bordered system, and the predicted contacts — the penalties of
+// the free nodes the step would take through the wall, solved through the factorisation (Woodbury).
+#include <array>
+#include <cmath>
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/SparseLU>
+
+#include "socketsmith/contact/contact_solver_impl.h"
+#include "socketsmith/core/log.h"
+
+namespace socketsmith::contact {
+
+bool ContactSolver::Impl::solve_nonlinear(const VectorXd& xs, const std::vector<Eigen::Matrix3d>& B, SparseMatrix& K,
+                                          const Eigen::MatrixXd& r, Eigen::MatrixXd& delta) {
+  const SerialParallelRegions serial;
+  const auto cholesky = [&](const SparseMatrix& A) {
+    if (!llt.factorize(A)) return false;
+    ++factorizations;
+    delta = llt.solve(r);
+    return delta.allFinite();
+  };
+  llt_of_tangent = model.has_energy() && cholesky(K);
+  if (llt_of_tangent) return true;
+  if (model.has_energy()) {
+    log::debug("contact: the exact tangent is not positive definite: the per-element projected one");
+    SparseMatrix Kp;
+    tangent(xs, B, Kp, true);
+    if (cholesky(Kp)) return true;
+  }
+  llt.invalidate();  // no chord step on an older factor
+  Eigen::SparseLU<SparseMatrix> lu;
+  lu.compute(K);
+  if (lu.info() != Eigen::Success) return false;
+  ++factorizations;
+  delta = lu.solve(r);
+  return delta.allFinite();
+}
+
+bool ContactSolver::Impl::newton_direction(const VectorXd& xs, const std::vector<Eigen::Matrix3d>& B, SparseMatrix& K,
+                                           const VectorXd& r, double rs, VectorXd& delta, double& ds) {
+  Eigen::MatrixXd rhs = r, sol;  // a free obstacle's column c beside r
+  double h = 0;
+  ds = 0;
+  if (free_axis()) {
+    rhs.conservativeResize(Eigen::NoChange, 2);
+    rhs.col(1) = free_border(B, h);
+  }
+  if (opt.linear_body) {
+    // The last factorisation (of a nearby contact state) preconditions CG on the new tangent;
+    // a fresh factorisation only when CG does not converge quickly.
+    if (!free_axis() && llt.valid() && opt.max_reuse_cg > 0 && pcg(K, r, delta)) return true;
+    if (!llt.factorize(K)) return false;
+    ++factorizations;
+    sol = llt.solve(rhs);
+  } else if (chord_now) {
+    const SerialParallelRegions serial;
+    sol = llt.solve(rhs);
+    if (!sol.allFinite()) return false;
+  } else if (!solve_nonlinear(xs, B, K, rhs, sol)) {
+    return false;
+  }
+  delta = sol.col(0);
+  return !free_axis() || eliminate_free(rhs, sol, h, rs, delta, ds);
+}
+
+bool ContactSolver::Impl::step_direction(const VectorXd& xs, const std::vector<Eigen::Matrix3d>& B, SparseMatrix& K,
+                                         const VectorXd& r, double rs, bool in_tail, VectorXd& delta, double& ds) {
+  // The tangent only when a Newton step is taken: a solve converged at its start (a step where no
+  // node touches, the last friction pass) or stopped at max_newton costs no tangent. In the tail, a
+  // chord step on the last factorisation (ContactOptions::chord_ratio); a fresh tangent when it
+  // gives no direction.
+  chord_now = chord_next && in_tail && !opt.linear_body && llt.valid();
+  if (!chord_now) tangent(xs, B, K);
+  if (newton_direction(xs, B, K, r, rs, delta, ds)) return true;
+  if (!chord_now) return false;
+  chord_now = false;
+  tangent(xs, B, K);
+  return newton_direction(xs, B, K, r, rs, delta, ds);
+}
+
+std::vector<char> ContactSolver::Impl::nodes_through_wall(const VectorXd& xs, const std::vector<NodeContact>& st,
+                                                          const VectorXd& d, const std::vector<char>& added,
+                                                          std::vector<Gap>& here) const {
+  const std::vector<int>& ri = dofs.reduced_index();
+  const int n_nodes = static_cast<int>(nodes.size());
+  std::vector<char> hit(nodes.size(), 0);
+#pragma omp parallel for schedule(dynamic, 64)
+  for (int i = 0; i < n_nodes; ++i) {
+    if (st[i].active || added[i]) continue;
+    const int nd = nodes[i];
+    Vec3 step = Vec3::Zero();
+    for (int c = 0; c < 3; ++c)
+      if (ri[3 * nd + c] >= 0) step[c] = d[ri[3 * nd + c]];
+    const Vec3 p = xs.segment<3>(3 * nd);
+    const QueryCache& qc = qcache[i];
+    if (qc.clearance > 0 && qc.clearance > (p - qc.p).norm() + step.norm()) continue;  // cannot reach it
+    const Gap g1 = wall_gap(i, p + step);
+    if (!g1.valid || g1.gap_m >= -opt.predict_contact_m) continue;
+    // Only where the gap linearised at the node foresees the penetration (not across the brim's
+    // lip or a fold of the wall, where the linearised penalty would pull the node the wrong way).
+    const Gap g0 = wall_gap(i, p);
+    const double g_lin = g0.gap_m + g0.gradient_norm * g0.normal.dot(step);
+    if (!g0.valid || std::abs(g_lin - g1.gap_m) > 0.5 * std::abs(g1.gap_m)) continue;
+    here[i] = g0;
+    hit[i] = 1;
+  }
+  return hit;
+}
+
+bool ContactSolver::Impl::solve_low_rank(const std::vector<PenaltyColumn>& U, const VectorXd& r2, VectorXd& d) {
+  // (K + U Uᵀ)⁻¹ r = y − Z (I + Uᵀ Z)⁻¹ Uᵀ y with y = K⁻¹ r, Z = K⁻¹ U: one solve with m + 1
+  // right-hand sides and an m × m system instead of a factorisation.
+  const int m = static_cast<int>(U.size());
+  Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(r2.size(), m + 1);
+  rhs.col(0) = r2;
+  for (int j = 0; j < m; ++j)
+    for (int c = 0; c < 3; ++c)
+      if (U[j].row[c] >= 0) rhs(U[j].row[c], j + 1) = U[j].value[c];
+  Eigen::MatrixXd X;
+  {
+    const SerialParallelRegions serial;
+    X = llt.solve(rhs);
+  }
+  const auto ut = [&](int j, int col) {  // u_jᵀ X(:, col)
+    double sum = 0;
+    for (int c = 0; c < 3; ++c)
+      if (U[j].row[c] >= 0) sum += U[j].value[c] * X(U[j].row[c], col);
+    return sum;
+  };
+  Eigen::MatrixXd S = Eigen::MatrixXd::Identity(m, m);
+  Eigen::VectorXd uy(m);
+  for (int j = 0; j < m; ++j) {
+    uy[j] = ut(j, 0);
+    for (int q = 0; q < m; ++q) S(j, q) += ut(j, q + 1);
+  }
+  VectorXd d2 = X.col(0) - X.rightCols(m) * S.ldlt().solve(uy);
+  if (!d2.allFinite()) return false;
+  d = std::move(d2);
+  return true;
+}
+
+bool ContactSolver::Impl::predict_contacts(const VectorXd& xs, const std::vector<NodeContact>& st,
+                                           const std::vector<Eigen::Matrix3d>& B, SparseMatrix& K, const VectorXd& r,
+                                           double rs, VectorXd& delta, double& ds) {
+  if (opt.linear_body || free_axis() || !(opt.predict_contact_m > 0) || predict_paused > 0) return false;
+  const std::vector<int>& ri = dofs.reduced_index();
+  const int n_nodes = static_cast<int>(nodes.size());
+  // The added penalties k A ∇g∇gᵀ (rank one on the smoothed wall; up to three on a facet's edge) as
+  // the columns U of K' = K + U Uᵀ, their forces −k A g ∇g in r'.
+  std::vector<PenaltyColumn> U;
+  std::vector<Eigen::Matrix3d> extra(nodes.size(), Eigen::Matrix3d::Zero());
+  std::vector<char> added(nodes.size(), 0);
+  std::vector<Gap> here(nodes.size());
+  VectorXd r2 = r, d = delta;
+  bool any = false;
+  for (int round = 0; round < 2; ++round) {
+    const std::vector<char> hit = nodes_through_wall(xs, st, d, added, here);
+    int n_hit = 0;
+    for (int i = 0; i < n_nodes; ++i) {
+      if (!hit[i]) continue;
+      const Gap& g0 = here[i];
+      const double kA = k * areas[i];
+      extra[i] = kA * g0.stiffness_shape;
+      const Vec3 f = -kA * g0.gap_m * g0.gradient_norm * g0.normal;
+      PenaltyColumn col;
+      for (int c = 0; c < 3; ++c) {
+        col.row[c] = ri[3 * nodes[i] + c];
+        if (col.row[c] >= 0) r2[col.row[c]] += f[c];
+      }
+      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(extra[i]);
+      for (int j = 0; j < 3; ++j)
+        if (eig.eigenvalues()[j] > 1e-9 * eig.eigenvalues()[2]) {
+          col.value = std::sqrt(eig.eigenvalues()[j]) * eig.eigenvectors().col(j);
+          U.push_back(col);
+        }
+      added[i] = 1;
+      ++n_hit;
+    }
+    if (n_hit == 0) break;
+    if (llt_of_tangent && static_cast<int>(U.size()) <= opt.predict_low_rank_max) {
+      if (!solve_low_rank(U, r2, d)) break;
+      low_rank_step = true;  // the factorisation lacks the added penalties: no chord step on it next
+    } else {
+      // Too many, or the factor is not K's: K' factorised (its values added in place).
+      for (int i = 0; i < n_nodes; ++i)
+        if (added[i])
+          for (int a = 0; a < 3; ++a)
+            for (int b = 0; b < 3; ++b)
+              if (body_block_at[9 * i + 3 * b + a] >= 0) K.valuePtr()[body_block_at[9 * i + 3 * b + a]] += extra[i](a, b);
+      std::vector<Eigen::Matrix3d> B2 = B;
+      for (int i = 0; i < n_nodes; ++i) B2[i] += extra[i];
+      VectorXd d2;
+      double ds2 = 0;
+      if (!newton_direction(xs, B2, K, r2, rs, d2, ds2)) break;
+      for (int i = 0; i < n_nodes; ++i) extra[i].setZero();  // in K and its factorisation now
+      U.clear();
+      d = std::move(d2);
+    }
+    log::debug("contact: {} free nodes the step takes through the wall: solved again with them", n_hit);
+    any = true;
+  }
+  if (!any || !(-r.dot(d) < 0)) return false;  // no descent direction of Π: Newton's own step
+  delta = std::move(d);
+  ds = 0;
+  return true;
+}
+
+}  // namespace socketsmith::contact
