@@ -154,6 +154,7 @@ bool ContactSolver::Impl::predict_contacts(const VectorXd& xs, const std::vector
   std::vector<Eigen::Matrix3d> extra(nodes.size(), Eigen::Matrix3d::Zero());
   std::vector<char> added(nodes.size(), 0);
   std::vector<Gap> here(nodes.size());
+  std::vector<Eigen::Matrix3d> B2;  // B with the penalties already in K's factorisation (refactorised)
   VectorXd r2 = r, d = delta;
   bool any = false;
   for (int round = 0; round < 2; ++round) {
@@ -184,13 +185,10 @@ bool ContactSolver::Impl::predict_contacts(const VectorXd& xs, const std::vector
       if (!solve_low_rank(U, r2, d)) break;
       low_rank_step = true;  // the factorisation lacks the added penalties: no chord step on it next
     } else {
-      // Too many, or the factor is not K's: K' factorised (its values added in place).
-      for (int i = 0; i < n_nodes; ++i)
-        if (added[i])
-          for (int a = 0; a < 3; ++a)
-            for (int b = 0; b < 3; ++b)
-              if (body_block_at[9 * i + 3 * b + a] >= 0) K.valuePtr()[body_block_at[9 * i + 3 * b + a]] += extra[i](a, b);
-      std::vector<Eigen::Matrix3d> B2 = B;
+      // Too many, or the factor is not K's: K' factorised (its values added in place; B2 keeps every
+      // round's penalties for a projected tangent built from the blocks).
+      add_node_blocks(extra, K);
+      if (B2.empty()) B2 = B;
       for (int i = 0; i < n_nodes; ++i) B2[i] += extra[i];
       VectorXd d2;
       double ds2 = 0;

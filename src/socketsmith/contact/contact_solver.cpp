@@ -211,6 +211,11 @@ void ContactSolver::Impl::tangent(const VectorXd& xs, const std::vector<Eigen::M
   for (Eigen::Index q = 0; q < K.nonZeros(); ++q) v[q] = -v[q];
   // Every candidate node's own 3×3 block lies in the body's pattern (the node is in an element).
   if (body_block_at.empty()) body_block_at = block_positions(K);
+  add_node_blocks(blocks, K);
+}
+
+void ContactSolver::Impl::add_node_blocks(const std::vector<Eigen::Matrix3d>& blocks, SparseMatrix& K) const {
+  double* v = K.valuePtr();
   for (size_t i = 0; i < nodes.size(); ++i)
     for (int a = 0; a < 3; ++a)
       for (int b = 0; b < 3; ++b)

@@ -116,6 +116,9 @@ struct ContactSolver::Impl {
   /// never changes and CHOLMOD orders it once. Linear body: K₀'s values are copied into that fixed
   /// pattern and the blocks added in place (block_at: where each block entry lives).
   void tangent(const VectorXd& xs, const std::vector<Eigen::Matrix3d>& blocks, SparseMatrix& K, bool psd_body = false);
+  /// Adds each candidate node's 3×3 block of @p blocks into the nonlinear body's tangent @p K (in
+  /// place, at body_block_at).
+  void add_node_blocks(const std::vector<Eigen::Matrix3d>& blocks, SparseMatrix& K) const;
   SparseMatrix J_body;               // the body's Jacobian (nonlinear body), its pattern reused
   std::vector<Eigen::Index> body_block_at;  // where each candidate block entry lives in K (nonlinear body)
 
