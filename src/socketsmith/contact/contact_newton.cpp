@@ -157,7 +157,7 @@ class ContactSolver::Impl::Newton final : public tissue::NewtonProblem {
     if (tiny_steps_ >= kStallSteps && s_.caught(r_, rs_, st_, reason_)) return Next::Accept;
     if (tiny_steps_ >= kStallSteps && rn_ > s_.kink_tolerance(st_)) {
       reason_ = fmt::format("stalled: the line search cut the step below {:.3g} of Newton's {} times in a row (residual "
-                            "{:.3g} N; {})", kTinyStep, kStallSteps, rn_, s_.residual_holders(r_, st_));
+                            "{:.3g} N; {})", kTinyStep, kStallSteps, rn_, s_.residual_holders(xs_, r_, st_));
       return Next::Stop;
     }
     if (s_.refresh_lag_in_newton(st_, rn_, relags_)) {

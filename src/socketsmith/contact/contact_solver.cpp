@@ -67,7 +67,8 @@ std::vector<double> ContactSolver::Impl::node_residuals(const VectorXd& r) const
   return res;
 }
 
-std::string ContactSolver::Impl::residual_holders(const VectorXd& r, const std::vector<NodeContact>& st) const {
+std::string ContactSolver::Impl::residual_holders(const VectorXd& xs, const VectorXd& r,
+                                                  const std::vector<NodeContact>& st) const {
   const std::vector<double> res = node_residuals(r);
   std::vector<std::pair<double, size_t>> by;
   for (size_t c = 0; c < nodes.size(); ++c) by.emplace_back(res[static_cast<size_t>(nodes[c])], c);
@@ -76,9 +77,16 @@ std::string ContactSolver::Impl::residual_holders(const VectorXd& r, const std::
   std::string out;
   for (size_t j = 0; j < top; ++j) {
     const size_t c = by[j].second;
-    const std::string touch = st[c].active ? fmt::format("{:.0f} µm into the wall, f_n {:.3g} N", -st[c].gap_m * 1e6,
-                                                         st[c].normal_force_n)
-                                           : std::string("not in contact");
+    std::string touch;
+    if (st[c].active) {
+      touch = fmt::format("{:.0f} µm into the wall, f_n {:.3g} N", -st[c].gap_m * 1e6, st[c].normal_force_n);
+    } else {  // where it is: short of the wall, or behind it where no face holds it (outside their cone)
+      const Gap g = wall_gap(c, xs.segment<3>(3 * nodes[c]));
+      touch = g.triangle < 0 ? std::string("not in contact, no wall near")
+              : g.gap_m > 0  ? fmt::format("not in contact, {:.0f} µm from the wall", g.gap_m * 1e6)
+                  : fmt::format("not in contact, {:.0f} µm behind the wall{}", -g.gap_m * 1e6,
+                                g.valid ? "" : " where no face holds it");
+    }
     out += fmt::format("{}node {} unbalanced by {:.3g} N ({}, friction {:.3g} N{}, lagged f_n {:.3g} N)", j ? "; " : "",
                        nodes[c], by[j].first, touch, st[c].tangential_n.norm(), st[c].sliding ? " sliding" : "",
                        lag_fn[c]);

@@ -157,7 +157,7 @@ struct ContactSolver::Impl {
   std::vector<double> node_residuals(const VectorXd& r) const;
   /// The three candidate nodes holding most of the residual @p r, with their contact state in @p st:
   /// what a stalled Newton is stuck on (its message names them).
-  std::string residual_holders(const VectorXd& r, const std::vector<NodeContact>& st) const;
+  std::string residual_holders(const VectorXd& xs, const VectorXd& r, const std::vector<NodeContact>& st) const;
 
   /// Nodes of @p st sticking (in contact, friction below its limit and not zero) that were sliding
   /// or free at the last committed step.

@@ -19,6 +19,10 @@ namespace {
 constexpr double kLipRadiusMin = 0.001, kLipRadiusMax = 0.005;
 constexpr double kLipReach = 0.02;
 constexpr double kLipBlendAngle = 0.26;  // [rad] ~15°: 0.65 mm past the rim on a 2.5 mm lip
+/// [rad] ~6°: below the rim behind the centre line, the lip's energy hands back to the wall's over
+/// this angle (RigidSocket::with_lip); under a folded rim's levelled lip the wall's nodes lie
+/// atan(r / depth) ≥ 14° from the rim's level at depths ≤ 10 mm.
+constexpr double kLipHandBackAngle = 0.1;
 
 /// Past the rim is out of the socket, never down into it: where the wall's last ring folds out and
 /// down (a steep trim line, a curled brim) the direction past the rim @p b tilts below the level,
@@ -196,22 +200,43 @@ Gap RigidSocket::with_lip(const Vec3& q, Gap wall, bool on_rim) const {
   // little. Behind the centre line (a node hanging over the outer side of the lip) only the lip
   // counts past the rim: the wall's extension would hold it millimetres deep. A fade of the wall's
   // contact to nothing past the rim made nodes pressed on the rim feel the wall's extension hard,
-  // and Newton crawled (AmpScan's limb: docs/contact.md).
+  // and Newton crawled (AmpScan's limb: docs/contact.md). Below the rim behind the centre line the
+  // mirror image: the lip's energy hands back to the wall's from the rim's level over the same
+  // angle, so that a node on the lip's outer side that moves below the rim's level meets no jump
+  // (the wall's gap there is ≈ 2|a| deeper than the lip's: the generated transfemoral limb of seed
+  // 10 stalled on a node under the levelled lip of its brim, 2.4 mm behind the centre line, whose
+  // gap went from −0.10 to −3.85 mm for a step of 3 nm). Over a narrower angle than past the rim
+  // (kLipHandBackAngle): where a folded rim's frame was levelled (level_lip_frame), "below the
+  // rim" is the wall under the fold, which must hold a node pressed into it.
   const std::optional<LipHit> lip = lip_hit(q);
-  if (!lip || lip->past_m <= 0) {
+  const Vec3 d = lip ? Vec3(q - lip->centre) : Vec3::Zero();
+  const double a = lip ? d.dot(lip->normal) : 0.0, s = lip ? lip->past_m : 0.0;
+  const bool behind_below = lip && s <= 0 && a < 0;
+  if (!lip || (s <= 0 && !behind_below)) {
     if (!lip && on_rim) wall.valid = false;  // far past the rim: nothing to touch
     return wall;
   }
+  const double rr = a * a + s * s;
+  // φ: the angle about the centre line from the rim's level on the cavity's side (in (0, π) past
+  // the rim); below it behind the centre line, φ + π from the rim's level on the outer side.
+  const double phi = behind_below ? std::atan2(-s, -a) : std::atan2(s, a);
+  const double angle = behind_below ? kLipHandBackAngle : kLipBlendAngle;
+  const double tb = std::min(phi / angle, 1.0);
+  const double smooth = tb * tb * (3 - 2 * tb);
+  // The hand-back near the lip only (its distance D from the centre line within 1.5 r, fading out
+  // by 2.5 r): under a folded rim's levelled lip the wall holds nodes far below the centre line
+  // in a narrow cone about it (the test of a folded rim: 16 mm below, 1 mm across).
+  const double D = std::sqrt(rr), tf = std::clamp((2.5 * lip_radius_ - D) / lip_radius_, 0.0, 1.0);
+  const double near = behind_below ? tf * tf * (3 - 2 * tf) : 1.0;
+  const double beta = behind_below ? near * (1 - smooth) : smooth;
+  if (behind_below && beta <= 0) return wall;
   Gap out = wall;
   out.valid = true;
   out.graded = true;
-  const Vec3 d = q - lip->centre;
-  const double a = d.dot(lip->normal), s = lip->past_m, rr = a * a + s * s;
-  const double phi = std::atan2(s, a);  // in (0, π): s > 0
-  const double tb = std::min(phi / kLipBlendAngle, 1.0);
-  const double beta = tb * tb * (3 - 2 * tb);
-  const Vec3 dbeta = tb < 1 ? Vec3((6 * tb * (1 - tb) / kLipBlendAngle) * (a * lip->beyond - s * lip->normal) / rr)
-                            : Vec3::Zero();
+  const double dsmooth = tb < 1 ? 6 * tb * (1 - tb) / angle : 0.0;
+  Vec3 dbeta = ((behind_below ? -near * dsmooth : dsmooth) / rr) * (a * lip->beyond - s * lip->normal);
+  if (behind_below && tf > 0 && tf < 1 && D > 0)  // d(near)/dq = −6 tf (1 − tf) / r · (d / D)
+    dbeta += (1 - smooth) * (-6 * tf * (1 - tf) / lip_radius_) * (a * lip->normal + s * lip->beyond) / D;
   const double pw = std::min(wall.gap_m, 0.0), pr = std::min(lip->gap_m, 0.0);
   const Vec3 grad_w = wall.gradient_norm * wall.normal, grad_r = lip->direction;
   const double G = (1 - beta) * pw * pw + beta * pr * pr;  // energy / (½ k A)
