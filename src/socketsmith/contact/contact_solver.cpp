@@ -175,7 +175,13 @@ void ContactSolver::Impl::query_gaps(const VectorXd& xs, const Vec3& t) {
     c.p = p;
     c.t = t;
     // (The smoothed wall's gap is not an exact distance: its slope |∇gap| may exceed 1 a little.)
-    c.clearance = gaps[i].valid && gaps[i].gap_m > 0 ? gaps[i].gap_m / (1.5 * std::max(gaps[i].gradient_norm, 1.0)) : -1.0;
+    // Only the facets' gap, a distance, bounds how far the node is from contact: the smoothed
+    // wall's and the lip's (graded) are not distances and may switch between the wall's and the
+    // lip's value where the lip's blend ends (a node cached at +0.6 mm was 57 µm deep a step
+    // later, and Newton's reference potential had left its penalty out: seed 10's stalls).
+    c.clearance = gaps[i].valid && !gaps[i].graded && gaps[i].gap_m > 0
+                      ? gaps[i].gap_m / (1.5 * std::max(gaps[i].gradient_norm, 1.0))
+                      : -1.0;
   }
 }
 

@@ -61,7 +61,7 @@ struct ContactSolver::Impl {
   std::vector<char> was_active;  // active at the last converged step
   struct QueryCache {
     Vec3 p = Vec3::Zero(), t = Vec3::Zero();
-    double clearance = -1.0;  // gap of the last query when the node was in the cavity, else −1
+    double clearance = -1.0;  // the facets' gap (a distance) / 1.5 of the last query in the cavity, else −1
   };
   std::vector<QueryCache> qcache;  // per candidate node
   std::vector<Gap> gaps;           // scratch of evaluate()
@@ -101,8 +101,9 @@ struct ContactSolver::Impl {
                     bool trial_point = false);
 
   /// The gap of every candidate node at @p xs against the obstacle at @p t (in `gaps`), in
-  /// parallel. A node whose last query found it in the cavity with a clearance larger than how far
-  /// it and the obstacle have moved since cannot have reached the wall: no query.
+  /// parallel. A node whose last query found it in the cavity, beyond the smoothed wall and the lip
+  /// (the facets' gap, a distance), with a clearance larger than how far it and the obstacle have
+  /// moved since cannot have reached the wall: no query.
   void query_gaps(const VectorXd& xs, const Vec3& t);
   /// Friction of candidate node @p i at @p p: a node that carried a normal force at the lag
   /// (μ f̄ > 0) resists slip relative to the wall with an elastic stick (stiffness kT) capped at μ f̄
