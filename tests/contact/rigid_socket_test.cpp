@@ -409,6 +409,29 @@ TEST(RigidSocket, a_node_on_the_lips_outer_side_goes_below_the_rim_without_a_jum
       }
     }
   }
+  // Where the hand-back fades out with the distance D from the centre line (1.5–2.5 r; here 4.5 mm
+  // behind it, within 0.45 mm below the rim: inside the 6° hand-back): the lip's share lifts the gap
+  // above the wall's, and the force is still the energy's gradient, the fade's slope included.
+  double worst_fade = 0;
+  int lifted = 0;
+  const double wall_here = -(r + 0.0045) * std::cos(std::numbers::pi / 48);
+  for (int i = 0; i <= 50; ++i) {
+    const double z = -0.00002 - 0.0004 * i / 50;
+    const Vec3 p = (ri + r + 0.0045) * dir + Vec3(0, 0, H + z);
+    const Gap g = s.gap(p);
+    if (!(g.valid && g.gap_m < 0)) continue;
+    if (g.gap_m > wall_here + 1e-5) ++lifted;
+    const Vec3 force = -g.gap_m * g.gradient_norm * g.normal;
+    for (int a = 0; a < 3; ++a) {
+      const double h = 1e-8;
+      const Vec3 e3 = Vec3::Unit(a);
+      const double fd = -(energy(p + h * e3) - energy(p - h * e3)) / (2 * h);
+      worst_fade = std::max(worst_fade, std::abs(fd - force[a]) / 1e-3);
+    }
+  }
+  std::cout << "force error where the hand-back fades " << worst_fade << " (" << lifted << " of 51 points lifted)\n";
+  EXPECT_GT(lifted, 10);
+  EXPECT_LT(worst_fade, 1e-4);
   const Gap deep = s.gap((ri + behind) * dir + Vec3(0, 0, H - 0.003));
   std::cout << "energy step " << worst_step << ", force error " << worst_fd << ", gap 3 mm below the rim "
             << deep.gap_m << " m\n";
