@@ -380,6 +380,18 @@ TEST(RigidSocket, a_node_on_the_lips_outer_side_goes_below_the_rim_without_a_jum
     const Gap g = s.gap(p);
     return g.valid && g.gap_m < 0 ? 0.5 * g.gap_m * g.gap_m : 0.0;
   };
+  // The force −gap ∇gap against the central difference of ½ gap², relative to a gap of 1 mm.
+  const auto force_error = [&](const Vec3& p, const Gap& g) {
+    const Vec3 force = -g.gap_m * g.gradient_norm * g.normal;
+    double worst = 0;
+    for (int a = 0; a < 3; ++a) {
+      const double h = 1e-8;
+      const Vec3 e3 = Vec3::Unit(a);
+      const double fd = -(energy(p + h * e3) - energy(p - h * e3)) / (2 * h);
+      worst = std::max(worst, std::abs(fd - force[a]) / 1e-3);
+    }
+    return worst;
+  };
   // 4 mm behind the inner wall (1.5 mm behind the lip's centre line), from 2 mm above the rim to
   // 3 mm below it, in steps of 0.5 µm.
   const Vec3 dir(std::cos(4 * std::numbers::pi / 48), std::sin(4 * std::numbers::pi / 48), 0);
@@ -399,15 +411,7 @@ TEST(RigidSocket, a_node_on_the_lips_outer_side_goes_below_the_rim_without_a_jum
     }
     // (At the rim's level the hand-back starts: the energy is C¹ there, its curvature jumps, and a
     // central difference across it is off by h times that curvature.)
-    if (i % 20 == 0 && g.valid && g.gap_m < 0 && std::abs(z) > 1e-6) {
-      const Vec3 force = -g.gap_m * g.gradient_norm * g.normal;
-      for (int a = 0; a < 3; ++a) {
-        const double h = 1e-8;
-        const Vec3 e3 = Vec3::Unit(a);
-        const double fd = -(energy(p + h * e3) - energy(p - h * e3)) / (2 * h);
-        worst_fd = std::max(worst_fd, std::abs(fd - force[a]) / 1e-3);
-      }
-    }
+    if (i % 20 == 0 && g.valid && g.gap_m < 0 && std::abs(z) > 1e-6) worst_fd = std::max(worst_fd, force_error(p, g));
   }
   // Where the hand-back fades out with the distance D from the centre line (1.5–2.5 r; here 4.5 mm
   // behind it, within 0.45 mm below the rim: inside the 6° hand-back): the lip's share lifts the gap
@@ -421,13 +425,7 @@ TEST(RigidSocket, a_node_on_the_lips_outer_side_goes_below_the_rim_without_a_jum
     const Gap g = s.gap(p);
     if (!(g.valid && g.gap_m < 0)) continue;
     if (g.gap_m > wall_here + 1e-5) ++lifted;
-    const Vec3 force = -g.gap_m * g.gradient_norm * g.normal;
-    for (int a = 0; a < 3; ++a) {
-      const double h = 1e-8;
-      const Vec3 e3 = Vec3::Unit(a);
-      const double fd = -(energy(p + h * e3) - energy(p - h * e3)) / (2 * h);
-      worst_fade = std::max(worst_fade, std::abs(fd - force[a]) / 1e-3);
-    }
+    worst_fade = std::max(worst_fade, force_error(p, g));
   }
   std::cout << "force error where the hand-back fades " << worst_fade << " (" << lifted << " of 51 points lifted)\n";
   EXPECT_GT(lifted, 10);
