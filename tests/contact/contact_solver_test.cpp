@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <iostream>
 
 #include "socketsmith/contact/contact_solver.h"
 #include "socketsmith/core/errors.h"
@@ -252,6 +253,44 @@ TEST(ContactCube, a_failed_solve_says_why_in_one_line) {
   EXPECT_THAT(st.message, ::testing::HasSubstr("contact solve did not converge after"));
   EXPECT_THAT(st.message, ::testing::HasSubstr(": not converged after 1 iterations (residual"));
   EXPECT_EQ(st.message.find('\n'), std::string::npos);
+}
+
+// A wall whose gap jumps: 40 µm deeper once a node is 2 µm in (a stand-in for the brim's lip,
+// whose steep hand-back stalled seed 10 and AmpScan's scan). The box pressing the cube 4 mm down
+// wants its top ~3 µm in: each node's energy rises by ½ k A ((g + J)² − g²) across the jump, and
+// Newton's step past it is cut to slivers.
+class JumpingWall : public Obstacle {
+ public:
+  static constexpr double kAt = 2e-6, kJump = 4e-5;
+  Gap gap(const Vec3& p) const override {
+    Gap g;
+    g.valid = true;
+    g.normal = Vec3(0, 0, -1);
+    g.gap_m = (p - Vec3(0, 0, ContactCube::L) - translation()).dot(g.normal);
+    if (g.gap_m < -kAt) g.gap_m -= kJump;
+    g.point = p - g.gap_m * g.normal;
+    g.stiffness_shape = g.normal * g.normal.transpose();
+    return g;
+  }
+};
+
+// A stall's message names the node whose contact energy departs most from Newton's quadratic model
+// over the step the line search cut: the nodes that hold the residual need not be the ones that
+// block the line search (on seed 10 and AmpScan's scan they were not).
+TEST(ContactCube, a_stall_names_the_node_that_breaks_newtons_model) {
+  NeoHookeanCube k;
+  auto& [c, model, dofs, box, co] = k;
+  co.friction = 0;
+  co.kink_rel_tol = co.rel_tol;  // no acceptance at a kink
+  JumpingWall wall;
+  ContactSolver solver(model, dofs, c.top, c.top_area, wall, co);
+  const ContactStep st = solver.move_to(Vec3(0, 0, -0.004));
+  EXPECT_FALSE(st.converged);
+  EXPECT_THAT(st.message, ::testing::HasSubstr("stalled: the line search cut the step"));
+  EXPECT_THAT(st.message, ::testing::HasSubstr("Newton's model broke most at node "));
+  EXPECT_THAT(st.message, ::testing::MatchesRegex(".*its gap -[0-9]+ → -[4-9][0-9] µm.*"));
+  EXPECT_EQ(st.message.find('\n'), std::string::npos);
+  std::cout << st.message << "\n";
 }
 
 // The contact's residual tolerance is rel_tol · max(Σ |f_contact|, residual_floor_ratio · E h²):

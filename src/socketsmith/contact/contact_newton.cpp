@@ -157,7 +157,8 @@ class ContactSolver::Impl::Newton final : public tissue::NewtonProblem {
     if (tiny_steps_ >= kStallSteps && s_.caught(r_, rs_, st_, reason_)) return Next::Accept;
     if (tiny_steps_ >= kStallSteps && rn_ > s_.kink_tolerance(st_)) {
       reason_ = fmt::format("stalled: the line search cut the step below {:.3g} of Newton's {} times in a row (residual "
-                            "{:.3g} N; {})", kTinyStep, kStallSteps, rn_, s_.residual_holders(xs_, r_, st_));
+                            "{:.3g} N; {}{})", kTinyStep, kStallSteps, rn_, s_.residual_holders(xs_, r_, st_),
+                            model_breaker());
       return Next::Stop;
     }
     if (s_.refresh_lag_in_newton(st_, rn_, relags_)) {
@@ -174,6 +175,18 @@ class ContactSolver::Impl::Newton final : public tissue::NewtonProblem {
   std::string stop_reason() const override { return reason_; }
 
  private:
+  /// "; " and the node whose contact energy departs most from Newton's model over the step the line
+  /// search cut last (twice the sliver it took, from the iterate before it), if one does.
+  std::string model_breaker() {
+    if (pi_history_.size() < 2) return {};
+    VectorXd before = xs_;
+    s_.dofs.add_expanded(-step_ * delta_, before);
+    const Vec3 t_before = t_ - step_ * ds_ * s_.free_dir;
+    const double decrease = 2 * (pi_history_[pi_history_.size() - 2] - pi_);
+    const std::string b = s_.model_breaker(before, t_before, delta_, ds_, 2 * step_, decrease);
+    s_.obstacle.set_translation(t_);
+    return b.empty() ? b : "; " + b;
+  }
   /// The residual is within what a node on a kink of the wall leaves (ContactOptions::kink_rel_tol);
   /// then the message says so.
   bool kink_accepted() {

@@ -94,6 +94,49 @@ std::string ContactSolver::Impl::residual_holders(const VectorXd& xs, const Vect
   return out;
 }
 
+std::string ContactSolver::Impl::model_breaker(const VectorXd& xs, const Vec3& t, const VectorXd& delta, double ds,
+                                               double a, double predicted_j) {
+  VectorXd xa = xs;
+  dofs.add_expanded(a * delta, xa);
+  const Vec3 ta = t + a * ds * free_dir;
+  struct Term {
+    double energy = 0;
+    Vec3 force = Vec3::Zero();
+    Eigen::Matrix3d stiffness = Eigen::Matrix3d::Zero();
+    double gap_m = 0;
+  };
+  const auto term = [&](size_t i, const Vec3& p, const Vec3& at) {
+    obstacle.set_translation(at);
+    Term tm;
+    const Gap g = wall_gap(i, p);
+    const PenaltyTerm pen = penalty_term(g, k * areas[i], alm[i]);
+    tm.gap_m = g.gap_m;
+    tm.energy = pen.active ? pen.term.energy : 0.0;
+    tm.force = pen.term.force;
+    tm.stiffness = pen.term.stiffness;
+    NodeContact s;
+    Vec3 th;
+    tm.energy += friction_term(i, p, at, s, th, tm.force, tm.stiffness);
+    return tm;
+  };
+  double worst = 0;
+  std::string out;
+  for (size_t i = 0; i < nodes.size(); ++i) {
+    const Vec3 p0 = xs.segment<3>(3 * nodes[i]), p1 = xa.segment<3>(3 * nodes[i]);
+    const Vec3 d = (p1 - p0) - (ta - t);  // the node's move relative to the wall
+    const Term t0 = term(i, p0, t), t1 = term(i, p1, ta);
+    if (t0.energy == 0 && t1.energy == 0) continue;
+    const double err = (t1.energy - t0.energy) - (-t0.force.dot(d) + 0.5 * d.dot(t0.stiffness * d));
+    if (std::abs(err) <= worst) continue;
+    worst = std::abs(err);
+    out = fmt::format("Newton's model broke most at node {}: its contact energy {:.3g} J off the model over a move of "
+                      "{:.3g} µm, its gap {:.0f} → {:.0f} µm",
+                      nodes[i], err, d.norm() * 1e6, t0.gap_m * 1e6, t1.gap_m * 1e6);
+  }
+  obstacle.set_translation(t);
+  return worst > 0.01 * std::abs(predicted_j) ? out : std::string();
+}
+
 double ContactSolver::Impl::free_residual(const std::vector<NodeContact>& st) const {
   if (!free_axis()) return 0.0;
   double on_nodes = 0;

@@ -159,6 +159,14 @@ struct ContactSolver::Impl {
   /// The three candidate nodes holding most of the residual @p r, with their contact state in @p st:
   /// what a stalled Newton is stuck on (its message names them).
   std::string residual_holders(const VectorXd& xs, const VectorXd& r, const std::vector<NodeContact>& st) const;
+  /// The candidate node whose contact energy (penalty and friction) at the step @p a along
+  /// (@p delta, @p ds) from (@p xs, @p t) is furthest from Newton's quadratic model of it at
+  /// (xs, t) — its force and stiffness there: what blocks a line search that cuts its steps to
+  /// slivers (a jump or a steep ramp of the gap; the nodes holding the residual are often others).
+  /// Empty when no node's term departs from its model by more than 1 % of the step's predicted
+  /// decrease @p predicted_j. The obstacle is left at @p t.
+  std::string model_breaker(const VectorXd& xs, const Vec3& t, const VectorXd& delta, double ds, double a,
+                            double predicted_j);
 
   /// Nodes of @p st sticking (in contact, friction below its limit and not zero) that were sliding
   /// or free at the last committed step.
