@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <iostream>
 
 #include "socketsmith/contact/contact_solver.h"
@@ -255,25 +256,36 @@ TEST(ContactCube, a_failed_solve_says_why_in_one_line) {
   EXPECT_EQ(st.message.find('\n'), std::string::npos);
 }
 
-// A wall whose gap jumps: 40 µm deeper once a node is 2 µm in (a stand-in for the brim's lip,
-// whose steep hand-back stalled seed 10 and AmpScan's scan). The box pressing the cube 4 mm down
-// wants its top ~3 µm in: each node's energy rises by ½ k A ((g + J)² − g²) across the jump, and
-// Newton's step past it is cut to slivers.
-class JumpingWall : public Obstacle {
+// A plane over the cube's top, @p clear above it, whose gap is @p deeper smaller wherever
+// @p where(q, gap) says (q the point in the wall's frame): a wall with a step in its gap, a
+// distance or @p graded (not a distance, like the smoothed wall's and the lip's).
+class SteppedWall : public Obstacle {
  public:
-  static constexpr double kAt = 2e-6, kJump = 4e-5;
+  SteppedWall(double clear, double deeper, std::function<bool(const Vec3&, double)> where, bool graded)
+      : clear_(clear), deeper_(deeper), where_(std::move(where)), graded_(graded) {}
   Gap gap(const Vec3& p) const override {
     Gap g;
     g.valid = true;
+    g.graded = graded_;
     g.normal = Vec3(0, 0, -1);
-    g.gap_m = (p - Vec3(0, 0, ContactCube::L) - translation()).dot(g.normal);
-    if (g.gap_m < -kAt) g.gap_m -= kJump;
+    const Vec3 q = p - translation();
+    g.gap_m = ContactCube::L + clear_ - q.z();
+    if (where_(q, g.gap_m)) g.gap_m -= deeper_;
     g.point = p - g.gap_m * g.normal;
     g.stiffness_shape = g.normal * g.normal.transpose();
     return g;
   }
+
+ private:
+  double clear_, deeper_;
+  std::function<bool(const Vec3&, double)> where_;
+  bool graded_;
 };
 
+// A wall whose gap jumps 40 µm deeper once a node is 2 µm in (a stand-in for the brim's lip,
+// whose hand-back stalled seed 10 and AmpScan's scan). The box pressing the cube 4 mm down wants
+// its top ~3 µm in: each node's energy rises by ½ k A ((g + J)² − g²) across the jump, and
+// Newton's step past it is cut to slivers.
 // A stall's message names the node whose contact energy departs most from Newton's quadratic model
 // over the step the line search cut: the nodes that hold the residual need not be the ones that
 // block the line search (on seed 10 and AmpScan's scan they were not).
@@ -282,7 +294,7 @@ TEST(ContactCube, a_stall_names_the_node_that_breaks_newtons_model) {
   auto& [c, model, dofs, box, co] = k;
   co.friction = 0;
   co.kink_rel_tol = co.rel_tol;  // no acceptance at a kink
-  JumpingWall wall;
+  SteppedWall wall(0, 4e-5, [](const Vec3&, double gap) { return gap < -2e-6; }, false);
   ContactSolver solver(model, dofs, c.top, c.top_area, wall, co);
   const ContactStep st = solver.move_to(Vec3(0, 0, -0.004));
   EXPECT_FALSE(st.converged);
@@ -293,35 +305,19 @@ TEST(ContactCube, a_stall_names_the_node_that_breaks_newtons_model) {
   std::cout << st.message << "\n";
 }
 
-// A wall whose gap is graded — not a distance, like the smoothed wall's and the lip's: 1 mm above
-// the cube's top, and 2 mm deeper (1 mm into the top) on a strip 2 mm wide across it.
-class SwitchingWall : public Obstacle {
- public:
-  static constexpr double kLine = 2 * ContactCube::L / ContactCube::n + 5e-5;  // 0.05 mm past the third column
-  Gap gap(const Vec3& p) const override {
-    Gap g;
-    g.valid = true;
-    g.graded = true;
-    g.normal = Vec3(0, 0, -1);
-    const Vec3 q = p - translation();
-    g.gap_m = (ContactCube::L + 0.001 - q.z()) - (q.x() >= kLine && q.x() < kLine + 0.002 ? 0.002 : 0.0);
-    g.point = p - g.gap_m * g.normal;
-    g.stiffness_shape = g.normal * g.normal.transpose();
-    return g;
-  }
-};
-
 // The gap queries' cache skips a node while it has moved less than its last gap allows; a graded
 // gap is no such bound (the lip's blend switches from the lip's gap to the wall's), and a node it
 // skipped was 57 µm deep at Newton's iterate, which left its penalty out (seed 10's stalls). Here
 // the wall moves 0.6 mm sideways (less than the 1 mm clearance / 1.5 the cache allows), and the
 // third column of the top, 1 mm clear of it before, is 1 mm into it after: every node the wall says
-// is in it is in contact (with the cache on graded gaps: none of the 7).
+// is in it is in contact (with the cache on graded gaps: none of the 7). The wall: 1 mm above the
+// top, its graded gap 2 mm deeper on a strip 2 mm wide from 0.05 mm past the third column.
 TEST(ContactCube, a_node_whose_graded_gap_switches_is_queried_again) {
   NeoHookeanCube k;
   auto& [c, model, dofs, box, co] = k;
   co.friction = 0;
-  SwitchingWall wall;
+  const double line = 2 * ContactCube::L / ContactCube::n + 5e-5;
+  SteppedWall wall(1e-3, 2e-3, [line](const Vec3& q, double) { return q.x() >= line && q.x() < line + 2e-3; }, true);
   ContactSolver solver(model, dofs, c.top, c.top_area, wall, co);
   ASSERT_TRUE(solver.move_to(Vec3(0, 0, 0)).converged);
   EXPECT_EQ(solver.move_to(Vec3(0, 0, 0)).contact_nodes, 0);
