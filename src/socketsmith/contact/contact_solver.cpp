@@ -95,7 +95,7 @@ std::string ContactSolver::Impl::residual_holders(const VectorXd& xs, const Vect
 }
 
 std::string ContactSolver::Impl::model_breaker(const VectorXd& xs, const Vec3& t, const VectorXd& delta, double ds,
-                                               double a, double predicted_j) {
+                                               double a, double scale_j) {
   VectorXd xa = xs;
   dofs.add_expanded(a * delta, xa);
   const Vec3 ta = t + a * ds * free_dir;
@@ -105,36 +105,40 @@ std::string ContactSolver::Impl::model_breaker(const VectorXd& xs, const Vec3& t
     Eigen::Matrix3d stiffness = Eigen::Matrix3d::Zero();
     double gap_m = 0;
   };
-  const auto term = [&](size_t i, const Vec3& p, const Vec3& at) {
+  // Every candidate's penalty and friction at (x, at), as evaluate() adds them.
+  const auto terms = [&](const VectorXd& at_x, const Vec3& at) {
     obstacle.set_translation(at);
-    Term tm;
-    const Gap g = wall_gap(i, p);
-    const PenaltyTerm pen = penalty_term(g, k * areas[i], alm[i]);
-    tm.gap_m = g.gap_m;
-    tm.energy = pen.active ? pen.term.energy : 0.0;
-    tm.force = pen.term.force;
-    tm.stiffness = pen.term.stiffness;
-    NodeContact s;
-    Vec3 th;
-    tm.energy += friction_term(i, p, at, s, th, tm.force, tm.stiffness);
-    return tm;
+    std::vector<Term> out(nodes.size());
+    for (size_t i = 0; i < nodes.size(); ++i) {
+      const Vec3 p = at_x.segment<3>(3 * nodes[i]);
+      const Gap g = wall_gap(i, p);
+      const PenaltyTerm pen = penalty_term(g, k * areas[i], alm[i]);
+      Term& tm = out[i];
+      tm.gap_m = g.gap_m;
+      tm.energy = pen.active ? pen.term.energy : 0.0;
+      tm.force = pen.term.force;
+      tm.stiffness = pen.term.stiffness;
+      NodeContact st;
+      Vec3 th;
+      tm.energy += friction_term(i, p, at, st, th, tm.force, tm.stiffness);
+    }
+    return out;
   };
+  const std::vector<Term> t0 = terms(xs, t), t1 = terms(xa, ta);
+  obstacle.set_translation(t);
   double worst = 0;
   std::string out;
   for (size_t i = 0; i < nodes.size(); ++i) {
-    const Vec3 p0 = xs.segment<3>(3 * nodes[i]), p1 = xa.segment<3>(3 * nodes[i]);
-    const Vec3 d = (p1 - p0) - (ta - t);  // the node's move relative to the wall
-    const Term t0 = term(i, p0, t), t1 = term(i, p1, ta);
-    if (t0.energy == 0 && t1.energy == 0) continue;
-    const double err = (t1.energy - t0.energy) - (-t0.force.dot(d) + 0.5 * d.dot(t0.stiffness * d));
+    if (t0[i].energy == 0 && t1[i].energy == 0) continue;
+    const Vec3 d = xa.segment<3>(3 * nodes[i]) - xs.segment<3>(3 * nodes[i]) - (ta - t);  // relative to the wall
+    const double err = (t1[i].energy - t0[i].energy) - (-t0[i].force.dot(d) + 0.5 * d.dot(t0[i].stiffness * d));
     if (std::abs(err) <= worst) continue;
     worst = std::abs(err);
     out = fmt::format("Newton's model broke most at node {}: its contact energy {:.3g} J off the model over a move of "
                       "{:.3g} µm, its gap {:.0f} → {:.0f} µm",
-                      nodes[i], err, d.norm() * 1e6, t0.gap_m * 1e6, t1.gap_m * 1e6);
+                      nodes[i], err, d.norm() * 1e6, t0[i].gap_m * 1e6, t1[i].gap_m * 1e6);
   }
-  obstacle.set_translation(t);
-  return worst > 0.01 * std::abs(predicted_j) ? out : std::string();
+  return worst > 0.01 * std::abs(scale_j) ? out : std::string();
 }
 
 double ContactSolver::Impl::free_residual(const std::vector<NodeContact>& st) const {

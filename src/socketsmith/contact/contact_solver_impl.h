@@ -163,10 +163,10 @@ struct ContactSolver::Impl {
   /// (@p delta, @p ds) from (@p xs, @p t) is furthest from Newton's quadratic model of it at
   /// (xs, t) — its force and stiffness there: what blocks a line search that cuts its steps to
   /// slivers (a jump or a steep ramp of the gap; the nodes holding the residual are often others).
-  /// Empty when no node's term departs from its model by more than 1 % of the step's predicted
-  /// decrease @p predicted_j. The obstacle is left at @p t.
+  /// Empty when no node's term departs from its model by more than 1 % of @p scale_j (the caller
+  /// passes the potential's decrease over the step). The obstacle is left at @p t.
   std::string model_breaker(const VectorXd& xs, const Vec3& t, const VectorXd& delta, double ds, double a,
-                            double predicted_j);
+                            double scale_j);
 
   /// Nodes of @p st sticking (in contact, friction below its limit and not zero) that were sliding
   /// or free at the last committed step.
