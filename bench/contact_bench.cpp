@@ -1,3 +1,4 @@
+#include <sys/resource.h>
 // Contact benchmarks: one contact query pass (closest point on the socket's inner wall for every
 // skin node, CGAL AABB tree) vs the stump's node count, a whole donning of the demo case's
 // designed socket onto its stump (thesis: 69 s at 7,665 nodes; target ≤ 10 s), a refit of the worn
@@ -179,6 +180,13 @@ void BM_ClosedLoop(benchmark::State& state) {
 /// Arg 1: CHOLMOD's supernode relaxation (0 its defaults; k > 0: nrelax × k, zrelax × k up to
 /// 0.95 — k = 2 is what tissue::SparseCholesky's constructor sets). CHOLMOD's lnz and fl count
 /// the exact factor, not the relaxed one, so only the times compare the variants.
+/// Arg 2: CHOLMOD's nmethods (0: AMD, then METIS when AMD fills much — the default; 9: every
+/// ordering it has, the least fill kept; `method` is the one chosen).
+/// f_user_ms / f_sys_ms / f_vcsw / f_ivcsw: the calling thread's CPU and its voluntary and forced
+/// context switches per factorisation (getrusage): a factorisation that waits on a thread team
+/// shows here (before SerialParallelRegions was made out of line, this benchmark, built without
+/// OpenMP, made 1.8k voluntary switches and spent 178 ms a factorisation instead of 98).
+/// Everything here runs on one thread (SerialParallelRegions), the assembly included.
 void BM_StumpTangent(benchmark::State& state) {
   const Designed& d = designed(static_cast<int>(state.range(0)));
   const auto& model = d.setup->solver->model();
@@ -193,13 +201,15 @@ void BM_StumpTangent(benchmark::State& state) {
       c.zrelax[i] = std::min(0.95, c.zrelax[i] * k);
     }
   }
+  llt.cholmod().nmethods = static_cast<int>(state.range(2));
   tissue::limit_solver_threads();
   const tissue::SerialParallelRegions serial;
   model.jacobian(x, tissue::JacobianKind::Exact, J);
   dofs.reduce_matrix(J, K);
   K *= -1.0;
   llt.analyzePattern(K);
-  double assemble_s = 0, factorise_s = 0;
+  double assemble_s = 0, factorise_s = 0, cpu_s = 0, sys_s = 0;
+  long vcsw = 0, ivcsw = 0;
   for (auto _ : state) {
     const auto t0 = std::chrono::steady_clock::now();
     benchmark::DoNotOptimize(model.elastic_forces(x));
@@ -207,7 +217,13 @@ void BM_StumpTangent(benchmark::State& state) {
     dofs.reduce_matrix(J, K);
     K *= -1.0;
     const auto t1 = std::chrono::steady_clock::now();
+    rusage ru0{}, ru1{};
+    getrusage(RUSAGE_THREAD, &ru0);
     llt.factorize(K);
+    getrusage(RUSAGE_THREAD, &ru1);
+    vcsw += ru1.ru_nvcsw - ru0.ru_nvcsw; ivcsw += ru1.ru_nivcsw - ru0.ru_nivcsw;
+    cpu_s += (ru1.ru_utime.tv_sec - ru0.ru_utime.tv_sec) + 1e-6 * (ru1.ru_utime.tv_usec - ru0.ru_utime.tv_usec);
+    sys_s += (ru1.ru_stime.tv_sec - ru0.ru_stime.tv_sec) + 1e-6 * (ru1.ru_stime.tv_usec - ru0.ru_stime.tv_usec);
     const auto t2 = std::chrono::steady_clock::now();
     assemble_s += std::chrono::duration<double>(t1 - t0).count();
     factorise_s += std::chrono::duration<double>(t2 - t1).count();
@@ -219,6 +235,11 @@ void BM_StumpTangent(benchmark::State& state) {
   state.counters["exact_factor_nnz_M"] = static_cast<double>(llt.cholmod().lnz) / 1e6;
   state.counters["exact_factor_gflop"] = llt.cholmod().fl / 1e9;
   state.counters["ok"] = llt.info() == Eigen::Success ? 1 : 0;
+  state.counters["method"] = llt.cholmod().selected;
+  state.counters["f_user_ms"] = 1e3 * cpu_s / n;
+  state.counters["f_sys_ms"] = 1e3 * sys_s / n;
+  state.counters["f_vcsw"] = vcsw / n;
+  state.counters["f_ivcsw"] = ivcsw / n;
 }
 
 }  // namespace
@@ -233,5 +254,5 @@ BENCHMARK(BM_Donning)
     ->Iterations(1);
 BENCHMARK(BM_DonningPath)->DenseRange(0, 4)->Unit(benchmark::kSecond)->Iterations(1);
 BENCHMARK(BM_DonningRefit)->Arg(1800)->Arg(7665)->Unit(benchmark::kSecond)->Iterations(1);
-BENCHMARK(BM_StumpTangent)->ArgsProduct({{7665}, {0, 2, 3, 4}})->Unit(benchmark::kMillisecond)->Iterations(10);
+BENCHMARK(BM_StumpTangent)->ArgsProduct({{7665}, {0, 2, 3, 4}, {0, 9}})->Unit(benchmark::kMillisecond)->Iterations(10);
 BENCHMARK(BM_ClosedLoop)->Arg(1800)->Arg(7665)->Unit(benchmark::kSecond)->Iterations(1);

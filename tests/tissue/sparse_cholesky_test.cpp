@@ -136,5 +136,22 @@ TEST(SolverThreads, teams_are_fixed_never_more_than_the_cores_or_the_threads_own
   }).join();
 }
 
+TEST(SolverThreads, serial_parallel_regions_hold_in_a_unit_built_without_openmp) {
+  // This test is built without OpenMP, like the benchmarks: an inline SerialParallelRegions
+  // compiled to nothing here, and CHOLMOD then opened a thread team per supernode (the benchmark's
+  // factorisations 170–290 ms instead of 94–115).
+  const auto get_levels = omp<int (*)()>("omp_get_max_active_levels");
+  if (!get_levels) GTEST_SKIP() << "built without OpenMP";
+  std::thread([&] {
+    const int before = get_levels();
+    ASSERT_GT(before, 0);
+    {
+      const SerialParallelRegions serial;
+      EXPECT_EQ(get_levels(), 0);
+    }
+    EXPECT_EQ(get_levels(), before);
+  }).join();
+}
+
 }  // namespace
 }  // namespace socketsmith::tissue

@@ -15,9 +15,6 @@
 #include <algorithm>
 
 #include <Eigen/CholmodSupport>
-#ifdef _OPENMP
-#include <omp.h>
-#endif
 
 #include "socketsmith/core/log.h"
 #include "socketsmith/tissue/static_solver.h"
@@ -31,17 +28,11 @@ namespace socketsmith::tissue {
 /// kernel, strace -c / perf), for loops too small to share.
 class SerialParallelRegions {
  public:
-  SerialParallelRegions() {
-#ifdef _OPENMP
-    levels_ = omp_get_max_active_levels();
-    omp_set_max_active_levels(0);
-#endif
-  }
-  ~SerialParallelRegions() {
-#ifdef _OPENMP
-    omp_set_max_active_levels(levels_);
-#endif
-  }
+  // Out of line (static_solver.cpp, in the tissue module, which is built with OpenMP): inline,
+  // a translation unit built without OpenMP (a benchmark, a module without it) compiled them to
+  // nothing, and CHOLMOD's regions then started a thread team per supernode there.
+  SerialParallelRegions();
+  ~SerialParallelRegions();
   SerialParallelRegions(const SerialParallelRegions&) = delete;
   SerialParallelRegions& operator=(const SerialParallelRegions&) = delete;
 

@@ -87,6 +87,19 @@ void limit_solver_threads() {
 #endif
 }
 
+SerialParallelRegions::SerialParallelRegions() {
+#ifdef _OPENMP
+  levels_ = omp_get_max_active_levels();
+  omp_set_max_active_levels(0);
+#endif
+}
+
+SerialParallelRegions::~SerialParallelRegions() {
+#ifdef _OPENMP
+  omp_set_max_active_levels(levels_);
+#endif
+}
+
 struct StaticSolver::Impl {
   Impl(const MassSpringModel& m, const DofMap& d, const StaticSolverOptions& o) : model(m), dofs(d), opt(o) {}
   const MassSpringModel& model;
