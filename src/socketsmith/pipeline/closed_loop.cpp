@@ -214,10 +214,10 @@ class LoopRun {
       const bool within = score <= 1.0 && it.landmark_deviation <= options_.landmark_tolerance &&
                           (!options_.paths_within_bar || it.path_score <= 1.0);
       if (!refitted && start_round(score, within, delivered, d)) break;
-      // A refit within the tolerances by a margin (kCheckScore, kCheckLandmarkShare), or the last of a round, is checked
-      // by a donning from scratch; so is the round's best when a refit does worse (1.8k: refits
-      // drift from the fourth on); when the round's first refit does worse than its donning,
-      // nothing is left to gain: the loop stops.
+      // A refit within the tolerances by a margin (kCheckScore, kCheckLandmarkShare), or the last
+      // of a round, is checked by a donning from scratch; so is the round's best when a refit does
+      // worse (1.8k: refits drift from the fourth on); when the round's first refit does worse than
+      // its donning, nothing is left to gain: the loop stops.
       // Worse means kWorseMargin above the round's best: a refit and a donning from scratch differ
       // by path noise (OpenLimb 3k: a round's first refit at MAE 0.69 / p99 4.38 kPa after its
       // donning's 0.67 / 5.17 stopped the loop there; two more refits and a donning reached 0.39 / 3.45).
