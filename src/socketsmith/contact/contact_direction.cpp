@@ -82,8 +82,9 @@ bool ContactSolver::Impl::step_direction(const VectorXd& xs, const std::vector<E
 }
 
 std::vector<char> ContactSolver::Impl::nodes_through_wall(const VectorXd& xs, const std::vector<NodeContact>& st,
-                                                          const VectorXd& d, const std::vector<char>& added,
+                                                          const VectorXd& d, double ds, const std::vector<char>& added,
                                                           std::vector<Gap>& here) const {
+  const Vec3 wall_step = ds * free_dir;  // the obstacle's own step (0 unless free)
   const std::vector<int>& ri = dofs.reduced_index();
   const int n_nodes = static_cast<int>(nodes.size());
   std::vector<char> hit(nodes.size(), 0);
@@ -91,9 +92,9 @@ std::vector<char> ContactSolver::Impl::nodes_through_wall(const VectorXd& xs, co
   for (int i = 0; i < n_nodes; ++i) {
     if (st[i].active || added[i]) continue;
     const int nd = nodes[i];
-    Vec3 step = Vec3::Zero();
+    Vec3 step = -wall_step;  // relative to the wall
     for (int c = 0; c < 3; ++c)
-      if (ri[3 * nd + c] >= 0) step[c] = d[ri[3 * nd + c]];
+      if (ri[3 * nd + c] >= 0) step[c] += d[ri[3 * nd + c]];
     const Vec3 p = xs.segment<3>(3 * nd);
     const QueryCache& qc = qcache[i];
     if (qc.clearance > 0 && qc.clearance > (p - qc.p).norm() + step.norm()) continue;  // cannot reach it
@@ -110,15 +111,17 @@ std::vector<char> ContactSolver::Impl::nodes_through_wall(const VectorXd& xs, co
   return hit;
 }
 
-bool ContactSolver::Impl::solve_low_rank(const std::vector<PenaltyColumn>& U, const VectorXd& r2, VectorXd& d) {
-  // (K + U Uᵀ)⁻¹ r = y − Z (I + Uᵀ Z)⁻¹ Uᵀ y with y = K⁻¹ r, Z = K⁻¹ U: one solve with m + 1
-  // right-hand sides and an m × m system instead of a factorisation.
+bool ContactSolver::Impl::solve_low_rank(const std::vector<PenaltyColumn>& U, const Eigen::MatrixXd& r2,
+                                         Eigen::MatrixXd& d) {
+  // (K + U Uᵀ)⁻¹ r = y − Z (I + Uᵀ Z)⁻¹ Uᵀ y with y = K⁻¹ r, Z = K⁻¹ U: one solve with m + n
+  // right-hand sides (n: r2's columns) and an m × m system instead of a factorisation.
   const int m = static_cast<int>(U.size());
-  Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(r2.size(), m + 1);
-  rhs.col(0) = r2;
+  const int n = static_cast<int>(r2.cols());
+  Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(r2.rows(), m + n);
+  rhs.leftCols(n) = r2;
   for (int j = 0; j < m; ++j)
     for (int c = 0; c < 3; ++c)
-      if (U[j].row[c] >= 0) rhs(U[j].row[c], j + 1) = U[j].value[c];
+      if (U[j].row[c] >= 0) rhs(U[j].row[c], j + n) = U[j].value[c];
   Eigen::MatrixXd X;
   {
     const SerialParallelRegions serial;
@@ -131,21 +134,41 @@ bool ContactSolver::Impl::solve_low_rank(const std::vector<PenaltyColumn>& U, co
     return sum;
   };
   Eigen::MatrixXd S = Eigen::MatrixXd::Identity(m, m);
-  Eigen::VectorXd uy(m);
+  Eigen::MatrixXd uy(m, n);
   for (int j = 0; j < m; ++j) {
-    uy[j] = ut(j, 0);
-    for (int q = 0; q < m; ++q) S(j, q) += ut(j, q + 1);
+    for (int q = 0; q < n; ++q) uy(j, q) = ut(j, q);
+    for (int q = 0; q < m; ++q) S(j, q) += ut(j, q + n);
   }
-  VectorXd d2 = X.col(0) - X.rightCols(m) * S.ldlt().solve(uy);
+  Eigen::MatrixXd d2 = X.leftCols(n) - X.rightCols(m) * S.ldlt().solve(uy);
   if (!d2.allFinite()) return false;
   d = std::move(d2);
+  return true;
+}
+
+bool ContactSolver::Impl::low_rank_step_with(const std::vector<PenaltyColumn>& U, const VectorXd& r2,
+                                             const std::vector<Eigen::Matrix3d>& B_all, double rs2, VectorXd& d,
+                                             double& d_s) {
+  Eigen::MatrixXd rhs = r2, sol;
+  double h = 0;
+  if (free_axis()) {
+    rhs.conservativeResize(Eigen::NoChange, 2);
+    rhs.col(1) = free_border(B_all, h);
+  }
+  if (!solve_low_rank(U, rhs, sol)) return false;
+  VectorXd d2 = sol.col(0);
+  double ds2 = 0;
+  if (free_axis() && (!eliminate_free(rhs, sol, h, rs2, d2, ds2) || free_step_cut(ds2))) return false;
+  d = std::move(d2);
+  d_s = ds2;
   return true;
 }
 
 bool ContactSolver::Impl::predict_contacts(const VectorXd& xs, const std::vector<NodeContact>& st,
                                            const std::vector<Eigen::Matrix3d>& B, SparseMatrix& K, const VectorXd& r,
                                            double rs, VectorXd& delta, double& ds) {
-  if (opt.linear_body || free_axis() || !(opt.predict_contact_m > 0) || predict_paused > 0) return false;
+  if (opt.linear_body || !(opt.predict_contact_m > 0) || predict_paused > 0) return false;
+  const bool free = free_axis();
+  if (free && free_step_cut(ds)) return false;
   const std::vector<int>& ri = dofs.reduced_index();
   const int n_nodes = static_cast<int>(nodes.size());
   // The added penalties k A ∇g∇gᵀ (rank one on the smoothed wall; up to three on a facet's edge) as
@@ -155,10 +178,13 @@ bool ContactSolver::Impl::predict_contacts(const VectorXd& xs, const std::vector
   std::vector<char> added(nodes.size(), 0);
   std::vector<Gap> here(nodes.size());
   std::vector<Eigen::Matrix3d> B2;  // B with the penalties already in K's factorisation (refactorised)
+  // B with every round's penalties (a free obstacle's border column and its diagonal h take them).
+  std::vector<Eigen::Matrix3d> B_all = free ? B : std::vector<Eigen::Matrix3d>{};
   VectorXd r2 = r, d = delta;
+  double rs2 = rs, d_s = ds;  // the free obstacle's balance with the added forces, and its step
   bool any = false;
   for (int round = 0; round < 2; ++round) {
-    const std::vector<char> hit = nodes_through_wall(xs, st, d, added, here);
+    const std::vector<char> hit = nodes_through_wall(xs, st, d, d_s, added, here);
     int n_hit = 0;
     for (int i = 0; i < n_nodes; ++i) {
       if (!hit[i]) continue;
@@ -166,6 +192,10 @@ bool ContactSolver::Impl::predict_contacts(const VectorXd& xs, const std::vector
       const double kA = k * areas[i];
       extra[i] = kA * g0.stiffness_shape;
       const Vec3 f = -kA * g0.gap_m * g0.gradient_norm * g0.normal;
+      if (free) {
+        rs2 -= free_dir.dot(f);  // the node's added force, pressed back onto the obstacle
+        B_all[i] += extra[i];
+      }
       PenaltyColumn col;
       for (int c = 0; c < 3; ++c) {
         col.row[c] = ri[3 * nodes[i] + c];
@@ -182,7 +212,7 @@ bool ContactSolver::Impl::predict_contacts(const VectorXd& xs, const std::vector
     }
     if (n_hit == 0) break;
     if (llt_of_tangent && static_cast<int>(U.size()) <= opt.predict_low_rank_max) {
-      if (!solve_low_rank(U, r2, d)) break;
+      if (!low_rank_step_with(U, r2, B_all, rs2, d, d_s)) break;
       low_rank_step = true;  // the factorisation lacks the added penalties: no chord step on it next
     } else {
       // Too many, or the factor is not K's: K' factorised (its values added in place; B2 keeps every
@@ -192,17 +222,18 @@ bool ContactSolver::Impl::predict_contacts(const VectorXd& xs, const std::vector
       for (int i = 0; i < n_nodes; ++i) B2[i] += extra[i];
       VectorXd d2;
       double ds2 = 0;
-      if (!newton_direction(xs, B2, K, r2, rs, d2, ds2)) break;
+      if (!newton_direction(xs, B2, K, r2, rs2, d2, ds2) || (free && free_step_cut(ds2))) break;
       for (int i = 0; i < n_nodes; ++i) extra[i].setZero();  // in K and its factorisation now
       U.clear();
       d = std::move(d2);
+      d_s = ds2;
     }
     log::debug("contact: {} free nodes the step takes through the wall: solved again with them", n_hit);
     any = true;
   }
-  if (!any || !(-r.dot(d) < 0)) return false;  // no descent direction of Π: Newton's own step
+  if (!any || !(-r.dot(d) - rs * d_s < 0)) return false;  // no descent direction of Π: Newton's own step
   delta = std::move(d);
-  ds = 0;
+  ds = d_s;
   return true;
 }
 

@@ -396,7 +396,7 @@ bool ContactSolver::Impl::eliminate_free(const Eigen::MatrixXd& rhs, const Eigen
   const double schur = h - rhs.col(1).dot(sol.col(1));
   if (!(schur > 1e-9 * h)) return false;
   ds = (rs - rhs.col(1).dot(sol.col(0))) / schur;
-  const double scale = std::abs(ds) > 1e-3 ? 1e-3 / std::abs(ds) : 1.0;
+  const double scale = std::abs(ds) > kMaxFreeStep ? kMaxFreeStep / std::abs(ds) : 1.0;
   delta = scale * (sol.col(0) - ds * sol.col(1));
   ds *= scale;
   return delta.allFinite();

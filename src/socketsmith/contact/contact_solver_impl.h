@@ -5,6 +5,7 @@
 /// the steps along a path and the pushes in contact_newton.cpp.
 
 #include <array>
+#include <cmath>
 #include <limits>
 #include <string>
 #include <vector>
@@ -238,6 +239,11 @@ struct ContactSolver::Impl {
   /// positive: nothing holds the obstacle along free_dir.
   static bool eliminate_free(const Eigen::MatrixXd& rhs, const Eigen::MatrixXd& sol, double h, double rs,
                              VectorXd& delta, double& ds);
+  static constexpr double kMaxFreeStep = 1e-3;  ///< [m] eliminate_free's limit on the obstacle's step
+  /// The obstacle's step @p ds was cut to kMaxFreeStep: no Newton step, and the nodes it would reach
+  /// are not where predicted penalties would put them (a cube pushed with 60 N from a touch crawled
+  /// 1 mm an iteration, its predicted nodes pulling at the wall, and lost its direction).
+  static bool free_step_cut(double ds) { return std::abs(ds) >= (1 - 1e-9) * kMaxFreeStep; }
 
   /// Newton's direction at @p xs (newton_direction), on the last factorisation when a chord step
   /// is due (chord_next, @p in_tail: the residual within kRelagResidual × the tolerance).
@@ -248,21 +254,30 @@ struct ContactSolver::Impl {
   bool newton_direction(const VectorXd& xs, const std::vector<Eigen::Matrix3d>& B, SparseMatrix& K, const VectorXd& r,
                         double rs, VectorXd& delta, double& ds);
 
-  /// Free nodes (not in @p st's contact, not yet @p added) that the step @p d takes more than
-  /// predict_contact_m through the wall, where the gap linearised at the node foresees it; their
-  /// gap where they are in @p here.
+  /// Free nodes (not in @p st's contact, not yet @p added) that the step @p d (with the obstacle's
+  /// @p ds along free_dir when it is free) takes more than predict_contact_m through the wall, where
+  /// the gap linearised at the node foresees it; their gap where they are in @p here.
   std::vector<char> nodes_through_wall(const VectorXd& xs, const std::vector<NodeContact>& st, const VectorXd& d,
-                                       const std::vector<char>& added, std::vector<Gap>& here) const;
+                                       double ds, const std::vector<char>& added, std::vector<Gap>& here) const;
   /// One added penalty's column u of K' = K + U Uᵀ: its (up to three) reduced rows and values.
   struct PenaltyColumn {
     std::array<int, 3> row{-1, -1, -1};
     Vec3 value = Vec3::Zero();
   };
-  /// @p d = (K + U Uᵀ)⁻¹ @p r2 through llt's factorisation of K (Woodbury); false when not finite.
-  bool solve_low_rank(const std::vector<PenaltyColumn>& U, const VectorXd& r2, VectorXd& d);
+  /// The predicted contacts' step (@p d, and @p d_s when the obstacle is free) from their columns
+  /// @p U through the factorisation: (K + U Uᵀ) d = @p r2, the free obstacle's border column from
+  /// @p B_all (the blocks with every added penalty) and its balance @p rs2. False when not finite,
+  /// nothing holds the obstacle, or its step is cut (free_step_cut).
+  bool low_rank_step_with(const std::vector<PenaltyColumn>& U, const VectorXd& r2,
+                          const std::vector<Eigen::Matrix3d>& B_all, double rs2, VectorXd& d, double& d_s);
+  /// @p d = (K + U Uᵀ)⁻¹ @p r2 (one column per right-hand side) through llt's factorisation of K
+  /// (Woodbury); false when not finite.
+  bool solve_low_rank(const std::vector<PenaltyColumn>& U, const Eigen::MatrixXd& r2, Eigen::MatrixXd& d);
   /// The step @p delta solved again with the penalty of each free node it takes through the wall
   /// (ContactOptions::predict_contact_m) added, linearised where the node is; false when none is, or
-  /// the step found is no descent direction of Π. Nonlinear body, the obstacle's position given.
+  /// the step found is no descent direction of Π. Nonlinear body; the obstacle's position given, or
+  /// free along free_dir (the standing push, a refit's one solve: the added penalties then join its
+  /// border column and its balance too).
   bool predict_contacts(const VectorXd& xs, const std::vector<NodeContact>& st, const std::vector<Eigen::Matrix3d>& B,
                         SparseMatrix& K, const VectorXd& r, double rs, VectorXd& delta, double& ds);
   int predict_paused = 0;       // committed steps left without predicted contacts (after a failed solve)
