@@ -545,6 +545,7 @@ TEST(ClosedLoop, a_corrected_socket_whose_donning_outspends_its_newton_limit_sto
   EXPECT_EQ(loop.best, 0);
   EXPECT_THAT(loop.message, ::testing::HasSubstr("stopped after 2 donnings: the corrected socket could not be donned"));
   EXPECT_THAT(loop.message, ::testing::HasSubstr("Newton iterations in all (the limit"));
+  EXPECT_EQ(loop.retried_donnings, 1);  // donned again on a finer path, within the same limit: no better
   EXPECT_EQ(loop.closed_loop_pa, loop.open_loop_pa);  // the open-loop socket is kept
 }
 

@@ -204,6 +204,9 @@ struct ClosedLoopResult {
   /// tolerances, the smallest max(MAE / mae_tolerance, p99 / p99_tolerance) below the brim.
   int best = 0;
   int kept_donning = 0;            ///< which donning from scratch that is (1: the open-loop socket's)
+  /// Donnings from scratch that failed and were donned again on a path of half the steps (a stall
+  /// where the brim passes a bulge moves with the path; each counts once in `iterations`).
+  int retried_donnings = 0;
   std::vector<double> target_pa;   ///< designed pressure per skin node (0 above the brim) [Pa]
   bool linear_body = true;         ///< the donned stump was linearised at rest (else the nonlinear tissue model)
   std::vector<double> open_loop_pa;    ///< delivered by the open-loop socket [Pa]

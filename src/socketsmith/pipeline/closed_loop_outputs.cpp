@@ -383,6 +383,7 @@ nlohmann::json write_closed_loop_outputs(const DesignSetup& setup, const DesignR
           {"donnings", std::count_if(loop.iterations.begin(), loop.iterations.end(), [](const auto& it) { return !it.refit; })},
           {"refits", std::count_if(loop.iterations.begin(), loop.iterations.end(), [](const auto& it) { return it.refit; })},
           {"kept_donning", loop.kept_donning},
+          {"retried_donnings", loop.retried_donnings},
           {"seconds", loop.seconds},
           {"friction", setup.case_file.patient.friction},
           {"body", loop.linear_body ? "linearised" : "nonlinear"},
