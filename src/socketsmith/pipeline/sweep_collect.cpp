@@ -121,6 +121,8 @@ const std::vector<ResultColumn>& result_columns() {
       // The closed loop's kept socket, donned and stood on, against the design below the brim
       // (empty when the case ran no loop); delivery_bar_met: report/delivery_bar.h.
       {"closed_loop_donnings", {"closed_loop", "donnings"}},
+      // Donnings that failed and were run again on a path of half the steps (design.md, loop step 1).
+      {"closed_loop_retried_donnings", {"closed_loop", "retried_donnings"}},
       // 1 when the loop met its tolerances, 0 when it stopped short (its donnings spent, a corrected
       // socket not buildable): the kept socket is then its best, which `design` warns of.
       {"closed_loop_converged", {"closed_loop", "converged"}},
