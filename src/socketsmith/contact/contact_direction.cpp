@@ -177,8 +177,8 @@ bool ContactSolver::Impl::predict_contacts(const VectorXd& xs, const std::vector
   std::vector<Eigen::Matrix3d> extra(nodes.size(), Eigen::Matrix3d::Zero());
   std::vector<char> added(nodes.size(), 0);
   std::vector<Gap> here(nodes.size());
-  std::vector<Eigen::Matrix3d> B2;  // B with the penalties already in K's factorisation (refactorised)
-  // B with every round's penalties (a free obstacle's border column and its diagonal h take them).
+  // B with every added penalty: a free obstacle's border column and diagonal take them from the
+  // start, a refactorised tangent (its projected form built from the blocks) from its first round.
   std::vector<Eigen::Matrix3d> B_all = free ? B : std::vector<Eigen::Matrix3d>{};
   VectorXd r2 = r, d = delta;
   double rs2 = rs, d_s = ds;  // the free obstacle's balance with the added forces, and its step
@@ -192,10 +192,8 @@ bool ContactSolver::Impl::predict_contacts(const VectorXd& xs, const std::vector
       const double kA = k * areas[i];
       extra[i] = kA * g0.stiffness_shape;
       const Vec3 f = -kA * g0.gap_m * g0.gradient_norm * g0.normal;
-      if (free) {
-        rs2 -= free_dir.dot(f);  // the node's added force, pressed back onto the obstacle
-        B_all[i] += extra[i];
-      }
+      if (free) rs2 -= free_dir.dot(f);  // the node's added force, pressed back onto the obstacle
+      if (!B_all.empty()) B_all[i] += extra[i];
       PenaltyColumn col;
       for (int c = 0; c < 3; ++c) {
         col.row[c] = ri[3 * nodes[i] + c];
@@ -215,14 +213,15 @@ bool ContactSolver::Impl::predict_contacts(const VectorXd& xs, const std::vector
       if (!low_rank_step_with(U, r2, B_all, rs2, d, d_s)) break;
       low_rank_step = true;  // the factorisation lacks the added penalties: no chord step on it next
     } else {
-      // Too many, or the factor is not K's: K' factorised (its values added in place; B2 keeps every
-      // round's penalties for a projected tangent built from the blocks).
+      // Too many, or the factor is not K's: K' factorised (its values added in place).
       add_node_blocks(extra, K);
-      if (B2.empty()) B2 = B;
-      for (int i = 0; i < n_nodes; ++i) B2[i] += extra[i];
+      if (B_all.empty()) {  // extra still holds every round's penalties
+        B_all = B;
+        for (int i = 0; i < n_nodes; ++i) B_all[i] += extra[i];
+      }
       VectorXd d2;
       double ds2 = 0;
-      if (!newton_direction(xs, B2, K, r2, rs2, d2, ds2) || (free && free_step_cut(ds2))) break;
+      if (!newton_direction(xs, B_all, K, r2, rs2, d2, ds2) || (free && free_step_cut(ds2))) break;
       for (int i = 0; i < n_nodes; ++i) extra[i].setZero();  // in K and its factorisation now
       U.clear();
       d = std::move(d2);

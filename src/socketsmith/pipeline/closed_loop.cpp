@@ -290,11 +290,19 @@ class LoopRun {
     return true;
   }
 
+  /// The socket as it is now donned with @p o (a new simulation: the refits go on from it).
+  contact::DonningResult don_with(const contact::DonningOptions& o) {
+    sim_ = std::make_unique<contact::DonningSimulation>(solver_.model(), skin_.nodes, skin_.area_m2, socket_.solid,
+                                                        setup_.model.frame, o);
+    return sim_->run();
+  }
+
   /// A socket whose donning @p failed (a stall where the brim passes a bulge, or a standing push
-  /// that found no equilibrium) donned once more on a path of half the steps: where
-  /// and whether a path stalls there moves with any change of it (docs/contact.md), and the socket
-  /// to judge is the same (AAOP example at 8k: the round's best refit's socket stalled in its
-  /// standing push, and the loop kept the open-loop socket).
+  /// that found no equilibrium) donned once more on a path of half the steps: where and whether a
+  /// path stalls there moves with any change of it (docs/contact.md), and the socket to judge is the
+  /// same (AAOP example at 8k: the round's best refit's socket stalled in its standing push and the
+  /// loop kept the open-loop socket; on the finer path it stood, and the loop went on to its fourth
+  /// donning).
   contact::DonningResult don_again_on_a_finer_path(const contact::DonningResult& failed) {
     log::info("closed loop: the socket's donning failed ({}); donning it again on a path of half the steps",
               failed.message.empty() ? "the standing load was not reached" : failed.message);
@@ -302,9 +310,7 @@ class LoopRun {
     contact::DonningOptions finer = don_;
     finer.step_m *= 0.5;
     finer.min_step_m = std::min(finer.min_step_m, finer.step_m);
-    sim_ = std::make_unique<contact::DonningSimulation>(solver_.model(), skin_.nodes, skin_.area_m2, socket_.solid,
-                                                        setup_.model.frame, finer);
-    return sim_->run();
+    return don_with(finer);
   }
 
   /// A full donning of the socket as it is now (the path from below, then standing).
@@ -317,9 +323,7 @@ class LoopRun {
     };
     ++full_donnings_;
     refits_ = 0;
-    sim_ = std::make_unique<contact::DonningSimulation>(solver_.model(), skin_.nodes, skin_.area_m2, socket_.solid,
-                                                        setup_.model.frame, don_);
-    contact::DonningResult d = sim_->run();
+    contact::DonningResult d = don_with(don_);
     if (!(d.completed && d.stood)) d = don_again_on_a_finer_path(d);
     if (full_donnings_ == 1 && d.completed) {
       // ClosedLoopOptions::check_newton_ratio
