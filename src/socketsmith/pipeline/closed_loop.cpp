@@ -297,12 +297,9 @@ class LoopRun {
     return sim_->run();
   }
 
-  /// A socket whose donning @p failed (a stall where the brim passes a bulge, or a standing push
-  /// that found no equilibrium) donned once more on a path of half the steps: where and whether a
-  /// path stalls there moves with any change of it (docs/contact.md), and the socket to judge is the
-  /// same (AAOP example at 8k: the round's best refit's socket stalled in its standing push and the
-  /// loop kept the open-loop socket; on the finer path it stood, and the loop went on to its fourth
-  /// donning).
+  /// A socket whose donning @p failed (a stall at a bulge, a standing push without equilibrium)
+  /// donned again on a path of half the steps: where a path stalls moves with the path (AAOP
+  /// example at 8k: a corrected socket stalled standing; on the finer path it stood).
   contact::DonningResult don_again_on_a_finer_path(const contact::DonningResult& failed) {
     log::info("closed loop: the socket's donning failed ({}); donning it again on a path of half the steps",
               failed.message.empty() ? "the standing load was not reached" : failed.message);
