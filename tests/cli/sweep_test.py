@@ -78,7 +78,7 @@ for i in ids[:4]:
     check(float(r["target_fz_n"]) > 0 and r["design_seconds"] != "", f"{i}: target and timing present")
     check(r["body_mass_kg"] in ("60", "75") and r["seed"] in ("1", "2"), f"{i}: its parameters {r}")
     check("delivery_bar_met" in r and r["closed_loop_mae_kpa"] == "" and r["closed_loop_converged"] == ""
-          and r["closed_loop_retried_donnings"] == "",
+          and r["closed_loop_retried_donnings"] == "" and r["closed_loop_drag_band_kept"] == "",
           f"{i}: closed-loop columns, empty without a loop")
     if r.get("status") == "ok":
         check(float(r["cavity_volume_cm3"]) > 0, f"{i}: a socket cavity volume")

@@ -217,6 +217,19 @@ TEST(BrimLine, raised_locally_where_lifted_and_unchanged_elsewhere) {
   EXPECT_THROW(raise_brim(b, {{0.0, 1 * kMm}}, 0.0, cap), InvalidInputError);
 }
 
+TEST(BrimLine, an_eased_lift_holds_over_its_plateau_then_fades_as_cos2) {
+  const double plateau = 10 * kDeg;
+  const std::vector<BrimLift> lifts{{std::numbers::pi - 0.05, 4 * kMm}, {-std::numbers::pi + 0.05, 2 * kMm}, {1.0, -1}};
+  EXPECT_DOUBLE_EQ(eased_lift(lifts, plateau, std::numbers::pi), 4 * kMm);  // across ±π: the larger
+  EXPECT_DOUBLE_EQ(eased_lift(lifts, plateau, std::numbers::pi - 0.05 - plateau), 4 * kMm);
+  // Half-way down the easing: cos²(π/4) = 1/2 of the lift (the other lift's plateau ends nearer).
+  const double th = std::numbers::pi - 0.05 - 1.5 * plateau;
+  EXPECT_NEAR(eased_lift(lifts, plateau, th), 2 * kMm, 1e-12);
+  EXPECT_DOUBLE_EQ(eased_lift(lifts, plateau, 0.0), 0.0);  // far from both; the negative lift does nothing
+  EXPECT_DOUBLE_EQ(eased_lift(lifts, plateau, 1.0), 0.0);
+  EXPECT_DOUBLE_EQ(eased_lift({}, plateau, 1.0), 0.0);
+}
+
 TEST(BrimLine, above_brim_compares_h_with_the_curve_in_the_frame) {
   const auto& l = tt_limb();
   const BrimLine b = make_brim(BrimTemplate::Ptb, LimbType::Transtibial, l.landmarks, l.cut_height_m);

@@ -178,6 +178,16 @@ TEST(CaseFile, an_empty_document_is_the_default_case) {
 
 // The brim's flare: 5 mm on a transtibial limb, none on a transfemoral one (its ischial seat is its
 // brim); a given value is kept, in mm in the file, and a default is not written.
+TEST(CaseFile, the_closed_loops_drag_band_is_on_unless_turned_off) {
+  const CaseFile d = parse_case(json::parse("{}"));
+  EXPECT_TRUE(d.closed_loop_drag_band);
+  EXPECT_FALSE(case_to_json(d)["design"].contains("closed_loop_drag_band"));
+  const CaseFile off = parse_case(json::parse(R"({"design": {"closed_loop_drag_band": false}})"));
+  EXPECT_FALSE(off.closed_loop_drag_band);
+  EXPECT_FALSE(parse_case(case_to_json(off)).closed_loop_drag_band);
+  EXPECT_THROW(parse_case(json::parse(R"({"design": {"closed_loop_drag_band": 2}})")), Error);
+}
+
 TEST(CaseFile, the_brim_flare_defaults_by_level_and_a_given_value_is_kept) {
   const CaseFile tt = parse_case(json::object());
   EXPECT_DOUBLE_EQ(brim_flare_m(tt), 0.005);

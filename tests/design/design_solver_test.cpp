@@ -550,6 +550,46 @@ TEST(DesignSolverStump, a_flared_brim_eases_the_pressure_in_below_it) {
   for (size_t i = 0; i < cyl.size(); ++i) EXPECT_EQ(q[i], solver->above_brim()[i] ? 0.0 : 2 * kKPa) << i;
 }
 
+// The closed loop's drag band: no pressure asked down to the band's depth below the brim, the flare
+// easing in below it; without a flare the field starts in full at the band's edge. Nodes outside
+// the band's angles keep the flare from the brim.
+TEST(DesignSolverStump, a_drag_band_moves_the_flare_down_where_it_lies) {
+  const Stump& s = stump();
+  auto solver = make_solver(DesignSolveMode::Linear);
+  const double L = s.model.length_m, flare = 5 * kMm;
+  const auto brim = [&](double theta) { return 0.6 * L + 0.1 * L * std::cos(theta); };
+  const auto band = [](double theta) { return std::abs(theta) < 1.0 ? 8 * kMm : 0.0; };
+  const auto& cyl = solver->skin_cylindrical();
+  for (const double f : {flare, 0.0}) {
+    solver->set_brim_flare(f);
+    solver->set_brim_band(band);
+    solver->set_brim(brim);
+    const auto p = solver->requested_pressure({uniform_grad(2 * kKPa, L)});
+    int banded = 0, eased = 0;
+    for (size_t i = 0; i < cyl.size(); ++i) {
+      if (solver->above_brim()[i]) continue;
+      const double depth = brim(cyl[i].theta) - cyl[i].h - band(cyl[i].theta);
+      const double t = f > 0 ? std::clamp(depth / f, 0.0, 1.0) : (depth > 0 ? 1.0 : 0.0);
+      EXPECT_NEAR(solver->brim_weight()[i], t * t * (3 - 2 * t), 1e-12) << i;
+      EXPECT_NEAR(p[i], solver->brim_weight()[i] * 2 * kKPa, 1e-9) << i;
+      banded += depth <= 0 && band(cyl[i].theta) > 0;
+      eased += depth > 0 && depth < f && band(cyl[i].theta) > 0;
+    }
+    EXPECT_GT(banded, 5) << f;  // nodes below the brim, in the band: nothing asked
+    if (f > 0) {
+      EXPECT_GT(eased, 3);
+    }
+  }
+  // The band removed: the flare from the brim again.
+  solver->set_brim_flare(flare);
+  solver->set_brim_band({});
+  solver->set_brim(brim);
+  for (size_t i = 0; i < cyl.size(); ++i) {
+    const double t = std::clamp((brim(cyl[i].theta) - cyl[i].h) / flare, 0.0, 1.0);
+    EXPECT_NEAR(solver->brim_weight()[i], solver->above_brim()[i] ? 0.0 : t * t * (3 - 2 * t), 1e-12) << i;
+  }
+}
+
 /// Free (not fixed) mesh nodes.
 std::vector<char> free_nodes(const volume::HexMesh& mesh) {
   std::vector<char> f(mesh.num_nodes());

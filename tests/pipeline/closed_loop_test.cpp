@@ -507,6 +507,7 @@ TEST(ClosedLoop, a_brim_the_case_does_not_let_rise_stays_the_designs_and_the_dra
   design::CaseFile c = demo_case(1800);
   c.closed_loop = true;
   c.closed_loop_donnings = 2;
+  c.closed_loop_drag_band = false;  // the design as asked, its dragged-out skin and all
   EXPECT_EQ(c.closed_loop_max_brim_raise_m, 0.0);
   const fs::path out = fs::path(SOCKETSMITH_BINARY_DIR) / "tests" / ("closed_loop_fixed_brim_" + std::to_string(::getpid()));
   DesignArtifacts art;
@@ -523,6 +524,44 @@ TEST(ClosedLoop, a_brim_the_case_does_not_let_rise_stays_the_designs_and_the_dra
   const ClosedLoopIteration& kept = loop.iterations[loop.best];
   EXPECT_GT(kept.dragged_out, 0);  // 3 at 1.8k (2026-12-01), up to 4.7 mm above the brim
   EXPECT_THAT(dragged_out_advice(kept), ::testing::HasSubstr("lets the closed loop raise it"));
+}
+
+// design.closed_loop_drag_band (on by default): a loop whose socket misses the delivery bar with
+// skin designed to bear pressure dragged out over the brim has the design solved again asking
+// nothing of that skin, and the design whose socket delivers it better is kept; design.json says
+// which (the demo at 1.8k with 2 donnings: 2026-12-07, 3 nodes; kept).
+TEST(ClosedLoop, skin_dragged_out_over_the_brim_is_designed_again_without_pressure_and_the_better_design_kept) {
+  design::CaseFile c = demo_case(1800);
+  c.closed_loop = true;
+  c.closed_loop_donnings = 2;
+  const fs::path out = fs::path(SOCKETSMITH_BINARY_DIR) / "tests" / ("closed_loop_drag_band_" + std::to_string(::getpid()));
+  DesignArtifacts art;
+  const nlohmann::json j = run_design(c, out, true, {}, &art);
+  fs::remove_all(out);
+  ASSERT_TRUE(art.result.drag_band.has_value());
+  const DragBand& b = *art.result.drag_band;
+  ASSERT_GT(b.nodes, 0);
+  ASSERT_EQ(b.node_ids.size(), static_cast<size_t>(b.nodes));
+  ASSERT_EQ(b.lifts.size(), b.node_ids.size());
+  const auto& cyl = art.setup->solver->skin_cylindrical();
+  for (size_t k = 0; k < b.node_ids.size(); ++k) {  // each reaches past its node's depth below the brim
+    const auto& cy = cyl[b.node_ids[k]];
+    EXPECT_EQ(b.lifts[k].theta, cy.theta);
+    EXPECT_GT(b.lifts[k].lift_m, art.setup->brim.height(cy.theta) - cy.h);
+    EXPECT_LE(b.lifts[k].lift_m, b.max_depth_m);
+  }
+  EXPECT_GT(b.max_designed_pa, kDragBandMinPa);
+  const ClosedLoopResult& loop = *art.result.closed_loop;
+  if (b.kept) {  // the design written asks nothing of them
+    for (int i : b.node_ids) EXPECT_EQ(art.result.state.pressure_pa[i], 0.0) << i;
+    EXPECT_LT(bar_score(loop.iterations[loop.best]), b.first_score);
+  } else {
+    EXPECT_FALSE(b.why_not.empty());
+  }
+  const auto& jb = j["closed_loop"]["drag_band"];
+  EXPECT_EQ(jb["kept"].get<bool>(), b.kept);
+  EXPECT_EQ(jb["nodes"].get<int>(), b.nodes);
+  EXPECT_NEAR(jb["max_depth_mm"].get<double>(), b.max_depth_m * 1e3, 1e-9);
 }
 
 // A corrected socket's donning may spend only a multiple of the open-loop donning's Newton

@@ -146,7 +146,7 @@ TEST(Sweep, a_case_process_that_crashes_or_exits_without_a_marker_is_a_failed_ca
          "case \"$4\" in\n"
          "  c0000) echo 'error: the solver diverged (try a smaller load)' >&2; exit 3 ;;\n"
          "  c0001) kill -KILL $$ ;;\n"
-         "  *) mkdir -p \"$3/cases/$4/out\"; printf '{\"closed_loop\": {\"donnings\": 2, \"retried_donnings\": 1, \"converged\": false, \"wall_roughness_rms_mm\": 0.117, "
+         "  *) mkdir -p \"$3/cases/$4/out\"; printf '{\"closed_loop\": {\"donnings\": 2, \"retried_donnings\": 1, \"drag_band\": {\"kept\": true}, \"converged\": false, \"wall_roughness_rms_mm\": 0.117, "
          "\"wall_roughness_share\": 0.37, \"bar\": {\"met\": false, "
          "\"failing\": [\"back line: 99th percentile 4.62 kPa > 4\", \"AD +12 %%\"]}}}' > \"$3/cases/$4/out/design.json\"; "
          "printf '{\"id\": \"%s\", \"status\": \"ok\", \"exit_code\": 0, \"message\": \"\", \"seconds\": 1}' \"$4\" "
@@ -204,7 +204,7 @@ TEST(Sweep, a_case_process_that_crashes_or_exits_without_a_marker_is_a_failed_ca
   EXPECT_NE(text.str().find("killed by signal 9"), std::string::npos);
   // The ok case's closed loop: short of its tolerances, its wall's roughness, its delivery bar
   // missed, and what it missed, in one cell.
-  EXPECT_NE(text.str().find(",2,1,0,,,,,,0.117,0.37,0,back line: 99th percentile 4.62 kPa > 4; AD +12 %,"),
+  EXPECT_NE(text.str().find(",2,1,1,0,,,,,,0.117,0.37,0,back line: 99th percentile 4.62 kPa > 4; AD +12 %,"),
             std::string::npos)
       << text.str();
   fs::remove_all(dir);

@@ -360,6 +360,18 @@ bool above_brim(const BrimLine& brim, const Eigen::Vector3d& p, const geometry::
   return c.h > brim.height(c.theta);
 }
 
+double eased_lift(const std::vector<BrimLift>& lifts, double plateau_rad, double theta) {
+  double lift = 0.0;
+  for (const BrimLift& l : lifts) {
+    if (l.lift_m <= 0.0) continue;
+    const double d = std::abs(std::remainder(theta - l.theta, 2.0 * std::numbers::pi));
+    if (d >= 2.0 * plateau_rad) continue;
+    const double ease = d <= plateau_rad ? 1.0 : std::pow(std::cos(0.5 * std::numbers::pi * (d - plateau_rad) / plateau_rad), 2);
+    lift = std::max(lift, ease * l.lift_m);
+  }
+  return lift;
+}
+
 BrimLine raise_brim(const BrimLine& brim, const std::vector<BrimLift>& lifts, double plateau_rad, double max_height_m) {
   require(std::isfinite(plateau_rad) && plateau_rad > 0.0 && plateau_rad <= 0.5 * std::numbers::pi,
           "raise_brim: the plateau {} rad is outside (0, pi/2]", plateau_rad);
@@ -375,14 +387,7 @@ BrimLine raise_brim(const BrimLine& brim, const std::vector<BrimLift>& lifts, do
   points.reserve(kSamples);
   for (int k = 0; k < kSamples; ++k) {
     const double theta = -std::numbers::pi + 2.0 * std::numbers::pi * k / kSamples;
-    double lift = 0.0;
-    for (const BrimLift& l : lifts) {
-      if (l.lift_m <= 0.0) continue;
-      const double d = std::abs(std::remainder(theta - l.theta, 2.0 * std::numbers::pi));
-      if (d >= 2.0 * plateau_rad) continue;
-      const double ease = d <= plateau_rad ? 1.0 : std::pow(std::cos(0.5 * std::numbers::pi * (d - plateau_rad) / plateau_rad), 2);
-      lift = std::max(lift, ease * l.lift_m);
-    }
+    const double lift = eased_lift(lifts, plateau_rad, theta);
     const double h = brim.height(theta);
     points.push_back({"raised", theta, std::max(h, std::min(h + lift, max_height_m))});
   }

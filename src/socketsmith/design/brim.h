@@ -127,6 +127,10 @@ struct BrimLift {
   double lift_m = 0.0;
 };
 
+/// The largest of @p lifts at angle @p theta: each lift in full within @p plateau_rad of its angle,
+/// then easing (cos²) to nothing over another @p plateau_rad [m] (raise_brim's profile).
+double eased_lift(const std::vector<BrimLift>& lifts, double plateau_rad, double theta);
+
 /// @p brim raised locally: by the largest lift whose angle lies within @p plateau_rad, then easing
 /// (cos²) to nothing over another @p plateau_rad, and never above @p max_height_m (where the brim
 /// already lies above it, it stays). The result is sampled every 2.5° (144 key points, labelled

@@ -105,6 +105,11 @@ struct CaseFile {
   /// contact, ContactOptions::augmented_tol) instead of the penalty's ~60 µm at 15 kPa: the
   /// pressures a rigid socket delivers, ~1.5× the loop's time (docs/contact.md, "Penetration").
   bool closed_loop_rigid_wall = false;
+  /// When the closed loop's socket misses the delivery bar and donning dragged skin designed to
+  /// bear more than 1 kPa out of it over the brim, design again asking no pressure of a band below
+  /// the brim there (DesignSolver::set_brim_band) and keep the design whose socket delivers it
+  /// better (pipeline::solve_design). false: the design as asked, whatever donning drags out.
+  bool closed_loop_drag_band = true;
   /// The brim template; not given: the limb type's (default_brim: PTB transtibial, ICS transfemoral).
   std::optional<BrimTemplate> brim;
   std::vector<BrimKeyPoint> brim_key_points;  ///< non-empty = the user's brim (overrides the template)

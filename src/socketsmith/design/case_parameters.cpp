@@ -246,6 +246,10 @@ const std::vector<CaseParameter>& case_parameters() {
                                        "closed loop: no penetration of the socket wall (augmented Lagrangian "
                                        "contact; ~1.5x the loop's time)",
                                        W::UnlessDefault),
+      flag<&C::closed_loop_drag_band>("design.closed_loop_drag_band",
+                                      "closed loop: design again without pressure where donning drags skin out "
+                                      "over the brim, keep the better-delivered design",
+                                      W::UnlessDefault),
       number<&C::ischial_share_min>(kIschialShareMin, W::UnlessDefault),
       number<&C::socket, &SocketOptions::thickness_m>(kThickness),
       number<&C::socket, &SocketOptions::distal_thickness_m>(kDistalThickness, W::UnlessDefault, true),

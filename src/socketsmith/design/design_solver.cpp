@@ -106,6 +106,7 @@ struct DesignSolver::Impl {
   std::vector<geometry::Cylindrical> cyl;
   std::vector<char> above;
   double flare_m = 0;          // DesignSolver::set_brim_flare
+  std::function<double(double)> band_m;  // DesignSolver::set_brim_band
   std::vector<double> weight;  // per skin node: the share of the spots' field applied (brim_weight)
   tissue::DofMap dofs;
   std::unique_ptr<tissue::StaticSolver> solver;
@@ -366,8 +367,10 @@ void DesignSolver::set_brim(const std::function<double(double)>& brim_height_m) 
   for (size_t i = 0; i < s.cyl.size(); ++i) {
     if (s.above[i]) {
       s.weight[i] = 0.0;
-    } else if (s.flare_m > 0 && brim_height_m) {  // smoothstep over the band below the brim
-      const double t = std::clamp((brim_height_m(s.cyl[i].theta) - s.cyl[i].h) / s.flare_m, 0.0, 1.0);
+    } else if (brim_height_m && (s.flare_m > 0 || s.band_m)) {  // smoothstep over the flare below the band
+      const double band = s.band_m ? std::max(0.0, s.band_m(s.cyl[i].theta)) : 0.0;
+      const double depth = brim_height_m(s.cyl[i].theta) - s.cyl[i].h - band;
+      const double t = s.flare_m > 0 ? std::clamp(depth / s.flare_m, 0.0, 1.0) : (depth > 0 ? 1.0 : 0.0);
       s.weight[i] = t * t * (3 - 2 * t);
     }
   }
@@ -377,6 +380,8 @@ void DesignSolver::set_brim_flare(double flare_m) {
   require(std::isfinite(flare_m) && flare_m >= 0, "design: the brim flare must be a length ≥ 0 (got {} m)", flare_m);
   impl_->flare_m = flare_m;
 }
+
+void DesignSolver::set_brim_band(std::function<double(double)> depth_m) { impl_->band_m = std::move(depth_m); }
 
 const std::vector<double>& DesignSolver::brim_weight() const { return impl_->weight; }
 

@@ -195,6 +195,11 @@ class DesignSolver {
   /// eases to nothing at the brim (smoothstep), as a flared trim line presses nothing at its edge.
   /// 0 (the default): the field up to the brim. Takes effect at the next set_brim.
   void set_brim_flare(double flare_m);
+  /// A band below the brim that presses nothing, its depth per angle [m] (≥ 0; empty: none): the
+  /// flare eases in from the band's lower edge instead of from the brim. The closed loop's drag
+  /// band (pipeline::solve_design): skin the donning drags out of the socket can carry no pressure.
+  /// Takes effect at the next set_brim.
+  void set_brim_band(std::function<double(double theta)> depth_m);
   /// Per skin node: the share of the spots' field applied — 0 above the brim, 1 from the flare's
   /// depth below it (everywhere below it without a flare).
   const std::vector<double>& brim_weight() const;

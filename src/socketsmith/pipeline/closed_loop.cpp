@@ -105,7 +105,6 @@ double shown_deg(double theta) {
   return d < 0 ? d + 360.0 : d;
 }
 
-
 /// How far a stage is from the tolerances: max(MAE / its tolerance, p99 / its tolerance) below the
 /// brim, the nodes dragged out of the socket included; ≤ 1 within. (Steering by the nodes still in
 /// the socket instead stopped the loop earlier and left more nodes dragged out: on the 12 limbs of
@@ -166,6 +165,7 @@ class LoopRun {
     r_.linear_body = don_.contact.linear_body;
     r_.target_pa = state_.pressure_pa;
     r_.below_brim.assign(n_, 1);
+    r_.ever_dragged_out.assign(n_, 0);
     for (size_t i = 0; i < n_; ++i) {
       if (solver_.above_brim()[i]) {
         r_.below_brim[i] = 0;
@@ -408,7 +408,7 @@ class LoopRun {
       // ClosedLoopOptions::max_brim_raise_m: the next socket's brim clears this node by half a spacing.
       const double lift = std::min(cy.h - setup_.brim.height(cy.theta) + 0.5 * spacing_, options_.max_brim_raise_m);
       if (lift > lifts_[i].lift_m) lifts_[i] = {cy.theta, lift};
-      dragged_out_[i] = 1;
+      dragged_out_[i] = r_.ever_dragged_out[i] = 1;
       ++it.dragged_out;
       it.dragged_out_max_target_pa = std::max(it.dragged_out_max_target_pa, r_.target_pa[i]);
       it.dragged_out_height_m = std::max(it.dragged_out_height_m, above);

@@ -27,6 +27,7 @@
 /// the one whose delivered pressures are reported.
 
 #include <filesystem>
+#include <numbers>
 #include <string>
 #include <utility>
 #include <vector>
@@ -39,6 +40,10 @@
 #include "socketsmith/report/delivery_bar.h"
 #include "socketsmith/report/design_report.h"
 #include "socketsmith/report/field_comparison.h"
+
+namespace socketsmith::design {
+class DesignSolver;
+}  // namespace socketsmith::design
 
 namespace socketsmith::pipeline {
 
@@ -213,6 +218,7 @@ struct ClosedLoopResult {
   std::vector<double> closed_loop_pa;  ///< delivered by the kept socket [Pa]
   std::vector<double> wall_offset_m;   ///< δ of the kept socket per skin node [m]
   std::vector<char> dragged_out;       ///< per skin node: below the brim, dragged above it by the kept donning
+  std::vector<char> ever_dragged_out;  ///< per skin node: below the brim, dragged above it by any donning or refit
   std::vector<char> below_brim;        ///< skin nodes compared (1: below the brim)
   std::vector<std::vector<double>> delivered_by_iteration;  ///< per donning, per skin node [Pa]
   std::vector<std::vector<double>> offset_by_iteration;     ///< per donning, δ per skin node [m]
@@ -221,6 +227,30 @@ struct ClosedLoopResult {
   contact::DonningResult donning;      ///< its donning and standing
   double seconds = 0.0;
 };
+
+/// The drag band (case design.closed_loop_drag_band): where a closed loop saw donning drag skin
+/// below the brim out of the socket, the depth below the brim at which the design, solved again,
+/// starts asking pressure (DesignSolver::set_brim_band; pipeline::solve_design keeps the design
+/// whose socket delivers it better).
+struct DragBand {
+  std::vector<design::BrimLift> lifts;  ///< per node dragged out: its angle, the band's depth there [m]
+  std::vector<int> node_ids;            ///< those nodes (skin order)
+  int nodes = 0;                        ///< the nodes dragged out, designed above kDragBandMinPa
+  double max_depth_m = 0.0;             ///< the band's depth at most [m]
+  double max_designed_pa = 0.0;         ///< their largest designed pressure [Pa]
+  bool first_bar = false;               ///< the design without the band: its socket met the delivery bar
+  double first_score = 0.0;             ///< ... and its bar_score
+  bool kept = false;                    ///< the design with the band is the one written
+  std::string why_not;                  ///< why not, when not kept
+};
+/// A node dragged out counts in the band when designed above this [Pa] (a quarter of the delivery
+/// bar's 99th percentile: what it loses, dragged out, counts little against the bar).
+inline constexpr double kDragBandMinPa = 1000.0;
+/// Each node's depth holds over this angle either side, then eases to nothing over as much (design::eased_lift).
+inline constexpr double kDragBandPlateau = 10.0 * std::numbers::pi / 180.0;
+/// The band of @p loop's nodes ever dragged out and designed above kDragBandMinPa: each node's depth
+/// below @p brim at rest (@p solver's cylindrical coordinates) plus half the skin's mean spacing.
+DragBand drag_band(const design::DesignSolver& solver, const design::BrimLine& brim, const ClosedLoopResult& loop);
 
 /// Delivered against designed pressures in one region of the skin (below the brim, a path).
 struct RegionDelivery {
@@ -323,6 +353,9 @@ std::string roughness_advice(const ClosedLoopIteration& kept, double cap_m);
 /// The report's sentence on those nodes of the kept socket @p kept, with the prosthetist's options
 /// ("" when none were; no in-socket figures when fewer than 3 nodes stayed in).
 std::string dragged_out_advice(const ClosedLoopIteration& kept);
+
+/// The report's sentence on the drag band @p b: where it came from, and whether its design is the one kept.
+std::string drag_band_note(const DragBand& b);
 
 /// Runs the loop on a design whose constraints are met (result.socket is the open-loop socket).
 /// The setup's DesignSolver provides the compliance (its K₀ is factorised on first use).

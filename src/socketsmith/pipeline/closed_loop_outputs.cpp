@@ -337,6 +337,35 @@ std::string dragged_out_advice(const ClosedLoopIteration& kept) {
                      without.empty() ? "" : " Without them: " + without + ".", remedy);
 }
 
+std::string drag_band_note(const DragBand& b) {
+  const std::string what = fmt::format(
+      "Donning dragged {} skin nodes below the brim, designed up to {:.1f} kPa, out of the first design's socket; the "
+      "design was solved again asking no pressure up to {:.1f} mm below the brim there (design.closed_loop_drag_band)",
+      b.nodes, b.max_designed_pa / 1e3, b.max_depth_m * 1e3);
+  return b.kept ? what + fmt::format(", and its socket delivers it better: it is the design shown (the first design's "
+                                     "socket {} the delivery bar, {:.2f} of it).",
+                                     b.first_bar ? "met" : "missed", b.first_score)
+                : what + ", and is not kept: " + b.why_not + ".";
+}
+
+namespace {
+
+/// design.json's closed_loop.drag_band (null when it was not tried), and its report line.
+nlohmann::json drag_band_json(const std::optional<DragBand>& band, report::ReportDelivery& delivery) {
+  if (!band) return nullptr;
+  const DragBand& b = *band;
+  delivery.details.push_back({"the drag band", drag_band_note(b)});
+  return {{"kept", b.kept},
+          {"nodes", b.nodes},
+          {"max_depth_mm", b.max_depth_m * 1e3},
+          {"max_designed_kpa", b.max_designed_pa / 1e3},
+          {"without_band_bar_met", b.first_bar},
+          {"without_band_bar_score", b.first_score},
+          {"why_not", b.why_not}};
+}
+
+}  // namespace
+
 nlohmann::json write_closed_loop_outputs(const DesignSetup& setup, const DesignResult& result,
                                          const std::filesystem::path& out, report::ReportDelivery& delivery) {
   require(result.closed_loop.has_value(), "write_closed_loop_outputs: the design ran no closed loop");
@@ -380,6 +409,7 @@ nlohmann::json write_closed_loop_outputs(const DesignSetup& setup, const DesignR
   }
   return {{"converged", loop.converged},
           {"message", loop.message},
+          {"drag_band", drag_band_json(result.drag_band, delivery)},
           {"donnings", std::count_if(loop.iterations.begin(), loop.iterations.end(), [](const auto& it) { return !it.refit; })},
           {"refits", std::count_if(loop.iterations.begin(), loop.iterations.end(), [](const auto& it) { return it.refit; })},
           {"kept_donning", loop.kept_donning},

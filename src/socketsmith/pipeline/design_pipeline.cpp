@@ -260,10 +260,13 @@ bool design_body_linearised(const design::DesignState& state, const design::Case
   return state.linearised || c.solve_mode == design::DesignSolveMode::Linear;
 }
 
-DesignResult solve_design(DesignSetup& setup, bool optimise, const ProgressCallback& progress) {
+namespace {
+
+/// @p r's spots optimised from the setup's (@p optimise) or solved as the setup gives them, and the
+/// stump under them: its state, the constraints, the loads by region and the skins.
+void solve_spots(DesignSetup& setup, DesignResult& r, bool optimise, const ProgressCallback& progress) {
   const design::CaseFile& c = setup.case_file;
   auto& solver = *setup.solver;
-  DesignResult r;
   r.optimised = optimise;
   if (optimise) {
     design::OptimizerOptions oo = optimizer_options(setup, c);
@@ -284,38 +287,112 @@ DesignResult solve_design(DesignSetup& setup, bool optimise, const ProgressCallb
   r.rest_skin = solver.skin().triangles();
   r.deformed_skin = r.rest_skin;
   r.deformed_skin.vertices = r.state.skin_positions;
-  if (r.constraints_met) {
-    report_progress(progress, 0.92, "design: building the socket");
-    r.socket = build_design_socket(r.deformed_skin, r.rest_skin, setup.model.frame, setup.brim, c.socket);
-    for (const auto& n : r.socket->notes) log::info("design: socket: {}", n);
-    // Limb volume below the brim: the same cavity measure on the undeformed skin.
+}
+
+/// @p r's socket, and the closed loop when the case asks for it (only when every constraint holds).
+void build_socket_and_close_loop(DesignSetup& setup, DesignResult& r, const ProgressCallback& progress) {
+  const design::CaseFile& c = setup.case_file;
+  report_progress(progress, 0.92, "design: building the socket");
+  r.socket = build_design_socket(r.deformed_skin, r.rest_skin, setup.model.frame, setup.brim, c.socket);
+  for (const auto& n : r.socket->notes) log::info("design: socket: {}", n);
+  // Limb volume below the brim: the same cavity measure on the undeformed skin.
+  try {
+    design::SocketOptions lopt = c.socket;
+    lopt.undeformed_skin = nullptr;
+    lopt.distal_pad = false;  // the cavity alone: no platform, no holes
+    lopt.attachment.enabled = false;
+    r.limb_volume_below_brim_m3 = design::build_socket(r.rest_skin, setup.model.frame, setup.brim, lopt).cavity_volume_m3;
+  } catch (const Error&) {
+    r.limb_volume_below_brim_m3 = 0;
+  }
+  if (!design::closes_loop(c)) return;
+  ClosedLoopOptions lo = closed_loop_options(c);
+  lo.progress = [&](double f, std::string_view stage) { return report_progress(progress, 0.93 + 0.07 * f, stage); };
+  try {
+    r.closed_loop = close_design_loop(setup, r, lo);
+    if (r.closed_loop->converged || lo.max_donnings == 1)  // 1: the open-loop socket measured only
+      log::info("design: closed loop: {}", r.closed_loop->message);
+    else  // the socket written is the loop's best, short of its tolerances: said where it is seen
+      log::warn("design: closed loop: {}; the socket written is the best one it donned", r.closed_loop->message);
+    r.socket = r.closed_loop->socket;
+  } catch (const Error& e) {
+    if (c.closed_loop.has_value()) throw;  // asked for by name: the design fails with the reason
+    r.closed_loop_failed = e.what();
+    log::warn("design: the closed loop failed ({}); the open-loop socket is written, which does not deliver its "
+              "design as closely (set design.closed_loop to false to skip the loop, or true to make this an error)",
+              r.closed_loop_failed);
+  }
+}
+
+/// The closed loop's socket of @p r ranked as the loop ranks its own (kept_rank, then bar_score):
+/// true when @p b's delivers its design better than @p a's.
+bool delivers_better(const ClosedLoopResult& b, const ClosedLoopResult& a) {
+  const ClosedLoopIteration &kb = b.iterations[b.best], &ka = a.iterations[a.best];
+  return replaces_kept(b.converged, kb.bar_met, bar_score(kb), kept_rank(a.converged, ka.bar_met), bar_score(ka));
+}
+
+/// The design again with the drag band (DragBand): no pressure asked of the skin below the brim
+/// that @p r's loop saw dragged out of the socket. Kept when its own loop delivers its design
+/// better; otherwise @p r stays, the band is undone and DragBand says so.
+void design_again_with_drag_band(DesignSetup& setup, DesignResult& r, const ProgressCallback& progress) {
+  auto& solver = *setup.solver;
+  const ClosedLoopResult& loop = *r.closed_loop;
+  DragBand band = drag_band(solver, setup.brim, loop);
+  if (band.lifts.empty()) return;
+  const auto& brim = setup.brim;
+  auto set_band = [&](bool on) {
+    if (on)
+      solver.set_brim_band([lifts = band.lifts](double theta) { return design::eased_lift(lifts, kDragBandPlateau, theta); });
+    else
+      solver.set_brim_band({});
+    solver.set_brim([&brim](double theta) { return brim.height(theta); });
+  };
+  log::info("design: {} skin nodes below the brim, designed up to {:.1f} kPa, were dragged out of the socket by its "
+            "donning; designing again with no pressure asked up to {:.1f} mm below the brim there",
+            band.nodes, band.max_designed_pa / 1e3, band.max_depth_m * 1e3);
+  band.first_bar = loop.iterations[loop.best].bar_met;
+  band.first_score = bar_score(loop.iterations[loop.best]);
+  set_band(true);
+  DesignResult r2;
+  solve_spots(setup, r2, r.optimised, progress);
+  if (r2.constraints_met) {
     try {
-      design::SocketOptions lopt = c.socket;
-      lopt.undeformed_skin = nullptr;
-      lopt.distal_pad = false;  // the cavity alone: no platform, no holes
-      lopt.attachment.enabled = false;
-      r.limb_volume_below_brim_m3 = design::build_socket(r.rest_skin, setup.model.frame, setup.brim, lopt).cavity_volume_m3;
-    } catch (const Error&) {
-      r.limb_volume_below_brim_m3 = 0;
+      build_socket_and_close_loop(setup, r2, progress);
+    } catch (const Error& e) {
+      band.why_not = e.what();
     }
-    if (design::closes_loop(c)) {
-      ClosedLoopOptions lo = closed_loop_options(c);
-      lo.progress = [&](double f, std::string_view stage) { return report_progress(progress, 0.93 + 0.07 * f, stage); };
-      try {
-        r.closed_loop = close_design_loop(setup, r, lo);
-        if (r.closed_loop->converged || lo.max_donnings == 1)  // 1: the open-loop socket measured only
-          log::info("design: closed loop: {}", r.closed_loop->message);
-        else  // the socket written is the loop's best, short of its tolerances: said where it is seen
-          log::warn("design: closed loop: {}; the socket written is the best one it donned", r.closed_loop->message);
-        r.socket = r.closed_loop->socket;
-      } catch (const Error& e) {
-        if (c.closed_loop.has_value()) throw;  // asked for by name: the design fails with the reason
-        r.closed_loop_failed = e.what();
-        log::warn("design: the closed loop failed ({}); the open-loop socket is written, which does not deliver its "
-                  "design as closely (set design.closed_loop to false to skip the loop, or true to make this an error)",
-                  r.closed_loop_failed);
-      }
-    }
+  } else {
+    band.why_not = "the design with the band does not meet its constraints";
+  }
+  if (band.why_not.empty() && !r2.closed_loop)
+    band.why_not = r2.closed_loop_failed.empty() ? "no closed loop" : r2.closed_loop_failed;
+  if (band.why_not.empty() && !delivers_better(*r2.closed_loop, loop))
+    band.why_not = fmt::format("its socket delivers its design no better ({})",
+                               r2.closed_loop->iterations[r2.closed_loop->best].bar_met ? "the delivery bar met"
+                                                                                         : "the delivery bar missed");
+  band.kept = band.why_not.empty();
+  if (band.kept) {
+    log::info("design: the design with the drag band is kept: {}", r2.closed_loop->message);
+    r = std::move(r2);
+  } else {
+    log::info("design: the design with the drag band is not kept: {}", band.why_not);
+    set_band(false);
+  }
+  r.drag_band = std::move(band);
+}
+
+}  // namespace
+
+DesignResult solve_design(DesignSetup& setup, bool optimise, const ProgressCallback& progress) {
+  const design::CaseFile& c = setup.case_file;
+  DesignResult r;
+  solve_spots(setup, r, optimise, progress);
+  if (r.constraints_met) {
+    build_socket_and_close_loop(setup, r, progress);
+    // ... unless the loop only measures the open-loop socket (one donning).
+    if (c.closed_loop_drag_band && c.closed_loop_donnings > 1 && r.closed_loop &&
+        !r.closed_loop->iterations[r.closed_loop->best].bar_met)
+      design_again_with_drag_band(setup, r, progress);
     // Transfemoral: where the built socket holds the bony ischial tuberosity, in 3D.
     if (setup.model.transfemoral)
       r.ischial_check = design::check_ischial_tuberosity(setup.brim, setup.model.frame,

@@ -111,6 +111,9 @@ struct DesignResult {
   /// with an error; `socket` is then the open-loop one. Empty when it ran, or was off. A loop the
   /// case asks for by name throws instead.
   std::string closed_loop_failed;
+  /// The design solved again with the drag band (case design.closed_loop_drag_band), when the
+  /// closed loop's socket missed the delivery bar with skin dragged out over the brim: kept or not.
+  std::optional<DragBand> drag_band;
   /// The sock-ply study (`simulate sockply`, run_sock_ply_study): the socket donned on the limb
   /// shrunk and grown; written with the design's outputs and in its report when present.
   std::optional<SockPlyResult> sock_ply;

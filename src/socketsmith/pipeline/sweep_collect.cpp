@@ -123,6 +123,9 @@ const std::vector<ResultColumn>& result_columns() {
       {"closed_loop_donnings", {"closed_loop", "donnings"}},
       // Donnings that failed and were run again on a path of half the steps (design.md, loop step 1).
       {"closed_loop_retried_donnings", {"closed_loop", "retried_donnings"}},
+      // 1 when the design was solved again with the drag band and kept, 0 when not kept, empty
+      // when it was not tried (design.md, "The design again with a drag band").
+      {"closed_loop_drag_band_kept", {"closed_loop", "drag_band", "kept"}},
       // 1 when the loop met its tolerances, 0 when it stopped short (its donnings spent, a corrected
       // socket not buildable): the kept socket is then its best, which `design` warns of.
       {"closed_loop_converged", {"closed_loop", "converged"}},
