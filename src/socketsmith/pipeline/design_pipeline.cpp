@@ -338,7 +338,11 @@ void design_again_with_drag_band(DesignSetup& setup, DesignResult& r, const Prog
   auto& solver = *setup.solver;
   const ClosedLoopResult& loop = *r.closed_loop;
   DragBand band = drag_band(solver, setup.brim, loop);
-  if (band.lifts.empty()) return;
+  // Nothing to gain, or the run was cancelled (the progress callback says so again).
+  if (band.lifts.empty() || !report_progress(progress, 0.0, "design: the drag band")) return;
+  const ProgressCallback again = [&progress](double f, std::string_view stage) {
+    return report_progress(progress, f, fmt::format("{} (again, with the drag band)", stage));
+  };
   const auto& brim = setup.brim;
   auto set_band = [&](bool on) {
     if (on)
@@ -354,10 +358,10 @@ void design_again_with_drag_band(DesignSetup& setup, DesignResult& r, const Prog
   band.first_score = bar_score(loop.iterations[loop.best]);
   set_band(true);
   DesignResult r2;
-  solve_spots(setup, r2, r.optimised, progress);
+  solve_spots(setup, r2, r.optimised, again);
   if (r2.constraints_met) {
     try {
-      build_socket_and_close_loop(setup, r2, progress);
+      build_socket_and_close_loop(setup, r2, again);
     } catch (const Error& e) {
       band.why_not = e.what();
     }
