@@ -564,6 +564,39 @@ TEST(ClosedLoop, skin_dragged_out_over_the_brim_is_designed_again_without_pressu
   EXPECT_NEAR(jb["max_depth_mm"].get<double>(), b.max_depth_m * 1e3, 1e-9);
 }
 
+// The drag band's design is not kept when it does not hold: here the spots are fixed (not optimised
+// again), so asking nothing of the band leaves the axial load short and its constraints unmet. The
+// first design stays — its state, its socket — and so do the design solver's brim weights.
+TEST(ClosedLoop, a_drag_band_design_that_misses_its_constraints_leaves_the_first_design_and_weights) {
+  design::CaseFile c = demo_case(1800);
+  c.closed_loop = false;
+  auto spots_setup = prepare_design(c);
+  c.spots = solve_design(*spots_setup, true).spots;  // the optimised layout, then solved as given
+  c.optimise = false;
+  c.closed_loop = true;
+  c.closed_loop_donnings = 2;
+  const fs::path out = fs::path(SOCKETSMITH_BINARY_DIR) / "tests" / ("closed_loop_band_kept_not_" + std::to_string(::getpid()));
+  DesignArtifacts art;
+  const nlohmann::json j = run_design(c, out, false, {}, &art);
+  fs::remove_all(out);
+  ASSERT_TRUE(art.result.drag_band.has_value());
+  const DragBand& b = *art.result.drag_band;
+  EXPECT_FALSE(b.kept);
+  EXPECT_THAT(b.why_not, ::testing::HasSubstr("constraints"));
+  EXPECT_FALSE(j["closed_loop"]["drag_band"]["kept"].get<bool>());
+  EXPECT_TRUE(art.result.constraints_met);
+  double asked = 0;  // the first design still asks the banded nodes for their pressure
+  for (int i : b.node_ids) asked = std::max(asked, art.result.state.pressure_pa[i]);
+  EXPECT_NEAR(asked, b.max_designed_pa, 1e-9);
+  const auto& solver = *art.setup->solver;
+  const auto& cyl = solver.skin_cylindrical();
+  const double flare = design::brim_flare_m(c);
+  for (size_t i = 0; i < cyl.size(); ++i) {  // the flare from the brim again, no band
+    const double t = std::clamp((art.setup->brim.height(cyl[i].theta) - cyl[i].h) / flare, 0.0, 1.0);
+    EXPECT_NEAR(solver.brim_weight()[i], solver.above_brim()[i] ? 0.0 : t * t * (3 - 2 * t), 1e-12) << i;
+  }
+}
+
 // A corrected socket's donning may spend only a multiple of the open-loop donning's Newton
 // iterations (ClosedLoopOptions::check_newton_ratio): one that outspends it ends as a stalled
 // donning, and the loop stops there with the best socket so far and the reason — instead of
