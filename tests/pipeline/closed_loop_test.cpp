@@ -62,6 +62,15 @@ Agreement agreement(const std::vector<double>& a, const std::vector<double>& b, 
   return g;
 }
 
+/// run_design of @p c in a folder of this process's named @p name, removed after; @p art filled.
+nlohmann::json run_design_scratch(const design::CaseFile& c, const std::string& name, bool optimise,
+                                  DesignArtifacts& art) {
+  const fs::path out = fs::path(SOCKETSMITH_BINARY_DIR) / "tests" / (name + "_" + std::to_string(::getpid()));
+  nlohmann::json j = run_design(c, out, optimise, {}, &art);
+  fs::remove_all(out);
+  return j;
+}
+
 class ClosedLoopRun : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
@@ -534,10 +543,8 @@ TEST(ClosedLoop, skin_dragged_out_over_the_brim_is_designed_again_without_pressu
   design::CaseFile c = demo_case(1800);
   c.closed_loop = true;
   c.closed_loop_donnings = 2;
-  const fs::path out = fs::path(SOCKETSMITH_BINARY_DIR) / "tests" / ("closed_loop_drag_band_" + std::to_string(::getpid()));
   DesignArtifacts art;
-  const nlohmann::json j = run_design(c, out, true, {}, &art);
-  fs::remove_all(out);
+  const nlohmann::json j = run_design_scratch(c, "closed_loop_drag_band", true, art);
   ASSERT_TRUE(art.result.drag_band.has_value());
   const DragBand& b = *art.result.drag_band;
   ASSERT_GT(b.nodes, 0);
@@ -575,10 +582,8 @@ TEST(ClosedLoop, a_drag_band_design_that_misses_its_constraints_leaves_the_first
   c.optimise = false;
   c.closed_loop = true;
   c.closed_loop_donnings = 2;
-  const fs::path out = fs::path(SOCKETSMITH_BINARY_DIR) / "tests" / ("closed_loop_band_kept_not_" + std::to_string(::getpid()));
   DesignArtifacts art;
-  const nlohmann::json j = run_design(c, out, false, {}, &art);
-  fs::remove_all(out);
+  const nlohmann::json j = run_design_scratch(c, "closed_loop_band_not_kept", false, art);
   ASSERT_TRUE(art.result.drag_band.has_value());
   const DragBand& b = *art.result.drag_band;
   EXPECT_FALSE(b.kept);
