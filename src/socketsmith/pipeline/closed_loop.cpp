@@ -176,7 +176,7 @@ class LoopRun {
     }
     require(compared_.size() >= 3, "closed loop: only {} skin nodes lie below the brim; lower the brim",
             compared_.size());
-    for (int i : compared_) spacing_ += std::sqrt(skin_.area_m2[i]) / static_cast<double>(compared_.size());
+    spacing_ = mean_spacing(skin_.area_m2, r_.below_brim);
     landmarks_ = LandmarkTargets(setup, r_.below_brim, r_.target_pa);
     std::vector<char> relieved;
     for (size_t k = 0; k < landmarks_.zones.size(); ++k)

@@ -234,12 +234,10 @@ struct ClosedLoopResult {
 /// whose socket delivers it better).
 struct DragBand {
   std::vector<design::BrimLift> lifts;  ///< per node dragged out: its angle, the band's depth there [m]
-  std::vector<int> node_ids;            ///< those nodes (skin order)
-  int nodes = 0;                        ///< the nodes dragged out, designed above kDragBandMinPa
+  std::vector<int> node_ids;            ///< those nodes (skin order), designed above kDragBandMinPa
   double max_depth_m = 0.0;             ///< the band's depth at most [m]
   double max_designed_pa = 0.0;         ///< their largest designed pressure [Pa]
-  bool first_bar = false;               ///< the design without the band: its socket met the delivery bar
-  double first_score = 0.0;             ///< ... and its bar_score
+  double first_score = 0.0;             ///< the design without the band (its socket missed the bar): its bar_score
   bool kept = false;                    ///< the design with the band is the one written
   std::string why_not;                  ///< why not, when not kept
 };

@@ -189,28 +189,29 @@ void ZoneSteps::apply(const std::vector<double>& excess, const std::vector<doubl
   }
 }
 
+double mean_spacing(const std::vector<double>& area_m2, const std::vector<char>& use) {
+  double sum = 0;
+  int n = 0;
+  for (size_t i = 0; i < area_m2.size(); ++i)
+    if (use[i]) {
+      sum += std::sqrt(area_m2[i]);
+      ++n;
+    }
+  return n > 0 ? sum / n : 0.0;
+}
+
 DragBand drag_band(const design::DesignSolver& solver, const design::BrimLine& brim, const ClosedLoopResult& loop) {
   const auto& cyl = solver.skin_cylindrical();
-  const auto& area = solver.skin().area_m2;
   require(loop.ever_dragged_out.size() == cyl.size() && loop.target_pa.size() == cyl.size() &&
               loop.below_brim.size() == cyl.size(),
           "drag_band: a closed loop of {} nodes for a stump of {}", loop.target_pa.size(), cyl.size());
-  double spacing = 0;
-  int below = 0;
-  for (size_t i = 0; i < cyl.size(); ++i)
-    if (loop.below_brim[i]) {
-      spacing += std::sqrt(area[i]);
-      ++below;
-    }
+  const double spacing = mean_spacing(solver.skin().area_m2, loop.below_brim);
   DragBand b;
-  if (below == 0) return b;
-  spacing /= below;
   for (size_t i = 0; i < cyl.size(); ++i) {
     if (!loop.ever_dragged_out[i] || loop.target_pa[i] <= kDragBandMinPa) continue;
     const double depth = std::max(0.0, brim.height(cyl[i].theta) - cyl[i].h) + 0.5 * spacing;
     b.lifts.push_back({cyl[i].theta, depth});
     b.node_ids.push_back(static_cast<int>(i));
-    ++b.nodes;
     b.max_depth_m = std::max(b.max_depth_m, depth);
     b.max_designed_pa = std::max(b.max_designed_pa, loop.target_pa[i]);
   }

@@ -15,6 +15,9 @@
 
 namespace socketsmith::pipeline {
 
+/// The mean of √area over the skin nodes where @p use is 1: their spacing [m] (0 when none).
+double mean_spacing(const std::vector<double>& area_m2, const std::vector<char>& use);
+
 /// Each skin node's position donned and stood, in the socket's frame (the socket's standing offset
 /// along @p axis taken off).
 std::vector<Eigen::Vector3d> donned_in_socket(const volume::SkinSurface& skin, const contact::DonningResult& d,

@@ -341,10 +341,10 @@ std::string drag_band_note(const DragBand& b) {
   const std::string what = fmt::format(
       "Donning dragged {} skin nodes below the brim, designed up to {:.1f} kPa, out of the first design's socket; the "
       "design was solved again asking no pressure up to {:.1f} mm below the brim there (design.closed_loop_drag_band)",
-      b.nodes, b.max_designed_pa / 1e3, b.max_depth_m * 1e3);
+      b.node_ids.size(), b.max_designed_pa / 1e3, b.max_depth_m * 1e3);
   return b.kept ? what + fmt::format(", and its socket delivers it better: it is the design shown (the first design's "
-                                     "socket {} the delivery bar, {:.2f} of it).",
-                                     b.first_bar ? "met" : "missed", b.first_score)
+                                     "socket missed the delivery bar, {:.2f} of it).",
+                                     b.first_score)
                 : what + ", and is not kept: " + b.why_not + ".";
 }
 
@@ -356,10 +356,9 @@ nlohmann::json drag_band_json(const std::optional<DragBand>& band, report::Repor
   const DragBand& b = *band;
   delivery.details.push_back({"the drag band", drag_band_note(b)});
   return {{"kept", b.kept},
-          {"nodes", b.nodes},
+          {"nodes", b.node_ids.size()},
           {"max_depth_mm", b.max_depth_m * 1e3},
           {"max_designed_kpa", b.max_designed_pa / 1e3},
-          {"without_band_bar_met", b.first_bar},
           {"without_band_bar_score", b.first_score},
           {"why_not", b.why_not}};
 }
