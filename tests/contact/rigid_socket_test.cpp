@@ -89,6 +89,20 @@ geometry::LimbFrame z_frame() {
   return f;
 }
 
+/// A 50 mm pipe (5 mm wall) whose rim slopes from 230 mm (front, +x) to 170 mm (back), its last
+/// ring folded 2 mm out and 0.5 mm down; smoothed wall. folded_rim(a): the rim's height.
+double folded_rim(double a) { return 0.2 + 0.03 * std::cos(a); }
+RigidSocket folded_rim_socket() {
+  const double ri = 0.05, ro = 0.055;
+  RigidSocket s(profiled_pipe(48, 41, [&](int r, double a) {
+                  return r <= 40 ? std::array<double, 3>{ri, ro, folded_rim(a) * r / 40}
+                                 : std::array<double, 3>{ri + 0.002, ro + 0.002, folded_rim(a) - 0.0005};
+                }),
+                z_frame());
+  s.set_smooth_wall(true);
+  return s;
+}
+
 TEST(RigidSocket, mass_properties_and_inner_wall_of_a_pipe) {
   const double ri = 0.05, ro = 0.055, H = 0.2, rho = 1250;
   const RigidSocket s(pipe(ri, ro, H), z_frame(), rho);
@@ -441,26 +455,57 @@ TEST(RigidSocket, a_node_on_the_lips_outer_side_goes_below_the_rim_without_a_jum
   EXPECT_NEAR(deep.gap_m, -behind * std::cos(std::numbers::pi / 48), 2e-4);  // the wall's, well below the rim
 }
 
+// The lip's centre line on a trim line that rises and falls (±25 mm around a 50 mm pipe, the wall
+// flared 5 mm over its top 20 mm): its closest point is the global one. Newton hopping from the
+// nearest chord's segment to its neighbours stopped at a local closest point there, and a point on
+// the wall just below the rim was 1.9 or 3.2 mm from the centre line for a move of 5 µm — its
+// depth 0.61 or 0.04 mm, back and forth (a line search stalls on such a jump).
+TEST(RigidSocket, the_lip_of_a_rising_and_falling_flared_rim_has_no_jump) {
+  const double ri = 0.05, H = 0.2, flare = 0.005, zone = 0.02, tilt = 0.025;
+  const auto top = [&](double a) { return H + tilt * std::cos(2 * a); };
+  const auto rad = [&](double z, double a) {
+    const double t = std::clamp((z - (top(a) - zone)) / zone, 0.0, 1.0);
+    return ri + flare * t * t * (3 - 2 * t);
+  };
+  RigidSocket s(profiled_pipe(64, 50, [&](int r, double a) {
+                  const double z = top(a) * r / 50;
+                  return std::array<double, 3>{rad(z, a), rad(z, a) + 0.005, z};
+                }),
+                z_frame());
+  s.set_smooth_wall(true);
+  const auto depth = [&](const Vec3& p) {
+    const Gap g = s.gap(p);
+    return g.valid && g.gap_m < 0 ? -g.gap_m : 0.0;
+  };
+  // Radially through the wall at the rim's height, where the rim falls steeply, in steps of 1 µm.
+  double worst = 0, deepest = 0;
+  for (const double ang : {0.45, 0.49, 0.53}) {
+    const Vec3 dir(std::cos(ang), std::sin(ang), 0), up(0, 0, top(ang));
+    double prev = depth((ri + 0.006) * dir + up);
+    for (int i = 1; i <= 3000; ++i) {
+      const double d = depth((ri + 0.006 + 1e-6 * i) * dir + up);
+      worst = std::max(worst, std::abs(d - prev));
+      deepest = std::max(deepest, d);
+      prev = d;
+    }
+  }
+  std::cout << "largest depth step " << worst * 1e6 << " µm in steps of 1 µm (deepest " << deepest * 1e3 << " mm)\n";
+  EXPECT_GT(deepest, 5e-4);  // the lines cross the lip
+  EXPECT_LT(worst, 2e-5);    // the jump was 0.57 mm
+}
+
 // "Past the rim" is a half-space through the lip's centre line; where the wall's last ring folds
 // out and down (a steep trim line, a curled brim) the direction past the rim tilted down, and a
 // node pressed 1 mm into the wall 9-20 mm below the rim counted as behind the lip, its gap +3.6 to
 // +14.5 mm, no force (the clinical AAOP example: a node left 1-4 mm deep in the wall at no
 // pressure). The lip's frame is now levelled: the wall pushes such a node.
 TEST(RigidSocket, a_node_in_the_wall_well_below_a_folded_rim_is_pushed_by_the_wall) {
-  // The rim slopes from 230 mm (front, +x) to 170 mm (back); its last ring folds 2 mm out and
-  // 0.5 mm down.
-  const double ri = 0.05, ro = 0.055;
-  const auto rim = [](double a) { return 0.2 + 0.03 * std::cos(a); };
-  RigidSocket s(profiled_pipe(48, 41, [&](int r, double a) {
-                  return r <= 40 ? std::array<double, 3>{ri, ro, rim(a) * r / 40}
-                                 : std::array<double, 3>{ri + 0.002, ro + 0.002, rim(a) - 0.0005};
-                }),
-                z_frame());
-  s.set_smooth_wall(true);
+  const double ri = 0.05;
+  RigidSocket s = folded_rim_socket();
   const Vec3 dir(-1, 0, 0);  // the back, where the rim is lowest
   // From 6 mm below the rim (above it the smoothed wall rounds off the fold's corner) to 20 mm.
   for (double below = 0.006; below <= 0.02; below += 0.0005) {
-    const Vec3 p = (ri + 1e-3) * dir + Vec3(0, 0, rim(std::numbers::pi) - below);
+    const Vec3 p = (ri + 1e-3) * dir + Vec3(0, 0, folded_rim(std::numbers::pi) - below);
     const Gap g = s.gap(p);
     EXPECT_TRUE(g.valid) << below;
     EXPECT_NEAR(g.gap_m, -1e-3, 1e-4) << below;
@@ -471,6 +516,38 @@ TEST(RigidSocket, a_node_in_the_wall_well_below_a_folded_rim_is_pushed_by_the_wa
       EXPECT_NEAR(fd, g.gradient_norm * g.normal[a], 1e-4) << below << " " << a;
     }
   }
+}
+
+// A point in the cavity level with the ridge where a folded rim turns over (the wall up, then 2 mm
+// out and 0.5 mm down: more than 90°) is equally close to both faces of the ridge's edge; signed by
+// the face the query returned it was in the cavity by one and behind the wall by the other, its
+// gap +d or −d for moves of 1e-15 m (4.9 mm deep, then free: a line search cannot cross that). The
+// edge's pseudo-normal (its faces' mean) gives one side.
+TEST(RigidSocket, a_point_level_with_a_folded_rims_ridge_has_one_side) {
+  const double ri = 0.05;
+  RigidSocket s = folded_rim_socket();
+  const auto depth = [&](const Vec3& p) {
+    const Gap g = s.gap(p);
+    return g.valid && g.gap_m < 0 ? -g.gap_m : 0.0;
+  };
+  // Radially from 15 mm inside the wall to 2 mm behind it, level with the ridge and 4.5 mm above
+  // it, at 24 angles; each point against the same point moved 1e-12 m along x, y and z.
+  double worst = 0;
+  for (int k = 0; k < 24; ++k) {
+    const double ang = 0.05 + 2 * std::numbers::pi * k / 24;
+    const Vec3 dir(std::cos(ang), std::sin(ang), 0);
+    for (const double dz : {0.0, 0.0045}) {
+      const Vec3 from = (ri - 0.015) * dir + Vec3(0, 0, folded_rim(ang) + dz),
+                 to = (ri + 0.002) * dir + Vec3(0, 0, folded_rim(ang) + dz);
+      for (int i = 0; i <= 1700; ++i) {
+        const Vec3 p = from + (to - from) * (i / 1700.0);
+        const double d = depth(p);
+        for (int a = 0; a < 3; ++a) worst = std::max(worst, std::abs(depth(p + 1e-12 * Vec3::Unit(a)) - d));
+      }
+    }
+  }
+  std::cout << "largest change of depth for a move of 1e-12 m: " << worst * 1e6 << " µm\n";
+  EXPECT_LT(worst, 1e-6);
 }
 
 TEST(RigidSocket, rejects_open_and_misplaced_sockets) {

@@ -140,7 +140,8 @@ std::vector<int> RigidSocket::find_inner_wall() {
 
 std::vector<int> RigidSocket::smooth_wall_vertices() {
   // The smoothed wall's data: per used vertex an angle-weighted normal and the mean length of its
-  // edges; a uniform grid over the vertices.
+  // edges; a uniform grid over the vertices. The angle-weighted normals and each edge's two faces'
+  // mean normal are also the facets' pseudo-normals (gap's sign).
   const int nv = static_cast<int>(inner_.vertices.size());
   std::vector<Vec3> vn(nv, Vec3::Zero());
   std::vector<double> elen(nv, 0.0);
@@ -156,8 +157,14 @@ std::vector<int> RigidSocket::smooth_wall_vertices() {
       vn[t[k]] += angle * inner_normals_[i];
       elen[t[k]] += l1 + l2;
       ecount[t[k]] += 2;
+      // (try_emplace from zero: operator[] would leave an Eigen vector uninitialised)
+      edge_normals_.try_emplace(edge_key(t[k], t[(k + 1) % 3]), Vec3::Zero()).first->second += inner_normals_[i];
     }
   }
+  vertex_normals_.assign(nv, Vec3::Zero());
+  for (int v = 0; v < nv; ++v)
+    if (vn[v].norm() > 0) vertex_normals_[v] = vn[v].normalized();
+  for (auto& [key, n] : edge_normals_) n = n.norm() > 1e-12 ? Vec3(n.normalized()) : Vec3::Zero();
   double rho_max = 0;
   std::vector<int> wall_of(nv, -1);
   for (int v = 0; v < nv; ++v) {
@@ -319,34 +326,52 @@ std::optional<Gap> RigidSocket::smooth_gap(const Vec3& q, Gap g) const {
   return g;
 }
 
+const Vec3& RigidSocket::edge_normal(int a, int b, int face) const {
+  const auto it = edge_normals_.find(edge_key(a, b));
+  return it != edge_normals_.end() && it->second.squaredNorm() > 0 ? it->second : inner_normals_[face];
+}
+
+const Vec3& RigidSocket::vertex_normal(int v, int face) const {
+  return vertex_normals_[v].squaredNorm() > 0 ? vertex_normals_[v] : inner_normals_[face];
+}
+
 Gap RigidSocket::gap(const Vec3& p) const {
   Gap g;
   const Vec3 q = p - translation_;  // in the solid's coordinates
   const auto hit = query_->closest_point(q);
   if (hit.triangle < 0) return g;
-  const Vec3& n = inner_normals_[hit.triangle];
   const Vec3 d = q - hit.point;
-  const double along_signed = d.dot(n);
   g.point = hit.point + translation_;
   g.triangle = hit.triangle;
-  // Valid when the offset is (nearly) along the face normal: the projection falls on the wall, not
-  // past its rim (a node above the brim is not in contact with the lip's edge).
-  const double along = std::abs(along_signed), across = (d - along_signed * n).norm();
-  g.valid = across <= 0.5 * along + 1e-5;
-  // Gap and normal from the distance function (|d|, d/|d|), signed by the face: continuous when the
-  // closest point moves across an edge between two faces (face normals would jump there and
-  // Newton would stall).
-  const double dist = d.norm();
   // Where on the triangle is the closest point: barycentric coordinates ≈ 0 mark edges/vertices.
   const auto& tri = inner_.triangles[hit.triangle];
   const std::array<double, 3> bary =
       barycentric(inner_.vertices[tri[0]], inner_.vertices[tri[1]], inner_.vertices[tri[2]], hit.point);
-  int zeros = 0, zero_at = -1;
+  int zeros = 0, zero_at = -1, kept_at = -1;
   for (int k = 0; k < 3; ++k)
     if (bary[k] < 1e-9) {
       ++zeros;
       zero_at = k;
+    } else {
+      kept_at = k;
     }
+  // The side from the closest feature's pseudo-normal (Bærentzen and Aanæs): the face's, its two
+  // faces' mean on an edge, the angle-weighted one at a vertex. With the face the query returned,
+  // a point level with a ridge where the wall turns over by more than 90° (a rim folded out and
+  // down) is equally close to both faces and in the cavity by one, behind the wall by the other:
+  // its gap flipped between +d and −d for moves of 1e-15 m.
+  const Vec3& n = zeros == 0   ? inner_normals_[hit.triangle]
+                  : zeros == 1 ? edge_normal(tri[(zero_at + 1) % 3], tri[(zero_at + 2) % 3], hit.triangle)
+                               : vertex_normal(tri[kept_at < 0 ? 0 : kept_at], hit.triangle);
+  const double along_signed = d.dot(n);
+  // Valid when the offset is (nearly) along that normal: the projection falls on the wall, not
+  // past its rim (a node above the brim is not in contact with the lip's edge).
+  const double along = std::abs(along_signed), across = (d - along_signed * n).norm();
+  g.valid = across <= 0.5 * along + 1e-5;
+  // Gap and normal from the distance function (|d|, d/|d|), signed by that side: continuous when
+  // the closest point moves across an edge between two faces (face normals would jump there and
+  // Newton would stall).
+  const double dist = d.norm();
   g.on_face = zeros == 0 || dist < 1e-15;
   if (g.on_face) {
     g.stiffness_shape = n * n.transpose();

@@ -9,9 +9,12 @@
 /// outer wall (the thesis's node-to-triangle test, eqs. 11–12, against both walls would push deep
 /// nodes the wrong way).
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <memory>
 #include <optional>
+#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -173,6 +176,11 @@ class RigidSocket : public Obstacle {
     double past_m = 0.0;                     // (q − centre) · beyond: > 0 past the rim
   };
   std::optional<LipHit> lip_hit(const Vec3& q) const;
+  /// Point @p c, first and second derivatives of lip segment @p k's Hermite curve at parameter @p t.
+  void lip_curve(int k, double t, Vec3& c, Vec3& dc, Vec3& ddc) const;
+  /// The parameter in [0, 1] of @p q's closest point on lip segment @p k (Newton from the best of a
+  /// few samples and @p t0, kept on the segment).
+  double closest_on_lip_segment(int k, const Vec3& q, double t0) const;
   // The constructor's steps, in order.
   /// Mass, centre of mass and inertia of the (outward) closed solid.
   void mass_properties();
@@ -199,6 +207,17 @@ class RigidSocket : public Obstacle {
   double density_ = 0.0;
   geometry::TriMesh solid_, inner_;
   std::vector<Vec3> inner_normals_;  // outward normals of the solid = into the cavity
+  // The inner wall's pseudo-normals (the side of a point whose closest point is on an edge or a
+  // vertex): per edge its faces' mean normal, per vertex the angle-weighted one (zero: unused).
+  std::unordered_map<std::uint64_t, Vec3> edge_normals_;
+  std::vector<Vec3> vertex_normals_;
+  static std::uint64_t edge_key(int a, int b) {
+    return (static_cast<std::uint64_t>(std::min(a, b)) << 32) | static_cast<std::uint32_t>(std::max(a, b));
+  }
+  /// Edge (a, b)'s pseudo-normal (face @p face's normal where it has none).
+  const Vec3& edge_normal(int a, int b, int face) const;
+  /// Vertex @p v's pseudo-normal (face @p face's normal where it has none).
+  const Vec3& vertex_normal(int v, int face) const;
   std::unique_ptr<geometry::SurfaceQuery> query_;
   bool smooth_ = false;
   // The smoothed wall: the inner wall's vertices, their normals and squared support radii, and a
@@ -217,7 +236,6 @@ class RigidSocket : public Obstacle {
   std::vector<Vec3> lip_o_, lip_n_, lip_b_;
   std::vector<std::pair<int, int>> lip_seg_;
   std::vector<Vec3> lip_t_;                     // unit tangent of the centre line at each vertex
-  std::vector<int> lip_seg_next_, lip_seg_prev_;  // the neighbouring segments along the rim (−1: none)
   double lip_radius_ = 0.002;
   std::vector<char> rim_vertex_;  // per mesh vertex: on the inner wall's boundary
   double mass_ = 0.0;
