@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <map>
 #include <optional>
 
 #include "socketsmith/core/errors.h"
@@ -89,7 +90,8 @@ RigidSocket::RigidSocket(geometry::TriMesh solid, const geometry::LimbFrame& fra
                          rep.non_manifold_edges, rep.inconsistently_oriented_edges);
   mass_properties();
   const std::vector<int> cavity = find_inner_wall();
-  const std::vector<int> wall_of = smooth_wall_vertices();
+  wall_of_ = smooth_wall_vertices();
+  const std::vector<int>& wall_of = wall_of_;
   fit_vertex_quadrics(wall_of);
   build_vertex_grid();
   centre_vertex_surfaces(wall_of);
@@ -141,11 +143,12 @@ std::vector<int> RigidSocket::find_inner_wall() {
 std::vector<int> RigidSocket::smooth_wall_vertices() {
   // The smoothed wall's data: per used vertex an angle-weighted normal and the mean length of its
   // edges; a uniform grid over the vertices. The angle-weighted normals and each edge's two faces'
-  // mean normal are also the facets' pseudo-normals (gap's sign).
+  // mean normal are also the facets' pseudo-normals (the gap's side).
   const int nv = static_cast<int>(inner_.vertices.size());
   std::vector<Vec3> vn(nv, Vec3::Zero());
   std::vector<double> elen(nv, 0.0);
   std::vector<int> ecount(nv, 0);
+  std::map<std::pair<int, int>, Vec3> edge_sum;  // each edge's faces' normals summed
   for (int i = 0; i < inner_.num_triangles(); ++i) {
     const auto& t = inner_.triangles[i];
     for (int k = 0; k < 3; ++k) {
@@ -157,14 +160,22 @@ std::vector<int> RigidSocket::smooth_wall_vertices() {
       vn[t[k]] += angle * inner_normals_[i];
       elen[t[k]] += l1 + l2;
       ecount[t[k]] += 2;
+      const auto key = std::minmax(t[(k + 1) % 3], t[(k + 2) % 3]);
       // (try_emplace from zero: operator[] would leave an Eigen vector uninitialised)
-      edge_normals_.try_emplace(edge_key(t[k], t[(k + 1) % 3]), Vec3::Zero()).first->second += inner_normals_[i];
+      edge_sum.try_emplace({key.first, key.second}, Vec3::Zero()).first->second += inner_normals_[i];
     }
   }
-  vertex_normals_.assign(nv, Vec3::Zero());
-  for (int v = 0; v < nv; ++v)
-    if (vn[v].norm() > 0) vertex_normals_[v] = vn[v].normalized();
-  for (auto& [key, n] : edge_normals_) n = n.norm() > 1e-12 ? Vec3(n.normalized()) : Vec3::Zero();
+  // Per triangle, the pseudo-normal of the edge opposite each corner (its face's normal on a knife
+  // edge, where the two faces' normals cancel).
+  tri_edge_normals_.resize(inner_.num_triangles());
+  for (int i = 0; i < inner_.num_triangles(); ++i) {
+    const auto& t = inner_.triangles[i];
+    for (int k = 0; k < 3; ++k) {
+      const auto key = std::minmax(t[(k + 1) % 3], t[(k + 2) % 3]);
+      const Vec3& sum = edge_sum.at({key.first, key.second});
+      tri_edge_normals_[i][k] = sum.norm() > 1e-12 ? Vec3(sum.normalized()) : inner_normals_[i];
+    }
+  }
   double rho_max = 0;
   std::vector<int> wall_of(nv, -1);
   for (int v = 0; v < nv; ++v) {
@@ -326,15 +337,6 @@ std::optional<Gap> RigidSocket::smooth_gap(const Vec3& q, Gap g) const {
   return g;
 }
 
-const Vec3& RigidSocket::edge_normal(int a, int b, int face) const {
-  const auto it = edge_normals_.find(edge_key(a, b));
-  return it != edge_normals_.end() && it->second.squaredNorm() > 0 ? it->second : inner_normals_[face];
-}
-
-const Vec3& RigidSocket::vertex_normal(int v, int face) const {
-  return vertex_normals_[v].squaredNorm() > 0 ? vertex_normals_[v] : inner_normals_[face];
-}
-
 Gap RigidSocket::gap(const Vec3& p) const {
   Gap g;
   const Vec3 q = p - translation_;  // in the solid's coordinates
@@ -360,9 +362,11 @@ Gap RigidSocket::gap(const Vec3& p) const {
   // a point level with a ridge where the wall turns over by more than 90° (a rim folded out and
   // down) is equally close to both faces and in the cavity by one, behind the wall by the other:
   // its gap flipped between +d and −d for moves of 1e-15 m.
+  const int vertex_at = zeros >= 2 ? wall_of_[tri[kept_at < 0 ? 0 : kept_at]] : -1;
   const Vec3& n = zeros == 0   ? inner_normals_[hit.triangle]
-                  : zeros == 1 ? edge_normal(tri[(zero_at + 1) % 3], tri[(zero_at + 2) % 3], hit.triangle)
-                               : vertex_normal(tri[kept_at < 0 ? 0 : kept_at], hit.triangle);
+                  : zeros == 1 ? tri_edge_normals_[hit.triangle][zero_at]
+                  : vertex_at >= 0 ? wall_n_[vertex_at]
+                                   : inner_normals_[hit.triangle];
   const double along_signed = d.dot(n);
   // Valid when the offset is (nearly) along that normal: the projection falls on the wall, not
   // past its rim (a node above the brim is not in contact with the lip's edge).

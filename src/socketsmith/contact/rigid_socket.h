@@ -9,12 +9,10 @@
 /// outer wall (the thesis's node-to-triangle test, eqs. 11–12, against both walls would push deep
 /// nodes the wrong way).
 
-#include <algorithm>
+#include <array>
 #include <cmath>
-#include <cstdint>
 #include <memory>
 #include <optional>
-#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -207,17 +205,11 @@ class RigidSocket : public Obstacle {
   double density_ = 0.0;
   geometry::TriMesh solid_, inner_;
   std::vector<Vec3> inner_normals_;  // outward normals of the solid = into the cavity
-  // The inner wall's pseudo-normals (the side of a point whose closest point is on an edge or a
-  // vertex): per edge its faces' mean normal, per vertex the angle-weighted one (zero: unused).
-  std::unordered_map<std::uint64_t, Vec3> edge_normals_;
-  std::vector<Vec3> vertex_normals_;
-  static std::uint64_t edge_key(int a, int b) {
-    return (static_cast<std::uint64_t>(std::min(a, b)) << 32) | static_cast<std::uint32_t>(std::max(a, b));
-  }
-  /// Edge (a, b)'s pseudo-normal (face @p face's normal where it has none).
-  const Vec3& edge_normal(int a, int b, int face) const;
-  /// Vertex @p v's pseudo-normal (face @p face's normal where it has none).
-  const Vec3& vertex_normal(int v, int face) const;
+  // The inner wall's edge pseudo-normals (the side of a point whose closest point is on an edge):
+  // per triangle, its two faces' mean normal for the edge opposite each corner. A vertex's is its
+  // angle-weighted normal, wall_n_[wall_of_[v]].
+  std::vector<std::array<Vec3, 3>> tri_edge_normals_;
+  std::vector<int> wall_of_;  // per mesh vertex: its index among the smoothed wall's vertices (−1: none)
   std::unique_ptr<geometry::SurfaceQuery> query_;
   bool smooth_ = false;
   // The smoothed wall: the inner wall's vertices, their normals and squared support radii, and a
