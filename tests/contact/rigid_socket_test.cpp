@@ -550,6 +550,46 @@ TEST(RigidSocket, a_point_level_with_a_folded_rims_ridge_has_one_side) {
   EXPECT_LT(worst, 1e-6);
 }
 
+// Behind the lip's centre line the lip alone counted past the rim however far from it, and just
+// below the rim's level the wall alone: a node far behind the lip (deeper in the wall than the
+// lip, or beyond the outer wall) crossing the level of its nearest rim point went from the wall's
+// depth to the lip's gap (the AAOP example at 8k nodes: "its gap 6637 → −1634 µm" over 0.1 µm,
+// the corrected socket's refit stalled). Far from the lip the wall now keeps its share at the
+// level on both sides and hands over to the lip by kLipBlendAngle above it. And a point exactly
+// on a facet (distance 0) took the facets' gap, 0, in place of the lip's (0 · NaN in the blend).
+TEST(RigidSocket, a_node_far_behind_the_lip_crosses_the_rims_level_without_a_jump) {
+  const double ri = 0.05, H = 0.2;
+  RigidSocket s(ringed_pipe(ri, ri + 0.005, H, 48, 40), z_frame());
+  s.set_smooth_wall(true);
+  const auto depth = [&](const Vec3& p) {
+    const Gap g = s.gap(p);
+    return g.valid && g.gap_m < 0 ? -g.gap_m : 0.0;
+  };
+  // The lip's centre line 2.5 mm behind the inner wall (half the 5 mm wall): 1.5, 4 and 6.5 mm
+  // behind it, the lip near, fading and far.
+  for (const double behind : {0.004, 0.0065, 0.009})
+    for (const double ang : {0.03, 1.1, 2.5}) {
+      const Vec3 dir(std::cos(ang), std::sin(ang), 0), p = (ri + behind) * dir + Vec3(0, 0, H);
+      const double below = depth(p - 1e-9 * Vec3::UnitZ()), above = depth(p + 1e-9 * Vec3::UnitZ());
+      EXPECT_NEAR(above, below, 1e-6) << behind << " " << ang;
+      for (const double up : {2e-4, 8e-4, 2e-3}) {  // the gradient is the gap's, the handover included
+        const Vec3 q = p + up * Vec3::UnitZ();
+        const Gap g = s.gap(q);
+        for (int a = 0; a < 3; ++a) {
+          const double h = 1e-7;
+          const double fd = (s.gap(q + h * Vec3::Unit(a)).gap_m - s.gap(q - h * Vec3::Unit(a)).gap_m) / (2 * h);
+          EXPECT_NEAR(fd, g.gradient_norm * g.normal[a], 2e-3) << behind << " " << up << " " << a;
+        }
+      }
+    }
+  // Each rim vertex itself (distance 0 to the facets) against the same point moved 1 nm.
+  double worst = 0;
+  for (const auto& v : s.inner_wall().vertices)
+    if (std::abs(v.z() - H) < 1e-12)
+      worst = std::max(worst, std::abs(depth(v) - depth(v + 1e-9 * Vec3(1, 1, 1).normalized())));
+  EXPECT_LT(worst, 1e-6);
+}
+
 TEST(RigidSocket, rejects_open_and_misplaced_sockets) {
   auto open = pipe(0.05, 0.055, 0.2);
   open.triangles.resize(open.triangles.size() - 8);

@@ -48,7 +48,9 @@ std::optional<Gap> blended(const Gap& g, const Gap& s, const Vec3& d, double dis
   const double tb = std::clamp((dist - kSmoothBand) / kBlendBand, 0.0, 1.0);
   const double share = 1.0 - tb * tb * (3 - 2 * tb), db = -6 * tb * (1 - tb) / kBlendBand;
   const Vec3 grad_s = s.gradient_norm * s.normal, grad_f = g.normal;  // ∇ of the facets' gap: its normal
-  const Vec3 grad = share * grad_s + (1 - share) * grad_f + (s.gap_m - g.gap_m) * db * (d / dist);
+  // (db vanishes within kSmoothBand: a point on the facets, dist = 0, would make it 0 · NaN)
+  const Vec3 fade = db != 0 ? Vec3((s.gap_m - g.gap_m) * db * (d / dist)) : Vec3::Zero();
+  const Vec3 grad = share * grad_s + (1 - share) * grad_f + fade;
   Gap out = g;
   out.gap_m = share * s.gap_m + (1 - share) * g.gap_m;
   out.gradient_norm = grad.norm();

@@ -43,6 +43,50 @@ void level_lip_frame(Vec3& n, Vec3& b, const Vec3& axis) {
   b = level.normalized();
   n = (n - n.dot(b) * b).normalized();
 }
+/// The lip's share β of the contact energy at a point (a, s) in the frame (n, b) of its nearest
+/// point on the lip's centre line (a along the wall's normal n, s past the rim along b), D from it
+/// along the unit vector e, and ∇β; the wall's share is 1 − β.
+struct LipShare {
+  double beta = 0.0;
+  Vec3 dbeta = Vec3::Zero();
+};
+LipShare lip_share(double a, double s, const Vec3& n, const Vec3& b, double D, const Vec3& e, double radius,
+                   bool on_rim) {
+  const bool behind = a < 0, behind_below = behind && s <= 0;
+  const double rr = a * a + s * s;
+  // φ: the angle about the centre line from the rim's level, on the cavity's side in front of the
+  // centre line, on the outer side behind it (then in (0, π/2) past the rim, and below it by the
+  // hand-back's angle).
+  const double phi = !behind ? std::atan2(s, a) : behind_below ? std::atan2(-s, -a) : std::atan2(s, -a);
+  const double angle = behind_below ? kLipHandBackAngle : kLipBlendAngle;
+  const double tb = std::min(phi / angle, 1.0);
+  const double smooth = tb * tb * (3 - 2 * tb);
+  const double dsmooth = tb < 1 ? 6 * tb * (1 - tb) / angle : 0.0;
+  // ∇φ: (a b − s n)/rr in front of the centre line; behind it, φ grows away from the rim's level.
+  const Vec3 dphi = ((behind_below || !behind ? 1.0 : -1.0) / rr) * (a * b - s * n);
+  // Behind the centre line the lip counts near the lip only (D within 1.5 r, fading out by 2.5 r);
+  // further away the wall's gap stands at the rim's level, on both sides of it. Under a folded
+  // rim's levelled lip the wall holds nodes far below the centre line in a narrow cone about it
+  // (the test of a folded rim: 16 mm below, 1 mm across). Past the rim the lip alone counted
+  // behind the centre line however far away: a node 1.7 mm into the wall beside a steep trim line,
+  // level with its nearest rim point but 8.9 mm behind that point's centre line, went from the
+  // wall's −1.6 mm to the lip's +6.6 mm as it crossed the rim's level (the AAOP example at 8k
+  // nodes: "Newton's model broke most at node 6772 … its gap 6637 → −1634 µm" over 0.1 µm; the
+  // corrected socket's refit stalled). Now the wall's share past the rim is (1 − near)(1 − smooth):
+  // the same as just below at the level, handed over to the lip by kLipBlendAngle above it. Where
+  // q's closest point on the facets is not on the rim, the wall's gap is the wall's own, not its
+  // extension past the rim, and the wall keeps 1 − near however far above the level: the lip's
+  // nearest point jumps across the rim's medial axis (inside a notch of the trim line), and with
+  // it the side — a node 0.7 mm into the wall there, 9.3 mm from the lip, went from the lip's
+  // +9.3 mm to the wall's −0.7 mm for a move of 0.1 µm.
+  const double tf = std::clamp((2.5 * radius - D) / radius, 0.0, 1.0);
+  const double near = tf * tf * (3 - 2 * tf);
+  const Vec3 dnear = tf > 0 && tf < 1 ? Vec3((-6 * tf * (1 - tf) / radius) * e) : Vec3::Zero();  // ∇D = e
+  if (!behind) return {smooth, dsmooth * dphi};
+  if (behind_below) return {near * (1 - smooth), (1 - smooth) * dnear - near * dsmooth * dphi};
+  if (!on_rim) return {near, dnear};
+  return {1 - (1 - near) * (1 - smooth), (1 - smooth) * dnear + (1 - near) * dsmooth * dphi};
+}
 }  // namespace
 
 void RigidSocket::build_lip(const std::vector<int>& wall_of, const std::vector<int>& cavity) {
@@ -220,9 +264,10 @@ Gap RigidSocket::with_lip(const Vec3& q, Gap wall, bool on_rim) const {
   // inner wall's energy ½ k A gap² hands over to the lip's smoothly, by the angle φ of q about the
   // lip's centre line (0 level with the rim on the cavity's side, 90° straight past it) from 0 to
   // kLipBlendAngle: the two agree where the lip's tube touches the wall, so the handover costs
-  // little. Behind the centre line (a node hanging over the outer side of the lip) only the lip
-  // counts past the rim: the wall's extension would hold it millimetres deep. A fade of the wall's
-  // contact to nothing past the rim made nodes pressed on the rim feel the wall's extension hard,
+  // little. Behind the centre line near the lip (a node hanging over the outer side of the lip)
+  // only the lip counts past the rim: the wall's extension would hold it millimetres deep (further
+  // away: lip_share). A fade of the wall's contact to nothing past the rim made nodes pressed on
+  // the rim feel the wall's extension hard,
   // and Newton crawled (AmpScan's limb: docs/contact.md). Below the rim behind the centre line the
   // mirror image: the lip's energy hands back to the wall's from the rim's level by the same kind
   // of blend, so that a node on the lip's outer side that moves below the rim's level meets no jump
@@ -234,32 +279,19 @@ Gap RigidSocket::with_lip(const Vec3& q, Gap wall, bool on_rim) const {
   const std::optional<LipHit> lip = lip_hit(q);
   const Vec3 d = lip ? Vec3(q - lip->centre) : Vec3::Zero();
   const double a = lip ? d.dot(lip->normal) : 0.0, s = lip ? lip->past_m : 0.0;
-  const bool behind_below = lip && s <= 0 && a < 0;
-  if (!lip || (s <= 0 && !behind_below)) {
+  if (!lip || (s <= 0 && a >= 0)) {
     if (!lip && on_rim) wall.valid = false;  // far past the rim: nothing to touch
     return wall;
   }
-  const double rr = a * a + s * s;
-  // φ: the angle about the centre line from the rim's level on the cavity's side (in (0, π) past
-  // the rim); below it behind the centre line, φ + π from the rim's level on the outer side.
-  const double phi = behind_below ? std::atan2(-s, -a) : std::atan2(s, a);
-  const double angle = behind_below ? kLipHandBackAngle : kLipBlendAngle;
-  const double tb = std::min(phi / angle, 1.0);
-  const double smooth = tb * tb * (3 - 2 * tb);
-  // The hand-back near the lip only (its distance D from the centre line within 1.5 r, fading out
-  // by 2.5 r): under a folded rim's levelled lip the wall holds nodes far below the centre line
-  // in a narrow cone about it (the test of a folded rim: 16 mm below, 1 mm across).
-  const double D = std::sqrt(rr), tf = std::clamp((2.5 * lip_radius_ - D) / lip_radius_, 0.0, 1.0);
-  const double near = behind_below ? tf * tf * (3 - 2 * tf) : 1.0;
-  const double beta = behind_below ? near * (1 - smooth) : smooth;
-  if (behind_below && beta <= 0) return wall;
+  // (D: q's whole distance, not √(a² + s²): at an end of the centre line q lies off its plane.)
+  const LipShare share =
+      lip_share(a, s, lip->normal, lip->beyond, lip->gap_m + lip_radius_, lip->direction, lip_radius_, on_rim);
+  const double beta = share.beta;
+  const Vec3& dbeta = share.dbeta;
+  if (beta <= 0) return wall;
   Gap out = wall;
   out.valid = true;
   out.graded = true;
-  const double dsmooth = tb < 1 ? 6 * tb * (1 - tb) / angle : 0.0;
-  Vec3 dbeta = ((behind_below ? -near * dsmooth : dsmooth) / rr) * (a * lip->beyond - s * lip->normal);
-  if (behind_below && tf > 0 && tf < 1 && D > 0)  // d(near)/dq = −6 tf (1 − tf) / r · (d / D)
-    dbeta += (1 - smooth) * (-6 * tf * (1 - tf) / lip_radius_) * (a * lip->normal + s * lip->beyond) / D;
   const double pw = std::min(wall.gap_m, 0.0), pr = std::min(lip->gap_m, 0.0);
   const Vec3 grad_w = wall.gradient_norm * wall.normal, grad_r = lip->direction;
   const double G = (1 - beta) * pw * pw + beta * pr * pr;  // energy / (½ k A)
