@@ -267,13 +267,13 @@ Gap RigidSocket::with_lip(const Vec3& q, Gap wall, bool on_rim) const {
   // little. Behind the centre line near the lip (a node hanging over the outer side of the lip)
   // only the lip counts past the rim: the wall's extension would hold it millimetres deep (further
   // away: lip_share). A fade of the wall's contact to nothing past the rim made nodes pressed on
-  // the rim feel the wall's extension hard,
-  // and Newton crawled (AmpScan's limb: docs/contact.md). Below the rim behind the centre line the
-  // mirror image: the lip's energy hands back to the wall's from the rim's level by the same kind
-  // of blend, so that a node on the lip's outer side that moves below the rim's level meets no jump
-  // (the wall's gap there is ≈ 2|a| deeper than the lip's: the generated transfemoral limb of seed
-  // 10 stalled on a node under the levelled lip of its brim, 2.4 mm behind the centre line, whose
-  // gap went from −0.10 to −3.85 mm for a step of 3 nm). Over a narrower angle than past the rim
+  // the rim feel the wall's extension hard, and Newton crawled (AmpScan's limb: docs/contact.md).
+  // Below the rim behind the centre line the mirror image: the lip's energy hands back to the
+  // wall's from the rim's level by the same kind of blend, so that a node on the lip's outer side
+  // that moves below the rim's level meets no jump (the wall's gap there is ≈ 2|a| deeper than the
+  // lip's: the generated transfemoral limb of seed 10 stalled on a node under the levelled lip of
+  // its brim, 2.4 mm behind the centre line, whose gap went from −0.10 to −3.85 mm for a step of
+  // 3 nm). Over a narrower angle than past the rim
   // (kLipHandBackAngle): where a folded rim's frame was levelled (level_lip_frame), "below the
   // rim" is the wall under the fold, which must hold a node pressed into it.
   const std::optional<LipHit> lip = lip_hit(q);
