@@ -361,6 +361,34 @@ TEST(SocketBuilder, a_groove_the_plain_offset_folds_over_is_retried_with_smoothe
   EXPECT_LT(r.median_thickness_m, 1.02 * o.thickness_m);
 }
 
+// A brim passing within a fraction of a micrometre of a ring of vertices (a corrected socket's raised
+// brim can): each such vertex is a rim vertex itself, and the wall has no µm-scale edges around it.
+// Before, the curve crossed each of the vertex's edges 1/1000 of an edge from it (the clamp that
+// keeps a cut triangle from degenerating): rim vertices 3 µm apart, whose lips — each with its own
+// corrected wall offset — folded over one another on the AAOP example (socket_builder.cpp).
+TEST(SocketBuilder, a_brim_through_a_ring_of_vertices_makes_them_rim_vertices_without_micrometre_edges) {
+  const TriMesh inner = capsule(0.05, 0.2);  // rings 2.5 mm apart on the cylinder, ring 40 at z = 0.15
+  for (const double dz : {1e-7, -1e-7, 2e-6}) {
+    SocketOptions o;
+    o.thickness_m = 0.005;
+    const BrimLine brim = flat_brim(0.15 + dz);
+    const SocketResult r = build_socket(inner, z_frame(), brim, o);
+    double shortest = 1;
+    for (std::size_t f = 0; f < r.solid.triangles.size(); ++f) {
+      if (r.face_kind[f] != SocketFace::Inner) continue;
+      const auto& t = r.solid.triangles[f];
+      if (r.solid.vertices[t[0]].z() < 0.14) continue;  // the rim's rows only (the pole's are short)
+      for (int k = 0; k < 3; ++k)
+        shortest = std::min(shortest, (r.solid.vertices[t[k]] - r.solid.vertices[t[(k + 1) % 3]]).norm());
+    }
+    EXPECT_GT(shortest, 1 * kMm) << "brim " << dz * 1e6 << " µm off the ring";
+    EXPECT_LT(r.max_rim_error_m, 0.005 * kMm);
+    EXPECT_NEAR(r.rim_max_h_m, 0.15, 0.005 * kMm);
+    const auto check = wall_check::check_socket(r, inner, z_frame(), brim, o);
+    EXPECT_TRUE(check.failures.empty()) << check.text();
+  }
+}
+
 // Circumference reduction (the prosthetist's rectification check) against the limb: a socket
 // cavity that is the capsule shrunk radially by 3 % is 3 % smaller around at every level (a
 // polygon scaled by 0.97 has 0.97 of the perimeter), and the limb's circumference is the
